@@ -57,7 +57,9 @@ def test_inputs_are_never_mutated_and_out_is_filled():
     p = preset("sec7")
     rng = np.random.default_rng(1)
     n = 200
-    st = InterfaceState(rng.normal(0, 0.1, (n, 2)), rng.uniform(p.mu_k, p.mu_s, n), rng.uniform(0, 1, n))
+    st = InterfaceState(
+        rng.normal(0, 0.1, (n, 2)), rng.uniform(p.mu_k, p.mu_s, n), rng.uniform(0, 1, n)
+    )
     gap = np.column_stack([rng.normal(0, 0.3, (n, 2)), rng.normal(0.2, 0.5, n)])
     copies = [a.copy() for a in (st.up, st.mu, st.r, gap)]
     out = p.initial_state(n, 2)
@@ -101,7 +103,9 @@ SINGULAR = {
 
 
 @pytest.mark.parametrize("name", list(SINGULAR))
-@pytest.mark.parametrize("preset_name", ["sec7", "sec6-mus10000", "sec6-mus10000-literal", "sec7-literal"])
+@pytest.mark.parametrize(
+    "preset_name", ["sec7", "sec6-mus10000", "sec6-mus10000-literal", "sec7-literal"]
+)
 def test_singular_spots_give_finite_results(name, preset_name):
     p = preset(preset_name)
     r0, mu0, gap, dt = SINGULAR[name]
@@ -114,7 +118,11 @@ def test_singular_spots_give_finite_results(name, preset_name):
     assert p.mu_k <= res.state.mu[0] <= p.mu_s
     assert 0.0 <= res.state.r[0] <= 1.0
     if gap[2] <= 0.0:
-        assert res.status[0] == Status.SEPARATED and np.all(res.traction == 0.0) and res.state.r[0] == 0
+        assert (
+            res.status[0] == Status.SEPARATED
+            and np.all(res.traction == 0.0)
+            and res.state.r[0] == 0
+        )
     ft = np.linalg.norm(res.traction[0, :2])
     g = -np.expm1(-p.c_n * max(p.alpha_n * gap[2], 0.0))
     assert ft <= g * res.state.mu[0] * (1 + 1e-12) + 1e-300
@@ -161,7 +169,7 @@ TANGENT_CASES = {
 def test_consistent_tangent_matches_finite_differences(case, nt):
     p = preset("sec7")
     r0, frac, gap, expected = TANGENT_CASES[case]
-    gap = np.array([gap[:nt] + [gap[2]]])
+    gap = np.array([[*gap[:nt], gap[2]]])
     mu = p.mu_k + frac * (p.mu_s - p.mu_k)
     st = InterfaceState(np.zeros((1, nt)), [mu], [r0])
     res = p.return_map(gap, st, 0.05)
@@ -202,7 +210,14 @@ def test_fold_is_reported_as_a_jump_at_the_same_load_for_any_step():
     """Strong softening without recovery: alpha_t / g < kappa (mu - mu_k) near r = 1 gives a
     snap-back; displacement control must jump at the fold, wherever the steps fall."""
     p = SubloadingParameters(
-        alpha_t=100.0, alpha_n=100.0, mu_s=1000.0, mu_k=500.0, kappa=1.0, xi=0.0, u_tilde=15.0, c_n=2e-4
+        alpha_t=100.0,
+        alpha_n=100.0,
+        mu_s=1000.0,
+        mu_k=500.0,
+        kappa=1.0,
+        xi=0.0,
+        u_tilde=15.0,
+        c_n=2e-4,
     )
     fn = 10000.0
     where = []
