@@ -1,0 +1,496 @@
+"""Meshing layer: builders, stored meshes, reader errors and partitioners, on 1 and 2 ranks.
+
+Every mesh is checked for: the physical groups, facet groups whose measures equal the exact
+lengths/areas and that lie on the right body, interface vertices that exist exactly twice (once per
+side, gathered over ranks), bodies sharing no vertex, and interface sides with equal facet counts
+and equal measures (assembled with ``ds`` over facet tags split by the adjacent cell's body).
+"""
+
+import importlib.util
+import pathlib
+from dataclasses import dataclass
+
+import dolfinx
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem
+from dolfinx.mesh import GhostMode
+from mpi4py import MPI
+
+from subfric_dolfinx import meshing as M
+
+MESH_DIR = pathlib.Path(__file__).resolve().parents[1] / "meshes"
+TOL = 1e-10
+
+
+@dataclass(frozen=True)
+class Boxes:
+    """Master and slave boxes (lower corner, upper corner) of a model."""
+
+    master: tuple[tuple[float, ...], tuple[float, ...]]
+    slave: tuple[tuple[float, ...], tuple[float, ...]]
+
+    @property
+    def gdim(self):
+        return len(self.master[0])
+
+
+BLOCK = Boxes(((0.0, 0.0), (2.0, 0.5)), ((0.5, 0.5), (1.5, 1.0)))
+STORED = {
+    "block_on_base_tri.msh": (BLOCK, "triangle"),
+    "block_on_base_quad.msh": (BLOCK, "quadrilateral"),
+    "pad_on_plate_tet.msh": (
+        Boxes(((0.0, 0.0, 0.0), (1.5, 1.5, 0.5)), ((0.25, 0.25, 0.5), (1.25, 1.25, 1.0))),
+        "tetrahedron",
+    ),
+    "pad_on_plate_hex.msh": (
+        Boxes(((0.0, 0.0, 0.0), (2.0, 2.0, 0.5)), ((0.5, 0.5, 0.5), (1.5, 1.5, 1.0))),
+        "hexahedron",
+    ),
+}
+
+
+# --- helpers --------------------------------------------------------------------------------------
+def expected_measures(b: Boxes) -> dict[str, float]:
+    """Exact length/area of each facet group and area/volume of each body."""
+    (m0, m1), (s0, s1) = b.master, b.slave
+    me = np.subtract(m1, m0)
+    se = np.subtract(s1, s0)
+    out = {
+        M.MASTER: float(np.prod(me)),
+        M.SLAVE: float(np.prod(se)),
+        M.INTERFACE: float(np.prod(se[:-1])),
+        M.BOTTOM: float(np.prod(me[:-1])),
+        M.TOP: float(np.prod(se[:-1])),
+    }
+    free = np.prod(me[:-1]) - np.prod(se[:-1])
+    if free > TOL:
+        out[M.MASTER_TOP] = float(free)
+    if b.gdim == 2:
+        out |= {M.MASTER_LEFT: me[1], M.MASTER_RIGHT: me[1], M.SLAVE_LEFT: se[1]}
+        out[M.SLAVE_RIGHT] = se[1]
+    else:
+        out |= {M.MASTER_XMIN: me[1] * me[2], M.MASTER_XMAX: me[1] * me[2]}
+        out |= {M.MASTER_YMIN: me[0] * me[2], M.MASTER_YMAX: me[0] * me[2]}
+        out |= {M.SLAVE_XMIN: se[1] * se[2], M.SLAVE_XMAX: se[1] * se[2]}
+        out |= {M.SLAVE_YMIN: se[0] * se[2], M.SLAVE_YMAX: se[0] * se[2]}
+    return {k: float(v) for k, v in out.items()}
+
+
+def entities_to_geometry(im, dim, entities):
+    """dolfinx.mesh.entities_to_geometry, which dies with SIGFPE on an empty array in 0.9."""
+    if len(entities) == 0:
+        etype = dolfinx.cpp.mesh.cell_entity_type(im.mesh.topology.cell_type, dim, 0)
+        return np.empty((0, dolfinx.cpp.mesh.cell_num_entities(etype, 0)), dtype=np.int32)
+    return dolfinx.mesh.entities_to_geometry(im.mesh, dim, entities)
+
+
+def everywhere(comm, condition):
+    """A rank-local condition made collective, so that a failure fails on all ranks (no hang)."""
+    return comm.allreduce(bool(condition), op=MPI.LAND)
+
+
+def owned(im, dim, entities):
+    return entities[entities < im.mesh.topology.index_map(dim).size_local]
+
+
+def facet_sizes(im, facets):
+    """Length (2-D) or area (3-D) of flat facets, from their vertex coordinates."""
+    tdim = im.tdim
+    nodes = entities_to_geometry(im, tdim - 1, facets)
+    x = im.mesh.geometry.x[nodes]
+    if tdim == 2:
+        return np.linalg.norm(x[:, 1] - x[:, 0], axis=1)
+    if x.shape[1] == 3:
+        return 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
+    # planar quadrilateral, DOLFINx vertex order 0-1-3-2: half the cross product of the diagonals
+    return 0.5 * np.linalg.norm(np.cross(x[:, 3] - x[:, 0], x[:, 2] - x[:, 1]), axis=1)
+
+
+def adjacent_bodies(im, facets):
+    """Tag of the (first) local cell of each facet."""
+    tdim = im.tdim
+    im.mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = im.mesh.topology.connectivity(tdim - 1, tdim)
+    imap = im.mesh.topology.index_map(tdim)
+    value = np.full(imap.size_local + imap.num_ghosts, -1)
+    value[im.cell_tags.indices] = im.cell_tags.values
+    return np.array([value[f2c.links(f)[0]] for f in facets], dtype=int)
+
+
+def gather_interface_vertices(im):
+    """(coordinates, side 0/1, input node index) of all interface-facet vertices, all ranks."""
+    out = []
+    for k, side in enumerate(M.BODIES):
+        f = im.interface_facets(side, owned_only=True)
+        nodes = entities_to_geometry(im, im.tdim - 1, f).reshape(-1)
+        gi = im.mesh.geometry.input_global_indices[nodes]
+        x = im.mesh.geometry.x[nodes]
+        for gi_r, x_r in im.mesh.comm.allgather((gi, x)):
+            out.append((x_r, np.full(len(gi_r), k), gi_r))
+    x = np.vstack([o[0] for o in out])
+    side = np.concatenate([o[1] for o in out])
+    gi = np.concatenate([o[2] for o in out])
+    _, first = np.unique(gi, return_index=True)  # a vertex may be on several facets / ranks
+    return x[first], side[first], gi[first]
+
+
+def gather_body_vertices(im, body):
+    """Global topological vertex indices of the cells of ``body``, over all ranks."""
+    tdim = im.tdim
+    c2v = im.mesh.topology.connectivity(tdim, 0)
+    nv = dolfinx.cpp.mesh.cell_num_entities(im.mesh.topology.cell_type, 0)
+    v = np.unique(c2v.array.reshape(-1, nv)[owned(im, tdim, im.body_cells(body))])
+    glob = im.mesh.topology.index_map(0).local_to_global(v.astype(np.int32))
+    return np.unique(np.concatenate(im.mesh.comm.allgather(glob)))
+
+
+def ufl_measures(im):
+    """(master side, slave side, master volume, slave volume), assembled with ds/dx."""
+    mesh = im.mesh
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=im.interface_side_tags())
+    dx = ufl.Measure("dx", domain=mesh, subdomain_data=im.cell_tags)
+    c = fem.Constant(mesh, np.zeros(4, dtype=dolfinx.default_scalar_type))
+    m, s = im.tag(M.MASTER), im.tag(M.SLAVE)
+    form = fem.form(c[0] * ds(m) + c[1] * ds(s) + c[2] * dx(m) + c[3] * dx(s))
+    out = []
+    for i in range(4):
+        c.value[:] = 0.0
+        c.value[i] = 1.0
+        out.append(mesh.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
+    return out
+
+
+def pair_partners(x, side, tol):
+    """For each point, the indices of the other points within ``tol``."""
+    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    np.fill_diagonal(d, np.inf)
+    return [np.flatnonzero(row < tol) for row in d]
+
+
+def check_interface_mesh(im, boxes: Boxes, cell_type: str):
+    comm = im.mesh.comm
+    tdim = im.tdim
+    assert im.gdim == tdim == boxes.gdim
+    assert im.mesh.topology.cell_name() == cell_type
+    scale = max(np.max(boxes.master[1]), np.max(boxes.slave[1]))
+
+    # groups present, and nothing else
+    expect = expected_measures(boxes)
+    assert set(im.tags) == set(expect)
+
+    # facet groups: exact measure, on the right body; interface: half on each body
+    for name, value in expect.items():
+        if name in M.BODIES:
+            continue
+        f = owned(im, tdim - 1, im.facets(name))
+        size = comm.allreduce(float(facet_sizes(im, f).sum()), op=MPI.SUM)
+        factor = 2.0 if name == M.INTERFACE else 1.0
+        assert size == pytest.approx(factor * value, rel=1e-12), name
+        bodies = adjacent_bodies(im, f)
+        if name != M.INTERFACE:
+            body = M.SLAVE if name == M.TOP or name.startswith(M.SLAVE) else M.MASTER
+            assert everywhere(comm, np.all(bodies == im.tag(body))), name
+        exterior = dolfinx.mesh.exterior_facet_indices(im.mesh.topology)
+        assert everywhere(comm, np.all(np.isin(f, exterior))), name
+
+    # interface sides: equal facet counts (global) and measures; sides by the adjacent body
+    counts = []
+    for side in M.BODIES:
+        f = im.interface_facets(side, owned_only=True)
+        assert everywhere(comm, np.all(adjacent_bodies(im, f) == im.tag(side)))
+        counts.append(comm.allreduce(len(f), op=MPI.SUM))
+    assert counts[0] == counts[1] == im.num_interface_facets > 0
+    m_side, s_side, m_vol, s_vol = ufl_measures(im)
+    assert m_side == pytest.approx(expect[M.INTERFACE], rel=1e-12)
+    assert s_side == pytest.approx(expect[M.INTERFACE], rel=1e-12)
+    assert m_vol == pytest.approx(expect[M.MASTER], rel=1e-12)
+    assert s_vol == pytest.approx(expect[M.SLAVE], rel=1e-12)
+
+    # every interface vertex coordinate appears exactly twice: once per side, distinct nodes
+    x, side, gi = gather_interface_vertices(im)
+    partners = pair_partners(x, side, TOL * scale)
+    assert all(len(p) == 1 for p in partners)
+    assert all(side[p[0]] != side[i] for i, p in enumerate(partners))
+    assert np.count_nonzero(side == 0) == np.count_nonzero(side == 1) > 0
+    assert np.intersect1d(gi[side == 0], gi[side == 1]).size == 0
+
+    # the bodies share no (topological) vertex, and every vertex is in a body
+    vm, vs = gather_body_vertices(im, M.MASTER), gather_body_vertices(im, M.SLAVE)
+    assert np.intersect1d(vm, vs).size == 0
+    assert vm.size + vs.size == im.mesh.topology.index_map(0).size_global
+
+
+def split_fraction(im):
+    """Fraction of interface pairs whose two facets are owned by different ranks."""
+    comm = im.mesh.comm
+    pts = {}
+    for side in M.BODIES:
+        f = im.interface_facets(side, owned_only=True)
+        mid = dolfinx.mesh.compute_midpoints(im.mesh, im.tdim - 1, f)
+        gathered = comm.allgather(mid)
+        ranks = np.concatenate([np.full(len(m), r) for r, m in enumerate(gathered)])
+        pts[side] = (np.vstack(gathered), ranks)
+    (xm, rm), (xs, rs) = pts[M.MASTER], pts[M.SLAVE]
+    assert len(xm) == len(xs) > 0
+    d = np.linalg.norm(xm[:, None, :] - xs[None, :, :], axis=2)
+    j = d.argmin(axis=1)
+    assert d[np.arange(len(xm)), j].max() < TOL
+    assert np.unique(j).size == j.size
+    return float(np.mean(rm != rs[j]))
+
+
+# --- stored meshes --------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", list(STORED))
+def test_stored_mesh(comm, name):
+    boxes, cell_type = STORED[name]
+    im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim)
+    check_interface_mesh(im, boxes, cell_type)
+
+
+@pytest.mark.parametrize("name", list(STORED))
+@pytest.mark.parametrize("kind", M.PARTITIONER_KINDS)
+def test_partitioner_split(comm, name, kind):
+    boxes, cell_type = STORED[name]
+    im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim, partitioner=kind)
+    check_interface_mesh(im, boxes, cell_type)
+    frac = split_fraction(im)
+    n_owned = {b: len(owned(im, im.tdim, im.body_cells(b))) for b in M.BODIES}
+    if comm.size == 1:
+        assert frac == 0.0
+    elif kind == "bodies":
+        assert frac == 1.0
+        mine, other = (M.MASTER, M.SLAVE) if comm.rank == 0 else (M.SLAVE, M.MASTER)
+        assert everywhere(comm, n_owned[other] == 0 and n_owned[mine] > 0)
+    elif kind == "together":
+        assert frac == 0.0
+        assert everywhere(comm, sum(n_owned.values()) > 0)  # not everything on one rank
+    else:
+        assert 0.0 <= frac <= 1.0
+
+
+@pytest.mark.parametrize("kind", ["default", "together", "bodies"])
+@pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
+def test_shared_facet_ghosts(comm, name, kind):
+    """With GhostMode.shared_facet every facet with one local cell is a global exterior facet."""
+    boxes, cell_type = STORED[name]
+    im = M.read_interface_mesh(
+        MESH_DIR / name, comm, boxes.gdim, partitioner=kind, ghost_mode=GhostMode.shared_facet
+    )
+    check_interface_mesh(im, boxes, cell_type)
+    tdim = im.tdim
+    top = im.mesh.topology
+    top.create_connectivity(tdim, tdim - 1)
+    top.create_connectivity(tdim - 1, tdim)
+    n_cells = top.index_map(tdim).size_local
+    facets = np.unique(
+        top.connectivity(tdim, tdim - 1).array.reshape(
+            n_cells + top.index_map(tdim).num_ghosts, -1
+        )[:n_cells]
+    )
+    f2c = top.connectivity(tdim - 1, tdim)
+    lonely = np.array([f for f in facets if len(f2c.links(f)) == 1], dtype=np.int32)
+    mid = np.vstack(comm.allgather(dolfinx.mesh.compute_midpoints(im.mesh, tdim - 1, lonely)))
+    ext = dolfinx.mesh.exterior_facet_indices(top)
+    ext_mid = np.vstack(comm.allgather(dolfinx.mesh.compute_midpoints(im.mesh, tdim - 1, ext)))
+    d = np.linalg.norm(mid[:, None, :] - ext_mid[None, :, :], axis=2)
+    assert np.all(d.min(axis=1) < TOL)
+    n_ghosts = comm.allreduce(top.index_map(tdim).num_ghosts, op=MPI.SUM)
+    if comm.size > 1 and kind != "bodies":
+        assert n_ghosts > 0
+    if kind == "bodies":
+        assert n_ghosts == 0  # the bodies share no facet
+
+
+def test_stored_mismatch_coords_reads_but_does_not_pair(comm):
+    im = M.read_interface_mesh(MESH_DIR / "broken_mismatch_coords.msh", comm, 2)
+    assert im.num_interface_facets == 8
+    x, side, _ = gather_interface_vertices(im)
+    partners = pair_partners(x, side, 1e-8)
+    assert sum(len(p) == 0 for p in partners) > 0  # some nodes have no partner
+
+
+@pytest.mark.serial
+def test_generate_reproduces_stored_files(shared_tmp):
+    spec = importlib.util.spec_from_file_location("generate_meshes", MESH_DIR / "generate.py")
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    written = gen.generate(shared_tmp)
+    assert {p.name for p in written} == set(gen.MESHES)
+    assert set(STORED) <= set(gen.MESHES)
+    for p in written:
+        assert p.read_bytes() == (MESH_DIR / p.name).read_bytes(), p.name
+        assert p.stat().st_size < 300_000
+
+
+# --- builders -------------------------------------------------------------------------------------
+BUILDS = [
+    (M.build_block_on_base, dict(cell_type="triangle"), BLOCK),
+    (
+        M.build_block_on_base,
+        dict(cell_type="quadrilateral", block_x=0.0, block_width=0.75, n_interface=6),
+        Boxes(((0.0, 0.0), (2.0, 0.5)), ((0.0, 0.5), (0.75, 1.0))),
+    ),
+    (
+        M.build_block_on_base,
+        dict(cell_type="triangle", base_width=1.0, block_width=1.0, block_height=0.3),
+        Boxes(((0.0, 0.0), (1.0, 0.5)), ((0.0, 0.5), (1.0, 0.8))),
+    ),
+    (
+        M.build_pad_on_plate,
+        dict(cell_type="tetrahedron", plate_size=(1.0, 1.0, 0.25), pad_size=(0.5, 0.5, 0.25)),
+        Boxes(((0.0, 0.0, 0.0), (1.0, 1.0, 0.25)), ((0.25, 0.25, 0.25), (0.75, 0.75, 0.5))),
+    ),
+    (
+        M.build_pad_on_plate,
+        dict(cell_type="hexahedron", pad_origin=(0.0, 0.5), n_interface=3),
+        Boxes(((0.0, 0.0, 0.0), (2.0, 2.0, 0.5)), ((0.0, 0.5, 0.5), (1.0, 1.5, 1.0))),
+    ),
+    (
+        M.build_pad_on_plate,
+        dict(cell_type="tetrahedron", plate_size=(1, 1, 0.5), pad_size=(1, 1, 0.5), n_interface=2),
+        Boxes(((0.0, 0.0, 0.0), (1.0, 1.0, 0.5)), ((0.0, 0.0, 0.5), (1.0, 1.0, 1.0))),
+    ),
+]
+
+
+@pytest.mark.parametrize("builder, kwargs, boxes", BUILDS)
+def test_builder(comm, builder, kwargs, boxes):
+    im, info = M.create_interface_mesh(builder, comm, **kwargs)
+    check_interface_mesh(im, boxes, kwargs["cell_type"])
+    assert info.tags == {n: M.TAGS[n] for n in info.tags}
+    assert im.tags == info.tags
+    assert info.num_interface_facets == im.num_interface_facets
+    assert sum(info.num_cells.values()) == im.mesh.topology.index_map(im.tdim).size_global
+    assert info.interface_min == pytest.approx(boxes.slave[0])
+    assert info.interface_max[:-1] == pytest.approx(boxes.slave[1][:-1])
+
+
+def test_builder_mesh_size_sets_interface_count(comm):
+    im, info = M.create_interface_mesh(
+        M.build_block_on_base, comm, cell_type="quadrilateral", mesh_size=0.25
+    )
+    assert im.num_interface_facets == info.num_interface_facets == 4
+    assert info.h == pytest.approx(0.25)
+
+
+# --- errors (raised on every rank) ----------------------------------------------------------------
+def test_error_missing_file(comm):
+    path = MESH_DIR / "no_such_mesh.msh"
+    with pytest.raises(FileNotFoundError, match=str(path)):
+        M.read_interface_mesh(path, comm, 2)
+
+
+def test_error_missing_interface_group(comm):
+    with pytest.raises(M.InterfaceMeshError, match="'interface' not found") as e:
+        M.read_interface_mesh(MESH_DIR / "broken_no_interface.msh", comm, 2)
+    for found in ("'master'", "'slave'", "'bottom'"):
+        assert found in str(e.value)
+
+
+def test_error_missing_required_boundary_group(comm):
+    required = (*M.REQUIRED_GROUPS, M.MASTER_TOP, M.SLAVE_XMIN)
+    with pytest.raises(M.InterfaceMeshError, match=r"'slave_xmin' not found.*'master_top'"):
+        M.read_interface_mesh(MESH_DIR / "block_on_base_tri.msh", comm, 2, required=required)
+
+
+def test_error_interface_side_counts(comm):
+    with pytest.raises(M.InterfaceMeshError, match="8 on the 'master' side, 9 on the 'slave'"):
+        M.read_interface_mesh(MESH_DIR / "broken_mismatch_count.msh", comm, 2)
+
+
+@pytest.mark.parametrize(
+    "name, gdim, match",
+    [
+        (
+            "pad_on_plate_tet.msh",
+            2,
+            "expected a 2-D mesh .* found cells of topological dimension 3",
+        ),
+        (
+            "block_on_base_quad.msh",
+            3,
+            "expected a 3-D mesh .* found cells of topological dimension 2",
+        ),
+    ],
+)
+def test_error_wrong_dimension(comm, name, gdim, match):
+    with pytest.raises(M.InterfaceMeshError, match=match):
+        M.read_interface_mesh(MESH_DIR / name, comm, gdim)
+
+
+def test_error_bodies_share_nodes(comm):
+    """Two rectangles meshed conformally without duplicating the interface nodes."""
+    import gmsh
+
+    if comm.rank == 0:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh.option.setNumber("General.Verbosity", 2)
+        gmsh.model.add("glued")
+        a = gmsh.model.occ.addRectangle(0, 0, 0, 1, 0.5)
+        b = gmsh.model.occ.addRectangle(0, 0.5, 0, 1, 0.5)
+        gmsh.model.occ.fragment([(2, a)], [(2, b)])
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(2, [a], name=M.MASTER)
+        gmsh.model.addPhysicalGroup(2, [b], name=M.SLAVE)
+        line = [t for _, t in gmsh.model.getEntitiesInBoundingBox(-1, 0.49, -1, 2, 0.51, 1, 1)]
+        gmsh.model.addPhysicalGroup(1, line, name=M.INTERFACE)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
+        gmsh.model.mesh.generate(2)
+    try:
+        with pytest.raises(M.InterfaceMeshError, match=r"share \d+ nodes .* must be duplicated"):
+            M.read_interface_mesh(None, comm, 2)
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+
+
+def test_error_group_elements_lost(comm):
+    """A facet-group element that is no facet of the cells (gmshio would drop it silently)."""
+    import gmsh
+
+    if comm.rank == 0:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh.option.setNumber("General.Verbosity", 2)
+        M.build_block_on_base(cell_type="quadrilateral", n_interface=4)
+        nodes, x, _ = gmsh.model.mesh.getNodes()
+        x = x.reshape(-1, 3)
+        # a "facet" joining the two bottom corners of the base: not an edge of any cell
+        ends = [
+            int(nodes[np.argmin(np.linalg.norm(x - p, axis=1))]) for p in ([0, 0, 0], [2, 0, 0])
+        ]
+        line = gmsh.model.addDiscreteEntity(1)
+        gmsh.model.mesh.addElementsByType(line, 1, [], ends)
+        gmsh.model.addPhysicalGroup(1, [line], name="bogus")
+    try:
+        with pytest.raises(M.InterfaceMeshError, match="'bogus': 1 of 1"):
+            M.read_interface_mesh(None, comm, 2)
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+
+
+def test_error_no_current_model(comm):
+    import gmsh
+
+    assert everywhere(comm, comm.rank != 0 or not gmsh.isInitialized())
+    with pytest.raises(M.InterfaceMeshError, match="no current gmsh model"):
+        M.read_interface_mesh(None, comm, 2)
+
+
+def test_error_from_builder_raised_on_all_ranks(comm):
+    with pytest.raises(ValueError, match="cell_type must be one of"):
+        M.create_interface_mesh(M.build_block_on_base, comm, cell_type="hexahedron")
+    with pytest.raises(ValueError, match="must lie on the base"):
+        M.create_interface_mesh(M.build_block_on_base, comm, block_x=1.5)
+
+
+def test_error_bad_arguments(comm):
+    with pytest.raises(ValueError, match="partitioner kind"):
+        M.body_partitioner("random")
+    im = M.read_interface_mesh(MESH_DIR / "block_on_base_tri.msh", comm, 2)
+    with pytest.raises(KeyError, match="no physical group 'nope'"):
+        im.tag("nope")
+    with pytest.raises(ValueError, match="side must be one of"):
+        im.interface_facets("interface")
