@@ -85,6 +85,10 @@ def coulomb_return_map(
     tangent[plastic, :nt, :nt] = (p.alpha_t * ratio[plastic])[:, None, None] * (eye - nn[plastic])
     tangent[plastic, :nt, nt] = p.mu_c * p.alpha_n * nstar[plastic]
     tangent[contact, nt, nt] = p.alpha_n
+    # touching exactly (ubar_n = 0): zero traction, one-sided (contact) elastic tangent
+    touching = ok_in & (un == 0.0)
+    tangent[touching, :nt, :nt] = p.alpha_t * np.eye(nt)
+    tangent[touching, nt, nt] = p.alpha_n
 
     status = np.full(n, Status.FAILED, dtype=np.int8)
     status[elastic] = Status.ELASTIC

@@ -17,7 +17,8 @@ class Status(enum.IntEnum):
 
     ELASTIC: in contact, no plastic slip in the step.
     PLASTIC: in contact, plastic slip on the continuous branch (smallest root).
-    SEPARATED: not in contact (``ubar_n <= 0``): zero traction.
+    SEPARATED: not in contact (``ubar_n <= 0``): zero traction. At ``ubar_n = 0`` exactly the
+        tangent is the one-sided elastic one from the contact side (a touching interface is stiff).
     JUMP: plastic, but the smallest root lies beyond a local minimum of the consistency function,
         i.e. the continuous branch ended in a fold inside the step and the solution jumped.
     FAILED: the point could not be integrated (non-finite input or no converged root); its

@@ -374,7 +374,10 @@ def subloading_return_map(
     traction[:, nt] = np.where(elastic, fn, 0.0)
     diag = np.zeros(m)
     diag[:nt], diag[nt] = p.alpha_t, p.alpha_n
-    tangent[elastic] = np.diag(diag)
+    # Touching exactly (ubar_n = 0, e.g. an unloaded initial state): zero traction, but the
+    # one-sided tangent from the contact side, so that a touching interface has stiffness.
+    touching = ok_in & (un == 0.0)
+    tangent[elastic | touching] = np.diag(diag)
 
     # Failed inputs keep their last converged state where it was finite.
     bad = ~ok_in
