@@ -1,0 +1,252 @@
+"""Zero-thickness interface elements: quadrature, local frames, state, gap and assembly kernels.
+
+An interface element is a pair of coincident facets (master and slave) with ``nfd`` displacement
+nodes each. At its quadrature points the relative displacement is
+
+    ubar = sum_k N_k (u_slave,k - u_master,k)
+
+and its local components are ``gap = Q ubar`` with ``Q`` the rows ``(e1, [e2,] -n)``: ``n`` is the
+master's outward normal, so ``gap_n = -n . ubar > 0`` on approach. The friction law returns the
+local traction ``(f_t, f_n)``; the traction on the master body in global components is
+``f = Q^T (f_t, f_n) = f_t e - f_n n``. It is the derivative of the interface energy with respect
+to ``ubar``, so the interface adds ``+int N f`` to the slave rows of the residual and ``-int N f``
+to the master rows, and ``int N N Q^T D Q`` with the signs of ``[[1, -1], [-1, 1]]`` to the
+Jacobian (``D`` the consistent tangent of the law, not symmetric).
+
+Geometrically linear: small sliding, the pairs and frames are fixed at the reference geometry.
+
+The internal variables live in DOLFINx Quadrature functions on the interface submesh (one cell per
+owned master facet), point ``q`` of cell ``c`` at index ``c * nq + q``; they are not ghosted.
+"""
+
+from __future__ import annotations
+
+import basix
+import basix.ufl
+import dolfinx
+import numpy as np
+
+from ..constitutive import InterfaceState, StatePair
+from .pairing import InterfacePairs, coordinate_basis, push_forward
+
+__all__ = ["InterfaceElements", "quadrature_rule"]
+
+
+def quadrature_rule(cell: basix.CellType, degree: int, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature points and weights on a reference facet.
+
+    Args:
+        cell: Facet cell type.
+        degree: Polynomial degree of the displacement (1 or 2).
+        kind: ``"gauss"`` (exact for the interface's mass-like terms, degree ``2 p``) or
+            ``"nodal"`` (the facet Lagrange nodes with the weights that integrate the Lagrange
+            basis exactly, i.e. a lumped scheme, as often preferred against traction oscillations
+            of stiff penalty interfaces; degree 1 only on simplices).
+    """
+    if kind == "gauss":
+        return basix.make_quadrature(cell, 2 * degree)
+    if kind == "nodal":
+        e = basix.create_element(
+            basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
+        )
+        Xg, wg = basix.make_quadrature(cell, 2 * degree)
+        w = e.tabulate(0, Xg)[0, :, :, 0].T @ wg
+        if np.any(w <= 0.0):
+            raise ValueError(
+                f"nodal quadrature has non-positive weights for degree {degree} on {cell.name}"
+            )
+        return e.points.copy(), w
+    raise ValueError(f"quadrature kind must be 'gauss' or 'nodal', got {kind!r}")
+
+
+class InterfaceElements:
+    """The interface elements owned by this rank, their state and kernels.
+
+    Args:
+        pairs: Result of :func:`~.pairing.pair_interface`.
+        V: The displacement space.
+        law: Friction law (``return_map`` and ``initial_state``).
+        quadrature: ``"gauss"`` or ``"nodal"``, see :func:`quadrature_rule`.
+
+    Attributes:
+        nq: Quadrature points per element.
+        Q: Local frames, rows ``(e1, [e2,] -n)``, shape (nf, nq, gdim, gdim).
+        normal: Master outward normal, (nf, nq, gdim).
+        points: Physical quadrature points, (nf, nq, gdim).
+        weights: Quadrature weight times surface Jacobian, (nf, nq).
+        N: Facet basis at the quadrature points, (nq, nfd).
+        state: Committed (``old``) and trial (``new``) internal variables, views of the arrays of
+            the Quadrature functions ``functions["up"|"mu"|"r"]`` (and ``..._old``).
+        functions: Quadrature functions: ``up``, ``mu``, ``r`` (trial), ``up_old``, ``mu_old``,
+            ``r_old`` (committed), ``traction`` (``f_t..., f_n``, local components).
+    """
+
+    def __init__(
+        self,
+        pairs: InterfacePairs,
+        V: dolfinx.fem.FunctionSpace,
+        law,
+        quadrature: str = "gauss",
+    ) -> None:
+        self.pairs = pairs
+        self.V = V
+        self.law = law
+        sub = pairs.submesh
+        self.submesh = sub
+        gdim = V.mesh.geometry.dim
+        self.gdim = gdim
+        self.nt = gdim - 1
+        self.bs = V.dofmap.bs
+        fcell = basix.CellType[sub.topology.cell_type.name]
+        degree = V.ufl_element().embedded_superdegree
+        X, w = quadrature_rule(fcell, degree, quadrature)
+        self.X, self.w_ref = X, w
+        self.nq = X.shape[0]
+        nf = pairs.facets.size
+        self.n_elements = nf
+
+        felem = basix.create_element(
+            basix.ElementFamily.P, fcell, degree, basix.LagrangeVariant.gll_warped
+        )
+        self.N = felem.tabulate(0, X)[0, :, :, 0]  # (nq, nfd)
+        self.nfd = self.N.shape[1]
+
+        # Geometry: points, surface Jacobians, normals, frames.
+        self.points = push_forward(sub, X)
+        dphi = coordinate_basis(sub, X, 1)[1:]  # (fdim, nq, ngeo)
+        xg = sub.geometry.x[sub.geometry.dofmap][..., :gdim]  # (nf, ngeo, gdim)
+        J = np.einsum("aqk,ckd->cqda", dphi, xg)  # (nf, nq, gdim, fdim)
+        if gdim == 2:
+            t = J[..., 0]
+            nvec = np.stack([t[..., 1], -t[..., 0]], axis=-1)
+        else:
+            nvec = np.cross(J[..., 0], J[..., 1])
+        detJ = np.linalg.norm(nvec, axis=-1)
+        nvec = nvec / np.where(detJ > 0, detJ, 1.0)[..., None]
+        # Orient n outward from the master cell: away from the master cell's centroid.
+        mesh = V.mesh
+        cnodes = mesh.geometry.dofmap[pairs.master_cells]
+        centroid = mesh.geometry.x[cnodes][..., :gdim].mean(axis=1) if nf else np.zeros((0, gdim))
+        out = np.einsum("cqd,cqd->cq", nvec, self.points - centroid[:, None, :])
+        nvec *= np.where(out < 0.0, -1.0, 1.0)[..., None]
+        self.normal = nvec
+        self.weights = detJ * w[None, :]
+        self.Q = _frames(nvec)
+
+        # State in Quadrature spaces on the interface submesh.
+        cname = sub.topology.cell_name()
+        qe_s = basix.ufl.quadrature_element(cname, value_shape=(), points=X, weights=w)
+        qe_v = basix.ufl.quadrature_element(cname, value_shape=(self.nt,), points=X, weights=w)
+        qe_f = basix.ufl.quadrature_element(cname, value_shape=(gdim,), points=X, weights=w)
+        self.Qs = dolfinx.fem.functionspace(sub, qe_s)
+        self.Qv = dolfinx.fem.functionspace(sub, qe_v)
+        self.Qf = dolfinx.fem.functionspace(sub, qe_f)
+        F = dolfinx.fem.Function
+        fn = {
+            "up": F(self.Qv, name="up"),
+            "mu": F(self.Qs, name="mu"),
+            "r": F(self.Qs, name="r"),
+            "up_old": F(self.Qv, name="up_old"),
+            "mu_old": F(self.Qs, name="mu_old"),
+            "r_old": F(self.Qs, name="r_old"),
+            "traction": F(self.Qf, name="traction"),
+        }
+        self.functions = fn
+        npts = nf * self.nq
+        for k in ("mu", "r", "up"):
+            if fn[k].x.array.size != npts * (self.nt if k == "up" else 1):
+                raise RuntimeError("unexpected layout of the interface Quadrature space")
+
+        def view(suffix: str) -> InterfaceState:
+            return InterfaceState(
+                fn["up" + suffix].x.array.reshape(npts, self.nt),
+                fn["mu" + suffix].x.array,
+                fn["r" + suffix].x.array,
+                copy=False,
+            )
+
+        init = law.initial_state(npts, self.nt)
+        self.state = StatePair(view("_old"), view(""))
+        self.state.old.assign(init)
+        self.state.new.assign(init)
+
+        # Element node lists: master then slave nodes, as local indices of the extended map.
+        self.nodes = np.concatenate([pairs.master_nodes, pairs.slave_nodes], axis=1)
+        self.dofs = (self.nodes[:, :, None] * self.bs + np.arange(self.bs)).reshape(
+            nf, 2 * self.nfd * self.bs
+        )
+        self.last = None  # last ReturnMapResult
+        self.last_gap = np.zeros((nf * self.nq, gdim))
+
+    # ----------------------------------------------------------------------------------------
+    def gap(self, u_local: np.ndarray) -> np.ndarray:
+        """Local gap at all points, (nf * nq, gdim), from the local array of the extended vector."""
+        U = u_local[self.dofs].reshape(self.n_elements, 2, self.nfd, self.bs)
+        jump = U[:, 1] - U[:, 0]  # slave - master, (nf, nfd, gdim)
+        ubar = np.einsum("qk,ckd->cqd", self.N, jump)
+        return np.einsum("cqij,cqj->cqi", self.Q, ubar).reshape(-1, self.gdim)
+
+    def update(self, u_local: np.ndarray, dt: float):
+        """Evaluate the law at ``u`` from the committed state; fill the trial state.
+
+        Returns:
+            The :class:`~subfric_dolfinx.constitutive.ReturnMapResult`.
+        """
+        self.last_gap = self.gap(u_local)
+        res = self.law.return_map(self.last_gap, self.state.old, dt, out=self.state.new)
+        self.functions["traction"].x.array[:] = res.traction.ravel()
+        self.last = res
+        return res
+
+    def add_residual(self, b_local: np.ndarray, traction: np.ndarray) -> None:
+        """Add the interface forces to a local (extended, ghosted) array."""
+        nf, nq, gdim = self.n_elements, self.nq, self.gdim
+        fl = traction.reshape(nf, nq, gdim)
+        fg = np.einsum("cqji,cqj->cqi", self.Q, fl)  # Q^T f
+        Rs = np.einsum("cq,qk,cqd->ckd", self.weights, self.N, fg)  # (nf, nfd, gdim)
+        R = np.concatenate([-Rs, Rs], axis=1)
+        np.add.at(b_local, self.dofs.ravel(), R.ravel())
+
+    def element_matrices(self, tangent: np.ndarray) -> np.ndarray:
+        """Element matrices (nf, 2 nfd gdim, 2 nfd gdim), node-blocked, master nodes first."""
+        nf, nq, gdim, nfd = self.n_elements, self.nq, self.gdim, self.nfd
+        D = tangent.reshape(nf, nq, gdim, gdim)
+        Dg = np.einsum("cqai,cqab,cqbj->cqij", self.Q, D, self.Q)  # Q^T D Q
+        Kss = np.einsum("cq,qk,ql,cqij->ckilj", self.weights, self.N, self.N, Dg)
+        Kss = Kss.reshape(nf, nfd * gdim, nfd * gdim)
+        K = np.empty((nf, 2, nfd * gdim, 2, nfd * gdim))
+        K[:, 0, :, 0] = Kss
+        K[:, 1, :, 1] = Kss
+        K[:, 0, :, 1] = -Kss
+        K[:, 1, :, 0] = -Kss
+        return K.reshape(nf, 2 * nfd * gdim, 2 * nfd * gdim)
+
+    def commit(self) -> None:
+        """Accept the trial state."""
+        self.state.commit()
+
+    def revert(self) -> None:
+        """Reject the trial state."""
+        self.state.revert()
+
+
+def _frames(n: np.ndarray) -> np.ndarray:
+    """Rows ``(e1, [e2,] -n)`` of local frames for unit normals ``n`` (..., gdim)."""
+    gdim = n.shape[-1]
+    Q = np.zeros((*n.shape, gdim))
+    if gdim == 2:
+        Q[..., 0, :] = np.stack([n[..., 1], -n[..., 0]], axis=-1)
+        Q[..., 1, :] = -n
+        return Q
+    # e1: the projection of x (or of y where n is close to x) on the tangent plane
+    ax = np.zeros_like(n)
+    use_y = np.abs(n[..., 0]) > 0.9
+    ax[..., 0] = np.where(use_y, 0.0, 1.0)
+    ax[..., 1] = np.where(use_y, 1.0, 0.0)
+    e1 = ax - np.sum(ax * n, axis=-1, keepdims=True) * n
+    e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+    e2 = np.cross(n, e1)
+    Q[..., 0, :] = e1
+    Q[..., 1, :] = e2
+    Q[..., 2, :] = -n
+    return Q

@@ -1,0 +1,384 @@
+"""Two linear-elastic bodies joined by a frictional zero-thickness interface.
+
+The residual is ``F(u) = K u - f_ext(t) + R_int(u)`` with ``K`` the bulk stiffness assembled once
+from UFL (small strain, plane strain in 2-D; one material per body), ``f_ext`` the tractions and
+pressures scaled by their loading channels, and ``R_int`` the interface forces from the friction
+law's return map. Dirichlet rows are replaced by ``u - g(t)`` and the Jacobian rows by identity
+rows, which keeps the Jacobian exact (no symmetric elimination, no lifting).
+
+The interface's return map runs in :meth:`InterfaceProblem.residual`; its consistent tangent is
+reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections.abc import Callable, Mapping, Sequence
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
+from .loading import LoadingProgram
+
+__all__ = [
+    "Dirichlet",
+    "DirichletField",
+    "InterfaceProblem",
+    "Material",
+    "Pressure",
+    "Timings",
+    "Traction",
+]
+
+TIMER_SETUP = "setup"
+TIMER_BULK = "bulk assembly"
+TIMER_RETURN_MAP = "return map"
+TIMER_INTERFACE = "interface assembly"
+
+
+class Timings:
+    """Accumulated wall time per section (``time.perf_counter``)."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self.calls: dict[str, int] = {}
+
+    @contextlib.contextmanager
+    def __call__(self, name: str):
+        """Time the enclosed block under ``name``."""
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
+            self.calls[name] = self.calls.get(name, 0) + 1
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """Isotropic linear elasticity. ``E`` in MPa, ``nu`` in [0, 0.5)."""
+
+    E: float
+    nu: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.E) and self.E > 0):
+            raise ValueError(f"Young's modulus E = {self.E!r} must be finite and > 0")
+        if not (np.isfinite(self.nu) and 0.0 <= self.nu < 0.5):
+            raise ValueError(f"Poisson's ratio nu = {self.nu!r} must be in [0, 0.5)")
+
+
+@dataclasses.dataclass(frozen=True)
+class Dirichlet:
+    """Prescribed displacement ``value * amplitude(t)`` on a facet group.
+
+    Where conditions share a dof (e.g. along an edge of two faces), the later one wins.
+    ``value`` is a vector (all components) or a scalar with ``component`` given, or a callable
+    taking the dof coordinates ``x`` (3, n) and returning values (gdim, n), or (n,) with
+    ``component``.
+    """
+
+    group: str
+    value: float | Sequence[float] | Callable[[np.ndarray], np.ndarray]
+    component: int | None = None
+    amplitude: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class DirichletField:
+    """Prescribed displacement component ``function(x, t)`` on a facet group.
+
+    For prescribed fields that are not one shape times one channel: ``function`` receives the
+    dof coordinates ``x`` (3, n) and the time, and returns the values (n,).
+    """
+
+    group: str
+    function: Callable[[np.ndarray, float], np.ndarray]
+    component: int
+    amplitude: None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Traction:
+    """Surface traction vector ``value * amplitude(t)`` (MPa) on a facet group."""
+
+    group: str
+    value: Sequence[float]
+    amplitude: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Pressure:
+    """Pressure ``value * amplitude(t)`` (MPa, positive pushing inwards) on a facet group."""
+
+    group: str
+    value: float
+    amplitude: str | None = None
+
+
+class InterfaceProblem:
+    """Residual and Jacobian of two elastic bodies with a frictional interface.
+
+    Args:
+        domain: The bulk mesh with its tags, e.g. a :class:`~subfric_dolfinx.meshing.InterfaceMesh`
+            (anything with ``mesh``, ``cell_tags``, ``facet_tags`` and ``tags``, name -> tag);
+            its interface nodes must be duplicated.
+        law: Friction law (e.g. :class:`~subfric_dolfinx.constitutive.SubloadingParameters`).
+        materials: Body name (``master``/``slave``) -> :class:`Material`.
+        program: Loading program whose channels the conditions refer to.
+        dirichlet: Prescribed displacements.
+        loads: Tractions and pressures.
+        degree: Displacement degree (1 or 2).
+        quadrature: Interface quadrature, ``"gauss"`` or ``"nodal"``.
+        names: Group names of ``interface``, ``master`` and ``slave`` if not these.
+
+    Raises:
+        InterfaceError: A required physical group is missing (named), or the interface is unusable.
+    """
+
+    def __init__(
+        self,
+        domain,
+        law,
+        materials: Mapping[str, Material],
+        program: LoadingProgram,
+        dirichlet: Sequence[Dirichlet | DirichletField] = (),
+        loads: Sequence[Traction | Pressure] = (),
+        *,
+        degree: int = 1,
+        quadrature: str = "gauss",
+        names: Mapping[str, str] | None = None,
+    ) -> None:
+        self.timings = Timings()
+        mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
+        self.domain = domain
+        self.mesh = mesh
+        self.comm = mesh.comm
+        self.law = law
+        self.program = program
+        self.tags = dict(domain.tags)
+        nm = {"interface": "interface", "master": "master", "slave": "slave", **(names or {})}
+        needed = [nm["interface"], nm["master"], nm["slave"]]
+        needed += [c.group for c in dirichlet] + [c.group for c in loads]
+        missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
+        if missing:
+            raise InterfaceError(
+                f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
+            )
+        for c in [*dirichlet, *loads]:
+            program.amplitude(c.amplitude, program.t_start)  # unknown channel -> LoadingError
+        if degree not in (1, 2):
+            raise ValueError(f"degree must be 1 or 2, got {degree!r}")
+        gdim = mesh.geometry.dim
+        tdim = mesh.topology.dim
+        self.gdim = gdim
+        V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (gdim,)))
+        self.V = V
+        self.u = dolfinx.fem.Function(V, name="displacement")
+
+        with self.timings(TIMER_SETUP):
+            self.pairs = pair_interface(
+                V,
+                cell_tags,
+                facet_tags,
+                self.tags[nm["interface"]],
+                self.tags[nm["master"]],
+                self.tags[nm["slave"]],
+            )
+            self.interface = InterfaceElements(self.pairs, V, law, quadrature)
+            self.layout = ExtendedLayout(V, self.pairs.index_map, self.interface.nodes)
+
+        # Bulk stiffness from UFL, one material per body.
+        du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+
+        def eps(w):
+            return ufl.sym(ufl.grad(w))
+
+        a = 0
+        for body in ("master", "slave"):
+            if nm[body] not in materials and body not in materials:
+                raise ValueError(f"no material given for the {body} body")
+            mat = materials.get(nm[body], materials.get(body))
+            lam = mat.E * mat.nu / ((1 + mat.nu) * (1 - 2 * mat.nu))
+            mu = mat.E / (2 * (1 + mat.nu))
+            sig = 2 * mu * eps(du) + lam * ufl.tr(eps(du)) * ufl.Identity(gdim)
+            a = a + ufl.inner(sig, eps(v)) * dx(self.tags[nm[body]])
+        with self.timings(TIMER_BULK):
+            self.K = self.layout.create_matrix()
+            dolfinx.fem.petsc.assemble_matrix(self.K, dolfinx.fem.form(a))
+            self.K.assemble()
+            # Load vectors, one per condition (scaled by its channel at run time).
+            n = ufl.FacetNormal(mesh)
+            self.loads = []
+            for c in loads:
+                if isinstance(c, Pressure):
+                    L = -float(c.value) * ufl.dot(n, v) * ds(self.tags[c.group])
+                else:
+                    tv = np.asarray(c.value, dtype=float)
+                    if tv.shape != (gdim,):
+                        raise ValueError(f"traction on {c.group!r} must have {gdim} components")
+                    L = ufl.dot(ufl.as_vector(tv.tolist()), v) * ds(self.tags[c.group])
+                f = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(L))
+                f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                self.loads.append((c, f))
+
+        # Dirichlet dofs (owned, unrolled) with their reference values.
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        bs = V.dofmap.bs
+        n_owned = self.layout.n_owned
+        self.dirichlet = []
+        xdof = V.tabulate_dof_coordinates()
+        for c in dirichlet:
+            facets = facet_tags.find(self.tags[c.group])
+            if c.component is None:
+                nodes = dolfinx.fem.locate_dofs_topological(V, tdim - 1, facets)
+                dofs = (nodes[:, None] * bs + np.arange(bs)).ravel()
+                if callable(c.value):
+                    val = np.asarray(c.value(xdof[nodes].T), dtype=float).reshape(gdim, -1)
+                    vals = val.T.ravel()
+                else:
+                    val = np.asarray(c.value, dtype=float)
+                    if val.shape != (gdim,):
+                        raise ValueError(
+                            f"Dirichlet value on {c.group!r} must have {gdim} components"
+                        )
+                    vals = np.tile(val, nodes.size)
+            else:
+                if not 0 <= c.component < gdim:
+                    raise ValueError(f"component {c.component!r} out of range on {c.group!r}")
+                Vc, _ = V.sub(c.component).collapse()
+                dofs = dolfinx.fem.locate_dofs_topological(
+                    (V.sub(c.component), Vc), tdim - 1, facets
+                )[0]
+                if isinstance(c, DirichletField):
+                    vals = xdof[dofs // bs].T  # coordinates, evaluated at each time
+                elif callable(c.value):
+                    vals = np.asarray(c.value(xdof[dofs // bs].T), dtype=float).reshape(-1)
+                else:
+                    vals = np.full(dofs.size, float(c.value))
+            keep = dofs < n_owned
+            vals = vals[:, keep] if isinstance(c, DirichletField) else vals[keep]
+            self.dirichlet.append((c, dofs[keep].astype(np.int32), vals))
+        self.bc_dofs = (
+            np.unique(np.concatenate([d for _, d, _ in self.dirichlet]))
+            if self.dirichlet
+            else np.zeros(0, np.int32)
+        )
+        rstart = V.dofmap.index_map.local_range[0] * bs
+        self.bc_rows = (self.bc_dofs + rstart).astype(PETSc.IntType)
+        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+
+        self.x_ext = self.layout.create_vector()
+        self.b_ext = self.layout.create_vector()
+        self.t = program.t_start
+        self.dt = 0.0
+        self._x_at_update: np.ndarray | None = None
+        self.reactions: dict[str, np.ndarray] = {}
+
+    # ------------------------------------------------------------------------------------------
+    def set_step(self, t: float, dt: float) -> None:
+        """Set the time at the end of the step and the step length (drives recovery)."""
+        self.t, self.dt = float(t), float(dt)
+        self._x_at_update = None
+
+    def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Owned Dirichlet dofs (local, unrolled, sorted) and their values at ``t``.
+
+        Where conditions share a dof (e.g. along an edge of two faces), the later one wins.
+        """
+        val = np.zeros(self.bc_dofs.size)
+        for c, dofs, vals in self.dirichlet:
+            pos = np.searchsorted(self.bc_dofs, dofs)
+            if isinstance(c, DirichletField):
+                val[pos] = np.asarray(c.function(vals, t), dtype=float).reshape(-1)
+            else:
+                val[pos] = vals * self.program.amplitude(c.amplitude, t)
+        return self.bc_dofs, val
+
+    def apply_dirichlet(self, x: PETSc.Vec) -> None:
+        """Set the Dirichlet values of the current time in ``x`` (owned part)."""
+        idx, val = self.dirichlet_values(self.t)
+        x.array[idx] = val
+
+    def _update_interface(self, x: PETSc.Vec):
+        with self.timings(TIMER_INTERFACE):
+            xa = self.x_ext.array_w
+            xa[: self.layout.n_owned] = x.array_r
+            self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with self.timings(TIMER_RETURN_MAP):
+            with self.x_ext.localForm() as xl:
+                res = self.interface.update(xl.array_r, self.dt)
+        self._x_at_update = x.array_r.copy()
+        return res
+
+    def residual(self, x: PETSc.Vec, F: PETSc.Vec) -> bool:
+        """Assemble ``F(x)``; return False if the return map failed at some point."""
+        res = self._update_interface(x)
+        with self.timings(TIMER_BULK):
+            self.K.mult(x, F)
+            for c, f in self.loads:
+                F.axpy(-self.program.amplitude(c.amplitude, self.t), f)
+        with self.timings(TIMER_INTERFACE):
+            with self.b_ext.localForm() as bl:
+                bl.set(0.0)
+                self.interface.add_residual(bl.array_w, res.traction)
+            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            Fa = F.array_w
+            Fa += self.b_ext.array_r[: self.layout.n_owned]
+            # reactions: forces at Dirichlet dofs before the rows are replaced
+            self.reactions = self._reactions(Fa)
+            idx, val = self.dirichlet_values(self.t)
+            Fa[idx] = x.array_r[idx] - val
+        return res.converged
+
+    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat) -> None:
+        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there)."""
+        if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
+            self._update_interface(x)
+        res = self.interface.last
+        with self.timings(TIMER_BULK):
+            J.zeroEntries()
+            J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        with self.timings(TIMER_INTERFACE):
+            Ke = self.interface.element_matrices(res.tangent)
+            nodes = self.interface.nodes.astype(PETSc.IntType)
+            if nodes.shape[0]:
+                J.setValuesBlockedLocalRCV(nodes, nodes, Ke, addv=PETSc.InsertMode.ADD_VALUES)
+            J.assemble()
+            J.zeroRows(self.bc_rows, diag=1.0)
+
+    def _reactions(self, Fa: np.ndarray) -> dict[str, np.ndarray]:
+        bs = self.V.dofmap.bs
+        out = {}
+        for c, dofs, _ in self.dirichlet:
+            r = np.zeros(bs)
+            np.add.at(r, dofs % bs, Fa[dofs])
+            out[c.group] = r
+        keys = sorted(out)
+        tot = self.comm.allreduce(np.array([out[k] for k in keys]).reshape(-1, bs)) if keys else []
+        return {k: tot[i] for i, k in enumerate(keys)}
+
+    # ------------------------------------------------------------------------------------------
+    def commit(self) -> None:
+        """Accept the interface's trial state (after a converged step)."""
+        self.interface.commit()
+
+    def revert(self) -> None:
+        """Reject the interface's trial state (after a failed step)."""
+        self.interface.revert()
+
+    def create_matrix(self) -> PETSc.Mat:
+        """A Jacobian matrix with the interface couplings preallocated."""
+        return self.layout.create_matrix()
+
+    def create_vector(self) -> PETSc.Vec:
+        """A solution/residual vector (the displacement space's own layout)."""
+        return dolfinx.la.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
