@@ -29,6 +29,7 @@ ENV PYTHONPATH=/project \
     OPENBLAS_NUM_THREADS=1 \
     OMPI_ALLOW_RUN_AS_ROOT=1 \
     OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
-    OMPI_MCA_btl=self,sm
+    OMPI_MCA_btl=self,sm \
+    H5PY_ALWAYS_USE_MPI=1
 
 CMD ["./run", "test2"]
