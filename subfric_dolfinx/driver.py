@@ -67,6 +67,7 @@ __all__ = [
     "load_case",
     "main",
     "parse_case",
+    "parse_law",
     "run_case",
 ]
 
@@ -153,7 +154,12 @@ def _number(where: str, v: Any) -> float:
     return x
 
 
-def _law(obj: dict[str, Any]) -> SubloadingParameters | CoulombParameters:
+def parse_law(obj: dict[str, Any]) -> SubloadingParameters | CoulombParameters:
+    """Parameters from ``{"law": "subloading"|"coulomb", "params": {...}}`` (``preset`` allowed).
+
+    Raises:
+        CaseError: Unknown law, preset or parameter name, or an invalid value (named).
+    """
     kind = obj.get("law", "subloading")
     if kind not in ("subloading", "coulomb"):
         raise CaseError(f"field 'law' must be 'subloading' or 'coulomb', got {kind!r}")
@@ -202,7 +208,7 @@ def parse_case(obj: Any) -> Case:
     unknown = sorted(set(obj) - allowed)
     if unknown:
         raise CaseError(f"unknown field(s) {unknown}; allowed: {sorted(allowed)}")
-    law = _law(obj)
+    law = parse_law(obj)
     control = obj.get("control")
     if control not in ("disp", "stress"):
         raise CaseError(f"field 'control' must be 'disp' or 'stress', got {control!r}")

@@ -73,15 +73,15 @@ def interface_summary(problem: InterfaceProblem) -> dict[str, float]:
 
 
 class HistoryCSV:
-    """A CSV file with one row per converged step, written by rank 0.
+    """One row per converged step, kept in memory and written to a CSV file by rank 0.
 
     Args:
-        path: File to write (parent directories are created).
+        path: File to write (parent directories are created); ``None``: memory only.
         problem: The problem (for the averages and the reaction forces).
     """
 
-    def __init__(self, path: str | Path, problem: InterfaceProblem) -> None:
-        self.path = Path(path)
+    def __init__(self, path: str | Path | None, problem: InterfaceProblem) -> None:
+        self.path = Path(path) if path is not None else None
         self.problem = problem
         self._writer: Any = None
         self._file: Any = None
@@ -102,7 +102,7 @@ class HistoryCSV:
             for i, f in enumerate(force):
                 row[f"R_{group}_{'xyz'[i]}"] = float(f)
         self.rows.append(row)
-        if p.comm.rank == 0:
+        if p.comm.rank == 0 and self.path is not None:
             if self._writer is None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
                 self._file = self.path.open("w", newline="")

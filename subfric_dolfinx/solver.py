@@ -18,7 +18,7 @@ import ctypes
 import dataclasses
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -259,21 +259,31 @@ class LoadStepper:
         if self.log is not None:
             self.log(msg)
 
-    def run(self, t_end: float | None = None) -> list[StepRecord]:
+    def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
+
+        Steps end on every breakpoint of the program and on every time in ``stops`` (e.g. the
+        times of requested snapshots).
 
         Raises:
             StepFailure: After ``max_cuts`` consecutive cuts, or below ``dt_min``; the last
                 converged state is in place (displacement and interface state).
         """
         t_end = self.program.t_end if t_end is None else float(t_end)
+        stops_arr = np.sort(np.asarray(stops, dtype=float))
+
+        def next_stop(t: float) -> float:
+            nb = self.program.next_breakpoint(t)
+            later = stops_arr[stops_arr > t + 1e-12 * max(1.0, abs(t))]
+            return min(nb, float(later[0])) if later.size else nb
+
         easy = 0
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
         while self.t < t_end - tol:
-            target = min(self.t + self.dt, self.program.next_breakpoint(self.t), t_end)
+            nb = min(next_stop(self.t), t_end)
+            target = min(self.t + self.dt, nb)
             # do not leave a sliver before a breakpoint
-            nb = min(self.program.next_breakpoint(self.t), t_end)
             if nb - target < 0.25 * self.dt:
                 target = nb
             dt = target - self.t
