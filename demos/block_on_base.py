@@ -19,16 +19,15 @@
 #
 #     mpirun -n 2 python3 demos/block_on_base.py [--n 32] [--fields vtx] [--out DIR]
 #
+# With `--checkpoint-every N` it writes `checkpoint.h5` every N steps (and on SIGTERM, after the
+# current step); `--restart DIR/checkpoint.h5` continues from one, on any number of ranks.
+#
 # It prints progress on rank 0, the timing breakdown, and writes the CSV history and two figures
 # into the output directory. PETSc options apply under the prefix `block_`, e.g.
 # `-block_snes_monitor`.
 
 import argparse
 import sys
-
-import petsc4py
-
-petsc4py.init(sys.argv)  # PETSc options from the command line (before DOLFINx is imported)
 
 import numpy as np
 from mpi4py import MPI
@@ -41,7 +40,13 @@ from subfric_dolfinx.scenes import run_scene
 # duplicated), the problem, the SNES solver and only the outputs asked for.
 
 
-def scene(n: int = 16, hold: float = 20.0, dt: float = 0.02, fields: str | None = None) -> dict:
+def scene(
+    n: int = 16,
+    hold: float = 20.0,
+    dt: float = 0.02,
+    fields: str | None = None,
+    checkpoint_every: int = 0,
+) -> dict:
     """The block-on-base scene with ``n`` elements along the interface."""
     t = [0.0, 1.0, 2.0, 4.0, 4.0 + hold, 6.0 + hold]
     snapshots = [1.0, 1.25, 2.0, 4.0, 4.0 + hold, 4.0 + hold + 1.25, 6.0 + hold]
@@ -67,7 +72,12 @@ def scene(n: int = 16, hold: float = 20.0, dt: float = 0.02, fields: str | None 
         ],
         "loads": [{"type": "pressure", "group": "top", "value": 300.0, "amplitude": "press"}],
         "solver": {"prefix": "block_", "dt": dt, "dt_max": 2.5 * dt},
-        "outputs": {"history": True, "fields": fields, "snapshots": snapshots},
+        "outputs": {
+            "history": True,
+            "fields": fields,
+            "snapshots": snapshots,
+            "checkpoint_every": checkpoint_every,
+        },
     }
 
 
@@ -139,9 +149,14 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     ap.add_argument("--fields", choices=["vtx", "xdmf"], default=None, help="field output")
     ap.add_argument("--out", default="demos/output/block_on_base", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    ap.add_argument(
+        "--checkpoint-every", type=int, default=0, help="write checkpoint.h5 every N steps"
+    )
+    ap.add_argument("--restart", default=None, help="continue from this checkpoint")
     args, _ = ap.parse_known_args(argv)  # the rest are PETSc options
     outdir = Path(args.out)
-    result = run_scene(scene(args.n, args.hold, args.dt, args.fields), outdir=outdir, comm=comm)
+    sc = scene(args.n, args.hold, args.dt, args.fields, args.checkpoint_every)
+    result = run_scene(sc, outdir=outdir, comm=comm, restart=args.restart)
     if comm.rank == 0 and not args.no_figures:
         for f in figures(result, outdir, args.hold):
             print(f"wrote {f}")
@@ -149,4 +164,7 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 if __name__ == "__main__":
+    import petsc4py
+
+    petsc4py.init(sys.argv)  # PETSc options from the command line, before PETSc is imported
     main()

@@ -24,7 +24,7 @@ from mpi4py import MPI
 
 from .problem import InterfaceProblem
 
-__all__ = ["FieldWriter", "HistoryCSV", "interface_summary"]
+__all__ = ["FieldWriter", "HistoryCSV", "InterfaceHistoryH5", "interface_summary"]
 
 
 def interface_summary(problem: InterfaceProblem) -> dict[str, float]:
@@ -87,6 +87,10 @@ class HistoryCSV:
         self._file: Any = None
         self.rows: list[dict[str, float]] = []
 
+    def preload(self, rows: list[dict[str, float]]) -> None:
+        """Start from the rows of an earlier run (a restart); they are written first."""
+        self.rows = [dict(r) for r in rows]
+
     def write(self, record: Any) -> dict[str, float]:
         """Append the row of a converged step (a :class:`~subfric_dolfinx.solver.StepRecord`)."""
         p = self.problem
@@ -108,7 +112,9 @@ class HistoryCSV:
                 self._file = self.path.open("w", newline="")
                 self._writer = csv.DictWriter(self._file, fieldnames=list(row))
                 self._writer.writeheader()
-            self._writer.writerow({k: f"{v:.12g}" for k, v in row.items()})
+                for old in self.rows[:-1]:  # preloaded rows of a restart
+                    self._writer.writerow({k: f"{v:.17g}" for k, v in old.items()})
+            self._writer.writerow({k: f"{v:.17g}" for k, v in row.items()})
             self._file.flush()
         return row
 
@@ -210,3 +216,104 @@ class FieldWriter:
         """Close the files."""
         self._wu.close()
         self._wi.close()
+
+
+class InterfaceHistoryH5:
+    """Interface fields at every converged step in one HDF5 file, readable with plain h5py.
+
+    Layout (``n`` steps, ``p`` interface points sorted by coordinates, ``nt`` tangential
+    components)::
+
+        /time    (n,)          step end times
+        /x       (p, gdim)     point coordinates (fixed)
+        /f_t     (n, p, nt)    tangential traction, local frame (MPa)
+        /f_n     (n, p)        normal traction, > 0 in compression (MPa)
+        /up      (n, p, nt)    plastic slip, local frame (mm)
+        /mu      (n, p)        hardening function (MPa)
+        /r       (n, p)        normal-yield ratio
+        /status  (n, p)        return-map status (0 elastic, 1 plastic, 2 separated, 3 jump)
+
+    Written by rank 0 (gathered), flushed after each step. Opened on a restart, the steps after the
+    restart time are dropped and the run appends from there.
+
+    Args:
+        path: The file.
+        problem: The problem.
+        restart_time: ``None`` for a new file; the checkpoint time when restarting.
+    """
+
+    FIELDS = ("f_t", "f_n", "up", "mu", "r", "status")
+
+    def __init__(
+        self, path: str | Path, problem: InterfaceProblem, restart_time: float | None = None
+    ):
+        self.path = Path(path)
+        self.problem = problem
+        el = problem.interface
+        comm = problem.comm
+        pts = np.concatenate(comm.allgather(el.points.reshape(-1, el.gdim))).reshape(-1, el.gdim)
+        counts = comm.allgather(el.points.shape[0] * el.nq)
+        self._counts = counts
+        self._order = np.lexsort(pts.T[::-1])
+        self._f = None
+        if comm.rank == 0:
+            import h5py
+
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            nt = el.nt
+            if restart_time is not None and self.path.exists():
+                f = h5py.File(self.path, "a")
+                keep = int(np.count_nonzero(f["time"][()] <= restart_time + 1e-9))
+                for k in ("time", *self.FIELDS):
+                    f[k].resize(keep, axis=0)
+            else:
+                f = h5py.File(self.path, "w")
+                f["x"] = pts[self._order]
+                p = pts.shape[0]
+                f.create_dataset("time", (0,), maxshape=(None,), dtype=float)
+                for k, shape in (
+                    ("f_t", (p, nt)),
+                    ("f_n", (p,)),
+                    ("up", (p, nt)),
+                    ("mu", (p,)),
+                    ("r", (p,)),
+                    ("status", (p,)),
+                ):
+                    dt = np.int8 if k == "status" else float
+                    f.create_dataset(
+                        k, (0, *shape), maxshape=(None, *shape), dtype=dt, chunks=(1, *shape)
+                    )
+            self._f = f
+
+    def write(self, t: float) -> None:
+        """Append the current converged state at time ``t`` (collective)."""
+        el = self.problem.interface
+        nt = el.nt
+        st, tr = el.state.old, el.last.traction
+        local = np.column_stack([tr[:, :nt], tr[:, nt], st.up, st.mu, st.r, el.last.status])
+        allv = self.problem.comm.gather(local, root=0)
+        if self._f is None:
+            return
+        a = np.concatenate(allv).reshape(-1, local.shape[1])[self._order]
+        f = self._f
+        n = f["time"].shape[0]
+        cols = {
+            "f_t": a[:, :nt],
+            "f_n": a[:, nt],
+            "up": a[:, nt + 1 : 2 * nt + 1],
+            "mu": a[:, 2 * nt + 1],
+            "r": a[:, 2 * nt + 2],
+            "status": a[:, 2 * nt + 3],
+        }
+        f["time"].resize(n + 1, axis=0)
+        f["time"][n] = t
+        for k, v in cols.items():
+            f[k].resize(n + 1, axis=0)
+            f[k][n] = v
+        f.flush()
+
+    def close(self) -> None:
+        """Close the file."""
+        if self._f is not None:
+            self._f.close()
+            self._f = None

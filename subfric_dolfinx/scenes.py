@@ -48,6 +48,7 @@ __all__ = [
     "OutputSpec",
     "PointScene",
     "SceneError",
+    "SceneInterrupted",
     "SceneResult",
     "SolverSpec",
     "parse_scene",
@@ -57,6 +58,19 @@ __all__ = [
 
 class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
+
+
+class SceneInterrupted(RuntimeError):
+    """The run was stopped by SIGTERM after writing a checkpoint.
+
+    Attributes:
+        t: Time of the checkpoint.
+        checkpoint: Its path.
+    """
+
+    def __init__(self, message: str, t: float, checkpoint: str) -> None:
+        super().__init__(message)
+        self.t, self.checkpoint = t, checkpoint
 
 
 @dataclasses.dataclass(frozen=True)
@@ -123,14 +137,30 @@ class OutputSpec:
         fields: ``"vtx"`` or ``"xdmf"`` field output, or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
+        interface_history: Write ``interface_history.h5`` (every field at every step, see
+            :class:`~subfric_dolfinx.output.InterfaceHistoryH5`).
+        checkpoint_every: Write ``checkpoint.h5`` every so many converged steps (0: never).
+        checkpoint_times: And at these times (steps end there).
         progress: Print a progress line per step on rank 0.
+
+    With checkpoints enabled, SIGTERM makes the run write a checkpoint after the current step and
+    stop (:class:`SceneInterrupted`), and a step that cannot be solved leaves the last converged
+    state in the checkpoint.
     """
 
     history: bool = False
     fields: str | None = None
     field_times: list[float] = dataclasses.field(default_factory=list)
     snapshots: list[float] = dataclasses.field(default_factory=list)
+    interface_history: bool = False
+    checkpoint_every: int = 0
+    checkpoint_times: list[float] = dataclasses.field(default_factory=list)
     progress: bool = True
+
+    @property
+    def checkpoints(self) -> bool:
+        """Whether checkpoints are written."""
+        return self.checkpoint_every > 0 or bool(self.checkpoint_times)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -296,6 +326,10 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     prog = scene.program
     if set(prog) != {"times", "channels"}:
         raise SceneError(f"scene.program: keys must be 'times' and 'channels', got {sorted(prog)}")
+    if scene.outputs.checkpoint_every < 0:
+        raise SceneError(
+            f"scene.outputs.checkpoint_every: must be >= 0, got {scene.outputs.checkpoint_every!r}"
+        )
     if scene.solver.dt <= 0:
         raise SceneError(f"scene.solver.dt: must be > 0, got {scene.solver.dt!r}")
     # validate the law and program now (clear errors before any mesh is built)
@@ -364,6 +398,7 @@ def run_scene(
     outdir: str | Path | None = None,
     comm: Any = None,
     log: Any = print,
+    restart: str | Path | None = None,
 ) -> SceneResult:
     """Run a scene, building only what it needs.
 
@@ -372,14 +407,21 @@ def run_scene(
         outdir: Directory of the files the scene asks for (required if it asks for any).
         comm: MPI communicator of an FE scene (default ``COMM_WORLD``); unused for pointwise.
         log: Progress printer (rank 0); ``None`` for silence.
+        restart: A checkpoint of this scene to continue from (any number of ranks).
 
     Raises:
         SceneError: Invalid scene, or outputs requested without ``outdir``.
+        SceneInterrupted: SIGTERM received; a checkpoint was written.
+        subfric_dolfinx.solver.StepFailure: A step could not be solved (with checkpoints enabled,
+            the last converged state is in the checkpoint).
+        subfric_dolfinx.checkpoint.CheckpointError: An unusable ``restart`` file.
     """
     scene = parse_scene(scene)
     if isinstance(scene, PointScene):
+        if restart is not None:
+            raise SceneError("a pointwise scene cannot be restarted")
         return _run_pointwise(scene, outdir)
-    return _run_fe(scene, outdir, comm, log)
+    return _run_fe(scene, outdir, comm, log, restart)
 
 
 def _run_pointwise(scene: PointScene, outdir: str | Path | None) -> SceneResult:
@@ -425,18 +467,24 @@ def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Any:
     return Dirichlet(spec.group, vector, None, spec.amplitude)
 
 
-def _run_fe(scene: FEScene, outdir: str | Path | None, comm: Any, log: Any) -> SceneResult:
+def _run_fe(
+    scene: FEScene, outdir: str | Path | None, comm: Any, log: Any, restart: Any
+) -> SceneResult:
+    import signal
+    import threading
+
     from mpi4py import MPI
     from petsc4py import PETSc
 
     from . import meshing
-    from .output import FieldWriter, HistoryCSV, interface_summary
+    from .checkpoint import restore_checkpoint, write_checkpoint
+    from .output import FieldWriter, HistoryCSV, InterfaceHistoryH5, interface_summary
     from .problem import InterfaceProblem, Material, Pressure, Traction
-    from .solver import FrictionSolver, LoadStepper, timing_breakdown
+    from .solver import FrictionSolver, LoadStepper, StepFailure, timing_breakdown
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out = scene.outputs
-    wants_files = out.history or out.fields is not None
+    wants_files = out.history or out.fields is not None or out.interface_history or out.checkpoints
     if wants_files and outdir is None:
         raise SceneError("scene.outputs asks for files but no output directory was given")
     say = log if (log is not None and comm.rank == 0) else None
@@ -478,14 +526,41 @@ def _run_fe(scene: FEScene, outdir: str | Path | None, comm: Any, log: Any) -> S
         "gdim": gdim,
     }
     outdir = Path(outdir) if outdir is not None else None
+    stepper = LoadStepper(
+        solver,
+        scene.solver.dt,
+        dt_max=scene.solver.dt_max,
+        dt_min=scene.solver.dt_min,
+        max_cuts=scene.solver.max_cuts,
+        log=say if out.progress else None,
+    )
     history = HistoryCSV(outdir / "history.csv" if out.history else None, problem)
+    restart_time = None
+    if restart is not None:
+        history.preload(restore_checkpoint(restart, problem, stepper))
+        restart_time = stepper.t
+        if say:
+            say(
+                f"[{scene.name}] restarted from {restart} at t = {stepper.t:.6g} "
+                f"(step {stepper.step})"
+            )
     fields = FieldWriter(outdir / "fields", problem, out.fields) if out.fields else None
+    ihist = (
+        InterfaceHistoryH5(outdir / "interface_history.h5", problem, restart_time)
+        if out.interface_history
+        else None
+    )
+    ck_path = outdir / "checkpoint.h5" if out.checkpoints else None
+    ck_times = np.asarray(out.checkpoint_times, dtype=float)
     field_times = np.asarray(out.field_times, dtype=float)
     snaps = np.asarray(out.snapshots, dtype=float)
+    stop = threading.Event()
 
     def on_step(rec: Any) -> None:
         history.write(rec)
         res.iterations.append(rec.iterations)
+        if ihist is not None:
+            ihist.write(rec.t)
         if fields is not None and (
             field_times.size == 0 or np.any(np.isclose(field_times, rec.t, atol=1e-9))
         ):
@@ -493,6 +568,26 @@ def _run_fe(scene: FEScene, outdir: str | Path | None, comm: Any, log: Any) -> S
         hit = np.isclose(snaps, rec.t, atol=1e-9)
         if np.any(hit):
             res.snapshots[float(snaps[hit][0])] = _profile(problem)
+        if ck_path is not None:
+            due = (out.checkpoint_every and rec.step % out.checkpoint_every == 0) or np.any(
+                np.isclose(ck_times, rec.t, atol=1e-9)
+            )
+            stopping = comm.allreduce(stop.is_set(), op=MPI.LOR)
+            if due or stopping:
+                write_checkpoint(ck_path, problem, stepper, history.rows)
+                res.files.append(str(ck_path))
+            if stopping:
+                raise SceneInterrupted(
+                    f"interrupted by SIGTERM after step {rec.step} at t = {rec.t:.6g}; "
+                    f"checkpoint written to {ck_path}",
+                    rec.t,
+                    str(ck_path),
+                )
+
+    stepper.on_step = on_step
+    previous = None
+    if ck_path is not None and threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, lambda *_: stop.set())
 
     if say:
         i = res.info
@@ -500,21 +595,22 @@ def _run_fe(scene: FEScene, outdir: str | Path | None, comm: Any, log: Any) -> S
             f"[{scene.name}] {i['gdim']}-D, {i['cells']} cells, {i['dofs']} dofs, "
             f"{i['interface points']} interface points, {i['ranks']} rank(s)"
         )
-    stepper = LoadStepper(
-        solver,
-        scene.solver.dt,
-        dt_max=scene.solver.dt_max,
-        dt_min=scene.solver.dt_min,
-        max_cuts=scene.solver.max_cuts,
-        on_step=on_step,
-        log=say if out.progress else None,
-    )
     try:
-        stepper.run(stops=[*out.snapshots, *out.field_times])
+        stepper.run(stops=[*out.snapshots, *out.field_times, *out.checkpoint_times])
+    except StepFailure:
+        if ck_path is not None:  # the last converged state, for a restart with other settings
+            write_checkpoint(ck_path, problem, stepper, history.rows)
+            res.files.append(str(ck_path))
+        raise
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
         history.close()
         if fields is not None:
             fields.close()
+        if ihist is not None:
+            ihist.close()
+            res.files.append(str(outdir / "interface_history.h5"))
         res.history = history.rows
         res.timing = timing_breakdown(problem)
         res.timing["total"] = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)

@@ -253,7 +253,15 @@ class LoadStepper:
         self.t = self.program.t_start
         self.step = 0
         self.records: list[StepRecord] = []
+        self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
+
+    def restore(self, t: float, step: int, dt: float, easy: int = 0) -> None:
+        """Continue from a restored state: ``problem.u`` and the interface state must hold it."""
+        self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
+        n = self.problem.layout.n_owned
+        self.solver.x.array_w[:] = self.problem.u.x.array[:n]
+        self._x_converged.array_w[:] = self.solver.x.array_r
 
     def _say(self, msg: str) -> None:
         if self.log is not None:
@@ -277,7 +285,6 @@ class LoadStepper:
             later = stops_arr[stops_arr > t + 1e-12 * max(1.0, abs(t))]
             return min(nb, float(later[0])) if later.size else nb
 
-        easy = 0
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
         while self.t < t_end - tol:
@@ -298,7 +305,7 @@ class LoadStepper:
                     why += f", return map failed at {self.solver.failed_points.size} points"
                 self._say(f"  step to t = {target:.6g} (dt {dt:.3g}) failed: {why}; cutting")
                 self.dt = dt * self.cut
-                easy = 0
+                self.easy = 0
                 if cuts > self.max_cuts or self.dt < self.dt_min:
                     raise StepFailure(
                         f"no convergence at t = {target:.6g} with dt = {dt:.3g} ({why}; "
@@ -332,12 +339,12 @@ class LoadStepper:
                 f"({time.perf_counter() - t0:.2f} s)"
             )
             cuts = 0
-            if self.on_step is not None:
-                self.on_step(rec)
-            easy = easy + 1 if r["iterations"] <= self.easy_iterations else 0
-            if easy >= self.easy_steps:
+            self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
+            if self.easy >= self.easy_steps:
                 self.dt = min(self.dt * self.grow, self.dt_max)
-                easy = 0
+                self.easy = 0
+            if self.on_step is not None:  # last: the stepper's state is that of the next step
+                self.on_step(rec)
         return self.records
 
 
