@@ -343,6 +343,17 @@ class _Runner:
         nt = self.nt
         alpha = self.law.alpha_t
         scale = max(float(np.linalg.norm(target)), 1e-3 * alpha * max(un, 0.0), 1e-12)
+        # above the largest stress the surface can carry in this step: no solution at all
+        fn = self.law.alpha_n * max(un, 0.0)
+        if isinstance(self.law, SubloadingParameters):
+            mu_max = self.state.mu[0] + (self.law.mu_s - self.state.mu[0]) * -math.expm1(
+                -self.law.xi * dt
+            )
+            strength = -math.expm1(-self.law.c_n * fn) * mu_max
+        else:
+            strength = self.law.mu_c * fn
+        if float(np.linalg.norm(target)) > strength * (1.0 + 1e-12):
+            return None
         tol = 1e-11 * scale
         ut = self.ubar_t + (target - self.traction[:nt]) / alpha
 
@@ -351,7 +362,7 @@ class _Runner:
             return res, res.traction[0, :nt] - target
 
         res, R = evaluate(ut)
-        for _ in range(60):
+        for _ in range(40):
             if not res.converged:
                 return None
             D = res.tangent[0, :nt, :nt]
@@ -367,7 +378,7 @@ class _Runner:
             if not np.all(np.isfinite(d)):
                 return None
             s, r0 = 1.0, float(np.linalg.norm(R))
-            while s > 1e-6:
+            while s > 1e-3:
                 res_n, R_n = evaluate(ut + s * d)
                 if np.linalg.norm(R_n) < (1.0 - 1e-4 * s) * r0:
                     break
@@ -382,7 +393,8 @@ class _Runner:
         if solved is not None:
             self._accept(solved[0], solved[1], t_b)
             return
-        if depth >= 40:
+        span = self.case.path[-1, 0] - self.case.path[0, 0]
+        if t_b - t_a <= 1e-7 * span or depth >= 60:  # resolved to 1e-7 of the path's duration
             f = self.path_at(t_b)
             g = 1.0 - math.exp(-getattr(self.law, "c_n", 0.0) * self.law.alpha_n * max(f[2], 0.0))
             strength = (
