@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ._norm import tangential_norm
 from .parameters import CoulombParameters
 from .result import ReturnMapResult, Status
 from .state import InterfaceState
@@ -53,7 +54,7 @@ def coulomb_return_map(
     gap_s = np.where(ok_in[:, None], gap, 0.0)
     up_s = np.where(ok_in[:, None], state.up, 0.0)
     ft_trial = p.alpha_t * (gap_s[:, :nt] - up_s)
-    A = np.sqrt(np.einsum("ij,ij->i", ft_trial, ft_trial))
+    A = tangential_norm(ft_trial)
     un = gap_s[:, nt]
     fn = p.alpha_n * un
     contact = ok_in & (un > 0.0)
@@ -64,7 +65,7 @@ def coulomb_return_map(
     new = InterfaceState.initial(n, nt, p.mu_c) if out is None else out
     traction = np.zeros((n, m))
     tangent = np.zeros((n, m, m))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         nstar = np.where(A[:, None] > 0.0, ft_trial / np.where(A > 0.0, A, 1.0)[:, None], 0.0)
         ratio = np.where(plastic, limit / np.where(A > 0.0, A, 1.0), 1.0)
     dl = np.where(plastic, (A - limit) / p.alpha_t, 0.0)

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from ._norm import tangential_norm
 from .parameters import SubloadingParameters
 from .result import ReturnMapResult, Status
 from .state import InterfaceState
@@ -45,6 +46,8 @@ from .state import InterfaceState
 __all__ = ["subloading_return_map"]
 
 _ALL = slice(None)
+_EPS = float(np.finfo(float).eps)
+_TINY = float(np.finfo(float).tiny)
 _SCAN_POINTS = 16
 _SCAN_LEVELS = 80
 
@@ -123,7 +126,6 @@ def _rtsafe(
     lo: np.ndarray,
     hi: np.ndarray,
     x: np.ndarray,
-    tol_x: np.ndarray,
     tol_f: np.ndarray,
     max_iter: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,10 +133,24 @@ def _rtsafe(
 
     Returns the roots, a converged mask and the iteration counts. Newton steps that leave the
     bracket or do not halve it fast enough are replaced by bisection, so it always converges.
+
+    A point has converged when ``|phi| <= tol_f`` at the iterate, or when the bracket can no longer
+    improve it: ``phi(lo) - phi(hi) <= 2 tol_f`` (both ends evaluated; the better end is returned),
+    or the bracket is down to a few ulps of ``dl``. A small step or bracket in ``dl`` alone is
+    not enough: ``phi'`` can be far steeper than ``-alpha_t`` inside the bracket, near ``r = 0``
+    where ``U(r) = u_tilde cot(pi r / 2)`` is unbounded, or for a large ``kappa``.
     """
     lo, hi, x = lo.copy(), hi.copy(), x.copy()
     n = x.size
     f, df = br.eval(x, idx)[:2]
+    # Values at the bracket ends, once evaluated (+-inf until then). The first iterate is an end.
+    f_lo = np.full(n, np.inf)
+    f_hi = np.full(n, -np.inf)
+    pos = f > 0.0
+    lo = np.where(pos, np.maximum(lo, x), lo)
+    hi = np.where(pos, hi, np.minimum(hi, x))
+    f_lo[pos & (lo == x)] = f[pos & (lo == x)]
+    f_hi[~pos & (hi == x)] = f[~pos & (hi == x)]
     conv = np.abs(f) <= tol_f
     iters = np.zeros(n, dtype=np.int64)
     dx_old = hi - lo
@@ -151,20 +167,31 @@ def _rtsafe(
             | ~((newton > la) & (newton < ha))
             | (np.abs(2.0 * fa) > np.abs(dx_old[act] * dfa))
         )
-        xn = np.where(bisect, 0.5 * (la + ha), newton)
+        # Bisection is geometric while the bracket spans more than three decades (a root close to
+        # zero, e.g. a tiny first slip from r = 0, is then found in tens, not hundreds, of steps).
+        mid = np.where(ha > 1e3 * la, np.sqrt(np.maximum(la, _TINY)) * np.sqrt(ha), 0.5 * (la + ha))
+        xn = np.where(bisect, mid, newton)
         dx_old[act] = dx[act]
         dx[act] = xn - xa
         fn, dfn = br.eval(xn, idx[act])[:2]
         pos = fn > 0.0
         lo[act] = np.where(pos, xn, la)
         hi[act] = np.where(pos, ha, xn)
+        f_lo[act] = np.where(pos, fn, f_lo[act])
+        f_hi[act] = np.where(pos, f_hi[act], fn)
         x[act], f[act], df[act] = xn, fn, dfn
         iters[act] += 1
-        done = (
-            (np.abs(dx[act]) <= tol_x[act])
-            | (np.abs(fn) <= tol_f[act])
-            | (hi[act] - lo[act] <= tol_x[act])
-        )
+        ok = np.abs(fn) <= tol_f[act]
+        flat = f_lo[act] - f_hi[act] <= 2.0 * tol_f[act]
+        tight = hi[act] - lo[act] <= 4.0 * _EPS * hi[act]
+        # Bracket exhausted: return whichever end is closer to phi = 0.
+        ends = (flat | tight) & ~ok
+        if np.any(ends):
+            a = act[ends]
+            use_lo = f_lo[a] < -f_hi[a]
+            x[a] = np.where(use_lo, lo[a], hi[a])
+            f[a] = np.where(use_lo, f_lo[a], f_hi[a])
+        done = ok | flat | tight
         conv[act[done]] = True
         act = act[~done]
     return x, conv, iters
@@ -174,7 +201,6 @@ def _scan(
     br: _Branch,
     idx: np.ndarray,
     hi: np.ndarray,
-    tol_x: np.ndarray,
     tol_f: np.ndarray,
     max_iter: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -235,6 +261,9 @@ def _scan(
         jump[act] |= (rises & fell_before).any(axis=1)
         fell[act] |= falls.any(axis=1)
 
+        # phi at the certified left end already within tolerance: that is the smallest root (the
+        # window may otherwise shrink towards lo = 0 without ever reaching a few ulps of it).
+        at_lo = phi[:, 0] <= tf[:, 0]
         ar = np.arange(act.size)
         jc = np.minimum(j0, K - 1)
         x_left, x_right = xs[ar, jc], xs[ar, jc + 1]
@@ -250,7 +279,10 @@ def _scan(
         refine = any_stop & ~solve
         hi[act[neg0]] = x_right[neg0]
         end[act[refine]] = x_right[refine]
-        finished = np.zeros(act.size, dtype=bool)
+        finished = at_lo.copy()
+        root[act[at_lo]] = la[at_lo]
+        conv[act[at_lo]] = True
+        solve &= ~at_lo
         if np.any(solve):
             s = act[solve]
             x, ok, it = _rtsafe(
@@ -259,17 +291,17 @@ def _scan(
                 x_left[solve],
                 x_right[solve],
                 x_right[solve],
-                tol_x[s],
                 tol_f[s],
                 max_iter,
             )
             root[s], conv[s] = x, ok
             iters[s] += it
             finished[solve] = True
-        # A window narrower than the tolerance: its right end is a root if phi <= tol there,
-        # otherwise it is passed over (a tangency closer to zero than the tolerance).
-        tiny = ~finished & (end[act] - lo[act] <= tol_x[act])
-        at_root = tiny & (neg0 | (hi[act] - lo[act] <= tol_x[act]))
+        # A window down to a few ulps of dl: its right end is a root if phi <= tol there,
+        # otherwise it is passed over (a tangency that double precision cannot resolve).
+        ulps = 4.0 * _EPS * end[act] + _TINY
+        tiny = ~finished & (end[act] - lo[act] <= ulps)
+        at_root = tiny & (neg0 | (hi[act] - lo[act] <= ulps))
         root[act[at_root]] = np.where(neg0[at_root], x_right[at_root], hi[act[at_root]])
         conv[act[at_root]] = True
         finished |= at_root
@@ -340,14 +372,15 @@ def subloading_return_map(
     r_s = np.where(ok_in, np.clip(r_n, 0.0, 1.0), 0.0)
 
     ft_trial = p.alpha_t * (gap_s[:, :nt] - up_s)
-    A = np.sqrt(np.einsum("ij,ij->i", ft_trial, ft_trial))
+    A = tangential_norm(ft_trial)
     un = gap_s[:, nt]
     fn = p.alpha_n * un
     g = -np.expm1(-p.c_n * np.maximum(fn, 0.0))
     contact = ok_in & (un > 0.0) & (g > 0.0)
 
     b = p.xi * dt
-    mu_rec = mu_s + (p.mu_s - mu_s) * (-np.expm1(-b))  # mu after recovery alone
+    # mu after recovery alone; the min keeps the rounding of mu + (mu_s - mu) from exceeding mu_s
+    mu_rec = np.minimum(mu_s + (p.mu_s - mu_s) * (-np.expm1(-b)), p.mu_s)
     phi0 = A - g * r_s * mu_rec
     plastic = contact & (phi0 > 0.0) & (A > 0.0)
     elastic = contact & ~plastic
@@ -368,7 +401,8 @@ def subloading_return_map(
     np.copyto(new.up, up_s)
     np.copyto(new.mu, mu_rec)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        r_el = np.where(contact, A / (g * mu_rec), 0.0)
+        # F = 0 gives r = 0 even where g mu_rec underflows to 0 (subnormal g): no 0/0
+        r_el = np.where(contact & (A > 0.0), A / (g * mu_rec), 0.0)
     np.copyto(new.r, np.clip(r_el, 0.0, 1.0))
     traction[:, :nt] = np.where(elastic[:, None], ft_trial, 0.0)
     traction[:, nt] = np.where(elastic, fn, 0.0)
@@ -446,7 +480,6 @@ def _plastic(
     # of dl (and hence of A - alpha_t dl) allows when the trial is far outside (huge steps).
     eps = np.finfo(float).eps
     tol_f = np.maximum(tol * g * p.mu_s, 8.0 * eps * A)
-    tol_x = tol_f / p.alpha_t
 
     # A certified first point: one Newton step on phi with mu frozen at mu(0) (a convex lower
     # bound of phi) stays left of the smallest root. Infinite slope (r_n = 0) gives 0.
@@ -456,7 +489,7 @@ def _plastic(
         x1 = np.where(np.isfinite(dr0), phi0 / (p.alpha_t + g * mu_rec * dr0), 0.0)
     x1 = np.clip(x1, 0.0, dl_max)
     start = np.where(x1 > 0.0, x1, dl_max)
-    x, conv, iters = _rtsafe(br, rows, x1, dl_max, start, tol_x, tol_f, max_iter)
+    x, conv, iters = _rtsafe(br, rows, x1, dl_max, start, tol_f, max_iter)
 
     # Certify: phi strictly decreasing on [0, x] means x is the smallest root.
     _, dphi, r, dr, mu, _ = br.eval(x)
@@ -465,7 +498,7 @@ def _plastic(
     jump = np.zeros(npl, dtype=bool)
     unc = np.flatnonzero(~certified & conv)
     if unc.size:
-        x_s, conv_s, it_s, jump_s = _scan(br, unc, x[unc], tol_x[unc], tol_f[unc], max_iter)
+        x_s, conv_s, it_s, jump_s = _scan(br, unc, x[unc], tol_f[unc], max_iter)
         x[unc], conv[unc], jump[unc] = x_s, conv_s, jump_s
         iters[unc] += it_s
         _, dphi, r, dr, mu, _ = br.eval(x)
