@@ -73,6 +73,7 @@ __all__ = [
 
 FIELDS = ("t", "f_t1", "f_t2", "f_n", "up_t1", "up_t2", "mu", "r", "ubar_t1", "ubar_t2", "ubar_n")
 DEFAULT_STEPS_PER_MM = 200.0
+MAX_STEPS_PER_SEGMENT = 1e7  # steps between two knots of the path; more is a mistake
 
 
 class CaseError(ValueError):
@@ -416,11 +417,22 @@ class _Runner:
 
     def n_sub(self, ta: float, tb: float) -> int:
         pa, pb = self.path_at(ta), self.path_at(tb)
-        dx = float(np.linalg.norm(self._x(pb) - self._x(pa)))
-        if self.case.control == "stress":
-            dx /= self.law.alpha_t
-        length = max(dx, abs(pb[2] - pa[2]))
-        return max(1, math.ceil(self.spm * length - 1e-9))
+        d = self._x(pb) - self._x(pa)
+        with np.errstate(over="ignore"):
+            dx = float(np.hypot(d[0], d[1]) if d.size == 2 else abs(d[0]))
+            if self.case.control == "stress":
+                dx /= self.law.alpha_t
+            length = max(dx, abs(pb[2] - pa[2]))
+            n = self.spm * length - 1e-9
+        if not n <= MAX_STEPS_PER_SEGMENT:
+            stress = self.case.control == "stress"
+            what = "tangential stress change / alpha_t" if stress else "change"
+            raise CaseError(
+                f"field 'path': the {what} between t = {ta:g} and t = {tb:g} is {length:g} mm, "
+                f"which needs {n:.3g} steps at steps_per_mm = {self.spm:g} (limit "
+                f"{MAX_STEPS_PER_SEGMENT:g}); scale the path or lower steps_per_mm"
+            )
+        return max(1, math.ceil(n))
 
     def run(self) -> bool:
         case = self.case
@@ -491,8 +503,11 @@ def run_case(
         raise ValueError(f"on_instability must be 'stop' or 'continue', got {on_instability!r}")
     spm = case.steps_per_mm if steps_per_mm is None else float(steps_per_mm)
     if not spm > 0 or not math.isfinite(spm):
-        raise ValueError(f"steps_per_mm must be finite and > 0, got {steps_per_mm!r}")
+        raise CaseError(f"steps_per_mm must be finite and > 0, got {steps_per_mm!r}")
     runner = _Runner(case, spm, on_instability)
+    knots = np.union1d(case.path[:, 0], case.t_samples)
+    for ta, tb in itertools.pairwise(knots):  # a bad path fails here, before any step
+        runner.n_sub(float(ta), float(tb))
     t0 = time.perf_counter()
     try:
         complete = runner.run()
@@ -523,8 +538,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(argv)
     try:
         case = load_case(args.case)
-        if args.steps_per_mm is not None and not args.steps_per_mm > 0:
-            raise CaseError(f"--steps-per-mm must be > 0, got {args.steps_per_mm!r}")
+        spm = args.steps_per_mm
+        if spm is not None and not (math.isfinite(spm) and spm > 0):
+            raise CaseError(f"--steps-per-mm must be finite and > 0, got {spm!r}")
     except CaseError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -545,6 +561,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
             code = 3
+    except CaseError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     except RunawayError as e:
         print(f"error: {e}", file=sys.stderr)
         out = e.partial.to_dict() if e.partial is not None else {}

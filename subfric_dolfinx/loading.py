@@ -47,14 +47,14 @@ class LoadingProgram:
         t = np.asarray(times, dtype=float)
         if t.ndim != 1 or t.size < 2:
             raise LoadingError(f"times must be a list of at least two breakpoints, got {times!r}")
-        for i, v in enumerate(t):
+        for i, v in enumerate(t.tolist()):  # Python floats: messages show 1.0, not np.float64
             if not math.isfinite(v):
                 raise LoadingError(f"times[{i}] = {v!r} is not finite")
         for i in range(1, t.size):
             if not t[i] > t[i - 1]:
                 raise LoadingError(
-                    f"times must increase strictly: times[{i}] = {t[i]!r} after "
-                    f"times[{i - 1}] = {t[i - 1]!r}"
+                    f"times must increase strictly: times[{i}] = {float(t[i])!r} after "
+                    f"times[{i - 1}] = {float(t[i - 1])!r}"
                 )
         ch: dict[str, np.ndarray] = {}
         for name, vals in channels.items():
@@ -63,7 +63,7 @@ class LoadingProgram:
                 raise LoadingError(
                     f"channel {name!r} has {a.size} values for {t.size} breakpoint times"
                 )
-            for i, v in enumerate(a):
+            for i, v in enumerate(a.tolist()):
                 if not math.isfinite(v):
                     raise LoadingError(f"channel {name!r} value [{i}] = {v!r} is not finite")
             ch[name] = a
