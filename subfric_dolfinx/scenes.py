@@ -612,7 +612,7 @@ def _run_fe(
             ihist.close()
             res.files.append(str(outdir / "interface_history.h5"))
         res.history = history.rows
-        res.timing = timing_breakdown(problem)
+        res.timing = timing_breakdown(problem, solver)
         res.timing["total"] = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
         res.info["summary"] = interface_summary(problem)
         if out.history:

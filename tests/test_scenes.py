@@ -122,3 +122,29 @@ def test_demo_block_on_base_against_the_material_point_driver(shared_tmp):
     assert ft[t > 9.0].max() > 1.2 * before
     assert sorted(p.name for p in shared_tmp.iterdir()) == ["history.csv"]
     assert len(res.snapshots) == 7 and all(len(s["x"]) == 16 for s in res.snapshots.values())
+
+
+def test_timing_breakdown_is_per_run():
+    """Two runs in one process: each run's 'factorisation' (PETSc PCSetUp) and 'linear solve'
+    (KSPSolve) are the events' increase during that run, not their process-wide totals."""
+    from petsc4py import PETSc
+
+    comm = MPI.COMM_WORLD
+
+    def events():
+        t = {e: PETSc.Log.Event(e).getPerfInfo()["time"] for e in ("PCSetUp", "KSPSolve")}
+        return {k: comm.allreduce(v, op=MPI.MAX) for k, v in t.items()}
+
+    for k in range(2):
+        s = small()
+        s["solver"]["prefix"] = f"timing{k}_"
+        PETSc.Log.begin()
+        before = events()
+        res = run_scene(s, comm=comm, log=None)
+        after = events()
+        tim = res.timing
+        for section, event in (("factorisation", "PCSetUp"), ("linear solve", "KSPSolve")):
+            grown = after[event] - before[event]
+            assert 0.0 < tim[section] <= grown * (1 + 1e-9) + 1e-12, (k, section, tim, grown)
+            assert tim[section] >= 0.5 * grown, (k, section, tim, grown)
+        assert tim["factorisation"] + tim["linear solve"] < tim["total"]
