@@ -139,9 +139,8 @@ def figures(result, outdir, hold):
     return [f1, f2]
 
 
-def main(argv=None, comm=MPI.COMM_WORLD):
-    from pathlib import Path
-
+def parser() -> argparse.ArgumentParser:
+    """The demo's command line (anything else on it goes to PETSc)."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--n", type=int, default=16, help="elements along the interface (16)")
     ap.add_argument("--hold", type=float, default=20.0, help="hold time in s (20)")
@@ -153,7 +152,13 @@ def main(argv=None, comm=MPI.COMM_WORLD):
         "--checkpoint-every", type=int, default=0, help="write checkpoint.h5 every N steps"
     )
     ap.add_argument("--restart", default=None, help="continue from this checkpoint")
-    args, _ = ap.parse_known_args(argv)  # the rest are PETSc options
+    return ap
+
+
+def main(argv=None, comm=MPI.COMM_WORLD):
+    from pathlib import Path
+
+    args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
     outdir = Path(args.out)
     sc = scene(args.n, args.hold, args.dt, args.fields, args.checkpoint_every)
     result = run_scene(sc, outdir=outdir, comm=comm, restart=args.restart)
@@ -166,5 +171,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 if __name__ == "__main__":
     import petsc4py
 
-    petsc4py.init(sys.argv)  # PETSc options from the command line, before PETSc is imported
+    _, petsc_args = parser().parse_known_args()
+    petsc4py.init([sys.argv[0], *petsc_args])  # PETSc's options only, before PETSc is imported
     main()
