@@ -1,0 +1,47 @@
+"""Stability on stiff and extreme settings, material point and FE (1 and 2 ranks).
+
+The cases are defined once, in ``report/stability_cases.py``, and the report
+(``report/generate.py``) tabulates the same runs. Each case states the outcome that must occur
+(converged, flagged as having no stable quasi-static solution, or a clear error) and its own
+checks; here every case must also be free of NaN/inf, and an FE case must end the same way on
+every rank.
+"""
+
+import sys
+from pathlib import Path
+
+import pytest
+from mpi4py import MPI
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "report"))
+import stability_cases
+
+CASES = stability_cases.CASES
+
+
+def test_the_case_list_covers_both_levels_and_every_outcome():
+    levels = {c.level for c in CASES}
+    outcomes = {(c.level, c.expect) for c in CASES}
+    assert levels == {"point", "fe"}
+    for level in ("point", "fe"):
+        for expect in ("converged", "flagged", "error"):
+            assert (level, expect) in outcomes, (level, expect)
+    assert len({c.name for c in CASES}) == len(CASES)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+def test_stability_case(case):
+    comm = MPI.COMM_WORLD
+    out = case.run(comm)
+    if case.level == "fe":  # collective runs end the same way everywhere
+        seen = comm.allgather((out.outcome, out.message, out.it_max))
+        assert all(s == seen[0] for s in seen), seen
+    assert out.nan_free, f"{case.name}: NaN or inf in the outputs ({out.detail})"
+    assert out.outcome == case.expect, (
+        f"{case.name}: expected {case.expect} ({case.must}), got {out.outcome}: "
+        f"{out.detail} {out.message}"
+    )
+    if out.outcome in ("error", "flagged"):
+        assert out.message, f"{case.name}: no message or reason given"
+    assert out.it_max >= 0 and out.it_mean <= out.it_max
+    case.check(out)
