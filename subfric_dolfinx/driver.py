@@ -437,6 +437,9 @@ class _Runner:
     def run(self) -> bool:
         case = self.case
         knots = np.union1d(case.path[:, 0], case.t_samples)
+        segments = list(itertools.pairwise(knots))
+        # every segment's step count first: a bad path fails here, before any step
+        counts = [self.n_sub(float(ta), float(tb)) for ta, tb in segments]
         samples = list(case.t_samples)
         t0 = knots[0]
         # the state at the first path point (loaded from the virgin state in one step, dt = 0)
@@ -446,8 +449,7 @@ class _Runner:
             self.step_stress(t0, t0)
         while samples and samples[0] <= t0:
             self.sample(samples.pop(0))
-        for ta, tb in itertools.pairwise(knots):
-            n = self.n_sub(ta, tb)
+        for (ta, tb), n in zip(segments, counts, strict=True):
             ts = ta + (tb - ta) * np.arange(1, n + 1) / n
             ts[-1] = tb
             prev = ta
@@ -505,9 +507,6 @@ def run_case(
     if not spm > 0 or not math.isfinite(spm):
         raise CaseError(f"steps_per_mm must be finite and > 0, got {steps_per_mm!r}")
     runner = _Runner(case, spm, on_instability)
-    knots = np.union1d(case.path[:, 0], case.t_samples)
-    for ta, tb in itertools.pairwise(knots):  # a bad path fails here, before any step
-        runner.n_sub(float(ta), float(tb))
     t0 = time.perf_counter()
     try:
         complete = runner.run()

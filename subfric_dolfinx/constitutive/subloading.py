@@ -185,12 +185,8 @@ def _rtsafe(
         flat = f_lo[act] - f_hi[act] <= 2.0 * tol_f[act]
         tight = hi[act] - lo[act] <= 4.0 * _EPS * hi[act]
         # Bracket exhausted: return whichever end is closer to phi = 0.
-        ends = (flat | tight) & ~ok
-        if np.any(ends):
-            a = act[ends]
-            use_lo = f_lo[a] < -f_hi[a]
-            x[a] = np.where(use_lo, lo[a], hi[a])
-            f[a] = np.where(use_lo, f_lo[a], f_hi[a])
+        a = act[(flat | tight) & ~ok]
+        x[a] = np.where(f_lo[a] < -f_hi[a], lo[a], hi[a])
         done = ok | flat | tight
         conv[act[done]] = True
         act = act[~done]
