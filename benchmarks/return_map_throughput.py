@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from subfric_dolfinx.constitutive import CoulombParameters, Status, preset
+from subfric_dolfinx.constitutive import CoulombLaw, Status, preset
 
 DT = 0.01  # s per step (recovery matters little within it, but is exercised)
 
@@ -111,7 +111,7 @@ def main(argv=None):
     sizes = [int(float(s)) for s in args.sizes.split(",")]
 
     sub = preset(args.preset)
-    coul = CoulombParameters(alpha_t=sub.alpha_t, alpha_n=sub.alpha_n, mu_c=args.mu_c)
+    coul = CoulombLaw(alpha_t=sub.alpha_t, alpha_n=sub.alpha_n, mu_c=args.mu_c)
     print(
         f"numpy {np.__version__}, Python {platform.python_version()}, {platform.machine()}; "
         f"preset {args.preset}, Coulomb mu_c = {args.mu_c}; 3-D (nt = 2); best of {args.repeats}"

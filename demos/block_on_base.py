@@ -3,7 +3,7 @@
 # The main demo of subfric-dolfinx. An aluminium block (A6111-T4 in the paper's Sec. 7) sits on a
 # steel base (tool steel); the interface between them is a zero-thickness interface element whose
 # traction follows the subloading-friction law with saturation, with the paper's Sec. 7 parameter
-# set (normalised reading, see `subfric_dolfinx.constitutive.parameters`).
+# set (normalised reading, see `subfric_dolfinx.constitutive.presets`).
 #
 # Loading program (1 mm/s sliding as in the paper's experiments):
 #
@@ -32,6 +32,7 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx import logs
 from subfric_dolfinx.scenes import run_scene
 
 # ## The scene
@@ -121,7 +122,7 @@ def figures(result, outdir, hold):
         x = s["x"][:, 0]
         ax[0, 0].plot(x, s["f_t"][:, 0], label=f"t = {time_:g} s")
         ax[0, 1].plot(x, s["f_n"])
-        ax[1, 0].plot(x, s["slip"][:, 0])
+        ax[1, 0].plot(x, s["up"][:, 0])
         ax[1, 1].plot(x, s["mu"])
     for a, name in zip(
         ax.ravel(), ["$f_t$ (MPa)", "$f_n$ (MPa)", "slip $u^p$ (mm)", r"$\mu$ (MPa)"], strict=True
@@ -152,6 +153,8 @@ def parser() -> argparse.ArgumentParser:
         "--checkpoint-every", type=int, default=0, help="write checkpoint.h5 every N steps"
     )
     ap.add_argument("--restart", default=None, help="continue from this checkpoint")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
+    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
@@ -159,6 +162,7 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
     args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
+    logs.configure(args.verbose - args.quiet, comm)
     outdir = Path(args.out)
     sc = scene(args.n, args.hold, args.dt, args.fields, args.checkpoint_every)
     result = run_scene(sc, outdir=outdir, comm=comm, restart=args.restart)

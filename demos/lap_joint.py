@@ -66,6 +66,7 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.scenes import run_scene
 
@@ -81,7 +82,7 @@ ALPHA = 1e5  # MPa/mm, alpha_t = alpha_n
 
 def strength(pressure: float = PRESSURE) -> float:
     """This law's static strength g(p) mu_s at the clamp pressure (Sec. 7 set), MPa."""
-    p = PRESETS["sec7"].parameters
+    p = PRESETS["sec7"].law
     return (1.0 - math.exp(-p.c_n * pressure)) * p.mu_s
 
 
@@ -234,6 +235,8 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--alpha", type=float, default=ALPHA, help="alpha_t = alpha_n (1e5)")
     ap.add_argument("--out", default="demos/output/lap_joint", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
+    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
@@ -241,6 +244,7 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
     args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
+    logs.configure(args.verbose - args.quiet, comm)
     outdir = Path(args.out)
     results = {}
     for name, law in laws(PRESSURE, args.alpha).items():
@@ -256,9 +260,9 @@ def main(argv=None, comm=MPI.COMM_WORLD):
         for name, res in results.items():
             s = slip_per_cycle(res.history, args.cycles)
             inc = " ".join(f"{1e3 * d:.2f}" for d in np.diff(s))
-            mu = [r["mu"] for r in res.history]
             print(f"[lap_joint] {name}: slip per cycle (µm) {inc}; total {1e3 * s[-1]:.2f} µm")
             if name == "subloading":
+                mu = [r["mu"] for r in res.history]
                 print(f"[lap_joint] {name}: mean mu {mu[0]:.1f} -> {mu[-1]:.1f} MPa (softening)")
         if not args.no_figures:
             for f in figures(results, args.cycles, args.load, outdir):

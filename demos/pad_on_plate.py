@@ -62,6 +62,7 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.scenes import run_scene
 
@@ -310,6 +311,8 @@ def parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--out", default="demos/output/pad_on_plate", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
+    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
@@ -317,12 +320,13 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
     args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
+    logs.configure(args.verbose - args.quiet, comm)
     outdir = Path(args.out)
     fields = None if args.fields == "none" else args.fields
     sc = scene(args.n, args.cell, args.holds, args.amplitude, args.pressure, args.dt, fields)
     _, _, strokes = program(args.amplitude, args.holds, args.dt)
     result = run_scene(sc, outdir=outdir, comm=comm)
-    c_n = PRESETS["sec7"].parameters.c_n
+    c_n = PRESETS["sec7"].law.c_n
     result.info["peaks"] = peaks(result.history, strokes, c_n)
     if comm.rank == 0:
         for hold, peak, before, strength in sorted(result.info["peaks"]):

@@ -95,7 +95,7 @@ class PathBuilder:
     """Build a displacement-controlled 1-D path and its sample times, leg by leg."""
 
     def __init__(self, name: str, f_n: float, spm: float, ds: float, normal_leg: bool = False):
-        p = PRESETS[name].parameters
+        p = PRESETS[name].law
         self.name, self.spm, self.ds = name, spm, ds
         self.v = PRESETS[name].slip_rate
         self.un = f_n / p.alpha_n
@@ -159,13 +159,13 @@ class PathBuilder:
 
 
 def g_of(name: str, f_n: np.ndarray | float) -> np.ndarray:
-    p = PRESETS[name].parameters
+    p = PRESETS[name].law
     return -np.expm1(-p.c_n * np.asarray(f_n, dtype=float))
 
 
 def mu_steady(name: str) -> float:
     """Mu in steady sliding at the preset's slip rate: kappa (mu - mu_k) v = xi (mu_s - mu)."""
-    p, v = PRESETS[name].parameters, PRESETS[name].slip_rate
+    p, v = PRESETS[name].law, PRESETS[name].slip_rate
     return (p.kappa * v * p.mu_k + p.xi * p.mu_s) / (p.kappa * v + p.xi)
 
 
@@ -178,7 +178,7 @@ def write_csv(path: pathlib.Path, header: Sequence[str], rows: Iterable[Sequence
 
 
 def label(name: str) -> str:
-    p = PRESETS[name].parameters
+    p = PRESETS[name].law
     return f"$\\mu_s$ = {p.mu_s:g}, $\\mu_k$ = {p.mu_k:g} MPa"
 
 
@@ -195,7 +195,7 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
     for ax, name in zip(axes, SEC6, strict=True):
-        p = PRESETS[name].parameters
+        p = PRESETS[name].law
         fn = np.linspace(0.0, 1.15 * FN_SEC6[-1], 200)
         for series, mu, style in (
             ("g mu_s", p.mu_s, "r-"),
@@ -371,7 +371,7 @@ def sec7_samples(spm: float) -> list[float]:
 
 def sec7_runs(spm: float, levels: Sequence[float], mu_c: float | None = None) -> dict:
     name = "sec7"
-    p = PRESETS[name].parameters
+    p = PRESETS[name].law
     v = PRESETS[name].slip_rate
     out = {}
     for f_n in levels:

@@ -84,7 +84,9 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from subfric_dolfinx.driver import parse_law, run_case
+from subfric_dolfinx import logs
+from subfric_dolfinx.constitutive import build_law
+from subfric_dolfinx.driver import run_case
 from subfric_dolfinx.scenes import run_scene
 
 SLIDE = 1.0  # mm, at 1 mm/s
@@ -147,7 +149,7 @@ def scene(law: dict, name: str, n: int = 16, depth: float = DEPTH, dt: float = 0
 
 def calibrate_mu_c(law: dict, p_mean: float) -> float:
     """Coulomb's mu_c: this law's f_t / f_n at the end of the same slide, at the mean pressure."""
-    params = parse_law(law)
+    params = build_law(law)
     un = p_mean / params.alpha_n
     res = run_case(
         {
@@ -293,6 +295,8 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--dt", type=float, default=0.01, help="initial time step in s (0.01)")
     ap.add_argument("--out", default="demos/output/punch", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
+    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
@@ -300,6 +304,7 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
     args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
+    logs.configure(args.verbose - args.quiet, comm)
     outdir = Path(args.out)
     law = subloading_law(args.alpha, args.c_n)
     sub = run_scene(
@@ -320,7 +325,7 @@ def main(argv=None, comm=MPI.COMM_WORLD):
         outdir=outdir / "coulomb",
         comm=comm,
     )
-    mu_s = parse_law(law).mu_s
+    mu_s = build_law(law).mu_s
     key = summary(sub, coul, mu_c, args.c_n, mu_s)
     sub.info["punch"] = {**key, "mu_c": mu_c}
     if comm.rank == 0:

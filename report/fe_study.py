@@ -54,13 +54,13 @@ def one_run(n, dt, hold, prefix):
     scene = block_on_base.scene(n=n, hold=hold, dt=dt)
     scene["solver"]["dt_max"] = dt
     scene["solver"]["prefix"] = prefix
-    scene["outputs"] = {"progress": False}
+    scene["outputs"] = {}
     comm = MPI.COMM_WORLD
     PETSc.Log.begin()
     m0 = MESH_SECONDS[0]
     comm.Barrier()
     t0 = time.perf_counter()
-    res = run_scene(scene, log=None)
+    res = run_scene(scene)
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     timing = dict(res.timing)
     timing["mesh generation"] = comm.allreduce(MESH_SECONDS[0] - m0, op=MPI.MAX)

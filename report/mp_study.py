@@ -29,7 +29,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from reference_ode import solve_reference  # noqa: E402
 
-from subfric_dolfinx.constitutive import CoulombParameters, preset  # noqa: E402
+from subfric_dolfinx.constitutive import CoulombLaw, preset  # noqa: E402
 from subfric_dolfinx.driver import run_case  # noqa: E402
 
 P = preset("sec7")
@@ -38,7 +38,7 @@ UN = F_N / P.alpha_n
 G = -math.expm1(-P.c_n * F_N)
 # Coulomb with the same penalty stiffness, its strength equal to the subloading kinetic strength
 MU_C = G * P.mu_k / F_N
-COULOMB = CoulombParameters(alpha_t=P.alpha_t, alpha_n=P.alpha_n, mu_c=MU_C)
+COULOMB = CoulombLaw(alpha_t=P.alpha_t, alpha_n=P.alpha_n, mu_c=MU_C)
 
 PATHS = {
     "reversal": (
@@ -92,7 +92,7 @@ def coulomb_exact(path: np.ndarray, ts: np.ndarray, nt: int) -> np.ndarray:
 
 
 def _case(law: str, path: np.ndarray, ts: np.ndarray, nt: int) -> dict:
-    params = {"preset": "sec7"} if law == "subloading" else COULOMB.as_dict()
+    params = {"preset": "sec7"} if law == "subloading" else COULOMB.parameters()
     return {
         "law": law,
         "params": params,

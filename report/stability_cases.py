@@ -28,7 +28,7 @@ import numpy as np
 from subfric_dolfinx.constitutive import (
     InterfaceState,
     Status,
-    SubloadingParameters,
+    SubloadingLaw,
     preset,
 )
 from subfric_dolfinx.driver import RunawayError, run_case
@@ -103,7 +103,7 @@ def _require(ok: bool, message: str) -> None:
 class _Counting:
     """A law that forwards to ``law`` and records the return-map iterations and finiteness.
 
-    ``isinstance(proxy, SubloadingParameters)`` holds (the driver's runaway message asks).
+    ``isinstance(proxy, SubloadingLaw)`` holds (the driver's runaway message asks).
     """
 
     def __init__(self, law: Any) -> None:
@@ -136,7 +136,7 @@ def _its(its: list[int] | np.ndarray) -> tuple[float, int]:
     return (float(a.mean()), int(a.max())) if a.size else (0.0, 0)
 
 
-def _g(p: SubloadingParameters, f_n: float) -> float:
+def _g(p: SubloadingLaw, f_n: float) -> float:
     return -math.expm1(-p.c_n * max(f_n, 0.0))
 
 
@@ -191,7 +191,7 @@ def _drive(
 
 
 def _one_step(
-    law: SubloadingParameters, gaps: np.ndarray, state: InterfaceState, dt: float
+    law: SubloadingLaw, gaps: np.ndarray, state: InterfaceState, dt: float
 ) -> tuple[Any, list[int], bool]:
     res = law.return_map(gaps, state, dt)
     plastic = (res.status == Status.PLASTIC) | (res.status == Status.JUMP)
@@ -526,7 +526,7 @@ def mp_high_fn_normalised(comm: Any = None) -> Outcome:
     return out
 
 
-FOLD_SET = SubloadingParameters(
+FOLD_SET = SubloadingLaw(
     alpha_t=100.0, alpha_n=100.0, mu_s=1000.0, mu_k=500.0, kappa=1.0, xi=0.0, u_tilde=15.0, c_n=2e-4
 )
 
@@ -650,7 +650,7 @@ def _fe_run(
 
     from subfric_dolfinx import meshing
     from subfric_dolfinx.loading import LoadingProgram
-    from subfric_dolfinx.problem import (
+    from subfric_dolfinx.fem import (
         Dirichlet,
         DirichletField,
         InterfaceProblem,
@@ -658,7 +658,7 @@ def _fe_run(
         Pressure,
         Traction,
     )
-    from subfric_dolfinx.solver import FrictionSolver, LoadStepper, StepFailure
+    from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepFailure
 
     program = LoadingProgram(times, channels)
     dom, _ = meshing.create_interface_mesh(
@@ -721,7 +721,7 @@ def _fe_run(
         ft_loc = float(np.abs(tr[:, 0]).max()) if tr.size else 0.0
         rec["ft_abs_max"] = max(rec["ft_abs_max"], comm.allreduce(ft_loc, op=MPI.MAX))
 
-    stepper = LoadStepper(solver, dt, dt_max=dt_max, max_cuts=max_cuts, on_step=on_step, log=None)
+    stepper = LoadStepper(solver, dt, dt_max=dt_max, max_cuts=max_cuts, on_step=on_step)
     error = None
     try:
         stepper.run()

@@ -55,7 +55,7 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from subfric_dolfinx.constitutive import SubloadingParameters
+from subfric_dolfinx.constitutive import SubloadingLaw
 
 __all__ = ["ReferenceSolution", "closed_form_no_softening", "solve_reference"]
 
@@ -96,7 +96,7 @@ class ReferenceSolution:
 class _Point:
     """Right-hand side, events and helpers for one point under a given path."""
 
-    def __init__(self, p: SubloadingParameters, path: np.ndarray, nt: int, r_start: float) -> None:
+    def __init__(self, p: SubloadingLaw, path: np.ndarray, nt: int, r_start: float) -> None:
         self.p = p
         self.path = path
         self.nt = nt
@@ -193,7 +193,7 @@ def _segments_and_knots(path: np.ndarray, samples: np.ndarray) -> list[tuple[int
 
 
 def solve_reference(
-    params: SubloadingParameters,
+    params: SubloadingLaw,
     path: np.ndarray,
     t_samples: np.ndarray,
     *,
@@ -350,7 +350,7 @@ def _seg_of(path: np.ndarray, t: float) -> int:
 
 
 def closed_form_no_softening(
-    params: SubloadingParameters, ubar_t: np.ndarray, f_n: float
+    params: SubloadingLaw, ubar_t: np.ndarray, f_n: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """Monotonic 1-D sliding from rest with ``kappa = xi = 0`` at constant ``f_n``.
 

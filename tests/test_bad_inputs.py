@@ -33,12 +33,18 @@ from petsc4py import PETSc
 from test_interface_fe import block_problem, prefix
 
 from subfric_dolfinx import meshing
-from subfric_dolfinx.constitutive import CoulombParameters, SubloadingParameters, preset
+from subfric_dolfinx.constitutive import CoulombLaw, SubloadingLaw, preset
 from subfric_dolfinx.driver import CaseError, load_case, main, parse_case, run_case
-from subfric_dolfinx.interface import InterfaceError
+from subfric_dolfinx.fem import (
+    Dirichlet,
+    FrictionSolver,
+    InterfaceError,
+    InterfaceProblem,
+    Material,
+    Pressure,
+    Traction,
+)
 from subfric_dolfinx.loading import LoadingError, LoadingProgram
-from subfric_dolfinx.problem import Dirichlet, InterfaceProblem, Material, Pressure, Traction
-from subfric_dolfinx.solver import FrictionSolver
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 MESH_DIR = REPO / "meshes"
@@ -71,7 +77,7 @@ def raised_on_every_rank(exc_type, *words):
 # --------------------------------------------------------------------------------------------
 # Parameters of the friction laws
 
-SUB = {k: v for k, v in preset("sec7").as_dict().items() if k != "mu0"}
+SUB = {k: v for k, v in preset("sec7").parameters().items() if k != "mu0"}
 COUL = {"alpha_t": 1000.0, "alpha_n": 2000.0, "mu_c": 0.3}
 OUT_OF_RANGE = {
     # field: values outside the allowed range, and the words of the range in the message
@@ -90,7 +96,7 @@ WRONG_TYPES = ["500", True, None, 1 + 0j, [500.0]]
 
 
 def law_of(field):
-    return (CoulombParameters, COUL) if field == "mu_c" else (SubloadingParameters, SUB)
+    return (CoulombLaw, COUL) if field == "mu_c" else (SubloadingLaw, SUB)
 
 
 def parameter_cases():
@@ -118,7 +124,7 @@ def parameter_cases():
 @pytest.mark.parametrize(("field", "value", "exc", "words"), parameter_cases())
 def test_invalid_parameter(field, value, exc, words):
     if field.startswith("coulomb."):
-        cls, valid, field = CoulombParameters, COUL, field.split(".", 1)[1]
+        cls, valid, field = CoulombLaw, COUL, field.split(".", 1)[1]
     else:
         cls, valid = law_of(field)
     with raised_on_every_rank(exc, *words):
@@ -132,7 +138,7 @@ def test_invalid_parameter_through_replace():
 
 def test_missing_parameter():
     with raised_on_every_rank(TypeError, "c_n"):
-        SubloadingParameters(**{k: v for k, v in SUB.items() if k != "c_n"})
+        SubloadingLaw(**{k: v for k, v in SUB.items() if k != "c_n"})
 
 
 # --------------------------------------------------------------------------------------------
@@ -423,10 +429,9 @@ def options_under(pfx):
         ("block-1_", ["must not contain spaces or '-'", "'block-1_'"]),
         ("-block_", ["must not contain spaces or '-'", "'-block_'"]),
         ("my block_", ["must not contain spaces or '-'", "'my block_'"]),
-        (None, ["non-empty string", "None"]),
         (7, ["non-empty string", "7"]),
     ],
-    ids=["empty", "no-underscore", "dash", "leading-dash", "space", "none", "int"],
+    ids=["empty", "no-underscore", "dash", "leading-dash", "space", "int"],
 )
 def test_bad_options_prefix(problem, pfx, words):
     before = PETSc.Options().getAll()
@@ -451,6 +456,6 @@ def test_options_prefix_in_use(problem):
 
 def test_every_field_of_both_laws_is_in_the_catalogue():
     """Guard: a new parameter field must get its bad-input cases here."""
-    fields = {f.name for c in (SubloadingParameters, CoulombParameters)
+    fields = {f.name for c in (SubloadingLaw, CoulombLaw)
               for f in dataclasses.fields(c)}  # fmt: skip
     assert fields == set(OUT_OF_RANGE), sorted(fields ^ set(OUT_OF_RANGE))

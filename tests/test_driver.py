@@ -13,15 +13,16 @@ import pytest
 
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.driver import (
-    FIELDS,
     CaseError,
     RunawayError,
+    fields,
     load_case,
     parse_case,
     run_case,
 )
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
+FIELDS = fields(preset("sec7"))
 STATUS_KEYS = {"ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED", "UNSTABLE"}
 
 
@@ -219,7 +220,7 @@ def test_missing_field(tmp_path, field):
 
 def test_missing_parameter(tmp_path):
     case = base_case()
-    case["params"] = {k: v for k, v in preset("sec7").as_dict().items() if k != "kappa"}
+    case["params"] = {k: v for k, v in preset("sec7").parameters().items() if k != "kappa"}
     check_rejected(tmp_path, case, "'params'", "kappa")
 
 

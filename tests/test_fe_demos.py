@@ -63,7 +63,7 @@ def test_punch_saturates_under_the_pressure_peak(shared_tmp):
     i = int(np.argmax(fn))
     assert abs(s["x"][i, 0] - 1.5) > 0.2  # at an edge (the punch spans 1.25 - 1.75)
     c_n = punch.C_N
-    mu_s = PRESETS["sec7"].parameters.mu_s
+    mu_s = PRESETS["sec7"].law.mu_s
     g = 1.0 - math.exp(-c_n * fn[i])
     ft = s["f_t"][i, 0]
     assert 0.0 < ft <= g * mu_s

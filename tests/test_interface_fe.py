@@ -10,16 +10,18 @@ from petsc4py import PETSc
 from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import Status, preset
 from subfric_dolfinx.driver import run_case
-from subfric_dolfinx.interface import InterfaceError
-from subfric_dolfinx.loading import LoadingProgram
-from subfric_dolfinx.problem import (
+from subfric_dolfinx.fem import (
     Dirichlet,
     DirichletField,
+    FrictionSolver,
+    InterfaceError,
     InterfaceProblem,
+    LoadStepper,
     Material,
     Pressure,
+    StepFailure,
 )
-from subfric_dolfinx.solver import FrictionSolver, LoadStepper, StepFailure
+from subfric_dolfinx.loading import LoadingProgram
 
 _prefix_counter = itertools.count()
 
@@ -127,13 +129,13 @@ def test_patch_test_equals_the_material_point_driver(gdim, cell_type, degree):
         g = [global_spread(comm, gap[:, i])[1] for i in range(gdim)]
         hist.append((rec.t, row, g))
 
-    LoadStepper(solver, 0.125, dt_max=0.125, on_step=on_step, log=None).run()
+    LoadStepper(solver, 0.125, dt_max=0.125, on_step=on_step).run()
     assert len(hist) == 40
     # the material-point driver along the same gap history, one step per FE step
     times = [0.0] + [h[0] for h in hist]
     path = [[0.0, 0.0, 0.0, 0.0]] + [[t, g[0], g[1] if nt == 2 else 0.0, g[-1]] for t, _, g in hist]
     case = {
-        "params": LAW.as_dict(),
+        "params": LAW.parameters(),
         "control": "disp",
         "path": path,
         "t_samples": times[1:],
@@ -193,7 +195,7 @@ def test_jacobian_matches_finite_differences_and_newton_is_quadratic():
     comm = MPI.COMM_WORLD
     prob = block_problem(comm)
     solver = FrictionSolver(prob, prefix("jac"))
-    stepper = LoadStepper(solver, 0.1, log=None)
+    stepper = LoadStepper(solver, 0.1)
     stepper.run(t_end=1.5)
     # a plastic step with a non-uniform state
     counts = stepper.records[-1].counts
@@ -261,7 +263,7 @@ def _gather_state(prob):
 def _run_block(comm, partitioner=None):
     prob = block_problem(comm, partitioner=partitioner)
     solver = FrictionSolver(prob, prefix("cmp"), {"snes_rtol": 1e-12})
-    LoadStepper(solver, 0.25, log=None).run(t_end=3.5)
+    LoadStepper(solver, 0.25).run(t_end=3.5)
     out = _gather_state(prob)
     solver.destroy()
     return out
@@ -310,7 +312,7 @@ def test_partial_separation_and_recontact():
             sum(rec.counts[k] for k in ("ELASTIC", "PLASTIC", "JUMP")),
         )
 
-    LoadStepper(solver, 0.25, on_step=on_step, log=None).run()
+    LoadStepper(solver, 0.25, on_step=on_step).run()
     n_sep_lifted, _ = seen[3.0]
     n_sep_end, n_contact_end = seen[4.0]
     assert seen[2.0][0] == 0 and n_sep_lifted > 0 and n_sep_end == 0 and n_contact_end > 0
@@ -320,12 +322,21 @@ def test_partial_separation_and_recontact():
 class FlakyLaw:
     """Wraps a law; fails the return map at point 0 of each rank when ``fail(t, dt)`` says so."""
 
+    name = "flaky"
+
     def __init__(self, law, fail):
         self.law, self.fail, self.t = law, fail, 0.0
         self.alpha_t, self.alpha_n = law.alpha_t, law.alpha_n
+        self.variables = law.variables
+
+    def parameters(self):
+        return self.law.parameters()
 
     def initial_state(self, n, nt):
         return self.law.initial_state(n, nt)
+
+    def strength(self, state, f_n, dt=0.0):
+        return self.law.strength(state, f_n, dt)
 
     def return_map(self, gap, state, dt, **kw):
         gap = np.array(gap)
@@ -347,7 +358,7 @@ def test_a_failed_return_map_is_a_domain_error_and_the_step_is_cut_and_recovered
         orig(t, dt)
 
     prob.set_step = set_step
-    recs = LoadStepper(solver, 0.25, log=None).run(t_end=2.0)
+    recs = LoadStepper(solver, 0.25).run(t_end=2.0)
     assert any(r.cuts > 0 for r in recs)
     assert all(r.dt <= 0.15 + 1e-12 for r in recs if r.t > 1.2 + 1e-9)
     assert recs[-1].t == pytest.approx(2.0)
@@ -366,7 +377,7 @@ def test_too_many_cuts_raise_with_the_last_converged_state_intact():
         orig(t, dt)
 
     prob.set_step = set_step
-    stepper = LoadStepper(solver, 0.25, log=None, max_cuts=3)
+    stepper = LoadStepper(solver, 0.25, max_cuts=3)
     snapshot = {}
 
     def on_step(rec):

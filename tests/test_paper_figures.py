@@ -47,11 +47,11 @@ def read(out, fig):
 
 
 def g(name, f_n):
-    return -math.expm1(-PRESETS[name].parameters.c_n * f_n)
+    return -math.expm1(-PRESETS[name].law.c_n * f_n)
 
 
 def mu_steady(name):
-    p, v = PRESETS[name].parameters, PRESETS[name].slip_rate
+    p, v = PRESETS[name].law, PRESETS[name].slip_rate
     return (p.kappa * v * p.mu_k + p.xi * p.mu_s) / (p.kappa * v + p.xi)
 
 
@@ -146,7 +146,7 @@ def test_higher_static_level_gives_a_higher_peak(out):
         for name in ("sec6-mus10000", "sec6-mus7500"):
             peak = d5[name, f"peak f_n={f_n}"]["f_t_MPa"][0]
             end = d5[name, f"end f_n={f_n}"]["f_t_MPa"][0]
-            mu_s = PRESETS[name].parameters.mu_s
+            mu_s = PRESETS[name].law.mu_s
             assert peak < g(name, f_n) * mu_s  # inside the normal-yield surface
             assert end == pytest.approx(g(name, f_n) * mu_steady(name), rel=5e-3)
 

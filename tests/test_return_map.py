@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from subfric_dolfinx.constitutive import (
-    CoulombParameters,
+    CoulombLaw,
     InterfaceState,
     StatePair,
     Status,
-    SubloadingParameters,
+    SubloadingLaw,
     preset,
 )
 
@@ -17,7 +17,7 @@ BASE.update(u_tilde=15.0, c_n=2e-4)
 
 
 def law(**kw):
-    return SubloadingParameters(**{**BASE, **kw})
+    return SubloadingLaw(**{**BASE, **kw})
 
 
 def drive(p, path, dt_per_step, state=None):
@@ -57,8 +57,8 @@ def test_inputs_are_never_mutated_and_out_is_filled():
     p = preset("sec7")
     rng = np.random.default_rng(1)
     n = 200
-    st = InterfaceState(
-        rng.normal(0, 0.1, (n, 2)), rng.uniform(p.mu_k, p.mu_s, n), rng.uniform(0, 1, n)
+    st = InterfaceState.from_arrays(
+        up=rng.normal(0, 0.1, (n, 2)), mu=rng.uniform(p.mu_k, p.mu_s, n), r=rng.uniform(0, 1, n)
     )
     gap = np.column_stack([rng.normal(0, 0.3, (n, 2)), rng.normal(0.2, 0.5, n)])
     copies = [a.copy() for a in (st.up, st.mu, st.r, gap)]
@@ -110,7 +110,7 @@ def test_singular_spots_give_finite_results(name, preset_name):
     p = preset(preset_name)
     r0, mu0, gap, dt = SINGULAR[name]
     mu = p.mu_k if mu0 == "k" else p.mu_s
-    st = InterfaceState([[0.0, 0.0]], [mu], [r0])
+    st = InterfaceState.from_arrays(up=[[0.0, 0.0]], mu=[mu], r=[r0])
     res = p.return_map(np.array([gap]), st, dt)
     assert res.converged, res.counts()
     for a in (res.traction, res.tangent, res.state.up, res.state.mu, res.state.r):
@@ -171,7 +171,7 @@ def test_consistent_tangent_matches_finite_differences(case, nt):
     r0, frac, gap, expected = TANGENT_CASES[case]
     gap = np.array([[*gap[:nt], gap[2]]])
     mu = p.mu_k + frac * (p.mu_s - p.mu_k)
-    st = InterfaceState(np.zeros((1, nt)), [mu], [r0])
+    st = InterfaceState.from_arrays(up=np.zeros((1, nt)), mu=[mu], r=[r0])
     res = p.return_map(gap, st, 0.05)
     assert res.status[0] == expected
     D = res.tangent[0]
@@ -188,11 +188,13 @@ def test_frame_invariance_in_the_tangential_plane():
     rng = np.random.default_rng(7)
     n = 500
     up = rng.normal(0, 0.05, (n, 2))
-    st = InterfaceState(up, rng.uniform(p.mu_k, p.mu_s, n), rng.uniform(0, 1, n))
+    st = InterfaceState.from_arrays(
+        up=up, mu=rng.uniform(p.mu_k, p.mu_s, n), r=rng.uniform(0, 1, n)
+    )
     gap = np.column_stack([up + rng.normal(0, 0.5, (n, 2)), rng.uniform(-0.1, 1.0, n)])
     th = 0.7
     R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
-    st_rot = InterfaceState(up @ R.T, st.mu, st.r)
+    st_rot = InterfaceState.from_arrays(up=up @ R.T, mu=st.mu, r=st.r)
     gap_rot = np.column_stack([gap[:, :2] @ R.T, gap[:, 2]])
     a = p.return_map(gap, st, 0.3)
     b = p.return_map(gap_rot, st_rot, 0.3)
@@ -209,7 +211,7 @@ def test_frame_invariance_in_the_tangential_plane():
 def test_fold_is_reported_as_a_jump_at_the_same_load_for_any_step():
     """Strong softening without recovery: alpha_t / g < kappa (mu - mu_k) near r = 1 gives a
     snap-back; displacement control must jump at the fold, wherever the steps fall."""
-    p = SubloadingParameters(
+    p = SubloadingLaw(
         alpha_t=100.0,
         alpha_n=100.0,
         mu_s=1000.0,
@@ -238,7 +240,7 @@ def test_fold_is_reported_as_a_jump_at_the_same_load_for_any_step():
 
 
 def test_coulomb_return_map():
-    p = CoulombParameters(alpha_t=1000.0, alpha_n=2000.0, mu_c=0.3)
+    p = CoulombLaw(alpha_t=1000.0, alpha_n=2000.0, mu_c=0.3)
     st = p.initial_state(3, 2)
     gap = np.array([[1e-4, 0.0, 0.01], [0.03, 0.04, 0.01], [0.03, 0.04, -0.01]])
     res = p.return_map(gap, st, 1.0)

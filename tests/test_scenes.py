@@ -18,7 +18,7 @@ import block_on_base  # noqa: E402
 
 def small():
     s = block_on_base.scene(n=8, hold=5.0, dt=0.05)
-    s["outputs"] = {"progress": False}
+    s["outputs"] = {}
     return s
 
 
@@ -28,7 +28,7 @@ def small():
         (lambda s: s.update(colour="red"), r"scene: unknown key\(s\) \['colour'\]"),
         (lambda s: s["solver"].update(dt="fast"), r"scene.solver.dt: expected a number"),
         (lambda s: s["solver"].update(dt=-1.0), r"scene.solver.dt: must be > 0"),
-        (lambda s: s["solver"].pop("prefix"), r"scene.solver: missing key 'prefix'"),
+        (lambda s: s["solver"].pop("dt"), r"scene.solver: missing key 'dt'"),
         (lambda s: s["mesh"].update(builder="teapot"), r"scene.mesh.builder: must be one of"),
         (
             lambda s: s["mesh"]["options"].update(n_interface=4) or s["mesh"].update(file="x.msh"),
@@ -139,7 +139,7 @@ def test_timing_breakdown_is_per_run():
         s["solver"]["prefix"] = f"timing{k}_"
         PETSc.Log.begin()
         before = events()
-        res = run_scene(s, comm=comm, log=None)
+        res = run_scene(s, comm=comm)
         after = events()
         tim = res.timing
         for section, event in (("factorisation", "PCSetUp"), ("linear solve", "KSPSolve")):

@@ -1,26 +1,75 @@
-"""Batched return map of the classical penalty Coulomb law (the baseline).
+"""The classical penalty Coulomb law (the baseline), with its parameters and batched return map.
 
 ``f_n = alpha_n ubar_n`` (no contact when ``ubar_n <= 0``), ``f_t* = alpha_t (ubar_t - up_n)``;
 elastic when ``|f_t*| <= mu_c f_n``, otherwise radial return onto the cone. The law has no
-hardening: to fill the same state arrays as the subloading law, ``mu`` holds ``mu_c`` and ``r`` the
-utilisation ``|f_t| / (mu_c f_n)`` (0 when separated).
+hardening and no recovery: its only internal variable is the plastic slip ``up``.
 """
 
 from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
 from ._norm import tangential_norm
-from .parameters import CoulombParameters
+from ._validate import positive, validate_fields
+from .protocol import LawBase
 from .result import ReturnMapResult, Status
-from .state import InterfaceState
+from .state import TANGENTIAL, InterfaceState, Variable
 
-__all__ = ["coulomb_return_map"]
+__all__ = ["CoulombLaw", "coulomb_return_map"]
+
+
+@dataclasses.dataclass(frozen=True)
+class CoulombLaw(LawBase):
+    """The classical penalty Coulomb law: ``|f_t| <= mu_c f_n`` with radial return.
+
+    Attributes:
+        alpha_t: Tangential penalty modulus, MPa/mm, > 0.
+        alpha_n: Normal penalty modulus, MPa/mm, > 0.
+        mu_c: Friction coefficient (dimensionless), > 0.
+
+    Internal variable: ``up`` (plastic slip, mm, tangential).
+    """
+
+    alpha_t: float
+    alpha_n: float
+    mu_c: float
+
+    name: ClassVar[str] = "coulomb"
+    variables: ClassVar[tuple[Variable, ...]] = (Variable("up", TANGENTIAL, "plastic slip (mm)"),)
+
+    def __post_init__(self) -> None:
+        validate_fields(
+            self,
+            {
+                "alpha_t": (positive, "alpha_t > 0"),
+                "alpha_n": (positive, "alpha_n > 0"),
+                "mu_c": (positive, "mu_c > 0"),
+            },
+        )
+
+    def return_map(
+        self,
+        gap: npt.ArrayLike,
+        state: InterfaceState,
+        dt: float,
+        *,
+        out: InterfaceState | None = None,
+    ) -> ReturnMapResult:
+        """Integrate the law over one step; see :func:`coulomb_return_map`."""
+        return coulomb_return_map(self, gap, state, dt, out=out)
+
+    def strength(self, state: InterfaceState, f_n: npt.ArrayLike, dt: float = 0.0) -> np.ndarray:
+        """``mu_c f_n`` (0 where ``f_n <= 0``)."""
+        fn = np.maximum(np.asarray(f_n, dtype=float), 0.0)
+        return self.mu_c * np.broadcast_to(fn, (state.n_points,)).copy()
 
 
 def coulomb_return_map(
-    params: CoulombParameters,
+    params: CoulombLaw,
     gap: npt.ArrayLike,
     state: InterfaceState,
     dt: float,
@@ -62,7 +111,7 @@ def coulomb_return_map(
     plastic = contact & (A > limit)
     elastic = contact & ~plastic
 
-    new = InterfaceState.initial(n, nt, p.mu_c) if out is None else out
+    new = p.initial_state(n, nt) if out is None else out
     traction = np.zeros((n, m))
     tangent = np.zeros((n, m, m))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -74,11 +123,6 @@ def coulomb_return_map(
     traction[:, nt] = np.where(contact, fn, 0.0)
     np.copyto(new.up, up_s + dl[:, None] * nstar)
     new.up[~ok_in] = np.where(np.isfinite(state.up[~ok_in]), state.up[~ok_in], 0.0)
-    new.mu[:] = p.mu_c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        new.r[:] = np.where(
-            contact & (limit > 0.0), np.minimum(A, limit) / np.where(limit > 0, limit, 1.0), 0.0
-        )
 
     eye = np.eye(nt)[None]
     nn = nstar[:, :, None] * nstar[:, None, :]

@@ -1,9 +1,12 @@
 """Internal-variable arrays of interface points, with commit and revert.
 
-An :class:`InterfaceState` holds, for ``N`` points with ``nt`` tangential components (1 in 2-D,
-2 in 3-D), the plastic slip ``up`` (N, nt), the hardening function ``mu`` (N,) and the normal-yield
-ratio ``r`` (N,). It can wrap existing arrays without copying (e.g. the arrays of DOLFINx
-Quadrature functions), so that in-place updates are seen by their owner.
+A law declares its internal variables (:class:`Variable`: a name and a shape, ``SCALAR`` or
+``TANGENTIAL``). An :class:`InterfaceState` holds, for ``N`` points with ``nt`` tangential
+components (1 in 2-D, 2 in 3-D), one array per variable: (N,) for a scalar, (N, nt) for a
+tangential one; e.g. the subloading law's plastic slip ``up`` (N, nt), hardening function ``mu``
+(N,) and normal-yield ratio ``r`` (N,). Arrays are read as ``state["mu"]`` or ``state.mu``. A
+state can wrap existing arrays without copying (e.g. the arrays of DOLFINx Quadrature functions),
+so that in-place updates are seen by their owner.
 
 A :class:`StatePair` keeps the last converged state (``old``) and the trial state of the current
 step (``new``): ``commit()`` copies new into old after a converged step, ``revert()`` copies old
@@ -12,101 +15,163 @@ into new after a failed one (the pattern of MGIS's material data manager).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Iterable, Iterator, Mapping
+
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["InterfaceState", "StatePair"]
+__all__ = ["SCALAR", "TANGENTIAL", "InterfaceState", "StatePair", "Variable"]
+
+SCALAR = "scalar"
+TANGENTIAL = "tangential"
+
+
+@dataclasses.dataclass(frozen=True)
+class Variable:
+    """An internal variable a law declares.
+
+    Attributes:
+        name: Its name (a Python identifier; used for arrays, fields, datasets, columns).
+        shape: ``SCALAR`` (one value per point) or ``TANGENTIAL`` (one per tangential direction,
+            in the local frame).
+        description: What it is, with its unit.
+    """
+
+    name: str
+    shape: str = SCALAR
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"variable name {self.name!r} is not an identifier")
+        if self.shape not in (SCALAR, TANGENTIAL):
+            raise ValueError(
+                f"variable shape must be {SCALAR!r} or {TANGENTIAL!r}, got {self.shape!r}"
+            )
+
+    def components(self, n_tangential: int) -> int:
+        """Number of values per point: 1, or ``n_tangential``."""
+        return n_tangential if self.shape == TANGENTIAL else 1
 
 
 class InterfaceState:
-    """Internal variables ``up``, ``mu``, ``r`` of ``N`` interface points.
+    """Internal variables of ``N`` interface points, one array per variable.
 
     Args:
-        up: Plastic slip, shape (N, nt), nt in {1, 2}.
-        mu: Hardening function, shape (N,).
-        r: Normal-yield ratio, shape (N,).
+        arrays: Variable name -> array, (N,) for scalars and (N, nt) for tangential variables.
+        n_tangential: ``nt``, 1 (2-D) or 2 (3-D).
         copy: Copy the arrays (default) or wrap them (they must then be float64 and writable).
 
     Raises:
-        ValueError: Shapes do not match or nt is not 1 or 2.
+        ValueError: Shapes that do not agree, or nt not 1 or 2.
     """
 
-    __slots__ = ("mu", "r", "up")
+    __slots__ = ("_arrays", "n_points", "n_tangential")
 
     def __init__(
         self,
-        up: npt.ArrayLike,
-        mu: npt.ArrayLike,
-        r: npt.ArrayLike,
+        arrays: Mapping[str, npt.ArrayLike],
+        n_tangential: int,
         *,
         copy: bool = True,
     ) -> None:
-        conv = (lambda a: np.array(a, dtype=np.float64)) if copy else (lambda a: np.asarray(a))
-        up_a, mu_a, r_a = conv(up), conv(mu), conv(r)
-        if up_a.ndim != 2 or up_a.shape[1] not in (1, 2):
-            raise ValueError(f"up must have shape (N, 1) or (N, 2), got {up_a.shape}")
-        n = up_a.shape[0]
-        if mu_a.shape != (n,) or r_a.shape != (n,):
-            raise ValueError(
-                f"mu and r must have shape ({n},) to match up {up_a.shape}, "
-                f"got {mu_a.shape} and {r_a.shape}"
-            )
-        if not copy:
-            for name, a in (("up", up_a), ("mu", mu_a), ("r", r_a)):
-                if a.dtype != np.float64 or not a.flags.writeable:
-                    raise ValueError(f"{name} must be a writable float64 array to be wrapped")
-        self.up, self.mu, self.r = up_a, mu_a, r_a
-
-    @classmethod
-    def initial(cls, n_points: int, n_tangential: int, mu0: float) -> InterfaceState:
-        """A virgin state: no plastic slip, ``mu = mu0``, ``r = 0``.
-
-        Args:
-            n_points: Number of points N >= 0.
-            n_tangential: 1 (2-D) or 2 (3-D).
-            mu0: Initial hardening function (e.g. ``params.mu_initial``).
-        """
         if n_tangential not in (1, 2):
             raise ValueError(f"n_tangential must be 1 or 2, got {n_tangential!r}")
+        conv = (lambda a: np.array(a, dtype=np.float64)) if copy else np.asarray
+        out: dict[str, np.ndarray] = {}
+        n = None
+        for name, a in arrays.items():
+            arr = conv(a)
+            if (arr.ndim == 2 and arr.shape[1] != n_tangential) or arr.ndim not in (1, 2):
+                raise ValueError(
+                    f"{name} must have shape (N,) or (N, {n_tangential}), got {arr.shape}"
+                )
+            if n is None:
+                n = arr.shape[0]
+            elif arr.shape[0] != n:
+                raise ValueError(f"{name} has {arr.shape[0]} points, the other variables {n}")
+            if not copy and (arr.dtype != np.float64 or not arr.flags.writeable):
+                raise ValueError(f"{name} must be a writable float64 array to be wrapped")
+            out[name] = arr
+        self._arrays = out
+        self.n_points = 0 if n is None else int(n)
+        self.n_tangential = int(n_tangential)
+
+    @classmethod
+    def from_arrays(cls, **arrays: npt.ArrayLike) -> InterfaceState:
+        """A copied state from keyword arrays, ``nt`` taken from the 2-D ones (1 when none).
+
+        Example: ``InterfaceState.from_arrays(up=np.zeros((n, 2)), mu=mu, r=r)``.
+        """
+        two_d = [np.shape(a)[1] for a in arrays.values() if np.ndim(a) == 2]
+        return cls(arrays, two_d[0] if two_d else 1)
+
+    @classmethod
+    def zeros(
+        cls, variables: Iterable[Variable], n_points: int, n_tangential: int
+    ) -> InterfaceState:
+        """A state of zeros for the declared ``variables``."""
         if n_points < 0:
             raise ValueError(f"n_points must be >= 0, got {n_points!r}")
-        return cls(
-            np.zeros((n_points, n_tangential)),
-            np.full(n_points, float(mu0)),
-            np.zeros(n_points),
-            copy=False,
-        )
+        arrays = {
+            v.name: np.zeros((n_points, n_tangential) if v.shape == TANGENTIAL else n_points)
+            for v in variables
+        }
+        return cls(arrays, n_tangential, copy=False)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self._arrays[name]
+        except KeyError:
+            raise KeyError(f"no internal variable {name!r}; this state has {self.names}") from None
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        try:
+            return self._arrays[name]
+        except (KeyError, AttributeError):
+            raise AttributeError(f"no internal variable {name!r}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._arrays
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._arrays)
+
+    def items(self) -> Iterator[tuple[str, np.ndarray]]:
+        """``(name, array)`` pairs in storage order."""
+        return iter(self._arrays.items())
 
     @property
-    def n_points(self) -> int:
-        """Number of points N."""
-        return self.up.shape[0]
-
-    @property
-    def n_tangential(self) -> int:
-        """Number of tangential components (1 in 2-D, 2 in 3-D)."""
-        return self.up.shape[1]
+    def names(self) -> tuple[str, ...]:
+        """Variable names in storage order."""
+        return tuple(self._arrays)
 
     def copy(self) -> InterfaceState:
         """Return a deep copy."""
-        return InterfaceState(self.up, self.mu, self.r, copy=True)
+        return InterfaceState(self._arrays, self.n_tangential, copy=True)
 
     def assign(self, other: InterfaceState) -> None:
         """Copy the values of ``other`` into this state's arrays, in place."""
-        if other.up.shape != self.up.shape:
+        if other.names != self.names or other.n_points != self.n_points:
             raise ValueError(
-                f"cannot assign a state of shape {other.up.shape} to one of shape {self.up.shape}"
+                f"cannot assign a state of {other.n_points} points with {other.names} to one of "
+                f"{self.n_points} points with {self.names}"
             )
-        np.copyto(self.up, other.up)
-        np.copyto(self.mu, other.mu)
-        np.copyto(self.r, other.r)
+        for name, a in self._arrays.items():
+            np.copyto(a, other[name])
 
     def take(self, index: npt.ArrayLike) -> InterfaceState:
         """Return a copy of the state at some points."""
-        return InterfaceState(self.up[index], self.mu[index], self.r[index], copy=True)
+        return InterfaceState(
+            {k: a[index] for k, a in self._arrays.items()}, self.n_tangential, copy=True
+        )
 
     def __repr__(self) -> str:
-        return f"InterfaceState(n_points={self.n_points}, n_tangential={self.n_tangential})"
+        return (
+            f"InterfaceState(n_points={self.n_points}, n_tangential={self.n_tangential}, "
+            f"variables={self.names})"
+        )
 
 
 class StatePair:
@@ -122,8 +187,8 @@ class StatePair:
     def __init__(self, old: InterfaceState, new: InterfaceState | None = None) -> None:
         self.old = old
         self.new = old.copy() if new is None else new
-        if self.new.up.shape != self.old.up.shape:
-            raise ValueError("old and new states must have the same shape")
+        if self.new.names != self.old.names or self.new.n_points != self.old.n_points:
+            raise ValueError("old and new states must hold the same variables and points")
 
     def commit(self) -> None:
         """Accept the trial state: copy ``new`` into ``old``."""

@@ -1,7 +1,7 @@
 """Batched return map of the subloading-friction model with saturation (numpy only).
 
-Scheme (``MODEL.md``): for a step of length ``dt`` from the converged state ``(up_n, mu_n, r_n)``
-to the prescribed local gap ``(ubar_t, ubar_n)``:
+Scheme (``docs/model.md``): for a step of length ``dt`` from the converged state
+``(up_n, mu_n, r_n)`` to the prescribed local gap ``(ubar_t, ubar_n)``:
 
 1. Trial: ``f_t* = alpha_t (ubar_t - up_n)``, ``A = |f_t*|``, ``f_n = alpha_n ubar_n``,
    ``g = 1 - exp(-c_n f_n)``. No contact (``ubar_n <= 0``): zero traction, ``r = 0``, ``up``
@@ -35,281 +35,124 @@ The result is never NaN or inf; a point that cannot be integrated (non-finite in
 
 from __future__ import annotations
 
+import dataclasses
+from typing import ClassVar
+
 import numpy as np
 import numpy.typing as npt
 
 from ._norm import tangential_norm
-from .parameters import SubloadingParameters
+from ._smallest_root import Branch, rtsafe, scan
+from ._validate import non_negative, positive, real, validate_fields
+from .protocol import LawBase
 from .result import ReturnMapResult, Status
-from .state import InterfaceState
+from .state import SCALAR, TANGENTIAL, InterfaceState, Variable
 
-__all__ = ["subloading_return_map"]
-
-_ALL = slice(None)
-_EPS = float(np.finfo(float).eps)
-_TINY = float(np.finfo(float).tiny)
-_SCAN_POINTS = 16
-_SCAN_LEVELS = 80
-
-# Taylor coefficients of E'(s) = sum_n (-1)^n n s^(n-1) / (n+1)!, n = 1..10
-_DE_SERIES = np.array([(-1) ** n * n / float(np.prod(np.arange(1, n + 2))) for n in range(1, 11)])
+__all__ = ["SubloadingLaw", "subloading_return_map"]
 
 
-def _E(s: np.ndarray) -> np.ndarray:
-    """``(1 - exp(-s)) / s`` for ``s >= 0`` with ``E(0) = 1``."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        e = -np.expm1(-s) / s
-    return np.where(s > 0.0, e, 1.0)
+@dataclasses.dataclass(frozen=True)
+class SubloadingLaw(LawBase):
+    """The subloading-friction law with saturation of the tangential stress, with its parameters.
 
+    Attributes:
+        alpha_t: Tangential penalty (elastic sliding) modulus, MPa/mm, > 0.
+        alpha_n: Normal penalty modulus, MPa/mm, > 0.
+        mu_s: Static (maximum) value of the hardening function ``mu``, MPa, >= mu_k.
+        mu_k: Kinetic (minimum) value of ``mu``, MPa, > 0.
+        kappa: Softening of ``mu`` per unit plastic slip (absolute form), 1/mm, >= 0.
+        xi: Recovery rate of ``mu`` with time (absolute form), 1/s, >= 0.
+        u_tilde: Rate of approach of the subloading surface to the yield surface, 1/mm, > 0.
+        c_n: Saturation constant of ``g(f_n) = 1 - exp(-c_n f_n)``, 1/MPa, > 0.
+        mu0: Initial ``mu`` in ``[mu_k, mu_s]``; ``None`` means ``mu_s`` (a fresh, rested contact).
 
-def _dE(s: np.ndarray) -> np.ndarray:
-    """``E'(s)``, accurate for all ``s >= 0`` (Taylor series below 0.05)."""
-    small = s < 0.05
-    ss = np.where(small, s, 0.0)
-    series = np.polynomial.polynomial.polyval(ss, _DE_SERIES)
-    sl = np.where(small, 1.0, s)
-    with np.errstate(over="ignore"):
-        direct = (np.expm1(-sl) * (1.0 + sl) + sl) / (sl * sl)
-    return np.where(small, series, direct)
+    Internal variables: ``up`` (plastic slip, mm, tangential), ``mu`` (hardening function, MPa),
+    ``r`` (normal-yield ratio ``F / mu``, in [0, 1]).
 
-
-class _Branch:
-    """Closed-form ``r(dl)``, ``mu(dl)`` and ``phi(dl)`` of plastic points (one per row)."""
-
-    def __init__(
-        self,
-        p: SubloadingParameters,
-        A: np.ndarray,
-        g: np.ndarray,
-        r_n: np.ndarray,
-        mu_n: np.ndarray,
-        b: float,
-    ) -> None:
-        self.p = p
-        self.A, self.g, self.mu_n = A, g, mu_n
-        self.b = b
-        self.k = 0.5 * np.pi * p.u_tilde
-        quarter = 0.25 * np.pi * r_n
-        self.c0 = np.cos(2.0 * quarter)  # cos(pi r_n / 2)
-        self.s0 = np.sin(quarter) ** 2  # (1 - c0) / 2, accurate for small r_n
-        self.d_k = mu_n - p.mu_k
-        self.d_s = mu_n - p.mu_s
-
-    def eval(self, dl: np.ndarray, idx: np.ndarray | slice = _ALL) -> tuple[np.ndarray, ...]:
-        """Return ``phi, dphi, r, dr, mu, dmu`` at slips ``dl`` (rows ``idx``; (n,) or (n, K))."""
-        col = (lambda a: a[idx]) if dl.ndim == 1 else (lambda a: a[idx][:, None])
-        p = self.p
-        c0 = col(self.c0)
-        em = np.expm1(-self.k * dl)  # exp(-k dl) - 1
-        w = c0 * (1.0 + em)  # cos(pi r / 2)
-        q = np.clip(col(self.s0) - 0.5 * c0 * em, 0.0, 1.0)  # (1 - w) / 2 = sin^2(pi r / 4)
-        r = (4.0 / np.pi) * np.arcsin(np.sqrt(q))
-        sin_th = 2.0 * np.sqrt(q * (1.0 - q))  # sin(pi r / 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dr = np.where(w > 0.0, p.u_tilde * w / sin_th, 0.0)  # U(r) = u_tilde cot(pi r / 2)
-        a = p.kappa * dl
-        s = a + self.b
-        E = _E(s)
-        D = a * col(self.d_k) + self.b * col(self.d_s)
-        mu = np.clip(col(self.mu_n) - D * E, p.mu_k, p.mu_s)
-        dmu = p.kappa * (-col(self.d_k) * E - D * _dE(s))
-        g = col(self.g)
-        phi = col(self.A) - p.alpha_t * dl - g * r * mu
-        with np.errstate(invalid="ignore"):
-            dphi = -p.alpha_t - g * (dr * mu + r * dmu)
-        return phi, dphi, r, dr, mu, dmu
-
-
-def _rtsafe(
-    br: _Branch,
-    idx: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    x: np.ndarray,
-    tol_f: np.ndarray,
-    max_iter: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Safeguarded Newton for ``phi = 0`` on rows ``idx`` with ``phi(lo) > 0 >= phi(hi)``.
-
-    Returns the roots, a converged mask and the iteration counts. Newton steps that leave the
-    bracket or do not halve it fast enough are replaced by bisection, so it always converges.
-
-    A point has converged when ``|phi| <= tol_f`` at the iterate, or when the bracket can no longer
-    improve it: ``phi(lo) - phi(hi) <= 2 tol_f`` (both ends evaluated; the better end is returned),
-    or the bracket is down to a few ulps of ``dl``. A small step or bracket in ``dl`` alone is
-    not enough: ``phi'`` can be far steeper than ``-alpha_t`` inside the bracket, near ``r = 0``
-    where ``U(r) = u_tilde cot(pi r / 2)`` is unbounded, or for a large ``kappa``.
+    Raises:
+        TypeError: A value is not a real number.
+        ValueError: A value is not finite or out of its range; the message names it.
     """
-    lo, hi, x = lo.copy(), hi.copy(), x.copy()
-    n = x.size
-    f, df = br.eval(x, idx)[:2]
-    # Values at the bracket ends, once evaluated (+-inf until then). The first iterate is an end.
-    f_lo = np.full(n, np.inf)
-    f_hi = np.full(n, -np.inf)
-    pos = f > 0.0
-    lo = np.where(pos, np.maximum(lo, x), lo)
-    hi = np.where(pos, hi, np.minimum(hi, x))
-    f_lo[pos & (lo == x)] = f[pos & (lo == x)]
-    f_hi[~pos & (hi == x)] = f[~pos & (hi == x)]
-    conv = np.abs(f) <= tol_f
-    iters = np.zeros(n, dtype=np.int64)
-    dx_old = hi - lo
-    dx = dx_old.copy()
-    act = np.flatnonzero(~conv)
-    for _ in range(max_iter):
-        if act.size == 0:
-            break
-        xa, fa, dfa, la, ha = x[act], f[act], df[act], lo[act], hi[act]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            newton = xa - fa / dfa
-        bisect = (
-            ~(dfa < 0.0)
-            | ~((newton > la) & (newton < ha))
-            | (np.abs(2.0 * fa) > np.abs(dx_old[act] * dfa))
+
+    alpha_t: float
+    alpha_n: float
+    mu_s: float
+    mu_k: float
+    kappa: float
+    xi: float
+    u_tilde: float
+    c_n: float
+    mu0: float | None = None
+
+    name: ClassVar[str] = "subloading"
+    variables: ClassVar[tuple[Variable, ...]] = (
+        Variable("up", TANGENTIAL, "plastic slip (mm)"),
+        Variable("mu", SCALAR, "hardening function (MPa)"),
+        Variable("r", SCALAR, "normal-yield ratio F / mu"),
+    )
+
+    def __post_init__(self) -> None:
+        validate_fields(
+            self,
+            {
+                "alpha_t": (positive, "alpha_t > 0"),
+                "alpha_n": (positive, "alpha_n > 0"),
+                "mu_k": (positive, "mu_k > 0"),
+                "kappa": (non_negative, "kappa >= 0"),
+                "xi": (non_negative, "xi >= 0"),
+                "u_tilde": (positive, "u_tilde > 0"),
+                "c_n": (positive, "c_n > 0"),
+            },
         )
-        # Bisection is geometric while the bracket spans more than three decades (a root close to
-        # zero, e.g. a tiny first slip from r = 0, is then found in tens, not hundreds, of steps).
-        mid = np.where(ha > 1e3 * la, np.sqrt(np.maximum(la, _TINY)) * np.sqrt(ha), 0.5 * (la + ha))
-        xn = np.where(bisect, mid, newton)
-        dx_old[act] = dx[act]
-        dx[act] = xn - xa
-        fn, dfn = br.eval(xn, idx[act])[:2]
-        pos = fn > 0.0
-        lo[act] = np.where(pos, xn, la)
-        hi[act] = np.where(pos, ha, xn)
-        f_lo[act] = np.where(pos, fn, f_lo[act])
-        f_hi[act] = np.where(pos, f_hi[act], fn)
-        x[act], f[act], df[act] = xn, fn, dfn
-        iters[act] += 1
-        ok = np.abs(fn) <= tol_f[act]
-        flat = f_lo[act] - f_hi[act] <= 2.0 * tol_f[act]
-        tight = hi[act] - lo[act] <= 4.0 * _EPS * hi[act]
-        # Bracket exhausted: return whichever end is closer to phi = 0.
-        a = act[(flat | tight) & ~ok]
-        x[a] = np.where(f_lo[a] < -f_hi[a], lo[a], hi[a])
-        done = ok | flat | tight
-        conv[act[done]] = True
-        act = act[~done]
-    return x, conv, iters
-
-
-def _scan(
-    br: _Branch,
-    idx: np.ndarray,
-    hi: np.ndarray,
-    tol_f: np.ndarray,
-    max_iter: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Certified smallest root on ``[0, hi]`` by branch and bound (rows ``idx``; ``phi(hi) ~ 0``).
-
-    Keeps ``lo`` (no root in ``[0, lo]``, ``phi(lo) > 0``), a window ``[lo, end]`` and ``hi``
-    (``phi(hi) <= 0``). Each level evaluates ``phi`` on a grid of the window and classifies each
-    interval: root-free by the value bound, or strictly decreasing by the slope bound (then it holds
-    a root iff ``phi`` at its right end is not positive). Everything left of the first interval that
-    is unresolved or holds a root is certified root-free; a decreasing interval with a root is
-    solved by safeguarded Newton; an unresolved one becomes the next window. Returns the roots, a
-    converged mask, the evaluation counts and a mask of points where ``phi`` fell and then rose
-    before the root (a local minimum: the continuous branch ended in a fold, ``JUMP``).
-    """
-    n = idx.size
-    K = _SCAN_POINTS
-    p = br.p
-    lo = np.zeros(n)
-    hi = hi.copy()
-    end = hi.copy()
-    root = hi.copy()
-    conv = np.zeros(n, dtype=bool)
-    fell = np.zeros(n, dtype=bool)
-    jump = np.zeros(n, dtype=bool)
-    iters = np.zeros(n, dtype=np.int64)
-    t = np.linspace(0.0, 1.0, K + 1)
-    jj = np.arange(K)[None, :]
-    act = np.arange(n)
-    for _ in range(_SCAN_LEVELS):
-        if act.size == 0:
-            break
-        rows = idx[act]
-        la, ea, tf = lo[act], end[act], tol_f[act][:, None]
-        xs = la[:, None] + (ea - la)[:, None] * t[None, :]
-        xs[:, -1] = ea
-        phi, _, r, dr, mu, dmu = br.eval(xs, rows)
-        iters[act] += K
-        g = br.g[rows][:, None]
-        # Root-free: the value bound, or phi(x_j) minus the largest possible fall over the interval
-        # (slope bound phi' >= -C with C from the extreme values of r', mu, r, |mu'| on it).
-        C = p.alpha_t + g * dr[:, :-1] * mu[:, :-1] - g * r[:, :-1] * np.abs(dmu[:, 1:])
-        free = (br.A[rows][:, None] - p.alpha_t * xs[:, 1:] - g * r[:, 1:] * mu[:, :-1] > 0.0) | (
-            phi[:, :-1] - np.maximum(C, 0.0) * np.diff(xs, axis=1) > 0.0
+        mu_k = self.mu_k
+        object.__setattr__(
+            self, "mu_s", real("mu_s", self.mu_s, lambda v: v >= mu_k, f"mu_s >= mu_k = {mu_k!r}")
         )
-        decreasing = (
-            p.alpha_t + g * dr[:, 1:] * mu[:, 1:] - g * r[:, 1:] * np.abs(dmu[:, :-1]) > 0.0
-        )
-        neg = phi[:, 1:] <= tf
-        stop = neg | ~(free | decreasing)
-        any_stop = stop.any(axis=1)
-        j0 = np.where(any_stop, np.argmax(stop, axis=1), K)
-        # Fold detection on the certified root-free part: a fall followed by a rise.
-        d = np.diff(phi, axis=1)
-        before = jj < j0[:, None]
-        falls = (d < -tf) & before
-        rises = (d > tf) & before
-        fell_before = fell[act][:, None] | (np.cumsum(falls, axis=1) - falls > 0)
-        jump[act] |= (rises & fell_before).any(axis=1)
-        fell[act] |= falls.any(axis=1)
-
-        # phi at the certified left end already within tolerance: that is the smallest root (the
-        # window may otherwise shrink towards lo = 0 without ever reaching a few ulps of it).
-        at_lo = phi[:, 0] <= tf[:, 0]
-        ar = np.arange(act.size)
-        jc = np.minimum(j0, K - 1)
-        x_left, x_right = xs[ar, jc], xs[ar, jc + 1]
-        neg0 = any_stop & neg[ar, jc]
-        dec0 = any_stop & decreasing[ar, jc]
-        # Whole window root-free: continue from its end towards hi.
-        clear = ~any_stop
-        lo[act[clear]] = ea[clear]
-        end[act[clear]] = hi[act[clear]]
-        # Otherwise lo moves to the left end of the first interval needing attention.
-        lo[act[any_stop]] = x_left[any_stop]
-        solve = neg0 & dec0
-        refine = any_stop & ~solve
-        hi[act[neg0]] = x_right[neg0]
-        end[act[refine]] = x_right[refine]
-        finished = at_lo.copy()
-        root[act[at_lo]] = la[at_lo]
-        conv[act[at_lo]] = True
-        solve &= ~at_lo
-        if np.any(solve):
-            s = act[solve]
-            x, ok, it = _rtsafe(
-                br,
-                idx[s],
-                x_left[solve],
-                x_right[solve],
-                x_right[solve],
-                tol_f[s],
-                max_iter,
+        if self.mu0 is not None:
+            lo, hi = self.mu_k, self.mu_s
+            object.__setattr__(
+                self,
+                "mu0",
+                real(
+                    "mu0",
+                    self.mu0,
+                    lambda v: lo <= v <= hi,
+                    f"mu_k <= mu0 <= mu_s = [{lo!r}, {hi!r}]",
+                ),
             )
-            root[s], conv[s] = x, ok
-            iters[s] += it
-            finished[solve] = True
-        # A window down to a few ulps of dl: its right end is a root if phi <= tol there,
-        # otherwise it is passed over (a tangency that double precision cannot resolve).
-        ulps = 4.0 * _EPS * end[act] + _TINY
-        tiny = ~finished & (end[act] - lo[act] <= ulps)
-        at_root = tiny & (neg0 | (hi[act] - lo[act] <= ulps))
-        root[act[at_root]] = np.where(neg0[at_root], x_right[at_root], hi[act[at_root]])
-        conv[act[at_root]] = True
-        finished |= at_root
-        skip = tiny & ~at_root
-        lo[act[skip]] = end[act[skip]]
-        end[act[skip]] = hi[act[skip]]
-        act = act[~finished]
-    return root, conv, iters, jump
+
+    @property
+    def mu_initial(self) -> float:
+        """Initial value of the hardening function (``mu0``, or ``mu_s`` when not given)."""
+        return self.mu_s if self.mu0 is None else float(self.mu0)
+
+    def initial_value(self, name: str) -> float:
+        """Virgin values: ``up = 0``, ``mu = mu_initial``, ``r = 0``."""
+        return self.mu_initial if name == "mu" else 0.0
+
+    def return_map(
+        self,
+        gap: npt.ArrayLike,
+        state: InterfaceState,
+        dt: float,
+        *,
+        out: InterfaceState | None = None,
+        tol: float = 1e-13,
+        max_iter: int = 100,
+    ) -> ReturnMapResult:
+        """Integrate the law over one step; see :func:`subloading_return_map`."""
+        return subloading_return_map(self, gap, state, dt, out=out, tol=tol, max_iter=max_iter)
+
+    def strength(self, state: InterfaceState, f_n: npt.ArrayLike, dt: float = 0.0) -> np.ndarray:
+        """``g(f_n) mu`` with ``mu`` recovered over ``dt`` (0 where ``f_n <= 0``)."""
+        fn = np.maximum(np.asarray(f_n, dtype=float), 0.0)
+        mu = np.asarray(state["mu"], dtype=float)
+        mu_rec = np.minimum(mu + (self.mu_s - mu) * -np.expm1(-self.xi * float(dt)), self.mu_s)
+        return -np.expm1(-self.c_n * fn) * mu_rec
 
 
 def subloading_return_map(
-    params: SubloadingParameters,
+    params: SubloadingLaw,
     gap: npt.ArrayLike,
     state: InterfaceState,
     dt: float,
@@ -387,7 +230,7 @@ def subloading_return_map(
     unstable = np.zeros(n, dtype=bool)
     iterations = np.zeros(n, dtype=np.int64)
 
-    new = InterfaceState.initial(n, nt, p.mu_s) if out is None else out
+    new = p.initial_state(n, nt) if out is None else out
     if new.up.shape != up_n.shape:
         raise ValueError(f"out has shape {new.up.shape}, expected {up_n.shape}")
     traction = np.zeros((n, m))
@@ -444,7 +287,7 @@ def subloading_return_map(
 
 
 def _plastic(
-    p: SubloadingParameters,
+    p: SubloadingLaw,
     pidx: np.ndarray,
     ft_trial: np.ndarray,
     A_all: np.ndarray,
@@ -468,7 +311,7 @@ def _plastic(
     nt = ft_trial.shape[1]
     A, fn, g = A_all[pidx], fn_all[pidx], g_all[pidx]
     r_n, mu_n, mu_rec = r_all[pidx], mu_all[pidx], mu_rec_all[pidx]
-    br = _Branch(p, A, g, r_n, mu_n, b)
+    br = Branch(p, A, g, r_n, mu_n, b)
     npl = pidx.size
     rows = np.arange(npl)
     dl_max = A / p.alpha_t
@@ -485,7 +328,7 @@ def _plastic(
         x1 = np.where(np.isfinite(dr0), phi0 / (p.alpha_t + g * mu_rec * dr0), 0.0)
     x1 = np.clip(x1, 0.0, dl_max)
     start = np.where(x1 > 0.0, x1, dl_max)
-    x, conv, iters = _rtsafe(br, rows, x1, dl_max, start, tol_f, max_iter)
+    x, conv, iters = rtsafe(br, rows, x1, dl_max, start, tol_f, max_iter)
 
     # Certify: phi strictly decreasing on [0, x] means x is the smallest root.
     _, dphi, r, dr, mu, _ = br.eval(x)
@@ -494,7 +337,7 @@ def _plastic(
     jump = np.zeros(npl, dtype=bool)
     unc = np.flatnonzero(~certified & conv)
     if unc.size:
-        x_s, conv_s, it_s, jump_s = _scan(br, unc, x[unc], tol_f[unc], max_iter)
+        x_s, conv_s, it_s, jump_s = scan(br, unc, x[unc], tol_f[unc], max_iter)
         x[unc], conv[unc], jump[unc] = x_s, conv_s, jump_s
         iters[unc] += it_s
         _, dphi, r, dr, mu, _ = br.eval(x)

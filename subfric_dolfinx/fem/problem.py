@@ -12,10 +12,7 @@ reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
-import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -23,103 +20,13 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
+from ..constitutive import FrictionLaw
+from ..loading import LoadingProgram
+from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
 from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
-from .loading import LoadingProgram
+from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
-__all__ = [
-    "Dirichlet",
-    "DirichletField",
-    "InterfaceProblem",
-    "Material",
-    "Pressure",
-    "Timings",
-    "Traction",
-]
-
-TIMER_SETUP = "setup"
-TIMER_BULK = "bulk assembly"
-TIMER_RETURN_MAP = "return map"
-TIMER_INTERFACE = "interface assembly"
-
-
-class Timings:
-    """Accumulated wall time per section (``time.perf_counter``)."""
-
-    def __init__(self) -> None:
-        self.seconds: dict[str, float] = {}
-        self.calls: dict[str, int] = {}
-
-    @contextlib.contextmanager
-    def __call__(self, name: str):
-        """Time the enclosed block under ``name``."""
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
-            self.calls[name] = self.calls.get(name, 0) + 1
-
-
-@dataclasses.dataclass(frozen=True)
-class Material:
-    """Isotropic linear elasticity. ``E`` in MPa, ``nu`` in [0, 0.5)."""
-
-    E: float
-    nu: float
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.E) and self.E > 0):
-            raise ValueError(f"Young's modulus E = {self.E!r} must be finite and > 0")
-        if not (np.isfinite(self.nu) and 0.0 <= self.nu < 0.5):
-            raise ValueError(f"Poisson's ratio nu = {self.nu!r} must be in [0, 0.5)")
-
-
-@dataclasses.dataclass(frozen=True)
-class Dirichlet:
-    """Prescribed displacement ``value * amplitude(t)`` on a facet group.
-
-    Where conditions share a dof (e.g. along an edge of two faces), the later one wins.
-    ``value`` is a vector (all components) or a scalar with ``component`` given, or a callable
-    taking the dof coordinates ``x`` (3, n) and returning values (gdim, n), or (n,) with
-    ``component``.
-    """
-
-    group: str
-    value: float | Sequence[float] | Callable[[np.ndarray], np.ndarray]
-    component: int | None = None
-    amplitude: str | None = None
-
-
-@dataclasses.dataclass(frozen=True)
-class DirichletField:
-    """Prescribed displacement component ``function(x, t)`` on a facet group.
-
-    For prescribed fields that are not one shape times one channel: ``function`` receives the
-    dof coordinates ``x`` (3, n) and the time, and returns the values (n,).
-    """
-
-    group: str
-    function: Callable[[np.ndarray, float], np.ndarray]
-    component: int
-    amplitude: None = None
-
-
-@dataclasses.dataclass(frozen=True)
-class Traction:
-    """Surface traction vector ``value * amplitude(t)`` (MPa) on a facet group."""
-
-    group: str
-    value: Sequence[float]
-    amplitude: str | None = None
-
-
-@dataclasses.dataclass(frozen=True)
-class Pressure:
-    """Pressure ``value * amplitude(t)`` (MPa, positive pushing inwards) on a facet group."""
-
-    group: str
-    value: float
-    amplitude: str | None = None
+__all__ = ["InterfaceProblem"]
 
 
 class InterfaceProblem:
@@ -129,7 +36,7 @@ class InterfaceProblem:
         domain: The bulk mesh with its tags, e.g. a :class:`~subfric_dolfinx.meshing.InterfaceMesh`
             (anything with ``mesh``, ``cell_tags``, ``facet_tags`` and ``tags``, name -> tag);
             its interface nodes must be duplicated.
-        law: Friction law (e.g. :class:`~subfric_dolfinx.constitutive.SubloadingParameters`).
+        law: The friction law (a :class:`~subfric_dolfinx.constitutive.FrictionLaw`).
         materials: Body name (``master``/``slave``) -> :class:`Material`.
         program: Loading program whose channels the conditions refer to.
         dirichlet: Prescribed displacements.
@@ -145,7 +52,7 @@ class InterfaceProblem:
     def __init__(
         self,
         domain,
-        law,
+        law: FrictionLaw,
         materials: Mapping[str, Material],
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),

@@ -21,6 +21,8 @@ import dolfinx
 import numpy as np
 from mpi4py import MPI
 
+from .geometry import basix_cell, match_points, push_forward
+
 __all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
 
 
@@ -44,6 +46,7 @@ class InterfacePairs:
         index_map: The displacement index map extended with the non-local slave nodes as ghosts.
         n_extra_ghosts: Number of nodes added to the ghosts of the displacement index map.
         n_split: Number of this rank's pairs whose slave facet is owned by another rank.
+        h_min: Smallest distance between two nodes of an interface facet, over all ranks.
     """
 
     submesh: dolfinx.mesh.Mesh
@@ -56,6 +59,7 @@ class InterfacePairs:
     index_map: dolfinx.common.IndexMap
     n_extra_ghosts: int
     n_split: int
+    h_min: float
 
 
 def _adjacent_cells(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,37 +77,6 @@ def _local_facet_index(
     nfc = c2f.offsets[1] - c2f.offsets[0] if c2f.offsets.size > 1 else 0
     table = c2f.array.reshape(-1, nfc)[cells]
     return np.argmax(table == facets[:, None], axis=1)
-
-
-def _match_points(
-    keys: np.ndarray, queries: np.ndarray, tol: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """For each query point, the index of a key point within ``tol`` (or -1), and the distance.
-
-    Hashes the keys on a grid of spacing ``4 tol`` and searches the neighbouring grid cells.
-    """
-    n, d = queries.shape
-    out = np.full(n, -1, dtype=np.int64)
-    dist = np.full(n, np.inf)
-    if keys.shape[0] == 0 or n == 0:
-        return out, dist
-    h = 4.0 * tol
-    kq = np.floor(keys / h).astype(np.int64)
-    table: dict[tuple[int, ...], list[int]] = {}
-    for i, k in enumerate(map(tuple, kq)):
-        table.setdefault(k, []).append(i)
-    qq = np.floor(queries / h).astype(np.int64)
-    shifts = np.array(np.meshgrid(*[[-1, 0, 1]] * d, indexing="ij")).reshape(d, -1).T
-    for i in range(n):
-        best, bd = -1, np.inf
-        for s in shifts:
-            for j in table.get(tuple(qq[i] + s), ()):
-                dd = float(np.linalg.norm(keys[j] - queries[i]))
-                if dd < bd:
-                    best, bd = j, dd
-        if bd <= tol:
-            out[i], dist[i] = best, bd
-    return out, dist
 
 
 def pair_interface(
@@ -196,7 +169,7 @@ def pair_interface(
     degree = V.ufl_element().embedded_superdegree
     fcell = sub.topology.cell_type
     felem = basix.create_element(
-        basix.ElementFamily.P, _basix_cell(fcell), degree, basix.LagrangeVariant.gll_warped
+        basix.ElementFamily.P, basix_cell(fcell), degree, basix.LagrangeVariant.gll_warped
     )
     Xn = felem.points
     node_points = push_forward(sub, Xn)  # (nf, nfd, gdim)
@@ -227,8 +200,8 @@ def pair_interface(
     fail(None if lost is None else f"internal error: master facet nodes not found at {lost}")
 
     # Slave facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
-    basix_cell = V.ufl_element().sub_elements[0].basix_element
-    closure = basix_cell.entity_closure_dofs[tdim - 1]
+    vector_element = V.ufl_element().sub_elements[0].basix_element
+    closure = vector_element.entity_closure_dofs[tdim - 1]
     lfi = _local_facet_index(mesh, s_cells, s_facets) if s_facets.size else np.zeros(0, int)
     s_nodes = (
         np.array([dofs[c][closure[lf]] for c, lf in zip(s_cells, lfi, strict=True)], dtype=np.int32)
@@ -251,7 +224,7 @@ def pair_interface(
     all_x = np.concatenate([g[3] for g in gathered]).reshape(-1, nfd, gdim)
 
     m_mid = node_points.mean(axis=1) if nf else np.zeros((0, gdim))
-    match, _ = _match_points(all_mid, m_mid, tol)
+    match, _ = match_points(all_mid, m_mid, tol)
     unmatched = np.flatnonzero(match < 0)
     n_unmatched = comm.allreduce(unmatched.size)
     n_slave = comm.allreduce(s_facets.size)
@@ -320,34 +293,11 @@ def pair_interface(
         index_map=imap_ext,
         n_extra_ghosts=len(extra),
         n_split=n_split,
+        h_min=float(h) if np.isfinite(h) else 1.0,
     )
-
-
-def _basix_cell(cell_type: dolfinx.mesh.CellType) -> basix.CellType:
-    return basix.CellType[cell_type.name]
 
 
 def _facet_midpoints(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> np.ndarray:
     tdim, gdim = mesh.topology.dim, mesh.geometry.dim
     nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets)
     return mesh.geometry.x[nodes].mean(axis=1)[:, :gdim]
-
-
-def coordinate_basis(sub: dolfinx.mesh.Mesh, X: np.ndarray, nderiv: int = 0) -> np.ndarray:
-    """Tabulate the coordinate element of ``sub`` at reference points ``X``."""
-    cmap = sub.geometry.cmap
-    e = basix.create_element(
-        basix.ElementFamily.P,
-        _basix_cell(sub.topology.cell_type),
-        cmap.degree,
-        basix.LagrangeVariant(cmap.variant),
-    )
-    return e.tabulate(nderiv, X)[..., 0]
-
-
-def push_forward(sub: dolfinx.mesh.Mesh, X: np.ndarray) -> np.ndarray:
-    """Physical coordinates of reference points ``X`` in every cell of ``sub``, (nc, nX, gdim)."""
-    gdim = sub.geometry.dim
-    phi = coordinate_basis(sub, X)[0]  # (nX, ngeo)
-    xg = sub.geometry.x[sub.geometry.dofmap][..., :gdim]  # (nc, ngeo, gdim)
-    return np.einsum("xk,ckd->cxd", phi, xg)

@@ -5,8 +5,9 @@ ranks restarts on 1 or 2:
 
 * ``/displacement``: values per (original cell index, cell-local dof, component), shape
   ``(n_cells, n_dofs_per_cell, gdim)``;
-* ``/interface/x``, ``/interface/up``, ``/interface/mu``, ``/interface/r``: the committed interface
-  state per quadrature point, keyed by the point's coordinates (unique on the interface);
+* ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
+  ``up``, ``mu``, ``r``): the committed interface state per quadrature point, keyed by the point's
+  coordinates (unique on the interface);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
   counter of the stepper), ``law`` and ``program`` (JSON), ``n_cells``, ``degree``, ``gdim``;
 * ``/history``: the rows of the history so far (column names in the attribute ``columns``).
@@ -27,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from .interface.pairing import _match_points
+from ..constitutive import law_description
+from ..fem.interface.geometry import match_points
 
 __all__ = ["CheckpointError", "read_checkpoint", "restore_checkpoint", "write_checkpoint"]
 
@@ -37,10 +39,6 @@ VERSION = 1
 
 class CheckpointError(RuntimeError):
     """An unusable checkpoint; the message says why."""
-
-
-def _law_dict(law: Any) -> dict[str, Any]:
-    return {"law": law.name, "params": law.as_dict()}
 
 
 def _cell_dofs(problem: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -54,8 +52,8 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
 
     Args:
         path: Checkpoint file.
-        problem: The :class:`~subfric_dolfinx.problem.InterfaceProblem`.
-        stepper: The :class:`~subfric_dolfinx.solver.LoadStepper` (time, step, dt).
+        problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt).
         history: History rows so far (stored so that a restarted run continues them).
     """
     comm = problem.comm
@@ -66,7 +64,7 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
     el = problem.interface
     st = el.state.old
     pts = el.points.reshape(-1, gdim)
-    gathered = comm.gather((cells, u_cells, pts, st.up, st.mu, st.r), root=0)
+    gathered = comm.gather((cells, u_cells, pts, {k: a for k, a in st.items()}), root=0)
     error = None
     if comm.rank == 0:
         try:
@@ -88,7 +86,7 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
                     step=stepper.step,
                     dt=stepper.dt,
                     easy=stepper.easy,
-                    law=json.dumps(_law_dict(problem.law)),
+                    law=json.dumps(law_description(problem.law)),
                     program=json.dumps(problem.program.to_dict()),
                     n_cells=n_cells,
                     degree=problem.V.ufl_element().embedded_superdegree,
@@ -97,9 +95,9 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
                 f["displacement"] = U
                 g = f.create_group("interface")
                 g["x"] = np.concatenate([x[2] for x in gathered]).reshape(-1, gdim)
-                g["up"] = np.concatenate([x[3] for x in gathered]).reshape(-1, el.nt)
-                g["mu"] = np.concatenate([x[4] for x in gathered])
-                g["r"] = np.concatenate([x[5] for x in gathered])
+                for name in st.names:
+                    a = np.concatenate([x[3][name] for x in gathered])
+                    g[name] = a.reshape(-1, el.nt) if st[name].ndim == 2 else a
                 cols = list(history[0]) if history else []
                 h = f.create_dataset(
                     "history",
@@ -125,9 +123,7 @@ class Checkpoint:
     attrs: dict[str, Any]
     displacement: np.ndarray
     x: np.ndarray
-    up: np.ndarray
-    mu: np.ndarray
-    r: np.ndarray
+    interface: dict[str, np.ndarray]
     history: list[dict[str, float]]
 
 
@@ -162,14 +158,7 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                         f"checkpoint {str(p)!r} has version {f.attrs.get('version')!r}, "
                         f"this code reads version {VERSION}"
                     )
-                need = [
-                    "displacement",
-                    "interface/x",
-                    "interface/up",
-                    "interface/mu",
-                    "interface/r",
-                    "history",
-                ]
+                need = ["displacement", "interface/x", "history"]
                 missing = [k for k in need if k not in f]
                 if missing:
                     raise CheckpointError(f"checkpoint {str(p)!r} lacks {missing}")
@@ -180,9 +169,7 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                     attrs,
                     f["displacement"][()],
                     f["interface/x"][()],
-                    f["interface/up"][()],
-                    f["interface/mu"][()],
-                    f["interface/r"][()],
+                    {k: f["interface"][k][()] for k in f["interface"] if k != "x"},
                     hist,
                 )
         except CheckpointError as e:
@@ -220,10 +207,10 @@ def restore_checkpoint(path: str | Path, problem: Any, stepper: Any) -> list[dic
             raise CheckpointError(
                 f"checkpoint {str(path)!r} is for a mesh with {k} = {a[k]}, this one has {v}"
             )
-    if json.loads(a["law"]) != _law_dict(problem.law):
+    if json.loads(a["law"]) != law_description(problem.law):
         raise CheckpointError(
             f"checkpoint {str(path)!r} was written with law {a['law']}, "
-            f"this run has {json.dumps(_law_dict(problem.law))}"
+            f"this run has {json.dumps(law_description(problem.law))}"
         )
     if json.loads(a["program"]) != problem.program.to_dict():
         raise CheckpointError(f"checkpoint {str(path)!r} was written with another loading program")
@@ -234,16 +221,18 @@ def restore_checkpoint(path: str | Path, problem: Any, stepper: Any) -> list[dic
     el = problem.interface
     pts = el.points.reshape(-1, gdim)
     scale = float(np.abs(ck.x).max()) if ck.x.size else 1.0
-    idx, _ = _match_points(ck.x, pts, 1e-9 * max(scale, 1.0))
+    idx, _ = match_points(ck.x, pts, 1e-9 * max(scale, 1.0))
     bad = comm.allreduce(int(np.count_nonzero(idx < 0)))
     if bad:
         raise CheckpointError(
             f"{bad} interface points of this run are not in the checkpoint {str(path)!r}"
         )
     st = el.state.old
-    st.up[:] = ck.up[idx]
-    st.mu[:] = ck.mu[idx]
-    st.r[:] = ck.r[idx]
+    missing = sorted(set(st.names) - set(ck.interface))
+    if missing:
+        raise CheckpointError(f"checkpoint {str(path)!r} lacks the interface variable(s) {missing}")
+    for name in st.names:
+        st[name][:] = ck.interface[name][idx]
     el.state.revert()  # trial = committed
     stepper.restore(float(a["time"]), int(a["step"]), float(a["dt"]), int(a["easy"]))
     return ck.history

@@ -26,37 +26,11 @@ import basix.ufl
 import dolfinx
 import numpy as np
 
-from ..constitutive import InterfaceState, StatePair
-from .pairing import InterfacePairs, coordinate_basis, push_forward
+from ...constitutive import TANGENTIAL, FrictionLaw, InterfaceState, StatePair
+from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
+from .pairing import InterfacePairs
 
-__all__ = ["InterfaceElements", "quadrature_rule"]
-
-
-def quadrature_rule(cell: basix.CellType, degree: int, kind: str) -> tuple[np.ndarray, np.ndarray]:
-    """Quadrature points and weights on a reference facet.
-
-    Args:
-        cell: Facet cell type.
-        degree: Polynomial degree of the displacement (1 or 2).
-        kind: ``"gauss"`` (exact for the interface's mass-like terms, degree ``2 p``) or
-            ``"nodal"`` (the facet Lagrange nodes with the weights that integrate the Lagrange
-            basis exactly, i.e. a lumped scheme, as often preferred against traction oscillations
-            of stiff penalty interfaces; degree 1 only on simplices).
-    """
-    if kind == "gauss":
-        return basix.make_quadrature(cell, 2 * degree)
-    if kind == "nodal":
-        e = basix.create_element(
-            basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
-        )
-        Xg, wg = basix.make_quadrature(cell, 2 * degree)
-        w = e.tabulate(0, Xg)[0, :, :, 0].T @ wg
-        if np.any(w <= 0.0):
-            raise ValueError(
-                f"nodal quadrature has non-positive weights for degree {degree} on {cell.name}"
-            )
-        return e.points.copy(), w
-    raise ValueError(f"quadrature kind must be 'gauss' or 'nodal', got {kind!r}")
+__all__ = ["InterfaceElements"]
 
 
 class InterfaceElements:
@@ -65,7 +39,7 @@ class InterfaceElements:
     Args:
         pairs: Result of :func:`~.pairing.pair_interface`.
         V: The displacement space.
-        law: Friction law (``return_map`` and ``initial_state``).
+        law: The friction law (:class:`~subfric_dolfinx.constitutive.FrictionLaw`).
         quadrature: ``"gauss"`` or ``"nodal"``, see :func:`quadrature_rule`.
 
     Attributes:
@@ -76,16 +50,19 @@ class InterfaceElements:
         weights: Quadrature weight times surface Jacobian, (nf, nq).
         N: Facet basis at the quadrature points, (nq, nfd).
         state: Committed (``old``) and trial (``new``) internal variables, views of the arrays of
-            the Quadrature functions ``functions["up"|"mu"|"r"]`` (and ``..._old``).
-        functions: Quadrature functions: ``up``, ``mu``, ``r`` (trial), ``up_old``, ``mu_old``,
-            ``r_old`` (committed), ``traction`` (``f_t..., f_n``, local components).
+            the Quadrature functions ``functions[name]`` (and ``functions[name + "_old"]``).
+        functions: Quadrature functions: one per internal variable the law declares (trial
+            state, e.g. ``up``, ``mu``, ``r``), the same with ``_old`` (committed state), and
+            ``traction`` (``f_t..., f_n``, local components).
+        coordinate_tolerance: Points closer than this are the same point (a small fraction of
+            the smallest interface facet), for matching and ordering.
     """
 
     def __init__(
         self,
         pairs: InterfacePairs,
         V: dolfinx.fem.FunctionSpace,
-        law,
+        law: FrictionLaw,
         quadrature: str = "gauss",
     ) -> None:
         self.pairs = pairs
@@ -131,7 +108,7 @@ class InterfaceElements:
         nvec *= np.where(out < 0.0, -1.0, 1.0)[..., None]
         self.normal = nvec
         self.weights = detJ * w[None, :]
-        self.Q = _frames(nvec)
+        self.Q = frames(nvec)
 
         # State in Quadrature spaces on the interface submesh.
         cname = sub.topology.cell_name()
@@ -142,31 +119,27 @@ class InterfaceElements:
         self.Qv = dolfinx.fem.functionspace(sub, qe_v)
         self.Qf = dolfinx.fem.functionspace(sub, qe_f)
         F = dolfinx.fem.Function
-        fn = {
-            "up": F(self.Qv, name="up"),
-            "mu": F(self.Qs, name="mu"),
-            "r": F(self.Qs, name="r"),
-            "up_old": F(self.Qv, name="up_old"),
-            "mu_old": F(self.Qs, name="mu_old"),
-            "r_old": F(self.Qs, name="r_old"),
-            "traction": F(self.Qf, name="traction"),
-        }
-        self.functions = fn
         npts = nf * self.nq
-        for k in ("mu", "r", "up"):
-            if fn[k].x.array.size != npts * (self.nt if k == "up" else 1):
-                raise RuntimeError("unexpected layout of the interface Quadrature space")
-
-        def view(suffix: str) -> InterfaceState:
-            return InterfaceState(
-                fn["up" + suffix].x.array.reshape(npts, self.nt),
-                fn["mu" + suffix].x.array,
-                fn["r" + suffix].x.array,
-                copy=False,
-            )
-
+        # One Quadrature function per declared variable (trial) and its committed copy ("_old").
+        fn: dict[str, dolfinx.fem.Function] = {}
+        views: dict[str, dict[str, np.ndarray]] = {"": {}, "_old": {}}
+        for var in law.variables:
+            space = self.Qv if var.shape == TANGENTIAL else self.Qs
+            for suffix, arrays in views.items():
+                f = F(space, name=var.name + suffix)
+                if f.x.array.size != npts * var.components(self.nt):
+                    raise RuntimeError("unexpected layout of the interface Quadrature space")
+                fn[var.name + suffix] = f
+                arrays[var.name] = (
+                    f.x.array.reshape(npts, self.nt) if var.shape == TANGENTIAL else f.x.array
+                )
+        fn["traction"] = F(self.Qf, name="traction")
+        self.functions = fn
         init = law.initial_state(npts, self.nt)
-        self.state = StatePair(view("_old"), view(""))
+        self.state = StatePair(
+            InterfaceState(views["_old"], self.nt, copy=False),
+            InterfaceState(views[""], self.nt, copy=False),
+        )
         self.state.old.assign(init)
         self.state.new.assign(init)
 
@@ -175,6 +148,7 @@ class InterfaceElements:
         self.dofs = (self.nodes[:, :, None] * self.bs + np.arange(self.bs)).reshape(
             nf, 2 * self.nfd * self.bs
         )
+        self.coordinate_tolerance = 1e-6 * pairs.h_min
         self.last = None  # last ReturnMapResult
         self.last_gap = np.zeros((nf * self.nq, gdim))
 
@@ -228,25 +202,3 @@ class InterfaceElements:
     def revert(self) -> None:
         """Reject the trial state."""
         self.state.revert()
-
-
-def _frames(n: np.ndarray) -> np.ndarray:
-    """Rows ``(e1, [e2,] -n)`` of local frames for unit normals ``n`` (..., gdim)."""
-    gdim = n.shape[-1]
-    Q = np.zeros((*n.shape, gdim))
-    if gdim == 2:
-        Q[..., 0, :] = np.stack([n[..., 1], -n[..., 0]], axis=-1)
-        Q[..., 1, :] = -n
-        return Q
-    # e1: the projection of x (or of y where n is close to x) on the tangent plane
-    ax = np.zeros_like(n)
-    use_y = np.abs(n[..., 0]) > 0.9
-    ax[..., 0] = np.where(use_y, 0.0, 1.0)
-    ax[..., 1] = np.where(use_y, 1.0, 0.0)
-    e1 = ax - np.sum(ax * n, axis=-1, keepdims=True) * n
-    e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
-    e2 = np.cross(n, e1)
-    Q[..., 0, :] = e1
-    Q[..., 1, :] = e2
-    Q[..., 2, :] = -n
-    return Q

@@ -1,0 +1,66 @@
+"""Material-point driver: one interface point along a prescribed path (numpy only).
+
+Library use::
+
+    from subfric_dolfinx.driver import load_case, run_case
+    result = run_case(load_case("case.json"), steps_per_mm=500)
+
+Command line::
+
+    python3 -m subfric_dolfinx.driver CASE.json [--steps-per-mm N] [--out OUT.json]
+
+CASE.json::
+
+    {
+      "law": "subloading",                 # or "coulomb"; optional, default "subloading"
+      "params": {"preset": "sec7", "mu0": 400.0},   # or every parameter by name
+      "control": "disp",                   # "disp": x is ubar_t (mm); "stress": x is f_t (MPa)
+      "path": [[t, x1, x2, ubar_n], ...],  # linear in between; times strictly increasing
+      "t_samples": [t, ...],               # output times within the path
+      "n_tangential": 2,                   # optional: 1 (2-D, x2 must be 0) or 2 (3-D)
+      "steps_per_mm": 200                  # optional; --steps-per-mm overrides it
+    }
+
+Steps are split at every path breakpoint and sample time; between them a segment gets
+``ceil(steps_per_mm * L)`` equal steps, ``L`` being the largest change of ``|ubar_t|`` or ``ubar_n``
+in mm (under stress control the tangential change counts as ``|f_t| / alpha_t`` mm). A hold (no
+change) is one step: recovery integrates exactly.
+
+Output (JSON): at each sample time ``t, f_t1, f_t2, f_n, up_t1, up_t2, mu, r, ubar_t1, ubar_t2,
+ubar_n`` and the status of the step ending there; the number of steps per status; and
+``stability_lost``: ``null``, or the first time the rate-form denominator went non-positive or the
+solution jumped at a fold, with the state there. By default the driver stops there, because no
+stable quasi-static solution exists beyond (``on_instability="continue"`` goes on, flagged).
+Under stress control, loading beyond what the interface can sustain raises :class:`RunawayError`
+at the time it happened.
+
+Modules: :mod:`.case` (parsing and validation), :mod:`.run` (the step loop), :mod:`.cli` (the
+command line).
+
+May import: :mod:`subfric_dolfinx.constitutive`, numpy and the standard library only.
+"""
+
+from .case import (
+    DEFAULT_STEPS_PER_MM,
+    MAX_STEPS_PER_SEGMENT,
+    Case,
+    CaseError,
+    load_case,
+    parse_case,
+)
+from .cli import main
+from .run import DriverResult, RunawayError, fields, run_case
+
+__all__ = [
+    "DEFAULT_STEPS_PER_MM",
+    "MAX_STEPS_PER_SEGMENT",
+    "Case",
+    "CaseError",
+    "DriverResult",
+    "RunawayError",
+    "fields",
+    "load_case",
+    "main",
+    "parse_case",
+    "run_case",
+]

@@ -1,0 +1,130 @@
+"""Material-point cases: the validated form of CASE.json, from a file or a dictionary.
+
+See :mod:`subfric_dolfinx.driver` for the JSON form.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..constitutive import FrictionLaw, LawError, build_law
+
+__all__ = [
+    "DEFAULT_STEPS_PER_MM",
+    "MAX_STEPS_PER_SEGMENT",
+    "Case",
+    "CaseError",
+    "load_case",
+    "parse_case",
+]
+
+DEFAULT_STEPS_PER_MM = 200.0
+MAX_STEPS_PER_SEGMENT = 1e7  # steps between two knots of the path; more is a mistake
+
+
+class CaseError(ValueError):
+    """A malformed case; the message names the offending field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    """A validated material-point case (see the module docstring for the JSON form)."""
+
+    law: FrictionLaw
+    control: str
+    path: np.ndarray
+    t_samples: np.ndarray
+    n_tangential: int = 2
+    steps_per_mm: float = DEFAULT_STEPS_PER_MM
+
+
+def _number(where: str, v: Any) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise CaseError(f"field '{where}' must be a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise CaseError(f"field '{where}' must be finite, got {v!r}")
+    return x
+
+
+def parse_case(obj: Any) -> Case:
+    """Validate a case given as a JSON-like dictionary.
+
+    Raises:
+        CaseError: The message names the offending field.
+    """
+    if not isinstance(obj, dict):
+        raise CaseError(f"the case must be a JSON object, got {type(obj).__name__}")
+    allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
+    unknown = sorted(set(obj) - allowed)
+    if unknown:
+        raise CaseError(f"unknown field(s) {unknown}; allowed: {sorted(allowed)}")
+    try:
+        law = build_law(obj)
+    except LawError as e:
+        raise CaseError(str(e)) from None
+    control = obj.get("control")
+    if control not in ("disp", "stress"):
+        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {control!r}")
+    nt = obj.get("n_tangential", 2)
+    if nt not in (1, 2) or isinstance(nt, bool):
+        raise CaseError(f"field 'n_tangential' must be 1 or 2, got {nt!r}")
+    raw = obj.get("path")
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise CaseError("field 'path' must be a list of at least two rows [t, x1, x2, ubar_n]")
+    rows = []
+    for i, row in enumerate(raw):
+        if not isinstance(row, list) or len(row) != 4:
+            raise CaseError(f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {row!r}")
+        rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
+    path = np.array(rows)
+    for i in range(1, len(path)):
+        if not path[i, 0] > path[i - 1, 0]:
+            raise CaseError(
+                f"field 'path[{i}][0]': times must increase strictly, got {path[i, 0]!r} "
+                f"after {path[i - 1, 0]!r}"
+            )
+    if nt == 1 and np.any(path[:, 2] != 0.0):
+        i = int(np.flatnonzero(path[:, 2] != 0.0)[0])
+        raise CaseError(f"field 'path[{i}][2]' must be 0 with n_tangential = 1, got {path[i, 2]!r}")
+    ts = obj.get("t_samples")
+    if not isinstance(ts, list) or not ts:
+        raise CaseError("field 't_samples' must be a non-empty list of times")
+    samples = np.array([_number(f"t_samples[{i}]", v) for i, v in enumerate(ts)])
+    t0, t1 = path[0, 0], path[-1, 0]
+    for i, t in enumerate(samples):
+        if not t0 <= t <= t1:
+            raise CaseError(
+                f"field 't_samples[{i}]' = {t!r} lies outside the path [{t0!r}, {t1!r}]"
+            )
+        if i and t < samples[i - 1]:
+            raise CaseError(f"field 't_samples[{i}]': sample times must not decrease")
+    spm = obj.get("steps_per_mm", DEFAULT_STEPS_PER_MM)
+    spm = _number("steps_per_mm", spm)
+    if spm <= 0:
+        raise CaseError(f"field 'steps_per_mm' must be > 0, got {spm!r}")
+    return Case(law, control, path, samples, int(nt), spm)
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a CASE.json file.
+
+    Raises:
+        CaseError: Unreadable file, invalid JSON, or a bad field (named in the message).
+    """
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as e:
+        raise CaseError(f"cannot read case file {str(p)!r}: {e.strerror}") from None
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CaseError(f"case file {str(p)!r} is not valid JSON: {e}") from None
+    return parse_case(obj)

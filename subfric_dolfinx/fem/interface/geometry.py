@@ -1,0 +1,121 @@
+"""Geometry of interface facets: quadrature, push-forward, local frames, point matching."""
+
+from __future__ import annotations
+
+import basix
+import dolfinx
+import numpy as np
+
+__all__ = [
+    "basix_cell",
+    "coordinate_basis",
+    "frames",
+    "match_points",
+    "push_forward",
+    "quadrature_rule",
+]
+
+
+def quadrature_rule(cell: basix.CellType, degree: int, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature points and weights on a reference facet.
+
+    Args:
+        cell: Facet cell type.
+        degree: Polynomial degree of the displacement (1 or 2).
+        kind: ``"gauss"`` (exact for the interface's mass-like terms, degree ``2 p``) or
+            ``"nodal"`` (the facet Lagrange nodes with the weights that integrate the Lagrange
+            basis exactly, i.e. a lumped scheme, as often preferred against traction oscillations
+            of stiff penalty interfaces; degree 1 only on simplices).
+    """
+    if kind == "gauss":
+        return basix.make_quadrature(cell, 2 * degree)
+    if kind == "nodal":
+        e = basix.create_element(
+            basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
+        )
+        Xg, wg = basix.make_quadrature(cell, 2 * degree)
+        w = e.tabulate(0, Xg)[0, :, :, 0].T @ wg
+        if np.any(w <= 0.0):
+            raise ValueError(
+                f"nodal quadrature has non-positive weights for degree {degree} on {cell.name}"
+            )
+        return e.points.copy(), w
+    raise ValueError(f"quadrature kind must be 'gauss' or 'nodal', got {kind!r}")
+
+
+def basix_cell(cell_type: dolfinx.mesh.CellType) -> basix.CellType:
+    """The basix cell type of a DOLFINx cell type."""
+    return basix.CellType[cell_type.name]
+
+
+def coordinate_basis(sub: dolfinx.mesh.Mesh, X: np.ndarray, nderiv: int = 0) -> np.ndarray:
+    """Tabulate the coordinate element of ``sub`` at reference points ``X``."""
+    cmap = sub.geometry.cmap
+    e = basix.create_element(
+        basix.ElementFamily.P,
+        basix_cell(sub.topology.cell_type),
+        cmap.degree,
+        basix.LagrangeVariant(cmap.variant),
+    )
+    return e.tabulate(nderiv, X)[..., 0]
+
+
+def push_forward(sub: dolfinx.mesh.Mesh, X: np.ndarray) -> np.ndarray:
+    """Physical coordinates of reference points ``X`` in every cell of ``sub``, (nc, nX, gdim)."""
+    gdim = sub.geometry.dim
+    phi = coordinate_basis(sub, X)[0]  # (nX, ngeo)
+    xg = sub.geometry.x[sub.geometry.dofmap][..., :gdim]  # (nc, ngeo, gdim)
+    return np.einsum("xk,ckd->cxd", phi, xg)
+
+
+def frames(n: np.ndarray) -> np.ndarray:
+    """Rows ``(e1, [e2,] -n)`` of local frames for unit normals ``n`` (..., gdim)."""
+    gdim = n.shape[-1]
+    Q = np.zeros((*n.shape, gdim))
+    if gdim == 2:
+        Q[..., 0, :] = np.stack([n[..., 1], -n[..., 0]], axis=-1)
+        Q[..., 1, :] = -n
+        return Q
+    # e1: the projection of x (or of y where n is close to x) on the tangent plane
+    ax = np.zeros_like(n)
+    use_y = np.abs(n[..., 0]) > 0.9
+    ax[..., 0] = np.where(use_y, 0.0, 1.0)
+    ax[..., 1] = np.where(use_y, 1.0, 0.0)
+    e1 = ax - np.sum(ax * n, axis=-1, keepdims=True) * n
+    e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+    e2 = np.cross(n, e1)
+    Q[..., 0, :] = e1
+    Q[..., 1, :] = e2
+    Q[..., 2, :] = -n
+    return Q
+
+
+def match_points(
+    keys: np.ndarray, queries: np.ndarray, tol: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """For each query point, the index of a key point within ``tol`` (or -1), and the distance.
+
+    Hashes the keys on a grid of spacing ``4 tol`` and searches the neighbouring grid cells.
+    """
+    n, d = queries.shape
+    out = np.full(n, -1, dtype=np.int64)
+    dist = np.full(n, np.inf)
+    if keys.shape[0] == 0 or n == 0:
+        return out, dist
+    h = 4.0 * tol
+    kq = np.floor(keys / h).astype(np.int64)
+    table: dict[tuple[int, ...], list[int]] = {}
+    for i, k in enumerate(map(tuple, kq)):
+        table.setdefault(k, []).append(i)
+    qq = np.floor(queries / h).astype(np.int64)
+    shifts = np.array(np.meshgrid(*[[-1, 0, 1]] * d, indexing="ij")).reshape(d, -1).T
+    for i in range(n):
+        best, bd = -1, np.inf
+        for s in shifts:
+            for j in table.get(tuple(qq[i] + s), ()):
+                dd = float(np.linalg.norm(keys[j] - queries[i]))
+                if dd < bd:
+                    best, bd = j, dd
+        if bd <= tol:
+            out[i], dist[i] = best, bd
+    return out, dist

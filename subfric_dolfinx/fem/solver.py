@@ -1,0 +1,243 @@
+"""PETSc SNES on an :class:`~subfric_dolfinx.fem.problem.InterfaceProblem`, with a clean lifecycle.
+
+:class:`FrictionSolver` wraps a petsc4py SNES under an options prefix, so that PETSc options given
+on the command line (``-<prefix>snes_monitor``, ``-<prefix>ksp_type gmres``, ...) apply. Its
+lifecycle follows DOLFINx's own SNES ``NonlinearProblem`` (DOLFINx main,
+``python/dolfinx/fem/petsc.py``): the solver's options are pushed into the global options database
+under its prefix, applied by ``setFromOptions``, and deleted again (values the database had before
+are restored), so nothing outlives the object and options given to one solver never reach
+another. The solver's own options are pushed again around each solve, because PETSc reads some
+of them late (e.g. MUMPS reads ``mat_mumps_*`` when it factorises). It is a context manager whose
+exit destroys the PETSc objects and releases the prefix; :meth:`FrictionSolver.destroy` is
+idempotent, and a solver that is garbage-collected releases its prefix too.
+
+Defaults (Newton with a full step, LU with MUMPS) apply only where neither the solver's options
+nor the options database give a value. A point the return map cannot integrate makes SNES see a
+function-domain error (:mod:`._petsc`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import weakref
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+import numpy as np
+from petsc4py import PETSc
+
+from ._petsc import set_function_domain_error
+from .problem import InterfaceProblem
+from .timing import event_times
+
+__all__ = ["DEFAULT_OPTIONS", "FrictionSolver"]
+
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_rtol": 1e-9,
+    "snes_atol": 1e-10,
+    "snes_stol": 1e-12,
+    "snes_max_it": 30,
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+}
+"""Options used where neither the solver's options nor the options database give a value."""
+
+_LIVE_PREFIXES: set[str] = set()
+_AUTO_PREFIX = itertools.count()
+
+
+def _check_prefix(prefix: str | None) -> str:
+    if prefix is None:
+        prefix = f"subfric_{next(_AUTO_PREFIX)}_"
+        while prefix in _LIVE_PREFIXES:
+            prefix = f"subfric_{next(_AUTO_PREFIX)}_"
+        return prefix
+    if not isinstance(prefix, str) or not prefix or not prefix.endswith("_"):
+        raise ValueError(
+            f"the options prefix must be a non-empty string ending in '_', got {prefix!r}"
+        )
+    if any(ch.isspace() or ch == "-" for ch in prefix):
+        raise ValueError(f"the options prefix {prefix!r} must not contain spaces or '-'")
+    if prefix in _LIVE_PREFIXES:
+        raise ValueError(
+            f"the options prefix {prefix!r} is already used by another live solver; "
+            "give each solver its own prefix (or destroy the other one first)"
+        )
+    return prefix
+
+
+@contextlib.contextmanager
+def pushed_options(prefix: str, *layers: Mapping[str, Any]) -> Iterator[None]:
+    """Set options under ``prefix`` for the duration of the block, then restore the database.
+
+    Layers are applied in order (later ones win). Options whose name starts with ``?`` are
+    defaults: set only where the database has no value.
+    """
+    opts = PETSc.Options()
+    saved: dict[str, str | None] = {}
+    for layer in layers:
+        for key, value in layer.items():
+            default = key.startswith("?")
+            name = prefix + key.lstrip("?")
+            if name not in saved:
+                saved[name] = opts.getString(name) if opts.hasName(name) else None
+            if default and opts.hasName(name):
+                continue
+            opts[name] = value
+    try:
+        yield
+    finally:
+        for name, old in saved.items():
+            if old is None:
+                opts.delValue(name)
+            else:
+                opts[name] = old
+
+
+class FrictionSolver:
+    """SNES on an interface problem, under an options prefix.
+
+    Use as a context manager (or call :meth:`destroy`)::
+
+        with FrictionSolver(problem, "block_", {"snes_rtol": 1e-10}) as solver:
+            solver.solve(t, dt)
+
+    Args:
+        problem: The problem.
+        prefix: PETSc options prefix, unique among live solvers (e.g. ``"block_"``); a unique
+            ``"subfric_<n>_"`` when omitted.
+        options: Options under the prefix (they override the command line's for this solver,
+            without changing the database).
+
+    Raises:
+        ValueError: Malformed prefix, or one used by a live solver.
+    """
+
+    def __init__(
+        self,
+        problem: InterfaceProblem,
+        prefix: str | None = None,
+        options: Mapping[str, Any] | None = None,
+    ) -> None:
+        self.prefix = _check_prefix(prefix)
+        self.problem = problem
+        self.options = dict(options or {})
+        self._defaults = {"?" + k: v for k, v in DEFAULT_OPTIONS.items()}
+        self.snes: PETSc.SNES | None = None
+        self.x = self.F = self.J = None
+        _LIVE_PREFIXES.add(self.prefix)
+        # Release the prefix even if the solver is never destroyed explicitly.
+        self._finalizer = weakref.finalize(self, _LIVE_PREFIXES.discard, self.prefix)
+        try:
+            self.x = problem.create_vector()
+            self.F = problem.create_vector()
+            self.J = problem.create_matrix()
+            snes = PETSc.SNES().create(problem.comm)
+            self.snes = snes
+            snes.setOptionsPrefix(self.prefix)
+            # Module-level-style callbacks through a weak reference: the SNES does not keep the
+            # solver alive, and the solver's finalizer can run.
+            ref = weakref.ref(self)
+            snes.setFunction(lambda s, x, F: ref()._residual(s, x, F), self.F)
+            snes.setJacobian(lambda s, x, J, P: ref()._jacobian(s, x, J, P), self.J)
+            snes.setConvergenceHistory(length=200, reset=True)
+            self._configure()
+        except BaseException:
+            self.destroy()
+            raise
+        self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
+        # PETSc's log events are cumulative over the process: where this solver starts.
+        self.event_start = event_times()
+
+    def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
+        with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
+            self.snes.setFromOptions()
+
+    # -- callbacks ------------------------------------------------------------------------------
+    def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, F: PETSc.Vec) -> None:
+        ok = self.problem.residual(x, F)
+        if not ok:
+            self.failed_points = self.problem.interface.last.failed_indices
+            set_function_domain_error(snes, F)
+
+    def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        self.problem.jacobian(x, J)
+
+    # -- solving --------------------------------------------------------------------------------
+    def solve(
+        self, t: float, dt: float, *, options: Mapping[str, Any] | None = None
+    ) -> dict[str, Any]:
+        """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
+
+        The current ``x`` is the initial guess, with the Dirichlet values of ``t`` set in it.
+
+        Args:
+            t: End time of the step.
+            dt: Step length.
+            options: Options for this solve only (e.g. ``{"snes_linesearch_type": "bt"}`` for a
+                retry); the solver's configuration is restored afterwards.
+
+        Returns:
+            ``converged``, ``iterations``, ``reason`` (SNES reason code), ``residuals`` (norms per
+            iteration) and ``counts`` (return-map statuses at the last evaluation, global).
+        """
+        if self.snes is None:
+            raise RuntimeError("the solver has been destroyed")
+        p = self.problem
+        p.set_step(t, dt)
+        p.apply_dirichlet(self.x)
+        self.failed_points = np.zeros(0, dtype=np.int64)
+        self.snes.setConvergenceHistory(length=200, reset=True)
+        if options:
+            self._configure(options)
+        try:
+            with pushed_options(self.prefix, self._defaults, self.options, options or {}):
+                self.snes.solve(None, self.x)
+        except PETSc.Error as e:  # an error inside a callback or the linear solver
+            return {
+                "converged": False,
+                "iterations": self.snes.getIterationNumber(),
+                "reason": -100,
+                "residuals": [],
+                "counts": {},
+                "error": str(e),
+            }
+        finally:
+            if options:
+                self._configure()
+        reason = self.snes.getConvergedReason()
+        hist, _ = self.snes.getConvergenceHistory()
+        last = p.interface.last
+        counts = {k: p.comm.allreduce(v) for k, v in last.counts().items()} if last else {}
+        return {
+            "converged": reason > 0,
+            "iterations": self.snes.getIterationNumber(),
+            "reason": int(reason),
+            "residuals": [float(r) for r in hist],
+            "counts": counts,
+        }
+
+    # -- lifecycle ------------------------------------------------------------------------------
+    def destroy(self) -> None:
+        """Free the PETSc objects and release the prefix (safe to call more than once)."""
+        for name in ("snes", "J", "x", "F"):
+            obj = getattr(self, name, None)
+            if obj is not None:
+                obj.destroy()
+                setattr(self, name, None)
+        self._finalizer()
+
+    @property
+    def alive(self) -> bool:
+        """Whether the solver still holds its PETSc objects."""
+        return self.snes is not None
+
+    def __enter__(self) -> FrictionSolver:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.destroy()

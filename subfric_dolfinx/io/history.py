@@ -1,0 +1,70 @@
+"""The run's history: one row per converged step, kept in memory and written as CSV by rank 0.
+
+A row holds the step (``step``, ``t``, ``dt``, ``newton``, ``cuts``), the interface summary
+(:func:`~.summary.interface_summary`: resultant forces, area-weighted means of the traction and of
+the law's internal variables, status fractions) and the reaction force of every Dirichlet group
+(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+from .summary import interface_summary
+
+__all__ = ["HistoryCSV"]
+
+
+class HistoryCSV:
+    """One row per converged step, kept in memory and written to a CSV file by rank 0.
+
+    Args:
+        path: File to write (parent directories are created); ``None``: memory only.
+        problem: The problem (for the averages and the reaction forces).
+    """
+
+    def __init__(self, path: str | Path | None, problem: Any) -> None:
+        self.path = Path(path) if path is not None else None
+        self.problem = problem
+        self._writer: Any = None
+        self._file: Any = None
+        self.rows: list[dict[str, float]] = []
+
+    def preload(self, rows: list[dict[str, float]]) -> None:
+        """Start from the rows of an earlier run (a restart); they are written first."""
+        self.rows = [dict(r) for r in rows]
+
+    def write(self, record: Any) -> dict[str, float]:
+        """Append the row of a converged step (a :class:`~subfric_dolfinx.fem.StepRecord`)."""
+        p = self.problem
+        row: dict[str, float] = {
+            "step": record.step,
+            "t": record.t,
+            "dt": record.dt,
+            "newton": record.iterations,
+            "cuts": record.cuts,
+        }
+        row.update(interface_summary(p))
+        for group, force in p.reactions.items():
+            for i, f in enumerate(force):
+                row[f"R_{group}_{'xyz'[i]}"] = float(f)
+        self.rows.append(row)
+        if p.comm.rank == 0 and self.path is not None:
+            if self._writer is None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self._file = self.path.open("w", newline="")
+                self._writer = csv.DictWriter(self._file, fieldnames=list(row))
+                self._writer.writeheader()
+                for old in self.rows[:-1]:  # preloaded rows of a restart
+                    self._writer.writerow({k: f"{v:.17g}" for k, v in old.items()})
+            self._writer.writerow({k: f"{v:.17g}" for k, v in row.items()})
+            self._file.flush()
+        return row
+
+    def close(self) -> None:
+        """Close the file."""
+        if self._file is not None:
+            self._file.close()
+            self._file = None

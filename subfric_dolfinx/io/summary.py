@@ -1,0 +1,61 @@
+"""Area-weighted interface averages, resultant forces and status fractions (collective)."""
+
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+
+from ..constitutive import TANGENTIAL, Status
+
+__all__ = ["interface_summary"]
+
+
+def interface_summary(problem) -> dict[str, float]:
+    """Area-weighted means over the interface, totals and status fractions (same on all ranks).
+
+    Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
+    ``f_t`` (mean |f_t|), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
+    as its mean ``v`` and a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
+    [``v_t2``] (means of its components); and the fractions of quadrature points ``plastic``
+    (PLASTIC or JUMP), ``separated`` and ``unstable``.
+    """
+    el = problem.interface
+    nt = el.nt
+    w = el.weights.ravel()
+    st = el.state.old
+    res = el.last
+    tr = res.traction if res is not None else np.zeros((w.size, nt + 1))
+    names = ["area", *(f"F_t{i + 1}" for i in range(nt)), "F_n", "f_t"]
+    cols = [w, *(w * tr[:, i] for i in range(nt + 1)), w * np.linalg.norm(tr[:, :nt], axis=1)]
+    for var in problem.law.variables:
+        a = st[var.name]
+        if var.shape == TANGENTIAL:
+            names += [f"{var.name}_norm", *(f"{var.name}_t{i + 1}" for i in range(nt))]
+            cols += [w * np.linalg.norm(a, axis=1), *(w * a[:, i] for i in range(nt))]
+        else:
+            names.append(var.name)
+            cols.append(w * a)
+    status = res.status if res is not None else np.full(w.size, Status.ELASTIC, np.int8)
+    counts = [
+        np.count_nonzero((status == Status.PLASTIC) | (status == Status.JUMP)),
+        np.count_nonzero(status == Status.SEPARATED),
+        np.count_nonzero(res.unstable) if res is not None else 0,
+        w.size,
+    ]
+    loc = np.array([c.sum() for c in cols] + counts, dtype=float)
+    tot = np.zeros_like(loc)
+    problem.comm.Allreduce(loc, tot, op=MPI.SUM)
+    area = tot[0]
+    # resultant forces (and the area) are totals; everything else is an area-weighted mean
+    out = {
+        k: tot[i] if k == "area" or k.startswith("F_") else tot[i] / area
+        for i, k in enumerate(names)
+    }
+    out["f_n"] = out["F_n"] / area
+    npts = max(tot[-1], 1.0)
+    out["plastic"], out["separated"], out["unstable"] = (
+        tot[-4] / npts,
+        tot[-3] / npts,
+        tot[-2] / npts,
+    )
+    return out

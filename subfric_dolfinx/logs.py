@@ -1,0 +1,70 @@
+"""The package's log: one ``subfric_dolfinx`` logger, and a handler that prints on rank 0 only.
+
+Every module logs to a child of the ``subfric_dolfinx`` logger (``logging.getLogger(__name__)``).
+As a library, the package installs no output handler of its own; a program (a demo, a script)
+calls :func:`configure` once to see the log::
+
+    from subfric_dolfinx import logs
+    logs.configure(verbosity=0, comm=MPI.COMM_WORLD)   # -1 warnings, 0 info, 1 debug
+
+Levels: WARNING for things a user must see (e.g. a large penetration), INFO for one line per
+segment of the loading program and the run's summary, DEBUG for one line per load step and per
+failed attempt.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from typing import Any, TextIO
+
+__all__ = ["LOGGER_NAME", "configure", "level_for"]
+
+LOGGER_NAME = "subfric_dolfinx"
+logging.getLogger(LOGGER_NAME).addHandler(logging.NullHandler())
+
+
+def level_for(verbosity: int) -> int:
+    """Logging level of a verbosity: <= -1 WARNING, 0 INFO, >= 1 DEBUG."""
+    if verbosity <= -1:
+        return logging.WARNING
+    return logging.INFO if verbosity == 0 else logging.DEBUG
+
+
+class _RankFilter(logging.Filter):
+    def __init__(self, rank: int) -> None:
+        super().__init__()
+        self.rank = rank
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return self.rank == 0
+
+
+def configure(
+    verbosity: int = 0, comm: Any = None, stream: TextIO | None = None
+) -> logging.Handler:
+    """Print the package's log on rank 0 of ``comm`` (all processes print if ``comm`` is None).
+
+    Calling it again replaces the handler it installed before.
+
+    Args:
+        verbosity: -1 (warnings only), 0 (info: a line per segment and the summary), 1 (debug:
+            a line per step).
+        comm: MPI communicator; only its rank 0 prints.
+        stream: Where to print (default ``sys.stdout``).
+
+    Returns:
+        The installed handler.
+    """
+    logger = logging.getLogger(LOGGER_NAME)
+    for h in list(logger.handlers):
+        if getattr(h, "_subfric", False):
+            logger.removeHandler(h)
+    handler = logging.StreamHandler(stream or sys.stdout)
+    handler._subfric = True  # type: ignore[attr-defined]
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    handler.addFilter(_RankFilter(0 if comm is None else comm.rank))
+    logger.addHandler(handler)
+    logger.setLevel(level_for(verbosity))
+    logger.propagate = False
+    return handler

@@ -1,0 +1,74 @@
+"""Meshes of two elastic bodies joined by a zero-thickness interface with duplicated nodes.
+
+* :mod:`.groups`: physical-group names and default tags, :class:`InterfaceMeshError`.
+* :mod:`.builders`: gmsh builders (2-D block on a base, 3-D pad on a plate) with the Crack step.
+* :mod:`.partitioners`: deterministic partitions for tests (bodies apart, pairs together).
+* :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks.
+
+May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
+"""
+
+from .builders import ModelInfo, build_block_on_base, build_pad_on_plate
+from .groups import (
+    BODIES,
+    BOTTOM,
+    BOUNDARY_GROUPS_2D,
+    BOUNDARY_GROUPS_3D,
+    INTERFACE,
+    MASTER,
+    MASTER_LEFT,
+    MASTER_RIGHT,
+    MASTER_TOP,
+    MASTER_XMAX,
+    MASTER_XMIN,
+    MASTER_YMAX,
+    MASTER_YMIN,
+    REQUIRED_GROUPS,
+    SLAVE,
+    SLAVE_LEFT,
+    SLAVE_RIGHT,
+    SLAVE_XMAX,
+    SLAVE_XMIN,
+    SLAVE_YMAX,
+    SLAVE_YMIN,
+    TAGS,
+    TOP,
+    InterfaceMeshError,
+)
+from .partitioners import PARTITIONER_KINDS, body_partitioner
+from .reader import InterfaceMesh, create_interface_mesh, read_interface_mesh
+
+__all__ = [
+    "BODIES",
+    "BOTTOM",
+    "BOUNDARY_GROUPS_2D",
+    "BOUNDARY_GROUPS_3D",
+    "INTERFACE",
+    "MASTER",
+    "MASTER_LEFT",
+    "MASTER_RIGHT",
+    "MASTER_TOP",
+    "MASTER_XMAX",
+    "MASTER_XMIN",
+    "MASTER_YMAX",
+    "MASTER_YMIN",
+    "PARTITIONER_KINDS",
+    "REQUIRED_GROUPS",
+    "SLAVE",
+    "SLAVE_LEFT",
+    "SLAVE_RIGHT",
+    "SLAVE_XMAX",
+    "SLAVE_XMIN",
+    "SLAVE_YMAX",
+    "SLAVE_YMIN",
+    "TAGS",
+    "TOP",
+    "InterfaceMesh",
+    "InterfaceMeshError",
+    "ModelInfo",
+    "body_partitioner",
+    "build_block_on_base",
+    "build_pad_on_plate",
+    "create_interface_mesh",
+    "read_interface_mesh",
+]

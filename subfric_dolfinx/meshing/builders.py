@@ -1,0 +1,407 @@
+"""gmsh builders of two boxes joined by a flat zero-thickness interface with duplicated nodes.
+
+The builders (:func:`build_block_on_base`, 2-D, :func:`build_pad_on_plate`, 3-D) make a gmsh
+model in the current gmsh session; call them on one rank (rank 0) only, or through
+:func:`~subfric_dolfinx.meshing.reader.create_interface_mesh`. The nodes are duplicated with
+gmsh's Crack plugin (with ``OpenBoundaryPhysicalGroup`` so that the interface ends come apart
+too), the interface mesh being oriented so that the slave side receives the new nodes; elements
+lying in the interface plane (the free part of the master's top face) keep the master's nodes.
+The two bodies share no node: they are connected only through the interface elements.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ._gmsh import gmsh_module, group_elements, group_nodes, interface_sides
+from .groups import (
+    BODIES,
+    BOTTOM,
+    INTERFACE,
+    MASTER,
+    MASTER_LEFT,
+    MASTER_RIGHT,
+    MASTER_TOP,
+    MASTER_XMAX,
+    MASTER_XMIN,
+    MASTER_YMAX,
+    MASTER_YMIN,
+    SLAVE,
+    SLAVE_LEFT,
+    SLAVE_RIGHT,
+    SLAVE_XMAX,
+    SLAVE_XMIN,
+    SLAVE_YMAX,
+    SLAVE_YMIN,
+    TAGS,
+    TOP,
+)
+
+__all__ = ["ModelInfo", "build_block_on_base", "build_pad_on_plate"]
+
+_CELL_TYPES = {2: ("triangle", "quadrilateral"), 3: ("tetrahedron", "hexahedron")}
+_RECOMBINED = ("quadrilateral", "hexahedron")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelInfo:
+    """Description of a model made by a builder.
+
+    Attributes:
+        model: Name of the gmsh model.
+        gdim: Geometric (= topological) dimension of the bodies.
+        cell_type: DOLFINx cell-type name of the cells.
+        tags: Physical-group name -> integer tag, for the groups present.
+        h: Element size along the interface.
+        interface_min: Lower corner of the interface's bounding box.
+        interface_max: Upper corner of the interface's bounding box.
+        num_cells: Number of cells per body, ``{"master": ..., "slave": ...}``.
+        num_interface_facets: Number of interface facets on each side.
+        num_interface_nodes: Number of interface nodes on each side.
+    """
+
+    model: str
+    gdim: int
+    cell_type: str
+    tags: dict[str, int]
+    h: float
+    interface_min: tuple[float, ...]
+    interface_max: tuple[float, ...]
+    num_cells: dict[str, int]
+    num_interface_facets: int
+    num_interface_nodes: int
+
+
+def _segments(lo: float, hi: float, a: float, b: float) -> list[tuple[float, float]]:
+    """Split [lo, hi] at a and b (which lie in it), dropping empty pieces."""
+    cuts = sorted({lo, a, b, hi})
+    return [(c0, c1) for c0, c1 in itertools.pairwise(cuts) if c1 - c0 > 0.0]
+
+
+def _check_cell_type(gdim: int, cell_type: str) -> None:
+    if cell_type not in _CELL_TYPES[gdim]:
+        raise ValueError(
+            f"cell_type must be one of {_CELL_TYPES[gdim]} for a {gdim}-D model, got {cell_type!r}"
+        )
+
+
+def _positive(**values: float) -> None:
+    for name, v in values.items():
+        if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+
+
+def _interface_size(width: float, n_interface: int | None, mesh_size: float | None) -> float:
+    if mesh_size is not None:
+        _positive(mesh_size=mesh_size)
+        n_interface = max(1, round(width / mesh_size))
+    if n_interface is None or int(n_interface) != n_interface or n_interface < 1:
+        raise ValueError(f"n_interface must be a positive integer, got {n_interface!r}")
+    return width / int(n_interface)
+
+
+def build_block_on_base(
+    *,
+    base_width: float = 2.0,
+    base_height: float = 0.5,
+    block_width: float = 1.0,
+    block_height: float = 0.5,
+    block_x: float | None = None,
+    n_interface: int | None = 8,
+    mesh_size: float | None = None,
+    cell_type: str = "triangle",
+    model_name: str = "block_on_base",
+) -> ModelInfo:
+    """Build the 2-D "block on a base" model in the current gmsh session (call on one rank).
+
+    The base (``master``) is ``[0, base_width] x [0, base_height]``; the block (``slave``) is
+    ``[block_x, block_x + block_width] x [base_height, base_height + block_height]``. The interface
+    is the block's bottom edge. Every curve is divided uniformly into ``round(length / h)``
+    elements with ``h = block_width / n_interface``; quadrilateral meshes are structured,
+    triangle meshes are unstructured inside.
+
+    Args:
+        base_width: Width of the base.
+        base_height: Height of the base.
+        block_width: Width of the block, at most ``base_width``.
+        block_height: Height of the block.
+        block_x: Left end of the block (default: centred on the base).
+        n_interface: Number of elements along the interface.
+        mesh_size: Element size; if given it sets ``n_interface = round(block_width / mesh_size)``.
+        cell_type: ``"triangle"`` or ``"quadrilateral"``.
+        model_name: Name of the gmsh model added to the session (it becomes the current model).
+
+    Returns:
+        Description of the model.
+
+    Raises:
+        ValueError: Invalid sizes or cell type.
+        RuntimeError: gmsh did not produce two bodies joined only by a duplicated interface.
+    """
+    _check_cell_type(2, cell_type)
+    _positive(
+        base_width=base_width, base_height=base_height,
+        block_width=block_width, block_height=block_height,
+    )  # fmt: skip
+    if block_x is None:
+        block_x = 0.5 * (base_width - block_width)
+    if block_x < 0 or block_x + block_width > base_width * (1 + 1e-12):
+        raise ValueError(
+            f"the block [{block_x}, {block_x + block_width}] must lie on the base [0, {base_width}]"
+        )
+    h = _interface_size(block_width, n_interface, mesh_size)
+    return _build(
+        gdim=2,
+        master_box=((0.0, 0.0), (base_width, base_height)),
+        slave_box=((block_x, base_height), (block_x + block_width, base_height + block_height)),
+        h=h,
+        cell_type=cell_type,
+        model_name=model_name,
+    )
+
+
+def build_pad_on_plate(
+    *,
+    plate_size: Sequence[float] = (2.0, 2.0, 0.5),
+    pad_size: Sequence[float] = (1.0, 1.0, 0.5),
+    pad_origin: Sequence[float] | None = None,
+    n_interface: int | None = 4,
+    mesh_size: float | None = None,
+    cell_type: str = "tetrahedron",
+    model_name: str = "pad_on_plate",
+) -> ModelInfo:
+    """Build the 3-D "pad on a plate" model in the current gmsh session (call on one rank).
+
+    The plate (``master``) is ``[0, Lx] x [0, Ly] x [0, Lz]`` with ``plate_size = (Lx, Ly, Lz)``;
+    the pad (``slave``) is the box of size ``pad_size`` whose lower corner is
+    ``(pad_origin[0], pad_origin[1], Lz)``. The interface is the pad's bottom face. Every curve is
+    divided uniformly into ``length / h`` (rounded) elements with ``h = pad_size[0] / n_interface``;
+    hexahedral meshes are structured, tetrahedral meshes unstructured inside.
+
+    Args:
+        plate_size: Plate extents (x, y, z).
+        pad_size: Pad extents (x, y, z); the footprint must fit on the plate.
+        pad_origin: (x, y) of the pad's lower corner (default: centred on the plate).
+        n_interface: Number of elements along the pad's x side.
+        mesh_size: Element size; if given it sets ``n_interface = round(pad_size[0] / mesh_size)``.
+        cell_type: ``"tetrahedron"`` or ``"hexahedron"``.
+        model_name: Name of the gmsh model added to the session (it becomes the current model).
+
+    Returns:
+        Description of the model.
+
+    Raises:
+        ValueError: Invalid sizes or cell type.
+        RuntimeError: gmsh did not produce two bodies joined only by a duplicated interface.
+    """
+    _check_cell_type(3, cell_type)
+    plate = tuple(float(v) for v in plate_size)
+    pad = tuple(float(v) for v in pad_size)
+    if len(plate) != 3 or len(pad) != 3:
+        raise ValueError("plate_size and pad_size must have three entries (x, y, z)")
+    _positive(**{f"plate_size[{i}]": v for i, v in enumerate(plate)})
+    _positive(**{f"pad_size[{i}]": v for i, v in enumerate(pad)})
+    if pad_origin is None:
+        pad_origin = (0.5 * (plate[0] - pad[0]), 0.5 * (plate[1] - pad[1]))
+    ox, oy = (float(v) for v in pad_origin)
+    for o, a, length, axis in ((ox, pad[0], plate[0], "x"), (oy, pad[1], plate[1], "y")):
+        if o < 0 or o + a > length * (1 + 1e-12):
+            raise ValueError(
+                f"the pad [{o}, {o + a}] must lie on the plate [0, {length}] in {axis}"
+            )
+    h = _interface_size(pad[0], n_interface, mesh_size)
+    return _build(
+        gdim=3,
+        master_box=((0.0, 0.0, 0.0), plate),
+        slave_box=((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2])),
+        h=h,
+        cell_type=cell_type,
+        model_name=model_name,
+    )
+
+
+def _build(
+    *,
+    gdim: int,
+    master_box: tuple[Sequence[float], Sequence[float]],
+    slave_box: tuple[Sequence[float], Sequence[float]],
+    h: float,
+    cell_type: str,
+    model_name: str,
+) -> ModelInfo:
+    gmsh = gmsh_module()
+    if not gmsh.isInitialized():
+        raise RuntimeError("gmsh is not initialised: call gmsh.initialize() before a builder")
+    occ = gmsh.model.occ
+    (m0, m1), (s0, s1) = master_box, slave_box
+    z_if = m1[gdim - 1]  # interface height
+    scale = max(max(m1) - min(m0), max(s1) - min(s0))
+    tol = 1e-7 * scale
+    gmsh.model.add(model_name)
+
+    # Master pieces: the master box cut along the slave's footprint, so that the interface is one
+    # face (curve) and every piece is a box (rectangle) for structured meshing.
+    xs = _segments(m0[0], m1[0], s0[0], s1[0])
+    ys = _segments(m0[1], m1[1], s0[1], s1[1]) if gdim == 3 else [(m0[1], m1[1])]
+    pieces = []
+    for x0, x1 in xs:
+        if gdim == 2:
+            pieces.append((2, occ.addRectangle(x0, m0[1], 0.0, x1 - x0, m1[1] - m0[1])))
+        else:
+            for y0, y1 in ys:
+                pieces.append((3, occ.addBox(x0, y0, m0[2], x1 - x0, y1 - y0, m1[2] - m0[2])))
+    ext = [b - a for a, b in zip(s0, s1, strict=True)]
+    if gdim == 2:
+        slave = (2, occ.addRectangle(s0[0], s0[1], 0.0, *ext))
+    else:
+        slave = (3, occ.addBox(*s0, *ext))
+    occ.fragment(pieces, [slave])
+    occ.synchronize()
+
+    def com(dim: int, tag: int) -> np.ndarray:
+        return np.asarray(occ.getCenterOfMass(dim, tag))[:gdim]
+
+    def extent(dim: int, tag: int) -> np.ndarray:
+        b = gmsh.model.getBoundingBox(dim, tag)
+        return np.asarray(b[3:])[:gdim] - np.asarray(b[:3])[:gdim]
+
+    # cells
+    groups: dict[str, list[int]] = {MASTER: [], SLAVE: []}
+    for _, tag in gmsh.model.getEntities(gdim):
+        groups[SLAVE if com(gdim, tag)[-1] > z_if else MASTER].append(tag)
+    if len(groups[SLAVE]) != 1 or len(groups[MASTER]) != len(pieces):
+        raise RuntimeError(f"unexpected geometry after fragment: {groups}")
+
+    # facets, by position and normal direction
+    side_names = (
+        {0: (MASTER_LEFT, MASTER_RIGHT, SLAVE_LEFT, SLAVE_RIGHT)}
+        if gdim == 2
+        else {
+            0: (MASTER_XMIN, MASTER_XMAX, SLAVE_XMIN, SLAVE_XMAX),
+            1: (MASTER_YMIN, MASTER_YMAX, SLAVE_YMIN, SLAVE_YMAX),
+        }
+    )
+    fdim = gdim - 1
+    for _, tag in gmsh.model.getEntities(fdim):
+        c, e = com(fdim, tag), extent(fdim, tag)
+        normal_axis = int(np.argmin(np.abs(e)))
+        top_axis = gdim - 1
+        name = None
+        if normal_axis == top_axis:
+            if abs(c[-1] - m0[-1]) < tol:
+                name = BOTTOM
+            elif abs(c[-1] - s1[-1]) < tol:
+                name = TOP
+            elif abs(c[-1] - z_if) < tol:
+                inside = all(s0[i] - tol < c[i] < s1[i] + tol for i in range(gdim - 1))
+                name = INTERFACE if inside else MASTER_TOP
+        else:
+            ax = normal_axis
+            lower = c[-1] < z_if
+            lo, hi = (m0[ax], m1[ax]) if lower else (s0[ax], s1[ax])
+            names = side_names[ax]
+            if abs(c[ax] - lo) < tol:
+                name = names[0] if lower else names[2]
+            elif abs(c[ax] - hi) < tol:
+                name = names[1] if lower else names[3]
+        if name is not None:
+            groups.setdefault(name, []).append(tag)
+    if len(groups.get(INTERFACE, [])) != 1:
+        raise RuntimeError(f"expected one interface entity, found {groups.get(INTERFACE)}")
+
+    tags: dict[str, int] = {}
+    for name in TAGS:
+        if groups.get(name):
+            dim = gdim if name in BODIES else fdim
+            tags[name] = gmsh.model.addPhysicalGroup(dim, groups[name], TAGS[name], name=name)
+
+    # Discretisation: uniform, fixed on every curve; structured cells for quads/hexes.
+    for _, tag in gmsh.model.getEntities(1):
+        n = max(1, math.floor(occ.getMass(1, tag) / h + 0.5))  # round half up
+        gmsh.model.mesh.setTransfiniteCurve(tag, n + 1)
+    if cell_type in _RECOMBINED:
+        for _, tag in gmsh.model.getEntities(2):
+            gmsh.model.mesh.setTransfiniteSurface(tag)
+            gmsh.model.mesh.setRecombine(2, tag)
+        for _, tag in gmsh.model.getEntities(3):
+            gmsh.model.mesh.setTransfiniteVolume(tag)
+    saved = {o: gmsh.option.getNumber(o) for o in ("Mesh.MeshSizeMax", "Mesh.ElementOrder")}
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.option.setNumber("Mesh.ElementOrder", 1)
+    try:
+        gmsh.model.mesh.generate(gdim)
+    finally:
+        for option, value in saved.items():
+            gmsh.option.setNumber(option, value)
+
+    _crack(gdim, tags[INTERFACE], groups[INTERFACE][0])
+    return _model_info(model_name, gdim, cell_type, tags, h)
+
+
+def _crack(gdim: int, interface_tag: int, interface_entity: int) -> None:
+    """Duplicate the interface nodes; the slave side (above the interface) gets the new nodes."""
+    gmsh = gmsh_module()
+    fdim = gdim - 1
+    _, etags, enodes = gmsh.model.mesh.getElements(fdim, interface_entity)
+    ntags, coords, _ = gmsh.model.mesh.getNodes()
+    x = np.zeros((int(ntags.max()) + 1, 3))
+    x[ntags] = np.asarray(coords).reshape(-1, 3)
+    el = x[np.asarray(enodes[0]).reshape(len(etags[0]), -1)]
+    normal_z = 1.0
+    if gdim == 2:
+        # Crack's side normal is (0, 0, NormalZ) x tangent = (0, NormalZ * t_x, 0): make it +y.
+        tx = el[:, 1, 0] - el[:, 0, 0]
+        if not (np.all(tx > 0) or np.all(tx < 0)):
+            raise RuntimeError("interface line elements are not consistently oriented")
+        normal_z = 1.0 if tx[0] > 0 else -1.0
+    else:
+        # Crack's side normal is the element normal: make it +z (reverse the interface mesh if not).
+        nz = np.cross(el[:, 1] - el[:, 0], el[:, 2] - el[:, 0])[:, 2]
+        if not (np.all(nz > 0) or np.all(nz < 0)):
+            raise RuntimeError("interface surface elements are not consistently oriented")
+        if nz[0] < 0:
+            gmsh.model.mesh.reverse([(fdim, interface_entity)])
+    boundary = gmsh.model.getBoundary([(fdim, interface_entity)], combined=True, oriented=False)
+    open_tag = gmsh.model.addPhysicalGroup(fdim - 1, sorted({abs(t) for _, t in boundary}))
+    for option, value in (
+        ("Dimension", fdim), ("PhysicalGroup", interface_tag),
+        ("OpenBoundaryPhysicalGroup", open_tag), ("NormalX", 0.0), ("NormalY", 0.0),
+        ("NormalZ", normal_z), ("NewPhysicalGroup", 0), ("DebugView", 0),
+    ):  # fmt: skip
+        gmsh.plugin.setNumber("Crack", option, value)
+    gmsh.plugin.run("Crack")
+    gmsh.model.removePhysicalGroups([(fdim - 1, open_tag)])
+    gmsh.model.mesh.renumberNodes()
+    gmsh.model.mesh.renumberElements()
+
+
+def _model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: float) -> ModelInfo:
+    gmsh = gmsh_module()
+    master, slave = group_nodes(gdim, tags[MASTER]), group_nodes(gdim, tags[SLAVE])
+    shared = np.intersect1d(master, slave)
+    if shared.size:
+        raise RuntimeError(f"the bodies share {shared.size} nodes after Crack (expected none)")
+    sides = interface_sides(gdim, tags)
+    if sides[MASTER] != sides[SLAVE] or sides["neither"]:
+        raise RuntimeError(f"interface sides after Crack do not match: {sides}")
+    iface = group_nodes(gdim - 1, tags[INTERFACE])
+    _, coords = gmsh.model.mesh.getNodesForPhysicalGroup(gdim - 1, tags[INTERFACE])
+    xi = np.asarray(coords).reshape(-1, 3)[:, :gdim]
+    num_cells = {b: int(sum(c.shape[0] for c in group_elements(gdim, tags[b])[1])) for b in BODIES}
+    return ModelInfo(
+        model=model,
+        gdim=gdim,
+        cell_type=cell_type,
+        tags=dict(tags),
+        h=h,
+        interface_min=tuple(float(v) for v in xi.min(axis=0)),
+        interface_max=tuple(float(v) for v in xi.max(axis=0)),
+        num_cells=num_cells,
+        num_interface_facets=sides[MASTER],
+        num_interface_nodes=int(iface.size) // 2,
+    )

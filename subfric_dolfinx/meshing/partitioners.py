@@ -1,0 +1,160 @@
+"""Deterministic cell partitioners for tests: one body per rank, or interface pairs together."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import dolfinx
+import dolfinx.cpp
+import dolfinx.graph
+import dolfinx.mesh
+import numpy as np
+from mpi4py import MPI
+
+from ._gmsh import gmsh_module, group_nodes
+from .groups import BODIES, INTERFACE
+
+__all__ = ["PARTITIONER_KINDS", "Partitioner", "body_partitioner"]
+
+#: Kinds understood by :func:`body_partitioner`.
+PARTITIONER_KINDS: tuple[str, ...] = ("default", "bodies", "together")
+
+Partitioner = Callable[[MPI.Comm, int, list, list], Any]
+
+
+def _gmsh_node_data(tdim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-node data of the current gmsh model, indexed by node tag - 1.
+
+    Returns:
+        Body (0 master, 1 slave, -1 none), coordinates, and whether the node is on the interface.
+    """
+    gmsh = gmsh_module()
+    if not gmsh.isInitialized():
+        raise RuntimeError(
+            "body_partitioner needs the gmsh model being converted to be current on the ranks "
+            "that hold cells (use it with gmshio.model_to_mesh/read_from_msh or "
+            "read_interface_mesh)"
+        )
+    named = {gmsh.model.getPhysicalName(d, t): (d, t) for d, t in gmsh.model.getPhysicalGroups()}
+    ntags, coords, _ = gmsh.model.mesh.getNodes()
+    ntags = np.asarray(ntags, dtype=np.int64)
+    x = np.zeros((int(ntags.max()), 3))
+    x[ntags - 1] = np.asarray(coords).reshape(-1, 3)
+    body = np.full(x.shape[0], -1, dtype=np.int8)
+    for i, name in enumerate(BODIES):
+        if named.get(name, (None,))[0] != tdim:
+            raise RuntimeError(f"body_partitioner: the gmsh model has no {tdim}-D group {name!r}")
+        body[group_nodes(tdim, named[name][1]) - 1] = i
+    iface = np.zeros(x.shape[0], dtype=bool)
+    if named.get(INTERFACE, (None,))[0] == tdim - 1:
+        iface[group_nodes(tdim - 1, named[INTERFACE][1]) - 1] = True
+    return body, x, iface
+
+
+def _ghost_destinations(
+    conn: np.ndarray, cell_type: dolfinx.mesh.CellType, owner: np.ndarray
+) -> dolfinx.cpp.graph.AdjacencyList_int32:
+    """Destinations [owner, ghost ranks...] with cells ghosted across shared facets."""
+    tdim = dolfinx.mesh.cell_dim(cell_type)
+    fv = dolfinx.cpp.mesh.get_entity_vertices(cell_type, tdim - 1)
+    fv = np.asarray(fv.array).reshape(fv.num_nodes, -1)
+    nf = fv.shape[0]
+    facets = np.sort(conn[:, fv], axis=2).reshape(-1, fv.shape[1])
+    _, fid = np.unique(facets, axis=0, return_inverse=True)
+    fid = fid.reshape(-1)
+    cell = np.repeat(np.arange(conn.shape[0]), nf)
+    order = np.argsort(fid, kind="stable")
+    fid, cell = fid[order], cell[order]
+    same = np.flatnonzero(fid[1:] == fid[:-1])
+    c0, c1 = cell[same], cell[same + 1]
+    cross = owner[c0] != owner[c1]
+    pairs = np.concatenate(
+        [np.stack([c0[cross], owner[c1[cross]]], 1), np.stack([c1[cross], owner[c0[cross]]], 1)]
+    )
+    pairs = np.unique(pairs, axis=0) if pairs.size else np.empty((0, 2), dtype=np.int64)
+    counts = 1 + np.bincount(pairs[:, 0], minlength=conn.shape[0])
+    offsets = np.zeros(conn.shape[0] + 1, dtype=np.int32)
+    np.cumsum(counts, out=offsets[1:])
+    data = np.empty(offsets[-1], dtype=np.int32)
+    data[offsets[:-1]] = owner
+    # ghosts follow the owner, in the order of the sorted pairs
+    start = np.zeros(conn.shape[0], dtype=np.int64)
+    for c, r in pairs:
+        start[c] += 1
+        data[offsets[c] + start[c]] = r
+    return dolfinx.graph.adjacencylist(data, offsets)
+
+
+def body_partitioner(
+    kind: str, ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none
+) -> Partitioner:
+    """Cell partitioner for ``gmshio.model_to_mesh``/``read_from_msh``/``read_interface_mesh``.
+
+    Kinds:
+
+    * ``"default"``: DOLFINx's graph partitioner (``create_cell_partitioner(ghost_mode)``).
+    * ``"bodies"``: all master cells on rank 0, all slave cells on rank 1 (rank 0 on one rank),
+      so on 2 ranks every interface pair is split across ranks.
+    * ``"together"``: cells are cut into slabs of equal cell count along x, a cell touching the
+      interface with a facet being placed by that facet's smallest x, so that the two cells of an
+      interface pair (whose facets have the same vertex coordinates) land on the same rank.
+
+    The custom kinds look up each cell's body and node coordinates in the current gmsh model on
+    the ranks that hold cells (rank 0 when gmshio converts a model), by the physical names
+    ``master``/``slave``/``interface``. They ghost cells across shared facets when ``ghost_mode``
+    is ``GhostMode.shared_facet``.
+
+    Args:
+        kind: One of :data:`PARTITIONER_KINDS`.
+        ghost_mode: Ghosting of the partitioned mesh (``none`` or ``shared_facet``).
+
+    Returns:
+        A callable ``(comm, nparts, cell_types, cells) -> AdjacencyList_int32`` giving the
+        destination ranks of each local cell (owner first, then ghost ranks).
+
+    Raises:
+        ValueError: Unknown kind or unsupported ghost mode.
+    """
+    if kind not in PARTITIONER_KINDS:
+        raise ValueError(f"partitioner kind must be one of {PARTITIONER_KINDS}, got {kind!r}")
+    if kind == "default":
+        return dolfinx.mesh.create_cell_partitioner(ghost_mode)
+    if ghost_mode not in (dolfinx.mesh.GhostMode.none, dolfinx.mesh.GhostMode.shared_facet):
+        raise ValueError(f"body_partitioner({kind!r}) supports GhostMode.none and shared_facet")
+
+    def partition(comm: MPI.Comm, nparts: int, cell_types: list, cells: list):
+        cell_type = cell_types[0]
+        nv = dolfinx.cpp.mesh.cell_num_entities(cell_type, 0)
+        conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
+        if conn.shape[0] == 0:
+            return dolfinx.graph.adjacencylist(
+                np.empty(0, dtype=np.int32), np.zeros(1, dtype=np.int32)
+            )
+        owner = np.zeros(conn.shape[0], dtype=np.int32)
+        if nparts > 1:
+            tdim = dolfinx.mesh.cell_dim(cell_type)
+            body, x, iface = _gmsh_node_data(tdim)
+            if kind == "bodies":
+                cell_body = body[conn]
+                if np.any(cell_body != cell_body[:, :1]) or np.any(cell_body < 0):
+                    raise RuntimeError("body_partitioner: a cell has nodes outside its body")
+                owner[cell_body[:, 0] == 1] = 1
+            else:
+                nfv = dolfinx.cpp.mesh.cell_num_entities(
+                    dolfinx.cpp.mesh.cell_entity_type(cell_type, tdim - 1, 0), 0
+                )
+                on_iface = iface[conn]
+                xc = x[conn, 0]
+                key = np.where(
+                    on_iface.sum(axis=1) >= nfv,
+                    np.where(on_iface, xc, np.inf).min(axis=1),
+                    xc.min(axis=1),
+                )
+                cuts = np.sort(key)[(np.arange(1, nparts) * key.size) // nparts]
+                owner = np.searchsorted(cuts, key, side="right").astype(np.int32)
+        if ghost_mode == dolfinx.mesh.GhostMode.shared_facet and nparts > 1:
+            return _ghost_destinations(conn, cell_type, owner)
+        return dolfinx.graph.adjacencylist(owner.reshape(-1, 1))
+
+    return partition

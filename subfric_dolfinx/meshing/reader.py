@@ -1,0 +1,420 @@
+"""Reading two bodies joined by a duplicated-node interface into DOLFINx, with checks.
+
+:func:`read_interface_mesh` reads a ``.msh`` file or the current gmsh model into DOLFINx,
+collectively, with checks whose failures are raised on all ranks; :func:`create_interface_mesh`
+builds with a builder of :mod:`.builders` and reads in one call. The result, an
+:class:`InterfaceMesh`, knows its groups by name and the two sides of the interface.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import dolfinx
+import dolfinx.io.gmshio
+import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from ._gmsh import (
+    gmsh_module,
+    gmsh_session,
+    group_elements,
+    group_nodes,
+    interface_sides,
+    remove_new_models,
+)
+from .builders import ModelInfo
+from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
+from .partitioners import Partitioner, body_partitioner
+
+__all__ = ["InterfaceMesh", "create_interface_mesh", "read_interface_mesh"]
+
+
+@dataclasses.dataclass
+class InterfaceMesh:
+    """A DOLFINx mesh of two bodies joined by a duplicated-node interface.
+
+    Attributes:
+        mesh: The mesh.
+        cell_tags: Cell tags (physical-group tags of the bodies).
+        facet_tags: Facet tags (physical-group tags of the facet groups).
+        tags: Physical-group name -> integer tag (the names of the file or model).
+        num_interface_facets: Global number of interface facets on each side.
+    """
+
+    mesh: dolfinx.mesh.Mesh
+    cell_tags: dolfinx.mesh.MeshTags
+    facet_tags: dolfinx.mesh.MeshTags
+    tags: dict[str, int]
+    num_interface_facets: int = 0
+    _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
+
+    @property
+    def gdim(self) -> int:
+        """Geometric dimension."""
+        return self.mesh.geometry.dim
+
+    @property
+    def tdim(self) -> int:
+        """Topological dimension."""
+        return self.mesh.topology.dim
+
+    def tag(self, name: str) -> int:
+        """Integer tag of the physical group ``name``.
+
+        Raises:
+            KeyError: No group of that name (the message lists the groups present).
+        """
+        try:
+            return self.tags[name]
+        except KeyError:
+            raise KeyError(f"no physical group {name!r}; groups: {sorted(self.tags)}") from None
+
+    def body_cells(self, body: str) -> npt.NDArray[np.int32]:
+        """Local indices (owned and ghost) of the cells of ``body`` ("master" or "slave")."""
+        return self.cell_tags.find(self.tag(body))
+
+    def facets(self, name: str) -> npt.NDArray[np.int32]:
+        """Local indices (owned and ghost) of the facets of the facet group ``name``."""
+        return self.facet_tags.find(self.tag(name))
+
+    def interface_facets(self, side: str, *, owned_only: bool = False) -> npt.NDArray[np.int32]:
+        """Local indices of the interface facets on ``side``'s body (``"master"`` or ``"slave"``).
+
+        The side of a facet is the body of its (unique) adjacent cell.
+
+        Args:
+            side: ``"master"`` or ``"slave"``.
+            owned_only: Only facets owned by this rank.
+        """
+        if side not in BODIES:
+            raise ValueError(f"side must be one of {BODIES}, got {side!r}")
+        f = self._sides[side]
+        if owned_only:
+            f = f[f < self.mesh.topology.index_map(self.tdim - 1).size_local]
+        return f
+
+    def interface_side_tags(self) -> dolfinx.mesh.MeshTags:
+        """Facet tags marking each local interface facet with the tag of its side's body.
+
+        Use as ``ufl.Measure("ds", domain=mesh, subdomain_data=...)`` and integrate over one side
+        with ``ds(tags["master"])`` or ``ds(tags["slave"])``.
+        """
+        f = np.concatenate([self._sides[MASTER], self._sides[SLAVE]])
+        v = np.concatenate(
+            [
+                np.full(self._sides[MASTER].size, self.tag(MASTER), dtype=np.int32),
+                np.full(self._sides[SLAVE].size, self.tag(SLAVE), dtype=np.int32),
+            ]
+        )
+        order = np.argsort(f)
+        return dolfinx.mesh.meshtags(self.mesh, self.tdim - 1, f[order], v[order])
+
+
+_ERRORS: dict[str, type[Exception]] = {
+    "FileNotFoundError": FileNotFoundError,
+    "InterfaceMeshError": InterfaceMeshError,
+    "RuntimeError": RuntimeError,
+    "ValueError": ValueError,
+}
+
+
+def _raise_collectively(comm: MPI.Comm, error: tuple[str, str] | None, root: int = 0) -> None:
+    """Broadcast ``error`` (class name, message) from ``root`` and raise it on every rank."""
+    error = comm.bcast(error, root=root)
+    if error is not None:
+        raise _ERRORS.get(error[0], InterfaceMeshError)(error[1])
+
+
+def _describe_groups(groups: dict[tuple[int, int], str]) -> str:
+    if not groups:
+        return "none"
+    return ", ".join(f"{n or '(unnamed)'!r} (dim {d}, tag {t})" for (d, t), n in groups.items())
+
+
+def _inspect_current_model(gdim: int, required: Sequence[str], what: str) -> dict[str, int]:
+    """Check the current gmsh model; return name -> tag. Raises InterfaceMeshError."""
+    gmsh = gmsh_module()
+    groups = {(d, t): gmsh.model.getPhysicalName(d, t) for d, t in gmsh.model.getPhysicalGroups()}
+    dims = {d for d, t in groups if any(c.size for c in group_elements(d, t)[1])}
+    tdim = max(dims, default=-1)
+    if tdim != gdim:
+        raise InterfaceMeshError(
+            f"{what}: expected a {gdim}-D mesh (cells of topological dimension {gdim} for "
+            f"gdim={gdim}), found cells of topological dimension {tdim} "
+            f"(physical groups: {_describe_groups(groups)})"
+        )
+    ntags, coords, _ = gmsh.model.mesh.getNodes()
+    x = np.asarray(coords).reshape(-1, 3)
+    if gdim == 2 and x.size and np.abs(x[:, 2]).max() > 1e-12 * max(1.0, np.abs(x).max()):
+        raise InterfaceMeshError(
+            f"{what}: expected a planar mesh (z = 0) for gdim=2, found z in "
+            f"[{x[:, 2].min():g}, {x[:, 2].max():g}]"
+        )
+    names: dict[str, int] = {}
+    for (_, t), n in groups.items():
+        if not n:
+            continue  # unnamed groups are read by gmshio but not addressable by name
+        if n in names:
+            raise InterfaceMeshError(f"{what}: physical name {n!r} is used by several groups")
+        names[n] = t
+    for n in required:
+        if n not in names:
+            raise InterfaceMeshError(
+                f"{what}: required physical group {n!r} not found; physical groups found: "
+                f"{_describe_groups(groups)}"
+            )
+    for n in (MASTER, SLAVE, INTERFACE):
+        want = gdim - 1 if n == INTERFACE else gdim
+        found = [d for (d, t), m in groups.items() if m == n]
+        if found and found[0] != want:
+            raise InterfaceMeshError(
+                f"{what}: physical group {n!r} must have dimension {want}, found dimension "
+                f"{found[0]}"
+            )
+    types = {t for d, tg in groups if d == gdim for t in group_elements(d, tg)[0]}
+    if len(types) != 1:
+        tnames = sorted(gmsh.model.mesh.getElementProperties(t)[0] for t in types)
+        raise InterfaceMeshError(f"{what}: expected one cell type, found {tnames}")
+    if MASTER in names and SLAVE in names:
+        tags = {MASTER: names[MASTER], SLAVE: names[SLAVE]}
+        shared = np.intersect1d(group_nodes(gdim, tags[MASTER]), group_nodes(gdim, tags[SLAVE]))
+        if shared.size:
+            p = gmsh.model.mesh.getNode(int(shared[0]))[0][:gdim]
+            raise InterfaceMeshError(
+                f"{what}: the bodies {MASTER!r} and {SLAVE!r} share {shared.size} nodes (e.g. at "
+                f"{tuple(float(v) for v in p)}); the interface nodes must be duplicated, e.g. with "
+                "gmsh's Crack plugin and OpenBoundaryPhysicalGroup"
+            )
+        if INTERFACE in names:
+            tags[INTERFACE] = names[INTERFACE]
+            sides = interface_sides(gdim, tags)
+            if sides["neither"]:
+                raise InterfaceMeshError(
+                    f"{what}: {sides['neither']} {INTERFACE!r} facets do not belong to the "
+                    f"boundary of exactly one body"
+                )
+            if sides[MASTER] != sides[SLAVE]:
+                raise InterfaceMeshError(
+                    f"{what}: the two sides of the {INTERFACE!r} group have different numbers "
+                    f"of facets: {sides[MASTER]} on the {MASTER!r} side, {sides[SLAVE]} on the "
+                    f"{SLAVE!r} side"
+                )
+    if ntags.size and not np.array_equal(np.sort(ntags), np.arange(1, ntags.size + 1)):
+        # e.g. right after the Crack plugin: gmshio needs contiguous node tags
+        gmsh.model.mesh.renumberNodes()
+        gmsh.model.mesh.renumberElements()
+    return names
+
+
+def read_interface_mesh(
+    source: str | os.PathLike | None,
+    comm: MPI.Comm,
+    gdim: int,
+    *,
+    partitioner: str | Partitioner | None = None,
+    ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none,
+    required: Sequence[str] = REQUIRED_GROUPS,
+) -> InterfaceMesh:
+    """Read two bodies joined by a duplicated-node interface into DOLFINx (collective).
+
+    Rank 0 reads and checks the gmsh data; every failure is raised on all ranks.
+
+    Args:
+        source: Path of a ``.msh`` file, or ``None`` for the current gmsh model of rank 0 (its
+            node tags are renumbered if they have gaps, as after the Crack plugin).
+        comm: Communicator of the mesh.
+        gdim: Expected geometric (= topological) dimension, 2 or 3.
+        partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
+            DOLFINx's default partitioner.
+        ghost_mode: Ghost mode for the default partitioner or a :func:`body_partitioner` kind.
+        required: Physical groups that must be present.
+
+    Returns:
+        The mesh, its tags, the name -> tag dictionary, and the interface sides.
+
+    Raises:
+        FileNotFoundError: ``source`` does not exist.
+        InterfaceMeshError: Wrong dimension, a required group missing, several cell types,
+            bodies sharing nodes, interface sides with different numbers of facets, interface
+            facets that are not exterior facets of exactly one body, group elements that are
+            not entities of the mesh (which gmshio would drop silently).
+    """
+    if gdim not in (2, 3):
+        raise ValueError(f"gdim must be 2 or 3, got {gdim!r}")
+    if isinstance(partitioner, str):
+        partitioner = body_partitioner(partitioner, ghost_mode)
+    elif partitioner is None and comm.size > 1:
+        partitioner = dolfinx.mesh.create_cell_partitioner(ghost_mode)
+    what = "current gmsh model" if source is None else str(source)
+    error: tuple[str, str] | None = None
+    names: dict[str, int] = {}
+    counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
+    model = None
+    with contextlib.ExitStack() as stack:
+        if comm.rank == 0:
+            try:
+                gmsh = gmsh_module()
+                if source is None:
+                    if not gmsh.isInitialized() or not gmsh.model.list():
+                        raise InterfaceMeshError(
+                            "read_interface_mesh(None): no current gmsh model on rank 0"
+                        )
+                else:
+                    path = Path(source)
+                    if not path.is_file():
+                        raise FileNotFoundError(f"mesh file not found: {path}")
+                    stack.enter_context(gmsh_session(f"subfric-read-{os.getpid()}"))
+                    try:
+                        gmsh.merge(str(path))
+                    except Exception as e:
+                        raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
+                names = _inspect_current_model(gdim, required, what)
+                for d, t in gmsh.model.getPhysicalGroups():
+                    if d >= gdim - 1:
+                        n = sum(c.shape[0] for c in group_elements(d, t)[1])
+                        name = gmsh.model.getPhysicalName(d, t)
+                        if name:
+                            counts[name] = (d, n)
+                model = gmsh.model
+            except (FileNotFoundError, InterfaceMeshError) as e:
+                error = (type(e).__name__, str(e))
+            except Exception as e:  # anything else, e.g. from gmsh: report on all ranks
+                error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
+        _raise_collectively(comm, error)
+        names = comm.bcast(names, root=0)
+        counts = comm.bcast(counts, root=0)
+        mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
+            model, comm, 0, gdim=gdim, partitioner=partitioner
+        )
+    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names)
+    _check_group_counts(imesh, counts, what)
+    if INTERFACE in names:
+        _find_sides(imesh, what)
+    else:
+        empty = np.empty(0, dtype=np.int32)
+        imesh._sides = {MASTER: empty, SLAVE: empty}
+    return imesh
+
+
+def _check_group_counts(
+    imesh: InterfaceMesh, counts: dict[str, tuple[int, int]], what: str
+) -> None:
+    """Check that every cell and facet of the gmsh groups made it into the DOLFINx tags.
+
+    gmshio silently drops tagged facets that are not facets of the mesh cells, e.g. boundary
+    elements that use the other body's copy of a duplicated node.
+    """
+    mesh, tdim = imesh.mesh, imesh.tdim
+    items = sorted(counts.items())
+    local = np.zeros(len(items), dtype=np.int64)
+    for i, (name, (dim, _)) in enumerate(items):
+        tags = imesh.cell_tags if dim == tdim else imesh.facet_tags
+        found = tags.find(imesh.tags[name])
+        local[i] = np.count_nonzero(found < mesh.topology.index_map(dim).size_local)
+    total = np.zeros_like(local)
+    mesh.comm.Allreduce(local, total, op=MPI.SUM)
+    lost = [
+        f"{name!r}: {n - int(k)} of {n}"
+        for (name, (_, n)), k in zip(items, total, strict=True)
+        if int(k) != n
+    ]
+    if lost:
+        raise InterfaceMeshError(
+            f"{what}: elements of physical groups are not entities of the DOLFINx mesh "
+            f"({', '.join(lost)}); boundary elements must use the nodes of their own body"
+        )
+
+
+def _find_sides(imesh: InterfaceMesh, what: str) -> None:
+    """Split the interface facets by the body of the adjacent cell, with collective checks."""
+    mesh, comm, tdim = imesh.mesh, imesh.mesh.comm, imesh.tdim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    imap = mesh.topology.index_map(tdim)
+    cell_value = np.full(imap.size_local + imap.num_ghosts, -1, dtype=np.int32)
+    cell_value[imesh.cell_tags.indices] = imesh.cell_tags.values
+    facets = imesh.facet_tags.find(imesh.tag(INTERFACE))
+    exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+    cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
+    body = cell_value[cells] if facets.size else np.empty(0, dtype=np.int32)
+    nf_owned = mesh.topology.index_map(tdim - 1).size_local
+    owned = facets < nf_owned
+    sides = {b: facets[body == imesh.tags.get(b, -99)] for b in BODIES}
+    local = np.array(
+        [
+            np.count_nonzero(owned),
+            np.count_nonzero(owned & ~np.isin(facets, exterior)),  # exterior: owned only
+            np.count_nonzero(owned & (body == imesh.tags.get(MASTER, -99))),
+            np.count_nonzero(owned & (body == imesh.tags.get(SLAVE, -99))),
+        ],
+        dtype=np.int64,
+    )
+    total = np.zeros_like(local)
+    comm.Allreduce(local, total, op=MPI.SUM)
+    n_owned, n_interior, n_master, n_slave = (int(v) for v in total)
+    if n_interior:
+        raise InterfaceMeshError(
+            f"{what}: {n_interior} {INTERFACE!r} facets are interior facets (shared by two "
+            "cells); the interface nodes must be duplicated"
+        )
+    if n_master != n_slave or n_master + n_slave != n_owned:
+        raise InterfaceMeshError(
+            f"{what}: the two sides of the {INTERFACE!r} group have different numbers of facets: "
+            f"{n_master} on the {MASTER!r} side, {n_slave} on the {SLAVE!r} side"
+            + (
+                f", {n_owned - n_master - n_slave} next to neither body"
+                if n_master + n_slave != n_owned
+                else ""
+            )
+        )
+    imesh._sides = sides
+    imesh.num_interface_facets = n_master
+
+
+def create_interface_mesh(
+    builder: Callable[..., ModelInfo],
+    comm: MPI.Comm,
+    *,
+    partitioner: str | Partitioner | None = None,
+    ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none,
+    **kwargs: Any,
+) -> tuple[InterfaceMesh, ModelInfo]:
+    """Build a model with ``builder(**kwargs)`` on rank 0 and read it into DOLFINx (collective).
+
+    gmsh is initialised on rank 0 if needed (and finalised afterwards); the model is removed from
+    the session once read. A builder failure is raised on all ranks.
+
+    Args:
+        builder: :func:`build_block_on_base`, :func:`build_pad_on_plate`, or alike.
+        comm: Communicator of the mesh.
+        partitioner: As in :func:`read_interface_mesh`.
+        ghost_mode: As in :func:`read_interface_mesh`.
+        **kwargs: Passed to ``builder``.
+
+    Returns:
+        The mesh and the builder's model description (the same on all ranks).
+    """
+    error: tuple[str, str] | None = None
+    info: ModelInfo | None = None
+    with contextlib.ExitStack() as stack:
+        if comm.rank == 0:
+            try:
+                gmsh = stack.enter_context(gmsh_session(None))
+                stack.callback(remove_new_models, gmsh, gmsh.model.list(), gmsh.model.getCurrent())
+                info = builder(**kwargs)
+            except Exception as e:
+                error = (type(e).__name__, f"{getattr(builder, '__name__', builder)}: {e}")
+        _raise_collectively(comm, error)
+        info = comm.bcast(info, root=0)
+        imesh = read_interface_mesh(
+            None, comm, info.gdim, partitioner=partitioner, ghost_mode=ghost_mode
+        )
+    return imesh, info

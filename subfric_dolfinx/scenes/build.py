@@ -1,0 +1,76 @@
+"""Building an FE scene: the mesh, the law, the loading program and the problem, nothing more."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import meshing
+from ..fem import Dirichlet, InterfaceProblem, Material, Pressure, Traction
+from .parser import build_program, parse_law
+from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
+
+__all__ = ["BUILDERS", "build_mesh", "build_problem"]
+
+BUILDERS = {
+    "block_on_base": meshing.build_block_on_base,
+    "pad_on_plate": meshing.build_pad_on_plate,
+}
+"""Mesh builders a scene may name."""
+
+
+def build_mesh(spec: MeshSpec, comm: Any) -> meshing.InterfaceMesh:
+    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective)."""
+    if spec.builder is not None:
+        dom, _ = meshing.create_interface_mesh(
+            BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **spec.options
+        )
+        return dom
+    return meshing.read_interface_mesh(spec.file, comm, spec.gdim, partitioner=spec.partitioner)
+
+
+def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
+    if spec.gradient is None:
+        return Dirichlet(spec.group, spec.value, spec.component, spec.amplitude)
+    grad = np.asarray(spec.gradient, dtype=float)
+    base = np.asarray(spec.value, dtype=float)
+    if spec.component is not None:
+        if grad.shape != (gdim,) or base.shape != ():
+            raise SceneError(f"{path}: with a component, value is a number and gradient has {gdim}")
+
+        def scalar(x: np.ndarray) -> np.ndarray:
+            return base + grad @ x[:gdim]
+
+        return Dirichlet(spec.group, scalar, spec.component, spec.amplitude)
+    if grad.shape != (gdim, gdim) and grad.shape != (gdim * gdim,):
+        raise SceneError(f"{path}.gradient: expected {gdim}x{gdim} values for a vector value")
+    G = grad.reshape(gdim, gdim)
+
+    def vector(x: np.ndarray) -> np.ndarray:
+        return base[:, None] + G @ x[:gdim]
+
+    return Dirichlet(spec.group, vector, None, spec.amplitude)
+
+
+def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfaceProblem:
+    """The interface problem of a scene on ``domain`` (collective)."""
+    gdim = domain.mesh.geometry.dim
+    bcs = [_dirichlet(d, gdim, f"scene.dirichlet[{i}]") for i, d in enumerate(scene.dirichlet)]
+    loads = [
+        Pressure(ld.group, float(ld.value), ld.amplitude)  # type: ignore[arg-type]
+        if ld.type == "pressure"
+        else Traction(ld.group, ld.value, ld.amplitude)  # type: ignore[arg-type]
+        for ld in scene.loads
+    ]
+    materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}
+    return InterfaceProblem(
+        domain,
+        parse_law(scene.law),
+        materials,
+        build_program(scene.program),
+        bcs,
+        loads,
+        degree=scene.degree,
+        quadrature=scene.quadrature,
+    )

@@ -1,0 +1,117 @@
+"""Running an FE scene: build, solve step by step, write what was asked for, clean up.
+
+Everything from the solver's creation on is guarded: whatever ends the run (a finished program, a
+:class:`~subfric_dolfinx.fem.StepFailure`, a stop signal, a bad restart file), the files are
+closed and the solver is destroyed (its options prefix released).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
+from ..io import interface_summary, restore_checkpoint
+from .build import build_mesh, build_problem
+from .outputs import SceneOutputs
+from .result import SceneResult
+from .schema import FEScene, SceneError
+from .signals import StopSignals
+
+__all__ = ["run_fe_scene"]
+
+logger = logging.getLogger(__name__)
+
+
+def run_fe_scene(
+    scene: FEScene, outdir: str | Path | None, comm: Any, restart: str | Path | None
+) -> SceneResult:
+    """Run a validated FE scene (see :func:`~.runner.run_scene`)."""
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out = scene.outputs
+    wants_files = out.history or out.fields is not None or out.interface_history or out.checkpoints
+    if wants_files and outdir is None:
+        raise SceneError("scene.outputs asks for files but no output directory was given")
+    outdir = Path(outdir) if outdir is not None else None
+    t_start = time.perf_counter()
+    PETSc.Log.begin()
+    domain = build_mesh(scene.mesh, comm)
+    problem = build_problem(scene, domain)
+    res = SceneResult(scene.name, "fe")
+    tdim = domain.mesh.topology.dim
+    res.info = {
+        "ranks": comm.size,
+        "cells": domain.mesh.topology.index_map(tdim).size_global,
+        "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
+        "interface points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
+        "gdim": domain.mesh.geometry.dim,
+    }
+    i = res.info
+    logger.info(
+        "[%s] %d-D, %d cells, %d dofs, %d interface points, %d rank(s)",
+        scene.name, i["gdim"], i["cells"], i["dofs"], i["interface points"], i["ranks"],
+    )  # fmt: skip
+    with contextlib.ExitStack() as stack:
+        solver = stack.enter_context(
+            FrictionSolver(problem, scene.solver.prefix, scene.solver.options)
+        )
+        stepper = LoadStepper(
+            solver,
+            scene.solver.dt,
+            dt_max=scene.solver.dt_max,
+            dt_min=scene.solver.dt_min,
+            max_cuts=scene.solver.max_cuts,
+        )
+        restart_time, restart_history = None, None
+        if restart is not None:
+            restart_history = restore_checkpoint(restart, problem, stepper)
+            restart_time = stepper.t
+            logger.info(
+                "[%s] restarted from %s at t = %.6g (step %d)",
+                scene.name, restart, stepper.t, stepper.step,
+            )  # fmt: skip
+        outputs = stack.enter_context(
+            SceneOutputs(
+                out,
+                outdir,
+                problem,
+                stepper,
+                restart_time=restart_time,
+                restart_history=restart_history,
+            )
+        )
+        guard = stack.enter_context(StopSignals(enabled=out.checkpoints))
+        stepper.on_step = lambda rec: outputs.on_step(rec, guard.requested(comm))
+        try:
+            stepper.run(stops=outputs.stops)
+        except StepFailure:
+            outputs.write_checkpoint()  # the last converged state, for a restart
+            raise
+        finally:
+            outputs.close()
+            res.history = outputs.history.rows
+            res.snapshots = outputs.snapshots
+            res.iterations = outputs.iterations
+            res.files = outputs.files
+            res.timing = timing_breakdown(problem, solver.event_start)
+            res.timing["total"] = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
+            res.info["summary"] = interface_summary(problem)
+    t = dict(res.timing)
+    total = t.pop("total")
+    logger.info(format_breakdown(t, total))
+    its = res.iterations
+    if its:
+        logger.info(
+            "[%s] %d steps, Newton iterations per step: mean %.2f, max %d",
+            scene.name, len(its), np.mean(its), max(its),
+        )  # fmt: skip
+    else:
+        logger.info("[%s] no step to take: the program had already ended", scene.name)
+    return res

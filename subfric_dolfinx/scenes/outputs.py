@@ -1,0 +1,163 @@
+"""The outputs of an FE scene, as one object fed once per converged step.
+
+:class:`SceneOutputs` holds what the scene's ``outputs`` asked for and nothing else: the history
+(always kept in memory, written as ``history.csv`` on request), field output, the HDF5 interface
+history, checkpoints, and the interface profiles (snapshots) returned in memory. The runner calls
+:meth:`SceneOutputs.on_step` after each converged step and :meth:`SceneOutputs.close` at the end
+(it is a context manager).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+
+from ..io import FieldWriter, HistoryCSV, InterfaceHistoryH5, gather_interface, write_checkpoint
+from .schema import OutputSpec
+from .signals import SceneInterrupted
+
+__all__ = ["SceneOutputs", "interface_profile"]
+
+
+def interface_profile(problem: Any) -> dict[str, np.ndarray]:
+    """Interface fields at all points, gathered on every rank (collective).
+
+    In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
+    ``status`` and every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``).
+    """
+    el = problem.interface
+    nt = el.nt
+    tr = el.last.traction
+    values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "status": el.last.status}
+    values.update(dict(el.state.old.items()))
+    out = gather_interface(el, values)
+    out["status"] = out["status"].astype(int)
+    return out
+
+
+class SceneOutputs:
+    """What a scene asked for, written step by step.
+
+    Args:
+        spec: The scene's ``outputs``.
+        outdir: Output directory (required when files are asked for).
+        problem: The problem.
+        stepper: The load stepper (its position goes into checkpoints).
+        restart_time: Time of the checkpoint a restarted run continues from.
+        restart_history: History rows of that checkpoint.
+
+    Attributes:
+        history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
+        snapshots: Time -> :func:`interface_profile`, at the requested times.
+        iterations: Newton iterations per step.
+        files: Paths written.
+    """
+
+    def __init__(
+        self,
+        spec: OutputSpec,
+        outdir: Path | None,
+        problem: Any,
+        stepper: Any,
+        *,
+        restart_time: float | None = None,
+        restart_history: list[dict[str, float]] | None = None,
+    ) -> None:
+        self.spec, self.problem, self.stepper = spec, problem, stepper
+        self.outdir = outdir
+        self.files: list[str] = []
+        self.snapshots: dict[float, dict[str, np.ndarray]] = {}
+        self.iterations: list[int] = []
+        self.fields: FieldWriter | None = None
+        self.ihist: InterfaceHistoryH5 | None = None
+        self.history = HistoryCSV(outdir / "history.csv" if spec.history else None, problem)
+        if restart_history:
+            self.history.preload(restart_history)
+        try:
+            if spec.fields:
+                self.fields = FieldWriter(outdir / "fields", problem, spec.fields)
+            if spec.interface_history:
+                self.ihist = InterfaceHistoryH5(
+                    outdir / "interface_history.h5", problem, restart_time
+                )
+        except BaseException:
+            self.close()
+            raise
+        self.checkpoint_path = outdir / "checkpoint.h5" if spec.checkpoints else None
+        self._ck_times = np.asarray(spec.checkpoint_times, dtype=float)
+        self._field_times = np.asarray(spec.field_times, dtype=float)
+        self._snaps = np.asarray(spec.snapshots, dtype=float)
+
+    @property
+    def stops(self) -> list[float]:
+        """Times at which steps must end (snapshots, field and checkpoint times)."""
+        return [*self.spec.snapshots, *self.spec.field_times, *self.spec.checkpoint_times]
+
+    def write_checkpoint(self) -> None:
+        """Write the converged state now (collective); nothing without checkpoints."""
+        if self.checkpoint_path is not None:
+            write_checkpoint(self.checkpoint_path, self.problem, self.stepper, self.history.rows)
+            self.files.append(str(self.checkpoint_path))
+
+    def on_step(self, rec: Any, stopping: bool = False) -> None:
+        """Record a converged step (collective).
+
+        Args:
+            rec: The :class:`~subfric_dolfinx.fem.StepRecord`.
+            stopping: A stop was requested: write a checkpoint and raise
+                :class:`~.signals.SceneInterrupted`.
+        """
+        self.history.write(rec)
+        self.iterations.append(rec.iterations)
+        if self.ihist is not None:
+            self.ihist.write(rec.t)
+        if self.fields is not None and (
+            self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
+        ):
+            self.fields.write(rec.t)
+        hit = np.isclose(self._snaps, rec.t, atol=1e-9)
+        if np.any(hit):
+            self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
+        if self.checkpoint_path is None:
+            return
+        every = self.spec.checkpoint_every
+        due = (every and rec.step % every == 0) or np.any(
+            np.isclose(self._ck_times, rec.t, atol=1e-9)
+        )
+        if due or stopping:
+            self.write_checkpoint()
+        if stopping:
+            raise SceneInterrupted(
+                f"interrupted by a signal after step {rec.step} at t = {rec.t:.6g}; "
+                f"checkpoint written to {self.checkpoint_path}",
+                rec.t,
+                str(self.checkpoint_path),
+            )
+
+    def close(self) -> None:
+        """Close the files (collective) and list them in :attr:`files`."""
+        self.history.close()
+        if self.spec.history and self.outdir is not None:
+            self.files.append(str(self.outdir / "history.csv"))
+        if self.fields is not None:
+            self.fields.close()
+            self.fields = None
+            self.files.append(str(self.outdir / "fields"))
+        if self.ihist is not None:
+            self.ihist.close()
+            self.ihist = None
+            self.files.append(str(self.outdir / "interface_history.h5"))
+
+    def __enter__(self) -> SceneOutputs:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()

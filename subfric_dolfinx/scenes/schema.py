@@ -1,0 +1,153 @@
+"""The scene schema: dataclasses of an FE scene and a pointwise scene, and the scene error.
+
+A scene is a small JSON-like configuration; :func:`~.parser.parse_scene` turns it into these
+dataclasses, strictly (an unknown key or a wrong type is an error naming its path).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+__all__ = [
+    "DirichletSpec",
+    "FEScene",
+    "LoadSpec",
+    "MeshSpec",
+    "OutputSpec",
+    "PointScene",
+    "SceneError",
+    "SolverSpec",
+]
+
+
+class SceneError(ValueError):
+    """An invalid scene; the message names the offending key by its path."""
+
+
+@dataclasses.dataclass(frozen=True)
+class MeshSpec:
+    """Where the mesh comes from.
+
+    Attributes:
+        builder: ``"block_on_base"`` (2-D) or ``"pad_on_plate"`` (3-D), built with gmsh.
+        file: Or a ``.msh`` file (relative to the working directory).
+        gdim: Geometric dimension of ``file``.
+        options: Keyword arguments of the builder.
+        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
+    """
+
+    builder: str | None = None
+    file: str | None = None
+    gdim: int | None = None
+    options: dict[str, Any] = dataclasses.field(default_factory=dict)
+    partitioner: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class DirichletSpec:
+    """Prescribed displacement ``(value + gradient . x) * amplitude(t)`` on a facet group.
+
+    ``value`` is a list (all components) or a number with ``component``.
+    """
+
+    group: str
+    value: float | list[float]
+    component: int | None = None
+    amplitude: str | None = None
+    gradient: list[float] | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class LoadSpec:
+    """A pressure (``value`` a number, positive inwards) or traction (``value`` a vector)."""
+
+    type: str
+    group: str
+    value: float | list[float]
+    amplitude: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverSpec:
+    """SNES prefix and load-stepping controls.
+
+    Attributes:
+        dt: Initial load step (s).
+        prefix: PETSc options prefix of the solver (command-line options apply under it); a
+            unique ``subfric_<n>_`` when omitted.
+        dt_max: Largest step (default ``dt``).
+        dt_min: Smallest step before the run gives up.
+        max_cuts: Consecutive step cuts allowed.
+        options: PETSc options under the prefix, for this scene's solver only.
+    """
+
+    dt: float
+    prefix: str | None = None
+    dt_max: float | None = None
+    dt_min: float | None = None
+    max_cuts: int = 10
+    options: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass(frozen=True)
+class OutputSpec:
+    """What to produce; nothing by default.
+
+    Attributes:
+        history: Write ``history.csv`` (one row per converged step).
+        fields: ``"vtx"`` or ``"xdmf"`` field output, or ``None``.
+        field_times: Times at which fields are written (all steps if empty).
+        snapshots: Times at which interface profiles are gathered and returned (steps end there).
+        interface_history: Write ``interface_history.h5`` (every field at every step, see
+            :class:`~subfric_dolfinx.io.InterfaceHistoryH5`).
+        checkpoint_every: Write ``checkpoint.h5`` every so many converged steps (0: never).
+        checkpoint_times: And at these times (steps end there).
+
+    With checkpoints enabled, SIGTERM makes the run write a checkpoint after the current step and
+    stop (:class:`SceneInterrupted`), and a step that cannot be solved leaves the last converged
+    state in the checkpoint.
+    """
+
+    history: bool = False
+    fields: str | None = None
+    field_times: list[float] = dataclasses.field(default_factory=list)
+    snapshots: list[float] = dataclasses.field(default_factory=list)
+    interface_history: bool = False
+    checkpoint_every: int = 0
+    checkpoint_times: list[float] = dataclasses.field(default_factory=list)
+
+    @property
+    def checkpoints(self) -> bool:
+        """Whether checkpoints are written."""
+        return self.checkpoint_every > 0 or bool(self.checkpoint_times)
+
+
+@dataclasses.dataclass(frozen=True)
+class FEScene:
+    """A finite-element scene: two elastic bodies and a frictional interface."""
+
+    name: str
+    mesh: MeshSpec
+    law: Any  # {"law": name, "params": {...}}, or a FrictionLaw object
+    materials: dict[str, dict[str, float]]
+    program: dict[str, Any]
+    solver: SolverSpec
+    dirichlet: list[DirichletSpec] = dataclasses.field(default_factory=list)
+    loads: list[LoadSpec] = dataclasses.field(default_factory=list)
+    degree: int = 1
+    quadrature: str = "gauss"
+    outputs: OutputSpec = dataclasses.field(default_factory=OutputSpec)
+    kind: str = "fe"
+
+
+@dataclasses.dataclass(frozen=True)
+class PointScene:
+    """A pointwise scene: named material-point cases (see :mod:`subfric_dolfinx.driver`)."""
+
+    name: str
+    cases: dict[str, dict[str, Any]]
+    steps_per_mm: float | None = None
+    on_instability: str = "stop"
+    save: bool = False
+    kind: str = "pointwise"

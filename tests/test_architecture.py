@@ -1,0 +1,217 @@
+"""The package's layers, checked by walking its imports (statically, with ``ast``).
+
+Layers, lowest first; a module may import its own subpackage and lower layers only:
+
+0. ``constitutive/``, ``loading.py``, ``logs.py``: numpy and the standard library only;
+1. ``driver/`` (numpy only, on the constitutive core), ``meshing/`` (gmsh, DOLFINx);
+2. ``fem/`` (DOLFINx, PETSc, MPI), ``calibrate.py`` (scipy, on the driver);
+3. ``io/``;
+4. ``scenes/`` (the top).
+
+Function-level imports count like module-level ones: a lazy import is still an import.
+"""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "subfric_dolfinx"
+NAME = "subfric_dolfinx"
+
+LAYERS = {
+    f"{NAME}.constitutive": 0,
+    f"{NAME}.loading": 0,
+    f"{NAME}.logs": 0,
+    f"{NAME}.driver": 1,
+    f"{NAME}.meshing": 1,
+    f"{NAME}.fem": 2,
+    f"{NAME}.calibrate": 2,
+    f"{NAME}.io": 3,
+    f"{NAME}.scenes": 4,
+}
+NUMPY_ONLY = [f"{NAME}.constitutive", f"{NAME}.loading", f"{NAME}.logs", f"{NAME}.driver"]
+HEAVY = {"dolfinx", "petsc4py", "mpi4py", "gmsh", "basix", "ufl", "ffcx", "h5py", "adios2"}
+MAX_LINES = 500
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+MODULES = {module_name(p): p for p in sorted(PKG.rglob("*.py"))}
+
+
+def is_package(mod: str) -> bool:
+    return MODULES[mod].name == "__init__.py"
+
+
+def resolve(mod: str, node: ast.AST) -> list[str]:
+    """Absolute names of what an import statement in module ``mod`` imports."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names]
+    assert isinstance(node, ast.ImportFrom)
+    if node.level:
+        base = mod.split(".") if is_package(mod) else mod.split(".")[:-1]
+        base = base[: len(base) - (node.level - 1)]
+        target = ".".join(base + ([node.module] if node.module else []))
+    else:
+        target = node.module
+    out = []
+    for a in node.names:
+        sub = f"{target}.{a.name}"
+        out.append(sub if sub in MODULES else target)
+    return out
+
+
+def imports_of(mod: str) -> set[str]:
+    tree = ast.parse(MODULES[mod].read_text())
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            # imports only for type checkers do not run
+            found.update(resolve(mod, node))
+    for node in ast.walk(tree):  # drop `if TYPE_CHECKING:` blocks
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            for sub in ast.walk(node):
+                if isinstance(sub, ast.Import | ast.ImportFrom):
+                    found.difference_update(resolve(mod, sub))
+    return found
+
+
+def internal_targets(mod: str) -> set[str]:
+    """Package modules ``mod`` makes Python execute: each import and its parent packages, except
+    ``mod``'s own ancestors (already executing when ``mod`` runs)."""
+    own = {".".join(mod.split(".")[:i]) for i in range(1, mod.count(".") + 1)}
+    out = set()
+    for name in imports_of(mod):
+        if not name.startswith(NAME):
+            continue
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):
+            t = ".".join(parts[:i])
+            if t in MODULES and t not in own and t != mod:
+                out.add(t)
+    return out
+
+
+GRAPH = {m: internal_targets(m) for m in MODULES}
+
+
+def group(mod: str) -> str | None:
+    for g in LAYERS:
+        if mod == g or mod.startswith(g + "."):
+            return g
+    return None
+
+
+def test_the_layers_are_what_ls_shows():
+    top = sorted(p.name for p in PKG.iterdir() if not p.name.startswith(("_", ".")))
+    assert top == sorted(
+        ["constitutive", "driver", "fem", "io", "loading.py", "logs.py", "meshing", "scenes"]
+        + (["calibrate.py"] if (PKG / "calibrate.py").exists() else [])
+    )
+    for m in MODULES:
+        assert m == NAME or group(m) is not None, f"{m} belongs to no layer"
+
+
+def test_no_upward_or_sideways_import():
+    bad = []
+    for m, targets in GRAPH.items():
+        gm = group(m)
+        if gm is None:
+            continue
+        for t in targets:
+            gt = group(t)
+            if gt is None or gt == gm:
+                continue
+            if LAYERS[gt] >= LAYERS[gm]:
+                bad.append(f"{m} -> {t}")
+    assert not bad, "imports against the layering:\n" + "\n".join(sorted(bad))
+
+
+def test_no_import_cycle():
+    state: dict[str, int] = {}
+    stack: list[str] = []
+    cycles = []
+
+    def visit(m):
+        state[m] = 1
+        stack.append(m)
+        for t in sorted(GRAPH[m]):
+            if state.get(t) == 1:
+                cycles.append(" -> ".join([*stack[stack.index(t) :], t]))
+            elif t not in state:
+                visit(t)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(GRAPH):
+        if m not in state:
+            visit(m)
+    assert not cycles, "import cycles:\n" + "\n".join(cycles)
+
+
+def closure(start: str) -> set[str]:
+    todo = [m for m in MODULES if m == start or m.startswith(start + ".")]
+    seen = set(todo)
+    while todo:
+        for t in GRAPH[todo.pop()]:
+            if t not in seen:
+                seen.add(t)
+                todo.append(t)
+    return seen
+
+
+@pytest.mark.parametrize("start", NUMPY_ONLY)
+def test_numpy_only_layers_reach_nothing_else(start):
+    """No DOLFINx, PETSc, MPI, gmsh (or anything but numpy and the standard library) is reachable
+    from the constitutive core, the loading programs, the logs or the material-point driver."""
+    reach = closure(start)
+    external = set()
+    for m in reach:
+        assert group(m) in (*NUMPY_ONLY, None) or m == NAME, f"{start} reaches {m}"
+        external |= {n.split(".")[0] for n in imports_of(m) if not n.startswith(NAME)}
+    allowed = set(sys.stdlib_module_names) | {"numpy", "__future__"}
+    assert external <= allowed, f"{start} reaches {sorted(external - allowed)}"
+
+
+def test_numpy_only_layers_at_run_time():
+    """The same, for real: importing them loads none of the heavy modules."""
+    code = (
+        "import sys\n"
+        "import subfric_dolfinx.constitutive, subfric_dolfinx.driver, subfric_dolfinx.loading\n"
+        "import subfric_dolfinx.logs, subfric_dolfinx.scenes\n"
+        f"print(sorted(m for m in {sorted(HEAVY)!r} if m in sys.modules))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def test_every_subpackage_says_what_it_is_and_may_import():
+    for m, p in MODULES.items():
+        if is_package(m) and m != NAME and group(m) == m:
+            doc = ast.get_docstring(ast.parse(p.read_text())) or ""
+            assert doc and "May import:" in doc, f"{m}: docstring without 'May import:'"
+
+
+def test_no_module_is_too_long():
+    long = {m: n for m, p in MODULES.items() if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+def test_the_walker_sees_what_it_must():
+    """The checks above are only as good as the graph: spot-check known edges."""
+    assert f"{NAME}.constitutive.protocol" in GRAPH[f"{NAME}.constitutive.subloading"]
+    assert f"{NAME}.fem.solver" in GRAPH[f"{NAME}.fem.stepping"]
+    assert f"{NAME}.scenes.fe" in GRAPH[f"{NAME}.scenes.runner"]  # a function-level import
+    assert f"{NAME}.fem" in GRAPH[f"{NAME}.io.checkpoint"]  # parent package of fem.interface

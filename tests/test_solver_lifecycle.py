@@ -1,0 +1,129 @@
+"""The solver cleans up after itself: options never outlive a solver, prefixes are released.
+
+As DOLFINx's own SNES ``NonlinearProblem`` does: options pushed under the prefix, applied, then
+deleted (or the database's earlier values restored); the scene runner guards everything from the
+solver's creation on. Reproduces the leaks of the first version and shows them fixed.
+"""
+
+import gc
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from demos import block_on_base
+from subfric_dolfinx.fem import DEFAULT_OPTIONS, FrictionSolver
+from subfric_dolfinx.fem.solver import _LIVE_PREFIXES
+from subfric_dolfinx.io import CheckpointError
+from subfric_dolfinx.scenes import parse_scene, run_scene
+from subfric_dolfinx.scenes.build import build_mesh, build_problem
+from tests.helpers import everywhere
+
+
+def small_scene(prefix):
+    s = block_on_base.scene(n=4, hold=1.0, dt=0.1)
+    s["solver"]["prefix"] = prefix
+    s["outputs"] = {}
+    return s
+
+
+@pytest.fixture(scope="module")
+def problem():
+    scene = parse_scene(small_scene("lc_"))
+    return build_problem(scene, build_mesh(scene.mesh, MPI.COMM_WORLD))
+
+
+def under(prefix):
+    return {k: v for k, v in PETSc.Options().getAll().items() if k.startswith(prefix)}
+
+
+def test_options_do_not_outlive_the_solver(problem):
+    before = PETSc.Options().getAll()
+    with FrictionSolver(problem, "lc1_", {"snes_max_it": 3, "ksp_type": "gmres"}) as s:
+        assert s.snes.getTolerances()[3] == 3
+        assert s.snes.getKSP().getType() == "gmres"
+        assert PETSc.Options().getAll() == before  # applied, then deleted
+    # the first version left them behind: the next solver of that prefix inherited them
+    with FrictionSolver(problem, "lc1_") as s:
+        assert s.snes.getTolerances()[3] == DEFAULT_OPTIONS["snes_max_it"]
+        assert s.snes.getKSP().getType() == DEFAULT_OPTIONS["ksp_type"]
+    assert PETSc.Options().getAll() == before
+
+
+def test_command_line_options_apply_and_stay(problem):
+    """Options in the database (the command line) apply under the prefix and are kept; the
+    solver's own options win for that solver only."""
+    opts = PETSc.Options()
+    opts["lc2_snes_max_it"] = 7
+    try:
+        with FrictionSolver(problem, "lc2_") as s:
+            assert s.snes.getTolerances()[3] == 7
+        with FrictionSolver(problem, "lc2_", {"snes_max_it": 5}) as s:
+            assert s.snes.getTolerances()[3] == 5
+        assert under("lc2_") == {"lc2_snes_max_it": "7"}
+    finally:
+        opts.delValue("lc2_snes_max_it")
+
+
+def test_late_read_options_reach_the_factorisation(problem):
+    """MUMPS reads its options when it factorises, long after setFromOptions: the solver pushes
+    its options again around each solve (and removes them afterwards)."""
+    before = PETSc.Options().getAll()
+    with FrictionSolver(problem, "lc3_", {"mat_mumps_icntl_14": 57}) as s:
+        r = s.solve(0.1, 0.1)
+        assert r["converged"]
+        F = s.snes.getKSP().getPC().getFactorMatrix()
+        assert F.getMumpsIcntl(14) == 57
+        assert PETSc.Options().getAll() == before
+        r = s.solve(0.2, 0.1, options={"snes_max_it": 1, "snes_atol": 1e-300, "snes_rtol": 1e-300})
+        assert not r["converged"] and r["iterations"] == 1  # options for this solve only ...
+        assert s.snes.getTolerances()[3] == DEFAULT_OPTIONS["snes_max_it"]  # ... then restored
+        assert PETSc.Options().getAll() == before
+
+
+def test_destroy_is_safe_and_releases_the_prefix(problem):
+    s = FrictionSolver(problem, "lc4_")
+    assert "lc4_" in _LIVE_PREFIXES
+    with pytest.raises(ValueError, match="already used"):
+        FrictionSolver(problem, "lc4_")
+    s.destroy()
+    s.destroy()  # idempotent
+    assert not s.alive and "lc4_" not in _LIVE_PREFIXES
+    with pytest.raises(RuntimeError, match="destroyed"):
+        s.solve(0.1, 0.1)
+    t = FrictionSolver(problem, "lc4_")  # usable again
+    del t
+    gc.collect()
+    assert "lc4_" not in _LIVE_PREFIXES  # a collected solver releases its prefix too
+
+
+def test_automatic_prefixes_are_unique(problem):
+    with FrictionSolver(problem) as a, FrictionSolver(problem) as b:
+        assert a.prefix != b.prefix and a.prefix.startswith("subfric_")
+
+
+def test_a_failed_restart_releases_the_prefix(shared_tmp):
+    """The first version created the solver before the runner's ``try``: a restart from a missing
+    checkpoint left the prefix taken forever."""
+    comm = MPI.COMM_WORLD
+    with pytest.raises(CheckpointError, match="does not exist"):
+        run_scene(small_scene("lc5_"), comm=comm, restart=shared_tmp / "missing.h5")
+    assert "lc5_" not in _LIVE_PREFIXES
+    res = run_scene(small_scene("lc5_"), comm=comm)  # the same prefix works
+    assert everywhere(comm, len(res.history) > 0)
+
+
+def test_a_restart_at_the_end_of_the_program_takes_no_step(shared_tmp):
+    """The first version crashed in its summary (``max()`` of an empty list)."""
+    comm = MPI.COMM_WORLD
+    s = small_scene("lc6_")
+    t_end = s["program"]["times"][-1]
+    s["outputs"] = {"checkpoint_times": [t_end], "history": True}
+    full = run_scene(s, outdir=shared_tmp, comm=comm)
+    again = run_scene(s, outdir=shared_tmp, comm=comm, restart=shared_tmp / "checkpoint.h5")
+    assert again.iterations == [] and len(again.history) == len(full.history)
+    a = np.array([[r["t"], r["F_t1"]] for r in again.history])
+    b = np.array([[r["t"], r["F_t1"]] for r in full.history])
+    np.testing.assert_array_equal(a, b)
+    assert "lc6_" not in _LIVE_PREFIXES
