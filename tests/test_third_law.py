@@ -2,8 +2,9 @@
 
 Coulomb friction with linear slip weakening (the law of earthquake-rupture models): the friction
 coefficient falls from ``mu_static`` to ``mu_dynamic`` over an accumulated slip ``d_c``. Its
-internal variables are the plastic slip ``up`` and the accumulated slip ``slip`` (a scalar no
-other law has). Through the protocol alone it goes through the material-point driver, an FE scene
+internal variables are the plastic slip ``up``, the accumulated slip ``slip`` (a scalar no
+other law has) and, to exercise the third shape of variable, the end-of-step traction ``last``
+(a local vector). Through the protocol alone it goes through the material-point driver, an FE scene
 on 1 and 2 ranks, the HDF5 interface history and a checkpoint/restart.
 """
 
@@ -17,6 +18,7 @@ from mpi4py import MPI
 
 from demos import block_on_base
 from subfric_dolfinx.constitutive import (
+    LOCAL,
     SCALAR,
     TANGENTIAL,
     FrictionLaw,
@@ -47,6 +49,7 @@ class SlipWeakening(LawBase):
     variables: ClassVar[tuple[Variable, ...]] = (
         Variable("up", TANGENTIAL, "plastic slip (mm)"),
         Variable("slip", SCALAR, "accumulated slip (mm)"),
+        Variable("last", LOCAL, "traction at the end of the step (MPa)"),
     )
 
     def coefficient(self, s):
@@ -81,6 +84,7 @@ class SlipWeakening(LawBase):
         traction = np.zeros((n, nt + 1))
         traction[:, :nt] = np.where(contact[:, None], ft_mag[:, None] * nstar, 0.0)
         traction[:, nt] = np.where(contact, fn, 0.0)
+        new["last"][:] = traction
         tangent = np.zeros((n, nt + 1, nt + 1))
         eye = np.eye(nt)
         touching = contact | (gap[:, nt] == 0.0)
@@ -111,7 +115,8 @@ FN = 300.0  # MPa
 def test_it_is_a_friction_law_and_has_its_own_variables():
     assert isinstance(LAW, FrictionLaw)
     st = LAW.initial_state(4, 2)
-    assert st.names == ("up", "slip") and st["up"].shape == (4, 2) and st["slip"].shape == (4,)
+    assert st.names == ("up", "slip", "last")
+    assert st["up"].shape == (4, 2) and st["slip"].shape == (4,) and st["last"].shape == (4, 3)
 
 
 def test_its_tangent_is_consistent():
@@ -141,7 +146,9 @@ def test_the_material_point_driver_runs_it_by_name():
     }
     res = run_case(case, steps_per_mm=400)
     s = res.samples
-    assert set(s) >= {"up_t1", "up_t2", "slip"} and "mu" not in s
+    assert set(s) >= {"up_t1", "up_t2", "slip", "last_t1", "last_t2", "last_n"} and "mu" not in s
+    np.testing.assert_array_equal(s["last_t1"], s["f_t1"])
+    np.testing.assert_array_equal(s["last_n"], s["f_n"])
     # stuck then sliding at the static strength, then the dynamic one once slip > d_c
     assert s["f_t1"][1] == pytest.approx(LAW.alpha_t * 0.05, rel=1e-12)
     assert s["f_t1"][-1] == pytest.approx(LAW.mu_dynamic * FN, rel=1e-12)
@@ -178,11 +185,13 @@ def test_fe_scene_interface_history_and_restart(shared_tmp):
     assert ratio[i_end_fwd] == pytest.approx(LAW.mu_dynamic, rel=1e-6)
     if comm.rank == 0:
         with h5py.File(out / "interface_history.h5") as f:
-            assert {"up", "slip", "f_t", "f_n", "status"} <= set(f) and "mu" not in f
+            assert {"up", "slip", "last", "f_t", "f_n", "status"} <= set(f) and "mu" not in f
             assert f["slip"].shape == (len(h), f["x"].shape[0])
+            np.testing.assert_array_equal(f["last"][:, :, 0], f["f_t"][:, :, 0])
+            np.testing.assert_array_equal(f["last"][:, :, 1], f["f_n"][()])
             np.testing.assert_allclose(f["slip"][-1].min(), h[-1]["slip"], rtol=0.5)
     ck = read_checkpoint(out / "checkpoint.h5", comm)
-    assert set(ck.interface) == {"up", "slip"}
+    assert set(ck.interface) == {"up", "slip", "last"}
     again = run_scene(
         scene(history=True, interface_history=True),
         outdir=out,

@@ -16,13 +16,14 @@ May import: numpy and the standard library only.
 from .coulomb import CoulombLaw, coulomb_return_map
 from .laws import LAWS, build_law, law_description, register_law
 from .presets import PRESETS, Preset, normalised_to_absolute, preset
-from .protocol import SCALAR, TANGENTIAL, FrictionLaw, LawBase, LawError, Variable
+from .protocol import LOCAL, SCALAR, TANGENTIAL, FrictionLaw, LawBase, LawError, Variable
 from .result import ReturnMapResult, Status
 from .state import InterfaceState, StatePair
 from .subloading import SubloadingLaw, subloading_return_map
 
 __all__ = [
     "LAWS",
+    "LOCAL",
     "PRESETS",
     "SCALAR",
     "TANGENTIAL",

@@ -43,9 +43,9 @@ import numpy as np
 import numpy.typing as npt
 
 from .result import ReturnMapResult
-from .state import SCALAR, TANGENTIAL, InterfaceState, Variable
+from .state import LOCAL, SCALAR, TANGENTIAL, InterfaceState, Variable
 
-__all__ = ["SCALAR", "TANGENTIAL", "FrictionLaw", "LawBase", "LawError", "Variable"]
+__all__ = ["LOCAL", "SCALAR", "TANGENTIAL", "FrictionLaw", "LawBase", "LawError", "Variable"]
 
 
 class LawError(ValueError):
@@ -58,8 +58,10 @@ class FrictionLaw(Protocol):
 
     Attributes:
         name: The law's name, as used in scenes and cases (``"subloading"``, ``"coulomb"``).
-        variables: The internal variables it declares, in storage order. A ``TANGENTIAL`` variable
-            has one component per tangential direction (1 in 2-D, 2 in 3-D), a ``SCALAR`` one.
+        variables: The internal variables it declares, in storage order. A ``SCALAR`` variable
+            has one value per point, a ``TANGENTIAL`` one a component per tangential direction
+            (1 in 2-D, 2 in 3-D), a ``LOCAL`` one a vector in the local frame (the tangential
+            components, then the normal one).
         alpha_t: Tangential penalty (elastic) modulus, MPa/mm.
         alpha_n: Normal penalty modulus, MPa/mm.
     """

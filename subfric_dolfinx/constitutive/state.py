@@ -1,10 +1,11 @@
 """Internal-variable arrays of interface points, with commit and revert.
 
-A law declares its internal variables (:class:`Variable`: a name and a shape, ``SCALAR`` or
-``TANGENTIAL``). An :class:`InterfaceState` holds, for ``N`` points with ``nt`` tangential
-components (1 in 2-D, 2 in 3-D), one array per variable: (N,) for a scalar, (N, nt) for a
-tangential one; e.g. the subloading law's plastic slip ``up`` (N, nt), hardening function ``mu``
-(N,) and normal-yield ratio ``r`` (N,). Arrays are read as ``state["mu"]`` or ``state.mu``. A
+A law declares its internal variables (:class:`Variable`: a name and a shape, ``SCALAR``,
+``TANGENTIAL`` or ``LOCAL``). An :class:`InterfaceState` holds, for ``N`` points with ``nt``
+tangential components (1 in 2-D, 2 in 3-D), one array per variable: (N,) for a scalar, (N, nt)
+for a tangential one, (N, nt + 1) for a local vector (tangential components, then the normal);
+e.g. the subloading law's plastic slip ``up`` (N, nt), hardening function ``mu`` (N,) and
+normal-yield ratio ``r`` (N,). Arrays are read as ``state["mu"]`` or ``state.mu``. A
 state can wrap existing arrays without copying (e.g. the arrays of DOLFINx Quadrature functions),
 so that in-place updates are seen by their owner.
 
@@ -21,10 +22,11 @@ from collections.abc import Iterable, Iterator, Mapping
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["SCALAR", "TANGENTIAL", "InterfaceState", "StatePair", "Variable"]
+__all__ = ["LOCAL", "SCALAR", "TANGENTIAL", "InterfaceState", "StatePair", "Variable"]
 
 SCALAR = "scalar"
 TANGENTIAL = "tangential"
+LOCAL = "local"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -33,8 +35,9 @@ class Variable:
 
     Attributes:
         name: Its name (a Python identifier; used for arrays, fields, datasets, columns).
-        shape: ``SCALAR`` (one value per point) or ``TANGENTIAL`` (one per tangential direction,
-            in the local frame).
+        shape: ``SCALAR`` (one value per point), ``TANGENTIAL`` (one per tangential direction,
+            in the local frame) or ``LOCAL`` (a vector in the local frame: the tangential
+            components, then the normal one, like a traction).
         description: What it is, with its unit.
     """
 
@@ -45,14 +48,28 @@ class Variable:
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
             raise ValueError(f"variable name {self.name!r} is not an identifier")
-        if self.shape not in (SCALAR, TANGENTIAL):
+        if self.shape not in (SCALAR, TANGENTIAL, LOCAL):
             raise ValueError(
-                f"variable shape must be {SCALAR!r} or {TANGENTIAL!r}, got {self.shape!r}"
+                f"variable shape must be {SCALAR!r}, {TANGENTIAL!r} or {LOCAL!r}, "
+                f"got {self.shape!r}"
             )
 
     def components(self, n_tangential: int) -> int:
-        """Number of values per point: 1, or ``n_tangential``."""
-        return n_tangential if self.shape == TANGENTIAL else 1
+        """Number of values per point: 1, ``n_tangential`` or ``n_tangential + 1``."""
+        return {SCALAR: 1, TANGENTIAL: n_tangential, LOCAL: n_tangential + 1}[self.shape]
+
+    def array_shape(self, n_points: int, n_tangential: int) -> tuple[int, ...]:
+        """Shape of the variable's array over ``n_points`` points."""
+        if self.shape == SCALAR:
+            return (n_points,)
+        return (n_points, self.components(n_tangential))
+
+    def column_names(self, n_tangential: int = 2) -> list[str]:
+        """Names of its components in tables: ``v``; ``v_t1`` [``v_t2``]; then ``v_n`` if local."""
+        if self.shape == SCALAR:
+            return [self.name]
+        names = [f"{self.name}_t{i + 1}" for i in range(n_tangential)]
+        return [*names, f"{self.name}_n"] if self.shape == LOCAL else names
 
 
 class InterfaceState:
@@ -83,9 +100,11 @@ class InterfaceState:
         n = None
         for name, a in arrays.items():
             arr = conv(a)
-            if (arr.ndim == 2 and arr.shape[1] != n_tangential) or arr.ndim not in (1, 2):
+            wide = arr.ndim == 2 and arr.shape[1] not in (n_tangential, n_tangential + 1)
+            if wide or arr.ndim not in (1, 2):
                 raise ValueError(
-                    f"{name} must have shape (N,) or (N, {n_tangential}), got {arr.shape}"
+                    f"{name} must have shape (N,), (N, {n_tangential}) or (N, {n_tangential + 1}), "
+                    f"got {arr.shape}"
                 )
             if n is None:
                 n = arr.shape[0]
@@ -100,7 +119,9 @@ class InterfaceState:
 
     @classmethod
     def from_arrays(cls, **arrays: npt.ArrayLike) -> InterfaceState:
-        """A copied state from keyword arrays, ``nt`` taken from the 2-D ones (1 when none).
+        """A copied state from keyword arrays, ``nt`` from the first 2-D one (1 when none).
+
+        The first 2-D array must be a tangential one (N, nt).
 
         Example: ``InterfaceState.from_arrays(up=np.zeros((n, 2)), mu=mu, r=r)``.
         """
@@ -114,10 +135,7 @@ class InterfaceState:
         """A state of zeros for the declared ``variables``."""
         if n_points < 0:
             raise ValueError(f"n_points must be >= 0, got {n_points!r}")
-        arrays = {
-            v.name: np.zeros((n_points, n_tangential) if v.shape == TANGENTIAL else n_points)
-            for v in variables
-        }
+        arrays = {v.name: np.zeros(v.array_shape(n_points, n_tangential)) for v in variables}
         return cls(arrays, n_tangential, copy=False)
 
     def __getitem__(self, name: str) -> np.ndarray:

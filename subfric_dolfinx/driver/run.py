@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..constitutive import TANGENTIAL, FrictionLaw, InterfaceState, ReturnMapResult, Status
+from ..constitutive import SCALAR, FrictionLaw, InterfaceState, ReturnMapResult, Status
 from .case import MAX_STEPS_PER_SEGMENT, Case, CaseError, parse_case
 
 __all__ = ["DriverResult", "RunawayError", "fields", "run_case"]
@@ -20,11 +20,12 @@ def fields(law: FrictionLaw) -> tuple[str, ...]:
     """The sampled fields of a case with ``law``.
 
     ``t, f_t1, f_t2, f_n``, then the law's internal variables (a scalar ``v`` as ``v``, a
-    tangential one as ``v_t1, v_t2``), then ``ubar_t1, ubar_t2, ubar_n``.
+    tangential one as ``v_t1, v_t2``, a local one as ``v_t1, v_t2, v_n``), then ``ubar_t1,
+    ubar_t2, ubar_n``.
     """
     own = []
     for v in law.variables:
-        own += [f"{v.name}_t1", f"{v.name}_t2"] if v.shape == TANGENTIAL else [v.name]
+        own += v.column_names(2)
     return ("t", "f_t1", "f_t2", "f_n", *own, "ubar_t1", "ubar_t2", "ubar_n")
 
 
@@ -127,7 +128,8 @@ class _Runner:
         un = self.path_at(t)[2]
         own: list[float] = []
         for v in self.law.variables:
-            own += two(s[v.name][0]) if v.shape == TANGENTIAL else [s[v.name][0]]
+            a = s[v.name][0]
+            own += [a] if v.shape == SCALAR else [*two(a[: self.nt]), *a[self.nt :]]
         return [t, *two(f), f[self.nt], *own, *two(ut), un]
 
     def sample(self, t: float) -> None:

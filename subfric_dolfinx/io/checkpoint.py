@@ -97,7 +97,7 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
                 g["x"] = np.concatenate([x[2] for x in gathered]).reshape(-1, gdim)
                 for name in st.names:
                     a = np.concatenate([x[3][name] for x in gathered])
-                    g[name] = a.reshape(-1, el.nt) if st[name].ndim == 2 else a
+                    g[name] = a.reshape(-1, *st[name].shape[1:])
                 cols = list(history[0]) if history else []
                 h = f.create_dataset(
                     "history",

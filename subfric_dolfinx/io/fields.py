@@ -16,7 +16,7 @@ import dolfinx
 import dolfinx.io
 import numpy as np
 
-from ..constitutive import TANGENTIAL
+from ..constitutive import SCALAR
 
 __all__ = ["FieldWriter"]
 
@@ -48,7 +48,7 @@ class FieldWriter:
         F = dolfinx.fem.Function
         self.fields = {"f_t": F(D0v, name="f_t"), "f_n": F(D0s, name="f_n")}
         for var in problem.law.variables:
-            space = D0v if var.shape == TANGENTIAL else D0s
+            space = D0s if var.shape == SCALAR else D0v
             self.fields[var.name] = F(space, name=var.name)
         u = problem.u
         comm = problem.comm
@@ -78,20 +78,21 @@ class FieldWriter:
         w = el.w_ref / el.w_ref.sum()
         st = el.state.old
         tr = el.last.traction if el.last is not None else np.zeros((nf * nq, gdim))
-        E = el.Q[..., :nt, :]  # tangent rows of the local frames, (nf, nq, nt, gdim)
 
         def avg(a: np.ndarray) -> np.ndarray:
             return np.einsum("q,cq...->c...", w, a.reshape(nf, nq, *a.shape[1:]))
 
-        def global_vector(a: np.ndarray) -> np.ndarray:
-            return avg(np.einsum("cqi,cqid->cqd", a.reshape(nf, nq, nt), E).reshape(-1, gdim))
+        def global_vector(a: np.ndarray) -> np.ndarray:  # local components -> global vector
+            k = a.shape[1]
+            R = el.Q[..., :k, :]  # rows e1 [e2] (tangential) [-n] (local)
+            return avg(np.einsum("cqi,cqid->cqd", a.reshape(nf, nq, k), R).reshape(-1, gdim))
 
         self.fields["f_t"].x.array[:] = global_vector(tr[:, :nt]).ravel()
         self.fields["f_n"].x.array[:] = avg(tr[:, nt])
         for var in self.problem.law.variables:
             a = st[var.name]
             self.fields[var.name].x.array[:] = (
-                global_vector(a).ravel() if var.shape == TANGENTIAL else avg(a)
+                avg(a) if var.shape == SCALAR else global_vector(a).ravel()
             )
 
     def write(self, t: float) -> None:

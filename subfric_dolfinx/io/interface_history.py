@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from ..constitutive import TANGENTIAL
 from .gather import gather_interface
 
 __all__ = ["InterfaceHistoryH5"]
@@ -49,7 +48,7 @@ class InterfaceHistoryH5:
             "status": ((), np.int8),
         }
         for var in problem.law.variables:
-            self.shapes[var.name] = ((nt,) if var.shape == TANGENTIAL else (), float)
+            self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
         x = gather_interface(el, {}, root=0)
         self._f = None
         if problem.comm.rank == 0:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
-from ..constitutive import TANGENTIAL, Status
+from ..constitutive import SCALAR, TANGENTIAL, Status
 
 __all__ = ["interface_summary"]
 
@@ -15,8 +15,9 @@ def interface_summary(problem) -> dict[str, float]:
 
     Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
     ``f_t`` (mean |f_t|), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
-    as its mean ``v`` and a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
-    [``v_t2``] (means of its components); and the fractions of quadrature points ``plastic``
+    as its mean ``v``, a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
+    [``v_t2``] (means of its components), a local one as the means of ``v_t1`` [``v_t2``],
+    ``v_n``; and the fractions of quadrature points ``plastic``
     (PLASTIC or JUMP), ``separated`` and ``unstable``.
     """
     el = problem.interface
@@ -29,12 +30,15 @@ def interface_summary(problem) -> dict[str, float]:
     cols = [w, *(w * tr[:, i] for i in range(nt + 1)), w * np.linalg.norm(tr[:, :nt], axis=1)]
     for var in problem.law.variables:
         a = st[var.name]
-        if var.shape == TANGENTIAL:
-            names += [f"{var.name}_norm", *(f"{var.name}_t{i + 1}" for i in range(nt))]
-            cols += [w * np.linalg.norm(a, axis=1), *(w * a[:, i] for i in range(nt))]
-        else:
+        if var.shape == SCALAR:
             names.append(var.name)
             cols.append(w * a)
+            continue
+        if var.shape == TANGENTIAL:
+            names.append(f"{var.name}_norm")
+            cols.append(w * np.linalg.norm(a, axis=1))
+        names += var.column_names(nt)
+        cols += [w * a[:, i] for i in range(a.shape[1])]
     status = res.status if res is not None else np.full(w.size, Status.ELASTIC, np.int8)
     counts = [
         np.count_nonzero((status == Status.PLASTIC) | (status == Status.JUMP)),

@@ -26,7 +26,7 @@ import basix.ufl
 import dolfinx
 import numpy as np
 
-from ...constitutive import TANGENTIAL, FrictionLaw, InterfaceState, StatePair
+from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, StatePair
 from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
 from .pairing import InterfacePairs
 
@@ -124,15 +124,13 @@ class InterfaceElements:
         fn: dict[str, dolfinx.fem.Function] = {}
         views: dict[str, dict[str, np.ndarray]] = {"": {}, "_old": {}}
         for var in law.variables:
-            space = self.Qv if var.shape == TANGENTIAL else self.Qs
+            space = {SCALAR: self.Qs, LOCAL: self.Qf}.get(var.shape, self.Qv)
             for suffix, arrays in views.items():
                 f = F(space, name=var.name + suffix)
                 if f.x.array.size != npts * var.components(self.nt):
                     raise RuntimeError("unexpected layout of the interface Quadrature space")
                 fn[var.name + suffix] = f
-                arrays[var.name] = (
-                    f.x.array.reshape(npts, self.nt) if var.shape == TANGENTIAL else f.x.array
-                )
+                arrays[var.name] = f.x.array.reshape(var.array_shape(npts, self.nt))
         fn["traction"] = F(self.Qf, name="traction")
         self.functions = fn
         init = law.initial_state(npts, self.nt)
