@@ -101,12 +101,28 @@ def test_interface_sides_that_do_not_pair_node_to_node():
 # gmsh models (the current model on rank 0)
 
 
-def test_bodies_that_share_nodes():
-    """Two rectangles meshed conformally without duplicating the interface nodes."""
+def on_root_with_a_gmsh_model(build, read):
+    """``build()`` a gmsh model on rank 0 (its failure fails every rank, no rank is left
+    waiting), then ``read()`` on every rank; gmsh is finalised again whatever happens."""
     comm = MPI.COMM_WORLD
-    if comm.rank == 0:
+
+    def start():
         gmsh.initialize(readConfigFiles=False, interruptible=False)
         gmsh.option.setNumber("General.Verbosity", 2)
+        build()
+
+    try:
+        on_root(comm, start)
+        read()
+    finally:
+        if comm.rank == 0 and gmsh.isInitialized():
+            gmsh.finalize()
+
+
+def test_bodies_that_share_nodes():
+    """Two rectangles meshed conformally without duplicating the interface nodes."""
+
+    def glued():
         gmsh.model.add("glued")
         a = gmsh.model.occ.addRectangle(0, 0, 0, 1, 0.5)
         b = gmsh.model.occ.addRectangle(0, 0.5, 0, 1, 0.5)
@@ -118,22 +134,20 @@ def test_bodies_that_share_nodes():
         gmsh.model.addPhysicalGroup(1, line, name=meshing.INTERFACE)
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
         gmsh.model.mesh.generate(2)
-    try:
+
+    def read():
         with raised_on_every_rank(
             meshing.InterfaceMeshError, match=r"share \d+ nodes .* must be duplicated"
         ):
-            meshing.read_interface_mesh(None, comm, 2)
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+            meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
+
+    on_root_with_a_gmsh_model(glued, read)
 
 
 def test_group_elements_that_are_no_facets():
     """A facet-group element that is no facet of the cells (gmshio would drop it silently)."""
-    comm = MPI.COMM_WORLD
-    if comm.rank == 0:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
-        gmsh.option.setNumber("General.Verbosity", 2)
+
+    def with_a_bogus_group():
         meshing.build_block_on_base(cell_type="quadrilateral", n_interface=4)
         nodes, x, _ = gmsh.model.mesh.getNodes()
         x = x.reshape(-1, 3)
@@ -144,12 +158,12 @@ def test_group_elements_that_are_no_facets():
         line = gmsh.model.addDiscreteEntity(1)
         gmsh.model.mesh.addElementsByType(line, 1, [], ends)
         gmsh.model.addPhysicalGroup(1, [line], name="bogus")
-    try:
+
+    def read():
         with raised_on_every_rank(meshing.InterfaceMeshError, "'bogus': 1 of 1"):
-            meshing.read_interface_mesh(None, comm, 2)
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+            meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
+
+    on_root_with_a_gmsh_model(with_a_bogus_group, read)
 
 
 def test_no_current_gmsh_model():
