@@ -1,5 +1,7 @@
 """Write the stored meshes of ``meshes/`` (run serially: ``./run exec python3 meshes/generate.py``).
 
+Importable as ``meshes.generate`` (the repository root on the path, as ``./run`` sets it).
+
 Good meshes (two bodies joined by a duplicated-node interface, see :mod:`subfric_dolfinx.meshing`
 for the physical groups):
 
@@ -30,8 +32,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import gmsh
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from subfric_dolfinx import meshing
 

@@ -1,6 +1,6 @@
-"""Run the FE stability cases of ``report/stability_cases.py`` (under mpirun) into a JSON file.
+"""Run the FE stability cases of ``tests/stability`` (under mpirun) into a JSON file.
 
-    mpirun -n R python3 report/fe_stability.py OUT.json
+    mpirun -n R python3 report/fe_stability.py OUT.json    (the repository root on PYTHONPATH)
 
 The same cases are asserted by ``tests/test_stability.py``; here their outcomes are recorded
 (rank 0 writes), with the wall time of each case (max over ranks).
@@ -13,14 +13,13 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import stability_cases
+from tests.stability import FE_CASES
 
 
 def main():
     comm = MPI.COMM_WORLD
     out = {}
-    for case in stability_cases.FE_CASES:
+    for case in FE_CASES:
         comm.Barrier()
         t0 = time.perf_counter()
         o = case.run(comm)

@@ -7,7 +7,7 @@
 Runs, in this order and one at a time (timings are measured, so nothing runs in parallel):
 
 1. the material-point convergence study (``report/mp_study.py``, in this process);
-2. the material-point stability cases (``report/stability_cases.py``, in this process);
+2. the material-point stability cases (``tests/stability``, in this process);
 3. the FE stability cases under ``mpirun -n 1`` and ``mpirun -n 2`` (``report/fe_stability.py``);
 4. the FE convergence and timing study under ``mpirun -n 1`` and ``mpirun -n 2``
    (``report/fe_study.py``), the OMPI/PETSc environment passed through;
@@ -182,7 +182,7 @@ def material_point(data: Path, quick: bool, reuse: bool = False) -> tuple[dict, 
     path = mp_study.PATHS["reversal"][0]
     ts = np.linspace(0.0, 25.0, 2001)
     ts = np.union1d(ts, path[:, 0])
-    from reference_ode import solve_reference
+    from tests.reference_ode import solve_reference
 
     from subfric_dolfinx.driver import run_case
 
@@ -265,7 +265,7 @@ def material_point(data: Path, quick: bool, reuse: bool = False) -> tuple[dict, 
 
 
 def stability(data: Path, quick: bool, reuse: bool = False) -> tuple[list[dict], dict]:
-    import stability_cases
+    from tests import stability as stability_cases
 
     if reuse:
         point = json.loads((data / "stability_point.json").read_text())
@@ -303,7 +303,7 @@ def stability(data: Path, quick: bool, reuse: bool = False) -> tuple[list[dict],
 
 
 def stability_table(point: list[dict], fe: dict) -> tuple[str, dict]:
-    import stability_cases
+    from tests import stability as stability_cases
 
     rows = []
 
@@ -1014,7 +1014,7 @@ def write_readme(
     L.append("## 3. Stability on stiff and extreme cases")
     L.append("")
     L.append(
-        "Defined once in `report/stability_cases.py`; `tests/test_stability.py` asserts the "
+        "Defined once in `tests/stability/`; `tests/test_stability.py` asserts the "
         "same runs on 1 and 2 ranks. Outcomes: **converged**; **flagged** (the code reports "
         "that no stable quasi-static solution exists: `den <= 0` or a JUMP at a fold; the "
         "material-point driver stops there, FE runs go on with the points flagged); **error** "
@@ -1045,7 +1045,7 @@ def write_readme(
     L.append(
         "* `report/generate.py`: this report (orchestrator). `report/mp_study.py`: the "
         "material-point study. `report/fe_study.py`: FE runs under mpirun. "
-        "`report/stability_cases.py`: the stability cases (shared with the tests). "
+        "`tests/stability/`: the stability cases (shared with the tests). "
         "`report/fe_stability.py`: FE stability cases under mpirun.\n"
         "* `report/data/`: raw JSON (MP study, stability outcomes, FE histories and timings)."
     )

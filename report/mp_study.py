@@ -25,12 +25,11 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-
-from reference_ode import solve_reference  # noqa: E402
+sys.path.insert(0, str(ROOT))
 
 from subfric_dolfinx.constitutive import CoulombLaw, preset  # noqa: E402
 from subfric_dolfinx.driver import run_case  # noqa: E402
+from tests.reference_ode import solve_reference  # noqa: E402
 
 P = preset("sec7")
 F_N = 300.0

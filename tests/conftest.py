@@ -4,6 +4,9 @@
   are destroyed collectively and a rank never runs ahead into the next test.
 * ``@pytest.mark.serial``: tests that only make sense on one rank are skipped, with that reason,
   when run on more (the suite is run on 1 and on 2 ranks, so they still run).
+* ``pytestmark = pytest.mark.numpy_only``: a module that touches neither MPI nor DOLFINx (return
+  map, driver, fuzzing, ...) gives the same answer on every rank; on more than one rank its tests
+  are deselected (pytest reports them as "deselected"), since the 1-rank run has already run them.
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
 """
 
@@ -14,6 +17,8 @@ import tempfile
 import pytest
 from mpi4py import MPI
 
+_NUMPY_ONLY_DESELECTED = pytest.StashKey[int]()
+
 
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False, help="run tests marked slow")
@@ -21,6 +26,12 @@ def pytest_addoption(parser):
 
 def pytest_collection_modifyitems(config, items):
     size = MPI.COMM_WORLD.size
+    if size > 1:
+        numpy_only = [item for item in items if "numpy_only" in item.keywords]
+        if numpy_only:
+            config.hook.pytest_deselected(items=numpy_only)
+            config.stash[_NUMPY_ONLY_DESELECTED] = len(numpy_only)
+            items[:] = [item for item in items if "numpy_only" not in item.keywords]
     skip_serial = pytest.mark.skip(reason=f"serial-only test, running on {size} ranks")
     skip_slow = pytest.mark.skip(reason="slow test: give --run-slow to run it")
     for item in items:
@@ -28,6 +39,15 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip_serial)
         if "slow" in item.keywords and not config.getoption("--run-slow"):
             item.add_marker(skip_slow)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """A selection made only of numpy-only tests (``./run test tests/test_return_map.py``) runs
+    nothing on 2 ranks: that is expected, not pytest's "no tests collected" failure."""
+    if exitstatus == pytest.ExitCode.NO_TESTS_COLLECTED and session.config.stash.get(
+        _NUMPY_ONLY_DESELECTED, 0
+    ):
+        session.exitstatus = pytest.ExitCode.OK
 
 
 def pytest_runtest_teardown(item):

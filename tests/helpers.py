@@ -1,12 +1,187 @@
-"""Helpers shared by the tests (MPI-aware assertions and paths)."""
+"""Helpers shared by the tests: MPI-safe assertions, unique names, small problems and scenes.
 
+Multi-rank rule: a test never asserts on one rank alone before a collective (a failure there
+would leave the other ranks waiting until the timeout). Either every rank checks the same
+gathered data (:func:`everywhere`, :func:`global_spread`), or the root computes, the verdict is
+broadcast and every rank asserts (:func:`on_root`, :func:`raised_on_every_rank`).
+
+The DOLFINx stack is imported inside the functions that build problems, so that a numpy-only
+test module can use the MPI helpers without loading it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import os
+import re
+import subprocess
+import sys
+import traceback
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx.constitutive import preset
+from subfric_dolfinx.loading import LoadingProgram
+
 ROOT = Path(__file__).resolve().parents[1]
+MESH_DIR = ROOT / "meshes"
+
+# --------------------------------------------------------------------------------------------
+# Collective assertions
 
 
 def everywhere(comm: MPI.Comm, ok: bool) -> bool:
     """True on every rank iff ``ok`` holds on every rank (collective)."""
     return comm.allreduce(bool(ok), op=MPI.LAND)
+
+
+def global_spread(comm: MPI.Comm, a: np.ndarray) -> tuple[float, float]:
+    """(max - min, min) of an array over all ranks (``(0, 0)`` if empty everywhere)."""
+    lo = comm.allreduce(a.min() if a.size else np.inf, op=MPI.MIN)
+    hi = comm.allreduce(a.max() if a.size else -np.inf, op=MPI.MAX)
+    return hi - lo, (lo if np.isfinite(lo) else 0.0)
+
+
+def on_root(comm: MPI.Comm, fn: Callable[[], Any], root: int = 0) -> Any:
+    """Call ``fn()`` on ``root`` only and return its result on every rank (collective).
+
+    If ``fn`` raised there (a failed ``assert`` included), every rank raises ``AssertionError``
+    with the root's error and traceback: a check made on the root fails on every rank and never
+    leaves the other ranks waiting in the broadcast.
+    """
+    result = error = None
+    if comm.rank == root:
+        try:
+            result = fn()
+        except Exception as e:
+            error = f"on rank {root}: {type(e).__name__}: {e}\n{traceback.format_exc()}"
+    result, error = comm.bcast((result, error), root=root)
+    if error is not None:
+        raise AssertionError(error)
+    return result
+
+
+@contextlib.contextmanager
+def raised_on_every_rank(
+    exc_type: type[BaseException], *words: str, match: str | None = None
+) -> Iterator[None]:
+    """Expect ``exc_type`` from the block on every rank of ``MPI.COMM_WORLD``, with the same
+    message, containing each of ``words`` (and matching the regular expression ``match``).
+
+    The outcome of every rank is gathered, so a rank that did not raise makes every rank fail
+    (instead of hanging in the next collective).
+    """
+    comm = MPI.COMM_WORLD
+    outcome = None
+    try:
+        yield
+    except Exception as e:
+        outcome = (type(e).__name__, isinstance(e, exc_type), str(e))
+    everyone = comm.allgather(outcome)
+    missing = [rank for rank, o in enumerate(everyone) if o is None]
+    assert not missing, f"{exc_type.__name__} not raised on rank(s) {missing}: {everyone}"
+    for rank, (name, ok, msg) in enumerate(everyone):
+        assert ok, f"rank {rank} raised {name} ({msg}), expected {exc_type.__name__}"
+    messages = {msg for _, _, msg in everyone}
+    assert len(messages) == 1, f"the ranks raised different messages: {messages}"
+    (msg,) = messages
+    for w in words:
+        assert w in msg, f"{w!r} not in the message {msg!r}"
+    if match is not None:
+        assert re.search(match, msg), f"{match!r} does not match the message {msg!r}"
+
+
+# --------------------------------------------------------------------------------------------
+# Names and processes
+
+_prefixes = itertools.count()
+
+
+def prefix(name: str) -> str:
+    """A PETSc options prefix used by no other solver of this process."""
+    return f"t{next(_prefixes)}_{name}_"
+
+
+def driver_cli(*args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run ``python3 -m subfric_dolfinx.driver ARGS`` from the repository root (one process)."""
+    env = dict(os.environ)
+    extra = env.get("PYTHONPATH")
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + extra if extra else "")
+    return subprocess.run(
+        [sys.executable, "-m", "subfric_dolfinx.driver", *map(str, args)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def singleton_env() -> dict[str, str]:
+    """The environment without the variables of the enclosing mpirun job.
+
+    A child started from an MPI rank would otherwise try to join the parent's job; without them
+    it starts as an MPI singleton.
+    """
+    keep = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
+    }
+
+
+# --------------------------------------------------------------------------------------------
+# Small problems and scenes
+
+LAW = preset("sec7")
+P = 300.0  # MPa, the pressure on the block
+PROGRAM = LoadingProgram(
+    [0, 1, 2, 3, 4, 5], {"press": [0, 1, 1, 1, 1, 1], "slide": [0, 0, 1.0, -0.5, -0.5, 1.0]}
+)
+
+
+def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program=None, lift=None):
+    """A narrower block on a base (8 interface elements), pressed then slid: a non-uniform
+    interface state.
+
+    With ``lift`` the block is pressed by a prescribed vertical displacement of its top (channel
+    ``press``) plus ``lift(x)`` times channel ``lift``; otherwise by a pressure ``P``.
+    """
+    from subfric_dolfinx import meshing
+    from subfric_dolfinx.fem import Dirichlet, DirichletField, InterfaceProblem, Material, Pressure
+
+    dom, _ = meshing.create_interface_mesh(
+        meshing.build_block_on_base,
+        comm,
+        partitioner=partitioner,
+        n_interface=8,
+        cell_type=cell_type,
+    )
+    program = program or PROGRAM
+    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.3, component=0, amplitude="slide")]
+    loads = []
+    if lift is None:
+        loads.append(Pressure("top", P, amplitude="press"))
+    else:
+
+        def vertical(x, t):
+            return -0.25 * program.amplitude("press", t) + program.amplitude("lift", t) * lift(x)
+
+        bcs.append(DirichletField("top", vertical, component=1))
+    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    return InterfaceProblem(dom, law, mats, program, bcs, loads)
+
+
+def small_scene() -> dict:
+    """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs."""
+    from demos import block_on_base
+
+    s = block_on_base.scene(n=8, hold=5.0, dt=0.05)
+    s["outputs"] = {}
+    return s

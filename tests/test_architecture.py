@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.numpy_only
+
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "subfric_dolfinx"
 NAME = "subfric_dolfinx"

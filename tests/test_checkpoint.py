@@ -3,41 +3,31 @@
 import signal
 import subprocess
 import sys
-from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 from mpi4py import MPI
-from test_elastic_smoke import _singleton_env
-from test_scenes import small
 
 from subfric_dolfinx.fem import StepFailure
 from subfric_dolfinx.io import CheckpointError, read_checkpoint
 from subfric_dolfinx.scenes import run_scene
+from tests.helpers import ROOT, on_root, prefix, singleton_env, small_scene
 
-ROOT = Path(__file__).resolve().parents[1]
 T_CK = 2.5  # checkpoint time: in the middle of the reverse stroke
 
 
 def scene(**outputs):
-    s = small()
+    s = small_scene()
     s["outputs"] = dict(outputs)
-    s["solver"]["prefix"] = f"ck{next(_counter)}_"
+    s["solver"]["prefix"] = prefix("ck")
     return s
-
-
-_counter = iter(range(10**6))
 
 
 def columns(hist, after):
     rows = [r for r in hist if r["t"] > after + 1e-9]
     keys = ["t", "dt", "F_t1", "F_n", "up_norm", "mu", "r", "R_top_x"]
     return np.array([[r[k] for k in keys] for r in rows])
-
-
-def bcast_dir(comm, path):
-    return Path(comm.bcast(str(path), root=0))
 
 
 def test_restart_gives_the_same_history(shared_tmp):
@@ -59,50 +49,25 @@ def test_restart_gives_the_same_history(shared_tmp):
     )
     assert len(again.history) == len(full.history)
     np.testing.assert_allclose(columns(again.history, T_CK), ref, rtol=1e-10, atol=1e-10)
-    # the interface history continues where it stopped: one row per step, times increasing
-    if comm.rank == 0:
+
+    def check_interface_history():
+        """It continues where it stopped: one row per step, times increasing."""
         with h5py.File(shared_tmp / "a" / "interface_history.h5") as f:
             t = f["time"][()]
             assert len(t) == len(full.history) and np.all(np.diff(t) > 0)
             assert f["f_t"].shape == (len(t), 16, 1) and f["x"].shape == (16, 2)
             np.testing.assert_allclose(f["mu"][-1].mean(), again.history[-1]["mu"], rtol=1e-12)
+
+    on_root(comm, check_interface_history)
     if comm.size > 1:  # 2 -> 1
-        ok = True
-        if comm.rank == 0:
+
+        def restart_on_one_rank():
             one = run_scene(scene(), outdir=shared_tmp / "b", comm=MPI.COMM_SELF, restart=ck)
             diff = np.abs(columns(one.history, T_CK) - ref).max()
             print(f"2 -> 1 restart: max |diff| of the history = {diff:.3g}")
-            ok = diff < 1e-8 * np.abs(ref).max()
-        assert comm.bcast(ok, root=0)
+            assert diff < 1e-8 * np.abs(ref).max(), diff
 
-
-def test_bad_checkpoints_are_refused(shared_tmp):
-    comm = MPI.COMM_WORLD
-    run_scene(scene(checkpoint_every=3), outdir=shared_tmp, comm=comm)
-    good = shared_tmp / "checkpoint.h5"
-    assert read_checkpoint(good, comm).attrs["step"] % 3 == 0
-    if comm.rank == 0:
-        data = good.read_bytes()
-        (shared_tmp / "truncated.h5").write_bytes(data[: len(data) // 3])
-        with h5py.File(shared_tmp / "foreign.h5", "w") as f:
-            f["x"] = np.zeros(3)
-    comm.Barrier()
-    cases = [
-        ("missing.h5", "does not exist"),
-        ("truncated.h5", "not a readable HDF5 file"),
-        ("foreign.h5", "not a subfric-dolfinx checkpoint"),
-    ]
-    for name, pattern in cases:
-        with pytest.raises(CheckpointError, match=pattern):
-            run_scene(scene(), comm=comm, restart=shared_tmp / name)
-    other = scene()
-    other["law"]["params"]["mu0"] = 400.0
-    with pytest.raises(CheckpointError, match="was written with law"):
-        run_scene(other, comm=comm, restart=good)
-    finer = scene()
-    finer["mesh"]["options"]["n_interface"] = 12
-    with pytest.raises(CheckpointError, match="n_cells"):
-        run_scene(finer, comm=comm, restart=good)
+        on_root(comm, restart_on_one_rank)
 
 
 def test_a_failed_write_leaves_the_previous_checkpoint(shared_tmp, monkeypatch):
@@ -155,14 +120,13 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
     restarted from it ends where an uninterrupted run ends."""
     comm = MPI.COMM_WORLD
     outdir = shared_tmp / "killed"
-    result = None
-    if comm.rank == 0:
+
+    def run_and_interrupt():
         code = (
-            "import sys, time\n"
-            f"sys.path.insert(0, {str(ROOT / 'tests')!r})\n"
-            "from test_scenes import small\n"
+            "import sys\n"
+            "from tests.helpers import small_scene\n"
             "from subfric_dolfinx.scenes import run_scene, SceneInterrupted\n"
-            "s = small()\n"
+            "s = small_scene()\n"
             "from subfric_dolfinx import logs\n"
             "logs.configure(verbosity=1)\n"
             "s['outputs'] = {'checkpoint_every': 1000}\n"
@@ -176,7 +140,7 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
         p = subprocess.Popen(
             [sys.executable, "-c", code],
             cwd=ROOT,
-            env=_singleton_env(),
+            env=singleton_env(),
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,
@@ -189,18 +153,18 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
                 break
         out, _ = p.communicate(timeout=120)
         lines.append(out)
-        result = (p.returncode, "".join(lines))
-    rc, text = comm.bcast(result, root=0)
+        return p.returncode, "".join(lines)
+
+    rc, text = on_root(comm, run_and_interrupt)
     assert rc == 3 and "INTERRUPTED" in text, text
     ck = outdir / "checkpoint.h5"
     t_ck = read_checkpoint(ck, comm).attrs["time"]
     assert 0.2 <= t_ck < 11.0
-    s = small()
-    s["outputs"] = {}
+    s = small_scene()
     s["solver"].update(dt=0.04, dt_max=0.04)
-    s["solver"]["prefix"] = f"ck{next(_counter)}_"
+    s["solver"]["prefix"] = prefix("ck")
     resumed = run_scene(s, comm=comm, restart=ck)
-    s["solver"]["prefix"] = f"ck{next(_counter)}_"
+    s["solver"]["prefix"] = prefix("ck")
     whole = run_scene(s, comm=comm)
     assert resumed.history[-1]["t"] == whole.history[-1]["t"] == pytest.approx(11.0)
     np.testing.assert_allclose(

@@ -28,10 +28,12 @@ import math
 
 import numpy as np
 import pytest
-from reference_ode import closed_form_no_softening, solve_reference
 
 from subfric_dolfinx.constitutive import PRESETS, preset
 from subfric_dolfinx.driver import run_case
+from tests.reference_ode import closed_form_no_softening, solve_reference
+
+pytestmark = pytest.mark.numpy_only
 
 RTOL = 1e-12  # reference tolerance: its own error is ~1e-11 of the peak, far below the driver's
 

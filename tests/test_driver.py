@@ -1,5 +1,5 @@
-"""Material-point driver: library and command line, output, step splitting, case validation,
-stability reporting, stress control and import isolation."""
+"""Material-point driver: library and command line, output, step splitting, stability reporting,
+stress control and import isolation (bad cases are in the catalogue, tests/bad_inputs/)."""
 
 import json
 import math
@@ -12,33 +12,14 @@ import numpy as np
 import pytest
 
 from subfric_dolfinx.constitutive import preset
-from subfric_dolfinx.driver import (
-    CaseError,
-    RunawayError,
-    fields,
-    load_case,
-    parse_case,
-    run_case,
-)
+from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
+from tests.helpers import driver_cli as cli
+
+pytestmark = pytest.mark.numpy_only
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 FIELDS = fields(preset("sec7"))
 STATUS_KEYS = {"ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED", "UNSTABLE"}
-
-
-def cli(*args, timeout=120):
-    """Run ``python3 -m subfric_dolfinx.driver ARGS`` from the repository root."""
-    env = dict(os.environ)
-    extra = env.get("PYTHONPATH")
-    env["PYTHONPATH"] = str(REPO) + (os.pathsep + extra if extra else "")
-    return subprocess.run(
-        [sys.executable, "-m", "subfric_dolfinx.driver", *map(str, args)],
-        cwd=REPO,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
 
 
 def write(tmp_path, obj, name="case.json"):
@@ -187,131 +168,6 @@ def test_sample_times_end_steps_and_holds_take_one_step():
     assert many.samples["mu"][-1] == pytest.approx(res.samples["mu"][-1], rel=1e-13)
     assert res.samples["mu"][-1] > res.samples["mu"][1]  # recovered while at rest
     assert run_case(case, steps_per_mm=10).n_steps == 1 + 4 + 7 + 1 + 1
-
-
-# -------------------------------------------------------------------------------------------
-# Malformed cases: one test per class, on the command line (exit code 2, the field named) and in
-# the library (CaseError naming the field)
-
-
-def base_case():
-    return json.loads(json.dumps(SEC7))
-
-
-def check_rejected(tmp_path, case, *words):
-    with pytest.raises(CaseError) as e:
-        parse_case(case)
-    for w in words:
-        assert w in str(e.value), (w, str(e.value))
-    proc = cli(write(tmp_path, case))
-    assert proc.returncode == 2, (proc.returncode, proc.stderr)
-    assert proc.stderr.startswith("error: ")
-    for w in words:
-        assert w in proc.stderr, (w, proc.stderr)
-    assert proc.stdout == ""
-
-
-@pytest.mark.parametrize("field", ["params", "control", "path", "t_samples"])
-def test_missing_field(tmp_path, field):
-    case = base_case()
-    del case[field]
-    check_rejected(tmp_path, case, f"'{field}'")
-
-
-def test_missing_parameter(tmp_path):
-    case = base_case()
-    case["params"] = {k: v for k, v in preset("sec7").parameters().items() if k != "kappa"}
-    check_rejected(tmp_path, case, "'params'", "kappa")
-
-
-@pytest.mark.parametrize(
-    ("where", "key", "words"),
-    [("top", "stepsPerMM", ("stepsPerMM",)), ("params", "alpha", ("'params'", "alpha"))],
-)
-def test_unknown_field(tmp_path, where, key, words):
-    case = base_case()
-    (case if where == "top" else case["params"])[key] = 1.0
-    check_rejected(tmp_path, case, *words)
-
-
-@pytest.mark.parametrize(
-    ("mutate", "words"),
-    [
-        (lambda c: c["path"][1].__setitem__(1, "0.3"), ("path[1][1]", "number")),
-        (lambda c: c.__setitem__("t_samples", 0.3), ("t_samples",)),
-        (lambda c: c.__setitem__("n_tangential", "2"), ("n_tangential",)),
-        (lambda c: c.__setitem__("params", ["sec7"]), ("'params'", "object")),
-        (lambda c: c["params"].__setitem__("mu0", "400"), ("mu0", "real number")),
-        (lambda c: c.__setitem__("steps_per_mm", True), ("steps_per_mm",)),
-        (lambda c: c["path"].__setitem__(2, [0.5, 0.3, 0.2]), ("path[2]",)),
-    ],
-    ids=["path-str", "samples-scalar", "nt-str", "params-list", "param-str", "spm-bool", "row3"],
-)
-def test_wrong_type(tmp_path, mutate, words):
-    case = base_case()
-    mutate(case)
-    check_rejected(tmp_path, case, *words)
-
-
-@pytest.mark.parametrize("control", ["force", "", None, "Disp"])
-def test_bad_control(tmp_path, control):
-    case = base_case()
-    case["control"] = control
-    check_rejected(tmp_path, case, "'control'")
-
-
-@pytest.mark.parametrize(
-    ("mutate", "words"),
-    [
-        (lambda c: c["path"][2].__setitem__(0, 0.3), ("path[2][0]", "increase")),
-        (lambda c: c["path"][1].__setitem__(0, -0.1), ("path[1][0]",)),
-        (lambda c: c.__setitem__("t_samples", [0.0, 0.3, 0.1]), ("t_samples[2]",)),
-    ],
-    ids=["path-equal", "path-decreasing", "samples-decreasing"],
-)
-def test_non_increasing_times(tmp_path, mutate, words):
-    case = base_case()
-    mutate(case)
-    check_rejected(tmp_path, case, *words)
-
-
-@pytest.mark.parametrize("t", [-0.01, 0.51, 1e9])
-def test_sample_out_of_range(tmp_path, t):
-    case = base_case()
-    case["t_samples"] = [0.0, t]
-    check_rejected(tmp_path, case, "t_samples[1]", "outside")
-
-
-@pytest.mark.parametrize(
-    ("params", "words"),
-    [
-        ({"preset": "sec7", "alpha_t": -500.0}, ("alpha_t", "alpha_t > 0")),
-        ({"preset": "sec7", "mu0": 600.0}, ("mu0",)),
-        ({"preset": "sec7", "mu_s": 10.0}, ("mu_s", "mu_k")),
-        ({"preset": "sec7", "xi": -1.0}, ("xi",)),
-        ({"preset": "sec8"}, ("params.preset", "sec8")),
-    ],
-    ids=["alpha_t", "mu0", "mu_s", "xi", "preset"],
-)
-def test_invalid_parameter_value(tmp_path, params, words):
-    case = base_case()
-    case["params"] = params
-    check_rejected(tmp_path, case, *words)
-
-
-def test_invalid_steps_per_mm(tmp_path):
-    case = base_case()
-    case["steps_per_mm"] = 0
-    check_rejected(tmp_path, case, "steps_per_mm")
-    proc = cli(write(tmp_path, SEC7), "--steps-per-mm", "-5")
-    assert proc.returncode == 2 and "--steps-per-mm" in proc.stderr
-
-
-def test_unreadable_or_invalid_json(tmp_path):
-    proc = cli(tmp_path / "missing.json")
-    assert proc.returncode == 2 and "cannot read" in proc.stderr
-    proc = cli(write(tmp_path, '{"params": {"preset": "sec7"},'))
-    assert proc.returncode == 2 and "not valid JSON" in proc.stderr
 
 
 # -------------------------------------------------------------------------------------------

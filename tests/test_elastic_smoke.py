@@ -10,8 +10,6 @@
 * The demo script itself runs as a subprocess (one rank) and prints the same numbers.
 """
 
-import os
-import pathlib
 import subprocess
 import sys
 
@@ -21,9 +19,9 @@ import pytest
 from mpi4py import MPI
 
 from demos.elastic_smoke import build_mesh, solve, timoshenko_tip_deflection
+from tests.helpers import ROOT, on_root, singleton_env
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
-DEMO = REPO / "demos" / "elastic_smoke.py"
+DEMO = ROOT / "demos" / "elastic_smoke.py"
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -88,8 +86,7 @@ def test_cantilever_parallel_matches_serial(comm):
     beam = timoshenko_tip_deflection(4.0, 1.0, 1000.0, 0.3, 1.0)
     assert 0.8 * beam < -res["tip_displacement"][1] < beam
 
-    ok, message = True, ""
-    if comm.rank == 0:
+    def compare_with_a_serial_solve():
         ref = solve(MPI.COMM_SELF, n)
         node_ser, x_ser, u_ser = gather_nodal(ref["u"], MPI.COMM_SELF)
         scale = np.max(np.abs(u_ser))
@@ -114,10 +111,10 @@ def test_cantilever_parallel_matches_serial(comm):
         failed = [name for name, passed in checks.items() if not passed]
         error = np.max(np.abs(u_par - u_ser)) / scale if same_nodes else np.nan
         message = f"{comm.size}-rank vs serial: {failed} (max nodal difference / max|u|: {error})"
-        ok = not failed
-        del ref
-    ok, message = comm.bcast((ok, message), root=0)
-    assert ok, message
+        return failed, message
+
+    failed, message = on_root(comm, compare_with_a_serial_solve)
+    assert not failed, message
 
 
 def test_gmsh_failure_raises_on_every_rank(comm):
@@ -128,39 +125,26 @@ def test_gmsh_failure_raises_on_every_rank(comm):
     assert not gmsh.isInitialized()
 
 
-def _singleton_env():
-    """The environment without the variables of the enclosing mpirun job.
-
-    A child started from an MPI rank would otherwise try to join the parent's job; without them
-    it starts as an MPI singleton.
-    """
-    keep = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
-    return {
-        k: v
-        for k, v in os.environ.items()
-        if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
-    }
-
-
 def test_demo_script_runs(comm, shared_tmp):
     # Rank 0 runs the demo once (one rank, as a subprocess) and broadcasts what it saw, so that
     # every rank checks the same thing and nothing is skipped on 2 ranks.
     n = 4
     out = shared_tmp / "elastic_smoke"
-    outcome = None
-    if comm.rank == 0:
+
+    def run_demo():
         proc = subprocess.run(
             [sys.executable, str(DEMO), "--n", str(n), "--out", str(out)],
-            cwd=REPO,
-            env=_singleton_env(),
+            cwd=ROOT,
+            env=singleton_env(),
             capture_output=True,
             text=True,
             timeout=100,
         )
         files = sorted(p.name for p in out.iterdir()) if out.is_dir() else []
         energy = solve(MPI.COMM_SELF, n)["strain_energy"]
-        outcome = (proc.returncode, proc.stdout, proc.stderr, files, energy)
-    returncode, stdout, stderr, files, energy = comm.bcast(outcome, root=0)
+        return proc.returncode, proc.stdout, proc.stderr, files, energy
+
+    returncode, stdout, stderr, files, energy = on_root(comm, run_demo)
 
     assert returncode == 0, f"demo failed:\n{stdout}\n{stderr}"
     lines = dict(line.split(":", 1) for line in stdout.splitlines() if ":" in line)
@@ -172,18 +156,17 @@ def test_demo_script_runs(comm, shared_tmp):
 
 
 def test_demo_writes_nothing_without_out(shared_tmp):
-    if MPI.COMM_WORLD.rank == 0:
+    def run_demo():
         proc = subprocess.run(
             [sys.executable, str(DEMO), "--n", "2"],
             cwd=shared_tmp,
-            env=_singleton_env(),
+            env=singleton_env(),
             capture_output=True,
             text=True,
             timeout=100,
         )
-        result = (proc.returncode, proc.stderr, sorted(p.name for p in shared_tmp.iterdir()))
-    else:
-        result = None
-    returncode, stderr, files = MPI.COMM_WORLD.bcast(result, root=0)
+        return proc.returncode, proc.stderr, sorted(p.name for p in shared_tmp.iterdir())
+
+    returncode, stderr, files = on_root(MPI.COMM_WORLD, run_demo)
     assert returncode == 0, stderr
     assert files == []

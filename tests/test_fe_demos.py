@@ -9,21 +9,14 @@ demo claims (and that could fail), not just that it runs.
 """
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from demos import lap_joint, pad_on_plate, punch
 from subfric_dolfinx.constitutive import PRESETS, Status
 from subfric_dolfinx.driver import run_case
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "demos"))
-import lap_joint  # noqa: E402
-import pad_on_plate  # noqa: E402
-import punch  # noqa: E402
 
 
 def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):

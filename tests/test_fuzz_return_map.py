@@ -49,7 +49,10 @@ from subfric_dolfinx.constitutive import (
 
 # The return maps evaluate both branches of np.where, e.g. 0 * inf at r = 0 with a subnormal g;
 # the NaN is masked (the results are checked to be finite), the warning is noise here.
-pytestmark = pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+pytestmark = [
+    pytest.mark.numpy_only,
+    pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning"),
+]
 
 EPS = float(np.finfo(float).eps)
 TINY = float(np.finfo(float).smallest_subnormal)

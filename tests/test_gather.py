@@ -8,6 +8,7 @@ from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem.interface import InterfaceElements, pair_interface
 from subfric_dolfinx.io import gather_interface, interface_order
+from tests.helpers import everywhere, on_root
 
 
 def interface(comm, partitioner=None):
@@ -47,13 +48,15 @@ def test_one_and_two_ranks_give_the_same_rows():
     el = interface(comm, "bodies" if comm.size > 1 else None)
     values = {"x2": el.points.reshape(-1, 3) ** 2, "id": np.full(el.n_elements * el.nq, comm.rank)}
     every = gather_interface(el, values)
-    on_root = gather_interface(el, values, root=0)
+    at_root = gather_interface(el, values, root=0)
     n = comm.allreduce(el.n_elements * el.nq)
     assert every["x"].shape == (n, 3) and every["x2"].shape == (n, 3) and every["id"].shape == (n,)
     np.testing.assert_array_equal(every["x2"], every["x"] ** 2)  # values travel with their point
-    if comm.rank == 0:
-        np.testing.assert_array_equal(on_root["x"], every["x"])
+    assert everywhere(comm, (at_root is None) == (comm.rank != 0))
+
+    def compare_with_a_serial_gather():
+        np.testing.assert_array_equal(at_root["x"], every["x"])
         serial = gather_interface(interface(MPI.COMM_SELF), {})
         np.testing.assert_allclose(serial["x"], every["x"], rtol=0, atol=1e-14)
-    else:
-        assert on_root is None
+
+    on_root(comm, compare_with_a_serial_gather)

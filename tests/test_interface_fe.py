@@ -1,20 +1,16 @@
 """The interface element on real boundary-value problems (1 and 2 ranks)."""
 
-import itertools
-
 import numpy as np
 import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from subfric_dolfinx import meshing
-from subfric_dolfinx.constitutive import Status, preset
+from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.driver import run_case
 from subfric_dolfinx.fem import (
     Dirichlet,
-    DirichletField,
     FrictionSolver,
-    InterfaceError,
     InterfaceProblem,
     LoadStepper,
     Material,
@@ -22,23 +18,9 @@ from subfric_dolfinx.fem import (
     StepFailure,
 )
 from subfric_dolfinx.loading import LoadingProgram
-
-_prefix_counter = itertools.count()
-
-
-def prefix(name):
-    return f"t{next(_prefix_counter)}_{name}_"
-
-
-def everywhere(comm, ok):
-    return comm.allreduce(bool(ok), op=MPI.LAND)
-
+from tests.helpers import LAW, PROGRAM, block_problem, everywhere, global_spread, on_root, prefix
 
 E, P, H = 2.0e4, 300.0, 0.5
-LAW = preset("sec7")
-PROGRAM = LoadingProgram(
-    [0, 1, 2, 3, 4, 5], {"press": [0, 1, 1, 1, 1, 1], "slide": [0, 0, 1.0, -0.5, -0.5, 1.0]}
-)
 
 
 def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, slide=(0.4, 0.3)):
@@ -85,13 +67,6 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
     return InterfaceProblem(
         dom, law, mats, PROGRAM, bcs, [Pressure("top", P, amplitude="press")], degree=degree
     ), top_value
-
-
-def global_spread(comm, a):
-    """max - min over all ranks of an array (0 if empty everywhere)."""
-    lo = comm.allreduce(a.min() if a.size else np.inf, op=MPI.MIN)
-    hi = comm.allreduce(a.max() if a.size else -np.inf, op=MPI.MAX)
-    return hi - lo, (lo if np.isfinite(lo) else 0.0)
 
 
 @pytest.mark.parametrize(
@@ -161,34 +136,6 @@ def test_patch_test_equals_the_material_point_driver(gdim, cell_type, degree):
     assert S["up_t1"].max() > 0.1 and S["up_t1"].min() < -0.1 and S["mu"].min() < 0.5 * LAW.mu_s
     assert everywhere(comm, solver.J.getInfo()["mallocs"] == 0)
     solver.destroy()
-
-
-def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program=None, lift=None):
-    """A narrower block on a base, pressed then slid: a non-uniform interface state.
-
-    With ``lift`` the block is pressed by a prescribed vertical displacement of its top (channel
-    ``press``) plus ``lift(x)`` times channel ``lift``; otherwise by a pressure.
-    """
-    dom, _ = meshing.create_interface_mesh(
-        meshing.build_block_on_base,
-        comm,
-        partitioner=partitioner,
-        n_interface=8,
-        cell_type=cell_type,
-    )
-    program = program or PROGRAM
-    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.3, component=0, amplitude="slide")]
-    loads = []
-    if lift is None:
-        loads.append(Pressure("top", P, amplitude="press"))
-    else:
-
-        def vertical(x, t):
-            return -0.25 * program.amplitude("press", t) + program.amplitude("lift", t) * lift(x)
-
-        bcs.append(DirichletField("top", vertical, component=1))
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
-    return InterfaceProblem(dom, law, mats, program, bcs, loads)
 
 
 def test_jacobian_matches_finite_differences_and_newton_is_quadratic():
@@ -272,19 +219,25 @@ def _run_block(comm, partitioner=None):
 def test_parallel_run_equals_the_gathered_serial_run():
     comm = MPI.COMM_WORLD
     par = _run_block(comm, "bodies" if comm.size > 1 else None)
-    ser = _run_block(MPI.COMM_SELF) if comm.rank == 0 else None
-    ok, msg = True, ""
-    if comm.rank == 0:
+
+    def compare_with_a_serial_run():
+        ser = _run_block(MPI.COMM_SELF)
+        failed = []
         for a, b, name in zip(
             par, ser, ("node ids", "displacement", "points", "state"), strict=True
         ):
+            if a.shape != b.shape:
+                failed.append(f"{name}: shape {a.shape} vs {b.shape}")
+                continue
             scale = max(1.0, float(np.abs(b).max()))
             diff = float(np.abs(a - b).max())
-            if a.shape != b.shape or diff > 1e-9 * scale:
-                ok, msg = False, f"{name}: shape {a.shape} vs {b.shape}, max diff {diff:.3g}"
+            if diff > 1e-9 * scale:
+                failed.append(f"{name}: max diff {diff:.3g}")
             print(f"1 vs {comm.size} ranks, {name}: max |diff| = {diff:.3g} (scale {scale:.3g})")
-    ok, msg = comm.bcast((ok, msg), root=0)
-    assert ok, msg
+        return failed
+
+    failed = on_root(comm, compare_with_a_serial_run)
+    assert not failed, failed
 
 
 def test_partial_separation_and_recontact():
@@ -401,45 +354,19 @@ def test_too_many_cuts_raise_with_the_last_converged_state_intact():
     solver.destroy()
 
 
-def test_options_prefix_is_required_unique_and_read_from_the_options_database():
+def test_options_are_read_from_the_options_database():
+    """Options under the solver's prefix in PETSc's database (the command line) apply. Bad
+    prefixes (empty, in use, ...) are in the catalogue of bad inputs (tests/bad_inputs/)."""
     comm = MPI.COMM_WORLD
     prob = block_problem(comm)
-    with pytest.raises(ValueError, match="prefix"):
-        FrictionSolver(prob, "")
     name = prefix("opts")
-    PETSc.Options()[name + "ksp_type"] = "gmres"
-    PETSc.Options()[name + "pc_type"] = "jacobi"
-    s = FrictionSolver(prob, name)
-    assert s.snes.getKSP().getType() == "gmres" and s.snes.getKSP().getPC().getType() == "jacobi"
-    with pytest.raises(ValueError, match=f"{name!r} is already used"):
-        FrictionSolver(prob, name)
-    s.destroy()
-    FrictionSolver(prob, name).destroy()  # released on destroy
-
-
-@pytest.mark.parametrize(
-    ("name", "pattern"),
-    [
-        ("broken_no_interface", "interface"),
-        ("broken_mismatch_count", "8 on the 'master' side|do not pair"),
-        ("broken_mismatch_coords", r"do not pair node to node.*at \["),
-    ],
-)
-def test_bad_meshes_are_refused_with_a_clear_error(name, pattern):
-    comm = MPI.COMM_WORLD
-    with pytest.raises((InterfaceError, meshing.InterfaceMeshError), match=pattern):
-        dom = meshing.read_interface_mesh(f"meshes/{name}.msh", comm, 2)
-        InterfaceProblem(dom, LAW, {"master": Material(E, 0.3), "slave": Material(E, 0.3)}, PROGRAM)
-
-
-def test_missing_boundary_group_is_named():
-    comm = MPI.COMM_WORLD
-    dom = meshing.read_interface_mesh("meshes/block_on_base_tri.msh", comm, 2)
-    with pytest.raises(InterfaceError, match=r"lacks the physical group\(s\) \['clamp'\]"):
-        InterfaceProblem(
-            dom,
-            LAW,
-            {"master": Material(E, 0.3), "slave": Material(E, 0.3)},
-            PROGRAM,
-            [Dirichlet("clamp", (0.0, 0.0))],
-        )
+    opts = PETSc.Options()
+    opts[name + "ksp_type"] = "gmres"
+    opts[name + "pc_type"] = "jacobi"
+    try:
+        with FrictionSolver(prob, name) as s:
+            ksp = s.snes.getKSP()
+            assert ksp.getType() == "gmres" and ksp.getPC().getType() == "jacobi"
+    finally:
+        opts.delValue(name + "ksp_type")
+        opts.delValue(name + "pc_type")

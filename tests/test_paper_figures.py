@@ -3,7 +3,6 @@ paper describes, checked on the written CSV data."""
 
 import collections
 import csv
-import importlib.util
 import math
 import os
 import pathlib
@@ -13,24 +12,20 @@ import sys
 import numpy as np
 import pytest
 
+from demos import paper_figures
 from subfric_dolfinx.constitutive import PRESETS
+
+pytestmark = pytest.mark.numpy_only
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 DEMO = REPO / "demos" / "paper_figures.py"
 FIGS = ("fig5", "fig6", "fig7", "fig8", "fig9", "fig10", "fig11")
 
 
-def load_demo():
-    spec = importlib.util.spec_from_file_location("paper_figures_demo", DEMO)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def out(tmp_path_factory):
     d = tmp_path_factory.mktemp("paper_figures")
-    written = load_demo().run_demo(d, quick=True, verbose=False)
+    written = paper_figures.run_demo(d, quick=True, verbose=False)
     assert sorted(written) == sorted(FIGS)
     return d
 

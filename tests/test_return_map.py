@@ -12,6 +12,8 @@ from subfric_dolfinx.constitutive import (
     preset,
 )
 
+pytestmark = pytest.mark.numpy_only
+
 BASE = dict(alpha_t=500.0, alpha_n=800.0, mu_s=500.0, mu_k=63.0, kappa=98 / 63, xi=11 / 500)
 BASE.update(u_tilde=15.0, c_n=2e-4)
 
@@ -254,34 +256,9 @@ def test_coulomb_return_map():
     np.testing.assert_allclose(res.tangent[1], D_fd, rtol=1e-6, atol=1e-6)
 
 
-@pytest.mark.parametrize(
-    ("field", "value", "allowed"),
-    [
-        ("alpha_t", 0.0, "alpha_t > 0"),
-        ("alpha_n", -1.0, "alpha_n > 0"),
-        ("mu_k", 0.0, "mu_k > 0"),
-        ("mu_s", 10.0, "mu_s >= mu_k"),
-        ("kappa", -1e-3, "kappa >= 0"),
-        ("xi", -1.0, "xi >= 0"),
-        ("u_tilde", 0.0, "u_tilde > 0"),
-        ("c_n", -2e-4, "c_n > 0"),
-        ("mu0", 1000.0, "mu_k <= mu0 <= mu_s"),
-        ("mu0", 10.0, "mu_k <= mu0 <= mu_s"),
-        ("kappa", float("nan"), "not finite"),
-        ("xi", float("inf"), "not finite"),
-    ],
-)
-def test_invalid_parameters_are_named(field, value, allowed):
-    with pytest.raises(ValueError, match=field) as e:
-        law(**{field: value})
-    assert allowed in str(e.value)
-
-
-def test_parameters_are_immutable_and_typed():
+def test_parameters_are_immutable():
+    """(Bad parameter values are in the catalogue of bad inputs, tests/bad_inputs/.)"""
     p = law()
     with pytest.raises(AttributeError):
         p.kappa = 1.0
-    with pytest.raises(TypeError, match="alpha_t"):
-        law(alpha_t="500")
-    with pytest.raises(TypeError, match="xi"):
-        law(xi=True)
+    assert p.kappa == BASE["kappa"]

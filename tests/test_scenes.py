@@ -1,67 +1,16 @@
-"""Scenes: strict configuration, build only what is needed, outputs only on request."""
+"""Scenes: build only what is needed, outputs only on request (bad configurations are in the
+catalogue of bad inputs, tests/bad_inputs/test_scenes.py)."""
 
-import copy
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
-
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "demos"))
-import block_on_base  # noqa: E402
-
-
-def small():
-    s = block_on_base.scene(n=8, hold=5.0, dt=0.05)
-    s["outputs"] = {}
-    return s
-
-
-@pytest.mark.parametrize(
-    ("mutate", "pattern"),
-    [
-        (lambda s: s.update(colour="red"), r"scene: unknown key\(s\) \['colour'\]"),
-        (lambda s: s["solver"].update(dt="fast"), r"scene.solver.dt: expected a number"),
-        (lambda s: s["solver"].update(dt=-1.0), r"scene.solver.dt: must be > 0"),
-        (lambda s: s["solver"].pop("dt"), r"scene.solver: missing key 'dt'"),
-        (lambda s: s["mesh"].update(builder="teapot"), r"scene.mesh.builder: must be one of"),
-        (
-            lambda s: s["mesh"]["options"].update(n_interface=4) or s["mesh"].update(file="x.msh"),
-            r"scene.mesh: give exactly one",
-        ),
-        (lambda s: s["dirichlet"][1].update(componnt=0), r"scene.dirichlet\[1\]: unknown key"),
-        (lambda s: s["loads"][0].update(type="suction"), r"scene.loads\[0\].type: must be one of"),
-        (lambda s: s["materials"]["slave"].update(G=1.0), r"scene.materials.slave: keys must be"),
-        (lambda s: s["law"]["params"].update(kappa=-1.0), r"scene.law: .*kappa"),
-        (
-            lambda s: s["program"]["times"].__setitem__(2, 0.5),
-            r"scene.program: times must increase",
-        ),
-        (
-            lambda s: s["outputs"].update(history="yes"),
-            r"scene.outputs.history: expected true or false",
-        ),
-        (lambda s: s.update(degree=3), r"scene.degree: must be one of \[1, 2\]"),
-        (lambda s: s.update(kind="movie"), r"scene.kind: must be one of"),
-    ],
-)
-def test_bad_scene_configs_are_named(mutate, pattern):
-    s = copy.deepcopy(small())
-    mutate(s)
-    with pytest.raises(SceneError, match=pattern):
-        parse_scene(s)
-
-
-def test_files_requested_without_a_directory_are_refused():
-    s = small()
-    s["outputs"]["history"] = True
-    with pytest.raises(SceneError, match="no output directory"):
-        run_scene(s)
+from demos import block_on_base
+from subfric_dolfinx.scenes import run_scene
+from tests.helpers import ROOT, small_scene
 
 
 def test_pointwise_scene_needs_no_mesh_no_mpi_no_dolfinx(tmp_path):
@@ -135,7 +84,7 @@ def test_timing_breakdown_is_per_run():
         return {e: PETSc.Log.Event(e).getPerfInfo()["time"] for e in ("PCSetUp", "KSPSolve")}
 
     for k in range(2):
-        s = small()
+        s = small_scene()
         s["solver"]["prefix"] = f"timing{k}_"
         PETSc.Log.begin()
         before = events()

@@ -1,0 +1,1 @@
+"""The stored small meshes (``*.msh``) and :mod:`meshes.generate`, which writes them."""

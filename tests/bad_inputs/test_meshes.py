@@ -1,0 +1,195 @@
+"""Bad meshes: files that are missing, not meshes, lack a group, have sides that do not pair or
+the wrong dimension; gmsh models with shared or lost nodes; bad meshing arguments."""
+
+import gmsh
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from subfric_dolfinx import meshing
+from subfric_dolfinx.constitutive import preset
+from subfric_dolfinx.fem import InterfaceError, InterfaceProblem, Material
+from tests.helpers import MESH_DIR, PROGRAM, everywhere, on_root, raised_on_every_rank
+
+MESH_CASES = {
+    # name: (file, gdim, exception, words, regular expression or None)
+    "missing-file": ("no_such_mesh.msh", 2, FileNotFoundError, ["mesh file not found"], None),
+    "no-interface-group": (
+        "broken_no_interface.msh", 2, meshing.InterfaceMeshError,
+        # the groups found are listed
+        ["required physical group 'interface' not found", "'master'", "'slave'", "'bottom'"],
+        None,
+    ),
+    "sides-count-differ": (
+        "broken_mismatch_count.msh", 2, meshing.InterfaceMeshError,
+        ["8 on the 'master' side, 9 on the 'slave' side"], None,
+    ),
+    "3d-mesh-read-as-2d-tet": (
+        "pad_on_plate_tet.msh", 2, meshing.InterfaceMeshError,
+        ["expected a 2-D mesh", "found cells of topological dimension 3"],
+        "expected a 2-D mesh .* found cells of topological dimension 3",
+    ),
+    "3d-mesh-read-as-2d-hex": (
+        "pad_on_plate_hex.msh", 2, meshing.InterfaceMeshError,
+        ["expected a 2-D mesh", "found cells of topological dimension 3"], None,
+    ),
+    "2d-mesh-read-as-3d": (
+        "block_on_base_quad.msh", 3, meshing.InterfaceMeshError,
+        ["expected a 3-D mesh", "found cells of topological dimension 2"],
+        "expected a 3-D mesh .* found cells of topological dimension 2",
+    ),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", list(MESH_CASES))
+def test_bad_mesh_file(name):
+    file, gdim, exc, words, match = MESH_CASES[name]
+    path = MESH_DIR / file
+    with raised_on_every_rank(exc, str(path), *words, match=match):
+        meshing.read_interface_mesh(path, MPI.COMM_WORLD, gdim)
+
+
+def test_mesh_without_a_required_boundary_group():
+    path = MESH_DIR / "block_on_base_tri.msh"
+    required = (*meshing.REQUIRED_GROUPS, "clamp")
+    with raised_on_every_rank(meshing.InterfaceMeshError, str(path), "'clamp' not found"):
+        meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2, required=required)
+
+
+def test_mesh_without_two_required_boundary_groups():
+    """Both missing groups are named, the first (in the order required) first."""
+    required = (*meshing.REQUIRED_GROUPS, meshing.MASTER_TOP, meshing.SLAVE_XMIN)
+    with raised_on_every_rank(
+        meshing.InterfaceMeshError, match=r"'slave_xmin' not found.*'master_top'"
+    ):
+        meshing.read_interface_mesh(
+            MESH_DIR / "block_on_base_tri.msh", MPI.COMM_WORLD, 2, required=required
+        )
+
+
+def test_mesh_path_is_a_directory():
+    with raised_on_every_rank(FileNotFoundError, "mesh file not found", str(MESH_DIR)):
+        meshing.read_interface_mesh(MESH_DIR, MPI.COMM_WORLD, 2)
+
+
+@pytest.mark.parametrize("content", ["this is not a mesh\n", ""], ids=["garbage", "empty"])
+def test_file_that_is_not_a_mesh(shared_tmp, content):
+    path = shared_tmp / "not_a_mesh.msh"
+    on_root(MPI.COMM_WORLD, lambda: path.write_text(content))
+    with raised_on_every_rank(meshing.InterfaceMeshError, str(path)):
+        meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)
+
+
+@pytest.mark.parametrize("gdim", [1, 4, 2.5, "2"])
+def test_bad_gdim(gdim):
+    with raised_on_every_rank(ValueError, f"gdim must be 2 or 3, got {gdim!r}"):
+        meshing.read_interface_mesh(MESH_DIR / "block_on_base_tri.msh", MPI.COMM_WORLD, gdim)
+
+
+def test_interface_sides_that_do_not_pair_node_to_node():
+    """Equal facet counts (the reader accepts it) but nodes at different places."""
+    path = MESH_DIR / "broken_mismatch_coords.msh"
+    dom = meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)
+    mats = {"master": Material(2.0e4, 0.3), "slave": Material(2.0e4, 0.3)}
+    with raised_on_every_rank(
+        InterfaceError, "do not pair node to node", "at [", match=r"do not pair node to node.*at \["
+    ):
+        InterfaceProblem(dom, preset("sec7"), mats, PROGRAM)
+
+
+# --------------------------------------------------------------------------------------------
+# gmsh models (the current model on rank 0)
+
+
+def on_root_with_a_gmsh_model(build, read):
+    """``build()`` a gmsh model on rank 0 (its failure fails every rank, no rank is left
+    waiting), then ``read()`` on every rank; gmsh is finalised again whatever happens."""
+    comm = MPI.COMM_WORLD
+
+    def start():
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh.option.setNumber("General.Verbosity", 2)
+        build()
+
+    try:
+        on_root(comm, start)
+        read()
+    finally:
+        if comm.rank == 0 and gmsh.isInitialized():
+            gmsh.finalize()
+
+
+def test_bodies_that_share_nodes():
+    """Two rectangles meshed conformally without duplicating the interface nodes."""
+
+    def glued():
+        gmsh.model.add("glued")
+        a = gmsh.model.occ.addRectangle(0, 0, 0, 1, 0.5)
+        b = gmsh.model.occ.addRectangle(0, 0.5, 0, 1, 0.5)
+        gmsh.model.occ.fragment([(2, a)], [(2, b)])
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(2, [a], name=meshing.MASTER)
+        gmsh.model.addPhysicalGroup(2, [b], name=meshing.SLAVE)
+        line = [t for _, t in gmsh.model.getEntitiesInBoundingBox(-1, 0.49, -1, 2, 0.51, 1, 1)]
+        gmsh.model.addPhysicalGroup(1, line, name=meshing.INTERFACE)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
+        gmsh.model.mesh.generate(2)
+
+    def read():
+        with raised_on_every_rank(
+            meshing.InterfaceMeshError, match=r"share \d+ nodes .* must be duplicated"
+        ):
+            meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
+
+    on_root_with_a_gmsh_model(glued, read)
+
+
+def test_group_elements_that_are_no_facets():
+    """A facet-group element that is no facet of the cells (gmshio would drop it silently)."""
+
+    def with_a_bogus_group():
+        meshing.build_block_on_base(cell_type="quadrilateral", n_interface=4)
+        nodes, x, _ = gmsh.model.mesh.getNodes()
+        x = x.reshape(-1, 3)
+        # a "facet" joining the two bottom corners of the base: not an edge of any cell
+        ends = [
+            int(nodes[np.argmin(np.linalg.norm(x - p, axis=1))]) for p in ([0, 0, 0], [2, 0, 0])
+        ]
+        line = gmsh.model.addDiscreteEntity(1)
+        gmsh.model.mesh.addElementsByType(line, 1, [], ends)
+        gmsh.model.addPhysicalGroup(1, [line], name="bogus")
+
+    def read():
+        with raised_on_every_rank(meshing.InterfaceMeshError, "'bogus': 1 of 1"):
+            meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
+
+    on_root_with_a_gmsh_model(with_a_bogus_group, read)
+
+
+def test_no_current_gmsh_model():
+    comm = MPI.COMM_WORLD
+    assert everywhere(comm, comm.rank != 0 or not gmsh.isInitialized())
+    with raised_on_every_rank(meshing.InterfaceMeshError, "no current gmsh model"):
+        meshing.read_interface_mesh(None, comm, 2)
+
+
+# --------------------------------------------------------------------------------------------
+# Arguments of the builders, partitioners and the mesh object
+
+
+def test_bad_builder_options():
+    comm = MPI.COMM_WORLD
+    with raised_on_every_rank(ValueError, "cell_type must be one of"):
+        meshing.create_interface_mesh(meshing.build_block_on_base, comm, cell_type="hexahedron")
+    with raised_on_every_rank(ValueError, "must lie on the base"):
+        meshing.create_interface_mesh(meshing.build_block_on_base, comm, block_x=1.5)
+
+
+def test_bad_partitioner_kind_group_and_side():
+    with raised_on_every_rank(ValueError, "partitioner kind"):
+        meshing.body_partitioner("random")
+    im = meshing.read_interface_mesh(MESH_DIR / "block_on_base_tri.msh", MPI.COMM_WORLD, 2)
+    with raised_on_every_rank(KeyError, "no physical group 'nope'"):
+        im.tag("nope")
+    with raised_on_every_rank(ValueError, "side must be one of"):
+        im.interface_facets("interface")
