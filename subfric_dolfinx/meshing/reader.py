@@ -30,6 +30,7 @@ from ._gmsh import (
     interface_sides,
     remove_new_models,
 )
+from ._msh import open_msh
 from .builders import ModelInfo
 from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
 from .partitioners import Partitioner, body_partitioner
@@ -228,8 +229,9 @@ def read_interface_mesh(
     Rank 0 reads and checks the gmsh data; every failure is raised on all ranks.
 
     Args:
-        source: Path of a ``.msh`` file, or ``None`` for the current gmsh model of rank 0 (its
-            node tags are renumbered if they have gaps, as after the Crack plugin).
+        source: Path of an MSH file (format 2 or 4, ASCII or binary), or ``None`` for the
+            current gmsh model of rank 0 (its node tags are renumbered if they have gaps, as
+            after the Crack plugin).
         comm: Communicator of the mesh.
         gdim: Expected geometric (= topological) dimension, 2 or 3.
         partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
@@ -242,10 +244,12 @@ def read_interface_mesh(
 
     Raises:
         FileNotFoundError: ``source`` does not exist.
-        InterfaceMeshError: Wrong dimension, a required group missing, several cell types,
-            bodies sharing nodes, interface sides with different numbers of facets, interface
-            facets that are not exterior facets of exactly one body, group elements that are
-            not entities of the mesh (which gmshio would drop silently).
+        InterfaceMeshError: Not an MSH file (format 2 or 4, ASCII or binary: anything else, e.g.
+            a ``.geo`` script, is refused before gmsh opens it), wrong dimension, a required
+            group missing, several cell types, bodies sharing nodes, interface sides with
+            different numbers of facets, interface facets that are not exterior facets of
+            exactly one body, group elements that are not entities of the mesh (which gmshio
+            would drop silently).
     """
     if gdim not in (2, 3):
         raise ValueError(f"gdim must be 2 or 3, got {gdim!r}")
@@ -269,11 +273,10 @@ def read_interface_mesh(
                         )
                 else:
                     path = Path(source)
-                    if not path.is_file():
-                        raise FileNotFoundError(f"mesh file not found: {path}")
+                    name = stack.enter_context(open_msh(path))  # MSH only: nothing runs
                     stack.enter_context(gmsh_session(f"subfric-read-{os.getpid()}"))
                     try:
-                        gmsh.merge(str(path))
+                        gmsh.merge(name)
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
                 names = _inspect_current_model(gdim, required, what)
