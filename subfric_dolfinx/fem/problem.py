@@ -29,6 +29,41 @@ from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, 
 __all__ = ["InterfaceProblem"]
 
 
+def _check_facet_groups(domain, conditions: Sequence) -> None:
+    """Every condition must be on a group of facets (collective).
+
+    Raises:
+        InterfaceError: A condition on a group of cells, of another dimension, or without facets.
+    """
+    mesh = domain.mesh
+    tdim = mesh.topology.dim
+    dims = getattr(domain, "dims", None) or {}
+    groups = list(dict.fromkeys(c.group for c in conditions))
+    n_owned = mesh.topology.index_map(tdim - 1).size_local
+    ncells = mesh.topology.index_map(tdim).size_local
+    local = np.zeros((len(groups), 2), dtype=np.int64)
+    for i, g in enumerate(groups):
+        tag = domain.tags[g]
+        local[i, 0] = np.count_nonzero(domain.facet_tags.find(tag) < n_owned)
+        local[i, 1] = np.count_nonzero(domain.cell_tags.find(tag) < ncells)
+    total = mesh.comm.allreduce(local) if groups else local
+    for g, (nf, nc) in zip(groups, total, strict=True):
+        kind = type(next(c for c in conditions if c.group == g)).__name__
+        dim = dims.get(g)
+        if dim == tdim or (dim is None and nf == 0 and nc > 0):
+            raise InterfaceError(
+                f"{kind} condition on {g!r}: a group of cells (dimension {tdim}), not of facets "
+                f"(dimension {tdim - 1}); conditions act on boundary facets"
+            )
+        if dim is not None and dim != tdim - 1:
+            raise InterfaceError(
+                f"{kind} condition on {g!r}: a group of dimension {dim}, not of facets "
+                f"(dimension {tdim - 1}); conditions act on boundary facets"
+            )
+        if nf == 0:
+            raise InterfaceError(f"{kind} condition on {g!r}: the group has no facets")
+
+
 class InterfaceProblem:
     """Residual and Jacobian of two elastic bodies with a frictional interface.
 
@@ -80,6 +115,7 @@ class InterfaceProblem:
             )
         for c in [*dirichlet, *loads]:
             program.amplitude(c.amplitude, program.t_start)  # unknown channel -> LoadingError
+        _check_facet_groups(domain, [*dirichlet, *loads])
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
         gdim = mesh.geometry.dim

@@ -48,6 +48,7 @@ class InterfaceMesh:
         facet_tags: Facet tags (physical-group tags of the facet groups).
         tags: Physical-group name -> integer tag (the names of the file or model).
         num_interface_facets: Global number of interface facets on each side.
+        dims: Physical-group name -> its dimension (cells: ``tdim``, facets: ``tdim - 1``).
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -55,6 +56,7 @@ class InterfaceMesh:
     facet_tags: dolfinx.mesh.MeshTags
     tags: dict[str, int]
     num_interface_facets: int = 0
+    dims: dict[str, int] = dataclasses.field(default_factory=dict)
     _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
@@ -261,6 +263,7 @@ def read_interface_mesh(
     error: tuple[str, str] | None = None
     names: dict[str, int] = {}
     counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
+    dims: dict[str, int] = {}  # name -> dimension, every named group
     model = None
     with contextlib.ExitStack() as stack:
         if comm.rank == 0:
@@ -281,11 +284,11 @@ def read_interface_mesh(
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
                 names = _inspect_current_model(gdim, required, what)
                 for d, t in gmsh.model.getPhysicalGroups():
-                    if d >= gdim - 1:
-                        n = sum(c.shape[0] for c in group_elements(d, t)[1])
-                        name = gmsh.model.getPhysicalName(d, t)
-                        if name:
-                            counts[name] = (d, n)
+                    name = gmsh.model.getPhysicalName(d, t)
+                    if name:
+                        dims[name] = d
+                    if d >= gdim - 1 and name:
+                        counts[name] = (d, sum(c.shape[0] for c in group_elements(d, t)[1]))
                 model = gmsh.model
             except (FileNotFoundError, InterfaceMeshError) as e:
                 error = (type(e).__name__, str(e))
@@ -294,10 +297,11 @@ def read_interface_mesh(
         _raise_collectively(comm, error)
         names = comm.bcast(names, root=0)
         counts = comm.bcast(counts, root=0)
+        dims = comm.bcast(dims, root=0)
         mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
             model, comm, 0, gdim=gdim, partitioner=partitioner
         )
-    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names)
+    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names, dims=dims)
     _check_group_counts(imesh, counts, what)
     if INTERFACE in names:
         _find_sides(imesh, what)
