@@ -12,6 +12,7 @@ reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 
 import dolfinx
@@ -26,7 +27,14 @@ from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
 from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
-__all__ = ["InterfaceProblem"]
+__all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
+
+logger = logging.getLogger(__name__)
+
+PENETRATION_WARNING = 0.1
+"""A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about
+(once per problem): the penalty is too soft for the mesh, and the geometrically linear model
+(pairs and frames fixed at the reference geometry) no longer describes the contact."""
 
 
 def _check_facet_groups(domain, conditions: Sequence) -> None:
@@ -210,6 +218,11 @@ class InterfaceProblem:
             keep = dofs < n_owned
             vals = vals[:, keep] if isinstance(c, DirichletField) else vals[keep]
             self.dirichlet.append((c, dofs[keep].astype(np.int32), vals))
+        # the dofs of each Dirichlet group (all its conditions, e.g. one per component)
+        self._reaction_dofs = {
+            g: np.unique(np.concatenate([d for c, d, _ in self.dirichlet if c.group == g]))
+            for g in sorted({c.group for c, _, _ in self.dirichlet})
+        }
         self.bc_dofs = (
             np.unique(np.concatenate([d for _, d, _ in self.dirichlet]))
             if self.dirichlet
@@ -225,6 +238,8 @@ class InterfaceProblem:
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
+        self.penetration: dict | None = None  # the first large penetration (see commit)
+        self._h_points: np.ndarray | None = None
 
     # ------------------------------------------------------------------------------------------
     def set_step(self, t: float, dt: float) -> None:
@@ -299,20 +314,58 @@ class InterfaceProblem:
             J.zeroRows(self.bc_rows, diag=1.0)
 
     def _reactions(self, Fa: np.ndarray) -> dict[str, np.ndarray]:
+        """Reaction force of every Dirichlet group (collective).
+
+        The residual summed over the owned dofs of all conditions on the group, each dof once.
+        """
         bs = self.V.dofmap.bs
-        out = {}
-        for c, dofs, _ in self.dirichlet:
-            r = np.zeros(bs)
-            np.add.at(r, dofs % bs, Fa[dofs])
-            out[c.group] = r
-        keys = sorted(out)
-        tot = self.comm.allreduce(np.array([out[k] for k in keys]).reshape(-1, bs)) if keys else []
-        return {k: tot[i] for i, k in enumerate(keys)}
+        groups = self._reaction_dofs
+        if not groups:
+            return {}
+        loc = np.zeros((len(groups), bs))
+        for i, dofs in enumerate(groups.values()):
+            np.add.at(loc[i], dofs % bs, Fa[dofs])
+        tot = self.comm.allreduce(loc)
+        return {k: tot[i] for i, k in enumerate(groups)}
 
     # ------------------------------------------------------------------------------------------
     def commit(self) -> None:
-        """Accept the interface's trial state (after a converged step)."""
+        """Accept the interface's trial state (after a converged step; collective).
+
+        The first time a point's penetration ``ubar_n`` exceeds :data:`PENETRATION_WARNING`
+        times the size of its interface element, a warning names the largest one and where.
+        """
         self.interface.commit()
+        if self.penetration is None:
+            self._check_penetration()
+
+    def _check_penetration(self) -> None:
+        el = self.interface
+        if self._h_points is None:  # element size at each point: length (2-D), sqrt(area) (3-D)
+            size = el.weights.sum(axis=1) ** (1.0 / max(self.gdim - 1, 1))
+            self._h_points = np.repeat(size, el.nq)
+        un = el.last_gap[:, el.nt] if el.last_gap.size else np.zeros(0)
+        best = None
+        if un.size:
+            i = int(np.argmax(un / self._h_points))
+            x = el.points.reshape(-1, self.gdim)[i]
+            best = (float(un[i] / self._h_points[i]), float(un[i]), float(self._h_points[i]))
+            best += (tuple(float(v) for v in x), float(el.last.traction[i, el.nt]))
+        found = [b for b in self.comm.allgather(best) if b is not None]
+        if not found:
+            return
+        ratio, un_max, h, x, f_n = max(found)
+        if ratio <= PENETRATION_WARNING:
+            return
+        self.penetration = {"ubar_n": un_max, "h": h, "x": x, "f_n": f_n, "t": self.t}
+        where = ", ".join(f"{v:.6g}" for v in x)
+        logger.warning(
+            "large penetration at t = %.6g: ubar_n = %.4g mm at (%s) is %.3g times the interface "
+            "element size there (%.4g mm; warned beyond %g), with f_n = %.4g MPa: the normal "
+            "penalty is soft for this mesh and the small-sliding interface is no longer accurate "
+            "(this warning is given once)",
+            self.t, un_max, where, ratio, h, PENETRATION_WARNING, f_n,
+        )  # fmt: skip
 
     def revert(self) -> None:
         """Reject the interface's trial state (after a failed step)."""

@@ -25,7 +25,8 @@ One module per kind of input:
   would let through — a list as a pressure, a vector with ``component``, 10**400, a list as a
   PETSc option —, keys that would be ignored — mesh options beside a file, output times outside
   the program, ``dt_min > dt`` —, names that are not plain file names, conditions on a cell
-  group, files requested without a directory) and checkpoints (missing, truncated, foreign, other law or mesh).
+  group, files requested without a directory) and checkpoints (missing, truncated, foreign,
+  other law or mesh).
 
 The numpy-only modules run on 1 rank; the others on 1 and 2 ranks.
 """
