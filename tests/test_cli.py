@@ -16,7 +16,7 @@ from mpi4py import MPI
 
 from demos import block_on_base, lap_joint, pad_on_plate, punch
 from subfric_dolfinx.scenes import cli
-from tests.helpers import ROOT, singleton_env
+from tests.helpers import ROOT, everywhere, singleton_env
 
 DEMOS = [block_on_base, pad_on_plate, punch, lap_joint]
 SMALL = ["--n", "4", "--hold", "1", "--no-figures"]
@@ -62,6 +62,34 @@ def test_every_demo_refuses_unknown_long_options(demo, argv, words, capsys):
         assert all(w in err for w in words), err
     else:
         assert err == ""  # one message, from rank 0
+
+
+def test_the_guard_turns_a_signal_into_a_request_every_rank_sees():
+    """Rank 0 alone gets SIGUSR2: every rank sees the request and agrees on the signal; a second
+    SIGUSR2 goes to the handler in place before the guard; on exit that handler is back."""
+    import os
+
+    from subfric_dolfinx.scenes.signals import StopSignals
+
+    comm = MPI.COMM_WORLD
+    seen = []
+    checks = []
+    before = signal.signal(signal.SIGUSR2, lambda s, f: seen.append(s))
+    try:
+        with StopSignals() as guard:
+            checks.append(not guard.requested(comm))
+            if comm.rank == 0:
+                os.kill(os.getpid(), signal.SIGUSR2)
+            checks.append(guard.requested(comm) and guard.name == "SIGUSR2" and seen == [])
+            if comm.rank == 0:
+                os.kill(os.getpid(), signal.SIGUSR2)  # the second: to the handler before
+                checks.append(seen == [signal.SIGUSR2])
+        checks.append(signal.getsignal(signal.SIGUSR2) is not guard._handler)
+        os.kill(os.getpid(), signal.SIGUSR2)
+        checks.append(len(seen) == (2 if comm.rank == 0 else 1))
+    finally:
+        signal.signal(signal.SIGUSR2, before)
+    assert everywhere(comm, all(checks)), checks
 
 
 def run(cmd, signal_at=None, sig=signal.SIGUSR1, timeout=180):
