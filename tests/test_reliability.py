@@ -93,9 +93,9 @@ class Captured(logging.Handler):
 )
 def test_a_penetration_beyond_a_tenth_of_the_element_is_warned_once(alpha, warned):
     """300 MPa on the block (8 elements of 0.125 mm along the interface): with alpha_n = 1.5
-    MPa/mm the block sinks 200 mm into the base, with 500 (the sec7 set) 0.6 mm, both warned
-    once, at the first step beyond a tenth of the element size, naming the largest penetration
-    then and where; with 1e6 (0.3 µm) nothing is said."""
+    MPa/mm the block sinks 200 mm into the base, with 500 (the sec7 set) 0.6 mm: one warning at
+    the end of the run, naming the largest penetration of the run (checked against the gap
+    gathered at every step), where and when; with 1e6 (0.3 µm) nothing is said."""
     from subfric_dolfinx.fem import Pressure
 
     comm = MPI.COMM_WORLD
@@ -104,24 +104,33 @@ def test_a_penetration_beyond_a_tenth_of_the_element_is_warned_once(alpha, warne
     bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.05, component=0, amplitude="slide")]
     loads = [Pressure("top", 300.0, amplitude="press")]
     prob = InterfaceProblem(block(comm), law, MATERIALS, program, bcs, loads)
+    el = prob.interface
+    seen = []  # the largest ubar_n at every step, all ranks
+
+    def on_step(rec):
+        un = el.last_gap[:, -1]
+        seen.append((comm.allreduce(float(un.max()) if un.size else -1.0, op=MPI.MAX), rec.t))
+
     with Captured("subfric_dolfinx.fem.problem") as log:
         # at 200 mm the residual's round-off floor (~3e-8 N) is above the default atol
         with FrictionSolver(prob, prefix("pen"), {"snes_atol": 1e-6}) as solver:
-            LoadStepper(solver, 0.25).run()
+            LoadStepper(solver, 0.25, on_step=on_step).run()
+            prob.warn_penetration()  # again: nothing more
     if not warned:
         assert prob.penetration is None and not log.records
+        assert max(s for s, _ in seen) < 0.01 * 0.125
         return
-    assert len(log.records) == 1  # once, although every later step penetrates as far
+    assert len(log.records) == 1
     pen = prob.penetration
-    # at the first step (t = 0.25, a quarter of the pressure) the penetration is already beyond
-    # a tenth of the element: f_n / alpha_n there, at least the mean p / 4 / alpha_n
-    assert pen["t"] == pytest.approx(0.25)
+    un_max, _ = max(seen)
+    assert pen["ubar_n"] == pytest.approx(un_max, rel=1e-3)  # the largest, to the tracking step
     assert pen["ubar_n"] == pytest.approx(pen["f_n"] / alpha, rel=1e-9)
-    assert 75.0 / alpha < pen["ubar_n"] < 2.0 * 75.0 / alpha
-    assert pen["h"] == pytest.approx(0.125, rel=1e-9)
+    assert 300.0 / alpha < pen["ubar_n"] < 2.0 * 300.0 / alpha  # the edges carry more
+    assert pen["t"] >= 1.0 - 1e-12  # at full pressure
+    assert pen["h"] == pytest.approx(0.125, rel=1e-9) and pen["ratio"] > 0.1
     assert pen["x"][1] == pytest.approx(0.5) and 0.5 - 1e-9 <= pen["x"][0] <= 1.5 + 1e-9
     msg = log.records[0].getMessage()
-    assert f"ubar_n = {pen['ubar_n']:.4g} mm" in msg and "0.125 mm" in msg, msg
+    assert f"ubar_n up to {pen['ubar_n']:.4g} mm" in msg and "(0.125 mm" in msg, msg
 
 
 # --------------------------------------------------------------------------------------------

@@ -19,6 +19,7 @@ import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..constitutive import FrictionLaw
@@ -33,8 +34,8 @@ logger = logging.getLogger(__name__)
 
 PENETRATION_WARNING = 0.1
 """A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about
-(once per problem): the penalty is too soft for the mesh, and the geometrically linear model
-(pairs and frames fixed at the reference geometry) no longer describes the contact."""
+(once per run, naming the largest): the penalty is too soft for the mesh, and the geometrically
+linear model (pairs and frames fixed at the reference geometry) no longer describes the contact."""
 
 
 def _check_facet_groups(domain, conditions: Sequence) -> None:
@@ -238,7 +239,8 @@ class InterfaceProblem:
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
-        self.penetration: dict | None = None  # the first large penetration (see commit)
+        self.penetration: dict | None = None  # the largest beyond the warning, see commit
+        self._penetration_warned = False
         self._h_points: np.ndarray | None = None
 
     # ------------------------------------------------------------------------------------------
@@ -332,39 +334,57 @@ class InterfaceProblem:
     def commit(self) -> None:
         """Accept the interface's trial state (after a converged step; collective).
 
-        The first time a point's penetration ``ubar_n`` exceeds :data:`PENETRATION_WARNING`
-        times the size of its interface element, a warning names the largest one and where.
+        Also tracks the largest penetration ``ubar_n`` relative to the interface element size
+        over the run (:attr:`penetration`, see :meth:`warn_penetration`).
         """
         self.interface.commit()
-        if self.penetration is None:
-            self._check_penetration()
+        self._track_penetration()
 
-    def _check_penetration(self) -> None:
+    def _track_penetration(self) -> None:
         el = self.interface
         if self._h_points is None:  # element size at each point: length (2-D), sqrt(area) (3-D)
             size = el.weights.sum(axis=1) ** (1.0 / max(self.gdim - 1, 1))
             self._h_points = np.repeat(size, el.nq)
         un = el.last_gap[:, el.nt] if el.last_gap.size else np.zeros(0)
-        best = None
-        if un.size:
-            i = int(np.argmax(un / self._h_points))
+        ratio = un / self._h_points if un.size else un
+        i = int(np.argmax(ratio)) if ratio.size else -1
+        local = float(ratio[i]) if ratio.size else -np.inf
+        largest = self.comm.allreduce(local, op=MPI.MAX)
+        known = self.penetration["ratio"] if self.penetration else PENETRATION_WARNING
+        if not largest > known * (1.0 + 1e-3):  # one number per step, details when it grows
+            return
+        mine = None
+        if local == largest:
             x = el.points.reshape(-1, self.gdim)[i]
-            best = (float(un[i] / self._h_points[i]), float(un[i]), float(self._h_points[i]))
-            best += (tuple(float(v) for v in x), float(el.last.traction[i, el.nt]))
-        found = [b for b in self.comm.allgather(best) if b is not None]
-        if not found:
+            mine = {
+                "ratio": largest,
+                "ubar_n": float(un[i]),
+                "h": float(self._h_points[i]),
+                "x": tuple(float(v) for v in x),
+                "f_n": float(el.last.traction[i, el.nt]),
+                "t": self.t,
+            }
+        self.penetration = next(p for p in self.comm.allgather(mine) if p is not None)
+
+    def warn_penetration(self) -> None:
+        """Warn once (log; rank 0 prints) if a penetration was large: name the largest, where, when.
+
+        Large: beyond :data:`PENETRATION_WARNING` times the interface element size. Not
+        collective (:meth:`commit` gathered it): safe while an error unwinds. The load stepper
+        calls it when its run ends, however it ends.
+        """
+        pen = self.penetration
+        if pen is None or self._penetration_warned:
             return
-        ratio, un_max, h, x, f_n = max(found)
-        if ratio <= PENETRATION_WARNING:
-            return
-        self.penetration = {"ubar_n": un_max, "h": h, "x": x, "f_n": f_n, "t": self.t}
-        where = ", ".join(f"{v:.6g}" for v in x)
+        self._penetration_warned = True
+        where = ", ".join(f"{v:.6g}" for v in pen["x"])
         logger.warning(
-            "large penetration at t = %.6g: ubar_n = %.4g mm at (%s) is %.3g times the interface "
-            "element size there (%.4g mm; warned beyond %g), with f_n = %.4g MPa: the normal "
-            "penalty is soft for this mesh and the small-sliding interface is no longer accurate "
-            "(this warning is given once)",
-            self.t, un_max, where, ratio, h, PENETRATION_WARNING, f_n,
+            "large penetration: ubar_n up to %.4g mm (at (%s), t = %.6g, f_n = %.4g MPa), %.3g "
+            "times the interface element size there (%.4g mm; warned beyond %g): the normal "
+            "penalty is soft for this mesh, and the small-sliding interface is no longer "
+            "accurate",
+            pen["ubar_n"], where, pen["t"], pen["f_n"], pen["ratio"], pen["h"],
+            PENETRATION_WARNING,
         )  # fmt: skip
 
     def revert(self) -> None:

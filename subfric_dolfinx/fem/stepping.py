@@ -267,6 +267,14 @@ class LoadStepper:
             later = stops_arr[stops_arr > t + 1e-12 * max(1.0, abs(t))]
             return min(nb, float(later[0])) if later.size else nb
 
+        try:
+            return self._run(t_end, next_stop)
+        finally:  # however the run ends: a large penetration seen is said (once)
+            warn = getattr(self.problem, "warn_penetration", None)
+            if warn is not None:
+                warn()
+
+    def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
         segment = _Segment(self.t)
