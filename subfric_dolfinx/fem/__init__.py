@@ -4,7 +4,8 @@
   frames, Quadrature-space state, kernels), the parallel layout with cross-interface couplings.
 * :mod:`.conditions`: materials, prescribed displacements and loads (plain data).
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
-* :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle.
+* :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
+  :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
 * :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program.
 * :mod:`.timing`: wall time per section; :mod:`._petsc`: PETSc calls petsc4py 3.22 lacks.
 

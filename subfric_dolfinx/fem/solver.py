@@ -14,6 +14,13 @@ idempotent, and a solver that is garbage-collected releases its prefix too.
 Defaults (Newton with a full step, LU with MUMPS) apply only where neither the solver's options
 nor the options database give a value. A point the return map cannot integrate makes SNES see a
 function-domain error (:mod:`._petsc`).
+
+Newton stops by the load-scaled test of :mod:`.convergence` (relative to the step's first
+residual, or at the round-off floor of the residual, which grows with the load and the mesh;
+a step stalled at that floor is converged): no absolute tolerance is needed, ``snes_atol`` is 0
+by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``, ``snes_divtol`` and
+``snes_max_it`` apply within it; ``-<prefix>snes_convergence_test default`` selects PETSc's own
+test instead (then give a ``snes_atol`` suited to the problem).
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
+from .convergence import ScaledConvergence
 from .problem import InterfaceProblem
 from .timing import event_times
 
@@ -37,7 +45,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
     "snes_linesearch_type": "basic",
     "snes_rtol": 1e-9,
-    "snes_atol": 1e-10,
+    "snes_atol": 0.0,
     "snes_stol": 1e-12,
     "snes_max_it": 30,
     "ksp_type": "preonly",
@@ -129,6 +137,7 @@ class FrictionSolver:
         self._defaults = {"?" + k: v for k, v in DEFAULT_OPTIONS.items()}
         self.snes: PETSc.SNES | None = None
         self.x = self.F = self.J = None
+        self.convergence: ScaledConvergence | None = None
         _LIVE_PREFIXES.add(self.prefix)
         # Release the prefix even if the solver is never destroyed explicitly.
         self._finalizer = weakref.finalize(self, _LIVE_PREFIXES.discard, self.prefix)
@@ -145,6 +154,8 @@ class FrictionSolver:
             snes.setFunction(lambda s, x, F: ref()._residual(s, x, F), self.F)
             snes.setJacobian(lambda s, x, J, P: ref()._jacobian(s, x, J, P), self.J)
             snes.setConvergenceHistory(length=200, reset=True)
+            self.convergence = ScaledConvergence(problem)
+            self._converged = lambda s, it, norms: ref()._convergence_test(s, it, norms)
             self._configure()
         except BaseException:
             self.destroy()
@@ -156,6 +167,9 @@ class FrictionSolver:
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
         with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
             self.snes.setFromOptions()
+            # PETSc's own test only where asked for by name (setFromOptions has set it then)
+            if not PETSc.Options().hasName(self.prefix + "snes_convergence_test"):
+                self.snes.setConvergenceTest(self._converged)
 
     # -- callbacks ------------------------------------------------------------------------------
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, F: PETSc.Vec) -> None:
@@ -166,6 +180,9 @@ class FrictionSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.problem.jacobian(x, J)
+
+    def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
+        return self.convergence(snes, it, norms)
 
     # -- solving --------------------------------------------------------------------------------
     def solve(
@@ -182,8 +199,11 @@ class FrictionSolver:
                 retry); the solver's configuration is restored afterwards.
 
         Returns:
-            ``converged``, ``iterations``, ``reason`` (SNES reason code), ``residuals`` (norms per
-            iteration) and ``counts`` (return-map statuses at the last evaluation, global).
+            ``converged``, ``iterations``, ``reason`` (SNES reason code), ``converged_by``
+            (which test of :class:`~.convergence.ScaledConvergence` stopped Newton: ``"rtol"``,
+            ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not converge or
+            PETSc's own test was used), ``residuals`` (norms per iteration) and ``counts``
+            (return-map statuses at the last evaluation, global).
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
@@ -192,6 +212,7 @@ class FrictionSolver:
         p.apply_dirichlet(self.x)
         self.failed_points = np.zeros(0, dtype=np.int64)
         self.snes.setConvergenceHistory(length=200, reset=True)
+        self.convergence.start()
         if options:
             self._configure(options)
         try:
@@ -202,6 +223,7 @@ class FrictionSolver:
                 "converged": False,
                 "iterations": self.snes.getIterationNumber(),
                 "reason": -100,
+                "converged_by": None,
                 "residuals": [],
                 "counts": {},
                 "error": str(e),
@@ -217,6 +239,7 @@ class FrictionSolver:
             "converged": reason > 0,
             "iterations": self.snes.getIterationNumber(),
             "reason": int(reason),
+            "converged_by": self.convergence.by if reason > 0 else None,
             "residuals": [float(r) for r in hist],
             "counts": counts,
         }
@@ -224,7 +247,7 @@ class FrictionSolver:
     # -- lifecycle ------------------------------------------------------------------------------
     def destroy(self) -> None:
         """Free the PETSc objects and release the prefix (safe to call more than once)."""
-        for name in ("snes", "J", "x", "F"):
+        for name in ("snes", "J", "x", "F", "convergence"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.destroy()

@@ -1,0 +1,209 @@
+"""Newton's stopping test, scaled to the problem: relative, absolute, and at the round-off floor.
+
+The residual ``F = K u - f_ext + R_int`` (free rows) is a sum of terms that cancel at the
+solution, each computed in floating point: it cannot be made smaller than about ``eps`` times
+the size of those terms, however exact the linear solves. That size is
+
+    S = || |K| |u| + |f_ext| + |R_int| ||_2        (free rows, not the Dirichlet ones)
+
+with ``|K|`` the entrywise absolute value of the bulk stiffness. Measured on the 2-D block and
+the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; ``/work/notes/scale_findings.md``
+section 6) the smallest residual Newton reaches is 0.17 to 0.33 ``eps S``, at every size. An
+absolute tolerance (``snes_atol``) or one relative to a step's first residual (``snes_rtol``)
+cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at
+300 MPa and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first
+residual of a pressing step), and Newton then stalls at its iteration limit, the step is cut,
+and cutting only lowers the relative target further.
+
+:class:`ScaledConvergence` declares Newton's iteration ``k`` converged when, first that holds,
+
+* ``|F_k| <= atol`` (the user's ``snes_atol``, 0 by default),
+* ``|F_k| <= rtol |F_0|`` (``k >= 1``; ``snes_rtol``),
+* ``|F_k| <= FLOOR_FACTOR eps S_k`` (any ``k``, also 0: a step that needs nothing costs nothing),
+* ``|F_k| <= STALL_FACTOR eps S_k`` and ``|F_k| > |F_{k-1}| / 2`` (``k >= 1``): stalled at the
+  floor, no longer decreasing; a converged step, not a reason to cut it,
+* ``|du_k| <= stol |u_k|`` (``k >= 1``; ``snes_stol``, as PETSc's own test),
+
+and diverged on a NaN residual or beyond ``snes_divtol`` times ``|F_0|``; SNES applies
+``snes_max_it`` itself. ``FLOOR_FACTOR = 1`` is 3 to 6 times the measured floor; a stall is
+accepted only within two decades of it. No absolute number remains: the test is the same in
+any units and at any size.
+
+The floor and stall tests apply only while the floor is a negligible part of the forces at
+work, ``eps S <= FORCE_FRACTION * Phi`` with ``Phi = || |f_ext| + |R_int| || + || reactions ||``
+(``FORCE_FRACTION = 1e-6``; measured ``eps S / Phi``: 4e-10 for the 2-D block at 230k dofs,
+1e-11 for the 3-D pad at 70k): where Newton runs away (a load beyond the friction's strength,
+no equilibrium: the body slides off by 1e11 mm within a few iterations), ``|u|`` and with it
+``S`` grow without bound while the forces do not, and the floor would otherwise "converge" a
+residual of the size of the loads. So a residual above ``1e-4 Phi`` is never accepted by them.
+
+``S`` and ``Phi`` cost one product with ``|K|`` (a second matrix of ``K``'s size, made once) and
+one with ``K`` per Newton iteration, only where the cheaper tests did not already decide.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+__all__ = [
+    "EPS",
+    "FLOOR_FACTOR",
+    "FORCE_FRACTION",
+    "STALL_FACTOR",
+    "ScaledConvergence",
+    "abs_matrix",
+]
+
+EPS = float(np.finfo(float).eps)
+FLOOR_FACTOR = 1.0
+"""Converged when ``|F| <= FLOOR_FACTOR * EPS * S``."""
+STALL_FACTOR = 100.0
+"""Converged (stalled) when ``|F| <= STALL_FACTOR * EPS * S`` and not halved in the iteration."""
+FORCE_FRACTION = 1e-6
+"""The floor and stall tests apply only where ``EPS * S <= FORCE_FRACTION * Phi`` (the forces)."""
+
+_REASON = PETSc.SNES.ConvergedReason
+
+
+def abs_matrix(K: PETSc.Mat) -> PETSc.Mat:
+    """A new matrix, ``K`` with every entry replaced by its absolute value (same layout)."""
+    A = K.duplicate(copy=True)
+    ai, aj, av = A.getValuesCSR()  # owned rows (local numbering), global columns
+    rstart = A.getOwnershipRange()[0]
+    rows = np.repeat(np.arange(ai.size - 1, dtype=PETSc.IntType) + rstart, np.diff(ai))
+    A.zeroEntries()
+    A.setValuesRCV(
+        rows.reshape(-1, 1),
+        aj.astype(PETSc.IntType).reshape(-1, 1),
+        np.abs(av).reshape(-1, 1, 1),
+        addv=PETSc.InsertMode.INSERT_VALUES,
+    )
+    A.assemble()
+    return A
+
+
+class ScaledConvergence:
+    """SNES convergence test scaled by the size of the terms of the residual (module docstring).
+
+    Install it with ``snes.setConvergenceTest(test)`` after ``setFromOptions``; call
+    :meth:`start` before each solve. Tolerances are read from the SNES at each iteration (the
+    user's ``snes_rtol``, ``snes_atol``, ``snes_stol``, ``snes_divtol`` apply).
+
+    Args:
+        problem: The :class:`~subfric_dolfinx.fem.problem.InterfaceProblem` (its ``K``, loads,
+            interface forces ``b_ext`` at the last residual, Dirichlet dofs).
+        floor_factor: See :data:`FLOOR_FACTOR`.
+        stall_factor: See :data:`STALL_FACTOR`.
+    """
+
+    def __init__(
+        self,
+        problem,
+        floor_factor: float = FLOOR_FACTOR,
+        stall_factor: float = STALL_FACTOR,
+    ) -> None:
+        self.problem = problem
+        self.floor_factor = float(floor_factor)
+        self.stall_factor = float(stall_factor)
+        self.Kabs: PETSc.Mat | None = abs_matrix(problem.K)
+        self._ua = problem.K.createVecRight()
+        self._w = problem.K.createVecLeft()
+        self._ku = problem.K.createVecLeft()
+        n = self._w.getLocalSize()
+        self._free = np.ones(n, dtype=bool)
+        self._free[problem.bc_dofs] = False
+        self.start()
+
+    def start(self) -> None:
+        """Forget the previous solve (call before each)."""
+        self.norms: list[float] = []
+        self.scale = math.nan  # S at the last iterate where it was computed
+        self.forces = math.nan  # Phi there
+        self._floor = 0.0  # eps S where the floor test applies, else 0
+        self.by: str | None = None  # which test decided
+
+    def floor(self) -> float:
+        """The residual the floor test accepts at the last iterate tested (0 if none)."""
+        return self.floor_factor * self._floor
+
+    def compute_scale(self, x: PETSc.Vec) -> float:
+        """``S`` at ``x``, with the loads of the current time and the last interface forces.
+
+        Also sets :attr:`forces` (``Phi`` of the module docstring) at ``x``.
+        """
+        p = self.problem
+        x.copy(self._ua)
+        self._ua.abs()
+        self.Kabs.mult(self._ua, self._w)
+        p.K.mult(x, self._ku)
+        s = self._w.array_r.copy()
+        fabs = np.zeros_like(s)
+        reaction = self._ku.array_r.copy()
+        for c, f in p.loads:
+            a = p.program.amplitude(c.amplitude, p.t)
+            fabs += abs(a) * np.abs(f.array_r)
+            reaction -= a * f.array_r
+        r_int = p.b_ext.array_r[: s.size]
+        fabs += np.abs(r_int)
+        reaction = (reaction + r_int)[~self._free]
+        s = (s + fabs)[self._free]
+        fabs = fabs[self._free]
+        sums = p.comm.allreduce(
+            np.array([s @ s, fabs @ fabs, reaction @ reaction]), op=MPI.SUM
+        )
+        self.forces = math.sqrt(sums[1]) + math.sqrt(sums[2])
+        return math.sqrt(sums[0])
+
+    def __call__(self, snes: PETSc.SNES, it: int, norms: tuple[float, float, float]) -> int:
+        """The test at Newton iteration ``it`` (``norms``: solution, step and residual norms).
+
+        Returns:
+            A ``PETSc.SNES.ConvergedReason``: 0 to go on, > 0 converged, < 0 diverged.
+        """
+        xnorm, ynorm, fnorm = norms
+        rtol, atol, stol, _ = snes.getTolerances()
+        if not math.isfinite(fnorm):
+            return _REASON.DIVERGED_FNORM_NAN
+        if it == 0 or not self.norms:
+            self.norms = [fnorm]
+        else:
+            self.norms.append(fnorm)
+        f0 = self.norms[0]
+        if fnorm <= atol:
+            return self._done("atol", _REASON.CONVERGED_FNORM_ABS)
+        if it > 0:
+            if fnorm <= rtol * f0:
+                return self._done("rtol", _REASON.CONVERGED_FNORM_RELATIVE)
+        self.scale = self.compute_scale(snes.getSolution())
+        floor = EPS * self.scale
+        if floor > FORCE_FRACTION * self.forces:  # running away: S means nothing (docstring)
+            floor = 0.0
+        self._floor = floor
+        if fnorm <= self.floor_factor * floor:
+            return self._done("floor", _REASON.CONVERGED_FNORM_ABS)
+        if it > 0:
+            previous = self.norms[-2] if len(self.norms) > 1 else math.inf
+            if fnorm <= self.stall_factor * floor and fnorm > 0.5 * previous and floor > 0:
+                return self._done("stall", _REASON.CONVERGED_FNORM_ABS)
+            if ynorm <= stol * xnorm:
+                return self._done("stol", _REASON.CONVERGED_SNORM_RELATIVE)
+            divtol = snes.getDivergenceTolerance()
+            if divtol > 0 and fnorm > divtol * f0:
+                return _REASON.DIVERGED_DTOL
+        return _REASON.ITERATING
+
+    def _done(self, by: str, reason: int) -> int:
+        self.by = by
+        return reason
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (safe to call more than once)."""
+        for name in ("Kabs", "_ua", "_w", "_ku"):
+            obj = getattr(self, name, None)
+            if obj is not None:
+                obj.destroy()
+                setattr(self, name, None)
