@@ -19,7 +19,7 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, prefix
+from tests.helpers import LAW, block_problem, prefix
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
 
@@ -174,7 +174,9 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options():
     ten times; the line-search retry solves it, and the run reaches the full pressure. Whether
     the full-step Newton cycles depends on the round-off of the assembled residual (on two
     ranks' partition it happens to converge), so the claims about the plain run are: wherever
-    it fails, the default run retried at that step and went on; on one rank it fails."""
+    it fails, at the first pressure increment; on one rank it fails, and the default run retried
+    at that step and went on. (MUMPS on two ranks is reproducible to round-off only: there the
+    run with the retry and the run without may take different paths.)"""
     prob, scene = demo_problem("sec7-literal", SLIDE_THEN_PRESS)
     st, err = run_stepper(prob, scene)
     assert err is None, str(err)
@@ -186,11 +188,12 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options():
         assert err is not None, "plain Newton was expected to cycle on one rank"
     if err is not None:
         assert 1.0 < err.t < 1.1 and err.last_t == pytest.approx(1.0), err
+    if MPI.COMM_WORLD.size == 1:  # one rank is reproducible: the same steps up to the failure
         assert st.retries >= 1
         first = next(r for r in st.records if r.retried)
         assert 1.0 < first.t <= 1.1  # the first pressure increment needed it
-    else:
-        assert plain.t == pytest.approx(2.0) and st.retries == 0
+    elif err is None:
+        assert plain.t == pytest.approx(2.0)
 
 
 def test_the_literal_sec7_set_runs_the_main_demo_with_default_options():
@@ -258,3 +261,25 @@ def test_a_step_failure_says_what_the_return_map_saw():
     assert np.min(np.linalg.norm(points - np.array(worst["x"]), axis=1)) < 1e-12
     assert att["text"] in str(e.value) and "worst point" in str(e.value)
     assert comm.allgather(str(e.value)) == [str(e.value)] * comm.size
+
+
+def test_a_domain_error_on_one_rank_stops_every_rank():
+    """The return map fails at a point of one rank only (here: forced, at the first residual
+    of the line search): SNES sees the domain error on every rank and the solve fails alike
+    everywhere. SNES's line search checks the domain error rank by rank; ranks that disagreed
+    would part ways (one leaving the solve, the other waiting in a collective), which hung a
+    2-rank run before the error was made collective."""
+    comm = MPI.COMM_WORLD
+    prob = block_problem(comm)
+    residual, calls = prob.residual, [0]
+
+    def failing(x, F):
+        calls[0] += 1
+        ok = residual(x, F)
+        return ok and not (comm.rank == comm.size - 1 and calls[0] == 2)
+
+    prob.residual = failing
+    with FrictionSolver(prob, prefix("domain")) as solver:
+        r = solver.solve(0.5, 0.5)
+    outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
+    assert len(set(outcomes)) == 1 and not r["converged"], outcomes
