@@ -14,6 +14,7 @@ from petsc4py import PETSc
 
 from demos import block_on_base
 from subfric_dolfinx.fem import DEFAULT_OPTIONS, FrictionSolver
+from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS
 from subfric_dolfinx.fem.solver import _LIVE_PREFIXES
 from subfric_dolfinx.io import CheckpointError
 from subfric_dolfinx.scenes import parse_scene, run_scene
@@ -47,7 +48,7 @@ def test_options_do_not_outlive_the_solver(problem):
     # the first version left them behind: the next solver of that prefix inherited them
     with FrictionSolver(problem, "lc1_") as s:
         assert s.snes.getTolerances()[3] == DEFAULT_OPTIONS["snes_max_it"]
-        assert s.snes.getKSP().getType() == DEFAULT_OPTIONS["ksp_type"]
+        assert s.snes.getKSP().getType() == STRATEGY_OPTIONS["reuse"]["ksp_type"]
     assert PETSc.Options().getAll() == before
 
 

@@ -37,6 +37,7 @@ from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
 from .convergence import ScaledConvergence
+from .linear import STRATEGY_OPTIONS, LinearStrategy
 from .problem import InterfaceProblem
 from .timing import event_times
 
@@ -49,11 +50,9 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_atol": 0.0,
     "snes_stol": 1e-12,
     "snes_max_it": 30,
-    "ksp_type": "preonly",
-    "pc_type": "lu",
-    "pc_factor_mat_solver_type": "mumps",
 }
-"""Options used where neither the solver's options nor the options database give a value."""
+"""Options used where neither the solver's options nor the options database give a value
+(with those of the linear strategy, :data:`~.linear.STRATEGY_OPTIONS`)."""
 
 _LIVE_PREFIXES: set[str] = set()
 _AUTO_PREFIX = itertools.count()
@@ -121,9 +120,11 @@ class FrictionSolver:
             ``"subfric_<n>_"`` when omitted.
         options: Options under the prefix (they override the command line's for this solver,
             without changing the database).
+        linear: The linear strategy, ``"reuse"`` (default), ``"lu"`` or ``"gamg"``
+            (:mod:`.linear`); its PETSc options are defaults that options override.
 
     Raises:
-        ValueError: Malformed prefix, or one used by a live solver.
+        ValueError: Malformed prefix, one used by a live solver, or an unknown strategy.
     """
 
     def __init__(
@@ -131,21 +132,31 @@ class FrictionSolver:
         problem: InterfaceProblem,
         prefix: str | None = None,
         options: Mapping[str, Any] | None = None,
+        *,
+        linear: str = "reuse",
     ) -> None:
+        if linear not in STRATEGY_OPTIONS:
+            raise ValueError(
+                f"unknown linear strategy {linear!r}; known: {list(STRATEGY_OPTIONS)}"
+            )
         self.prefix = _check_prefix(prefix)
         self.problem = problem
         self.options = dict(options or {})
-        self._defaults = {"?" + k: v for k, v in DEFAULT_OPTIONS.items()}
+        defaults = {**DEFAULT_OPTIONS, **STRATEGY_OPTIONS[linear]}
+        self._defaults = {"?" + k: v for k, v in defaults.items()}
         self.snes: PETSc.SNES | None = None
-        self.x = self.F = self.J = None
+        self.x = self.F = self.J = self._x0 = None
         self.convergence: ScaledConvergence | None = None
+        self.linear: LinearStrategy | None = None
         _LIVE_PREFIXES.add(self.prefix)
         # Release the prefix even if the solver is never destroyed explicitly.
         self._finalizer = weakref.finalize(self, _LIVE_PREFIXES.discard, self.prefix)
         try:
             self.x = problem.create_vector()
+            self._x0 = problem.create_vector()
             self.F = problem.create_vector()
             self.J = problem.create_matrix()
+            self.linear = LinearStrategy(linear, problem)
             snes = PETSc.SNES().create(problem.comm)
             self.snes = snes
             snes.setOptionsPrefix(self.prefix)
@@ -153,7 +164,9 @@ class FrictionSolver:
             # solver alive, and the solver's finalizer can run.
             ref = weakref.ref(self)
             snes.setFunction(lambda s, x, F: ref()._residual(s, x, F), self.F)
-            snes.setJacobian(lambda s, x, J, P: ref()._jacobian(s, x, J, P), self.J)
+            snes.setJacobian(
+                lambda s, x, J, P: ref()._jacobian(s, x, J, P), *self.linear.matrices(self.J)
+            )
             snes.setConvergenceHistory(length=200, reset=True)
             self.convergence = ScaledConvergence(problem)
             self._converged = lambda s, it, norms: ref()._convergence_test(s, it, norms)
@@ -166,14 +179,19 @@ class FrictionSolver:
         self.event_start = event_times()
 
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
+        db = PETSc.Options()
+        given = {k for k in db.getAll() if k.startswith(self.prefix)}
+        user = {k[len(self.prefix) :] for k in given} | set(self.options) | set(extra or {})
         with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
             self.snes.setFromOptions()
             # PETSc's own test only where asked for by name (setFromOptions has set it then)
-            if not PETSc.Options().hasName(self.prefix + "snes_convergence_test"):
+            if not db.hasName(self.prefix + "snes_convergence_test"):
                 self.snes.setConvergenceTest(self._converged)
+            self.linear.configure(self.snes, user)
 
     # -- callbacks ------------------------------------------------------------------------------
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, F: PETSc.Vec) -> None:
+        self.linear.linear_done(snes)
         ok = self.problem.residual(x, F)
         if not ok:
             self.failed_points = self.problem.interface.last.failed_indices
@@ -183,7 +201,9 @@ class FrictionSolver:
             set_function_domain_error(snes, F)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        self.linear.linear_done(snes)
         self.problem.jacobian(x, J)
+        self.linear.jacobian(snes, J, self.convergence.floor())
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         return self.convergence(snes, it, norms)
@@ -206,8 +226,10 @@ class FrictionSolver:
             ``converged``, ``iterations``, ``reason`` (SNES reason code), ``converged_by``
             (which test of :class:`~.convergence.ScaledConvergence` stopped Newton: ``"rtol"``,
             ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not converge or
-            PETSc's own test was used), ``residuals`` (norms per iteration) and ``counts``
-            (return-map statuses at the last evaluation, global).
+            PETSc's own test was used), ``residuals`` (norms per iteration), ``counts``
+            (return-map statuses at the last evaluation, global), ``krylov`` (Krylov iterations)
+            and ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
+            Krylov failure with a stale one; the other values are the repeat's).
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
@@ -219,10 +241,29 @@ class FrictionSolver:
         self.convergence.start()
         if options:
             self._configure(options)
+        self.x.copy(self._x0)
+        krylov = 0
+        retried = False
         try:
             with pushed_options(self.prefix, self._defaults, self.options, options or {}):
+                self.linear.start()
                 self.snes.solve(None, self.x)
+                krylov = self.snes.getLinearSolveIterations()
+                if self.linear.finish(self.snes, self.snes.getConvergedReason() > 0):
+                    # the Krylov solve failed with a stale preconditioner: once more, fresh
+                    self.linear.retries += 1
+                    retried = True
+                    self._x0.copy(self.x)
+                    p.revert()
+                    self.failed_points = np.zeros(0, dtype=np.int64)
+                    self.snes.setConvergenceHistory(length=200, reset=True)
+                    self.convergence.start()
+                    self.linear.start(fresh=True)
+                    self.snes.solve(None, self.x)
+                    krylov += self.snes.getLinearSolveIterations()
+                    self.linear.finish(self.snes, self.snes.getConvergedReason() > 0)
         except PETSc.Error as e:  # an error inside a callback or the linear solver
+            self.linear.force = True
             return {
                 "converged": False,
                 "iterations": self.snes.getIterationNumber(),
@@ -246,12 +287,14 @@ class FrictionSolver:
             "converged_by": self.convergence.by if reason > 0 else None,
             "residuals": [float(r) for r in hist],
             "counts": counts,
+            "krylov": int(krylov),
+            "linear_retry": retried,
         }
 
     # -- lifecycle ------------------------------------------------------------------------------
     def destroy(self) -> None:
         """Free the PETSc objects and release the prefix (safe to call more than once)."""
-        for name in ("snes", "J", "x", "F", "convergence"):
+        for name in ("snes", "J", "x", "_x0", "F", "convergence", "linear"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.destroy()

@@ -151,6 +151,8 @@ class StepRecord:
 
 def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
     why = f"SNES reason {r['reason']}"
+    if r.get("error"):
+        why += f" ({' '.join(str(r['error']).split())[:300]})"
     if solver.failed_points.size:
         why += f", return map failed at {solver.failed_points.size} points"
     return why

@@ -60,7 +60,9 @@ def run_fe_scene(
     )  # fmt: skip
     with contextlib.ExitStack() as stack:
         solver = stack.enter_context(
-            FrictionSolver(problem, scene.solver.prefix, scene.solver.options)
+            FrictionSolver(
+                problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
+            )
         )
         stepper = LoadStepper(
             solver,

@@ -18,7 +18,15 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
-from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
+from .schema import (
+    LINEAR_STRATEGIES,
+    FEScene,
+    MeshSpec,
+    OutputSpec,
+    PointScene,
+    SceneError,
+    SolverSpec,
+)
 
 __all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
 
@@ -305,6 +313,7 @@ def _check_solver(sv: SolverSpec) -> None:
         raise SceneError(f"{path}.dt_min: must be in [0, dt = {sv.dt!r}], got {sv.dt_min!r}")
     if sv.max_cuts < 0:
         raise SceneError(f"{path}.max_cuts: must be >= 0, got {sv.max_cuts!r}")
+    _choice(f"{path}.linear", sv.linear, LINEAR_STRATEGIES)
     for key, value in sv.options.items():
         where = f"{path}.options.{key}"
         if not _OPTION_NAME.match(key):

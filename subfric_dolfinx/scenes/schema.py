@@ -10,6 +10,7 @@ import dataclasses
 from typing import Any
 
 __all__ = [
+    "LINEAR_STRATEGIES",
     "DirichletSpec",
     "FEScene",
     "LoadSpec",
@@ -19,6 +20,10 @@ __all__ = [
     "SceneError",
     "SolverSpec",
 ]
+
+
+LINEAR_STRATEGIES = ("reuse", "lu", "gamg")
+"""The linear strategies of :mod:`subfric_dolfinx.fem.linear` (named here without importing it)."""
 
 
 class SceneError(ValueError):
@@ -80,6 +85,8 @@ class SolverSpec:
         dt_min: Smallest step before the run gives up.
         max_cuts: Consecutive step cuts allowed.
         options: PETSc options under the prefix, for this scene's solver only.
+        linear: Linear strategy, ``"reuse"``, ``"lu"`` or ``"gamg"``
+            (:mod:`subfric_dolfinx.fem.linear`).
     """
 
     dt: float
@@ -88,6 +95,7 @@ class SolverSpec:
     dt_min: float | None = None
     max_cuts: int = 10
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
+    linear: str = "reuse"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -98,6 +98,10 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
             lambda s: s["solver"].update(options={"-snes_rtol": 1e-8}),
             r"scene.solver.options.-snes_rtol: not a PETSc option name",
         ),
+        (
+            lambda s: s["solver"].update(linear="cholesky"),
+            r"scene.solver.linear: must be one of \['reuse', 'lu', 'gamg'\], got 'cholesky'",
+        ),
         # keys that would be ignored silently
         (
             lambda s: s.update(

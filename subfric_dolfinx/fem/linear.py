@@ -1,0 +1,314 @@
+"""Linear strategies: how :class:`~.solver.FrictionSolver` solves each Newton correction.
+
+Newton stays exact in every strategy (the Krylov method works on the true Jacobian ``J``); they
+differ in the preconditioner and in how often it is rebuilt. Measurements behind the choices:
+``/work/notes/scale_findings.md`` and ``/work/notes/scale.md``.
+
+``"reuse"`` (the default)
+    GMRES (right preconditioning, so its residual is the true one) on ``J``, preconditioned by
+    a MUMPS LU of a separate matrix ``P``: a copy of ``J`` taken only when a *refresh* is wanted.
+    PETSc refactorises only when ``P`` changes, so one factorisation serves many Newton
+    iterations and steps (the bulk stiffness never changes; only the interface blocks do). With
+    a soft interface (the Sec. 7 set, alpha = 500 MPa/mm) the factor of the first Jacobian
+    serves a whole run of press, peak, softening, reversal and separation at about 2 GMRES
+    iterations per solve. Refresh (``P := J`` at the next Jacobian) when
+
+    * the wasted Krylov work exceeds a factorisation: after each solve, the iterations beyond
+      those the factor needed right after its last refresh (at its rate then) are counted, and
+      when they exceed what one factorisation costs in Krylov iterations, the factor is renewed
+      (ski rental: never more than about twice the cost of the best fixed schedule). That price
+      is a model of the measured ratio of a MUMPS factorisation to one GMRES iteration on these
+      machines, ``20 (N / 5000)^0.38`` for ``N`` dofs (20 at 5k, 57 at 70k, 80 at 225k dofs),
+      not a timing: the decisions, hence the results, do not depend on the load of the machine
+      and are the same on every rank;
+    * or the last solve converged slower than ``rho_stag`` per iteration (near stagnation);
+    * or the Krylov solve failed; a Newton solve that failed that way with a stale factor is
+      repeated at once with a factor refreshed at each of its Newton iterations (same step, no
+      cut: it does what ``"lu"`` would); any failed solve refreshes.
+
+``"lu"``
+    A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the former behaviour.
+
+``"gamg"``
+    GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
+    body modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D: every aggregate gets its
+    body's rigid modes, since with ``pc_gamg_threshold 0.01`` no aggregate straddles the weak
+    interface; per-body modes were measured worse), refreshed by the same rules. No
+    factorisation: memory grows linearly with the size.
+
+Krylov tolerance (``"reuse"``, ``"gamg"``): tied to Newton's residual so that Newton stays
+quadratic, ``eta_k = min(eta_max, c |F_k| / |F_0|)``, never below 1 % of the Newton target over
+``|F_k|`` (no oversolving), and at a step's first iteration 1 % of that target (a linear step
+then converges in one Newton iteration, as with LU; 1 % rather than the 10 % of the note keeps
+the histories within 1e-9 of LU's instead of 1e-8). The target is the largest of
+``snes_atol``, ``snes_rtol |F_0|`` and the round-off floor of the convergence test
+(:meth:`~.convergence.ScaledConvergence.floor`).
+
+Every default is overridden by the options database or the solver's options (e.g.
+``-<prefix>ksp_type``, ``-<prefix>pc_type``, ``-<prefix>ksp_rtol`` -- the last one, or
+``snes_ksp_ew``, replaces the tied tolerance; ``ksp_type preonly`` makes ``"reuse"`` refresh at
+every Newton iteration, i.e. exact LU).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from petsc4py import PETSc
+
+__all__ = ["STRATEGIES", "STRATEGY_OPTIONS", "LinearStrategy", "make_strategy", "rigid_modes"]
+
+_KRYLOV = {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_norm_type": "unpreconditioned"}
+STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
+    "reuse": {
+        **_KRYLOV,
+        "ksp_gmres_restart": 60,
+        "ksp_max_it": 60,
+        "pc_type": "lu",
+        "pc_factor_mat_solver_type": "mumps",
+    },
+    "lu": {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
+    "gamg": {
+        **_KRYLOV,
+        "ksp_gmres_restart": 60,
+        "ksp_max_it": 300,
+        "pc_type": "gamg",
+        "pc_gamg_threshold": 0.01,
+    },
+}
+"""PETSc options of each strategy (defaults: the database and the solver's options win)."""
+STRATEGIES = tuple(STRATEGY_OPTIONS)
+_REFRESH = {  # refresh policy and forcing term: cost factor, rho_stag, forcing c
+    "reuse": {"cost": 1.0, "rho_stag": 0.5, "c": 1e-2},
+    "gamg": {"cost": 1.0, "rho_stag": 0.9, "c": 1e-3},
+}
+
+
+def refresh_price(name: str, dofs: int) -> float:
+    """A preconditioner set-up in Krylov iterations (the cost rule's price; module docstring).
+
+    MUMPS LU (``"reuse"``): ``20 (N / 5000)^0.38``, at least 10 (fitted to the factorisation and
+    GMRES-iteration times measured from 5k to 225k dofs). GAMG: 50 (its set-up measured at
+    the time of 40 to 60 preconditioned iterations).
+    """
+    if name == "gamg":
+        return 50.0
+    return max(10.0, 20.0 * (max(dofs, 1) / 5000.0) ** 0.38)
+
+
+_ETA_MAX = 0.1
+_ETA_MIN = 1e-12
+_TARGET_FRACTION = 0.01  # the Krylov solve aims at this fraction of Newton's target
+
+
+def rigid_modes(problem) -> PETSc.NullSpace:
+    """The rigid-body modes of the whole mesh (3 in 2-D, 6 in 3-D) as a near-nullspace.
+
+    Orthonormal, on the layout of the problem's vectors (collective).
+    """
+    V = problem.V
+    gdim = problem.gdim
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n, :gdim]
+    x = x - problem.comm.allreduce(x.sum(axis=0)) / max(problem.comm.allreduce(n), 1)
+    vecs = []
+    rotations = [(0, 1)] if gdim == 2 else [(1, 2), (2, 0), (0, 1)]
+    for k in range(gdim + len(rotations)):
+        v = problem.create_vector()
+        a = v.array_w.reshape(n, V.dofmap.bs)
+        a[:] = 0.0
+        if k < gdim:
+            a[:, k] = 1.0
+        else:
+            i, j = rotations[k - gdim]
+            a[:, i] = -x[:, j]
+            a[:, j] = x[:, i]
+        for w in vecs:  # modified Gram-Schmidt
+            v.axpy(-v.dot(w), w)
+        v.normalize()
+        vecs.append(v)
+    return PETSc.NullSpace().create(vectors=vecs, comm=problem.comm)
+
+
+class LinearStrategy:
+    """One strategy's state and hooks, called by :class:`~.solver.FrictionSolver`.
+
+    Args:
+        name: One of :data:`STRATEGIES`.
+        problem: The problem (its matrices and layout).
+    """
+
+    def __init__(self, name: str, problem) -> None:
+        if name not in STRATEGY_OPTIONS:
+            raise ValueError(f"unknown linear strategy {name!r}; known: {list(STRATEGIES)}")
+        self.name = name
+        self.problem = problem
+        self.options = dict(STRATEGY_OPTIONS[name])
+        self.policy = dict(_REFRESH[name]) if name in _REFRESH else None
+        self.P: PETSc.Mat | None = None
+        self.nullspace: PETSc.NullSpace | None = None
+        if self.policy is not None:
+            self.P = problem.create_matrix()
+        if name == "gamg":
+            self.nullspace = rigid_modes(problem)
+            self.P.setNearNullSpace(self.nullspace)
+        if self.policy is not None:
+            dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
+            self.policy["price"] = refresh_price(name, dofs)
+        # counts over the solver's life
+        self.refreshes = 0
+        self.retries = 0
+        self.krylov = 0
+        self.solves = 0
+        # state
+        self.force = True  # refresh at the next Jacobian
+        self.exact = False  # ksp preonly: refresh at every Newton iteration
+        self._fresh_each = False  # the same, for one Newton solve (a retry)
+        self.forcing = self.policy is not None
+        self._pending: tuple[float, bool] | None = None  # (|b|, refreshed)
+        self._stale_failure = False
+        self._f0 = 0.0
+        self._waste = 0.0
+        self._rho_fresh: float | None = None
+
+    # -- set-up ---------------------------------------------------------------------------------
+    def configure(self, snes: PETSc.SNES, user_keys: set[str]) -> None:
+        """After ``setFromOptions``: read what the user chose.
+
+        ``user_keys``: the option names given by the user under the prefix, without it.
+        """
+        ksp = snes.getKSP()
+        self.exact = ksp.getType() == "preonly"
+        self.forcing = (
+            self.policy is not None
+            and not self.exact
+            and "ksp_rtol" not in user_keys
+            and "snes_ksp_ew" not in user_keys
+        )
+        ksp.setConvergenceHistory(reset=True)
+
+    def matrices(self, J: PETSc.Mat) -> tuple[PETSc.Mat, PETSc.Mat]:
+        """The operator and the preconditioning matrix to give SNES."""
+        return J, (self.P if self.P is not None else J)
+
+    # -- hooks ----------------------------------------------------------------------------------
+    def start(self, fresh: bool = False) -> None:
+        """Before a Newton solve (``fresh``: refresh at each of its Newton iterations)."""
+        self._fresh_each = fresh
+        self._pending = None
+        self._stale_failure = False
+
+    def jacobian(self, snes: PETSc.SNES, J: PETSc.Mat, floor: float) -> None:
+        """After ``J`` is assembled: refresh ``P`` if wanted, set the Krylov tolerance.
+
+        ``floor``: the residual the convergence test accepts at the round-off floor (0 if
+        none); Newton's target is the largest of it, ``snes_atol`` and ``snes_rtol |F_0|``.
+        """
+        self.linear_done(snes)
+        if self.P is None:  # "lu": P is J, factorised at every iteration
+            self._pending = (0.0, True)
+            return
+        k = snes.getIterationNumber()
+        fnorm = snes.getFunctionNorm()
+        if k == 0:
+            self._f0 = fnorm
+        refresh = self.force or self.exact or self._fresh_each
+        if refresh:
+            J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.refreshes += 1
+            self.force = False
+            self._waste, self._rho_fresh = 0.0, None
+        if self.forcing:
+            rtol, atol, _, _ = snes.getTolerances()
+            target = max(atol, rtol * self._f0, floor)
+            snes.getKSP().setTolerances(rtol=self._eta(k, fnorm, target))
+        self._pending = (fnorm, refresh)
+
+    def _eta(self, k: int, fnorm: float, target: float) -> float:
+        if fnorm <= 0:
+            return _ETA_MAX
+        floor = _TARGET_FRACTION * target / fnorm
+        if k == 0:
+            eta = floor
+        else:
+            eta = max(min(_ETA_MAX, self.policy["c"] * fnorm / self._f0), floor)
+        return min(max(eta, _ETA_MIN), _ETA_MAX)
+
+    def linear_done(self, snes: PETSc.SNES) -> None:
+        """After a Krylov solve: count it, decide whether to refresh.
+
+        Called at the next residual, Jacobian, or the end of the Newton solve; acts once per
+        Krylov solve.
+        """
+        if self._pending is None:
+            return
+        b, refreshed = self._pending
+        self._pending = None
+        ksp = snes.getKSP()
+        its = ksp.getIterationNumber()
+        self.krylov += its
+        self.solves += 1
+        if ksp.getConvergedReason() < 0:
+            self.force = True
+            self._stale_failure = not refreshed
+            return
+        if self.policy is None:
+            return
+        hist = ksp.getConvergenceHistory()
+        r0 = hist[0] if len(hist) else b
+        red = hist[-1] / r0 if len(hist) > 1 and r0 > 0 else 0.0
+        rate = red ** (1.0 / its) if its > 0 and red > 0 else 0.0
+        if refreshed or self._rho_fresh is None:
+            self._rho_fresh = min(max(rate, 1e-300), 0.5)
+        elif its > 0 and red > 0:
+            fresh = max(1.0, math.log(red) / math.log(self._rho_fresh))
+            self._waste += max(0.0, its - fresh)
+        # every quantity here is global (the same on every rank): so is the decision
+        stagnating = rate > self.policy["rho_stag"]
+        wasteful = self._waste > self.policy["cost"] * self.policy["price"]
+        self.force = self.force or stagnating or wasteful
+
+    def finish(self, snes: PETSc.SNES, converged: bool) -> bool:
+        """After a Newton solve: whether to repeat it at once with a fresh preconditioner.
+
+        True when it failed in a Krylov solve with a stale one.
+        """
+        self.linear_done(snes)
+        if converged or self.P is None:
+            return False
+        self.force = True  # a failed solve refreshes
+        reason = snes.getConvergedReason()
+        return reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._stale_failure
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        """Counts over the solver's life.
+
+        ``refreshes`` (preconditioner rebuilt from ``J``), ``retries`` (Newton solves repeated
+        with a fresh one), ``krylov`` iterations and ``solves`` (Krylov solves).
+        """
+        return {
+            "strategy": self.name,
+            "refreshes": self.refreshes,
+            "retries": self.retries,
+            "krylov": self.krylov,
+            "solves": self.solves,
+        }
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (safe to call more than once)."""
+        for name in ("P", "nullspace"):
+            obj = getattr(self, name, None)
+            if obj is not None:
+                obj.destroy()
+                setattr(self, name, None)
+
+
+def make_strategy(name: str, problem) -> LinearStrategy:
+    """The strategy ``name`` (one of :data:`STRATEGIES`) for ``problem``.
+
+    Raises:
+        ValueError: An unknown name (the known ones listed).
+    """
+    return LinearStrategy(name, problem)
