@@ -1,0 +1,145 @@
+"""An HDF5 file opened on all ranks with h5py's MPI driver, every call agreed between ranks.
+
+h5py's MPI driver (``driver="mpio"``, Debian's ``python3-h5py-mpi``) lets every rank write its own
+slab of a dataset: memory stays local to each rank. Its calls are of two kinds: metadata calls
+(open, create a dataset, resize, write an attribute, flush, close) must be made by all ranks with
+the same arguments; data transfers are independent (each rank writes or reads its own selection,
+possibly empty). The rules followed here, measured on a full file system with Open MPI 5 (OMPIO
+and ROMIO) and HDF5 1.14:
+
+* data transfers are *independent*, never collective: a collective MPI-IO write that fails on one
+  rank leaves the other inside ``MPI_File_write_at_all`` (a hang); an independent one returns the
+  error on the rank where it happened;
+* after every call the ranks agree on the outcome (:func:`~.collective.agree`) before anyone makes
+  the next collective call; after a failure every rank closes the file (errors ignored) and
+  raises the same error;
+* datasets are created with ``fill_time="never"`` (every byte is written by its owner), so
+  creating one writes nothing.
+
+With a serial h5py (no MPI) one rank still works (the default driver); more ranks are refused
+with a clear error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from types import TracebackType
+from typing import Any, TypeVar
+
+from .collective import OutputError, collective, reason
+
+__all__ = ["ParallelH5"]
+
+T = TypeVar("T")
+
+
+def _open(path: Path, mode: str, comm: Any) -> Any:
+    import h5py
+
+    if h5py.get_config().mpi:
+        return h5py.File(path, mode, driver="mpio", comm=comm)
+    if comm.size == 1:
+        return h5py.File(path, mode)
+    raise RuntimeError(
+        f"this h5py has no MPI support and cannot open a file on {comm.size} ranks "
+        "(install Debian's python3-h5py-mpi, or run on one rank)"
+    )
+
+
+class ParallelH5:
+    """An HDF5 file open on every rank of ``comm``; a context manager (closes on exit).
+
+    Args:
+        path: The file.
+        mode: h5py's mode (``"r"``, ``"w"``, ``"a"``, ``"r+"``).
+        comm: The communicator (all its ranks take part in every call).
+        what: What is being done, naming the file, for the messages
+            (``"writing the checkpoint '/out/checkpoint.h5'"``).
+        error: The exception raised on every rank when a call fails.
+        open_hint: Added to the message when opening fails (e.g. ``"not a readable HDF5 file"``).
+
+    Raises:
+        error: Opening failed on some rank (on every rank).
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        mode: str,
+        comm: Any,
+        what: str,
+        error: type[Exception] = OutputError,
+        open_hint: str = "",
+    ) -> None:
+        self.path = Path(path)
+        self.comm = comm
+        self.what = what
+        self.error = error
+        self.f: Any = None
+        try:
+            self.f = self.call(lambda _: _open(self.path, mode, comm), hint=open_hint)
+        except error:
+            raise
+        except Exception as e:  # a bug, not an I/O error: still on every rank
+            raise error(f"{what} failed: {reason(e)}") from None
+
+    def call(self, fn: Callable[[Any], T], *, root: int | None = None, hint: str = "") -> T:
+        """Call ``fn(file)`` and agree on the outcome; after a failure anywhere, close and raise.
+
+        ``fn`` runs on every rank (``root=None``: collective HDF5 calls, or independent
+        transfers of each rank's own slab) or on ``root`` only (independent transfers). If it
+        failed anywhere, the file is closed on every rank and :attr:`error` raised on every rank.
+
+        Returns:
+            ``fn``'s result where it ran (``None`` elsewhere).
+        """
+        return collective(
+            self.comm,
+            lambda: fn(self.f),
+            self.what + (f" ({hint})" if hint else ""),
+            root=root,
+            error=self.error,
+            path=self.path,
+            cleanup=self.abort,
+        )
+
+    def abort(self) -> None:
+        """Close the file after a failure, on every rank, ignoring errors (collective)."""
+        f, self.f = self.f, None
+        if f is None:
+            return
+        try:
+            f.close()
+        except Exception:
+            pass
+        try:  # a close that failed may leave the id open: close it for good, or h5py's
+            # finaliser would try again at exit (after MPI_Finalize)
+            if f.id.valid:
+                f.id.close()
+        except Exception:
+            pass
+
+    def close(self) -> None:
+        """Flush and close the file (collective); a failure is raised on every rank."""
+        if self.f is None:
+            return
+        try:
+            self.call(lambda f: f.close())
+        finally:
+            self.abort()
+
+    def __enter__(self) -> ParallelH5:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
