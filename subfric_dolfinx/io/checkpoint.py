@@ -143,7 +143,11 @@ def write_checkpoint(
 
     try:
         collective(comm, lambda: tmp.unlink(missing_ok=True), what, path=tmp)
+        values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * sum(
+            int(np.prod(b.shape[1:])) for b in blocks.values()
+        )  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointError) as h:
+            h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
             h.call(create)
             h.call(fill)
             h.call(lambda f: f.flush())

@@ -93,8 +93,9 @@ class FieldWriter:
             path=self.dir / "displacement", cleanup=self.abandon,
         )  # fmt: skip
 
-    def _what(self, verb: str) -> str:
-        return f"{verb} the {self.fmt.upper()} fields in {str(self.dir)!r}"
+    def _what(self, verb: str, t: float | None = None) -> str:
+        at = "" if t is None else f" at t = {t:.6g}"
+        return f"{verb} the {self.fmt.upper()} fields in {str(self.dir)!r}{at}"
 
     def _open(self, fmt: str) -> None:
         problem, comm = self.problem, self.problem.comm
@@ -153,7 +154,7 @@ class FieldWriter:
         self._update()
         if self._u is not self.problem.u:
             self._u.interpolate(self.problem.u)
-        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what(f"writing at t = {t:g}"))
+        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("writing", t))
         before = _dir_bytes(self.dir) if comm.rank == 0 else 0
 
         def write() -> None:
@@ -166,7 +167,7 @@ class FieldWriter:
                     self._wi.write_function(f, t)
 
         collective(
-            comm, write, self._what(f"writing at t = {t:g}"), root=None,
+            comm, write, self._what("writing", t), root=None,
             path=self.dir / "displacement", cleanup=self.abandon,
         )  # fmt: skip
         if comm.rank == 0:  # what a step really took, for the next check

@@ -14,7 +14,14 @@ and ROMIO) and HDF5 1.14:
   the next collective call; after a failure every rank closes the file (errors ignored) and
   raises the same error;
 * datasets are created with ``fill_time="never"`` (every byte is written by its owner), so
-  creating one writes nothing.
+  creating one writes nothing;
+* a full disk must not strike inside a collective call either: HDF5 writes its metadata during
+  ``flush`` and ``close``, where a rank that fails leaves the other inside ``MPI_File_sync``
+  (measured: a hang). So before the calls that make a file grow, rank 0 *reserves* the disk
+  blocks they will need (:meth:`ParallelH5.reserve`: ``fallocate`` with ``FALLOC_FL_KEEP_SIZE``
+  beyond the end of the file, an estimate with a margin): a full disk fails there, on rank 0
+  alone and before any HDF5 call, and every rank raises. The blocks left unused beyond the end
+  are given back when the file is closed (:meth:`ParallelH5.close` trims it).
 
 With a serial h5py (no MPI) one rank still works (the default driver); more ranks are refused
 with a clear error.
@@ -22,6 +29,9 @@ with a clear error.
 
 from __future__ import annotations
 
+import ctypes
+import errno
+import os
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
@@ -29,9 +39,51 @@ from typing import Any, TypeVar
 
 from .collective import OutputError, collective, reason
 
-__all__ = ["ParallelH5"]
+__all__ = ["MARGIN", "ParallelH5"]
+
+MARGIN = 64 << 10
+"""Bytes reserved beyond the estimate of what a group of calls writes (metadata, B-tree nodes)."""
 
 T = TypeVar("T")
+
+
+try:
+    _libc = ctypes.CDLL(None, use_errno=True)
+    _fallocate = _libc.fallocate
+    _fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong]
+    _fallocate.restype = ctypes.c_int
+except (OSError, AttributeError):  # no Linux fallocate: no reservation
+    _fallocate = None
+KEEP_SIZE = 1  # FALLOC_FL_KEEP_SIZE
+
+
+def preallocate(path: Path, nbytes: int) -> None:
+    """Allocate disk blocks for ``nbytes`` beyond the end of ``path`` without changing its size.
+
+    Raises:
+        OSError: ``ENOSPC`` when the file system has not that much room (other refusals of
+            ``fallocate``: nothing is reserved).
+    """
+    fd = os.open(path, os.O_WRONLY)
+    try:
+        if _fallocate is None:
+            return
+        if _fallocate(fd, KEEP_SIZE, os.fstat(fd).st_size, int(nbytes)) != 0:
+            e = ctypes.get_errno()
+            if e not in (errno.EINVAL, errno.EOPNOTSUPP, errno.ENOSYS):
+                raise OSError(e, os.strerror(e))
+    finally:
+        os.close(fd)
+
+
+def trim(path: Path) -> None:
+    """Give back the blocks reserved beyond the end of ``path``.
+
+    A shrinking truncate frees every block past the new end: grow by one byte, shrink back.
+    """
+    size = path.stat().st_size
+    os.truncate(path, size + 1)
+    os.truncate(path, size)
 
 
 def _open(path: Path, mode: str, comm: Any) -> Any:
@@ -104,6 +156,24 @@ class ParallelH5:
             cleanup=self.abort,
         )
 
+    def reserve(self, nbytes: int) -> None:
+        """Allocate ``nbytes + MARGIN`` bytes beyond the end of the file (rank 0; collective).
+
+        They are for the calls up to the next flush; a full disk raises here. File systems
+        without ``fallocate`` (glibc then writes zeros) or refusing it (``EINVAL``,
+        ``EOPNOTSUPP``) get no reservation.
+        """
+        self.call(lambda f: preallocate(self.path, int(nbytes) + MARGIN), root=0)
+
+    def size(self) -> int:
+        """The file's size on disk now (rank 0; other ranks get 0)."""
+        if self.comm.rank != 0:
+            return 0
+        try:
+            return self.path.stat().st_size
+        except OSError:
+            return 0
+
     def abort(self) -> None:
         """Close the file after a failure, on every rank, ignoring errors (collective)."""
         f, self.f = self.f, None
@@ -119,9 +189,17 @@ class ParallelH5:
                 f.id.close()
         except Exception:
             pass
+        if self.comm.rank == 0:
+            try:
+                trim(self.path)
+            except Exception:
+                pass
 
     def close(self) -> None:
-        """Flush and close the file (collective); a failure is raised on every rank."""
+        """Flush and close the file, trim what it did not use (collective).
+
+        A failure is raised on every rank.
+        """
         if self.f is None:
             return
         try:

@@ -12,7 +12,9 @@ Layout (``n`` steps, ``p`` interface points in the order of
     /status  (n, p)          return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
     /<v>     (n, p[, nt])    every internal variable of the law (e.g. up, mu, r)
 
-The attribute ``variables`` lists the law's variables (JSON). Each rank writes its own slab of
+The attribute ``variables`` lists the law's variables (JSON). A step counts once its time is in
+``/time``, written last: after a failed write the other datasets may hold one more (incomplete)
+row, which a restart drops. Each rank writes its own slab of
 points (:mod:`.slabs`) through h5py's MPI driver (:class:`~.h5.ParallelH5`), and the file is
 flushed after each step. Opened on a restart, the file is checked (readable, the same variables
 and points, reaching the restart time), the steps after the restart time are dropped and the run
@@ -64,6 +66,11 @@ class InterfaceHistoryH5:
             self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
         self.rows, self.p = interface_rows(el)
         self.lo, self.hi = slab(self.p, comm.size, comm.rank)
+        # what a step adds to the file (reserved before it, see ParallelH5.reserve): the new
+        # chunks, twice, and then twice what the steps written took
+        self.step_bytes = 2 * self.p * sum(
+            int(np.prod(shape)) * np.dtype(dtype).itemsize for shape, dtype in self.shapes.values()
+        ) + 2048  # fmt: skip
         x = push(comm, self.rows, el.points.reshape(-1, gdim), self.p)
         self.h: ParallelH5 | None = None
         self.n = 0  # steps in the file
@@ -98,6 +105,7 @@ class InterfaceHistoryH5:
             if self.hi > self.lo:
                 f["x"][self.lo : self.hi] = x
 
+        self.h.reserve(8 * x.size * self.h.comm.size + 4096 * len(self.shapes))
         self.h.call(create)
         self.h.call(fill)
         self.h.call(lambda f: f.flush())
@@ -116,8 +124,8 @@ class InterfaceHistoryH5:
                 raise Failure(f"its points have shape {f['x'].shape}, this run {(p, gdim)}")
             times = f["time"][()]
             for k, (shape, _) in self.shapes.items():
-                if f[k].shape != (times.size, p, *shape):
-                    raise Failure(f"{k!r} has shape {f[k].shape}")
+                if f[k].shape[0] < times.size or f[k].shape[1:] != (p, *shape):
+                    raise Failure(f"{k!r} has shape {f[k].shape} for {times.size} steps")
             if np.any(np.abs(f["x"][self.lo : self.hi] - x) > 1e3 * tol):
                 raise Failure("its points are not those of this run's interface")
             keep = int(np.count_nonzero(times <= t + eps))
@@ -131,6 +139,7 @@ class InterfaceHistoryH5:
             "new one)"
         )
         keep = min(self.problem.comm.allgather(self.h.call(check)))
+        self.h.reserve(4096 * len(self.shapes))
 
         def cut(f: Any) -> None:
             for k in ("time", *self.shapes):
@@ -163,12 +172,10 @@ class InterfaceHistoryH5:
         n = self.n
 
         def grow(f: Any) -> None:
-            for k in ("time", *self.shapes):
+            for k in self.shapes:
                 f[k].resize(n + 1, axis=0)
 
         def fill(f: Any) -> None:
-            if rank0:
-                f["time"][n] = t
             if self.hi > self.lo:
                 c = 0
                 for k, (shape, dtype) in self.shapes.items():
@@ -177,10 +184,19 @@ class InterfaceHistoryH5:
                     f[k][n, self.lo : self.hi] = part
                     c += w
 
+        before = self.h.size()
+        self.h.reserve(self.step_bytes)
+        def done(f: Any) -> None:  # the step counts once its time is written
+            f["time"].resize(n + 1, axis=0)
+            if rank0:
+                f["time"][n] = t
+
         self.h.call(grow)
         self.h.call(fill)
+        self.h.call(done)
         self.h.call(lambda f: f.flush())
         self.n = n + 1
+        self.step_bytes = max(self.step_bytes, 2 * (self.h.size() - before))
 
     def close(self) -> None:
         """Close the file (collective)."""
