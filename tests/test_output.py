@@ -449,3 +449,30 @@ def test_disk_full_with_fields(shared_tmp, fmt):
         shared_tmp / "full", {"fields": fmt}, [1_100_000, 1_150_000, 1_400_000], size="4m"
     )  # fmt: skip
     assert any(m and "writing the" in m and "fields" in m for m in messages), messages
+
+
+ONE_RANK_METADATA_FAULT = """
+import errno, h5py
+from mpi4py import MPI
+from subfric_dolfinx.scenes import run_scene
+from tests.test_output import short_scene
+real = h5py.Group.create_dataset
+def flaky(self, *a, **k):
+    if MPI.COMM_WORLD.rank == 1:
+        raise OSError(errno.EIO, "injected on rank 1")
+    return real(self, *a, **k)
+h5py.Group.create_dataset = flaky
+run_scene(short_scene(interface_history=True), outdir={out!r})
+"""
+
+
+@pytest.mark.serial
+def test_a_metadata_call_failing_on_one_rank_ends_the_job_with_the_error(shared_tmp):
+    """Injected: creating a dataset (an HDF5 metadata call, collective) fails on rank 1 only.
+    The ranks' metadata differ: no close can work (it hangs, even at exit). Instead of a hang,
+    every rank prints the error and the job ends (MPI_Abort, exit 1), within the timeout."""
+    r = mpirun(ONE_RANK_METADATA_FAULT.format(out=str(shared_tmp / "out")), 2, timeout=120)
+    text = r.stdout + r.stderr
+    assert r.returncode == 1 and "killed after" not in text, text[-3000:]
+    assert "interface_history.h5' failed: [Errno 5] injected on rank 1" in text, text[-3000:]
+    assert "no rank can close it" in text

@@ -148,9 +148,9 @@ def write_checkpoint(
         )  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointError) as h:
             h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
-            h.call(create)
+            h.call(create, meta=True)
             h.call(fill)
-            h.call(lambda f: f.flush())
+            h.call(lambda f: f.flush(), meta=True)
     except CheckpointError:
         if comm.rank == 0:
             try:

@@ -96,6 +96,7 @@ def collective(
     path: str | Path | None = None,
     share: bool = False,
     cleanup: Callable[[], None] | None = None,
+    partial: Callable[[str], None] | None = None,
 ) -> T | None:
     """Call ``fn()`` on ``root`` (or on every rank); if it raised anywhere, raise on every rank.
 
@@ -113,6 +114,8 @@ def collective(
         share: Broadcast the root's result to every rank (``root`` not ``None``).
         cleanup: Called on every rank after a failure, before raising (its own errors are
             ignored): e.g. closing the half-written file.
+        partial: Called on every rank, with the message, when ``fn`` failed on some ranks
+            only (``root`` ``None``), before ``cleanup``.
 
     Returns:
         ``fn()``'s result where it ran (on every rank with ``share``), ``None`` elsewhere.
@@ -125,9 +128,12 @@ def collective(
             failed = (True, str(e))
         except Exception as e:
             failed = (False, reason(e))
+    here = failed is not None
     failed = agree(comm, failed)
     if failed is not None:
         verbatim, text = failed
+        if partial is not None and root is None and comm.allreduce(int(here)) < comm.size:
+            partial(text if verbatim else f"{what} failed: {text}")
         if cleanup is not None:
             try:
                 cleanup()

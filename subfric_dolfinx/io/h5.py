@@ -13,6 +13,11 @@ and ROMIO) and HDF5 1.14:
 * after every call the ranks agree on the outcome (:func:`~.collective.agree`) before anyone makes
   the next collective call; after a failure every rank closes the file (errors ignored) and
   raises the same error;
+* a metadata call that failed on some ranks only (which HDF5's arguments, the same on every rank,
+  make unlikely: a local fault such as memory) leaves the ranks with different metadata: no
+  rank can close the file then (measured: the close hangs, and so does the implicit close at
+  exit). Every rank then prints the error and the job ends with ``MPI_Abort`` (exit 1): a clear
+  error instead of a hang;
 * datasets are created with ``fill_time="never"`` (every byte is written by its owner), so
   creating one writes nothing;
 * a full disk must not strike inside a collective call either: HDF5 writes its metadata during
@@ -32,6 +37,7 @@ from __future__ import annotations
 import ctypes
 import errno
 import os
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
@@ -130,21 +136,36 @@ class ParallelH5:
         self.error = error
         self.f: Any = None
         try:
-            self.f = self.call(lambda _: _open(self.path, mode, comm), hint=open_hint)
+            self.f = self.call(lambda _: _open(self.path, mode, comm), hint=open_hint, meta=True)
         except error:
             raise
         except Exception as e:  # a bug, not an I/O error: still on every rank
             raise error(f"{what} failed: {reason(e)}") from None
 
-    def call(self, fn: Callable[[Any], T], *, root: int | None = None, hint: str = "") -> T:
+    def call(
+        self,
+        fn: Callable[[Any], T],
+        *,
+        root: int | None = None,
+        meta: bool = False,
+        hint: str = "",
+    ) -> T:
         """Call ``fn(file)`` and agree on the outcome; after a failure anywhere, close and raise.
 
-        ``fn`` runs on every rank (``root=None``: collective HDF5 calls, or independent
-        transfers of each rank's own slab) or on ``root`` only (independent transfers). If it
-        failed anywhere, the file is closed on every rank and :attr:`error` raised on every rank.
+        Args:
+            fn: The calls: HDF5 metadata calls (``meta``: open, create, resize, attributes,
+                flush, close; on every rank), or independent transfers (each rank its own slab,
+                or ``root`` alone), never both.
+            root: The only rank calling ``fn`` (independent transfers only).
+            meta: ``fn`` makes collective metadata calls: a failure on some ranks only ends
+                the job (see the module's docstring).
+            hint: Added to the message after a failure.
 
         Returns:
             ``fn``'s result where it ran (``None`` elsewhere).
+
+        Raises:
+            error: If ``fn`` failed on any rank: on every rank, after closing the file.
         """
         return collective(
             self.comm,
@@ -154,7 +175,19 @@ class ParallelH5:
             error=self.error,
             path=self.path,
             cleanup=self.abort,
+            partial=self._diverged if meta else None,
         )
+
+    def _diverged(self, message: str) -> None:
+        """A metadata call failed on some ranks only: print the error, end the job."""
+        sys.stderr.write(
+            f"{self.error.__name__}: {message}; the "
+            "file's metadata now differ between the ranks and no rank can close it: ending "
+            "the job (MPI_Abort)\n"
+        )
+        sys.stderr.flush()
+        self.comm.Barrier()
+        self.comm.Abort(1)
 
     def reserve(self, nbytes: int) -> None:
         """Allocate ``nbytes + MARGIN`` bytes beyond the end of the file (rank 0; collective).
@@ -203,7 +236,7 @@ class ParallelH5:
         if self.f is None:
             return
         try:
-            self.call(lambda f: f.close())
+            self.call(lambda f: f.close(), meta=True)
         finally:
             self.abort()
 

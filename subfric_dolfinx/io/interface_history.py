@@ -106,9 +106,9 @@ class InterfaceHistoryH5:
                 f["x"][self.lo : self.hi] = x
 
         self.h.reserve(8 * x.size * self.h.comm.size + 4096 * len(self.shapes))
-        self.h.call(create)
+        self.h.call(create, meta=True)
         self.h.call(fill)
-        self.h.call(lambda f: f.flush())
+        self.h.call(lambda f: f.flush(), meta=True)
 
     def _cut(self, x: np.ndarray, t: float, tol: float) -> None:
         """Check the existing file and drop its steps after ``t`` (a restart)."""
@@ -145,8 +145,8 @@ class InterfaceHistoryH5:
             for k in ("time", *self.shapes):
                 f[k].resize(keep, axis=0)
 
-        self.h.call(cut)
-        self.h.call(lambda f: f.flush())
+        self.h.call(cut, meta=True)
+        self.h.call(lambda f: f.flush(), meta=True)
         self.n = keep
 
     def write(self, t: float) -> None:
@@ -168,7 +168,6 @@ class InterfaceHistoryH5:
             [np.asarray(values[k], dtype=float).reshape(n_local, w) for k, w in widths.items()]
         )
         block = push(self.problem.comm, self.rows, table, self.p)
-        rank0 = self.problem.comm.rank == 0
         n = self.n
 
         def grow(f: Any) -> None:
@@ -184,17 +183,16 @@ class InterfaceHistoryH5:
                     f[k][n, self.lo : self.hi] = part
                     c += w
 
+        def stamp(f: Any) -> None:  # the step counts once its time is written
+            f["time"][n] = t
+
         before = self.h.size()
         self.h.reserve(self.step_bytes)
-        def done(f: Any) -> None:  # the step counts once its time is written
-            f["time"].resize(n + 1, axis=0)
-            if rank0:
-                f["time"][n] = t
-
-        self.h.call(grow)
+        self.h.call(grow, meta=True)
         self.h.call(fill)
-        self.h.call(done)
-        self.h.call(lambda f: f.flush())
+        self.h.call(lambda f: f["time"].resize(n + 1, axis=0), meta=True)
+        self.h.call(stamp, root=0)
+        self.h.call(lambda f: f.flush(), meta=True)
         self.n = n + 1
         self.step_bytes = max(self.step_bytes, 2 * (self.h.size() - before))
 
