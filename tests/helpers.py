@@ -140,6 +140,18 @@ def singleton_env() -> dict[str, str]:
 # Fault injection (output tests)
 
 
+def hang_fails(seconds: float = 240) -> Any:
+    """A pytest mark: after ``seconds`` the test fails and the job ends, even in a hang.
+
+    pytest-timeout's default (signal) method never fires while a rank waits inside an MPI call;
+    the thread method dumps every thread's stack and exits the process, and ``mpirun`` then
+    ends the other ranks: a fault test that hangs fails instead of blocking the suite.
+    """
+    import pytest
+
+    return pytest.mark.timeout(seconds, method="thread")
+
+
 @contextlib.contextmanager
 def tmpfs(path: Path, size: str = "1m", readonly: bool = False) -> Iterator[bool]:
     """Mount a small tmpfs at ``path`` (rank 0, collective), unmounted on exit.

@@ -249,7 +249,8 @@ def restore_checkpoint(
         problem: The problem (built as for the run that wrote it).
         stepper: Its stepper.
         settings: The run's settings (see :func:`write_checkpoint`); every key given must equal
-            the checkpoint's. Solver options are not settings: they may change.
+            the checkpoint's. Solver options are not settings: they may change (the step size
+            the run continues with is the checkpoint's, at most the stepper's ``dt_max``).
 
     Returns:
         The history rows stored in the checkpoint.
@@ -323,6 +324,7 @@ def restore_checkpoint(
     for v in st.names:
         st[v][:] = pull(comm, rows, ck.interface[v], n_points)
     el.state.revert()  # trial = committed
-    stepper.restore(float(a["time"]), int(a["step"]), float(a["dt"]), int(a["easy"]))
+    dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
+    stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history
 

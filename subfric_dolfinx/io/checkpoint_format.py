@@ -42,9 +42,16 @@ def _text(v: Any) -> Any:
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else v
 
 
+def _show(v: Any) -> str:
+    """``repr`` of a value as read, numpy scalars as Python ones (``2.5``, not ``np.float64``)."""
+    return repr(v.item() if isinstance(v, np.generic) else v)
+
+
 def _int(name: str, key: str, v: Any) -> int:
     if isinstance(v, bool | np.bool_) or not isinstance(v, int | np.integer):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {v!r}, not an integer")
+        raise CheckpointError(
+            f"checkpoint {name}: attribute {key!r} is {_show(v)}, not an integer"
+        )
     if int(v) < INTS.get(key, 0):
         raise CheckpointError(
             f"checkpoint {name}: attribute {key!r} = {int(v)} is below {INTS[key]}"
@@ -54,7 +61,7 @@ def _int(name: str, key: str, v: Any) -> int:
 
 def _float(name: str, key: str, v: Any) -> float:
     if isinstance(v, bool | np.bool_) or not isinstance(v, int | float | np.integer | np.floating):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {v!r}, not a number")
+        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {_show(v)}, not a number")
     if not math.isfinite(float(v)):
         raise CheckpointError(f"checkpoint {name}: attribute {key!r} = {float(v)} is not finite")
     return float(v)
@@ -63,7 +70,7 @@ def _float(name: str, key: str, v: Any) -> float:
 def _json(name: str, key: str, v: Any) -> str:
     v = _text(v)
     if not isinstance(v, str):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {v!r}, not a string")
+        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {_show(v)}, not a string")
     try:
         obj = json.loads(v)
     except ValueError as e:
@@ -100,12 +107,12 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
     fmt = _text(f.attrs.get("format"))
     if fmt != FORMAT:
         raise CheckpointError(
-            f"{name} is not a subfric-dolfinx checkpoint (format attribute {fmt!r})"
+            f"{name} is not a subfric-dolfinx checkpoint (format attribute {_show(fmt)})"
         )
     version = f.attrs.get("version")
     if not isinstance(version, int | np.integer) or int(version) != VERSION:
         raise CheckpointError(
-            f"checkpoint {name} has version {version!r}, this code reads version {VERSION}"
+            f"checkpoint {name} has version {_show(version)}, this code reads version {VERSION}"
         )
     missing = [k for k in (*INTS, *FLOATS, *JSONS) if k not in f.attrs]
     if missing:

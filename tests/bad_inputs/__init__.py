@@ -22,6 +22,8 @@ One module per kind of input:
   (empty, without the trailing '_', with '-' or spaces, not a string, in use).
 * ``test_scenes.py``: scene configurations (unknown keys, wrong types, files requested without a
   directory) and checkpoints (missing, truncated, foreign, other law or mesh).
+* ``test_checkpoints.py``: damaged checkpoint contents (shapes, dtypes, NaN/inf, attribute types
+  and ranges, JSON) and restarts with other materials, loads, boundary values or program.
 
 The numpy-only modules run on 1 rank; the others on 1 and 2 ranks.
 """
