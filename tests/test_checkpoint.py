@@ -13,10 +13,20 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx.fem import StepFailure
-from subfric_dolfinx.io import CheckpointError, read_checkpoint
+from subfric_dolfinx.io import CheckpointWriteError, read_checkpoint
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import ROOT, on_root, prefix, raised_on_every_rank, singleton_env, small_scene
-from tests.test_output import disk_full_runs
+from tests.helpers import (
+    ROOT,
+    hang_fails,
+    on_root,
+    prefix,
+    raised_on_every_rank,
+    singleton_env,
+    small_scene,
+)
+from tests.test_output import SUBPROCESSES, disk_full_runs
+
+pytestmark = hang_fails(240)  # a hang fails (see tests/test_output.py)
 
 T_CK = 2.5  # checkpoint time: in the middle of the reverse stroke
 
@@ -78,7 +88,8 @@ def test_restart_gives_the_same_history(shared_tmp):
 def test_a_failed_write_leaves_the_previous_checkpoint(shared_tmp, monkeypatch):
     """Injected (monkeypatch of h5py's Dataset.__setitem__): the last rank's slab write of the
     second checkpoint raises ENOSPC, the other ranks' succeed. Every rank raises the same
-    CheckpointError naming the file and the OS error; the first checkpoint is intact, no
+    CheckpointWriteError (an OutputError: a failed output, not a bad input) naming the file and
+    the OS error; the first checkpoint is intact, no
     temporary file is left, no HDF5 handle is left open (h5py's finaliser would warn)."""
     comm = MPI.COMM_WORLD
     real = h5py.Dataset.__setitem__
@@ -93,9 +104,8 @@ def test_a_failed_write_leaves_the_previous_checkpoint(shared_tmp, monkeypatch):
 
     monkeypatch.setattr(h5py.Dataset, "__setitem__", flaky)
     good = shared_tmp / "checkpoint.h5"
-    with raised_on_every_rank(
-        CheckpointError, f"writing the checkpoint {str(good)!r} failed: [Errno 28] No space left"
-    ):
+    message = f"writing the checkpoint {str(good)!r} failed: [Errno 28] No space left"
+    with raised_on_every_rank(CheckpointWriteError, message):
         run_scene(scene(checkpoint_times=[1.0, 2.0]), outdir=shared_tmp, comm=comm)
     monkeypatch.undo()
     assert read_checkpoint(good, comm).attrs["time"] == 1.0
@@ -190,10 +200,11 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
 
 
 @pytest.mark.serial
+@SUBPROCESSES
 def test_disk_full_keeps_the_previous_checkpoint(shared_tmp):
     """For real: a 1 MiB tmpfs filled but 100-400 kB, a checkpoint after every step, runs on 1
     and 2 ranks in processes of their own (mpirun, killed after 150 s). A checkpoint that does
-    not fit is one CheckpointError on every rank, exit 1, no crash; the previous checkpoint is
+    not fit is one CheckpointWriteError on every rank, exit 1, no crash; the previous checkpoint is
     intact and restartable, no temporary file is left."""
     kept = []
 
@@ -201,6 +212,7 @@ def test_disk_full_keeps_the_previous_checkpoint(shared_tmp):
         if msg is None:
             return
         assert "writing the checkpoint" in msg and "checkpoint.h5" in msg, msg
+        assert msg.startswith("subfric_dolfinx.io.checkpoint.CheckpointWriteError: "), msg
         assert not (out / "checkpoint.h5.tmp").exists()
         if (out / "checkpoint.h5").exists():
             kept.append(read_checkpoint(out / "checkpoint.h5", MPI.COMM_SELF).attrs["step"])

@@ -33,6 +33,7 @@ from tests.helpers import (
     ROOT,
     block_problem,
     fill,
+    hang_fails,
     mpirun,
     on_root,
     prefix,
@@ -41,6 +42,12 @@ from tests.helpers import (
     small_scene,
     tmpfs,
 )
+
+# a rank waiting in an MPI call for one that failed: the test fails after 4 minutes, with the
+# stacks, instead of blocking the suite; the tests running jobs of their own (mpirun, each
+# killed after its own timeout) only need pytest's default
+pytestmark = hang_fails(240)
+SUBPROCESSES = pytest.mark.timeout(900)
 
 
 def adios2_module():
@@ -427,6 +434,7 @@ def disk_full_runs(directory, outputs, leaves, check=None, size="1m"):
 
 
 @pytest.mark.serial
+@SUBPROCESSES
 def test_disk_full_with_history_and_interface_history(shared_tmp):
     """Full at the start (the probe), during the run (a CSV row, the HDF5 reservation of a
     step), or not at all."""
@@ -442,6 +450,7 @@ def test_disk_full_with_history_and_interface_history(shared_tmp):
 
 
 @pytest.mark.serial
+@SUBPROCESSES
 @pytest.mark.parametrize("fmt", ["vtx", "xdmf"])
 def test_disk_full_with_fields(shared_tmp, fmt):
     """The check before each write refuses it: exit 1, the error, no SIGABRT from ADIOS2."""
@@ -467,6 +476,7 @@ run_scene(short_scene(interface_history=True), outdir={out!r})
 
 
 @pytest.mark.serial
+@SUBPROCESSES
 def test_a_metadata_call_failing_on_one_rank_ends_the_job_with_the_error(shared_tmp):
     """Injected: creating a dataset (an HDF5 metadata call, collective) fails on rank 1 only.
     The ranks' metadata differ: no close can work (it hangs, even at exit). Instead of a hang,

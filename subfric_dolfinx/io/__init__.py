@@ -16,7 +16,13 @@ May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, DOL
 (not scenes).
 """
 
-from .checkpoint import CheckpointError, read_checkpoint, restore_checkpoint, write_checkpoint
+from .checkpoint import (
+    CheckpointError,
+    CheckpointWriteError,
+    read_checkpoint,
+    restore_checkpoint,
+    write_checkpoint,
+)
 from .collective import OutputError, probe_directory
 from .fields import FieldWriter
 from .gather import gather_interface, interface_order
@@ -27,6 +33,7 @@ from .summary import interface_summary
 
 __all__ = [
     "CheckpointError",
+    "CheckpointWriteError",
     "FieldWriter",
     "HistoryCSV",
     "InterfaceHistoryH5",

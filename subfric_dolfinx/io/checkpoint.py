@@ -18,7 +18,8 @@ Every rank writes and reads its own contiguous slab of rows (:mod:`.slabs`) thro
 driver (:class:`~.h5.ParallelH5`): memory O(local) per rank. The file is written as
 ``<path>.tmp``, flushed, closed and renamed over ``<path>`` by rank 0: a run killed (or a disk
 filling up) while writing leaves the previous checkpoint intact; any failure is a
-:class:`CheckpointError` on every rank, naming the file and the OS error.
+:class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
+:class:`~.collective.OutputError`), naming the file and the OS error.
 
 Reading validates the file (:mod:`.checkpoint_format`: format, version, the type of every
 attribute, the shape, dtype and finiteness of every dataset) and a restart compares the mesh, the
@@ -46,12 +47,20 @@ from .checkpoint_format import (
     first_difference,
     jsonable,
 )
-from .collective import collective
+from .collective import OutputError, collective
 from .h5 import ParallelH5
 from .slabs import interface_rows, pull, push, slab
 
-__all__ = ["Checkpoint", "CheckpointError", "read_checkpoint", "restore_checkpoint",
-           "write_checkpoint"]  # fmt: skip
+__all__ = ["Checkpoint", "CheckpointError", "CheckpointWriteError", "read_checkpoint",
+           "restore_checkpoint", "write_checkpoint"]  # fmt: skip
+
+
+class CheckpointWriteError(CheckpointError, OutputError):
+    """A checkpoint could not be written (an output failure: a full disk, ...).
+
+    Both a :class:`CheckpointError` and an :class:`~.collective.OutputError`: a program tells it
+    from an unusable restart file (bad input) by the latter.
+    """
 
 
 def _cell_dofs(problem: Any) -> tuple[np.ndarray, np.ndarray, int]:
@@ -80,7 +89,7 @@ def write_checkpoint(
             boundary conditions and loads); compared by :func:`restore_checkpoint`.
 
     Raises:
-        CheckpointError: On every rank, naming the file and the OS error; the previous
+        CheckpointWriteError: On every rank, naming the file and the OS error; the previous
             checkpoint at ``path`` is intact.
     """
     comm = problem.comm
@@ -142,11 +151,13 @@ def write_checkpoint(
             f["history"][...] = table
 
     try:
-        collective(comm, lambda: tmp.unlink(missing_ok=True), what, path=tmp)
+        collective(
+            comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
+        )
         values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * sum(
             int(np.prod(b.shape[1:])) for b in blocks.values()
         )  # fmt: skip
-        with ParallelH5(tmp, "w", comm, what, CheckpointError) as h:
+        with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
             h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
@@ -167,7 +178,7 @@ def write_checkpoint(
         finally:
             os.close(fd)
 
-    collective(comm, publish, what, error=CheckpointError, path=path)
+    collective(comm, publish, what, error=CheckpointWriteError, path=path)
 
 
 @dataclasses.dataclass
