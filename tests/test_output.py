@@ -14,6 +14,7 @@ import os
 import shutil
 import subprocess
 import sys
+from xml.etree import ElementTree
 
 import h5py
 import numpy as np
@@ -359,7 +360,8 @@ def test_a_failed_hdf5_write_on_one_rank_is_one_error_on_every_rank(shared_tmp, 
 def test_fields_refuse_to_fill_the_disk(shared_tmp, monkeypatch, fmt):
     """Injected: the file system reports 1 MiB free (shutil.disk_usage on rank 0), less than a
     step of fields needs plus the margin: the run ends before the write, on every rank, and the
-    field files are closed (an ADIOS2 or DOLFINx HDF5 write cannot recover from a full disk)."""
+    field files are closed (an ADIOS2 or DOLFINx HDF5 write cannot recover from a full disk):
+    read back, they hold the two steps written before, complete."""
     comm = MPI.COMM_WORLD
     out = shared_tmp / fmt
     real = shutil.disk_usage
@@ -376,6 +378,20 @@ def test_fields_refuse_to_fill_the_disk(shared_tmp, monkeypatch, fmt):
         OutputError, repr(str(out / "fields")), "at t = ", "No space left on device"
     ):
         run_scene(short_scene(fields=fmt), outdir=out, comm=comm)
+    monkeypatch.undo()
+
+    def two_steps_readable():
+        d = out / "fields"
+        if fmt == "vtx":
+            data, times = read_vtx(d / "interface.bp", ["f_n"])
+            assert len(times) == len(data["f_n"]) == 2 and times[0] < times[1]
+        else:
+            with h5py.File(d / "interface.h5") as f:
+                assert len(f["Function/f_n"]) == 2
+            xdmf = ElementTree.parse(d / "interface.xdmf")  # complete XML
+            assert len(xdmf.findall(".//Attribute[@Name='f_n']")) == 2
+
+    on_root(comm, two_steps_readable)
 
 
 # Disk full for real: a 1 MiB tmpfs filled but a few kB, a run on 1 and on 2 ranks in a process
