@@ -502,3 +502,34 @@ def test_a_metadata_call_failing_on_one_rank_ends_the_job_with_the_error(shared_
     assert r.returncode == 1 and "killed after" not in text, text[-3000:]
     assert "interface_history.h5' failed: [Errno 5] injected on rank 1" in text, text[-3000:]
     assert "no rank can close it" in text
+
+
+@pytest.mark.serial
+@SUBPROCESSES
+def test_a_demo_ends_an_output_error_with_one_line_and_exit_1(shared_tmp):
+    """The main demo on 2 ranks (mpirun, with a timeout): its output directory under a regular
+    file, then a directory another run holds. Exit 1 (a failed output, not bad input), one
+    ``error:`` line naming the directory and the reason, no traceback."""
+    from tests.test_cli import demo_cmd, run
+
+    (shared_tmp / "file").write_text("not a directory")
+    rc, text = run(demo_cmd("--out", shared_tmp / "file" / "run", ranks=2), timeout=150)
+    errors = [ln for ln in text.splitlines() if "error: " in ln]
+    assert rc == 1 and "Traceback" not in text and len(errors) == 1, text
+    assert "preparing the output directory" in errors[0] and "Not a directory" in errors[0]
+    busy = shared_tmp / "busy"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys\nfrom mpi4py import MPI\n"
+         "from subfric_dolfinx.io import OutputDirectory\n"
+         f"with OutputDirectory({str(busy)!r}, MPI.COMM_SELF):\n"
+         "    print('LOCKED', flush=True)\n    sys.stdin.read()\n"],
+        cwd=ROOT, env=singleton_env(), text=True, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+    )  # fmt: skip
+    try:
+        assert holder.stdout.readline().strip() == "LOCKED"
+        rc, text = run(demo_cmd("--out", busy, ranks=2), timeout=150)
+    finally:
+        holder.communicate("", timeout=60)
+    errors = [ln for ln in text.splitlines() if "error: " in ln]
+    assert rc == 1 and "Traceback" not in text and len(errors) == 1, text
+    assert f"the output directory {str(busy)!r} is in use" in errors[0], errors
