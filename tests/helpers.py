@@ -140,7 +140,7 @@ def singleton_env() -> dict[str, str]:
 # Fault injection (output tests)
 
 
-def hang_fails(seconds: float = 240) -> Any:
+def hang_fails(seconds: float = 600) -> Any:
     """A pytest mark: after ``seconds`` the test fails and the job ends, even in a hang.
 
     pytest-timeout's default (signal) method never fires while a rank waits inside an MPI call;

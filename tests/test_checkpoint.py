@@ -26,7 +26,7 @@ from tests.helpers import (
 )
 from tests.test_output import SUBPROCESSES, disk_full_runs
 
-pytestmark = hang_fails(240)  # a hang fails (see tests/test_output.py)
+pytestmark = hang_fails()  # a hang fails (see tests/test_output.py)
 
 T_CK = 2.5  # checkpoint time: in the middle of the reverse stroke
 

@@ -23,7 +23,7 @@ from subfric_dolfinx.scenes import run_scene
 from tests.helpers import hang_fails, on_root, raised_on_every_rank
 from tests.test_output import short_scene
 
-pytestmark = hang_fails(240)
+pytestmark = hang_fails()
 
 
 def test_the_gap_in_the_interface_history_is_the_gap_the_law_saw(shared_tmp):

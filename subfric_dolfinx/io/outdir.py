@@ -8,7 +8,9 @@ the first step:
 2. takes the lock ``.subfric.lock`` in it (``fcntl.flock``, held by rank 0 for the whole run and
    released when the run ends, however it ends; the kernel releases it if the process dies): a
    second run into the same directory is refused on every rank, naming the directory and the
-   process holding it;
+   process holding it. The lock file is removed when the run ends (a killed run leaves it,
+   unlocked: the next run takes it); a run that locked a file another run removed meanwhile
+   sees that the name no longer leads to it and starts again;
 3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
    (:data:`RUN_FILES`: ``history.csv``, ``interface_history.h5``, ``checkpoint.h5``, the
    ``fields`` directory, a stale ``checkpoint.h5.tmp``) into ``previous_run/``, replacing what was
@@ -91,18 +93,27 @@ class OutputDirectory:
 
     def _lock(self) -> str | None:
         """Take the lock (rank 0); a description of the holder when another run has it."""
-        fd = os.open(self.path / LOCK_NAME, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+        path = self.path / LOCK_NAME
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
-                who = os.pread(fd, 200, 0).decode(errors="replace").strip() or "unknown process"
-            finally:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                try:
+                    who = os.pread(fd, 200, 0).decode(errors="replace").strip()
+                finally:
+                    os.close(fd)
+                return who or "unknown process"
+            except BaseException:
                 os.close(fd)
-            return who
-        except BaseException:
+                raise
+            try:  # the run that held it may have removed it after we opened it
+                here, mine = os.stat(path), os.fstat(fd)
+                if (here.st_dev, here.st_ino) == (mine.st_dev, mine.st_ino):
+                    break
+            except FileNotFoundError:
+                pass
             os.close(fd)
-            raise
         self._fd = fd
         try:  # who holds it, for the message of a refused run (best effort)
             os.ftruncate(fd, 0)
@@ -126,8 +137,17 @@ class OutputDirectory:
         self.moved = found
 
     def _unlock(self) -> None:
+        """Remove the lock file, then release the lock (rank 0).
+
+        In that order, no run can take a lock on a file about to disappear without seeing it
+        (see :meth:`_lock`).
+        """
         if self._fd is not None:
             fd, self._fd = self._fd, None
+            try:
+                (self.path / LOCK_NAME).unlink(missing_ok=True)
+            except OSError:  # e.g. the directory became read-only: the lock is released anyway
+                pass
             try:
                 fcntl.flock(fd, fcntl.LOCK_UN)
             finally:

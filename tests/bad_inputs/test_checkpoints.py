@@ -21,7 +21,7 @@ from subfric_dolfinx.io import CheckpointError
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import hang_fails, on_root, prefix, raised_on_every_rank, small_scene
 
-pytestmark = hang_fails(240)
+pytestmark = hang_fails()
 
 T_CK, T_END = 1.0, 2.0
 
