@@ -171,9 +171,11 @@ def _exit_code(e: BaseException) -> int | None:
         return EXIT_BAD_INPUT
     if "subfric_dolfinx.fem" in sys.modules:  # only then can these have been raised
         from ..fem import InterfaceError, StepFailure
-        from ..io import CheckpointError
+        from ..io import CheckpointError, OutputError
         from ..meshing import InterfaceMeshError
 
+        if isinstance(e, OutputError):  # a file not written (a checkpoint's too): disk full, ...
+            return EXIT_FAILED
         if isinstance(e, InterfaceError | InterfaceMeshError | CheckpointError):
             return EXIT_BAD_INPUT
         if isinstance(e, StepFailure):

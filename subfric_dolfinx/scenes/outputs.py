@@ -5,6 +5,12 @@
 history, checkpoints, and the interface profiles (snapshots) returned in memory. The runner calls
 :meth:`SceneOutputs.on_step` after each converged step and :meth:`SceneOutputs.close` at the end
 (it is a context manager).
+
+Every file operation is collective (:mod:`subfric_dolfinx.io.collective`): a failure on any rank
+is an :class:`~subfric_dolfinx.io.OutputError` (a :class:`~subfric_dolfinx.io.CheckpointError`
+for checkpoints) on every rank, naming the file and the OS error, and every file is closed
+however the run ends. The output directory itself is prepared (probed, locked, cleared of an
+earlier run's files) by :class:`~subfric_dolfinx.io.OutputDirectory` in the runner.
 """
 
 from __future__ import annotations
@@ -26,12 +32,13 @@ def interface_profile(problem: Any) -> dict[str, np.ndarray]:
     """Interface fields at all points, gathered on every rank (collective).
 
     In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
-    ``status`` and every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``).
+    ``gap`` (n, nt + 1: the gap in the local frame, ``ubar_n`` last), ``status`` and every
+    internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``).
     """
     el = problem.interface
     nt = el.nt
     tr = el.last.traction
-    values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "status": el.last.status}
+    values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "gap": el.last_gap, "status": el.last.status}
     values.update(dict(el.state.old.items()))
     out = gather_interface(el, values)
     out["status"] = out["status"].astype(int)
@@ -48,6 +55,8 @@ class SceneOutputs:
         stepper: The load stepper (its position goes into checkpoints).
         restart_time: Time of the checkpoint a restarted run continues from.
         restart_history: History rows of that checkpoint.
+        settings: What a restart from its checkpoints must match (see
+            :func:`~subfric_dolfinx.io.write_checkpoint`).
 
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
@@ -65,8 +74,10 @@ class SceneOutputs:
         *,
         restart_time: float | None = None,
         restart_history: list[dict[str, float]] | None = None,
+        settings: dict[str, Any] | None = None,
     ) -> None:
         self.spec, self.problem, self.stepper = spec, problem, stepper
+        self.settings = settings
         self.outdir = outdir
         self.files: list[str] = []
         self.snapshots: dict[float, dict[str, np.ndarray]] = {}
@@ -84,7 +95,10 @@ class SceneOutputs:
                     outdir / "interface_history.h5", problem, restart_time
                 )
         except BaseException:
-            self.close()
+            try:
+                self.close()
+            except Exception:
+                pass
             raise
         self.checkpoint_path = outdir / "checkpoint.h5" if spec.checkpoints else None
         self._ck_times = np.asarray(spec.checkpoint_times, dtype=float)
@@ -99,7 +113,9 @@ class SceneOutputs:
     def write_checkpoint(self) -> None:
         """Write the converged state now (collective); nothing without checkpoints."""
         if self.checkpoint_path is not None:
-            write_checkpoint(self.checkpoint_path, self.problem, self.stepper, self.history.rows)
+            write_checkpoint(
+                self.checkpoint_path, self.problem, self.stepper, self.history.rows, self.settings
+            )
             self.files.append(str(self.checkpoint_path))
 
     def on_step(self, rec: Any, stopping: bool = False) -> None:
@@ -138,18 +154,32 @@ class SceneOutputs:
             )
 
     def close(self) -> None:
-        """Close the files (collective) and list them in :attr:`files`."""
-        self.history.close()
-        if self.spec.history and self.outdir is not None:
-            self.files.append(str(self.outdir / "history.csv"))
+        """Close the files (collective) and list them in :attr:`files`.
+
+        Every file is closed even if closing another failed; the first failure is then raised
+        (on every rank).
+        """
+        first: Exception | None = None
+        closers = [("history", self.history.close)]
         if self.fields is not None:
-            self.fields.close()
-            self.fields = None
-            self.files.append(str(self.outdir / "fields"))
+            closers.append(("fields", self.fields.close))
         if self.ihist is not None:
-            self.ihist.close()
-            self.ihist = None
-            self.files.append(str(self.outdir / "interface_history.h5"))
+            closers.append(("interface_history.h5", self.ihist.close))
+        for name, close in closers:
+            try:
+                close()
+            except Exception as e:  # collective errors: the same on every rank
+                first = first or e
+            if self.outdir is None:
+                continue
+            if name == "history" and self.spec.history:
+                self.files.append(str(self.outdir / "history.csv"))
+            elif name != "history":
+                self.files.append(str(self.outdir / name))
+        self.fields = None
+        self.ihist = None
+        if first is not None:
+            raise first
 
     def __enter__(self) -> SceneOutputs:
         return self
@@ -160,4 +190,10 @@ class SceneOutputs:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self.close()
+        if exc_type is None:
+            self.close()
+            return
+        try:  # the run's own error comes first
+            self.close()
+        except Exception:
+            pass

@@ -27,6 +27,8 @@ One module per kind of input:
   the program, ``dt_min > dt`` —, names that are not plain file names, conditions on a cell
   group, files requested without a directory) and checkpoints (missing, truncated, foreign,
   other law or mesh).
+* ``test_checkpoints.py``: damaged checkpoint contents (shapes, dtypes, NaN/inf, attribute types
+  and ranges, JSON) and restarts with other materials, loads, boundary values or program.
 
 The numpy-only modules run on 1 rank; the others on 1 and 2 ranks.
 """
