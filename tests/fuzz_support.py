@@ -34,6 +34,7 @@ from subfric_dolfinx.constitutive import (
     SubloadingLaw,
     preset,
 )
+from subfric_dolfinx.constitutive._subloading.switch import vsplit_point
 
 EPS = float(np.finfo(float).eps)
 TINY = float(np.finfo(float).smallest_subnormal)
@@ -322,30 +323,31 @@ def rotation_ill_conditioned(b):
 
 @np.errstate(invalid="ignore", divide="ignore", over="ignore")
 def split_phi0(b, A):
-    """The map's loading test after a reversal split, ``A - g r_s mu_rec`` (+inf where there is
-    none): within rounding of it the status may differ between frames."""
+    """The map's loading test after its split of the elastic trial segment (its own split
+    routine), ``A - g r_s mu_rec`` (+inf where there is none): within rounding of it the status
+    may differ between frames."""
     law, nt = b.law, b.nt
     n = b.gap.shape[0]
     out = np.full(n, np.inf)
     f = b.state["f"]
     f0, fn0 = f[:, :nt], f[:, nt]
+    fn1 = law.alpha_n * b.gap[:, nt]
     tr0 = law.alpha_t * (b.gap[:, :nt] - b.state.up)
-    wv = tr0 - f0
-    fw = np.einsum("ij,ij->i", f0, wv)
-    ww = np.einsum("ij,ij->i", wv, wv)
-    sp = (fn0 > 0) & (fw < 0) & (ww > 0) & (ww + fw > 8 * EPS * np.sqrt(ww) * (rnorm(f0) + A))
-    if not sp.any():
-        return out
-    s = -fw[sp] / ww[sp]
-    fm = f0[sp] + s[:, None] * wv[sp]
-    fn1 = law.alpha_n * b.gap[sp, nt]
-    gm = -np.expm1(-law.c_n * (fn0[sp] + s * (fn1 - fn0[sp])))
+    mu = np.clip(b.state.mu, law.mu_k, law.mu_s)
     bb = law.xi * b.dt
-    mu = np.clip(b.state.mu[sp], law.mu_k, law.mu_s)
-    mu_m = np.minimum(mu + (law.mu_s - mu) * -np.expm1(-bb * s), law.mu_s)
+    cand = np.flatnonzero((fn0 > 0) & (fn1 > 0) & np.isfinite(A))
+    s, kind = vsplit_point(law._consts, f0[cand], fn0[cand], tr0[cand], fn1[cand], A[cand],
+                           mu[cand], bb)  # fmt: skip
+    sp = cand[kind > 0]
+    s = s[kind > 0]
+    if sp.size == 0:
+        return out
+    fm = f0[sp] + s[:, None] * (tr0[sp] - f0[sp])
+    gm = -np.expm1(-law.c_n * (fn0[sp] + s * (fn1[sp] - fn0[sp])))
+    mu_m = np.minimum(mu[sp] + (law.mu_s - mu[sp]) * -np.expm1(-bb * s), law.mu_s)
     r_m = np.minimum(rnorm(fm) / (gm * mu_m), 1.0)
     mu_r = np.minimum(mu_m + (law.mu_s - mu_m) * -np.expm1(-(bb - bb * s)), law.mu_s)
-    g1 = -np.expm1(-law.c_n * np.maximum(fn1, 0))
+    g1 = -np.expm1(-law.c_n * fn1[sp])
     out[sp] = A[sp] - g1 * r_m * mu_r
     return out
 

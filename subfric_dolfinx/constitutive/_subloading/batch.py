@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..tolerances import contact_band
-from .common import CHUNK, ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, SPLIT_EPS, Law
+from .common import CHUNK, ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
+from .switch import vsplit_point
 from .vgeneral import general
 from .vroot import VBr, finish, g_of, vroot
 
@@ -80,24 +81,25 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
     b = L.xi * dt
     mu_rec = np.minimum(mu_c + (mu_s - mu_c) * (-np.expm1(-b)), mu_s)
 
-    # reversal split (computed on the candidates only)
+    # split of the elastic trial segment at the elastic -> plastic switch (.switch), computed on
+    # the candidates only
     mu_st, r_st, b_st = mu_c, r_c, np.full(n, b)
-    split = np.zeros(n, dtype=bool)
+    split = np.zeros(n, dtype=np.int8)  # 0 or the kind of split
+    split_s = np.zeros(n)
     f_s = None
     mu_rec_st = mu_rec
     if f0 is not None:
         f0t, fn0 = f0[:, :nt], f0[:, nt]
-        wv = ft - f0t
-        fw = np.einsum("ij,ij->i", f0t, wv)
-        ww = np.einsum("ij,ij->i", wv, wv)
-        n0 = np.abs(f0t[:, 0]) if nt == 1 else np.hypot(f0t[:, 0], f0t[:, 1])
-        rest = ww + fw > SPLIT_EPS * np.sqrt(ww) * (n0 + A)  # resolved (see .point)
-        split = contact & (fn0 > 0.0) & (fw < 0.0) & (ww > 0.0) & rest
         f_s = f0t.copy()
+        cand = np.flatnonzero(contact & (fn0 > 0.0) & np.isfinite(A))
+        if cand.size:
+            sc, kc = vsplit_point(L, f0t[cand], fn0[cand], ft[cand], fn[cand], A[cand],
+                                  mu_c[cand], b)  # fmt: skip
+            split[cand], split_s[cand] = kc, sc
         si = np.flatnonzero(split)
         if si.size:
-            s = -fw[si] / ww[si]
-            f_s[si] += s[:, None] * wv[si]
+            s = split_s[si]
+            f_s[si] += s[:, None] * (ft[si] - f0t[si])
             fn_m = fn0[si] + s * (fn[si] - fn0[si])
             g_s = g_of(L, fn_m)
             mu_c_ = mu_c[si]
@@ -133,11 +135,11 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
     P = np.flatnonzero(plastic)
     if P.size == 0:
         return
-    _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, mu_st, r_st, b_st, mu_c, r_c, b,
+    _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, mu_c, r_c, b,
              up_s, tol, max_iter, tr, tan, up_o, mu_o, r_o, status, unst, its)  # fmt: skip
 
 
-def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, mu_st, r_st, b_st, mu_c, r_c, b,
+def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, mu_c, r_c, b,
              up_s, tol, max_iter, tr, tan, up_o, mu_o, r_o, status, unst, its):  # fmt: skip
     """Solve the plastic points ``P`` of a chunk and write their outputs."""
     at, an = L.at, L.an
@@ -147,7 +149,7 @@ def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, mu_st, r_st, b_st, mu_c, r_
     dl, e, conv, it, jump = vroot(br, tol_f, max_iter)
     ft_p = ft[P]
     tstar = ft_p / A_p[:, None]
-    sp = split[P]
+    sp = split[P] > 0
     rot = np.zeros(P.size, dtype=bool)
     if nt == 2 and f_s is not None:
         fs = f_s[P]
@@ -183,7 +185,8 @@ def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, mu_st, r_st, b_st, mu_c, r_
     gi = np.flatnonzero(conv & (rot | sp))
     if gi.size:
         conv[gi] = general(
-            L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, b, tol_f, max_iter, br, dl, e,
+            L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c, b, tol_f,
+            max_iter, br, dl, e,
             it, jump, rot, up_s, tr, tan, up_o, mu_o, r_o, status, unst, its,
         )  # fmt: skip
     bad = np.flatnonzero(~conv)

@@ -12,6 +12,7 @@ import math
 from .common import EPS, FAILED
 from .root import certified_root, dl_derivative, finish, g_of, partials
 from .rotation import rotation
+from .switch import split_ds
 
 __all__ = ["general"]
 
@@ -40,9 +41,8 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
     r0, mu0, b0 = br.r0, br.mu0, br.b
     if split:
         w = [ft[i] - f0[i] for i in range(nt)]
-        ww = sum(v * v for v in w)
-        s = -sum(f0[i] * w[i] for i in range(nt)) / ww
-        ds = [(-(f0[j] + 2.0 * s * w[j]) * at / ww if j < nt else 0.0) for j in J]
+        s, kind = split
+        ds = split_ds(L, f0[:nt], ft, fn0, fn, mu_c, b, s, kind)
         f_s = [f0[i] + s * w[i] for i in range(nt)]
         df_s = [[ds[j] * w[i] + s * dft[i][j] for j in J] for i in range(nt)]
         fn_s = fn0 + s * (fn - fn0)

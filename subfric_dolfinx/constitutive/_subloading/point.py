@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import math
 
-from .common import ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, SPLIT_EPS, Law
+from .common import ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
 from .fast import collinear, rotate_fixed
 from .general import general
 from .root import Br, certified_root, finish, g_of
+from .switch import split_point
 
 __all__ = ["point"]
 
@@ -64,26 +65,19 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
             tan[nt][nt] = an
         return [0.0] * m, tan, list(up), mu_rec, 0.0, SEPARATED, False, 0
 
-    # -- reversal split: |f_t| decreases along the elastic trial segment from f0 to f*
-    split = False
+    # -- split of the elastic trial segment at the elastic -> plastic switch (.switch): the
+    # first minimum of r along it (a reversal through zero, a near-reversal, a turn)
+    split = None
     f_s = None
     rho_s = 0.0
     mu_st, r_st, b_st = mu_c, r_c, b
     fn0 = f0[nt] if f0 is not None else 0.0
     if f0 is not None and fn0 > 0.0:
         f_s = [f0[i] for i in range(nt)]
-        w = [ft[i] - f_s[i] for i in range(nt)]
-        fw = sum(f_s[i] * w[i] for i in range(nt))
-        ww = sum(w[i] * w[i] for i in range(nt))
-        # split only where the rest of the segment after the minimum, (ww + fw) / |w|, is
-        # resolved against the rounding of f_m = f0 + s w (a trial ending within rounding of
-        # the minimum is an unloading step)
-        if fw < 0.0 and ww > 0.0 and ww + fw > SPLIT_EPS * _sqrt(ww) * (
-            (abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])) + A
-        ):
-            split = True
-            s = -fw / ww
-            f_s = [f_s[i] + s * w[i] for i in range(nt)]
+        split = split_point(L, f_s, fn0, ft, fn, A, mu_c, b)
+        if split is not None:
+            s = split[0]
+            f_s = [f_s[i] + s * (ft[i] - f_s[i]) for i in range(nt)]
             fn_m = fn0 + s * (fn - fn0)
             g_s = g_of(L, fn_m)
             bs = b * s
@@ -94,7 +88,6 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
             b_st = b - bs
         else:
             rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
-            g_s = g_of(L, fn0)
 
     # -- loading test (exact trial if elastic)
     mu_rec_st = min(mu_st + (mu_s - mu_st) * -_expm1(-b_st), mu_s) if split else mu_rec

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .common import EPS
+from .switch import vsplit_ds
 from .vroot import finish, g_of, partials, vroot
 from .vrotation import rotation
 
@@ -18,9 +19,9 @@ __all__ = ["general"]
 _PI = np.pi
 
 
-def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, b, tol_f, max_iter,
-             br, dl0_all, e_all, it_all, jump_all, rot_all, up_s, tr, tan, up_o, mu_o, r_o,
-             status, unst, its):  # fmt: skip
+def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c, b, tol_f,
+            max_iter, br, dl0_all, e_all, it_all, jump_all, rot_all, up_s, tr, tan, up_o, mu_o,
+            r_o, status, unst, its):  # fmt: skip
     """Split and/or rotation on rows ``gi`` of the plastic set, with forward derivatives.
 
     Derivative arrays have a last axis over the m gap components. Rows without a split have
@@ -54,10 +55,9 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, b, tol_f, max_
     si = np.flatnonzero(split[Pg])
     if si.size:
         wv = ft[si] - f0t[si]
-        ww = np.einsum("ij,ij->i", wv, wv)
-        s = -np.einsum("ij,ij->i", f0t[si], wv) / ww
-        ds = np.zeros((si.size, m))
-        ds[:, :nt] = -(f0t[si] + 2.0 * s[:, None] * wv) * (at / ww)[:, None]
+        Ps = Pg[si]
+        s = split_s[Ps]
+        ds = vsplit_ds(L, f0t[si], ft[si], fn0[si], fn[si], mu_c[Ps], b, s, split[Ps])
         fsi = f0t[si] + s[:, None] * wv
         dfs = ds[:, None, :] * wv[:, :, None]
         for i in range(nt):
