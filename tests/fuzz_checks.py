@@ -13,8 +13,9 @@ properties do not hold and are replaced: slip is not along the trial direction;
 ``|f_t| <= |f_t*|`` becomes ``|f_t| <= |f_t0| + |f_t* - f_t0|`` (the length of the elastic path:
 slip across the trial raises ``|f_t|``, as in the exact rate solution); the end-point work
 ``f_t . (up - up_n)``, >= 0 for the exact solution, is allowed ``-1e-6 g mu_s |dup|`` (the
-rotation's accuracy relative to the yield surface) and the rounding of the slip
-``(f_t* - f_t) / alpha_t``.
+rotation's accuracy relative to the yield surface) and the work of a slip of the rounding of the
+traction path, ``|f_t| 64 eps (|f_t0| + |f_t* - f_t0| + |f_t|) / alpha_t`` (after a reversal
+from a traction far larger than the end one, the direction of a tiny slip is rounding).
 """
 
 from __future__ import annotations
@@ -131,16 +132,18 @@ def check_invariants(b, res, *, surface=True):
         res,
     )
     cap_path = A.copy()
+    path = A + ft_mag  # (rounding scale of the return: its traction path)
     if mr.any():  # the length of the elastic path
         f0 = s0["f"][:, :nt]
         cap_path[mr] = (rnorm(f0) + rnorm(trial - f0))[mr]
+        path = np.where(mr, cap_path + ft_mag, path)
     assert_nowhere(pla & (ft_mag > cap_path * (1.0 + 1e-12)), "|f_t| > |f_t*|", b, res)
     work = np.einsum("ij,ij->i", ft, slip)
     assert_nowhere(
         work
         < -1e-12 * ft_mag * dl
         - ft_mag * du
-        - np.where(mr, 1e-6 * gmu_s * dl + ft_mag * 8.0 * EPS * (A + ft_mag) / law.alpha_t, 0.0),
+        - np.where(mr, 1e-6 * gmu_s * dl + ft_mag * 64.0 * EPS * path / law.alpha_t, 0.0),
         "negative dissipation",
         b,
         res,

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..tolerances import contact_band
 from .common import CHUNK, ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
-from .switch import vsplit_point
+from .switch import ROOT, vsplit_point
 from .vgeneral import general
 from .vroot import VBr, finish, g_of, vroot
 
@@ -83,7 +83,7 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
 
     # split of the elastic trial segment at the elastic -> plastic switch (.switch), computed on
     # the candidates only
-    mu_st, r_st, b_st = mu_c, r_c, np.full(n, b)
+    mu_st, r_st, b_st, d_st = mu_c, r_c, np.full(n, b), mu_c - mu_s
     split = np.zeros(n, dtype=np.int8)  # 0 or the kind of split
     split_s = np.zeros(n)
     f_s = None
@@ -108,8 +108,16 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
             gm = g_s * mu_m
             r_m = np.where(gm > 0.0, np.where(rho_m < gm, rho_m / gm, 1.0),
                            np.where(rho_m == 0, 0, 1.0))  # fmt: skip
+            ro = split[si] == ROOT  # r scaled by r_el(s) / r_el(0): continuous as s -> 0
+            if ro.any():
+                sr = si[ro]
+                rho0 = np.abs(f0t[sr, 0]) if nt == 1 else np.hypot(f0t[sr, 0], f0t[sr, 1])
+                q = (rho_m[ro] / rho0) * (g_of(L, fn0[sr]) / g_s[ro]) * (mu_c[sr] / mu_m[ro])
+                r_m[ro] = np.minimum(r_c[sr] * q, 1.0)
             mu_st, r_st, mu_rec_st = mu_c.copy(), r_c.copy(), mu_rec.copy()
             mu_st[si], r_st[si], b_st[si] = mu_m, r_m, b - b * s
+            d_st = d_st.copy()
+            d_st[si] = (mu_c_ - mu_s) * np.exp(-b * s)  # mu_st - mu_s without cancellation
             mu_rec_st[si] = np.minimum(mu_m + (mu_s - mu_m) * (-np.expm1(-b_st[si])), mu_s)
     finite = np.isfinite(A)
     # plastic only when the trial leaves the loading surface by more than tol g mu
@@ -135,17 +143,18 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
     P = np.flatnonzero(plastic)
     if P.size == 0:
         return
-    _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, mu_c, r_c, b,
+    _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, d_st, mu_c, r_c, b,
              up_s, tol, max_iter, tr, tan, up_o, mu_o, r_o, status, unst, its)  # fmt: skip
 
 
-def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, mu_c, r_c, b,
+def _plastic(L, P, nt, ft, A, fn, g, f0, f_s, split, split_s, mu_st, r_st, b_st, d_st, mu_c, r_c,
+             b,
              up_s, tol, max_iter, tr, tan, up_o, mu_o, r_o, status, unst, its):  # fmt: skip
     """Solve the plastic points ``P`` of a chunk and write their outputs."""
     at, an = L.at, L.an
     A_p, g_p, fn_p = A[P], g[P], fn[P]
     tol_f = np.maximum(tol * g_p * L.mu_s, 8.0 * EPS * A_p)
-    br = VBr(L, A_p, g_p, r_st[P], mu_st[P], b_st[P])
+    br = VBr(L, A_p, g_p, r_st[P], mu_st[P], b_st[P], d_s=d_st[P])
     dl, e, conv, it, jump = vroot(br, tol_f, max_iter)
     ft_p = ft[P]
     tstar = ft_p / A_p[:, None]

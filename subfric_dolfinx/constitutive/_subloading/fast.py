@@ -25,7 +25,7 @@ def rotate_fixed(L, up, ft, A, tstar, fn, g, f0, mu_c, tol_f, max_iter, br, dl0,
     :func:`.general.general`.
     """
     at, an, cn = L.at, L.an, L.cn
-    mu_s, mu_k = L.mu_s, L.mu_k
+    mu_k = L.mu_k
     fs0, fs1, fn_s = f0[0], f0[1], f0[2]
     rho_s = _hypot(fs0, fs1)
     g_s = g_of(L, fn_s)
@@ -57,7 +57,7 @@ def rotate_fixed(L, up, ft, A, tstar, fn, g, f0, mu_c, tol_f, max_iter, br, dl0,
         gp = cn * (1.0 - g_s)
         dfr = fn - fn_s
         gs2 = g_s * g_s
-        num = W * cth0 / g_s - rho_s * gp * dfr / gs2 - b0 * (mu_s - mu0) * r0
+        num = W * cth0 / g_s - rho_s * gp * dfr / gs2 + b0 * br.d_s * r0
         den = -L.kappa * (mu0 - mu_k) * r0 + U0 * mu0 + at / g_s
         if num > 0.0 and den > 0.0:
             lam = num / den
@@ -132,7 +132,7 @@ def collinear(L, up, ft, A, tstar, fn, g, f0, br, dl, e, iters, jump):
     d0 = W
     if br.sin0 > 0.0 and g_s > 0.0:  # rate-form slope of |f_t| at the start (as _rotate)
         gp = cn * (1.0 - g_s)
-        num = W / g_s - rho_s * gp * (fn - fn_s) / (g_s * g_s) - b0 * (L.mu_s - mu0) * r0
+        num = W / g_s - rho_s * gp * (fn - fn_s) / (g_s * g_s) + b0 * br.d_s * r0
         den = -L.kappa * (mu0 - L.mu_k) * r0 + L.ut * br.c0 / br.sin0 * mu0 + at / g_s
         if num > 0.0 and den > 0.0:
             d0 = W - at * num / den

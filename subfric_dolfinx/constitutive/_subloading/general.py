@@ -12,7 +12,7 @@ import math
 from .common import EPS, FAILED
 from .root import certified_root, dl_derivative, finish, g_of, partials
 from .rotation import rotation
-from .switch import split_ds
+from .switch import ROOT, split_ds
 
 __all__ = ["general"]
 
@@ -26,7 +26,7 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
     nt = len(up)
     m = nt + 1
     at, an, cn = L.at, L.an, L.cn
-    mu_s, mu_k = L.mu_s, L.mu_k
+    mu_k = L.mu_k
     J = range(m)
     Z = [0.0] * m
     dft = [[(at if j == i else 0.0) for j in J] for i in range(nt)]
@@ -49,14 +49,13 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
         dfn_s = [ds[j] * (fn - fn0) + s * dfn1[j] for j in J]
         g_s = g_of(L, fn_s)
         dg_s = [cn * (1.0 - g_s) * v for v in dfn_s]
-        dmu0 = [(mu_s - mu0) * b * v for v in ds]
+        dmu0 = [-br.d_s * b * v for v in ds]  # d_s = mu0 - mu_s without cancellation
         rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
         if rho_s > 0.0:
             drho_s = [sum(f_s[i] * df_s[i][j] for i in range(nt)) / rho_s for j in J]
-        if rho_s > 0.0 and r0 < 1.0:
-            dr0 = [
-                drho_s[j] / (g_s * mu0) - r0 * (dg_s[j] / g_s + dmu0[j] / mu0) for j in J
-            ]
+        if rho_s > 0.0 and r0 < 1.0:  # (ROOT: r0 = r_n rho_s g_0 mu_n / (rho_0 g_s mu0))
+            c_r = r0 / rho_s if kind == ROOT else 1.0 / (g_s * mu0)
+            dr0 = [c_r * drho_s[j] - r0 * (dg_s[j] / g_s + dmu0[j] / mu0) for j in J]
         db = [-b * v for v in ds]
     else:
         rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
@@ -112,9 +111,11 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
         gp = cn * (1.0 - g_s)
         dfr = fn - fn_s
         gs2 = g_s * g_s
-        num = W * cth0 / g_s - rho_s * gp * dfr / gs2 - b0 * (mu_s - mu0) * r0
+        num = W * cth0 / g_s - rho_s * gp * dfr / gs2 + b0 * br.d_s * r0
         den = -L.kappa * (mu0 - mu_k) * r0 + U0 * mu0 + at / g_s
-        if num > 0.0 and den > 0.0:
+        # at a ROOT split the start is the loading switch: num = 0 there by construction (its
+        # computed value is rounding of cancelling terms), so the slope is the elastic one
+        if num > 0.0 and den > 0.0 and not (split and split[1] == ROOT):
             lam = num / den
             d0 = W * cth0 - at * lam
             cr = rho_s * gp / gs2
@@ -122,7 +123,7 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
             if split:
                 c_g = (-W * cth0 + rho_s * cn * dfr + 2.0 * rho_s * gp * dfr / g_s) / gs2
                 c_rho = gp * dfr / gs2
-                c_b, c_m, c_r = (mu_s - mu0) * r0, b0 * r0, b0 * (mu_s - mu0)
+                c_b, c_m, c_r = -br.d_s * r0, b0 * r0, -b0 * br.d_s
                 e_r = -L.kappa * (mu0 - mu_k) - L.ut * 0.5 * _PI / (sin_r0 * sin_r0) * mu0
                 e_m = -L.kappa * r0 + U0
                 e_g = at / gs2

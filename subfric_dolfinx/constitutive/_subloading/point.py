@@ -15,11 +15,11 @@ from .common import ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
 from .fast import collinear, rotate_fixed
 from .general import general
 from .root import Br, certified_root, finish, g_of
-from .switch import split_point
+from .switch import ROOT, split_point
 
 __all__ = ["point"]
 
-_expm1, _sqrt, _hypot, _isfinite = math.expm1, math.sqrt, math.hypot, math.isfinite
+_expm1, _exp, _hypot, _isfinite = math.expm1, math.exp, math.hypot, math.isfinite
 
 
 def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
@@ -70,7 +70,7 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
     split = None
     f_s = None
     rho_s = 0.0
-    mu_st, r_st, b_st = mu_c, r_c, b
+    mu_st, r_st, b_st, d_st = mu_c, r_c, b, None
     fn0 = f0[nt] if f0 is not None else 0.0
     if f0 is not None and fn0 > 0.0:
         f_s = [f0[i] for i in range(nt)]
@@ -82,9 +82,15 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
             g_s = g_of(L, fn_m)
             bs = b * s
             mu_st = min(mu_c + (mu_s - mu_c) * -_expm1(-bs), mu_s)
+            d_st = (mu_c - mu_s) * _exp(-bs)  # mu_st - mu_s without cancellation
             rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
-            gm = g_s * mu_st
-            r_st = (rho_s / gm if rho_s < gm else 1.0) if gm > 0.0 else (0.0 if rho_s == 0 else 1.0)
+            if split[1] == ROOT:  # r scaled by r_el(s) / r_el(0): continuous as s -> 0
+                rho0 = abs(f0[0]) if nt == 1 else _hypot(f0[0], f0[1])
+                q = (rho_s / rho0) * (g_of(L, fn0) / g_s) * (mu_c / mu_st)
+                r_st = min(r_c * q, 1.0)
+            else:  # through zero: r from the traction there (0 to rounding)
+                gm = g_s * mu_st
+                r_st = (rho_s / gm if rho_s < gm else 1.0) if gm > 0.0 else float(rho_s > 0)
             b_st = b - bs
         else:
             rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
@@ -103,7 +109,7 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
     if not _isfinite(A):
         return [0.0] * m, zero_t, list(up), mu_c, r_c, FAILED, False, 0
     tol_f = max(tol * g * mu_s, 8.0 * EPS * A)
-    br = Br(L, A, g, r_st, mu_st, b_st)
+    br = Br(L, A, g, r_st, mu_st, b_st, d_st)
     dl, e, conv, iters, jump = certified_root(br, tol_f, max_iter)
     if not conv:
         return [0.0] * m, zero_t, list(up), mu_c, r_c, FAILED, False, iters

@@ -48,7 +48,9 @@ class Br:
         "A", "L", "b", "c", "c0", "d_k", "d_s", "dmu0", "g", "mu0", "mu_rec", "r0", "s0", "sin0",
     )  # fmt: skip
 
-    def __init__(self, L: Law, A: float, g: float, r0: float, mu0: float, b: float) -> None:
+    def __init__(
+        self, L: Law, A: float, g: float, r0: float, mu0: float, b: float, d_s=None
+    ) -> None:
         self.L, self.A, self.g, self.r0, self.mu0, self.b = L, A, g, r0, mu0, b
         qq = 0.25 * _PI * r0
         self.c0 = _cos(2.0 * qq)
@@ -56,7 +58,7 @@ class Br:
         self.s0 = sq * sq
         self.sin0 = 2.0 * _sqrt(self.s0 * (1.0 - self.s0))
         self.d_k = mu0 - L.mu_k
-        self.d_s = mu0 - L.mu_s
+        self.d_s = mu0 - L.mu_s if d_s is None else d_s  # mu0 - mu_s (given: no cancellation)
         Eb, dEb = E_dE(b)
         self.mu_rec = min(max(mu0 - b * self.d_s * Eb, L.mu_k), L.mu_s)
         self.dmu0 = L.kappa * (-self.d_k * Eb - b * self.d_s * dEb)

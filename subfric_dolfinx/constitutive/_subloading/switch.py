@@ -37,7 +37,7 @@ __all__ = ["CUSP", "ROOT", "split_ds", "split_point", "vsplit_ds", "vsplit_point
 CUSP, ROOT = 1, 2
 CUSP_REL = 1e-8  # |f| at its minimum below this times (|f0| + |f*|): a cusp (r_el = 0 there)
 _MAX_IT = 60
-_expm1, _sqrt, _hypot = math.expm1, math.sqrt, math.hypot
+_expm1, _exp, _sqrt, _hypot = math.expm1, math.exp, math.sqrt, math.hypot
 
 
 def _h(L: Law, f0t, w, ww, fn0, dfn, mu_c, b, s):
@@ -47,7 +47,7 @@ def _h(L: Law, f0t, w, ww, fn0, dfn, mu_c, b, s):
     N1 = sum(fs[i] * w[i] for i in range(len(w)))
     g = -_expm1(-L.cn * (fn0 + s * dfn))
     mu_e = min(mu_c + (L.mu_s - mu_c) * -_expm1(-b * s), L.mu_s)
-    mr = (L.mu_s - mu_e) / mu_e
+    mr = (L.mu_s - mu_c) * _exp(-b * s) / mu_e  # (mu_s - mu_e) / mu_e without cancellation
     h = N1 / q - L.cn * (1.0 - g) * dfn / g - b * mr
     hp = (ww * q - 2.0 * N1 * N1) / (q * q)
     hp += L.cn * L.cn * (1.0 - g) * dfn * dfn / (g * g) + b * b * L.mu_s * mr / mu_e
@@ -156,7 +156,7 @@ def _vh(L: Law, f0t, w, ww, fn0, dfn, mu_c, b, s):
     N1 = np.einsum("ij,ij->i", fs, w)
     g = -np.expm1(-L.cn * (fn0 + s * dfn))
     mu_e = np.minimum(mu_c + (L.mu_s - mu_c) * -np.expm1(-b * s), L.mu_s)
-    mr = (L.mu_s - mu_e) / mu_e
+    mr = (L.mu_s - mu_c) * np.exp(-b * s) / mu_e
     h = N1 / q - L.cn * (1.0 - g) * dfn / g - b * mr
     hp = (ww * q - 2.0 * N1 * N1) / (q * q)
     hp += L.cn * L.cn * (1.0 - g) * dfn * dfn / (g * g) + b * b * L.mu_s * mr / mu_e

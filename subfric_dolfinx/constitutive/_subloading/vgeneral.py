@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .common import EPS
-from .switch import vsplit_ds
+from .switch import ROOT, vsplit_ds
 from .vroot import finish, g_of, partials, vroot
 from .vrotation import rotation
 
@@ -29,7 +29,7 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
     split rows only. The quadratures are chained through scalar partials.
     """
     at, an, cn = L.at, L.an, L.cn
-    mu_s, mu_k = L.mu_s, L.mu_k
+    mu_k = L.mu_k
     m = nt + 1
     k = gi.size
     Pg = P[gi]
@@ -41,6 +41,7 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
     it = it_all[gi].copy()
     jump = jump_all[gi].copy()
     r0, mu0, b0 = br.r0[gi], br.mu0[gi], br.b[gi]
+    ms0 = -br.d_s[gi]  # mu_s - mu0, without cancellation
     dg1n = cn * (1.0 - g) * an  # d g1 / d ubar_n (only the normal column)
     # start state: f_s, rho_s, fn_s, g_s and their derivatives (zero without a split)
     f_s = f0t.copy()
@@ -68,13 +69,15 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
         gsi = g_of(L, fnsi)
         dgs = (cn * (1.0 - gsi))[:, None] * dfns
         m0 = mu0[si]
-        dm0 = ((mu_s - m0) * b)[:, None] * ds
+        dm0 = (ms0[si] * b)[:, None] * ds
         rhs = np.abs(fsi[:, 0]) if nt == 1 else np.hypot(fsi[:, 0], fsi[:, 1])
         rp = rhs > 0.0
         drh = np.einsum("ki,kij->kj", fsi, dfs) / np.where(rp, rhs, 1.0)[:, None]
         drh = np.where(rp[:, None], drh, 0.0)
         okr = rp & (r0[si] < 1.0)
         gsm = np.where(okr, gsi * m0, 1.0)
+        # (ROOT: r0 = r_n rho_s g_0 mu_n / (rho_0 g_s mu0): d r0 / d rho_s = r0 / rho_s)
+        gsm = np.where(split[Ps] == ROOT, np.where(okr, rhs / r0[si], 1.0), gsm)
         gs1 = np.where(okr, gsi, 1.0)
         dr0_si = drh / gsm[:, None] - r0[si][:, None] * (dgs / gs1[:, None] + dm0 / m0[:, None])
         dr0[si] = np.where(okr[:, None], dr0_si, 0.0)
@@ -116,6 +119,7 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
     ft, f_s, df_s, rho_s, drho_s = ft[q], f_s[q], df_s[q], rho_s[q], drho_s[q]
     dr0, dmu0, db, dg_s, g_s = dr0[q], dmu0[q], db[q], dg_s[q], g_s[q]
     r0, mu0, b0, fn, fn_s, dfn_s = r0[q], mu0[q], b0[q], fn[q], fn_s[q], dfn_s[q]
+    ms0 = ms0[q]
     dA, ddl0, dl0, A, g, dg1n = dA[q], ddl0[q], dl0[q], A[q], g[q], dg1n[q]
     tol_q = tol_f[gi][q]
     kq = q.size
@@ -151,9 +155,11 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
     U0 = L.ut * c0 / sin0_
     gp = cn * (1.0 - g_s)
     dfr = fn - fn_s
-    num = W * cth0 / gs_ - rho_s * gp * dfr / (gs_ * gs_) - b0 * (mu_s - mu0) * r0
+    num = W * cth0 / gs_ - rho_s * gp * dfr / (gs_ * gs_) - b0 * ms0 * r0
     den = -L.kappa * (mu0 - mu_k) * r0 + U0 * mu0 + at / gs_
     lam_on = rf & (num > 0.0) & (den > 0.0)
+    # at a ROOT split the start is the loading switch: num = 0 there by construction
+    lam_on &= split[Pg[q]] != ROOT
     if np.any(lam_on):
         lam = np.where(lam_on, num / np.where(lam_on, den, 1.0), 0.0)
         gs2 = gs_ * gs_
@@ -165,8 +171,8 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
             c_g = -W * cth0 / gs2 + rho_s * cn * dfr / gs2 + 2.0 * rho_s * gp * dfr / (gs2 * gs_)
             dnum += (c_g[:, None] * dg_s
                      - (gp * dfr / gs2)[:, None] * drho_s
-                     - ((mu_s - mu0) * r0)[:, None] * db + (b0 * r0)[:, None] * dmu0
-                     - (b0 * (mu_s - mu0))[:, None] * dr0)  # fmt: skip
+                     - (ms0 * r0)[:, None] * db + (b0 * r0)[:, None] * dmu0
+                     - (b0 * ms0)[:, None] * dr0)  # fmt: skip
             dU = (-L.ut * 0.5 * _PI / (sin0_ * sin0_))
             dden = (
                 (-L.kappa * (mu0 - mu_k) + dU * mu0)[:, None] * dr0

@@ -46,7 +46,7 @@ class VBr:
     views), so that a subset is one gather and the solver's work array one copy.
     """
 
-    def __init__(self, L: Law, A, g, r0, mu0, b, Pm=None) -> None:
+    def __init__(self, L: Law, A, g, r0, mu0, b, Pm=None, d_s=None) -> None:
         self.L = L
         if Pm is None:
             k = A.size
@@ -58,7 +58,7 @@ class VBr:
             Pm[1] = np.sin(qq) ** 2
             Pm[10] = 2.0 * np.sqrt(Pm[1] * (1.0 - Pm[1]))
             Pm[3] = mu0 - L.mu_k
-            Pm[4] = mu0 - L.mu_s
+            Pm[4] = mu0 - L.mu_s if d_s is None else d_s  # (given: no cancellation)
             Pm[5], Pm[6], Pm[7], Pm[9] = mu0, A, g, r0
             Eb, dEb = E_dE(b)
             Pm[11] = np.minimum(np.maximum(mu0 - b * Pm[4] * Eb, L.mu_k), L.mu_s)
