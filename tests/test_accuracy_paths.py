@@ -118,9 +118,10 @@ def test_turning_paths_are_second_order(key):
 if __name__ == "__main__":
     for key, (_, _, spms) in PATHS.items():
         errs, steps, peak = accuracy(key)
+        cells = [f"{s}/mm ({n} steps): {e:.2e}" for s, n, e in zip(spms, steps, errs, strict=True)]
         print(
             f"{key:9s} peak {peak:6.2f} MPa  "
-            + "  ".join(f"{s}/mm ({n} steps): {e:.2e}" for s, n, e in zip(spms, steps, errs, strict=False))
+            + "  ".join(cells)
             + "   orders "
             + " ".join(f"{o:.2f}" for o in orders(errs, spms))
         )
