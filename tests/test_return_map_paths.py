@@ -250,3 +250,23 @@ def test_a_real_first_slip_is_still_plastic():
     (|f_t*| = 5e-7 MPa, 2e-8 of g mu_s) from r = 0 is plastic, as the model wants."""
     res = P.return_map(np.array([[1e-9, 0.0, UN]]), P.initial_state(1, 2), 0.0)
     assert res.status[0] == Status.PLASTIC
+
+
+@pytest.mark.parametrize("n", [5, 40])
+def test_per_point_time_increments(n):
+    """``dt`` per point (the batch driver) gives what one call per point gives, on both paths."""
+    rng = np.random.default_rng(3)
+    st = state_with([15.0, 0.0])
+    st = st.take(np.zeros(n, dtype=int))
+    trial = np.column_stack([rng.uniform(-25, 25, n), rng.uniform(-25, 25, n)])
+    gap = np.column_stack([st.up + trial / P.alpha_t, np.full(n, UN)])
+    dt = rng.uniform(0.0, 30.0, n)
+    res = P.return_map(gap, st, dt)
+    for i in range(n):
+        one = P.return_map(gap[i : i + 1], st.take([i]), float(dt[i]))
+        np.testing.assert_allclose(res.traction[i], one.traction[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(res.state.mu[i], one.state.mu[0], rtol=1e-13)
+    with pytest.raises(ValueError, match="dt"):
+        P.return_map(gap, st, dt[:-1])
+    with pytest.raises(ValueError, match="dt"):
+        P.return_map(gap, st, np.where(np.arange(n) == 1, -1.0, dt))

@@ -92,7 +92,8 @@ def coulomb_return_map(
         params: Coulomb parameters.
         gap: Local gap ``(ubar_t1, [ubar_t2,] ubar_n)``, shape (N, nt + 1).
         state: Converged state at the start of the step (not modified).
-        dt: Time increment (unused by this rate-independent law; validated for symmetry).
+        dt: Time increment, a float or per point (N,) (unused by this rate-independent law;
+            validated for symmetry).
         out: State to write the end-of-step internal variables into.
         contact_tol: Relative width of the contact band (:mod:`.tolerances`; this law has no
             length of its own: the band is ``contact_tol max(|ubar_t|, |up|)``).
@@ -106,7 +107,10 @@ def coulomb_return_map(
     m = nt + 1
     if gap.shape != (n, m):
         raise ValueError(f"gap must have shape ({n}, {m}) to match the state, got {gap.shape}")
-    if not np.isfinite(float(dt)) or float(dt) < 0.0:
+    dta = np.asarray(dt, dtype=np.float64)
+    if dta.ndim not in (0, 1) or (dta.ndim == 1 and dta.shape != (n,)):
+        raise ValueError(f"dt must be a float or have shape ({n},), got {dta.shape}")
+    if not np.all(np.isfinite(dta) & (dta >= 0.0)):
         raise ValueError(f"dt = {dt!r} must be finite and >= 0")
     if out is state:
         raise ValueError("out must not be the input state (inputs are never mutated)")

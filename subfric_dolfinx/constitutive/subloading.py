@@ -198,7 +198,9 @@ def subloading_return_map(
         state: Converged state at the start of the step (not modified); with the start traction
             ``f`` (the law's own states) or without it (then the radial return: no split, no
             rotation).
-        dt: Time increment of the step (>= 0), s; drives the recovery of ``mu``.
+        dt: Time increment of the step (>= 0), s; drives the recovery of ``mu``. A float, or
+            one increment per point, shape (N,) (the material-point batch driver advances cases
+            with different steps together).
         out: State to write the end-of-step internal variables into (e.g. views of DOLFINx
             Quadrature functions); a new one with the variables of ``state`` is allocated when
             omitted. Must not be ``state``.
@@ -220,9 +222,7 @@ def subloading_return_map(
     m = nt + 1
     if gap.shape != (n, m):
         raise ValueError(f"gap must have shape ({n}, {m}) to match the state, got {gap.shape}")
-    dt = float(dt)
-    if not (math.isfinite(dt) and dt >= 0.0):
-        raise ValueError(f"dt = {dt!r} must be finite and >= 0")
+    dt = _check_dt(dt, n)
     tol, contact_tol = float(tol), float(contact_tol)
     if not (math.isfinite(tol) and tol >= 0.0 and math.isfinite(contact_tol) and contact_tol >= 0):
         raise ValueError(f"tol = {tol!r} and contact_tol = {contact_tol!r} must be finite, >= 0")
@@ -242,6 +242,22 @@ def subloading_return_map(
     return ReturnMapResult(tr, tan, out, status, unstable, iters)
 
 
+def _check_dt(dt, n: int) -> float | np.ndarray:
+    """``dt`` as a float, or as a float64 array (n,); finite and >= 0."""
+    if np.ndim(dt) == 0:
+        d = float(dt)
+        if not (math.isfinite(d) and d >= 0.0):
+            raise ValueError(f"dt = {d!r} must be finite and >= 0")
+        return d
+    a = np.asarray(dt, dtype=np.float64)
+    if a.shape != (n,):
+        raise ValueError(f"dt must be a float or have shape ({n},), got {a.shape}")
+    if not np.all(np.isfinite(a) & (a >= 0.0)):
+        i = int(np.flatnonzero(~(np.isfinite(a) & (a >= 0.0)))[0])
+        raise ValueError(f"dt[{i}] = {a[i]!r} must be finite and >= 0")
+    return a
+
+
 def _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol) -> ReturnMapResult:
     """The scalar path: :func:`~._subloading.point.point` per point, outputs from one list.
 
@@ -253,8 +269,13 @@ def _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol) -> ReturnM
     m = nt + 1
     f_a = state["f"].tolist() if has_f else [None] * n
     mu_a, r_a = state["mu"].tolist(), state["r"].tolist()
-    rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, strict=True)
-    res = [point(L, g, u, mu, r, f, dt, tol, max_iter, contact_tol) for g, u, mu, r, f in rows]
+    if isinstance(dt, float):
+        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, strict=True)
+        res = [point(L, g, u, mu, r, f, dt, tol, max_iter, contact_tol) for g, u, mu, r, f in rows]
+    else:
+        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, dt.tolist(), strict=True)
+        res = [point(L, g, u, mu, r, f, d, tol, max_iter, contact_tol)
+               for g, u, mu, r, f, d in rows]  # fmt: skip
     if n == 1:
         t, D, up1, mu1, r1, st, un, it = res[0]
         flat = t + [x for row in D for x in row] + up1

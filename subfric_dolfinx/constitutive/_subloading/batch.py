@@ -21,6 +21,8 @@ __all__ = ["batch"]
 def batch(L: Law, gap, state, dt, out, tol, max_iter, contact_tol, chunk: int = CHUNK):
     """Integrate ``state`` (an ``InterfaceState``, with or without ``f``) to ``gap``.
 
+    ``dt``: a float or per-point increments (N,).
+
     ``out``: the allocated end-of-step state (``f`` written when it has one). Returns
     ``(traction, tangent, status, unstable, iterations)``.
     """
@@ -37,8 +39,9 @@ def batch(L: Law, gap, state, dt, out, tol, max_iter, contact_tol, chunk: int = 
     with np.errstate(all="ignore"):
         for a in range(0, n, chunk):
             sl = slice(a, min(a + chunk, n))
+            dts = dt if np.ndim(dt) == 0 else dt[sl]
             _chunk(L, gap[sl], up_i[sl], mu_i[sl], r_i[sl],
-                   None if f_in is None else f_in[sl], dt, tol, max_iter, contact_tol,
+                   None if f_in is None else f_in[sl], dts, tol, max_iter, contact_tol,
                    tr[sl], tan[sl], up_o[sl], mu_o[sl], r_o[sl], status[sl],
                    unstable[sl], iters[sl])  # fmt: skip
     if "f" in out:
@@ -78,12 +81,12 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
     else:
         touching = ok & (un == 0.0)
     contact = ok & ~touching & (un > 0.0) & (g > 0.0)
-    b = L.xi * dt
+    b = np.full(n, L.xi * dt) if np.ndim(dt) == 0 else L.xi * dt  # per point
     mu_rec = np.minimum(mu_c + (mu_s - mu_c) * (-np.expm1(-b)), mu_s)
 
     # split of the elastic trial segment at the elastic -> plastic switch (.switch), computed on
     # the candidates only
-    mu_st, r_st, b_st, d_st = mu_c, r_c, np.full(n, b), mu_c - mu_s
+    mu_st, r_st, b_st, d_st = mu_c, r_c, b.copy(), mu_c - mu_s
     split = np.zeros(n, dtype=np.int8)  # 0 or the kind of split
     split_s = np.zeros(n)
     f_s = None
@@ -94,7 +97,7 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
         cand = np.flatnonzero(contact & (fn0 > 0.0) & np.isfinite(A))
         if cand.size:
             sc, kc = vsplit_point(L, f0t[cand], fn0[cand], ft[cand], fn[cand], A[cand],
-                                  mu_c[cand], b)  # fmt: skip
+                                  mu_c[cand], b[cand])  # fmt: skip
             split[cand], split_s[cand] = kc, sc
         si = np.flatnonzero(split)
         if si.size:
@@ -103,7 +106,8 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
             fn_m = fn0[si] + s * (fn[si] - fn0[si])
             g_s = g_of(L, fn_m)
             mu_c_ = mu_c[si]
-            mu_m = np.minimum(mu_c_ + (mu_s - mu_c_) * (-np.expm1(-b * s)), mu_s)
+            bs = b[si] * s
+            mu_m = np.minimum(mu_c_ + (mu_s - mu_c_) * (-np.expm1(-bs)), mu_s)
             rho_m = np.abs(f_s[si, 0]) if nt == 1 else np.hypot(f_s[si, 0], f_s[si, 1])
             gm = g_s * mu_m
             r_m = np.where(gm > 0.0, np.where(rho_m < gm, rho_m / gm, 1.0),
@@ -115,9 +119,9 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
                 q = (rho_m[ro] / rho0) * (g_of(L, fn0[sr]) / g_s[ro]) * (mu_c[sr] / mu_m[ro])
                 r_m[ro] = np.minimum(r_c[sr] * q, 1.0)
             mu_st, r_st, mu_rec_st = mu_c.copy(), r_c.copy(), mu_rec.copy()
-            mu_st[si], r_st[si], b_st[si] = mu_m, r_m, b - b * s
+            mu_st[si], r_st[si], b_st[si] = mu_m, r_m, b[si] - bs
             d_st = d_st.copy()
-            d_st[si] = (mu_c_ - mu_s) * np.exp(-b * s)  # mu_st - mu_s without cancellation
+            d_st[si] = (mu_c_ - mu_s) * np.exp(-bs)  # mu_st - mu_s without cancellation
             mu_rec_st[si] = np.minimum(mu_m + (mu_s - mu_m) * (-np.expm1(-b_st[si])), mu_s)
     finite = np.isfinite(A)
     # plastic only when the trial leaves the loading surface by more than tol g mu

@@ -58,7 +58,8 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
         wv = ft[si] - f0t[si]
         Ps = Pg[si]
         s = split_s[Ps]
-        ds = vsplit_ds(L, f0t[si], ft[si], fn0[si], fn[si], mu_c[Ps], b, s, split[Ps])
+        bp = b[Ps]
+        ds = vsplit_ds(L, f0t[si], ft[si], fn0[si], fn[si], mu_c[Ps], bp, s, split[Ps])
         fsi = f0t[si] + s[:, None] * wv
         dfs = ds[:, None, :] * wv[:, :, None]
         for i in range(nt):
@@ -69,7 +70,7 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
         gsi = g_of(L, fnsi)
         dgs = (cn * (1.0 - gsi))[:, None] * dfns
         m0 = mu0[si]
-        dm0 = (ms0[si] * b)[:, None] * ds
+        dm0 = (ms0[si] * bp)[:, None] * ds
         rhs = np.abs(fsi[:, 0]) if nt == 1 else np.hypot(fsi[:, 0], fsi[:, 1])
         rp = rhs > 0.0
         drh = np.einsum("ki,kij->kj", fsi, dfs) / np.where(rp, rhs, 1.0)[:, None]
@@ -82,7 +83,7 @@ def general(L, P, gi, nt, ft_p, A_p, tstar, fn_p, g_p, f0, split, split_s, mu_c,
         dr0_si = drh / gsm[:, None] - r0[si][:, None] * (dgs / gs1[:, None] + dm0 / m0[:, None])
         dr0[si] = np.where(okr[:, None], dr0_si, 0.0)
         f_s[si], fn_s[si], df_s[si], drho_s[si] = fsi, fnsi, dfs, drh
-        dmu0[si], db[si], dg_s[si], dfn_s[si] = dm0, -b * ds, dgs, dfns
+        dmu0[si], db[si], dg_s[si], dfn_s[si] = dm0, -bp[:, None] * ds, dgs, dfns
     g_s = g_of(L, fn_s)
     rho_s = np.abs(f_s[:, 0]) if nt == 1 else np.hypot(f_s[:, 0], f_s[:, 1])
     dA = np.zeros((k, m))
