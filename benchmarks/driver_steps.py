@@ -12,7 +12,10 @@ Prints (thread CPU time, ``time.thread_time``, best of 5: the machine is shared)
    rows, one step per row interval): constant, where the previous driver interpolated over the
    whole path at every step (27 ms per step at 10^6 rows);
 4. the batch driver (``run_cases``): the six curves of Fig. 10 (20 mm at 100..600 MPa) one by
-   one and together, and N = 30, 100, 1000 cases.
+   one and together, and N = 30, 100, 1000 cases;
+5. one call of the map on N points by its scalar path and by its numpy path (elastic, 1-D
+   plastic, 2-D plastic with a turn): where the numpy path's fixed cost is paid back (the map's
+   ``SMALL_N``).
 
 Usage: ``./run exec python3 benchmarks/driver_steps.py [--quick]`` (``--quick``: no 10^6 rows,
 no 1000 cases). No timing is asserted anywhere.
@@ -31,6 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import subfric_dolfinx.constitutive.subloading as _sub
 from benchmarks.old_map import old
 from subfric_dolfinx.constitutive import InterfaceState, SubloadingLaw, preset
 from subfric_dolfinx.driver import Case, run_case, run_cases
@@ -167,6 +171,48 @@ def main() -> None:
         bat = timed(lambda cs=cs: run_cases(cs))
         print(f"   {n:5d} cases of {run_case(cs[0]).n_steps} steps: one by one {per * n:.2f} s "
               f"(from {k}), together {bat:.2f} s, speed-up {per * n / bat:.1f}")  # fmt: skip
+    crossover()
+
+
+def path_costs(n: int, nt: int, delta: float) -> tuple[float, float]:
+    """Seconds per call on ``n`` points by the scalar and by the numpy path."""
+    rng = np.random.default_rng(0)
+    fn = rng.uniform(100.0, 600.0, n)
+    g = -np.expm1(-P.c_n * fn)
+    mu, r = np.full(n, 70.0), np.full(n, 0.95)
+    f = np.zeros((n, nt + 1))
+    f[:, 0], f[:, nt] = g * r * mu, fn
+    up = np.zeros((n, nt))
+    up[:, 0] = 0.05
+    gap = np.zeros((n, nt + 1))
+    gap[:, 0] = 0.05 + f[:, 0] / P.alpha_t + delta
+    gap[:, nt] = fn / P.alpha_n
+    if nt == 2:
+        gap[:, 1] = 0.0005
+    st = InterfaceState({"up": up, "mu": mu, "r": r, "f": f}, nt)
+    keep = _sub.SMALL_N
+    try:
+        _sub.SMALL_N = 10**9
+        a = best_call(lambda: P.return_map(gap, st, 0.0025))
+        _sub.SMALL_N = 0
+        b = best_call(lambda: P.return_map(gap, st, 0.0025))
+    finally:
+        _sub.SMALL_N = keep
+    return a, b
+
+
+def crossover() -> None:
+    print(f"\n5. one call on N points, scalar path / numpy path (us; the map uses the scalar path "
+          f"up to SMALL_N = {_sub.SMALL_N}):")  # fmt: skip
+    sizes = (1, 8, 16, 32, 64, 128)
+    print("   " + f"{'':22s}" + "".join(f"{n:>15d}" for n in sizes))
+    for name, nt, delta in (("elastic", 1, -0.0005), ("plastic 1-D", 1, 0.002),
+                            ("plastic 2-D turn", 2, 0.002)):  # fmt: skip
+        cells = []
+        for n in sizes:
+            a, b = path_costs(n, nt, delta)
+            cells.append(f"{1e6 * a:7.0f}/{1e6 * b:<7.0f}")
+        print(f"   {name:22s}" + "".join(cells))
 
 
 if __name__ == "__main__":

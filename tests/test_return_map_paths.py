@@ -4,7 +4,7 @@
   through zero in 1-D, split at a 2-D near-reversal, loading switch after a turn, rotation from a
   fixed start, start along the trial; an exact 2-D reversal is a kink of the map, as of the exact
   solution: the split point's ``|f_t|`` is a cone in the gap);
-* the scalar path (at most 8 points) and the numpy path give the same numbers to 1e-12;
+* the scalar path (at most SMALL_N = 32 points) and the numpy path give the same numbers to 1e-12;
 * the unrolled fast paths equal the general path;
 * a state without the start traction ``f`` gives the radial return;
 * the contact band and the loading margin (``constitutive/tolerances.py``, issue 12 items 7b/7c):

@@ -41,9 +41,9 @@ gap ``(ubar_t, ubar_n)``:
    (exact for what is computed, so that FE Newton converges quadratically).
 
 The start traction is the internal variable ``f`` (:data:`SubloadingLaw.variables`); a state
-without it gives the radial return of steps 1, 3, 4 (no split, no rotation). Small batches
-(at most 8 points) go through a scalar path in plain floats (``_subloading.point``, the
-readable specification), larger ones through numpy in chunks of 8192 points
+without it gives the radial return of steps 1, 3, 4 (no split, no rotation). Small batches (at
+most ``SMALL_N`` = 32 points) go through a scalar path in plain floats (``_subloading.point``,
+the readable specification), larger ones through numpy in chunks of 8192 points
 (``_subloading.batch``); both give the same numbers to round-off.
 
 The result is never NaN or inf; a point that cannot be integrated (non-finite input, or no

@@ -5,7 +5,7 @@ sets, several paths) side by side: at every iteration each unfinished case takes
 and the cases sharing a law go through ONE call of the batched return map (each case one point,
 with its own time increment). The steps of a case are exactly those :func:`~.run.run_case` takes
 (same plan, same arithmetic), so each result equals the one-by-one run to round-off (the map's
-scalar path for at most 8 points, its numpy path above, agree to 1e-12).
+scalar path for at most 32 points, its numpy path above, agree to 1e-12).
 
 Cost: one step of N cases costs one map call on N points plus a fixed loop overhead, instead of
 N calls and N loop overheads. With few cases the map's per-point cost dominates (the scalar path,

@@ -14,7 +14,10 @@ KD_CAP = 36.0  # cap of k * d_n in the offset c of the Newton variable (r_n = 1 
 ROT_LO, ROT_HI = 1e-100, 1e100  # rotation only for tractions (MPa) and g in this range
 HERMITE_MIN = 0.5  # model of |f_t| in a step used when its minimum >= this * end values
 SPLIT_EPS = 8.0 * EPS  # a split needs (1 - s*) |w| > SPLIT_EPS (|f0| + |f*|)
-SMALL_N = 8  # batches of at most this many points take the scalar path
+# batches of at most this many points take the scalar path: the numpy path's fixed cost per call
+# (130 us elastic, 600 us 1-D plastic, 1.4 ms 2-D plastic) equals the scalar path's (4-5, 12 and
+# 40 us per point) at about 32, 60 and 40 points (benchmarks/driver_steps.py, section 5)
+SMALL_N = 32
 CHUNK = 8192  # points per chunk of the numpy path (best of 1024..100000 on a 1 MB-L2 core)
 # Gauss-Legendre on [0, 1]: 3 outer points (C = int cos theta; plus x = 1 for theta_1) and 2
 # inner points per outer node (J(x) = int_0^x dy / rho): 8 inner nodes. With the elastic path
