@@ -24,6 +24,7 @@ __all__ = [
     "CaseError",
     "load_case",
     "parse_case",
+    "read_json",
 ]
 
 DEFAULT_STEPS_PER_MM = 200.0
@@ -137,6 +138,42 @@ def _parse(obj: dict) -> Case:
     return Case(law, control, path, samples, int(nt), spm)
 
 
+def read_json(path: str | Path, what: str = "case file") -> Any:
+    """Read a JSON file defensively: every malformed file gives one :class:`CaseError`.
+
+    Args:
+        path: The file.
+        what: How the message calls it (``"case file"``, ``"data file"``).
+
+    Raises:
+        CaseError: Unreadable, a directory, larger than ``MAX_CASE_BYTES``, not UTF-8, invalid
+            JSON, nested too deeply, or an integer beyond Python's digit limit.
+    """
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise CaseError(f"{what} {str(p)!r} is a directory")
+        if p.stat().st_size > MAX_CASE_BYTES:
+            raise CaseError(f"{what} {str(p)!r} is larger than {MAX_CASE_BYTES} bytes")
+        data = p.read_bytes()
+    except OSError as e:
+        raise CaseError(f"cannot read {what} {str(p)!r}: {e.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        bad = data[e.start : e.start + 1]
+        msg = f"{what} {str(p)!r} is not UTF-8 text (byte {e.start}: {bad!r})"
+        raise CaseError(msg) from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CaseError(f"{what} {str(p)!r} is not valid JSON: {e}") from None
+    except RecursionError:
+        raise CaseError(f"{what} {str(p)!r} nests too deeply to be read") from None
+    except ValueError as e:  # e.g. an integer beyond Python's digit limit
+        raise CaseError(f"{what} {str(p)!r} is not valid: {e}") from None
+
+
 def load_case(path: str | Path) -> Case:
     """Read and validate a CASE.json file.
 
@@ -144,27 +181,4 @@ def load_case(path: str | Path) -> Case:
         CaseError: Unreadable file, not UTF-8, invalid JSON (also: nested too deeply, an integer
             beyond Python's digit limit), or a bad field (named in the message).
     """
-    p = Path(path)
-    try:
-        if p.is_dir():
-            raise CaseError(f"case file {str(p)!r} is a directory")
-        if p.stat().st_size > MAX_CASE_BYTES:
-            raise CaseError(f"case file {str(p)!r} is larger than {MAX_CASE_BYTES} bytes")
-        data = p.read_bytes()
-    except OSError as e:
-        raise CaseError(f"cannot read case file {str(p)!r}: {e.strerror}") from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as e:
-        bad = data[e.start : e.start + 1]
-        msg = f"case file {str(p)!r} is not UTF-8 text (byte {e.start}: {bad!r})"
-        raise CaseError(msg) from None
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise CaseError(f"case file {str(p)!r} is not valid JSON: {e}") from None
-    except RecursionError:
-        raise CaseError(f"case file {str(p)!r} nests too deeply to be a case") from None
-    except ValueError as e:  # e.g. an integer beyond Python's digit limit
-        raise CaseError(f"case file {str(p)!r} is not a valid case: {e}") from None
-    return parse_case(obj)
+    return parse_case(read_json(path, "case file"))

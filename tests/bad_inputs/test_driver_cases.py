@@ -295,7 +295,7 @@ BIG = "1" + "0" * 399  # a 400-digit integer
         (json.dumps(CASE).replace('"preset": "sec7"', f'"preset": "sec7", "kappa": {BIG}'),
          ("kappa",)),
         (json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": ' + "9" * 5000),
-         ("not a valid case",)),
+         ("is not valid",)),
         ('"a string"', ("JSON object",)),
         ("", ("not valid JSON",)),
         (json.dumps({**CASE, "control": ["disp"]}), ("'control'",)),
