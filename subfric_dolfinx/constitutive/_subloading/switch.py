@@ -223,9 +223,17 @@ def vsplit_point(L: Law, f0t, fn0, ft, fn, A, mu_c, b):
     args = (f0t[rows], w[rows], ww[rows], fn0[rows], dfn[rows], mu_c[rows], bb[rows])
     isA = refine[rows]
     x0 = np.where(isA, s_f[rows], 0.0)
-    hx, hpx = _vh(L, *args, x0)[:2]
-    h1 = _vh(L, *args, np.ones(rows.size))[0]
-    h0 = np.where(isA, _vh(L, *args, np.zeros(rows.size))[0], hx)
+    hx, hpx = _vh(L, *args, x0)[:2]  # B: h(0); A: h(s_f)
+    # h(1) and h(0) only where the decision needs them (B: h(0) < 0 is rare in loading steps)
+    need1 = hx < 0.0
+    h1 = np.zeros(rows.size)
+    i1 = np.flatnonzero(need1)
+    if i1.size:
+        h1[i1] = _vh(L, *(a[i1] for a in args), np.ones(i1.size))[0]
+    h0 = hx.copy()
+    i0 = np.flatnonzero(isA & (hx > 0.0))
+    if i0.size:
+        h0[i0] = _vh(L, *(a[i0] for a in args), np.zeros(i0.size))[0]
     lo = np.where(isA & (hx > 0.0), 0.0, x0)
     hi = np.where(isA & (hx > 0.0), x0, 1.0)
     # A: h(s_f) < 0 needs h(1) > 0 (else the cusp split stays); h(s_f) > 0 needs h(0) < 0
