@@ -55,10 +55,21 @@ def _h(L: Law, f0t, w, ww, fn0, dfn, mu_c, b, s):
 
 
 def _newton(L, args, lo, hi, x, hx, hpx):
-    """Safeguarded Newton for ``h = 0`` on ``[lo, hi]`` (``h(lo) < 0 < h(hi)``) from ``x``."""
+    """Safeguarded Newton for ``h = 0`` on ``[lo, hi]`` (``h(lo) < 0 < h(hi)``) from ``x``.
+
+    Stops when ``h = 0``, when the Newton step falls below the rounding of ``x`` (before it is
+    taken: a step that cannot move ``x`` would otherwise count as leaving the bracket and turn
+    into some 50 bisections), when the last step was that small, or the bracket is exhausted.
+    """
     dx_old = hi - lo
     for _ in range(_MAX_IT):
-        xn = x - hx / hpx if hpx > 0.0 else -1.0
+        if hpx > 0.0:
+            step = hx / hpx
+            if abs(step) <= 4.0 * EPS * x:  # converged: the Newton step is below rounding
+                break
+            xn = x - step
+        else:
+            xn = -1.0
         if not (lo < xn < hi) or abs(xn - x) > 0.5 * abs(dx_old):
             xn = 0.5 * (lo + hi)
         dx_old = xn - x
@@ -171,8 +182,17 @@ def _vnewton(L, args, lo, hi, x, hx, hpx):
         if not act.any():
             break
         i = np.flatnonzero(act)
-        xi, hxi, hpi, li, hi_ = x[i], hx[i], hpx[i], lo[i], hi[i]
-        xn = np.where(hpi > 0.0, xi - hxi / np.where(hpi > 0.0, hpi, 1.0), -1.0)
+        xi, hxi, hpi = x[i], hx[i], hpx[i]
+        step = hxi / np.where(hpi > 0.0, hpi, 1.0)
+        conv = (hpi > 0.0) & (np.abs(step) <= 4.0 * EPS * xi)  # step below rounding: done
+        if conv.any():
+            act[i[conv]] = False
+            keep = ~conv
+            i, xi, hxi, hpi, step = i[keep], xi[keep], hxi[keep], hpi[keep], step[keep]
+            if i.size == 0:
+                break
+        li, hi_ = lo[i], hi[i]
+        xn = np.where(hpi > 0.0, xi - step, -1.0)
         bad = ~((li < xn) & (xn < hi_)) | (np.abs(xn - xi) > 0.5 * np.abs(dx_old[i]))
         xn = np.where(bad, 0.5 * (li + hi_), xn)
         dx_old[i] = xn - xi
