@@ -19,8 +19,11 @@
 #
 #     mpirun -n 2 python3 demos/block_on_base.py [--n 32] [--fields vtx] [--out DIR]
 #
-# With `--checkpoint-every N` it writes `checkpoint.h5` every N steps (and on SIGTERM, after the
-# current step); `--restart DIR/checkpoint.h5` continues from one, on any number of ranks.
+# With `--checkpoint-every N` it writes `checkpoint.h5` every N steps; `--restart
+# DIR/checkpoint.h5` continues from one, on any number of ranks. To stop a run cleanly, send
+# SIGUSR1 to `mpirun` (`kill -USR1 <pid of mpirun>`): every rank finishes its step, the checkpoint
+# is written and the demo exits with code 75 and one line (SIGTERM to `mpirun` is followed by a
+# kill ~0.2 s later, usually too soon; SIGTERM, SIGUSR1 or SIGUSR2 to a single process work alike).
 #
 # It prints progress on rank 0, the timing breakdown, and writes the CSV history and two figures
 # into the output directory. PETSc options apply under the prefix `block_`, e.g.
@@ -32,8 +35,7 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from subfric_dolfinx import logs
-from subfric_dolfinx.scenes import run_scene
+from subfric_dolfinx.scenes import cli, run_scene
 
 # ## The scene
 #
@@ -142,7 +144,7 @@ def figures(result, outdir, hold):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = cli.demo_parser(__doc__)
     ap.add_argument("--n", type=int, default=16, help="elements along the interface (16)")
     ap.add_argument("--hold", type=float, default=20.0, help="hold time in s (20)")
     ap.add_argument("--dt", type=float, default=0.02, help="initial time step in s (0.02)")
@@ -153,16 +155,13 @@ def parser() -> argparse.ArgumentParser:
         "--checkpoint-every", type=int, default=0, help="write checkpoint.h5 every N steps"
     )
     ap.add_argument("--restart", default=None, help="continue from this checkpoint")
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
-    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
-    args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
-    logs.configure(args.verbose - args.quiet, comm)
+    args = cli.parse_args(parser(), argv, comm)  # one-dash options go to PETSc
     outdir = Path(args.out)
     sc = scene(args.n, args.hold, args.dt, args.fields, args.checkpoint_every)
     result = run_scene(sc, outdir=outdir, comm=comm, restart=args.restart)
@@ -173,8 +172,4 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 if __name__ == "__main__":
-    import petsc4py
-
-    _, petsc_args = parser().parse_known_args()
-    petsc4py.init([sys.argv[0], *petsc_args])  # PETSc's options only, before PETSc is imported
-    main()
+    sys.exit(cli.run_main(main))

@@ -66,9 +66,8 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS
-from subfric_dolfinx.scenes import run_scene
+from subfric_dolfinx.scenes import cli, run_scene
 
 PRESSURE = 300.0  # MPa
 PERIOD = 2.0  # s
@@ -225,7 +224,7 @@ def figures(results, cycles, load, outdir):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = argparse.ArgumentParser(description="Clamped joint under a cyclic tangential load")
+    ap = cli.demo_parser("Clamped joint under a cyclic tangential load")
     ap.add_argument("--n", type=int, default=16, help="elements along the interface (16)")
     ap.add_argument("--cycles", type=int, default=20, help="number of load cycles (20)")
     ap.add_argument(
@@ -235,16 +234,13 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--alpha", type=float, default=ALPHA, help="alpha_t = alpha_n (1e5)")
     ap.add_argument("--out", default="demos/output/lap_joint", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
-    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
-    args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
-    logs.configure(args.verbose - args.quiet, comm)
+    args = cli.parse_args(parser(), argv, comm)  # one-dash options go to PETSc
     outdir = Path(args.out)
     results = {}
     for name, law in laws(PRESSURE, args.alpha).items():
@@ -271,8 +267,4 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 if __name__ == "__main__":
-    import petsc4py
-
-    _, petsc_args = parser().parse_known_args()
-    petsc4py.init([sys.argv[0], *petsc_args])  # PETSc's options only, before PETSc is imported
-    main()
+    sys.exit(cli.run_main(main))

@@ -62,9 +62,8 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS
-from subfric_dolfinx.scenes import run_scene
+from subfric_dolfinx.scenes import cli, run_scene
 
 # ## The loading program
 #
@@ -288,7 +287,7 @@ def figures(result, outdir, strokes, c_n):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = argparse.ArgumentParser(description="Pad on a plate: reciprocal sliding with holds")
+    ap = cli.demo_parser("Pad on a plate: reciprocal sliding with holds")
     ap.add_argument("--n", type=int, default=6, help="elements along the pad's side (6)")
     ap.add_argument("--cell", choices=["hexahedron", "tetrahedron"], default="hexahedron")
     ap.add_argument(
@@ -311,16 +310,13 @@ def parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--out", default="demos/output/pad_on_plate", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
-    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
-    args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
-    logs.configure(args.verbose - args.quiet, comm)
+    args = cli.parse_args(parser(), argv, comm)  # one-dash options go to PETSc
     outdir = Path(args.out)
     fields = None if args.fields == "none" else args.fields
     sc = scene(args.n, args.cell, args.holds, args.amplitude, args.pressure, args.dt, fields)
@@ -341,8 +337,4 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 if __name__ == "__main__":
-    import petsc4py
-
-    _, petsc_args = parser().parse_known_args()
-    petsc4py.init([sys.argv[0], *petsc_args])  # PETSc's options only, before PETSc is imported
-    main()
+    sys.exit(cli.run_main(main))

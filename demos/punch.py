@@ -84,10 +84,9 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import build_law
 from subfric_dolfinx.driver import run_case
-from subfric_dolfinx.scenes import run_scene
+from subfric_dolfinx.scenes import cli, run_scene
 
 SLIDE = 1.0  # mm, at 1 mm/s
 DEPTH = 0.0083  # mm: mean pressure about 1000 MPa with alpha_n = 1e6
@@ -287,7 +286,7 @@ def figures(sub, coul, mu_c, c_n, mu_s, outdir):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = argparse.ArgumentParser(description="Flat punch: saturation against Coulomb")
+    ap = cli.demo_parser("Flat punch: saturation against Coulomb")
     ap.add_argument("--n", type=int, default=16, help="elements across the punch (16)")
     ap.add_argument("--alpha", type=float, default=1e6, help="alpha_t = alpha_n in MPa/mm (1e6)")
     ap.add_argument("--c-n", type=float, default=C_N, help="c_n in 1/MPa (1e-3)")
@@ -295,16 +294,13 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--dt", type=float, default=0.01, help="initial time step in s (0.01)")
     ap.add_argument("--out", default="demos/output/punch", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
-    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
     return ap
 
 
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
-    args, _ = parser().parse_known_args(argv)  # the rest are PETSc options
-    logs.configure(args.verbose - args.quiet, comm)
+    args = cli.parse_args(parser(), argv, comm)  # one-dash options go to PETSc
     outdir = Path(args.out)
     law = subloading_law(args.alpha, args.c_n)
     sub = run_scene(
@@ -346,8 +342,4 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 if __name__ == "__main__":
-    import petsc4py
-
-    _, petsc_args = parser().parse_known_args()
-    petsc4py.init([sys.argv[0], *petsc_args])  # PETSc's options only, before PETSc is imported
-    main()
+    sys.exit(cli.run_main(main))

@@ -12,12 +12,14 @@ reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping, Sequence
 
 import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..constitutive import FrictionLaw
@@ -26,7 +28,49 @@ from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
 from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
-__all__ = ["InterfaceProblem"]
+__all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
+
+logger = logging.getLogger(__name__)
+
+PENETRATION_WARNING = 0.1
+"""A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about
+(once per run, naming the largest): the penalty is too soft for the mesh, and the geometrically
+linear model (pairs and frames fixed at the reference geometry) no longer describes the contact."""
+
+
+def _check_facet_groups(domain, conditions: Sequence) -> None:
+    """Every condition must be on a group of facets (collective).
+
+    Raises:
+        InterfaceError: A condition on a group of cells, of another dimension, or without facets.
+    """
+    mesh = domain.mesh
+    tdim = mesh.topology.dim
+    dims = getattr(domain, "dims", None) or {}
+    groups = list(dict.fromkeys(c.group for c in conditions))
+    n_owned = mesh.topology.index_map(tdim - 1).size_local
+    ncells = mesh.topology.index_map(tdim).size_local
+    local = np.zeros((len(groups), 2), dtype=np.int64)
+    for i, g in enumerate(groups):
+        tag = domain.tags[g]
+        local[i, 0] = np.count_nonzero(domain.facet_tags.find(tag) < n_owned)
+        local[i, 1] = np.count_nonzero(domain.cell_tags.find(tag) < ncells)
+    total = mesh.comm.allreduce(local) if groups else local
+    for g, (nf, nc) in zip(groups, total, strict=True):
+        kind = type(next(c for c in conditions if c.group == g)).__name__
+        dim = dims.get(g)
+        if dim == tdim or (dim is None and nf == 0 and nc > 0):
+            raise InterfaceError(
+                f"{kind} condition on {g!r}: a group of cells (dimension {tdim}), not of facets "
+                f"(dimension {tdim - 1}); conditions act on boundary facets"
+            )
+        if dim is not None and dim != tdim - 1:
+            raise InterfaceError(
+                f"{kind} condition on {g!r}: a group of dimension {dim}, not of facets "
+                f"(dimension {tdim - 1}); conditions act on boundary facets"
+            )
+        if nf == 0:
+            raise InterfaceError(f"{kind} condition on {g!r}: the group has no facets")
 
 
 class InterfaceProblem:
@@ -80,6 +124,7 @@ class InterfaceProblem:
             )
         for c in [*dirichlet, *loads]:
             program.amplitude(c.amplitude, program.t_start)  # unknown channel -> LoadingError
+        _check_facet_groups(domain, [*dirichlet, *loads])
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
         gdim = mesh.geometry.dim
@@ -174,6 +219,11 @@ class InterfaceProblem:
             keep = dofs < n_owned
             vals = vals[:, keep] if isinstance(c, DirichletField) else vals[keep]
             self.dirichlet.append((c, dofs[keep].astype(np.int32), vals))
+        # the dofs of each Dirichlet group (all its conditions, e.g. one per component)
+        self._reaction_dofs = {
+            g: np.unique(np.concatenate([d for c, d, _ in self.dirichlet if c.group == g]))
+            for g in sorted({c.group for c, _, _ in self.dirichlet})
+        }
         self.bc_dofs = (
             np.unique(np.concatenate([d for _, d, _ in self.dirichlet]))
             if self.dirichlet
@@ -189,6 +239,9 @@ class InterfaceProblem:
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
+        self.penetration: dict | None = None  # the largest beyond the warning, see commit
+        self._penetration_warned = False
+        self._h_points: np.ndarray | None = None
 
     # ------------------------------------------------------------------------------------------
     def set_step(self, t: float, dt: float) -> None:
@@ -263,20 +316,76 @@ class InterfaceProblem:
             J.zeroRows(self.bc_rows, diag=1.0)
 
     def _reactions(self, Fa: np.ndarray) -> dict[str, np.ndarray]:
+        """Reaction force of every Dirichlet group (collective).
+
+        The residual summed over the owned dofs of all conditions on the group, each dof once.
+        """
         bs = self.V.dofmap.bs
-        out = {}
-        for c, dofs, _ in self.dirichlet:
-            r = np.zeros(bs)
-            np.add.at(r, dofs % bs, Fa[dofs])
-            out[c.group] = r
-        keys = sorted(out)
-        tot = self.comm.allreduce(np.array([out[k] for k in keys]).reshape(-1, bs)) if keys else []
-        return {k: tot[i] for i, k in enumerate(keys)}
+        groups = self._reaction_dofs
+        if not groups:
+            return {}
+        loc = np.zeros((len(groups), bs))
+        for i, dofs in enumerate(groups.values()):
+            np.add.at(loc[i], dofs % bs, Fa[dofs])
+        tot = self.comm.allreduce(loc)
+        return {k: tot[i] for i, k in enumerate(groups)}
 
     # ------------------------------------------------------------------------------------------
     def commit(self) -> None:
-        """Accept the interface's trial state (after a converged step)."""
+        """Accept the interface's trial state (after a converged step; collective).
+
+        Also tracks the largest penetration ``ubar_n`` relative to the interface element size
+        over the run (:attr:`penetration`, see :meth:`warn_penetration`).
+        """
         self.interface.commit()
+        self._track_penetration()
+
+    def _track_penetration(self) -> None:
+        el = self.interface
+        if self._h_points is None:  # element size at each point: length (2-D), sqrt(area) (3-D)
+            size = el.weights.sum(axis=1) ** (1.0 / max(self.gdim - 1, 1))
+            self._h_points = np.repeat(size, el.nq)
+        un = el.last_gap[:, el.nt] if el.last_gap.size else np.zeros(0)
+        ratio = un / self._h_points if un.size else un
+        i = int(np.argmax(ratio)) if ratio.size else -1
+        local = float(ratio[i]) if ratio.size else -np.inf
+        largest = self.comm.allreduce(local, op=MPI.MAX)
+        known = self.penetration["ratio"] if self.penetration else PENETRATION_WARNING
+        if not largest > known * (1.0 + 1e-3):  # one number per step, details when it grows
+            return
+        mine = None
+        if local == largest:
+            x = el.points.reshape(-1, self.gdim)[i]
+            mine = {
+                "ratio": largest,
+                "ubar_n": float(un[i]),
+                "h": float(self._h_points[i]),
+                "x": tuple(float(v) for v in x),
+                "f_n": float(el.last.traction[i, el.nt]),
+                "t": self.t,
+            }
+        self.penetration = next(p for p in self.comm.allgather(mine) if p is not None)
+
+    def warn_penetration(self) -> None:
+        """Warn once (log; rank 0 prints) if a penetration was large: name the largest, where, when.
+
+        Large: beyond :data:`PENETRATION_WARNING` times the interface element size. Not
+        collective (:meth:`commit` gathered it): safe while an error unwinds. The load stepper
+        calls it when its run ends, however it ends.
+        """
+        pen = self.penetration
+        if pen is None or self._penetration_warned:
+            return
+        self._penetration_warned = True
+        where = ", ".join(f"{v:.6g}" for v in pen["x"])
+        logger.warning(
+            "large penetration: ubar_n up to %.4g mm (at (%s), t = %.6g, f_n = %.4g MPa), %.3g "
+            "times the interface element size there (%.4g mm; warned beyond %g): the normal "
+            "penalty is soft for this mesh, and the small-sliding interface is no longer "
+            "accurate",
+            pen["ubar_n"], where, pen["t"], pen["f_n"], pen["ratio"], pen["h"],
+            PENETRATION_WARNING,
+        )  # fmt: skip
 
     def revert(self) -> None:
         """Reject the interface's trial state (after a failed step)."""

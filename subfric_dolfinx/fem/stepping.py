@@ -3,9 +3,12 @@
 :class:`LoadStepper` advances a :class:`~subfric_dolfinx.fem.solver.FrictionSolver` through its
 problem's loading program: steps end on every breakpoint (a reversal or the start of a hold is never
 stepped over) and on requested stop times; a failed step is undone (displacement and interface
-state) and retried with a smaller step; easy steps let the step grow; state is committed only after
-convergence. After too many cuts it raises :class:`StepFailure` naming the time and the last
-converged step, with that state intact.
+state), tried again with a backtracking line search (:data:`RETRY_OPTIONS`: Newton with full steps
+can cycle on the switch between open and closed contact) and, if that fails too, retried with a
+smaller step; easy steps let the step grow; state is committed only after convergence. After too
+many cuts it raises :class:`StepFailure` naming the time, the last converged step, whose state is
+intact, and what the return map saw at the failed attempt (status counts, the worst point, where).
+A step that converges at once costs nothing extra.
 
 Logging (:mod:`subfric_dolfinx.logs`): one INFO line per segment of the program (steps, Newton
 iterations mean/max, cuts, plastic fraction, wall time), one DEBUG line per step and per failed
@@ -18,13 +21,23 @@ import dataclasses
 import logging
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
+from ..constitutive import Status
 from .solver import FrictionSolver
 
-__all__ = ["LoadStepper", "StepFailure", "StepRecord"]
+__all__ = ["RETRY_OPTIONS", "LoadStepper", "StepFailure", "StepRecord", "describe_attempt"]
+
+RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
+"""Options of the second attempt at a step whose first attempt failed (before it is cut).
+
+The l2 line search (minimising the residual norm along the Newton direction) solves the cases
+where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
+set (``tests/test_reliability.py``); a backtracking line search (``bt``) solves the first but not
+the second."""
 
 logger = logging.getLogger(__name__)
 
@@ -37,11 +50,82 @@ class StepFailure(RuntimeError):
         last_t: Time of the last converged step (its state is intact).
         last_step: Index of the last converged step.
         reason: What failed (SNES reason, failed return-map points).
+        attempt: What the return map saw at the last iterate of the failed attempt
+            (:func:`describe_attempt`: ``counts``, ``worst``, ``text``), the same on every rank.
     """
 
-    def __init__(self, message: str, t: float, last_t: float, last_step: int, reason: str) -> None:
+    def __init__(
+        self,
+        message: str,
+        t: float,
+        last_t: float,
+        last_step: int,
+        reason: str,
+        attempt: dict[str, Any] | None = None,
+    ) -> None:
         super().__init__(message)
         self.t, self.last_t, self.last_step, self.reason = t, last_t, last_step, reason
+        self.attempt = attempt or {}
+
+
+_SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
+
+
+def describe_attempt(problem: Any) -> dict[str, Any]:
+    """What the return map saw at its last evaluation (collective; the same on every rank).
+
+    Returns:
+        ``counts`` (points per status, and ``UNSTABLE``, over all ranks), ``worst`` (the point
+        of the most severe status — FAILED, UNSTABLE, JUMP, PLASTIC, ELASTIC, SEPARATED — and,
+        among those, of the largest traction: its ``status``, coordinates ``x``, local
+        ``traction`` and ``gap``), and ``text``, a one-line summary of both.
+    """
+    el = problem.interface
+    res = el.last
+    names = [s.name for s in Status] + ["UNSTABLE"]
+    local = np.zeros(len(names), dtype=np.int64)
+    candidate = None
+    if res is not None and res.status.size:
+        c = res.counts()
+        local[:] = [c.get(n, 0) for n in names]
+        st = res.status
+        sev = np.select(
+            [st == Status.FAILED, res.unstable, st == Status.JUMP, st == Status.PLASTIC,
+             st == Status.ELASTIC],
+            [5, 4, 3, 2, 1],
+            0,
+        )  # fmt: skip
+        size = np.linalg.norm(res.traction, axis=1)
+        i = int(np.lexsort((size, sev))[-1])
+        x = el.points.reshape(-1, problem.gdim)[i]
+        candidate = (
+            int(sev[i]),
+            float(size[i]),
+            tuple(float(v) for v in x),
+            tuple(float(v) for v in res.traction[i]),
+            tuple(float(v) for v in el.last_gap[i]),
+        )
+    counts_arr = np.zeros_like(local)
+    problem.comm.Allreduce(local, counts_arr)
+    counts = {n: int(v) for n, v in zip(names, counts_arr, strict=True)}
+    found = [cand for cand in problem.comm.allgather(candidate) if cand is not None]
+    out: dict[str, Any] = {"counts": counts, "worst": None}
+    total = sum(counts[s.name] for s in Status)
+    shown = ", ".join(f"{n} {counts[n]}" for n in reversed(_SEVERITY) if counts[n])
+    text = f"return map at the last iterate: {shown or 'no point'} (of {total} points)"
+    if found:
+        sev, _, x, tr, gap = max(found)
+        out["worst"] = {"status": _SEVERITY[sev], "x": x, "traction": tr, "gap": gap}
+
+        def fmt(v: tuple[float, ...]) -> str:
+            return "(" + ", ".join(f"{a:.4g}" for a in v) + ")"
+
+        text += (
+            f"; worst point {_SEVERITY[sev]} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
+            f"MPa, gap (ubar_t, ubar_n) = {fmt(gap)} mm"
+        )
+    out["text"] = text
+    return out
 
 
 @dataclasses.dataclass
@@ -55,6 +139,7 @@ class StepRecord:
     cuts: int
     residuals: list[float]
     counts: dict[str, int]
+    retried: bool = False  # solved with the retry options (:data:`RETRY_OPTIONS`)
 
     @property
     def plastic_fraction(self) -> float:
@@ -64,6 +149,17 @@ class StepRecord:
         return (c.get("PLASTIC", 0) + c.get("JUMP", 0)) / n if n else 0.0
 
 
+def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
+    why = f"SNES reason {r['reason']}"
+    if solver.failed_points.size:
+        why += f", return map failed at {solver.failed_points.size} points"
+    return why
+
+
+def _options_text(options: Mapping[str, Any] | None) -> str:
+    return ", ".join(f"-{k} {v}" for k, v in (options or {}).items())
+
+
 class _Segment:
     """Statistics of the steps since the last breakpoint, for the segment's log line."""
 
@@ -71,14 +167,15 @@ class _Segment:
         self.t0 = t0
         self.iterations: list[int] = []
         self.cuts = 0
+        self.line_search = 0
         self.wall = time.perf_counter()
 
     def line(self, t1: float, last: StepRecord) -> str:
         its = self.iterations
         return (
             f"t = {self.t0:.6g} -> {t1:.6g} s: {len(its)} steps, Newton {np.mean(its):.2f} mean / "
-            f"{max(its)} max, {self.cuts} cuts, plastic {100 * last.plastic_fraction:.0f} %, "
-            f"{time.perf_counter() - self.wall:.2f} s"
+            f"{max(its)} max, {self.cuts} cuts, {self.line_search} with the line search, "
+            f"plastic {100 * last.plastic_fraction:.0f} %, {time.perf_counter() - self.wall:.2f} s"
         )
 
 
@@ -95,6 +192,10 @@ class LoadStepper:
             ``easy_iterations`` Newton iterations.
         max_cuts: Consecutive cuts allowed before :class:`StepFailure`.
         on_step: Called with the :class:`StepRecord` after each converged step (after commit).
+        retry_options: Solver options of a second attempt at a failed step, before it is cut
+            (default :data:`RETRY_OPTIONS`, a line search); ``None``: cut at once.
+        sticky_retry: Once a step needed the retry, start the following steps of the same
+            segment of the program (up to the next breakpoint) with the retry options.
     """
 
     def __init__(
@@ -110,6 +211,8 @@ class LoadStepper:
         easy_steps: int = 2,
         max_cuts: int = 10,
         on_step: Callable[[StepRecord], None] | None = None,
+        retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
+        sticky_retry: bool = True,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -123,11 +226,21 @@ class LoadStepper:
         self.easy_iterations, self.easy_steps = easy_iterations, easy_steps
         self.max_cuts = max_cuts
         self.on_step = on_step
+        self.retry_options = dict(retry_options) if retry_options else None
+        self.sticky_retry = sticky_retry
+        self._keep_retry = False
+        self.retries = 0  # steps whose first attempt failed and the retry converged (run)
+        self.line_search_steps = 0  # steps solved with the retry options (run)
         self.t = self.program.t_start
         self.step = 0
         self.records: list[StepRecord] = []
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
+
+    def _undo(self) -> None:
+        """Back to the last converged state (displacement and interface trial state)."""
+        self.solver.x.array_w[:] = self._x_converged.array_r
+        self.problem.revert()
 
     def restore(self, t: float, step: int, dt: float, easy: int = 0) -> None:
         """Continue from a restored state: ``problem.u`` and the interface state must hold it."""
@@ -154,6 +267,14 @@ class LoadStepper:
             later = stops_arr[stops_arr > t + 1e-12 * max(1.0, abs(t))]
             return min(nb, float(later[0])) if later.size else nb
 
+        try:
+            return self._run(t_end, next_stop)
+        finally:  # however the run ends: a large penetration seen is said (once)
+            warn = getattr(self.problem, "warn_penetration", None)
+            if warn is not None:
+                warn()
+
+    def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
         segment = _Segment(self.t)
@@ -166,30 +287,49 @@ class LoadStepper:
                 target = nb
             dt = target - self.t
             t0 = time.perf_counter()
-            r = self.solver.solve(target, dt)
+            first = self.retry_options if self._keep_retry else None
+            r = self.solver.solve(target, dt, options=first)
+            retried = first is not None
+            if not r["converged"] and not retried and self.retry_options is not None:
+                logger.debug(
+                    "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
+                    target, dt, _why(r, self.solver), _options_text(self.retry_options),
+                )  # fmt: skip
+                self._undo()
+                r = self.solver.solve(target, dt, options=self.retry_options)
+                retried = True
+                self._keep_retry = self.sticky_retry and bool(r["converged"])
             if not r["converged"]:
-                self.solver.x.array_w[:] = self._x_converged.array_r
-                self.problem.revert()
+                why = _why(r, self.solver)
+                attempt = describe_attempt(self.problem)  # before the undo (collective)
+                self._undo()
                 cuts += 1
                 segment.cuts += 1
-                why = f"SNES reason {r['reason']}"
-                if self.solver.failed_points.size:
-                    why += f", return map failed at {self.solver.failed_points.size} points"
-                logger.debug("  step to t = %.6g (dt %.3g) failed: %s; cutting", target, dt, why)
+                logger.debug(
+                    "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
+                    target, dt, why, attempt["text"],
+                )  # fmt: skip
                 self.dt = dt * self.cut
                 self.easy = 0
                 if cuts > self.max_cuts or self.dt < self.dt_min:
+                    tried = f" (and with {_options_text(self.retry_options)})" if retried else ""
                     raise StepFailure(
-                        f"no convergence at t = {target:.6g} with dt = {dt:.3g} ({why}; "
+                        f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
-                        f"{self.step} at t = {self.t:.6g}, whose state is kept",
+                        f"{self.step} at t = {self.t:.6g}, whose state is kept; "
+                        f"{attempt['text']}",
                         target,
                         self.t,
                         self.step,
                         why,
+                        attempt,
                     )
                 continue
+            if retried:
+                self.line_search_steps += 1
+                segment.line_search += 1
+                self.retries += int(first is None)
             self.problem.commit()
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
@@ -197,7 +337,7 @@ class LoadStepper:
             self.step += 1
             self.t = target
             rec = StepRecord(
-                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"]
+                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"], retried
             )
             self.records.append(rec)
             segment.iterations.append(r["iterations"])
@@ -212,6 +352,7 @@ class LoadStepper:
             if target >= breakpoint_ - tol:
                 logger.info(segment.line(target, rec))
                 segment = _Segment(target)
+                self._keep_retry = False  # a new segment starts with the solver's own options
             cuts = 0
             self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
             if self.easy >= self.easy_steps:

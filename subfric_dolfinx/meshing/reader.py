@@ -30,6 +30,7 @@ from ._gmsh import (
     interface_sides,
     remove_new_models,
 )
+from ._msh import open_msh
 from .builders import ModelInfo
 from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
 from .partitioners import Partitioner, body_partitioner
@@ -47,6 +48,7 @@ class InterfaceMesh:
         facet_tags: Facet tags (physical-group tags of the facet groups).
         tags: Physical-group name -> integer tag (the names of the file or model).
         num_interface_facets: Global number of interface facets on each side.
+        dims: Physical-group name -> its dimension (cells: ``tdim``, facets: ``tdim - 1``).
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -54,6 +56,7 @@ class InterfaceMesh:
     facet_tags: dolfinx.mesh.MeshTags
     tags: dict[str, int]
     num_interface_facets: int = 0
+    dims: dict[str, int] = dataclasses.field(default_factory=dict)
     _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
@@ -228,8 +231,9 @@ def read_interface_mesh(
     Rank 0 reads and checks the gmsh data; every failure is raised on all ranks.
 
     Args:
-        source: Path of a ``.msh`` file, or ``None`` for the current gmsh model of rank 0 (its
-            node tags are renumbered if they have gaps, as after the Crack plugin).
+        source: Path of an MSH file (format 2 or 4, ASCII or binary), or ``None`` for the
+            current gmsh model of rank 0 (its node tags are renumbered if they have gaps, as
+            after the Crack plugin).
         comm: Communicator of the mesh.
         gdim: Expected geometric (= topological) dimension, 2 or 3.
         partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
@@ -242,10 +246,12 @@ def read_interface_mesh(
 
     Raises:
         FileNotFoundError: ``source`` does not exist.
-        InterfaceMeshError: Wrong dimension, a required group missing, several cell types,
-            bodies sharing nodes, interface sides with different numbers of facets, interface
-            facets that are not exterior facets of exactly one body, group elements that are
-            not entities of the mesh (which gmshio would drop silently).
+        InterfaceMeshError: Not an MSH file (format 2 or 4, ASCII or binary: anything else, e.g.
+            a ``.geo`` script, is refused before gmsh opens it), wrong dimension, a required
+            group missing, several cell types, bodies sharing nodes, interface sides with
+            different numbers of facets, interface facets that are not exterior facets of
+            exactly one body, group elements that are not entities of the mesh (which gmshio
+            would drop silently).
     """
     if gdim not in (2, 3):
         raise ValueError(f"gdim must be 2 or 3, got {gdim!r}")
@@ -257,6 +263,7 @@ def read_interface_mesh(
     error: tuple[str, str] | None = None
     names: dict[str, int] = {}
     counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
+    dims: dict[str, int] = {}  # name -> dimension, every named group
     model = None
     with contextlib.ExitStack() as stack:
         if comm.rank == 0:
@@ -269,20 +276,19 @@ def read_interface_mesh(
                         )
                 else:
                     path = Path(source)
-                    if not path.is_file():
-                        raise FileNotFoundError(f"mesh file not found: {path}")
+                    name = stack.enter_context(open_msh(path))  # MSH only: nothing runs
                     stack.enter_context(gmsh_session(f"subfric-read-{os.getpid()}"))
                     try:
-                        gmsh.merge(str(path))
+                        gmsh.merge(name)
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
                 names = _inspect_current_model(gdim, required, what)
                 for d, t in gmsh.model.getPhysicalGroups():
-                    if d >= gdim - 1:
-                        n = sum(c.shape[0] for c in group_elements(d, t)[1])
-                        name = gmsh.model.getPhysicalName(d, t)
-                        if name:
-                            counts[name] = (d, n)
+                    name = gmsh.model.getPhysicalName(d, t)
+                    if name:
+                        dims[name] = d
+                    if d >= gdim - 1 and name:
+                        counts[name] = (d, sum(c.shape[0] for c in group_elements(d, t)[1]))
                 model = gmsh.model
             except (FileNotFoundError, InterfaceMeshError) as e:
                 error = (type(e).__name__, str(e))
@@ -291,10 +297,11 @@ def read_interface_mesh(
         _raise_collectively(comm, error)
         names = comm.bcast(names, root=0)
         counts = comm.bcast(counts, root=0)
+        dims = comm.bcast(dims, root=0)
         mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
             model, comm, 0, gdim=gdim, partitioner=partitioner
         )
-    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names)
+    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names, dims=dims)
     _check_group_counts(imesh, counts, what)
     if INTERFACE in names:
         _find_sides(imesh, what)

@@ -5,6 +5,8 @@
 * :mod:`.runner`: :func:`run_scene`; a pointwise scene needs numpy only.
 * :mod:`.fe`: the FE run, from :mod:`.build` (mesh, problem), :mod:`.outputs` (one object with
   ``on_step``/``close``) and :mod:`.signals` (the stop-signal guard). Imported only for FE scenes.
+* :mod:`.cli`: the demos' command line (their options, PETSc's, log level, exit codes), imported
+  by programs only.
 
 May import: everything else in the package (this is the top layer).
 """

@@ -23,7 +23,7 @@ from .build import build_mesh, build_problem
 from .outputs import SceneOutputs
 from .result import SceneResult
 from .schema import FEScene, SceneError
-from .signals import StopSignals
+from .signals import SceneInterrupted, StopSignals
 
 __all__ = ["run_fe_scene"]
 
@@ -87,8 +87,20 @@ def run_fe_scene(
                 restart_history=restart_history,
             )
         )
-        guard = stack.enter_context(StopSignals(enabled=out.checkpoints))
-        stepper.on_step = lambda rec: outputs.on_step(rec, guard.requested(comm))
+        guard = stack.enter_context(StopSignals())
+
+        def on_step(rec: Any) -> None:
+            stop = guard.requested(comm)
+            outputs.on_step(rec, stop)  # with checkpoints: writes one, raises SceneInterrupted
+            if stop:
+                raise SceneInterrupted(
+                    f"interrupted by {guard.name} after step {rec.step} at t = {rec.t:.6g}; "
+                    "no checkpoint (the scene writes none)",
+                    rec.t,
+                    None,
+                )
+
+        stepper.on_step = on_step
         try:
             stepper.run(stops=outputs.stops)
         except StepFailure:

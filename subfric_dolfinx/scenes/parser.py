@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from typing import Any
@@ -17,13 +18,71 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
-from .schema import FEScene, PointScene, SceneError
+from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
 
-__all__ = ["build_program", "from_dict", "parse_law", "parse_scene"]
+__all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
 
 
 def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp)).replace("NoneType", "null")
+
+
+_INT_LIMIT = 2**31
+_NUMBER_LIMIT = 2**53  # integers in free-form values (mesh options, programs, cases)
+
+
+def _short(value: Any) -> str:
+    """``repr(value)``, shortened (a 400-digit integer is named by its number of digits)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _typed(value: Any) -> str:
+    return f"{type(value).__name__} {_short(value)}"
+
+
+def _finite(value: int | float, path: str) -> float:
+    """``float(value)`` if finite; a :class:`SceneError` naming ``path`` otherwise."""
+    try:
+        x = float(value)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise SceneError(f"{path}: expected a finite number, got {_short(value)}")
+    return x
+
+
+def check_plain(value: Any, path: str) -> None:
+    """Check a free-form (JSON-like) value, e.g. mesh options or a loading program.
+
+    Allowed: null, booleans, strings, finite numbers, lists and objects with string keys;
+    integers below 2**53 in magnitude.
+
+    Raises:
+        SceneError: Naming the path of the first offending item.
+    """
+    if value is None or isinstance(value, bool | str):
+        return
+    if isinstance(value, int):
+        if abs(value) >= _NUMBER_LIMIT:
+            raise SceneError(f"{path}: number out of range (|value| < 2**53), got {_short(value)}")
+        return
+    if isinstance(value, float):
+        _finite(value, path)
+        return
+    if isinstance(value, list | tuple):
+        for i, v in enumerate(value):
+            check_plain(v, f"{path}[{i}]")
+        return
+    if isinstance(value, dict):
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise SceneError(f"{path}: keys must be strings, got {_short(k)}")
+            check_plain(v, f"{path}.{k}")
+        return
+    raise SceneError(f"{path}: expected a JSON value, got {type(value).__name__} {_short(value)}")
 
 
 def _convert(value: Any, tp: Any, path: str) -> Any:
@@ -38,41 +97,41 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             except SceneError as e:
                 errors.append(str(e))
         names = " or ".join(_type_name(a) for a in typing.get_args(tp))
-        raise SceneError(f"{path}: expected {names}, got {value!r}")
+        raise SceneError(f"{path}: expected {names}, got {_short(value)}")
     if tp is type(None):
         if value is None:
             return None
-        raise SceneError(f"{path}: expected null, got {value!r}")
+        raise SceneError(f"{path}: expected null, got {_short(value)}")
     if dataclasses.is_dataclass(tp):
         return from_dict(tp, value, path)
     if origin is list:
         if not isinstance(value, list | tuple):
-            raise SceneError(f"{path}: expected a list, got {type(value).__name__} {value!r}")
+            raise SceneError(f"{path}: expected a list, got {_typed(value)}")
         (item,) = typing.get_args(tp)
         return [_convert(v, item, f"{path}[{i}]") for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, dict):
-            raise SceneError(f"{path}: expected an object, got {type(value).__name__} {value!r}")
+            raise SceneError(f"{path}: expected an object, got {_typed(value)}")
         _, item = typing.get_args(tp)
         return {str(k): _convert(v, item, f"{path}.{k}") for k, v in value.items()}
     if tp is bool:
         if isinstance(value, bool):
             return value
-        raise SceneError(f"{path}: expected true or false, got {value!r}")
+        raise SceneError(f"{path}: expected true or false, got {_short(value)}")
     if tp is int:
         if isinstance(value, int) and not isinstance(value, bool):
+            if abs(value) >= _INT_LIMIT:
+                raise SceneError(f"{path}: integer out of range (< 2**31), got {_short(value)}")
             return value
-        raise SceneError(f"{path}: expected an integer, got {value!r}")
+        raise SceneError(f"{path}: expected an integer, got {_short(value)}")
     if tp is float:
         if isinstance(value, int | float) and not isinstance(value, bool):
-            if not math.isfinite(float(value)):
-                raise SceneError(f"{path}: expected a finite number, got {value!r}")
-            return float(value)
-        raise SceneError(f"{path}: expected a number, got {value!r}")
+            return _finite(value, path)
+        raise SceneError(f"{path}: expected a number, got {_short(value)}")
     if tp is str:
         if isinstance(value, str):
             return value
-        raise SceneError(f"{path}: expected a string, got {value!r}")
+        raise SceneError(f"{path}: expected a string, got {_short(value)}")
     raise TypeError(f"unsupported annotation {tp!r} at {path}")
 
 
@@ -85,7 +144,7 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
     if isinstance(obj, cls):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {obj!r}")
+        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {_short(obj)}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(obj) - set(fields))
@@ -102,7 +161,7 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
 
 def _choice(path: str, value: Any, allowed: tuple) -> None:
     if value not in allowed:
-        raise SceneError(f"{path}: must be one of {list(allowed)}, got {value!r}")
+        raise SceneError(f"{path}: must be one of {list(allowed)}, got {_short(value)}")
 
 
 def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointScene:
@@ -119,27 +178,23 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     _choice("scene.kind", kind, ("fe", "pointwise"))
     if kind == "pointwise":
         scene = from_dict(PointScene, obj, "scene")
+        check_name(scene.name, "scene.name")
         _choice("scene.on_instability", scene.on_instability, ("stop", "continue"))
+        if scene.steps_per_mm is not None and not scene.steps_per_mm > 0:
+            raise SceneError(f"scene.steps_per_mm: must be > 0, got {scene.steps_per_mm!r}")
         for name, case in scene.cases.items():
+            check_plain(case, f"scene.cases.{name}")
             try:
                 parse_case(case)
             except CaseError as e:
                 raise SceneError(f"scene.cases.{name}: {e}") from None
         return scene
     scene = from_dict(FEScene, obj, "scene")
-    m = scene.mesh
-    if (m.builder is None) == (m.file is None):
-        raise SceneError("scene.mesh: give exactly one of 'builder' and 'file'")
-    if m.builder is not None:
-        _choice("scene.mesh.builder", m.builder, ("block_on_base", "pad_on_plate"))
-    if m.file is not None and m.gdim not in (2, 3):
-        raise SceneError(f"scene.mesh.gdim: must be 2 or 3 with a mesh file, got {m.gdim!r}")
-    _choice("scene.mesh.partitioner", m.partitioner, (None, "default", "bodies", "together"))
+    check_name(scene.name, "scene.name")
+    _check_mesh(scene.mesh)
     _choice("scene.degree", scene.degree, (1, 2))
     _choice("scene.quadrature", scene.quadrature, ("gauss", "nodal"))
-    _choice("scene.outputs.fields", scene.outputs.fields, (None, "vtx", "xdmf"))
-    for i, ld in enumerate(scene.loads):
-        _choice(f"scene.loads[{i}].type", ld.type, ("pressure", "traction"))
+    _check_conditions(scene)
     for body in ("master", "slave"):
         mat = scene.materials.get(body)
         if mat is None:
@@ -154,16 +209,135 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     prog = scene.program
     if set(prog) != {"times", "channels"}:
         raise SceneError(f"scene.program: keys must be 'times' and 'channels', got {sorted(prog)}")
-    if scene.outputs.checkpoint_every < 0:
-        raise SceneError(
-            f"scene.outputs.checkpoint_every: must be >= 0, got {scene.outputs.checkpoint_every!r}"
-        )
-    if scene.solver.dt <= 0:
-        raise SceneError(f"scene.solver.dt: must be > 0, got {scene.solver.dt!r}")
+    check_plain(prog, "scene.program")
+    _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
     parse_law(scene.law)
-    build_program(prog)
+    program = build_program(prog)
+    _check_outputs(scene.outputs, program.t_start, program.t_end)
     return scene
+
+
+def check_name(name: str, path: str) -> None:
+    """A name used as a file name must be a plain one: no directory, nothing special.
+
+    Raises:
+        SceneError: Empty, ``.`` or ``..``, with a slash or a backslash, NUL or another control
+            character, or longer than 100 characters.
+    """
+    bad = (
+        not name
+        or name in (".", "..")
+        or len(name) > 100
+        or any(c in "/\\" or ord(c) < 32 or ord(c) == 127 for c in name)
+    )
+    if bad:
+        raise SceneError(
+            f"{path}: must be a plain file name (1 to 100 characters, no '/', '\\', control "
+            f"characters, not '.' or '..'), got {_short(name)}"
+        )
+
+
+_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3}
+
+
+def _check_mesh(m: MeshSpec) -> None:
+    if (m.builder is None) == (m.file is None):
+        raise SceneError("scene.mesh: give exactly one of 'builder' and 'file'")
+    if m.builder is not None:
+        _choice("scene.mesh.builder", m.builder, tuple(_BUILDER_GDIM))
+        if m.gdim is not None and m.gdim != _BUILDER_GDIM[m.builder]:
+            raise SceneError(
+                f"scene.mesh.gdim: the builder {m.builder!r} makes a "
+                f"{_BUILDER_GDIM[m.builder]}-D mesh, got gdim = {m.gdim!r}"
+            )
+        check_plain(m.options, "scene.mesh.options")
+    else:
+        if m.gdim not in (2, 3):
+            raise SceneError(f"scene.mesh.gdim: must be 2 or 3 with a mesh file, got {m.gdim!r}")
+        if m.options:
+            raise SceneError(
+                f"scene.mesh.options: builder options {sorted(m.options)} given with a mesh "
+                "file (they apply to a builder only)"
+            )
+        if not m.file or "\0" in m.file:
+            raise SceneError(f"scene.mesh.file: not a file name: {_short(m.file)}")
+    _choice("scene.mesh.partitioner", m.partitioner, (None, "default", "bodies", "together"))
+
+
+def _check_conditions(scene: FEScene) -> None:
+    for i, d in enumerate(scene.dirichlet):
+        path = f"scene.dirichlet[{i}]"
+        vector = isinstance(d.value, list)
+        if d.component is not None and vector:
+            raise SceneError(
+                f"{path}.value: a list (all components) with 'component' = {d.component}; give "
+                "a number for one component, or drop 'component'"
+            )
+        if d.component is None and not vector:
+            raise SceneError(
+                f"{path}.value: a number ({d.value!r}) needs 'component'; give a list for all "
+                "components"
+            )
+        if d.component is not None and not 0 <= d.component <= 2:
+            raise SceneError(f"{path}.component: must be 0, 1 or 2, got {d.component!r}")
+    for i, ld in enumerate(scene.loads):
+        path = f"scene.loads[{i}]"
+        _choice(f"{path}.type", ld.type, ("pressure", "traction"))
+        if ld.type == "pressure" and isinstance(ld.value, list):
+            raise SceneError(f"{path}.value: a pressure is a number, got a list {_short(ld.value)}")
+        if ld.type == "traction" and not isinstance(ld.value, list):
+            raise SceneError(
+                f"{path}.value: a traction is a list (one value per component), got {ld.value!r}"
+            )
+
+
+_OPTION_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def _check_solver(sv: SolverSpec) -> None:
+    path = "scene.solver"
+    if sv.dt <= 0:
+        raise SceneError(f"{path}.dt: must be > 0, got {sv.dt!r}")
+    if sv.dt_max is not None and sv.dt_max < sv.dt:
+        raise SceneError(f"{path}.dt_max: must be >= dt = {sv.dt!r}, got {sv.dt_max!r}")
+    if sv.dt_min is not None and not 0 <= sv.dt_min <= sv.dt:
+        raise SceneError(f"{path}.dt_min: must be in [0, dt = {sv.dt!r}], got {sv.dt_min!r}")
+    if sv.max_cuts < 0:
+        raise SceneError(f"{path}.max_cuts: must be >= 0, got {sv.max_cuts!r}")
+    for key, value in sv.options.items():
+        where = f"{path}.options.{key}"
+        if not _OPTION_NAME.match(key):
+            raise SceneError(
+                f"{where}: not a PETSc option name (letters, digits and '_', without the "
+                f"leading '-' and the prefix), got {_short(key)}"
+            )
+        if isinstance(value, float | int) and not isinstance(value, bool):
+            _finite(value, where)
+        elif isinstance(value, str):
+            if any(ord(c) < 32 for c in value):
+                raise SceneError(f"{where}: control characters in {_short(value)}")
+        elif value is not None and not isinstance(value, bool):
+            raise SceneError(
+                f"{where}: a PETSc option value is a string, number, true/false or null, got "
+                f"{type(value).__name__} {_short(value)}"
+            )
+
+
+def _check_outputs(out: OutputSpec, t0: float, t1: float) -> None:
+    path = "scene.outputs"
+    if out.checkpoint_every < 0:
+        raise SceneError(f"{path}.checkpoint_every: must be >= 0, got {out.checkpoint_every!r}")
+    _choice(f"{path}.fields", out.fields, (None, "vtx", "xdmf"))
+    if out.field_times and out.fields is None:
+        raise SceneError(f"{path}.field_times: given, but no fields are written (fields is null)")
+    tol = 1e-12 * max(1.0, abs(t0), abs(t1))
+    for key in ("snapshots", "field_times", "checkpoint_times"):
+        for i, t in enumerate(getattr(out, key)):
+            if not t0 - tol <= t <= t1 + tol:
+                raise SceneError(
+                    f"{path}.{key}[{i}]: {t!r} is outside the loading program [{t0:g}, {t1:g}]"
+                )
 
 
 def parse_law(obj: dict[str, Any] | FrictionLaw) -> FrictionLaw:
@@ -175,7 +349,7 @@ def parse_law(obj: dict[str, Any] | FrictionLaw) -> FrictionLaw:
     if isinstance(obj, FrictionLaw):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"scene.law: expected an object or a law, got {obj!r}")
+        raise SceneError(f"scene.law: expected an object or a law, got {_short(obj)}")
     allowed = {"law", "params"}
     unknown = sorted(set(obj) - allowed)
     if unknown:
@@ -194,5 +368,5 @@ def build_program(obj: dict[str, Any]) -> LoadingProgram:
     """
     try:
         return LoadingProgram(obj["times"], obj["channels"])
-    except (LoadingError, TypeError, ValueError) as e:
+    except (LoadingError, TypeError, ValueError, OverflowError) as e:
         raise SceneError(f"scene.program: {e}") from None

@@ -15,13 +15,18 @@ One module per kind of input:
   of range, bad parameters and steps per mm, absurd path magnitudes, unreadable JSON); numpy only.
 * ``test_loading.py``: loading programs (non-increasing, non-finite or too few times, non-finite
   channel values, channels of the wrong length, unknown channels); numpy only.
-* ``test_meshes.py``: mesh files and gmsh models (missing, not a file, not a mesh, a required
+* ``test_meshes.py``: mesh files and gmsh models (missing, not a file, not a mesh, not an MSH
+  file — a gmsh script as .geo or named .msh is refused before gmsh opens it, a required
   physical group missing, sides that do not pair by count or position, bodies sharing nodes,
   group elements lost, wrong dimension, bad gdim, no current model) and meshing arguments.
 * ``test_problems.py``: boundary conditions naming an unknown channel or group; options prefixes
   (empty, without the trailing '_', with '-' or spaces, not a string, in use).
-* ``test_scenes.py``: scene configurations (unknown keys, wrong types, files requested without a
-  directory) and checkpoints (missing, truncated, foreign, other law or mesh).
+* ``test_scenes.py``: scene configurations (unknown keys, wrong types, values the dataclasses
+  would let through — a list as a pressure, a vector with ``component``, 10**400, a list as a
+  PETSc option —, keys that would be ignored — mesh options beside a file, output times outside
+  the program, ``dt_min > dt`` —, names that are not plain file names, conditions on a cell
+  group, files requested without a directory) and checkpoints (missing, truncated, foreign,
+  other law or mesh).
 
 The numpy-only modules run on 1 rank; the others on 1 and 2 ranks.
 """

@@ -80,6 +80,88 @@ def test_file_that_is_not_a_mesh(shared_tmp, content):
         meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)
 
 
+# --------------------------------------------------------------------------------------------
+# Mesh files are data: only MSH files reach gmsh (a script's SystemCall never runs)
+
+SCRIPT = 'SystemCall "touch {marker}";\n'
+HEADER_ASCII = b"$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+NOT_MSH = {
+    # name: (file name, content, words of the message)
+    "geo-script": ("script.geo", None, ["does not start with '$MeshFormat'"]),
+    "script-named-msh": ("script.msh", None, ["does not start with '$MeshFormat'"]),
+    "script-after-a-blank-line": ("blank.msh", "\n$MeshFormat\n", ["does not start"]),
+    "binary-blob": ("blob.msh", bytes(range(256)) * 4, ["does not start"]),
+    "msh-version-1": ("v1.msh", b"$NOD\n3\n", ["does not start"]),
+    "msh-version-3": ("v3.msh", b"$MeshFormat\n3.0 0 8\n$EndMeshFormat\n", ["not 2.x or 4.x"]),
+    "file-type-2": ("t2.msh", b"$MeshFormat\n4.1 2 8\n$EndMeshFormat\n", ["file type"]),
+    "data-size-4": ("d4.msh", b"$MeshFormat\n4.1 0 4\n$EndMeshFormat\n", ["data size"]),
+    "binary-bad-endianness": (
+        "endian.msh", b"$MeshFormat\n4.1 1 8\n\x02\x00\x00\x00\n$EndMeshFormat\n",
+        ["endianness"],
+    ),
+    "no-end-of-format": ("noend.msh", b"$MeshFormat\n4.1 0 8\n" + SCRIPT.encode(), ["$End"]),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(NOT_MSH))
+def test_only_msh_files_reach_gmsh(shared_tmp, case):
+    """A gmsh script (as .geo or named .msh) is refused before gmsh opens it: its SystemCall,
+    which would create the marker file, never runs; other non-MSH content is refused too."""
+    comm = MPI.COMM_WORLD
+    name, content, words = NOT_MSH[case]
+    path, marker = shared_tmp / name, shared_tmp / "MARKER"
+    script = SCRIPT.format(marker=marker)
+    data = script if content is None else content
+    data = data + script if isinstance(data, str) else data
+
+    def write():
+        if isinstance(data, str):
+            path.write_text(data)
+        else:
+            path.write_bytes(data)
+
+    on_root(comm, write)
+    with raised_on_every_rank(meshing.InterfaceMeshError, str(path), "not an MSH mesh", *words):
+        meshing.read_interface_mesh(path, comm, 2)
+    assert on_root(comm, lambda: not marker.exists()), "the script ran"
+
+
+def test_a_script_after_a_valid_header_is_read_as_msh_not_run(shared_tmp):
+    """gmsh's MSH reader is chosen by the header: what follows it is never run as a script."""
+    comm = MPI.COMM_WORLD
+    path, marker = shared_tmp / "header_then_script.geo", shared_tmp / "MARKER"
+    on_root(comm, lambda: path.write_bytes(HEADER_ASCII + SCRIPT.format(marker=marker).encode()))
+    with raised_on_every_rank(meshing.InterfaceMeshError, str(path)):
+        meshing.read_interface_mesh(path, comm, 2)
+    assert on_root(comm, lambda: not marker.exists()), "the script ran"
+
+
+@pytest.mark.parametrize(("version", "binary"), [(2.2, 0), (2.2, 1), (4.1, 1)])
+def test_msh_formats_2_and_4_ascii_and_binary_are_read(shared_tmp, version, binary):
+    """The stored ASCII 4.1 mesh written again as MSH 2.2/4.1, ASCII/binary, reads the same."""
+    comm = MPI.COMM_WORLD
+    src, path = MESH_DIR / "block_on_base_tri.msh", shared_tmp / "again.msh"
+
+    def convert():
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        try:
+            gmsh.option.setNumber("General.Verbosity", 2)
+            gmsh.merge(str(src))
+            gmsh.option.setNumber("Mesh.MshFileVersion", version)
+            gmsh.option.setNumber("Mesh.Binary", binary)
+            gmsh.write(str(path))
+        finally:
+            gmsh.finalize()
+
+    on_root(comm, convert)
+    a = meshing.read_interface_mesh(src, comm, 2)
+    b = meshing.read_interface_mesh(path, comm, 2)
+    cells = [m.mesh.topology.index_map(m.tdim).size_global for m in (a, b)]
+    assert cells[0] == cells[1] > 0
+    assert b.num_interface_facets == a.num_interface_facets > 0
+    assert b.tags == a.tags
+
+
 @pytest.mark.parametrize("gdim", [1, 4, 2.5, "2"])
 def test_bad_gdim(gdim):
     with raised_on_every_rank(ValueError, f"gdim must be 2 or 3, got {gdim!r}"):

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from subfric_dolfinx.fem import InterfaceError
 from subfric_dolfinx.io import CheckpointError, read_checkpoint
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
 from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
@@ -40,6 +41,99 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         ),
         (lambda s: s.update(degree=3), r"scene.degree: must be one of \[1, 2\]"),
         (lambda s: s.update(kind="movie"), r"scene.kind: must be one of"),
+        # types the dataclasses alone would let through (issue 12, item 9)
+        (
+            lambda s: s["loads"][0].update(value=[300.0, 0.0]),
+            r"scene.loads\[0\].value: a pressure is a number, got a list",
+        ),
+        (
+            lambda s: s["loads"][0].update(type="traction"),
+            r"scene.loads\[0\].value: a traction is a list",
+        ),
+        (
+            lambda s: s["dirichlet"][1].update(value=[1.0, 0.0]),
+            r"scene.dirichlet\[1\].value: a list .*with 'component' = 0",
+        ),
+        (
+            lambda s: s["dirichlet"][0].update(value=0.0),
+            r"scene.dirichlet\[0\].value: a number \(0.0\) needs 'component'",
+        ),
+        (
+            lambda s: s["dirichlet"][1].update(component=5),
+            r"scene.dirichlet\[1\].component: must be 0, 1 or 2",
+        ),
+        (
+            lambda s: s["loads"][0].update(value=10**400),
+            r"scene.loads\[0\].value: expected float or list.* an integer of 401 digits",
+        ),
+        (
+            lambda s: s["solver"].update(dt=10**400),
+            r"scene.solver.dt: expected a finite number, got an integer of 401 digits",
+        ),
+        (
+            lambda s: s["solver"].update(max_cuts=10**400),
+            r"scene.solver.max_cuts: integer out of range",
+        ),
+        (
+            lambda s: s["program"]["times"].__setitem__(5, 10**400),
+            r"scene.program.times\[5\]: number out of range",
+        ),
+        (
+            lambda s: s["mesh"]["options"].update(n_interface=10**400),
+            r"scene.mesh.options.n_interface: number out of range",
+        ),
+        (
+            lambda s: s["materials"]["master"].update(E=10**400),
+            r"scene.materials.master.E: expected a finite number",
+        ),
+        (
+            lambda s: s["solver"].update(options={"snes_rtol": [1e-8, 1e-9]}),
+            r"scene.solver.options.snes_rtol: a PETSc option value is a string, number",
+        ),
+        (
+            lambda s: s["solver"].update(options={"snes_rtol": {"a": 1}}),
+            r"scene.solver.options.snes_rtol: a PETSc option value",
+        ),
+        (
+            lambda s: s["solver"].update(options={"-snes_rtol": 1e-8}),
+            r"scene.solver.options.-snes_rtol: not a PETSc option name",
+        ),
+        # keys that would be ignored silently
+        (
+            lambda s: s.update(
+                mesh={"file": "meshes/block_on_base_tri.msh", "gdim": 2, "options": {"n": 4}}
+            ),
+            r"scene.mesh.options: builder options \['n'\] given with a mesh file",
+        ),
+        (
+            lambda s: s["mesh"].update(gdim=3),
+            r"scene.mesh.gdim: the builder 'block_on_base' makes a 2-D mesh, got gdim = 3",
+        ),
+        (
+            lambda s: s["outputs"].update(snapshots=[1.0, 99.0]),
+            r"scene.outputs.snapshots\[1\]: 99.0 is outside the loading program \[0, 11\]",
+        ),
+        (
+            lambda s: s["outputs"].update(checkpoint_times=[-1.0]),
+            r"scene.outputs.checkpoint_times\[0\]: -1.0 is outside the loading program",
+        ),
+        (
+            lambda s: s["outputs"].update(fields="vtx", field_times=[2.0, 12.0]),
+            r"scene.outputs.field_times\[1\]: 12.0 is outside the loading program",
+        ),
+        (
+            lambda s: s["outputs"].update(field_times=[2.0]),
+            r"scene.outputs.field_times: given, but no fields are written",
+        ),
+        (lambda s: s["solver"].update(dt_min=1.0), r"scene.solver.dt_min: must be in \[0, dt"),
+        (lambda s: s["solver"].update(dt_min=-1e-3), r"scene.solver.dt_min: must be in \[0, dt"),
+        (lambda s: s["solver"].update(dt_max=0.01), r"scene.solver.dt_max: must be >= dt"),
+        (lambda s: s["solver"].update(max_cuts=-1), r"scene.solver.max_cuts: must be >= 0"),
+        # a name is a plain file name
+        *[
+            (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
+            for n in ["../x", "/tmp/x", "a/b", "", ".", "..", "a\x00b", "a\\b", "x" * 101]
+        ],
     ],
 )
 def test_bad_scene_configs_are_named(mutate, pattern):
@@ -47,6 +141,36 @@ def test_bad_scene_configs_are_named(mutate, pattern):
     mutate(s)
     with raised_on_every_rank(SceneError, match=pattern):
         parse_scene(s)
+
+
+@pytest.mark.parametrize("name", ["../escaped", "/tmp/absolute", "sub/dir", "", "..", "a\x00"])
+def test_a_pointwise_scene_name_is_a_plain_file_name(tmp_path, name):
+    """The name becomes ``<outdir>/<name>.json``: it may not leave the output directory."""
+    case = {
+        "params": {"preset": "sec7"},
+        "path": [[0, 0, 0, 1.2], [1, 1, 0, 1.2]],
+        "t_samples": [1],
+    }
+    scene = {"kind": "pointwise", "name": name, "cases": {"a": case}, "save": True}
+    with raised_on_every_rank(SceneError, "scene.name: must be a plain file name"):
+        run_scene(scene, outdir=tmp_path / "out")
+    assert not (tmp_path / "out").exists() and not (tmp_path / "escaped.json").exists()
+
+
+def test_a_dirichlet_condition_on_a_cell_group_says_so():
+    """A Dirichlet condition (or a load) on a group of cells, not facets, is named as such
+    instead of failing later as a step that does not converge."""
+    for key, entry in (
+        ("dirichlet", {"group": "slave", "component": 0, "value": 0.1}),
+        ("loads", {"type": "pressure", "group": "master", "value": 1.0}),
+    ):
+        s = small_scene()
+        s["solver"]["prefix"] = prefix("cells")
+        s[key].append(entry)
+        with raised_on_every_rank(
+            InterfaceError, repr(entry["group"]), "a group of cells (dimension 2), not of facets"
+        ):
+            run_scene(s)
 
 
 def test_files_requested_without_a_directory_are_refused():

@@ -31,8 +31,12 @@ def _fe_run(
     max_cuts: int = 6,
     n: int = 8,
     options: dict[str, Any] | None = None,
+    retry: bool = True,
 ) -> Outcome:
-    """Run the block problem; classify: error (StepFailure) > flagged > converged."""
+    """Run the block problem; classify: error (StepFailure) > flagged > converged.
+
+    ``retry=False``: a failed step is cut at once, without the stepper's line-search retry.
+    """
     from mpi4py import MPI
 
     from subfric_dolfinx import meshing
@@ -110,7 +114,14 @@ def _fe_run(
         ft_loc = float(np.abs(tr[:, 0]).max()) if tr.size else 0.0
         rec["ft_abs_max"] = max(rec["ft_abs_max"], comm.allreduce(ft_loc, op=MPI.MAX))
 
-    stepper = LoadStepper(solver, dt, dt_max=dt_max, max_cuts=max_cuts, on_step=on_step)
+    stepper = LoadStepper(
+        solver,
+        dt,
+        dt_max=dt_max,
+        max_cuts=max_cuts,
+        on_step=on_step,
+        **({} if retry else {"retry_options": None}),
+    )
     error = None
     try:
         stepper.run()
@@ -274,9 +285,15 @@ def fe_large_kappa_and_xi(comm: Any) -> Outcome:
 
 
 def fe_sec7_literal_600(comm: Any) -> Outcome:
-    """The literal Sec. 7 set at 600 MPa pressure: slide 0.3 mm and back, default Newton (full
-    steps)."""
+    """The literal Sec. 7 set at 600 MPa pressure: slide 0.3 mm and back, default options
+    (Newton with full steps, a failed step tried again with the line search before a cut)."""
     return _fe_run(comm, preset("sec7-literal"), *PRESS_SLIDE, dt=0.1, pressure=600.0)
+
+
+def fe_sec7_literal_600_no_retry(comm: Any) -> Outcome:
+    """The same with Newton's full steps only (no line-search retry): it cycles and fails."""
+    law = preset("sec7-literal")
+    return _fe_run(comm, law, *PRESS_SLIDE, dt=0.1, pressure=600.0, retry=False)
 
 
 def fe_sec7_literal_600_l2(comm: Any) -> Outcome:

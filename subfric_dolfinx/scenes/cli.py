@@ -1,0 +1,232 @@
+"""The command line of the demos (and of programs like them), in one place.
+
+A demo defines its options with :func:`demo_parser` and, in its ``main(argv, comm)``, reads them
+with :func:`parse_args`; its ``__main__`` block is ``sys.exit(run_main(main))``:
+
+* Options with two dashes are the demo's; an unknown one (``--chekpoint-every 5``) is an error
+  (exit 2). Options with one dash (``-block_snes_monitor``, ``-log_view``) and their values go to
+  PETSc, which is initialised with them, before it is imported.
+* ``-v``/``-q`` set the log level (:func:`subfric_dolfinx.logs.configure`, rank 0 prints).
+* :func:`run_main` turns the way a run ends into one line on rank 0 and an exit code: 0 done,
+  1 a step that could not be solved or an I/O error, 2 bad input (scene, mesh, checkpoint, law,
+  command line, any ``ValueError``), :data:`EXIT_INTERRUPTED` (75) stopped by SIGTERM, SIGUSR1
+  or SIGUSR2 (after the current step, with a checkpoint if the run writes any). Anything else is
+  a bug: its traceback.
+
+Stopping a run under ``mpirun``: send SIGUSR1 to ``mpirun`` (see :mod:`.signals`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from .. import logs
+from .signals import STOP_SIGNALS, SceneInterrupted
+
+__all__ = [
+    "EXIT_BAD_INPUT",
+    "EXIT_FAILED",
+    "EXIT_INTERRUPTED",
+    "demo_parser",
+    "parse_args",
+    "run_main",
+    "split_petsc",
+]
+
+EXIT_FAILED = 1
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 75  # EX_TEMPFAIL of sysexits.h: stopped on request, restart later
+
+logger = logging.getLogger(__name__)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse printing on rank 0 only (every rank still exits alike)."""
+
+    rank = 0
+
+    def _print_message(self, message: str, file: Any = None) -> None:
+        if self.rank == 0:
+            super()._print_message(message, file)
+
+
+def demo_parser(description: str, prog: str | None = None) -> argparse.ArgumentParser:
+    """An argument parser with ``-v``/``--verbose`` and ``-q``/``--quiet``.
+
+    Add the demo's own (long) options to it. Abbreviated options are not accepted.
+    """
+    ap = _Parser(description=description, prog=prog, allow_abbrev=False)
+    ap.epilog = "Options with one dash (e.g. -<prefix>snes_monitor, -log_view) go to PETSc."
+    ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
+    ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
+    return ap
+
+
+def _short_flags(parser: argparse.ArgumentParser) -> set[str]:
+    return {
+        s[1]
+        for a in parser._actions
+        for s in a.option_strings
+        if len(s) == 2 and s[0] == "-" and s[1] != "-"
+    }
+
+
+def _is_option(token: str) -> bool:
+    return len(token) > 1 and token[0] == "-" and (token[1].isalpha() or token[1] == "-")
+
+
+def split_petsc(
+    parser: argparse.ArgumentParser, argv: Sequence[str]
+) -> tuple[list[str], list[str]]:
+    """Split a command line into the demo's part and PETSc's part.
+
+    A token with one dash and a letter (``-ksp_type``) is a PETSc option unless it is made of
+    the parser's one-letter flags only (``-v``, ``-vv``, ``-q``, ``-h``); the next token is its
+    value unless it looks like an option (a negative number is a value).
+    """
+    shorts = _short_flags(parser)
+    demo: list[str] = []
+    petsc: list[str] = []
+    args = list(argv)
+    i = 0
+    while i < len(args):
+        a = args[i]
+        if a == "--":
+            demo.extend(args[i:])
+            break
+        if _is_option(a) and a[1] != "-" and not set(a[1:]) <= shorts:
+            petsc.append(a)
+            if i + 1 < len(args) and not _is_option(args[i + 1]):
+                petsc.append(args[i + 1])
+                i += 1
+        else:
+            demo.append(a)
+        i += 1
+    return demo, petsc
+
+
+def _init_petsc(petsc_args: list[str]) -> None:
+    """Initialise PETSc with ``petsc_args``; if it is running already, add them to its options."""
+    if "petsc4py.PETSc" not in sys.modules:
+        import petsc4py
+
+        petsc4py.init([sys.argv[0] if sys.argv and sys.argv[0] else "python3", *petsc_args])
+        return
+    if petsc_args:
+        from petsc4py import PETSc
+
+        PETSc.Options().insertString(" ".join(petsc_args))
+
+
+def parse_args(
+    parser: argparse.ArgumentParser, argv: Sequence[str] | None = None, comm: Any = None
+) -> argparse.Namespace:
+    """Parse a demo's command line: its options, PETSc's options, the log level.
+
+    Args:
+        parser: From :func:`demo_parser`, with the demo's options.
+        argv: The arguments (default ``sys.argv[1:]``).
+        comm: MPI communicator (rank 0 prints the log and any usage message).
+
+    Returns:
+        The demo's options.
+
+    Raises:
+        SystemExit: ``--help`` (0), or a usage error (2): an unknown option with two dashes
+            (PETSc options start with one), a missing or malformed value.
+    """
+    if isinstance(parser, _Parser) and comm is not None:
+        parser.rank = comm.rank
+    demo, petsc = split_petsc(parser, sys.argv[1:] if argv is None else argv)
+    args, unknown = parser.parse_known_args(demo)
+    if unknown:
+        long_ = [u for u in unknown if u.startswith("--")]
+        if long_:
+            known = sorted(s for a in parser._actions for s in a.option_strings if s[:2] == "--")
+            parser.error(
+                f"unknown option {long_[0]} (the options are {', '.join(known)}; PETSc options "
+                "start with one dash, e.g. -<prefix>snes_monitor)"
+            )
+        parser.error(f"unexpected argument(s): {' '.join(unknown)}")
+    _init_petsc(petsc)
+    logs.configure(args.verbose - args.quiet, comm)
+    return args
+
+
+def _exit_code(e: BaseException) -> int | None:
+    """Exit code of an expected way for a run to end, or ``None`` (a bug: let it raise)."""
+    from ..constitutive import LawError
+    from ..driver import CaseError
+    from ..loading import LoadingError
+    from .schema import SceneError
+
+    if isinstance(e, SceneInterrupted):
+        return EXIT_INTERRUPTED
+    if isinstance(e, SceneError | LawError | LoadingError | CaseError | FileNotFoundError):
+        return EXIT_BAD_INPUT
+    if "subfric_dolfinx.fem" in sys.modules:  # only then can these have been raised
+        from ..fem import InterfaceError, StepFailure
+        from ..io import CheckpointError
+        from ..meshing import InterfaceMeshError
+
+        if isinstance(e, InterfaceError | InterfaceMeshError | CheckpointError):
+            return EXIT_BAD_INPUT
+        if isinstance(e, StepFailure):
+            return EXIT_FAILED
+    if isinstance(e, OSError):
+        return EXIT_FAILED
+    if isinstance(e, ValueError):  # an argument refused by a builder, a material, ...
+        return EXIT_BAD_INPUT
+    return None
+
+
+class _Interrupt(BaseException):
+    """A stop signal outside the load stepping.
+
+    Like KeyboardInterrupt, no ``except Exception`` on the way turns it into another error.
+    """
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    """Outside the load stepping (where :class:`~.signals.StopSignals` takes over): stop now."""
+    raise _Interrupt(
+        f"interrupted by {signal.Signals(signum).name} outside the load stepping (no checkpoint "
+        "written)"
+    )
+
+
+def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> int:
+    """Run a demo's ``main(argv)``; return its exit code, the way it ended in one line.
+
+    Use as ``sys.exit(run_main(main))``. SIGTERM, SIGUSR1 and SIGUSR2 stop the run: during the
+    load stepping after the current step (with a checkpoint if the run writes any), elsewhere at
+    once; either way exit code :data:`EXIT_INTERRUPTED`, one line, no traceback.
+    """
+    from mpi4py import MPI
+
+    rank = MPI.COMM_WORLD.rank
+    prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
+    previous = {s: signal.signal(s, _interrupt) for s in STOP_SIGNALS}
+    try:
+        main(argv)
+    except _Interrupt as e:
+        if rank == 0:
+            print(f"{prog}: {e}", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    except Exception as e:
+        code = _exit_code(e)
+        if code is None:
+            raise
+        if rank == 0:
+            what = "" if code == EXIT_INTERRUPTED else "error: "
+            print(f"{prog}: {what}{e}", file=sys.stderr, flush=True)
+        return code
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+    return 0

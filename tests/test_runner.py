@@ -1,0 +1,174 @@
+"""The host runner ./run: settings checked before anything runs, chroot builds that take turns.
+
+A real first build (debootstrap and 2.5 GB of packages, minutes) cannot run in the suite, so the
+build lock is tested on the runner's own ``ensure_rootfs`` with the expensive step stubbed: the
+runner is sourced (it then defines its functions only) and ``build_tree`` (debootstrap + apt) is
+replaced by a function that takes a second and writes a marked tree. Everything else — the
+lock, the private build directory, its atomic rename, the cleanup after a killed build — is the
+runner's code. Runs on one rank (no MPI).
+"""
+
+import os
+import shutil
+import signal
+import subprocess
+import time
+
+import pytest
+
+from tests.helpers import ROOT
+
+pytestmark = pytest.mark.numpy_only
+
+RUN = ROOT / "run"
+
+STUB = r"""
+source "$RUNNER"
+build_tree() {  # the stub: a second's work, then a complete (marked) tree
+    echo "start $$" >>"$LOG"
+    [ ! -e "$1" ] || echo "CLOBBERED $1" >>"$LOG"
+    mkdir -p "$1"
+    sleep "${STUB_SECONDS:-1}"
+    echo "built by $$" >"$1/owner"
+    packages_hash >"$1/.subfric-packages"
+    echo "end $$" >>"$LOG"
+}
+apt_install() { echo "update $$" >>"$LOG"; packages_hash >"$1/.subfric-packages"; }
+ensure_rootfs
+[ -f "$SUBFRIC_ROOTFS/owner" ] && [ -f "$SUBFRIC_ROOTFS/.subfric-packages" ]
+echo "ready $$" >>"$LOG"
+"""
+
+
+def env(tmp_path, **extra):
+    # guard: should the stub ever not replace the real build, debootstrap and apt-get fail here
+    fake = tmp_path / "bin"
+    if not fake.is_dir():
+        fake.mkdir()
+        for tool in ("debootstrap", "apt-get", "unshare", "chroot"):
+            (fake / tool).write_text(f"#!/bin/sh\necho 'test: {tool} must not run' >&2\nexit 99\n")
+            (fake / tool).chmod(0o755)
+    e = {
+        "PATH": f"{fake}:" + os.environ.get("PATH", "/usr/bin:/bin"),
+        "HOME": str(tmp_path),
+        "SUBFRIC_ROOTFS": str(tmp_path / "cache" / "rootfs"),
+        "LOG": str(tmp_path / "log"),
+        "RUNNER": str(RUN),
+    }
+    e.update({k: str(v) for k, v in extra.items()})
+    return e
+
+
+def builder(tmp_path, **extra):
+    return subprocess.Popen(
+        ["bash", "-c", STUB],
+        env=env(tmp_path, **extra),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
+    )
+
+
+def log_lines(tmp_path):
+    path = tmp_path / "log"
+    return path.read_text().split("\n")[:-1] if path.exists() else []
+
+
+def wait_for(tmp_path, word, timeout=30):
+    t0 = time.monotonic()
+    while not any(line.startswith(word) for line in log_lines(tmp_path)):
+        assert time.monotonic() - t0 < timeout, f"no {word!r} in {log_lines(tmp_path)}"
+        time.sleep(0.05)
+
+
+@pytest.fixture
+def check_tools():
+    for tool in ("bash", "flock", "sha256sum"):
+        if shutil.which(tool) is None:
+            pytest.skip(f"{tool} is not installed")
+
+
+def test_concurrent_first_builds_take_turns(tmp_path, check_tools):
+    """Three ./run calls on a machine without the chroot: one builds, the two others wait for
+    it and use its tree; nobody deletes a tree another is building; nothing is left over."""
+    first = builder(tmp_path)
+    wait_for(tmp_path, "start")  # the first one holds the lock and is building
+    others = [builder(tmp_path) for _ in range(2)]
+    outputs = [p.communicate(timeout=60)[0] for p in (first, *others)]
+    assert [p.returncode for p in (first, *others)] == [0, 0, 0], outputs
+    lines = log_lines(tmp_path)
+    assert sum(line.startswith("start") for line in lines) == 1, lines
+    assert not any("CLOBBERED" in line for line in lines), lines
+    assert sum(line.startswith("ready") for line in lines) == 3, lines
+    assert all("waiting for it" in out for out in outputs[1:]), outputs
+    rootfs = tmp_path / "cache" / "rootfs"
+    assert (rootfs / "owner").read_text().strip() == f"built by {first.pid}"
+    left = sorted(p.name for p in rootfs.parent.iterdir())
+    assert left == ["rootfs", "rootfs.lock"], left
+
+
+def test_a_killed_build_leaves_nothing_usable_and_the_next_one_builds(tmp_path, check_tools):
+    """A build killed half-way (its whole process group, as Ctrl-C does) leaves its private
+    directory, never a tree at the chroot's path; the next ./run removes it and builds."""
+    first = builder(tmp_path, STUB_SECONDS=60)
+    wait_for(tmp_path, "start")
+    os.killpg(first.pid, signal.SIGKILL)
+    first.communicate(timeout=30)
+    cache = tmp_path / "cache"
+    assert not (cache / "rootfs").exists()
+    assert [p.name for p in cache.iterdir() if p.name.startswith("rootfs.build.")]
+    second = builder(tmp_path)
+    out = second.communicate(timeout=60)[0]
+    assert second.returncode == 0, out
+    assert "left by an interrupted build" in out, out
+    assert sorted(p.name for p in cache.iterdir()) == ["rootfs", "rootfs.lock"]
+
+
+def test_an_unmarked_tree_at_the_chroot_path_is_moved_aside(tmp_path, check_tools):
+    rootfs = tmp_path / "cache" / "rootfs"
+    (rootfs / "etc").mkdir(parents=True)  # e.g. a half-built tree of an earlier version
+    p = builder(tmp_path)
+    out = p.communicate(timeout=60)[0]
+    assert p.returncode == 0, out
+    assert "is not a complete chroot: moved aside" in out, out
+    aside = [q for q in rootfs.parent.iterdir() if q.name.startswith("rootfs.unmarked.")]
+    assert len(aside) == 1 and (aside[0] / "etc").is_dir()
+    assert (rootfs / "owner").is_file()
+
+
+def run_runner(runner, tmp_path, *args, **extra):
+    return subprocess.run(
+        [str(runner), *args],
+        env=env(tmp_path, **extra),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+@pytest.mark.parametrize("mode", ["bogus", "Native", " chroot"])
+def test_an_invalid_mode_stops_before_anything_runs(tmp_path, mode):
+    marker = tmp_path / "marker"
+    for args in (["exec", "touch", str(marker)], ["lint"], ["help"]):
+        r = run_runner(RUN, tmp_path, *args, SUBFRIC_MODE=mode)
+        assert r.returncode == 2, (args, r.stdout, r.stderr)
+        assert f"SUBFRIC_MODE must be 'native' or 'chroot', got '{mode}'" in r.stderr
+        assert not marker.exists()
+
+
+@pytest.mark.parametrize("content", [None, "# only a comment\n\n"], ids=["missing", "empty"])
+def test_a_missing_or_empty_package_list_stops_the_chroot_before_anything(tmp_path, content):
+    """A copy of the runner without its package list, forced into chroot mode: it stops with a
+    clear error, builds nothing and runs nothing."""
+    repo = tmp_path / "repo"
+    repo.mkdir()
+    shutil.copy2(RUN, repo / "run")
+    if content is not None:
+        (repo / "debian-packages.txt").write_text(content)
+    marker = tmp_path / "marker"
+    r = run_runner(repo / "run", tmp_path, "exec", "touch", str(marker), SUBFRIC_MODE="chroot")
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert "debian-packages.txt" in r.stderr
+    assert ("is missing" if content is None else "names no package") in r.stderr
+    assert not marker.exists() and not (tmp_path / "cache").exists()
