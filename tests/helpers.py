@@ -109,11 +109,16 @@ def prefix(name: str) -> str:
 
 def driver_cli(*args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
     """Run ``python3 -m subfric_dolfinx.driver ARGS`` from the repository root (one process)."""
+    return module_cli("driver", *args, timeout=timeout)
+
+
+def module_cli(module: str, *args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run ``python3 -m subfric_dolfinx.<module> ARGS`` from the repository root (one process)."""
     env = dict(os.environ)
     extra = env.get("PYTHONPATH")
     env["PYTHONPATH"] = str(ROOT) + (os.pathsep + extra if extra else "")
     return subprocess.run(
-        [sys.executable, "-m", "subfric_dolfinx.driver", *map(str, args)],
+        [sys.executable, "-m", f"subfric_dolfinx.{module}", *map(str, args)],
         cwd=ROOT,
         env=env,
         capture_output=True,

@@ -309,3 +309,97 @@ def test_core_and_driver_import_no_fe_or_mpi_stack():
     )
     assert proc.returncode == 0, proc.stderr
     assert "LOADED []" in proc.stdout
+
+
+# -------------------------------------------------------------------------------------------
+# Long runs: progress, and a cost per step independent of the number of path rows
+
+
+def test_progress_lines_on_stderr(tmp_path, monkeypatch, capsys):
+    """A progress line at most every PROGRESS_SECONDS (set to 0 here: one per 2000 steps)."""
+    from subfric_dolfinx.driver import cli as cli_mod
+
+    monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 0.0)
+    case = {**SEC7, "steps_per_mm": 20000}  # 10001 steps
+    out = tmp_path / "r.json"
+    assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    prog = [ln for ln in err if ln.startswith("progress:")]
+    assert len(prog) == 5 and "of 10001 steps" in prog[0], err
+    assert err[-1].startswith("ok:")
+    monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 3600.0)  # a short run prints none
+    assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
+    assert not [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("progress")]
+
+
+def test_a_path_of_many_rows_gives_the_same_steps():
+    """The same straight path given as 2 rows or as 100001 rows (with the knots as samples in the
+    first): the same steps, the same result. (The cost per step does not depend on the number of
+    rows: benchmarks/driver_steps.py measures it.)"""
+    n = 100_000
+    t = np.linspace(0.0, 0.3, n + 1)
+    many = {**SEC7, "n_tangential": 1, "path": [[ti, ti, 0.0, UN] for ti in t],
+            "t_samples": [0.0, 0.3]}  # fmt: skip
+    few = {**many, "path": [[0.0, 0.0, 0.0, UN], [0.3, 0.3, 0.0, UN]], "t_samples": t.tolist()}
+    a = run_case(many, steps_per_mm=1)  # one step per row interval
+    b = run_case(few, steps_per_mm=1)
+    assert a.n_steps == b.n_steps == n + 1
+    for k in ("f_t1", "up_t1", "mu", "r"):
+        assert a.samples[k][-1] == b.samples[k][-1], k
+
+
+# -------------------------------------------------------------------------------------------
+# The batch driver: many cases through one loop, the same results as one by one
+
+
+def fig10_case(fn, law=None, n_samples=11):
+    p = law or {"preset": "sec7"}
+    un = fn / preset("sec7").alpha_n
+    return {
+        "params": p,
+        "control": "disp",
+        "path": [[0.0, 0.0, 0.0, un], [20.0, 20.0, 0.0, un]],  # 1 mm/s to 20 mm (Fig. 10)
+        "t_samples": np.linspace(0.0, 20.0, n_samples).tolist(),
+        "n_tangential": 1,
+        "steps_per_mm": 20,
+    }
+
+
+def test_batch_driver_equals_one_by_one():
+    """Six normal stresses (Fig. 10), two parameter sets, a turn in 3-D, a reversal at another
+    velocity, a case that loses stability: every result equals run_case's."""
+    from subfric_dolfinx.driver import run_cases
+
+    cases = [fig10_case(fn) for fn in (100, 200, 300, 400, 500, 600)]
+    cases.append(fig10_case(300, {"preset": "sec7", "kappa": 0.5, "mu0": 400.0}))
+    cases.append(SEC7)
+    cases.append({**fig10_case(300), "path": [[0, 0, 0, 0.6], [2, 0.5, 0, 0.6], [6, -0.5, 0, 0.6]],
+                  "t_samples": [0, 1, 2, 3, 4.5, 6]})  # fmt: skip
+    cases.append(sec6_monotonic("sec6-mus10000-literal"))
+    batch = run_cases(cases)
+    for c, b in zip(cases, batch, strict=True):
+        one = run_case(c)
+        assert b.n_steps == one.n_steps and b.complete == one.complete
+        assert b.status_counts == one.status_counts and b.sample_status == one.sample_status
+        assert (b.stability_lost is None) == (one.stability_lost is None)
+        for k in one.samples:
+            np.testing.assert_allclose(b.samples[k], one.samples[k], rtol=1e-12, atol=1e-12)
+    assert batch[-1].stability_lost is not None and not batch[-1].complete
+
+
+def test_batch_driver_with_many_cases_takes_the_numpy_path():
+    """40 cases of one law (the numpy path of the map) equal the one-by-one runs to 1e-12."""
+    from subfric_dolfinx.driver import run_cases
+
+    cases = [fig10_case(fn, n_samples=5) for fn in np.linspace(50.0, 700.0, 40)]
+    for c, b in zip(cases, run_cases(cases, steps_per_mm=5), strict=True):
+        one = run_case(c, steps_per_mm=5)
+        np.testing.assert_allclose(b.samples["f_t1"], one.samples["f_t1"], rtol=1e-12)
+        np.testing.assert_allclose(b.samples["mu"], one.samples["mu"], rtol=1e-12)
+
+
+def test_batch_driver_refuses_stress_control():
+    from subfric_dolfinx.driver import CaseError, run_cases
+
+    with pytest.raises(CaseError, match="case 1: the batch driver runs displacement control"):
+        run_cases([SEC7, stress_case([[0, 0, 0, UN], [10, 5.0, 0, UN]])])

@@ -9,6 +9,7 @@
 * :class:`InterfaceState` / :class:`StatePair`: internal-variable arrays with commit and revert.
 * :class:`ReturnMapResult` / :class:`Status`: traction, consistent tangent and per-point status.
 * :data:`PRESETS` / :func:`preset`: the paper's parameter sets.
+* :mod:`.tolerances`: the contact band and the loading margin of the return maps.
 
 May import: numpy and the standard library only.
 """
@@ -20,9 +21,12 @@ from .protocol import LOCAL, SCALAR, TANGENTIAL, FrictionLaw, LawBase, LawError,
 from .result import ReturnMapResult, Status
 from .state import InterfaceState, StatePair
 from .subloading import SubloadingLaw, subloading_return_map
+from .tolerances import CONTACT_TOL, LOAD_TOL
 
 __all__ = [
+    "CONTACT_TOL",
     "LAWS",
+    "LOAD_TOL",
     "LOCAL",
     "PRESETS",
     "SCALAR",
