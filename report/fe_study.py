@@ -53,6 +53,7 @@ meshing.create_interface_mesh = _timed_create
 def one_run(n, dt, hold, prefix):
     scene = block_on_base.scene(n=n, hold=hold, dt=dt)
     scene["solver"]["dt_max"] = dt
+    scene["solver"]["hold_dt"] = None  # fixed steps through the hold too, as before
     scene["solver"]["prefix"] = prefix
     scene["outputs"] = {}
     comm = MPI.COMM_WORLD
