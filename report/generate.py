@@ -866,7 +866,7 @@ def write_readme(
         "recovery too (xi = 1000 /s, as in the literal Sec. 6 set) to keep mu high while r "
         f"grows, and then the snap-back is flagged at r = {r_kx:.3f}. Likewise the crude bound "
         "alpha_t/g < kappa (mu_s - mu_k) is violated by the normalised Sec. 7 set at "
-        "20000 MPa, which is nevertheless stable. MODEL.md's fold criterion is necessary, "
+        "20000 MPa, which is nevertheless stable. The fold criterion of docs/model.md §8 is necessary, "
         "not sufficient."
     )
     e_rev = [r["error"] for r in sub_rev]
@@ -885,8 +885,9 @@ def write_readme(
         "when the trial traction points against the traction at the step start "
         "(f_t* . f_t,n < 0), split the step at the elastic zero crossing and restart the "
         "plastic branch from r = 0 (on a straight 1-D path that removes the one-off error). "
-        "MODEL.md's \"split steps at every "
-        'breakpoint" cannot do it: the crossing is not a breakpoint of the load path.'
+        "Splitting steps at every "
+        "breakpoint (docs/model.md §6.4) cannot do it: the crossing is not a breakpoint of "
+        "the load path."
     )
     L.append("")
     L.append("## 1. Material point: error against wall time")
