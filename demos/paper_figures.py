@@ -30,7 +30,8 @@
 # * The parameter sets are the project's presets `sec6-mus10000`, `sec6-mus7500` and `sec7`: the
 #   paper's values in the *normalised* reading of the evolution law ($\kappa = \kappa_N/\mu_k$,
 #   $\xi = \xi_N/\mu_s$; read literally the Sec. 6 set has no stable quasi-static solution,
-#   see `docs/model.md` §2 and §8). Slip rates as in the paper: 1 mm/min in Sec. 6, 1 mm/s in Sec. 7.
+#   see `docs/model.md` §2 and §8). Slip rates as in the paper: 1 mm/min in Sec. 6, 1 mm/s in
+#   Sec. 7.
 # * The normal stresses of Figs. 5-9 are not given numerically in the text. This demo uses
 #   **five levels 1000, 2000, 3000, 4000 and 5000 MPa** for Figs. 5-6 and **1000 MPa** for
 #   Figs. 7-9 (one level: those figures vary the hold time). Up to 5000 MPa the normalised

@@ -252,7 +252,8 @@ def test_stress_control_below_the_kinetic_strength_converges():
 def test_stress_control_between_the_kinetic_strength_and_the_peak_is_sustained():
     """Above g mu_k but reached before the interface has softened, a held stress does not run
     away: at constant stress the loading criterion is -m_c <= 0, so the hold is elastic and mu
-    recovers (docs/model.md §8: "beyond the kinetic strength runs away" needs this qualification)."""
+    recovers (docs/model.md §8: "beyond the kinetic strength runs away" needs this
+    qualification)."""
     p = preset("sec7")
     g = -math.expm1(-p.c_n * p.alpha_n * UN)
     f = 40.0
