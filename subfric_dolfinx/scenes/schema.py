@@ -99,7 +99,8 @@ class OutputSpec:
 
     Attributes:
         history: Write ``history.csv`` (one row per converged step).
-        fields: ``"vtx"`` or ``"xdmf"`` field output, or ``None``.
+        fields: ``"vtx"`` or ``"xdmf"`` field output (per-facet averages, and the interface
+            state at the quadrature points in ``fields/interface_points.xdmf``), or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
         interface_history: Write ``interface_history.h5`` (every field at every step, see
