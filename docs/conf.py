@@ -1,10 +1,10 @@
 """Sphinx configuration of the documentation site (``./run docs`` builds it into ``_build/html``).
 
-Pages: the index, the README (rewritten for its links: ``readme.md``), ``model.md``, the demos rendered from their jupytext
-sources (copied here from ``demos/`` at every build, not executed: see ``index.md``) and one API
-page per public module (generated here at every build: ``automodule`` with its members). Both
-generated folders (``demos/``, ``api/``) and ``readme.md`` are rebuilt from the sources each time
-and not kept in git.
+Pages: the index, the README (rewritten for its links: ``readme.md``), ``model.md``, the demos
+rendered from their jupytext sources (copied here from ``demos/`` at every build, not executed:
+see ``index.md``) and one API page per public module (generated here at every build:
+``automodule`` with its members). The generated folders (``demos/``, ``api/``) and ``readme.md``
+are rebuilt from the sources each time and not kept in git.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 
 project = "subfric-dolfinx"
 author = "the subfric-dolfinx developers"
-copyright = "2026, the subfric-dolfinx developers"  # noqa: A001
+copyright = "2026, the subfric-dolfinx developers"
 
 extensions = [
     "myst_nb",
@@ -70,8 +70,10 @@ def public_modules() -> list[str]:
 
 
 def write_api_pages() -> list[str]:
-    """``api/<module>.md`` for every public module (a package: its docstring only, since its
-    members are documented in the modules that define them)."""
+    """``api/<module>.md`` for every public module.
+
+    A package's page has its docstring only: its members are documented in their modules.
+    """
     out = HERE / "api"
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir()
