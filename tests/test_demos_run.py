@@ -50,6 +50,29 @@ def test_every_demo_is_listed():
     assert sorted(SMALL) == demos_on_disk()
 
 
+@pytest.mark.filterwarnings("ignore:Jupyter is migrating its paths:DeprecationWarning")
+@pytest.mark.parametrize("name", sorted(SMALL))
+def test_every_demo_is_a_notebook_whose_first_cell_is_its_docstring(name):
+    """The jupytext (percent) header, the docstring as the first Markdown cell, and ``--help``
+    with that text and every option's default."""
+    import importlib
+
+    import jupytext
+
+    nb = jupytext.read(ROOT / "demos" / f"{name}.py")
+    assert nb.metadata["jupytext"]["text_representation"]["format_name"] == "percent"
+    module = importlib.import_module(f"demos.{name}")
+    first = nb.cells[0]
+    assert first.cell_type == "markdown" and first.source.strip() == module.__doc__.strip()
+    assert first.source.startswith("# ")  # a title
+    kinds = {c.cell_type for c in nb.cells}
+    assert kinds == {"markdown", "code"}
+    if hasattr(module, "parser"):  # the FE demos (the others build theirs in main)
+        text = module.parser().format_help()
+        assert module.__doc__.splitlines()[0] in text
+        assert "(default: " in text
+
+
 @pytest.mark.serial
 @pytest.mark.parametrize("ranks", [1, 2])
 @pytest.mark.parametrize("name", sorted(SMALL))
