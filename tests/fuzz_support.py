@@ -4,7 +4,7 @@ Hypothesis draws a parameter set (random over many decades, or one of the paper'
 and normalised), the dimension (nt = 1 or 2), the time step, a seed and whether the contact band
 is on (the default ``CONTACT_TOL``) or off (``contact_tol = 0``, so that subnormal normal gaps
 reach the contact branch); the seed drives a numpy generator that builds a batch of points
-mixing random values with the singular spots of ``MODEL.md``: ``r = 0`` (``U(0) = inf``) and
+mixing random values with the singular spots of ``docs/model.md`` §7: ``r = 0`` (``U(0) = inf``) and
 ``r = 1``, ``mu`` at ``mu_k`` and ``mu_s``, ``f_t = 0`` exactly (``t_f = 0/0``), ``ubar_n = 0``,
 negative, subnormal and tiny (``F = 0/0``), tiny and huge increments, and ``dt`` = 0, subnormal,
 tiny and huge. With ``start=True`` the subloading states carry a start traction ``f`` (the

@@ -1,9 +1,10 @@
 """High-accuracy reference of the RATE equations of the subloading-friction model (test support).
 
-This module does not use the project's return map: it integrates the rate form of ``MODEL.md``
-("Rate form") with :func:`scipy.integrate.solve_ivp` at a tight tolerance, for one interface point
-under a prescribed, piecewise-linear gap history ``ubar(t)`` (the same ``[t, x1, x2, ubar_n]`` rows
-as a driver case under displacement control). State ``y = (up, mu, r)``::
+This module does not use the project's return map: it integrates the rate form of
+``docs/model.md`` §2 ("Rate form") with :func:`scipy.integrate.solve_ivp` at a tight tolerance,
+for one interface point under a prescribed, piecewise-linear gap history ``ubar(t)`` (the same
+``[t, x1, x2, ubar_n]`` rows as a driver case under displacement control). State
+``y = (up, mu, r)``::
 
     f_t = alpha_t (ubar_t - up),   f_n = alpha_n ubar_n,   g = 1 - exp(-c_n f_n),
     F = |f_t| / g,   t_f = f_t / |f_t|,

@@ -193,7 +193,7 @@ def test_literal_sec6_set_is_flagged_unstable_and_the_normalised_one_is_not(tmp_
     assert lost is not None and data["stable"] is False
     assert {"t", "reason", "r", "f_t1", "mu"} <= set(lost)
     assert lost["reason"] in ("den <= 0", "jump at a fold")
-    assert 0.0 < lost["t"] < 2.0 and 0.03 < lost["r"] < 0.08  # early: r ~ 0.05 (MODEL.md)
+    assert 0.0 < lost["t"] < 2.0 and 0.03 < lost["r"] < 0.08  # early: r ~ 0.05 (docs/model.md §8)
     assert data["complete"] is False
     assert len(data["samples"]["t"]) < 7  # no complete curve
     assert data["status_counts"]["UNSTABLE"] >= 1
@@ -252,7 +252,8 @@ def test_stress_control_below_the_kinetic_strength_converges():
 def test_stress_control_between_the_kinetic_strength_and_the_peak_is_sustained():
     """Above g mu_k but reached before the interface has softened, a held stress does not run
     away: at constant stress the loading criterion is -m_c <= 0, so the hold is elastic and mu
-    recovers (MODEL.md's "beyond the kinetic strength runs away" needs this qualification)."""
+    recovers (docs/model.md §8: "beyond the kinetic strength runs away" needs this
+    qualification)."""
     p = preset("sec7")
     g = -math.expm1(-p.c_n * p.alpha_n * UN)
     f = 40.0

@@ -1,6 +1,6 @@
 """Property-based fuzzing of the batched return maps (subloading-friction law and Coulomb).
 
-Batches of random points mixed with the singular spots of ``MODEL.md`` (``tests/fuzz_support.py``)
+Batches of random points mixed with the singular spots of ``docs/model.md`` §7 (``tests/fuzz_support.py``)
 go through the maps; every result must have the properties of ``tests/fuzz_checks.py``. The
 subloading law is fuzzed with states without a start traction (the radial return) and with
 (reversal splits and rotations of the flow direction). Every CI run pushes more than 1e5 points

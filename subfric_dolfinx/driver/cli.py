@@ -123,15 +123,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = _Parser(
         prog="python3 -m subfric_dolfinx.driver",
         description="Material-point driver of the subloading-friction law.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     ap.add_argument("case", help="CASE.json")
-    ap.add_argument("--steps-per-mm", type=float, default=None, help="step density (steps per mm)")
+    ap.add_argument(
+        "--steps-per-mm", type=float, default=None, help="steps per mm (the case's when not given)"
+    )
     ap.add_argument("--out", help="write the result to this JSON file (atomically)")
     ap.add_argument(
         "--max-steps",
         type=float,
         default=MAX_TOTAL_STEPS,
-        help=f"refuse cases needing more steps in all (default {MAX_TOTAL_STEPS:g})",
+        help="refuse cases needing more steps in all",
     )
     ap.add_argument(
         "--continue-unstable",

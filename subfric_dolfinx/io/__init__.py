@@ -5,6 +5,8 @@
 * :mod:`.summary`: :func:`interface_summary`, resultant forces and area-weighted means.
 * :mod:`.history`: :class:`HistoryCSV`, one row per converged step.
 * :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView.
+* :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
+  as a point-cloud time series (XDMF/HDF5) for ParaView.
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
 * :mod:`.checkpoint`: checkpoint and restart in one HDF5 file (:mod:`.checkpoint_format`: its
   validation).
@@ -29,6 +31,7 @@ from .gather import gather_interface, interface_order
 from .history import HistoryCSV
 from .interface_history import InterfaceHistoryH5
 from .outdir import OutputDirectory
+from .points import InterfacePointsXDMF, PointCloudError
 from .summary import interface_summary
 
 __all__ = [
@@ -37,8 +40,10 @@ __all__ = [
     "FieldWriter",
     "HistoryCSV",
     "InterfaceHistoryH5",
+    "InterfacePointsXDMF",
     "OutputDirectory",
     "OutputError",
+    "PointCloudError",
     "gather_interface",
     "interface_order",
     "interface_summary",

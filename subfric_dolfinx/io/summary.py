@@ -14,7 +14,7 @@ def interface_summary(problem) -> dict[str, float]:
     """Area-weighted means over the interface, totals and status fractions (same on all ranks).
 
     Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
-    ``f_t`` (mean |f_t|), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
+    ``f_t`` (mean ``|f_t|``), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
     as its mean ``v``, a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
     [``v_t2``] (means of its components), a local one as the means of ``v_t1`` [``v_t2``],
     ``v_n``; and the fractions of quadrature points ``plastic``

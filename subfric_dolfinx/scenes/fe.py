@@ -97,6 +97,7 @@ def run_fe_scene(
             dt_max=scene.solver.dt_max,
             dt_min=scene.solver.dt_min,
             max_cuts=scene.solver.max_cuts,
+            hold_dt=scene.solver.hold_dt,
         )
         restart_time, restart_history = None, None
         if restart is not None:

@@ -21,7 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from ..io import FieldWriter, HistoryCSV, InterfaceHistoryH5, gather_interface, write_checkpoint
+from ..io import (
+    FieldWriter,
+    HistoryCSV,
+    InterfaceHistoryH5,
+    InterfacePointsXDMF,
+    gather_interface,
+    write_checkpoint,
+)
 from .schema import OutputSpec
 from .signals import SceneInterrupted
 
@@ -83,6 +90,7 @@ class SceneOutputs:
         self.snapshots: dict[float, dict[str, np.ndarray]] = {}
         self.iterations: list[int] = []
         self.fields: FieldWriter | None = None
+        self.points: InterfacePointsXDMF | None = None  # quadrature points, beside the fields
         self.ihist: InterfaceHistoryH5 | None = None
         self.history = HistoryCSV(outdir / "history.csv" if spec.history else None, problem)
         if restart_history:
@@ -90,6 +98,7 @@ class SceneOutputs:
         try:
             if spec.fields:
                 self.fields = FieldWriter(outdir / "fields", problem, spec.fields)
+                self.points = InterfacePointsXDMF(outdir / "fields/interface_points.xdmf", problem)
             if spec.interface_history:
                 self.ihist = InterfaceHistoryH5(
                     outdir / "interface_history.h5", problem, restart_time
@@ -134,6 +143,8 @@ class SceneOutputs:
             self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
         ):
             self.fields.write(rec.t)
+            if self.points is not None:
+                self.points.write(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
@@ -161,6 +172,8 @@ class SceneOutputs:
         """
         first: Exception | None = None
         closers = [("history", self.history.close)]
+        if self.points is not None:
+            closers.append(("fields/interface_points.xdmf", self.points.close))
         if self.fields is not None:
             closers.append(("fields", self.fields.close))
         if self.ihist is not None:
@@ -177,6 +190,7 @@ class SceneOutputs:
             elif name != "history":
                 self.files.append(str(self.outdir / name))
         self.fields = None
+        self.points = None
         self.ihist = None
         if first is not None:
             raise first

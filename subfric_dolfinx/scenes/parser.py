@@ -303,6 +303,8 @@ def _check_solver(sv: SolverSpec) -> None:
         raise SceneError(f"{path}.dt_max: must be >= dt = {sv.dt!r}, got {sv.dt_max!r}")
     if sv.dt_min is not None and not 0 <= sv.dt_min <= sv.dt:
         raise SceneError(f"{path}.dt_min: must be in [0, dt = {sv.dt!r}], got {sv.dt_min!r}")
+    if sv.hold_dt is not None and not sv.hold_dt > 0:
+        raise SceneError(f"{path}.hold_dt: must be > 0, got {sv.hold_dt!r}")
     if sv.max_cuts < 0:
         raise SceneError(f"{path}.max_cuts: must be >= 0, got {sv.max_cuts!r}")
     for key, value in sv.options.items():

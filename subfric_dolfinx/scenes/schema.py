@@ -79,6 +79,8 @@ class SolverSpec:
         dt_max: Largest step (default ``dt``).
         dt_min: Smallest step before the run gives up.
         max_cuts: Consecutive step cuts allowed.
+        hold_dt: Step in the program's holds (segments where no channel changes), e.g. the
+            hold's length: one step (``None``: holds are stepped like the rest).
         options: PETSc options under the prefix, for this scene's solver only.
     """
 
@@ -87,6 +89,7 @@ class SolverSpec:
     dt_max: float | None = None
     dt_min: float | None = None
     max_cuts: int = 10
+    hold_dt: float | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
@@ -96,7 +99,8 @@ class OutputSpec:
 
     Attributes:
         history: Write ``history.csv`` (one row per converged step).
-        fields: ``"vtx"`` or ``"xdmf"`` field output, or ``None``.
+        fields: ``"vtx"`` or ``"xdmf"`` field output (per-facet averages, and the interface
+            state at the quadrature points in ``fields/interface_points.xdmf``), or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
         interface_history: Write ``interface_history.h5`` (every field at every step, see

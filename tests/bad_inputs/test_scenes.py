@@ -129,6 +129,7 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         (lambda s: s["solver"].update(dt_min=-1e-3), r"scene.solver.dt_min: must be in \[0, dt"),
         (lambda s: s["solver"].update(dt_max=0.01), r"scene.solver.dt_max: must be >= dt"),
         (lambda s: s["solver"].update(max_cuts=-1), r"scene.solver.max_cuts: must be >= 0"),
+        (lambda s: s["solver"].update(hold_dt=0.0), r"scene.solver.hold_dt: must be > 0"),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
