@@ -1,5 +1,6 @@
-"""Material-point convergence study for the report: error against run time, the current map, the
-previous one (before issue 14) and Coulomb side by side.
+"""Material-point convergence study for the report: error against run time.
+
+The current map, the previous one (before issue 14) and Coulomb side by side.
 
 Two displacement-controlled paths at f_n = 300 MPa (``u_n = 0.6`` mm, Sec. 7 preset):
 
@@ -32,6 +33,7 @@ paste into the report).
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 import time
@@ -76,13 +78,16 @@ SAMPLE_EVERY = {"reversal": 0.04, "turn": 0.01}  # s (the paths move at 1 mm/s)
 
 
 def samples_of(path: np.ndarray, every: float | None = None) -> np.ndarray:
-    """Sample times plus the breakpoints: every ``every`` s where the gap moves (a hold gets its
-    ends only), or 40 equal intervals of the whole path if ``every`` is None."""
+    """Sample times plus the breakpoints.
+
+    Every ``every`` s where the gap moves (a hold gets its ends only), or 40 equal intervals of
+    the whole path if ``every`` is None.
+    """
     t0, t1 = path[0, 0], path[-1, 0]
     if every is None:
         return np.union1d(np.linspace(t0, t1, 41), path[:, 0])
     ts = [path[:, 0]]
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         if np.any(a[1:] != b[1:]):
             n = max(1, round((b[0] - a[0]) / every))
             ts.append(np.round(np.linspace(a[0], b[0], n + 1), 12))
@@ -269,8 +274,10 @@ def section(res: dict) -> str:
     out = []
     for key, e in res["paths"].items():
         by = {law: {r["spm"]: r for r in e["runs"] if r["law"] == law} for law in LAWS}
-        head = ("| steps/mm | steps | previous map: error / peak (at t) | CPU us/step | "
-                "current map: error / peak (at t) | CPU us/step | Coulomb: error / peak |")  # fmt: skip
+        head = (
+            "| steps/mm | steps | previous map: error / peak (at t) | CPU us/step | "
+            "current map: error / peak (at t) | CPU us/step | Coulomb: error / peak |"
+        )
         rows = [head, "|---|---|---|---|---|---|---|"]
         for spm, r in by["subloading"].items():
             p = by["subloading_previous"].get(spm)
@@ -300,6 +307,7 @@ def section(res: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Run the study and write its data, figure and Markdown tables."""
     import argparse
     import json
 

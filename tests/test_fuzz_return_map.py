@@ -1,11 +1,12 @@
 """Property-based fuzzing of the batched return maps (subloading-friction law and Coulomb).
 
-Batches of random points mixed with the singular spots of ``docs/model.md`` §7 (``tests/fuzz_support.py``)
-go through the maps; every result must have the properties of ``tests/fuzz_checks.py``. The
-subloading law is fuzzed with states without a start traction (the radial return) and with
-(reversal splits and rotations of the flow direction). Every CI run pushes more than 1e5 points
-through each variant (each test asserts its own volume); the ``slow`` tests (``--run-slow``) push
-about 1e7 each. The consistent tangent against central differences: ``test_fuzz_tangent.py``.
+Batches of random points mixed with the singular spots of ``docs/model.md`` §7
+(``tests/fuzz_support.py``) go through the maps; every result must have the properties of
+``tests/fuzz_checks.py``. The subloading law is fuzzed with states without a start traction (the
+radial return) and with (reversal splits and rotations of the flow direction). Every CI run pushes
+more than 1e5 points through each variant (each test asserts its own volume); the ``slow`` tests
+(``--run-slow``) push about 1e7 each. The consistent tangent against central differences:
+``test_fuzz_tangent.py``.
 
 Bugs found by this fuzzing and fixed in the return maps (regression tests below): ``mu``
 recovered one ulp above ``mu_s``; ``r = 0/0 = NaN`` for ``f_t = 0`` on an underflowing surface
