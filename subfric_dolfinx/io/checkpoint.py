@@ -8,6 +8,9 @@ ranks restarts on 1 or 2:
 * ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
   ``up``, ``mu``, ``r``): the committed interface state per quadrature point, keyed by the point's
   coordinates (unique on the interface);
+* ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
+  initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
+  restarts only with the same initial gap and regions);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
   counter of the stepper), ``law`` and ``program`` (JSON), ``n_cells``, ``degree``, ``gdim``;
 * ``/history``: the rows of the history so far (column names in the attribute ``columns``).
@@ -27,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from ..constitutive import law_description
 from ..fem.interface.geometry import match_points
@@ -64,7 +68,8 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
     el = problem.interface
     st = el.state.old
     pts = el.points.reshape(-1, gdim)
-    gathered = comm.gather((cells, u_cells, pts, {k: a for k, a in st.items()}), root=0)
+    pdata = dict(el.point_data)
+    gathered = comm.gather((cells, u_cells, pts, {k: a for k, a in st.items()}, pdata), root=0)
     error = None
     if comm.rank == 0:
         try:
@@ -98,6 +103,9 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
                 for name in st.names:
                     a = np.concatenate([x[3][name] for x in gathered])
                     g[name] = a.reshape(-1, *st[name].shape[1:])
+                pd = f.create_group("point_data")
+                for name in pdata:
+                    pd[name] = np.concatenate([x[4][name] for x in gathered])
                 cols = list(history[0]) if history else []
                 h = f.create_dataset(
                     "history",
@@ -125,6 +133,7 @@ class Checkpoint:
     x: np.ndarray
     interface: dict[str, np.ndarray]
     history: list[dict[str, float]]
+    point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -171,6 +180,7 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                     f["interface/x"][()],
                     {k: f["interface"][k][()] for k in f["interface"] if k != "x"},
                     hist,
+                    {k: v[()] for k, v in f["point_data"].items()} if "point_data" in f else {},
                 )
         except CheckpointError as e:
             error = str(e)
@@ -231,8 +241,39 @@ def restore_checkpoint(path: str | Path, problem: Any, stepper: Any) -> list[dic
     missing = sorted(set(st.names) - set(ck.interface))
     if missing:
         raise CheckpointError(f"checkpoint {str(path)!r} lacks the interface variable(s) {missing}")
+    _compare_point_data(path, el, ck, idx, comm)
     for name in st.names:
         st[name][:] = ck.interface[name][idx]
     el.state.revert()  # trial = committed
     stepper.restore(float(a["time"]), int(a["step"]), float(a["dt"]), int(a["easy"]))
     return ck.history
+
+
+_POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}
+
+
+def _compare_point_data(path: Any, el: Any, ck: Checkpoint, idx: np.ndarray, comm: Any) -> None:
+    """The run's fixed point data must equal the checkpoint's (collective).
+
+    A checkpoint without point data (an older one) fits a run whose data are all zero.
+
+    Raises:
+        CheckpointError: On every rank, naming the datum, the largest difference and where.
+    """
+    gdim = el.gdim
+    pts = el.points.reshape(-1, gdim)
+    for name, here in el.point_data.items():
+        stored = ck.point_data.get(name)
+        there = np.zeros_like(here) if stored is None else np.asarray(stored, dtype=float)[idx]
+        diff = np.abs(there - here)
+        i = int(np.argmax(diff)) if diff.size else -1
+        local = (float(diff[i]), tuple(pts[i]), float(there[i]), float(here[i])) if i >= 0 else None
+        worst = max((w for w in comm.allgather(local) if w), default=None, key=lambda w: w[0])
+        scale = comm.allreduce(float(np.abs(here).max()) if here.size else 0.0, op=MPI.MAX)
+        if worst is not None and worst[0] > 1e-9 * max(1.0, scale):
+            where = ", ".join(f"{v:.6g}" for v in worst[1])
+            raise CheckpointError(
+                f"checkpoint {str(path)!r} was written with another {_POINT_DATA.get(name, name)}: "
+                f"{worst[2]:.6g} there, {worst[3]:.6g} in this run at ({where})"
+                + (" (the checkpoint has none)" if stored is None else "")
+            )

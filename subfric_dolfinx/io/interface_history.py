@@ -9,8 +9,11 @@ Layout (``n`` steps, ``p`` interface points in the order of
     /f_n     (n, p)        normal traction, > 0 in compression (MPa)
     /status  (n, p)        return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
     /<v>     (n, p[, nt])  every internal variable of the law (e.g. up, mu, r)
+    /g0      (p,)          the initial gap (fixed; mm)
+    /region  (p,)          with interface regions: the region of each point (fixed)
 
-The attribute ``variables`` lists the law's variables (JSON). Written by rank 0 (gathered),
+The attribute ``variables`` lists the law's variables (JSON), ``regions`` the region names
+(``region`` indexes it; ``default`` first). Written by rank 0 (gathered),
 flushed after each step. Opened on a restart, the steps after the restart time are dropped and the
 run appends from there.
 """
@@ -49,7 +52,7 @@ class InterfaceHistoryH5:
         }
         for var in problem.law.variables:
             self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
-        x = gather_interface(el, {}, root=0)
+        x = gather_interface(el, dict(el.point_data), root=0)
         self._f = None
         if problem.comm.rank == 0:
             import h5py
@@ -64,6 +67,9 @@ class InterfaceHistoryH5:
                 f = h5py.File(self.path, "w")
                 f.attrs["variables"] = json.dumps([v.name for v in problem.law.variables])
                 f["x"] = x["x"]
+                f.attrs["regions"] = json.dumps(list(el.region_names))
+                for k in el.point_data:
+                    f[k] = x[k].astype(int) if k == "region" else x[k]
                 p = x["x"].shape[0]
                 f.create_dataset("time", (0,), maxshape=(None,), dtype=float)
                 for k, (shape, dtype) in self.shapes.items():
