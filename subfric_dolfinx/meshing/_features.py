@@ -4,9 +4,9 @@
   interface facets (a subgroup of ``interface``), e.g. two surface finishes with their own
   friction laws. The master is cut at the strips' ends so that each strip is its own curve
   (surface); the groups carry the tags ``REGION_TAG0 + i``.
-* Grading (triangles and tetrahedra): the element size grows from ``h`` at a point (by default
-  the centre of the interface) by ``growth`` per unit distance up to ``far_size``, e.g. a
-  contact zone resolved finely inside large bodies.
+* Grading (triangles and tetrahedra): the element size is ``h`` within ``refine_radius`` of a
+  point (by default the centre of the interface) and grows by ``growth`` per unit distance
+  beyond, up to ``far_size``, e.g. a contact zone resolved finely inside large bodies.
 """
 
 from __future__ import annotations
@@ -89,7 +89,12 @@ def add_region_groups(
 
 
 def check_grading(
-    cell_type: str, far_size: float | None, growth: float, center: Sequence[float] | None, h: float
+    cell_type: str,
+    far_size: float | None,
+    growth: float,
+    center: Sequence[float] | None,
+    h: float,
+    radius: float = 0.0,
 ) -> None:
     """Validate the grading options (``far_size`` None: no grading).
 
@@ -103,6 +108,8 @@ def check_grading(
     for name, v in (("far_size", far_size), ("growth", growth)):
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+    if not (isinstance(radius, int | float) and math.isfinite(radius) and radius >= 0):
+        raise ValueError(f"refine_radius must be a finite number >= 0, got {radius!r}")
     if far_size < h:
         raise ValueError(f"far_size = {far_size!r} must be at least the interface size h = {h:g}")
     if center is not None and not all(
@@ -112,9 +119,15 @@ def check_grading(
 
 
 def graded_mesh(
-    gmsh: Any, gdim: int, h: float, far_size: float, growth: float, center: Sequence[float]
+    gmsh: Any,
+    gdim: int,
+    h: float,
+    far_size: float,
+    growth: float,
+    center: Sequence[float],
+    radius: float = 0.0,
 ) -> None:
-    """Generate the mesh with sizes ``min(far_size, h + growth * |x - center|)``.
+    """Generate the mesh with sizes ``min(far_size, h + growth * max(0, |x - center| - radius))``.
 
     The size field and the options it needs are removed again afterwards.
     """
@@ -122,7 +135,8 @@ def graded_mesh(
     f = gmsh.model.mesh.field
     fid = f.add("MathEval")
     dist = f"Sqrt((x-({c[0]!r}))^2+(y-({c[1]!r}))^2+(z-({c[2]!r}))^2)"
-    f.setString(fid, "F", f"Min({far_size!r}, {h!r} + {growth!r}*{dist})")
+    grow = f"Max(0, {dist} - {float(radius)!r})"
+    f.setString(fid, "F", f"Min({far_size!r}, {h!r} + {growth!r}*{grow})")
     f.setAsBackgroundMesh(fid)
     opts = {
         "Mesh.MeshSizeMax": far_size,

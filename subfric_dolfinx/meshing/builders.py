@@ -123,6 +123,7 @@ def build_block_on_base(
     far_size: float | None = None,
     growth: float = 0.25,
     refine_center: Sequence[float] | None = None,
+    refine_radius: float = 0.0,
 ) -> ModelInfo:
     """Build the 2-D "block on a base" model in the current gmsh session (call on one rank).
 
@@ -144,11 +145,13 @@ def build_block_on_base(
         model_name: Name of the gmsh model added to the session (it becomes the current model).
         interface_regions: Name -> ``[x0, x1]``: strips of the interface, each a physical group
             of interface facets (see :mod:`._features`).
-        far_size: Grade the mesh (triangles): the element size grows from ``h`` at
-            ``refine_center`` (default: the interface's centre) by ``growth`` per unit distance
-            up to ``far_size``; curves are then not divided uniformly.
+        far_size: Grade the mesh (triangles): the element size is ``h`` within
+            ``refine_radius`` of ``refine_center`` (default: the interface's centre) and grows
+            by ``growth`` per unit distance beyond, up to ``far_size``; curves are then not
+            divided uniformly.
         growth: See ``far_size``.
         refine_center: See ``far_size``.
+        refine_radius: See ``far_size``.
 
     Returns:
         Description of the model.
@@ -169,7 +172,7 @@ def build_block_on_base(
             f"the block [{block_x}, {block_x + block_width}] must lie on the base [0, {base_width}]"
         )
     h = _interface_size(block_width, n_interface, mesh_size)
-    check_grading(cell_type, far_size, growth, refine_center, h)
+    check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
     return _build(
         gdim=2,
         master_box=((0.0, 0.0), (base_width, base_height)),
@@ -178,7 +181,7 @@ def build_block_on_base(
         cell_type=cell_type,
         model_name=model_name,
         regions=check_regions(interface_regions, block_x, block_x + block_width),
-        grading=None if far_size is None else (far_size, growth, refine_center),
+        grading=None if far_size is None else (far_size, growth, refine_center, refine_radius),
     )
 
 
@@ -195,6 +198,7 @@ def build_pad_on_plate(
     far_size: float | None = None,
     growth: float = 0.25,
     refine_center: Sequence[float] | None = None,
+    refine_radius: float = 0.0,
 ) -> ModelInfo:
     """Build the 3-D "pad on a plate" model in the current gmsh session (call on one rank).
 
@@ -217,6 +221,7 @@ def build_pad_on_plate(
         far_size: Grade the mesh (tetrahedra), as in :func:`build_block_on_base`.
         growth: See ``far_size``.
         refine_center: See ``far_size``.
+        refine_radius: See ``far_size``.
 
     Returns:
         Description of the model.
@@ -241,7 +246,7 @@ def build_pad_on_plate(
                 f"the pad [{o}, {o + a}] must lie on the plate [0, {length}] in {axis}"
             )
     h = _interface_size(pad[0], n_interface, mesh_size)
-    check_grading(cell_type, far_size, growth, refine_center, h)
+    check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
     return _build(
         gdim=3,
         master_box=((0.0, 0.0, 0.0), plate),
@@ -250,7 +255,7 @@ def build_pad_on_plate(
         cell_type=cell_type,
         model_name=model_name,
         regions=check_regions(interface_regions, ox, ox + pad[0]),
-        grading=None if far_size is None else (far_size, growth, refine_center),
+        grading=None if far_size is None else (far_size, growth, refine_center, refine_radius),
     )
 
 
@@ -263,7 +268,7 @@ def _build(
     cell_type: str,
     model_name: str,
     regions: list[tuple[str, float, float]] = (),  # type: ignore[assignment]
-    grading: tuple[float, float, Sequence[float] | None] | None = None,
+    grading: tuple[float, float, Sequence[float] | None, float] | None = None,
 ) -> ModelInfo:
     gmsh = gmsh_module()
     if not gmsh.isInitialized():
@@ -355,10 +360,10 @@ def _build(
             tags[name] = gmsh.model.addPhysicalGroup(dim, groups[name], TAGS[name], name=name)
     tags.update(add_region_groups(gmsh, gdim, groups[INTERFACE], list(regions)))
     if grading is not None:
-        far, growth, centre = grading
+        far, growth, centre, radius = grading
         if centre is None:
             centre = [0.5 * (s0[i] + s1[i]) for i in range(gdim - 1)] + [z_if]
-        graded_mesh(gmsh, gdim, h, far, growth, centre)
+        graded_mesh(gmsh, gdim, h, far, growth, centre, radius)
         _crack(gdim, tags[INTERFACE], groups[INTERFACE])
         return _model_info(model_name, gdim, cell_type, tags, h)
 

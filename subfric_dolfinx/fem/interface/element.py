@@ -259,7 +259,7 @@ def _initial_gap(
             bad = np.flatnonzero(~np.isfinite(g))
             if bad.size:
                 where = ", ".join(f"{v:.6g}" for v in x[bad[0]])
-                error = f"the initial gap is not finite at ({where}): {g[bad[0]]!r}"
+                error = f"the initial gap is not finite at ({where}): {g[bad[0]]:g}"
     except Exception as e:  # a function of the user's, or values of the wrong shape
         error = f"the initial gap could not be evaluated: {type(e).__name__}: {e}"
     errors = [m for m in comm.allgather(error) if m]
