@@ -91,6 +91,12 @@ def test_overflow_gives_non_finite_values_not_an_error_or_a_hang():
 def test_gap_specs():
     two = X[:2]
     assert gap_function(0.01, 2) == 0.01 and gap_function(None, 2) is None
+
+    def python(x):  # a scene given from Python may hold a function (code, trusted)
+        return x[0]
+
+    parse_initial_gap(python)
+    assert gap_function(python, 2) is python
     par = gap_function({"parabola": {"R": 50, "center": [1.0, 1.0]}}, 2)
     np.testing.assert_allclose(par(two), ((two[0] - 1) ** 2 + (two[1] - 1) ** 2) / 100)
     circ = gap_function({"circle": {"R": 5, "center": [1.0, 1.0]}}, 2)

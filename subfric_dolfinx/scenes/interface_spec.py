@@ -9,7 +9,9 @@
 * ``{"parabola": {"R": 50, "center": [1, 0.5]}}``: ``d**2 / (2 R)`` with ``d`` the distance to
   ``center`` (the point of first touch), a cylinder (2-D) or sphere (3-D) of radius ``R`` near its
   apex, as in Hertz's theory;
-* ``{"circle": {"R": 50, "center": [1, 0.5]}}``: the exact ``R - sqrt(R**2 - d**2)``.
+* ``{"circle": {"R": 50, "center": [1, 0.5]}}``: the exact ``R - sqrt(R**2 - d**2)``;
+* in a scene given from Python (code, trusted like the callables of conditions), a function of
+  the coordinates ``x`` (gdim, n) returning (n,) values.
 
 ``"regions"``: ``{"<group>": {"law": ..., "params": {...}}}``: a named group of interface facets
 (a physical group of the mesh lying on the interface) with its own law; ``"law"`` holds on the
@@ -55,7 +57,7 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
     Raises:
         SceneError: Naming the offending key.
     """
-    if value is None:
+    if value is None or callable(value):
         return
     if isinstance(value, int | float) and not isinstance(value, bool):
         if not math.isfinite(value):
@@ -98,8 +100,10 @@ def gap_function(
     Raises:
         SceneError: ``z`` in a 2-D scene, a centre with the wrong number of coordinates.
     """
-    if value is None or isinstance(value, int | float):
-        return None if value is None else float(value)
+    if value is None or callable(value):
+        return value
+    if isinstance(value, int | float):
+        return float(value)
     if "expression" in value:
         try:
             return compile_expression(
