@@ -13,7 +13,7 @@ reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -26,6 +26,7 @@ from ..constitutive import FrictionLaw
 from ..loading import LoadingProgram
 from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
 from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
+from .interface.regions import element_regions
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
 __all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
@@ -88,6 +89,13 @@ class InterfaceProblem:
         degree: Displacement degree (1 or 2).
         quadrature: Interface quadrature, ``"gauss"`` or ``"nodal"``.
         names: Group names of ``interface``, ``master`` and ``slave`` if not these.
+        initial_gap: Initial normal gap ``g0`` of the interface (mm, > 0 open): a number or a
+            function of the coordinates ``x`` (gdim, n) (see
+            :class:`~.interface.InterfaceElements`).
+        regions: Interface regions: name of a subgroup of the interface (see
+            :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`) -> its law; ``law``
+            holds elsewhere. :attr:`law` is then a
+            :class:`~subfric_dolfinx.constitutive.RegionalLaw`.
 
     Raises:
         InterfaceError: A required physical group is missing (named), or the interface is unusable.
@@ -105,6 +113,8 @@ class InterfaceProblem:
         degree: int = 1,
         quadrature: str = "gauss",
         names: Mapping[str, str] | None = None,
+        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
+        regions: Mapping[str, FrictionLaw] | None = None,
     ) -> None:
         self.timings = Timings()
         mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
@@ -143,7 +153,14 @@ class InterfaceProblem:
                 self.tags[nm["master"]],
                 self.tags[nm["slave"]],
             )
-            self.interface = InterfaceElements(self.pairs, V, law, quadrature)
+            by_region = None
+            if regions:
+                groups = getattr(domain, "interface_groups", None) or {}
+                by_region = (element_regions(self.pairs, groups, list(regions)), dict(regions))
+            self.interface = InterfaceElements(
+                self.pairs, V, law, quadrature, initial_gap=initial_gap, regions=by_region
+            )
+            self.law = self.interface.law
             self.layout = ExtendedLayout(V, self.pairs.index_map, self.interface.nodes)
 
         # Bulk stiffness from UFL, one material per body.

@@ -8,6 +8,9 @@ ranks restarts on 1 or 2 (format version 2):
 * ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
   ``up``, ``mu``, ``r``): the committed interface state per quadrature point, in the order of
   :func:`~.gather.gather_interface` (points sorted by rounded coordinates);
+* ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
+  initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
+  restarts only with the same initial gap and regions);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
   counter of the stepper), ``law``, ``program`` and ``settings`` (JSON: what the runner passed,
   e.g. the scene's materials, boundary conditions and loads), ``n_cells``, ``n_points``,
@@ -108,6 +111,7 @@ def write_checkpoint(
     blocks = {"x": push(comm, rows, pts, n_points)}
     for name in st.names:
         blocks[name] = push(comm, rows, st[name], n_points)
+    pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
     cols = list(history[0]) if history else []
     table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
         len(history), len(cols)
@@ -138,6 +142,9 @@ def write_checkpoint(
         g.create_dataset("x", (n_points, gdim), **kw)
         for name in st.names:
             g.create_dataset(name, (n_points, *st[name].shape[1:]), **kw)
+        pd = f.create_group("point_data")
+        for name in pblocks:
+            pd.create_dataset(name, (n_points,), **kw)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
 
@@ -147,6 +154,8 @@ def write_checkpoint(
         if p1 > p0:
             for name, b in blocks.items():
                 f["interface"][name][p0:p1] = b
+            for name, b in pblocks.items():
+                f["point_data"][name][p0:p1] = b
         if comm.rank == 0 and table.size:
             f["history"][...] = table
 
@@ -154,8 +163,8 @@ def write_checkpoint(
         collective(
             comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
         )
-        values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * sum(
-            int(np.prod(b.shape[1:])) for b in blocks.values()
+        values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * (
+            sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
         )  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
             h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
@@ -195,6 +204,8 @@ class Checkpoint:
         displacement: ``(hi - lo, n_dofs_per_cell, gdim)``.
         x: This rank's interface points.
         interface: Name -> this rank's rows of every interface variable.
+        point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
+            empty for a checkpoint written without them.
     """
 
     attrs: dict[str, Any]
@@ -204,6 +215,7 @@ class Checkpoint:
     displacement: np.ndarray
     x: np.ndarray
     interface: dict[str, np.ndarray]
+    point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -238,16 +250,29 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
         c0, c1 = slab(int(attrs["n_cells"]), comm.size, comm.rank)
         p0, p1 = slab(int(attrs["n_points"]), comm.size, comm.rank)
 
-        def read(f: Any) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        def read(f: Any) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
             u = f["displacement"][c0:c1]
             g = f["interface"]
             iface = {k: g[k][p0:p1] for k in g}
+            pdata = {}
+            if "point_data" in f:
+                for k in f["point_data"]:
+                    d = f["point_data"][k]
+                    if getattr(d, "shape", None) != (int(attrs["n_points"]),):
+                        raise CheckpointError(
+                            f"checkpoint {name}: 'point_data/{k}' has shape "
+                            f"{getattr(d, 'shape', None)}, not ({attrs['n_points']},)"
+                        )
+                    pdata[k] = np.asarray(d[p0:p1], dtype=float)
             check_blocks(name, u, iface)
-            return u, iface
+            for k, v in pdata.items():
+                if not np.all(np.isfinite(v)):
+                    raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
+            return u, iface, pdata
 
-        u, iface = h.call(read)
+        u, iface, pdata = h.call(read)
     x = iface.pop("x")
-    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface)
+    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata)
 
 
 def restore_checkpoint(
@@ -332,6 +357,7 @@ def restore_checkpoint(
             f"{bad} interface points of this run are not in the checkpoint {name} "
             "(another mesh or quadrature)"
         )
+    _compare_point_data(name, el, ck, rows, n_points, comm)
     for v in st.names:
         st[v][:] = pull(comm, rows, ck.interface[v], n_points)
     el.state.revert()  # trial = committed
@@ -339,3 +365,33 @@ def restore_checkpoint(
     stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history
 
+
+_POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}
+
+
+def _compare_point_data(
+    name: str, el: Any, ck: Checkpoint, rows: np.ndarray, n_points: int, comm: Any
+) -> None:
+    """The run's fixed point data must equal the checkpoint's (collective).
+
+    A checkpoint without point data (an older one) fits a run whose data are all zero.
+
+    Raises:
+        CheckpointError: On every rank, naming the datum, the largest difference and where.
+    """
+    pts = el.points.reshape(-1, el.gdim)
+    for key, here in el.point_data.items():
+        stored = key in ck.point_data
+        there = pull(comm, rows, ck.point_data[key], n_points) if stored else np.zeros_like(here)
+        diff = np.abs(there - here)
+        i = int(np.argmax(diff)) if diff.size else -1
+        local = (float(diff[i]), tuple(pts[i]), float(there[i]), float(here[i])) if i >= 0 else None
+        worst = max((w for w in comm.allgather(local) if w), default=None, key=lambda w: w[0])
+        scale = comm.allreduce(float(np.abs(here).max()) if here.size else 0.0, op=MPI.MAX)
+        if worst is not None and worst[0] > 1e-9 * max(1.0, scale):
+            where = ", ".join(f"{v:.6g}" for v in worst[1])
+            raise CheckpointError(
+                f"checkpoint {name} was written with another {_POINT_DATA.get(key, key)}: "
+                f"{worst[2]:.6g} there, {worst[3]:.6g} in this run at ({where})"
+                + ("" if stored else " (the checkpoint has none)")
+            )

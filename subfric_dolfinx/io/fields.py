@@ -2,7 +2,9 @@
 
 The interface fields are ``f_t`` (tangential traction, as a vector in global components), ``f_n``
 and every internal variable of the law (tangential ones as vectors in global components, scalar
-ones as they are), as cell averages of the quadrature values on the interface submesh (DG0).
+ones as they are) and the fixed point data (the initial gap ``g0``; ``region``, the region
+number, with interface regions), as cell averages of the quadrature values on the interface
+submesh (DG0).
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
 
@@ -78,6 +80,8 @@ class FieldWriter:
         for var in problem.law.variables:
             space = D0s if var.shape == SCALAR else D0v
             self.fields[var.name] = F(space, name=var.name)
+        for k in el.point_data:
+            self.fields[k] = F(D0s, name=k)
         u = problem.u
         n_u = u.function_space.dofmap.index_map.size_global
         n_sub = sub.topology.index_map(sub.topology.dim).size_global
@@ -141,6 +145,8 @@ class FieldWriter:
             self.fields[var.name].x.array[:] = (
                 avg(a) if var.shape == SCALAR else global_vector(a).ravel()
             )
+        for k, a in el.point_data.items():
+            self.fields[k].x.array[:] = avg(a)
 
     def write(self, t: float) -> None:
         """Write the current (converged) state at time ``t`` (collective).

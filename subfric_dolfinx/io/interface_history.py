@@ -11,8 +11,11 @@ Layout (``n`` steps, ``p`` interface points in the order of
                              ubar_n (> 0 on approach; f_n = alpha_n ubar_n in contact) (mm)
     /status  (n, p)          return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
     /<v>     (n, p[, nt])    every internal variable of the law (e.g. up, mu, r)
+    /g0      (p,)            the initial gap (fixed; mm)
+    /region  (p,)            with interface regions: the region of each point (fixed)
 
-The attribute ``variables`` lists the law's variables (JSON). A step counts once its time is in
+The attribute ``variables`` lists the law's variables (JSON), ``regions`` the region names
+(``region`` indexes it; ``default`` first). A step counts once its time is in
 ``/time``, written last: after a failed write the other datasets may hold one more (incomplete)
 row, which a restart drops. Each rank writes its own slab of
 points (:mod:`.slabs`) through h5py's MPI driver (:class:`~.h5.ParallelH5`), and the file is
@@ -72,6 +75,7 @@ class InterfaceHistoryH5:
             int(np.prod(shape)) * np.dtype(dtype).itemsize for shape, dtype in self.shapes.values()
         ) + 2048  # fmt: skip
         x = push(comm, self.rows, el.points.reshape(-1, gdim), self.p)
+        self.pdata = {k: push(comm, self.rows, a, self.p) for k, a in el.point_data.items()}
         self.h: ParallelH5 | None = None
         self.n = 0  # steps in the file
         exists = comm.bcast(self.path.exists() if comm.rank == 0 else None, root=0)
@@ -93,7 +97,11 @@ class InterfaceHistoryH5:
 
         def create(f: Any) -> None:
             f.attrs["variables"] = json.dumps(names)
+            f.attrs["regions"] = json.dumps(list(self.problem.interface.region_names))
             f.create_dataset("x", (p, gdim), dtype=float, fill_time="never")
+            for k in self.pdata:
+                dtype = np.int32 if k == "region" else float
+                f.create_dataset(k, (p,), dtype=dtype, fill_time="never")
             f.create_dataset("time", (0,), maxshape=(None,), dtype=float, chunks=(256,))
             for k, (shape, dtype) in self.shapes.items():
                 f.create_dataset(
@@ -104,8 +112,13 @@ class InterfaceHistoryH5:
         def fill(f: Any) -> None:
             if self.hi > self.lo:
                 f["x"][self.lo : self.hi] = x
+                for k, a in self.pdata.items():
+                    f[k][self.lo : self.hi] = a.astype(np.int32) if k == "region" else a
 
-        self.h.reserve(8 * x.size * self.h.comm.size + 4096 * len(self.shapes))
+        self.h.reserve(
+            8 * (x.size + len(self.pdata) * max(x.shape[0], 1)) * self.h.comm.size
+            + 4096 * (len(self.shapes) + len(self.pdata))
+        )
         self.h.call(create, meta=True)
         self.h.call(fill)
         self.h.call(lambda f: f.flush(), meta=True)

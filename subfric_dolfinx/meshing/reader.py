@@ -31,6 +31,7 @@ from ._gmsh import (
     remove_new_models,
 )
 from ._msh import open_msh
+from ._subgroups import restore_groups, withhold_interface_subgroups
 from .builders import ModelInfo
 from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
 from .partitioners import Partitioner, body_partitioner
@@ -49,6 +50,10 @@ class InterfaceMesh:
         tags: Physical-group name -> integer tag (the names of the file or model).
         num_interface_facets: Global number of interface facets on each side.
         dims: Physical-group name -> its dimension (cells: ``tdim``, facets: ``tdim - 1``).
+        interface_groups: Subgroups of the interface (named facet groups of interface facets,
+            e.g. regions with their own friction law) -> the centroids of their facets (n, gdim),
+            on every rank. A facet carries one tag in DOLFINx, so these groups are not among the
+            facet tags (nor in ``tags``): find their facets by centroid.
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -57,6 +62,7 @@ class InterfaceMesh:
     tags: dict[str, int]
     num_interface_facets: int = 0
     dims: dict[str, int] = dataclasses.field(default_factory=dict)
+    interface_groups: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
@@ -283,6 +289,10 @@ def read_interface_mesh(
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
                 names = _inspect_current_model(gdim, required, what)
+                subgroups, withheld = withhold_interface_subgroups(gdim, names, what)
+                stack.callback(restore_groups, withheld)
+                for name in subgroups:
+                    names.pop(name)
                 for d, t in gmsh.model.getPhysicalGroups():
                     name = gmsh.model.getPhysicalName(d, t)
                     if name:
@@ -296,12 +306,15 @@ def read_interface_mesh(
                 error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
         _raise_collectively(comm, error)
         names = comm.bcast(names, root=0)
+        subgroups = comm.bcast(subgroups if comm.rank == 0 else None, root=0)
         counts = comm.bcast(counts, root=0)
         dims = comm.bcast(dims, root=0)
         mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
             model, comm, 0, gdim=gdim, partitioner=partitioner
         )
-    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names, dims=dims)
+    imesh = InterfaceMesh(
+        mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names, dims=dims, interface_groups=subgroups
+    )
     _check_group_counts(imesh, counts, what)
     if INTERFACE in names:
         _find_sides(imesh, what)

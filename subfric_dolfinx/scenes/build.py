@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import meshing
 from ..fem import Dirichlet, InterfaceProblem, Material, Pressure, Traction
+from .interface_spec import gap_function, parse_regions
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
@@ -73,4 +74,6 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         loads,
         degree=scene.degree,
         quadrature=scene.quadrature,
+        initial_gap=gap_function(scene.initial_gap, gdim),
+        regions=parse_regions(scene.regions) or None,
     )

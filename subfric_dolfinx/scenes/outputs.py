@@ -39,16 +39,21 @@ def interface_profile(problem: Any) -> dict[str, np.ndarray]:
     """Interface fields at all points, gathered on every rank (collective).
 
     In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
-    ``gap`` (n, nt + 1: the gap in the local frame, ``ubar_n`` last), ``status`` and every
-    internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``).
+    ``status``, every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``),
+    the law's input gap ``gap`` (n, nt + 1: ``ubar_t``, ``ubar_n - g0``) and the fixed point data
+    (``g0``, and ``region`` with regions).
     """
     el = problem.interface
     nt = el.nt
     tr = el.last.traction
-    values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "gap": el.last_gap, "status": el.last.status}
+    values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "status": el.last.status}
     values.update(dict(el.state.old.items()))
+    values["gap"] = el.last_gap
+    values.update(el.point_data)
     out = gather_interface(el, values)
     out["status"] = out["status"].astype(int)
+    if "region" in out:
+        out["region"] = out["region"].astype(int)
     return out
 
 

@@ -18,6 +18,7 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
+from .interface_spec import parse_initial_gap, parse_regions
 from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
 
 __all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
@@ -213,6 +214,8 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
     parse_law(scene.law)
+    parse_initial_gap(scene.initial_gap)
+    parse_regions(scene.regions)
     program = build_program(prog)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
     return scene

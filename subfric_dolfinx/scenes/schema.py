@@ -143,6 +143,11 @@ class FEScene:
     quadrature: str = "gauss"
     outputs: OutputSpec = dataclasses.field(default_factory=OutputSpec)
     kind: str = "fe"
+    # the interface beyond its law (see scenes/interface_spec.py): the initial gap g0 (a number,
+    # {"expression": ..., "parameters": ...}, {"parabola": ...} or {"circle": ...}) and regions
+    # (a group of interface facets -> its law)
+    initial_gap: Any = None
+    regions: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -217,3 +217,47 @@ def test_bad_checkpoints_are_refused(shared_tmp):
     finer["mesh"]["options"]["n_interface"] = 12
     with raised_on_every_rank(CheckpointError, "n_cells"):
         run_scene(finer, comm=comm, restart=good)
+
+
+# --------------------------------------------------------------------------------------------
+# The interface beyond its law: initial gaps and regions
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "pattern"),
+    [
+        ("initial_gap", "0.1", r"scene.initial_gap: expected a number or an object"),
+        ("initial_gap", float("nan"), r"scene.initial_gap: expected a finite number"),
+        ("initial_gap", {"expression": "__import__('os')"}, r"unknown function '__import__'"),
+        ("initial_gap", {"expression": "x.real"}, r"scene.initial_gap.expression: Attribute"),
+        ("initial_gap", {"parabola": {"R": 0, "center": [1, 0.5]}}, r"parabola.R: must be"),
+        ("regions", [1], r"scene.regions: expected an object"),
+        ("regions", {"default": {"law": "coulomb"}}, r"scene.regions: 'default' cannot name"),
+        ("regions", {"rough": {"law": "coulomb", "params": {"mu_c": -1}}}, r"scene.regions.rough:"),
+        ("regions", {"rough": {"law": "teapot", "params": {}}}, r"scene.regions.rough: .*'law'"),
+        ("regions", {"rough": {"laws": "coulomb"}}, r"scene.regions.rough: expected"),
+    ],
+)
+def test_bad_gaps_and_regions_are_named(key, value, pattern):
+    s = copy.deepcopy(small_scene())
+    s[key] = value
+    with raised_on_every_rank(SceneError, match=pattern):
+        parse_scene(s)
+
+
+@pytest.mark.parametrize(
+    ("gap", "words"),
+    [
+        ({"expression": "sqrt(x - 1)"}, "the initial gap is not finite at ("),
+        ({"expression": "1 / (x - x)"}, "the initial gap is not finite at ("),
+        ({"circle": {"R": 0.2, "center": [1.0, 0.5]}}, "farther than R = 0.2 from the centre"),
+        ({"expression": "z"}, "unknown name 'z'"),
+    ],
+)
+def test_a_gap_that_cannot_be_evaluated_is_named(gap, words):
+    """Found when the mesh is known (the points, their dimension), on every rank."""
+    s = small_scene()
+    s["solver"]["prefix"] = prefix("gap")
+    s["initial_gap"] = gap
+    with raised_on_every_rank((InterfaceError, SceneError), words):
+        run_scene(s)
