@@ -10,7 +10,6 @@ pairs, in the same order, and ``benchmarks/pairing_scaling.py`` measures both.
 
 from __future__ import annotations
 
-
 import basix
 import dolfinx
 import numpy as np
