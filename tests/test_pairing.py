@@ -14,7 +14,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
-from subfric_dolfinx.fem.interface import InterfaceError, pair_interface
+from subfric_dolfinx.fem.interface import InterfaceError, match_points, pair_interface
 from subfric_dolfinx.meshing.partitioners import _gmsh_node_data
 from tests import reference_pairing
 from tests.helpers import MESH_DIR, everywhere, raised_on_every_rank
@@ -174,3 +174,21 @@ def test_the_same_error_as_the_all_gather_pairing():
                 messages.append(str(e))
                 raise
     assert messages[0] == messages[1]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_match_points_agrees_with_the_grid_hash(dim):
+    """The k-d tree ``match_points`` (also used to restore checkpoints) finds what the grid hash
+    with Python loops found: the nearest key within the tolerance, or none."""
+    rng = np.random.default_rng(dim)
+    keys = rng.random((500, dim))
+    near = keys[rng.choice(500, 300)] + rng.normal(0.0, 2e-4, (300, dim))
+    queries = np.concatenate([near, rng.random((200, dim))])
+    for tol in (1e-4, 5e-4, 3e-2):
+        new, dnew = match_points(keys, queries, tol)
+        old, dold = reference_pairing.match_points(keys, queries, tol)
+        np.testing.assert_array_equal(new, old)
+        np.testing.assert_allclose(dnew, dold, rtol=1e-14)
+        assert 0 < np.count_nonzero(new >= 0) < len(queries)
+    empty = match_points(keys[:0], queries, 1.0)
+    assert np.all(empty[0] == -1) and np.all(np.isinf(empty[1]))
