@@ -44,6 +44,38 @@ def group_area(comm, name):
     return comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM)
 
 
+def test_the_builder_makes_two_plates_joined_over_the_overlap_minus_the_hole():
+    comm = MPI.COMM_WORLD
+    g = bolted_joint.GEOMETRY
+    dom, info = meshing.create_interface_mesh(
+        meshing.build_bolted_lap_joint, comm, **g, n_interface=N
+    )
+    assert info.h == pytest.approx(g["width"] / N)
+    assert set(dom.tags) == {
+        "master", "slave", "interface", "master_xmin", "slave_xmax", "bolt_head", "bolt_nut",
+    }  # fmt: skip
+    L, W, t, c = g["plate_length"], g["width"], g["thickness"], g["overlap"]
+    assert info.interface_min == pytest.approx((L - c, 0.0, t))
+    assert info.interface_max == pytest.approx((L, W, t))
+    ds = ufl.Measure("ds", domain=dom.mesh, subdomain_data=dom.interface_side_tags())
+    dx = ufl.Measure("dx", domain=dom.mesh, subdomain_data=dom.cell_tags)
+    one = dolfinx.fem.Constant(dom.mesh, 1.0)
+
+    def integral(measure):
+        return comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * measure)))
+
+    # the two sides of the interface: the same area, the overlap minus the (polygonal) hole
+    m, s = integral(ds(dom.tag("master"))), integral(ds(dom.tag("slave")))
+    assert m == pytest.approx(s, rel=1e-12)
+    hole = np.pi * g["hole_radius"] ** 2
+    assert c * W - hole < m < c * W - 0.9 * hole
+    # each plate: its box minus the hole
+    for body in ("master", "slave"):
+        v = integral(dx(dom.tag(body)))
+        assert L * W * t - hole * t < v < L * W * t - 0.9 * hole * t
+    assert group_area(comm, "bolt_head") == pytest.approx(group_area(comm, "bolt_nut"), rel=1e-3)
+
+
 def test_bolted_joint_clamps_saturates_and_is_the_same_on_every_rank(shared_tmp):
     comm = MPI.COMM_WORLD
     res = bolted_joint.main([*ARGV, "--out", str(shared_tmp)], comm)
