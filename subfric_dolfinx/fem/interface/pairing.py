@@ -187,9 +187,14 @@ def pair_interface(
     nfd = Xn.shape[0]
 
     # Facet sizes for the tolerance (global minimum)
-    dists = np.linalg.norm(node_points[:, :, None, :] - node_points[:, None, :, :], axis=-1)
-    off_diagonal = ~np.eye(nfd, dtype=bool)
-    h_loc = float(dists[:, off_diagonal].min()) if nf else np.inf
+    h_loc = min(
+        (
+            float(np.linalg.norm(node_points[:, i] - node_points[:, j], axis=-1).min())
+            for i in range(nfd)
+            for j in range(i + 1, nfd)
+        ),
+        default=np.inf,
+    ) if nf else np.inf
     h = comm.allreduce(h_loc, op=MPI.MIN)
     tol = rel_tol * (h if np.isfinite(h) else 1.0)
 
@@ -365,7 +370,7 @@ def _exchange_slave_facets(
 
 
 def _nearest(
-    candidates: np.ndarray, points: np.ndarray, tol: float, chunk: int = 4096
+    candidates: np.ndarray, points: np.ndarray, tol: float, chunk: int = 512
 ) -> tuple[np.ndarray, np.ndarray]:
     """For each of ``points[i]`` (nf, n, gdim), the nearest of ``candidates[i]`` (nf, m, gdim).
 
