@@ -187,14 +187,11 @@ def pair_interface(
     nfd = Xn.shape[0]
 
     # Facet sizes for the tolerance (global minimum)
-    h_loc = min(
-        (
-            float(np.linalg.norm(node_points[:, i] - node_points[:, j], axis=-1).min())
-            for i in range(nfd)
-            for j in range(i + 1, nfd)
-        ),
-        default=np.inf,
-    ) if nf else np.inf
+    h_loc = np.inf
+    for i in range(nfd if nf else 0):  # one pair of nodes at a time: memory O(nf)
+        for j in range(i + 1, nfd):
+            d_ij = np.linalg.norm(node_points[:, i] - node_points[:, j], axis=-1)
+            h_loc = min(h_loc, float(d_ij.min()))
     h = comm.allreduce(h_loc, op=MPI.MIN)
     tol = rel_tol * (h if np.isfinite(h) else 1.0)
 
@@ -264,7 +261,8 @@ def pair_interface(
     n_several = comm.allreduce(int(np.sum(used > 1)))
     if n_none or n_several:
         k = np.flatnonzero(used != 1)
-        examples = [e for e in comm.allgather(s_mid[k[0]].tolist() if k.size else None) if e]
+        example = s_mid[k[0]].tolist() if k.size else None
+        examples = [e for e in comm.allgather(example) if e is not None]
         raise InterfaceError(
             f"the interface sides do not pair node to node: {n_none} slave facets have no master "
             f"partner and {n_several} have several, e.g. the slave facet at {examples[0]}"
