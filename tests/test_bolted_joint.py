@@ -19,7 +19,8 @@ from mpi4py import MPI
 from demos import bolted_joint
 from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import PRESETS
-from tests.helpers import on_root
+from subfric_dolfinx.scenes import cli
+from tests.helpers import everywhere, on_root
 
 N = 6
 ARGV = ["--n", str(N), "--amplitude", "1", "--cycles", "2", "--steps", "8", "--no-figures"]
@@ -130,3 +131,18 @@ def test_bolted_joint_clamps_saturates_and_is_the_same_on_every_rank(shared_tmp)
                 np.testing.assert_allclose(a, b, rtol=0, atol=tol, err_msg=name)
 
         on_root(comm, serial)
+
+
+@pytest.mark.parametrize(
+    ("argv", "word"),
+    [
+        (["--n", "0"], "--n must be at least 1"),
+        (["--preload", "-30"], "--preload must be positive"),
+    ],
+)
+def test_bad_demo_arguments_exit_with_code_2(argv, word, capsys):
+    comm = MPI.COMM_WORLD
+    code = cli.run_main(lambda a: bolted_joint.main(a, comm), argv)
+    assert comm.allgather(code) == [cli.EXIT_BAD_INPUT] * comm.size
+    err = capsys.readouterr().err
+    assert everywhere(comm, comm.rank != 0 or word in err), err
