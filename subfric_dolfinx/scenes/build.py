@@ -17,6 +17,7 @@ __all__ = ["BUILDERS", "build_mesh", "build_problem"]
 BUILDERS = {
     "block_on_base": meshing.build_block_on_base,
     "pad_on_plate": meshing.build_pad_on_plate,
+    "bolted_lap_joint": meshing.build_bolted_lap_joint,
 }
 """Mesh builders a scene may name."""
 

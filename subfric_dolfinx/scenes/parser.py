@@ -241,7 +241,7 @@ def check_name(name: str, path: str) -> None:
         )
 
 
-_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3}
+_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
 
 
 def _check_mesh(m: MeshSpec) -> None:

@@ -30,7 +30,8 @@ class MeshSpec:
     """Where the mesh comes from.
 
     Attributes:
-        builder: ``"block_on_base"`` (2-D) or ``"pad_on_plate"`` (3-D), built with gmsh.
+        builder: ``"block_on_base"`` (2-D), ``"pad_on_plate"`` or ``"bolted_lap_joint"`` (3-D),
+            built with gmsh.
         file: Or a ``.msh`` file (relative to the working directory).
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.

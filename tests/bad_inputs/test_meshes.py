@@ -265,6 +265,15 @@ def test_bad_builder_options():
         meshing.create_interface_mesh(meshing.build_block_on_base, comm, cell_type="hexahedron")
     with raised_on_every_rank(ValueError, "must lie on the base"):
         meshing.create_interface_mesh(meshing.build_block_on_base, comm, block_x=1.5)
+    joint = meshing.build_bolted_lap_joint
+    with raised_on_every_rank(ValueError, "overlap (70.0) must not exceed plate_length (60.0)"):
+        meshing.create_interface_mesh(joint, comm, overlap=70.0)
+    with raised_on_every_rank(ValueError, "the washer (diameter 32.0) inside the overlap"):
+        meshing.create_interface_mesh(joint, comm, washer_radius=16.0)
+    with raised_on_every_rank(ValueError, "hole_radius must be a positive finite number"):
+        meshing.create_interface_mesh(joint, comm, hole_radius=float("nan"))
+    with raised_on_every_rank(ValueError, "cell_type must be 'tetrahedron'"):
+        meshing.create_interface_mesh(joint, comm, cell_type="hexahedron")
 
 
 def test_bad_partitioner_kind_group_and_side():
