@@ -3,6 +3,7 @@
 * :mod:`.groups`: physical-group names and default tags, :class:`InterfaceMeshError`.
 * :mod:`.builders`: gmsh builders (2-D block on a base, 3-D pad on a plate) with the Crack step.
 * :mod:`.partitioners`: deterministic partitions for tests (bodies apart, pairs together).
+* :mod:`.nodes`: node groups (physical points), vertices by coordinates, nearest vertex.
 * :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks.
 
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
@@ -35,6 +36,7 @@ from .groups import (
     TOP,
     InterfaceMeshError,
 )
+from .nodes import NodeGroup, locate_node_group, nearest_vertex
 from .partitioners import PARTITIONER_KINDS, body_partitioner
 from .reader import InterfaceMesh, create_interface_mesh, read_interface_mesh
 
@@ -66,9 +68,12 @@ __all__ = [
     "InterfaceMesh",
     "InterfaceMeshError",
     "ModelInfo",
+    "NodeGroup",
     "body_partitioner",
     "build_block_on_base",
     "build_pad_on_plate",
     "create_interface_mesh",
+    "locate_node_group",
+    "nearest_vertex",
     "read_interface_mesh",
 ]

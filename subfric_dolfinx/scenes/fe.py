@@ -20,6 +20,7 @@ from petsc4py import PETSc
 from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
 from ..io import interface_summary, restore_checkpoint
 from .build import build_mesh, build_problem
+from .derived import DerivedOutputs
 from .outputs import SceneOutputs
 from .result import SceneResult
 from .schema import FEScene, SceneError
@@ -85,6 +86,9 @@ def run_fe_scene(
                 stepper,
                 restart_time=restart_time,
                 restart_history=restart_history,
+                derived=DerivedOutputs(
+                    scene, problem, outdir / "fields" if out.fields is not None else None
+                ),
             )
         )
         guard = stack.enter_context(StopSignals())

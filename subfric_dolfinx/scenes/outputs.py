@@ -48,6 +48,7 @@ class SceneOutputs:
         stepper: The load stepper (its position goes into checkpoints).
         restart_time: Time of the checkpoint a restarted run continues from.
         restart_history: History rows of that checkpoint.
+        derived: The scene's :class:`~.derived.DerivedOutputs` (history columns, stress fields).
 
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
@@ -65,6 +66,7 @@ class SceneOutputs:
         *,
         restart_time: float | None = None,
         restart_history: list[dict[str, float]] | None = None,
+        derived: Any = None,
     ) -> None:
         self.spec, self.problem, self.stepper = spec, problem, stepper
         self.outdir = outdir
@@ -73,7 +75,12 @@ class SceneOutputs:
         self.iterations: list[int] = []
         self.fields: FieldWriter | None = None
         self.ihist: InterfaceHistoryH5 | None = None
-        self.history = HistoryCSV(outdir / "history.csv" if spec.history else None, problem)
+        self.derived = derived
+        self.history = HistoryCSV(
+            outdir / "history.csv" if spec.history else None,
+            problem,
+            derived.columns if derived is not None else None,
+        )
         if restart_history:
             self.history.preload(restart_history)
         try:
@@ -118,6 +125,8 @@ class SceneOutputs:
             self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
         ):
             self.fields.write(rec.t)
+            if self.derived is not None:
+                self.derived.write_fields(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
@@ -150,6 +159,9 @@ class SceneOutputs:
             self.ihist.close()
             self.ihist = None
             self.files.append(str(self.outdir / "interface_history.h5"))
+        if self.derived is not None and self.derived.writer is not None:
+            self.derived.close()
+            self.files.append(str(self.derived.path))
 
     def __enter__(self) -> SceneOutputs:
         return self

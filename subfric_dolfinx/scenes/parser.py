@@ -18,6 +18,7 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
+from .parse_features import check_features
 from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
 
 __all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
@@ -212,9 +213,10 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     check_plain(prog, "scene.program")
     _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
-    parse_law(scene.law)
+    law = parse_law(scene.law)
     program = build_program(prog)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
+    check_features(scene, program, tuple(v.name for v in law.variables))
     return scene
 
 
