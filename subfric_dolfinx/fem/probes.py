@@ -2,14 +2,14 @@
 
 :class:`PointEvaluator` evaluates functions of the bodies at fixed points with DOLFINx's point
 evaluation (a bounding-box tree of the body's owned cells, ``compute_collisions_points``,
-``compute_colliding_cells``, ``Function.eval``). A point on a cell boundary touches several cells,
-possibly on several ranks, and for a discontinuous field (the stress) the value depends on the
-cell; DOLFINx's ``determine_point_ownership`` gives such a point to the lowest rank holding it, which
-depends on the partition, and searches all cells, whereas the interface's nodes are duplicated and
-a point there must name its body. So each rank finds the colliding owned cells of the point's body,
-the cell with the lexicographically smallest midpoint is chosen among all ranks, and its rank
-evaluates: one cell, whatever the partition. :class:`InterfacePointProbe` finds the interface
-quadrature point nearest to each point (ties broken by the coordinates), the same way.
+``compute_colliding_cells``, ``Function.eval``). A point on a cell boundary touches several
+cells, possibly on several ranks, and for a discontinuous field (the stress) the value depends on
+the cell; DOLFINx's ``determine_point_ownership`` gives such a point to the lowest rank holding
+it, which depends on the partition, and searches all cells, whereas the interface's nodes are
+duplicated and a point there must name its body. So each rank finds the colliding owned cells of
+the point's body, the cell with the lexicographically smallest midpoint is chosen among all ranks,
+and its rank evaluates: one cell, whatever the partition. :class:`InterfacePointProbe` finds the
+interface quadrature point nearest to each point (ties broken by the coordinates), the same way.
 """
 
 from __future__ import annotations
@@ -93,8 +93,7 @@ class PointEvaluator:
             where = f" of the body {bodies[i]!r}" if bodies[i] else ""
             gdim = mesh.geometry.dim
             raise InterfaceError(
-                f"point {names[i]!r} at {tuple(float(v) for v in x[i, :gdim])} is in no cell"
-                f"{where}"
+                f"point {names[i]!r} at {tuple(float(v) for v in x[i, :gdim])} is in no cell{where}"
             )
         self.mine = np.array([r == self.comm.rank for r in self.owner], dtype=bool)
         self.cells = cells[self.mine]

@@ -54,8 +54,11 @@ def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
 
 
 def _supports(scene: FEScene, domain: meshing.InterfaceMesh) -> tuple[list, list]:
-    """The scene's springs and point forces; its points named by Dirichlet conditions become
-    node groups of ``domain`` (the vertex nearest to each, in its body). Collective."""
+    """The scene's springs and point forces (collective).
+
+    The scene's points named by Dirichlet conditions become node groups of ``domain`` (the vertex
+    nearest to each, in its body).
+    """
     for name in dict.fromkeys(d.group for d in scene.dirichlet):
         pt = scene.points.get(name)
         if pt is None or name in domain.tags or name in domain.node_groups:

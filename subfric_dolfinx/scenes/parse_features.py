@@ -30,7 +30,9 @@ def _gdim(scene: FEScene) -> int:
 
 def _vector(path: str, value: Any, n: int, what: str = "values") -> list[float]:
     if not isinstance(value, list) or len(value) != n:
-        raise SceneError(f"{path}: expected a list of {n} {what} (one per component), got {value!r}")
+        raise SceneError(
+            f"{path}: expected a list of {n} {what} (one per component), got {value!r}"
+        )
     return [float(v) for v in value]
 
 
@@ -62,7 +64,9 @@ def frame_axes(normal: list[float], tangent: list[float], path: str) -> list[lis
     n = [v / math.sqrt(n2) for v in normal]
     t = [v / math.sqrt(t2) for v in tangent]
     if abs(sum(a * b for a, b in zip(n, t, strict=True))) > 1e-6:
-        raise SceneError(f"{path}: the tangent {tangent!r} is not orthogonal to the normal {normal!r}")
+        raise SceneError(
+            f"{path}: the tangent {tangent!r} is not orthogonal to the normal {normal!r}"
+        )
     if len(n) == 2:
         return [t, n]
     t2v = [n[1] * t[2] - n[2] * t[1], n[2] * t[0] - n[0] * t[2], n[0] * t[1] - n[1] * t[0]]
@@ -112,7 +116,8 @@ def check_features(scene: FEScene, program: LoadingProgram, variables: tuple[str
             _channels(f"scene.loads[{i}].amplitude", ld.amplitude, gdim, program)
         elif isinstance(ld.amplitude, list):
             raise SceneError(
-                f"scene.loads[{i}].amplitude: a pressure has one channel, got a list {ld.amplitude!r}"
+                f"scene.loads[{i}].amplitude: a pressure has one channel, got a list "
+                f"{ld.amplitude!r}"
             )
     _check_outputs(scene, gdim, variables)
 

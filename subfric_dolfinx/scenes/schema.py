@@ -112,9 +112,12 @@ class PointForceSpec:
 
 @dataclasses.dataclass(frozen=True)
 class ProbeSpec:
-    """Values at a named point in the history: ``fields`` among ``u`` (displacement),
-    ``sigma`` (stress components), ``von_mises``, and the interface's ``f_t``, ``f_n``, ``gap``,
-    ``status`` and the law's variables (at the nearest interface quadrature point)."""
+    """Values at a named point in the history.
+
+    ``fields`` among ``u`` (displacement), ``sigma`` (stress components), ``von_mises``, and the
+    interface's ``f_t``, ``f_n``, ``gap``, ``status`` and the law's variables (at the nearest
+    interface quadrature point).
+    """
 
     point: str
     fields: list[str] = dataclasses.field(default_factory=lambda: ["u"])
