@@ -11,6 +11,7 @@ loads (:func:`spring_forms`), and its force on the body is read back from a weig
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
@@ -26,6 +27,7 @@ from .conditions import Dirichlet, DirichletField, PointForce, Pressure, Spring,
 from .interface import InterfaceError
 
 __all__ = [
+    "LoadPart",
     "SpringForces",
     "check_groups",
     "dirichlet_dofs",
@@ -33,6 +35,23 @@ __all__ = [
     "load_vectors",
     "spring_forms",
 ]
+
+
+@dataclasses.dataclass(frozen=True)
+class LoadPart:
+    """The part of a condition scaled by one loading channel (``amplitude``).
+
+    A load vector of :attr:`InterfaceProblem.loads` is ``(part, vector)``: the vector is scaled by
+    ``program.amplitude(part.amplitude, t)``.
+    """
+
+    condition: Any
+    amplitude: str | None
+
+    @property
+    def group(self) -> str:
+        """The condition's group."""
+        return self.condition.group
 
 
 def group_kind(domain: Any, name: str, counts: tuple[int, int] | None = None) -> str:
@@ -195,8 +214,8 @@ def load_vectors(
     domain: Any,
     loads: Sequence[Pressure | Traction | PointForce],
     ds: ufl.Measure,
-) -> list[tuple[Any, str | None, PETSc.Vec]]:
-    """One load vector per condition and channel: ``(condition, channel, vector)``.
+) -> list[tuple[LoadPart, PETSc.Vec]]:
+    """One load vector per condition and channel: ``(LoadPart(condition, channel), vector)``.
 
     Pressures and tractions are integrated over their facets; a point force is put on the owned
     dofs of the vertex nearest to its point (on one rank only). Collective.
@@ -205,11 +224,11 @@ def load_vectors(
     gdim = mesh.geometry.dim
     v = ufl.TestFunction(V)
     n = ufl.FacetNormal(mesh)
-    out: list[tuple[Any, str | None, PETSc.Vec]] = []
+    out: list[tuple[LoadPart, PETSc.Vec]] = []
     for c in loads:
         if isinstance(c, Pressure):
             L = -float(c.value) * ufl.dot(n, v) * ds(domain.tags[c.group])
-            out.append((c, c.amplitude, _vector(V, L)))
+            out.append((LoadPart(c, c.amplitude), _vector(V, L)))
             continue
         value = np.asarray(c.value, dtype=float)
         kind = "traction" if isinstance(c, Traction) else "point force"
@@ -219,7 +238,7 @@ def load_vectors(
         if isinstance(c, Traction):
             for ch, part in parts.items():
                 L = ufl.dot(ufl.as_vector(part.tolist()), v) * ds(domain.tags[c.group])
-                out.append((c, ch, _vector(V, L)))
+                out.append((LoadPart(c, ch), _vector(V, L)))
             continue
         blocks, _ = _point_vector(V, domain, c)
         for ch, part in parts.items():
@@ -227,7 +246,7 @@ def load_vectors(
             f.set(0.0)
             for b in blocks:
                 f.array_w[b * gdim : (b + 1) * gdim] += part
-            out.append((c, ch, f))
+            out.append((LoadPart(c, ch), f))
     return out
 
 
@@ -247,17 +266,17 @@ def _stiffness(c: Spring, gdim: int) -> tuple[np.ndarray, np.ndarray, list[str |
 
 def spring_forms(
     V: dolfinx.fem.FunctionSpace, domain: Any, springs: Sequence[Spring], ds: ufl.Measure
-) -> tuple[Any, list[tuple[Any, str | None, PETSc.Vec]], SpringForces]:
+) -> tuple[Any, list[tuple[LoadPart, PETSc.Vec]], SpringForces]:
     """The springs' bulk form ``sum k_i du_i v_i ds``, load vectors and force read-back.
 
     Returns:
-        The bilinear form (0 without springs), ``(spring, channel, vector)`` for the moving ends,
+        The bilinear form (0 without springs), ``(LoadPart, vector)`` for the moving ends,
         and a :class:`SpringForces`.
     """
     gdim = domain.mesh.geometry.dim
     du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     a: Any = 0
-    loads: list[tuple[Any, str | None, PETSc.Vec]] = []
+    loads: list[tuple[LoadPart, PETSc.Vec]] = []
     weights = []
     for c in springs:
         k, u0, chans = _stiffness(c, gdim)
@@ -265,7 +284,8 @@ def spring_forms(
         K = ufl.as_matrix(np.diag(k).tolist())
         a = a + ufl.inner(ufl.dot(K, du), v) * dsg
         for ch, part in _by_channel(k * u0, chans).items():
-            loads.append((c, ch, _vector(V, ufl.dot(ufl.as_vector(part.tolist()), v) * dsg)))
+            L = ufl.dot(ufl.as_vector(part.tolist()), v) * dsg
+            loads.append((LoadPart(c, ch), _vector(V, L)))
         weights.append((c, u0, chans, _vector(V, ufl.dot(ufl.as_vector(k.tolist()), v) * dsg)))
     return a, loads, SpringForces(V, weights)
 

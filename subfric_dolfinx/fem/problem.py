@@ -225,8 +225,8 @@ class InterfaceProblem:
         res = self._update_interface(x)
         with self.timings(TIMER_BULK):
             self.K.mult(x, F)
-            for _, channel, f in self.loads:
-                F.axpy(-self.program.amplitude(channel, self.t), f)
+            for c, f in self.loads:
+                F.axpy(-self.program.amplitude(c.amplitude, self.t), f)
         with self.timings(TIMER_INTERFACE):
             with self.b_ext.localForm() as bl:
                 bl.set(0.0)
