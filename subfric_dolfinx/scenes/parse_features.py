@@ -156,3 +156,8 @@ def _check_outputs(scene: FEScene, gdim: int, variables: tuple[str, ...]) -> Non
         names.add(name)
     if out.stress and out.fields is None:
         raise SceneError("scene.outputs.stress: true, but no fields are written (fields is null)")
+    if out.stress and out.fields == "xdmf" and scene.degree != 1:
+        raise SceneError(
+            "scene.outputs.stress: the stress of degree-2 displacement is DG1, which XDMF cannot "
+            "write (cell values or the mesh's own nodes only); use fields 'vtx'"
+        )

@@ -176,7 +176,7 @@ class OutputSpec:
         reaction_frames: Reactions (and spring forces) of groups resolved in local frames
             (:class:`FrameSpec`).
         stress: Also write the Cauchy stress and von Mises stress of the bodies with the fields
-            (``stress.bp`` or ``stress.xdmf``).
+            (``stress.bp``, or ``stress.xdmf`` for degree 1 only).
 
     With checkpoints enabled, SIGTERM makes the run write a checkpoint after the current step and
     stop (:class:`SceneInterrupted`), and a step that cannot be solved leaves the last converged

@@ -138,6 +138,10 @@ def test_the_reference_scene_is_valid():
             lambda s: s["outputs"].update(stress=True),
             r"scene.outputs.stress: true, but no fields are written",
         ),
+        (
+            lambda s: s.update(degree=2) or s["outputs"].update(stress=True, fields="xdmf"),
+            r"scene.outputs.stress: the stress of degree-2 displacement is DG1, which XDMF",
+        ),
     ],
 )
 def test_bad_features_are_named(mutate, pattern):
