@@ -3,7 +3,8 @@
 A row holds the step (``step``, ``t``, ``dt``, ``newton``, ``cuts``), the interface summary
 (:func:`~.summary.interface_summary`: resultant forces, area-weighted means of the traction and of
 the law's internal variables, status fractions) and the reaction force of every Dirichlet group
-(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]).
+(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]), then the columns of ``columns()`` if given
+(e.g. probes).
 
 Writing is collective: rank 0 writes and flushes each row inside ``try`` and every rank raises the
 same :class:`~.collective.OutputError` if that failed (naming the file and the OS error); the file
@@ -13,6 +14,7 @@ is then closed, and nothing more is written to it.
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -28,11 +30,18 @@ class HistoryCSV:
     Args:
         path: File to write (parent directories are created); ``None``: memory only.
         problem: The problem (for the averages and the reaction forces).
+        columns: More columns of each row (collective), e.g. probes.
     """
 
-    def __init__(self, path: str | Path | None, problem: Any) -> None:
+    def __init__(
+        self,
+        path: str | Path | None,
+        problem: Any,
+        columns: Callable[[], dict[str, float]] | None = None,
+    ) -> None:
         self.path = Path(path) if path is not None else None
         self.problem = problem
+        self.columns = columns
         self._writer: Any = None
         self._file: Any = None
         self.rows: list[dict[str, float]] = []
@@ -55,6 +64,8 @@ class HistoryCSV:
         for group, force in p.reactions.items():
             for i, f in enumerate(force):
                 row[f"R_{group}_{'xyz'[i]}"] = float(f)
+        if self.columns is not None:
+            row.update(self.columns())
         self.rows.append(row)
         if self.path is not None:
             collective(

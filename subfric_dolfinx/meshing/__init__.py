@@ -5,6 +5,7 @@
 * :mod:`.joints`: gmsh builder of a 3-D bolted lap joint (two plates, a bolt hole, head and nut
   annuli).
 * :mod:`.partitioners`: deterministic partitions for tests (bodies apart, pairs together).
+* :mod:`.nodes`: node groups (physical points), vertices by coordinates, nearest vertex.
 * :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks.
 
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
@@ -40,6 +41,7 @@ from .groups import (
     InterfaceMeshError,
 )
 from .joints import build_bolted_lap_joint
+from .nodes import NodeGroup, locate_node_group, nearest_vertex
 from .partitioners import PARTITIONER_KINDS, body_partitioner
 from .reader import InterfaceMesh, create_interface_mesh, read_interface_mesh
 
@@ -73,10 +75,13 @@ __all__ = [
     "InterfaceMesh",
     "InterfaceMeshError",
     "ModelInfo",
+    "NodeGroup",
     "body_partitioner",
     "build_block_on_base",
     "build_bolted_lap_joint",
     "build_pad_on_plate",
     "create_interface_mesh",
+    "locate_node_group",
+    "nearest_vertex",
     "read_interface_mesh",
 ]

@@ -28,6 +28,7 @@ from petsc4py import PETSc
 from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
 from ..io import OutputDirectory, interface_summary, restore_checkpoint
 from .build import build_mesh, build_problem
+from .derived import DerivedOutputs
 from .outputs import SceneOutputs
 from .result import SceneResult
 from .schema import FEScene, SceneError
@@ -116,6 +117,9 @@ def run_fe_scene(
                 restart_time=restart_time,
                 restart_history=restart_history,
                 settings=settings,
+                derived=DerivedOutputs(
+                    scene, problem, outdir / "fields" if out.fields is not None else None
+                ),
             )
         )
         guard = stack.enter_context(StopSignals())

@@ -69,6 +69,7 @@ class SceneOutputs:
         restart_history: History rows of that checkpoint.
         settings: What a restart from its checkpoints must match (see
             :func:`~subfric_dolfinx.io.write_checkpoint`).
+        derived: The scene's :class:`~.derived.DerivedOutputs` (history columns, stress fields).
 
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
@@ -87,6 +88,7 @@ class SceneOutputs:
         restart_time: float | None = None,
         restart_history: list[dict[str, float]] | None = None,
         settings: dict[str, Any] | None = None,
+        derived: Any = None,
     ) -> None:
         self.spec, self.problem, self.stepper = spec, problem, stepper
         self.settings = settings
@@ -97,7 +99,12 @@ class SceneOutputs:
         self.fields: FieldWriter | None = None
         self.points: InterfacePointsXDMF | None = None  # quadrature points, beside the fields
         self.ihist: InterfaceHistoryH5 | None = None
-        self.history = HistoryCSV(outdir / "history.csv" if spec.history else None, problem)
+        self.derived = derived
+        self.history = HistoryCSV(
+            outdir / "history.csv" if spec.history else None,
+            problem,
+            derived.columns if derived is not None else None,
+        )
         if restart_history:
             self.history.preload(restart_history)
         try:
@@ -150,6 +157,8 @@ class SceneOutputs:
             self.fields.write(rec.t)
             if self.points is not None:
                 self.points.write(rec.t)
+            if self.derived is not None:
+                self.derived.write_fields(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
@@ -183,6 +192,8 @@ class SceneOutputs:
             closers.append(("fields", self.fields.close))
         if self.ihist is not None:
             closers.append(("interface_history.h5", self.ihist.close))
+        if self.derived is not None and self.derived.writer is not None:
+            closers.append((str(self.derived.path), self.derived.close))
         for name, close in closers:
             try:
                 close()

@@ -19,6 +19,7 @@ from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
 from .interface_spec import parse_initial_gap, parse_regions
+from .parse_features import check_features
 from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
 
 __all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
@@ -213,11 +214,12 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     check_plain(prog, "scene.program")
     _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
-    parse_law(scene.law)
+    law = parse_law(scene.law)
     parse_initial_gap(scene.initial_gap)
     parse_regions(scene.regions)
     program = build_program(prog)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
+    check_features(scene, program, tuple(v.name for v in law.variables))
     return scene
 
 

@@ -158,16 +158,17 @@ def test_a_pointwise_scene_name_is_a_plain_file_name(tmp_path, name):
     assert not (tmp_path / "out").exists() and not (tmp_path / "escaped.json").exists()
 
 
-def test_a_dirichlet_condition_on_a_cell_group_says_so():
-    """A Dirichlet condition (or a load) on a group of cells, not facets, is named as such
-    instead of failing later as a step that does not converge."""
+def test_a_load_or_spring_on_a_cell_group_says_so():
+    """A load or a spring on a group of cells, not facets, is named as such instead of failing
+    later as a step that does not converge (a Dirichlet condition on a cell group is a feature:
+    every dof of the body is held, ``tests/test_loads_constraints.py``)."""
     for key, entry in (
-        ("dirichlet", {"group": "slave", "component": 0, "value": 0.1}),
         ("loads", {"type": "pressure", "group": "master", "value": 1.0}),
+        ("springs", {"group": "slave", "stiffness": 1.0}),
     ):
         s = small_scene()
         s["solver"]["prefix"] = prefix("cells")
-        s[key].append(entry)
+        s.setdefault(key, []).append(entry)
         with raised_on_every_rank(
             InterfaceError, repr(entry["group"]), "a group of cells (dimension 2), not of facets"
         ):
