@@ -172,25 +172,23 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options():
     """The block slides 1 mm touching the base without load, then is pressed (literal Sec. 7
     set): on one rank Newton with full steps cycles on the first pressure increment, even cut
     ten times; the line-search retry solves it, and the run reaches the full pressure. Whether
-    the full-step Newton cycles depends on the round-off of the assembled residual (on two
-    ranks' partition it happens to converge), so the claims about the plain run are: wherever
-    it fails, the default run retried at that step and went on; on one rank it fails."""
+    the full-step Newton cycles depends on the round-off of the assembled residual: on two
+    ranks MUMPS's round-off differs from run to run, and the plain run sometimes converges,
+    sometimes not (and the default run sometimes needs its retry, sometimes not). So the claim
+    checked on every rank count is that the default run completes; the failure of the plain
+    run and the retry at that increment are checked on one rank, where they are reproducible."""
     prob, scene = demo_problem("sec7-literal", SLIDE_THEN_PRESS)
     st, err = run_stepper(prob, scene)
     assert err is None, str(err)
     assert st.t == pytest.approx(2.0)
     assert interface_summary(prob)["F_n"] == pytest.approx(300.0, rel=1e-9)
+    if MPI.COMM_WORLD.size > 1:
+        return
+    first = next(r for r in st.records if r.retried)
+    assert 1.0 < first.t <= 1.1  # the first pressure increment needed it
     prob, scene = demo_problem("sec7-literal", SLIDE_THEN_PRESS)
-    plain, err = run_stepper(prob, scene, retry_options=None)
-    if MPI.COMM_WORLD.size == 1:
-        assert err is not None, "plain Newton was expected to cycle on one rank"
-    if err is not None:
-        assert 1.0 < err.t < 1.1 and err.last_t == pytest.approx(1.0), err
-        assert st.retries >= 1
-        first = next(r for r in st.records if r.retried)
-        assert 1.0 < first.t <= 1.1  # the first pressure increment needed it
-    else:
-        assert plain.t == pytest.approx(2.0) and st.retries == 0
+    _, err = run_stepper(prob, scene, retry_options=None)
+    assert err is not None and 1.0 < err.t < 1.1 and err.last_t == pytest.approx(1.0), err
 
 
 def test_the_literal_sec7_set_runs_the_main_demo_with_default_options():
