@@ -173,5 +173,5 @@ def build_bolted_lap_joint(
     finally:
         for option, value in saved.items():
             gmsh.option.setNumber(option, value)
-    _crack(3, tags[INTERFACE], groups[INTERFACE][0])
+    _crack(3, tags[INTERFACE], groups[INTERFACE])
     return _model_info(model_name, 3, cell_type, tags, h)

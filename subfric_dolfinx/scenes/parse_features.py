@@ -12,7 +12,7 @@ import re
 from typing import Any
 
 from ..loading import LoadingError, LoadingProgram
-from .schema import FEScene, SceneError
+from .schema import BUILDER_GDIM, FEScene, SceneError
 
 __all__ = ["PROBE_FIELDS", "check_features", "frame_axes"]
 
@@ -20,12 +20,9 @@ PROBE_FIELDS = ("u", "sigma", "von_mises", "f_t", "f_n", "gap", "status")
 """Probe fields every scene has; the law's internal variables come in addition."""
 
 _POINT_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,63}$")
-_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3}
-
-
 def _gdim(scene: FEScene) -> int:
     m = scene.mesh
-    return _BUILDER_GDIM[m.builder] if m.builder is not None else int(m.gdim or 0)
+    return BUILDER_GDIM[m.builder] if m.builder is not None else int(m.gdim or 0)
 
 
 def _vector(path: str, value: Any, n: int, what: str = "values") -> list[float]:

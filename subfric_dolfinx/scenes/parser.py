@@ -20,7 +20,15 @@ from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
 from .interface_spec import parse_initial_gap, parse_regions
 from .parse_features import check_features
-from .schema import FEScene, MeshSpec, OutputSpec, PointScene, SceneError, SolverSpec
+from .schema import (
+    BUILDER_GDIM,
+    FEScene,
+    MeshSpec,
+    OutputSpec,
+    PointScene,
+    SceneError,
+    SolverSpec,
+)
 
 __all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
 
@@ -243,18 +251,15 @@ def check_name(name: str, path: str) -> None:
         )
 
 
-_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
-
-
 def _check_mesh(m: MeshSpec) -> None:
     if (m.builder is None) == (m.file is None):
         raise SceneError("scene.mesh: give exactly one of 'builder' and 'file'")
     if m.builder is not None:
-        _choice("scene.mesh.builder", m.builder, tuple(_BUILDER_GDIM))
-        if m.gdim is not None and m.gdim != _BUILDER_GDIM[m.builder]:
+        _choice("scene.mesh.builder", m.builder, tuple(BUILDER_GDIM))
+        if m.gdim is not None and m.gdim != BUILDER_GDIM[m.builder]:
             raise SceneError(
                 f"scene.mesh.gdim: the builder {m.builder!r} makes a "
-                f"{_BUILDER_GDIM[m.builder]}-D mesh, got gdim = {m.gdim!r}"
+                f"{BUILDER_GDIM[m.builder]}-D mesh, got gdim = {m.gdim!r}"
             )
         check_plain(m.options, "scene.mesh.options")
     else:

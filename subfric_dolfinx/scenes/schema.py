@@ -30,6 +30,10 @@ class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
 
 
+BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
+"""The mesh builders a scene may name, with the dimension of their meshes."""
+
+
 @dataclasses.dataclass(frozen=True)
 class MeshSpec:
     """Where the mesh comes from.
