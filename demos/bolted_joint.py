@@ -1,98 +1,117 @@
 # ---
 # jupyter:
 #   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
 #     text_representation:
 #       extension: .py
-#       format_name: light
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
 # ---
 
-"""Bolted lap joint (3-D): two plates clamped by a bolt, then sheared back and forth.
+# %% [markdown]
+"""# Bolted lap joint (3-D): two plates clamped by a bolt, then sheared back and forth.
 
 The subloading-friction law on the plate-plate interface of a single-bolt lap joint; the size of
 the model is set by ``--n`` (elements across the plate width). Run as
 ``mpirun -n 2 python3 demos/bolted_joint.py [--n 8]``; ``--help`` lists the options.
 """
 
-# # A bolted lap joint under cyclic shear: the friction hysteresis of a clamped interface
-#
-# Two steel plates overlap over a square and are clamped by one bolt through a hole at the
-# centre of the overlap. The bolt is not meshed: its head and nut press on the annuli they cover
-# (the `bolt_head` group on top of the upper plate, `bolt_nut` under the lower plate) with a
-# pressure whose resultant is the bolt's preload. Then the free end of the upper plate is moved
-# back and forth along the joint while the far end of the lower plate is clamped: the interface
-# carries the shear by friction, sticks near the bolt where the pressure is highest, slips where
-# it is lowest, and when the whole overlap slips the joint's shear force saturates. Each reversal
-# runs through the elastic-plastic transition of the subloading surface again, so force against
-# slip draws a hysteresis loop whose area is the energy the joint dissipates per cycle (the
-# damping of bolted structures).
-#
-# | quantity                 | default                                                        |
-# |--------------------------|----------------------------------------------------------------|
-# | plates                   | 60 x 30 x 5 mm, steel (E = 210 GPa, nu = 0.3), overlap 30 mm   |
-# | bolt                     | hole 9 mm, head and nut annuli 9-16 mm (an M8 bolt), 30 kN     |
-# | interface law            | the paper's Sec. 7 set (preset `sec7`), alpha = 1e4 MPa/mm      |
-# | shear                    | +-0.25 mm at the upper plate's end, 1 mm/s, 3 cycles            |
-#
-# Loading program:
-#
-# | time          | what happens                                                          |
-# |---------------|-----------------------------------------------------------------------|
-# | 0 - 1 s       | the bolt load is applied (pressure on the head and nut annuli)        |
-# | then          | the upper plate's end moves to +a, -a, +a, ... (`--cycles` cycles), 0 |
-#
-# The upper plate's end is guided (x prescribed, y held) but free in z, so the bolt load is
-# carried by the interface alone: the interface's normal resultant equals the bolt load at every
-# step (a check in `tests/test_bolted_joint.py`). With the Sec. 7 set ($c_n = 2\cdot10^{-4}$
-# 1/MPa, $\mu_s = 500$, $\mu_k = 63$ MPa) the shear strength of a point is $g(f_n)\,\mu$ with
-# $g = 1 - e^{-c_n f_n}$, concave in $f_n$: whatever the pressure distribution, the joint's
-# shear force stays below $\mu_s\,A\,g(F_b/A)$ for a bolt load $F_b$ over the interface area
-# $A$ (Jensen's inequality). Slip softens $\mu$ towards $\mu_k$ (and the recovery term holds it
-# a little above), so the loops shrink from the static to the kinetic level over the first cycles
-# and then repeat, symmetric.
-#
-# One change to the Sec. 7 set: a stiffer interface, $\alpha_t = \alpha_n = 10^4$ MPa/mm instead
-# of 500 (`--alpha`). The paper's soft layer spreads the bolt load over the whole overlap and lets
-# the plates interpenetrate by 0.12 mm under the washer, a tenth of an element; with a stiffer
-# one the pressure concentrates in a cone around the hole and the overlap's corners open (about a
-# quarter of the interface), as in a real joint. The first peak hardly depends on it (2.39,
-# 2.38 and 2.37 kN with $\alpha$ = 500, $10^4$ and $10^5$ MPa/mm at the default mesh), the
-# second stroke's a little more (-1.82, -2.04, -2.04 kN); a stiffer interface costs Newton
-# iterations (3.1, 4.7 and 6.3 per step).
-#
-# The pressure on each annulus is the preload over the exact annulus area; the meshed annuli
-# (polygons) are 2.5 % smaller at the default mesh, so the applied bolt load is 29.2 kN for the
-# nominal 30 kN: the demo prints the clamping resultant it actually applied.
-#
-# Size: `--n` elements across the plate width, tetrahedra (finer around the hole): `--n 8`
-# (default) has 3.5k dofs, `--n 16` 12k, `--n 24` 33k, `--n 32` 69k, `--n 48` about 200k. The
-# Jacobian is factorised (MUMPS) at every Newton iteration, which dominates from about 10k dofs
-# on; the README gives measured times.
-#
-# Run it on two ranks:
-#
-#     mpirun -n 2 python3 demos/bolted_joint.py [--n 8] [--cycles 3] [--amplitude 0.25]
-#         [--preload 30] [--out DIR]
-#
-# It prints progress on rank 0, the timing breakdown, the clamping resultant against the bolt
-# load and the shear force's extremes per stroke, and writes the CSV history (`history.csv`) and
-# two figures (`hysteresis.png`, `pressure.png`) into the output directory. PETSc options apply
-# under the prefix `bolt_`, e.g. `-bolt_snes_monitor`.
+# %% [markdown]
+r"""
+# A bolted lap joint under cyclic shear: the friction hysteresis of a clamped interface
 
+Two steel plates overlap over a square and are clamped by one bolt through a hole at the
+centre of the overlap. The bolt is not meshed: its head and nut press on the annuli they cover
+(the `bolt_head` group on top of the upper plate, `bolt_nut` under the lower plate) with a
+pressure whose resultant is the bolt's preload. Then the free end of the upper plate is moved
+back and forth along the joint while the far end of the lower plate is clamped: the interface
+carries the shear by friction, sticks near the bolt where the pressure is highest, slips where
+it is lowest, and when the whole overlap slips the joint's shear force saturates. Each reversal
+runs through the elastic-plastic transition of the subloading surface again, so force against
+slip draws a hysteresis loop whose area is the energy the joint dissipates per cycle (the
+damping of bolted structures).
+
+| quantity                 | default                                                        |
+|--------------------------|----------------------------------------------------------------|
+| plates                   | 60 x 30 x 5 mm, steel (E = 210 GPa, nu = 0.3), overlap 30 mm   |
+| bolt                     | hole 9 mm, head and nut annuli 9-16 mm (an M8 bolt), 30 kN     |
+| interface law            | the paper's Sec. 7 set (preset `sec7`), alpha = 1e4 MPa/mm      |
+| shear                    | +-0.25 mm at the upper plate's end, 1 mm/s, 3 cycles            |
+
+Loading program:
+
+| time          | what happens                                                          |
+|---------------|-----------------------------------------------------------------------|
+| 0 - 1 s       | the bolt load is applied (pressure on the head and nut annuli)        |
+| then          | the upper plate's end moves to +a, -a, +a, ... (`--cycles` cycles), 0 |
+
+The upper plate's end is guided (x prescribed, y held) but free in z, so the bolt load is
+carried by the interface alone: the interface's normal resultant equals the bolt load at every
+step (a check in `tests/test_bolted_joint.py`). With the Sec. 7 set ($c_n = 2\cdot10^{-4}$
+1/MPa, $\mu_s = 500$, $\mu_k = 63$ MPa) the shear strength of a point is $g(f_n)\,\mu$ with
+$g = 1 - e^{-c_n f_n}$, concave in $f_n$: whatever the pressure distribution, the joint's
+shear force stays below $\mu_s\,A\,g(F_b/A)$ for a bolt load $F_b$ over the interface area
+$A$ (Jensen's inequality). Slip softens $\mu$ towards $\mu_k$ (and the recovery term holds it
+a little above), so the loops shrink from the static to the kinetic level over the first cycles
+and then repeat, symmetric.
+
+One change to the Sec. 7 set: a stiffer interface, $\alpha_t = \alpha_n = 10^4$ MPa/mm instead
+of 500 (`--alpha`). The paper's soft layer spreads the bolt load over the whole overlap and lets
+the plates interpenetrate by 0.12 mm under the washer, a tenth of an element; with a stiffer
+one the pressure concentrates in a cone around the hole and the overlap's corners open (about a
+quarter of the interface), as in a real joint. The first peak hardly depends on it (2.39,
+2.38 and 2.37 kN with $\alpha$ = 500, $10^4$ and $10^5$ MPa/mm at the default mesh), the
+second stroke's a little more (-1.82, -2.04, -2.04 kN); a stiffer interface costs Newton
+iterations (3.1, 4.7 and 6.3 per step).
+
+The pressure on each annulus is the preload over the exact annulus area; the meshed annuli
+(polygons) are 2.5 % smaller at the default mesh, so the applied bolt load is 29.2 kN for the
+nominal 30 kN: the demo prints the clamping resultant it actually applied.
+
+Size: `--n` elements across the plate width, tetrahedra (finer around the hole): `--n 8`
+(default) has 3.5k dofs, `--n 16` 12k, `--n 24` 33k, `--n 32` 69k, `--n 48` about 200k. The
+Jacobian is factorised (MUMPS) at every Newton iteration, which dominates from about 10k dofs
+on; the README gives measured times.
+
+Run it on two ranks:
+
+    mpirun -n 2 python3 demos/bolted_joint.py [--n 8] [--cycles 3] [--amplitude 0.25]
+        [--preload 30] [--out DIR]
+
+It prints progress on rank 0, the timing breakdown, the clamping resultant against the bolt
+load and the shear force's extremes per stroke, and writes the CSV history (`history.csv`) and
+two figures (`hysteresis.png`, `pressure.png`) into the output directory. PETSc options apply
+under the prefix `bolt_`, e.g. `-bolt_snes_monitor`.
+"""
+
+# %%
 import argparse
 import math
 import sys
 
+# %%
 import numpy as np
 from mpi4py import MPI
 
+# %%
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.scenes import cli, run_scene
 
-# ## Geometry and loading
-#
-# An M8 bolt in 5 mm plates: hole radius 4.5 mm, washer radius 8 mm. The preload (30 kN by
-# default) is applied as a uniform pressure on each annulus.
+# %% [markdown]
+"""
+## Geometry and loading
 
+An M8 bolt in 5 mm plates: hole radius 4.5 mm, washer radius 8 mm. The preload (30 kN by
+default) is applied as a uniform pressure on each annulus.
+"""
+
+# %%
 GEOMETRY = {
     "plate_length": 60.0,
     "width": 30.0,
@@ -106,17 +125,20 @@ RATE = 1.0  # mm/s, the paper's sliding velocity
 ALPHA = 1e4  # MPa/mm
 
 
+# %%
 def annulus_area() -> float:
     """Exact area of a head/nut annulus, mm^2 (the mesh's polygonal annulus differs a little)."""
     return math.pi * (GEOMETRY["washer_radius"] ** 2 - GEOMETRY["hole_radius"] ** 2)
 
 
+# %%
 def interface_area() -> float:
     """Exact area of the interface (the overlap minus the hole), mm^2."""
     g = GEOMETRY
     return g["overlap"] * g["width"] - math.pi * g["hole_radius"] ** 2
 
 
+# %%
 def program(amplitude: float, cycles: int, steps_per_stroke: int):
     """Times and channels: the clamp ramp, then strokes to +a, -a, ... and back to 0.
 
@@ -140,6 +162,7 @@ def program(amplitude: float, cycles: int, steps_per_stroke: int):
     return times, {"clamp": clamp, "shear": shear}, reversals
 
 
+# %%
 def scene(
     n: int = 8,
     preload: float = 30.0,
@@ -175,14 +198,18 @@ def scene(
     }
 
 
-# ## What the demo measures
-#
-# The shear force is the reaction on the upper plate's guided end (`R_slave_xmax_x` of the
-# history); the slip is the interface's mean plastic slip along the joint (`up_t1`), and the
-# end displacement the prescribed one. For each stroke: the extreme of the shear force. The
-# clamping resultant is the interface's normal resultant `F_n`.
+# %% [markdown]
+"""
+## What the demo measures
+
+The shear force is the reaction on the upper plate's guided end (`R_slave_xmax_x` of the
+history); the slip is the interface's mean plastic slip along the joint (`up_t1`), and the
+end displacement the prescribed one. For each stroke: the extreme of the shear force. The
+clamping resultant is the interface's normal resultant `F_n`.
+"""
 
 
+# %%
 def strokes(history, reversals):
     """Per stroke: (end time, extreme shear force in N: the max on a +stroke, the min on a -)."""
     t = np.array([r["t"] for r in history])
@@ -195,6 +222,7 @@ def strokes(history, reversals):
     return out
 
 
+# %%
 def saturation_bound(preload: float) -> float:
     """mu_s A g(F_b / A), N: no pressure distribution lets the joint carry more shear."""
     p = PRESETS["sec7"].law
@@ -202,9 +230,13 @@ def saturation_bound(preload: float) -> float:
     return p.mu_s * A * (1.0 - math.exp(-p.c_n * 1e3 * preload / A))
 
 
-# ## Figures
+# %% [markdown]
+"""
+## Figures
+"""
 
 
+# %%
 def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
     import matplotlib
 
@@ -260,9 +292,10 @@ def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
     return files
 
 
+# %%
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = cli.demo_parser("Bolted lap joint: clamping, then cyclic shear")
+    ap = cli.demo_parser(__doc__)
     ap.add_argument("--n", type=int, default=8, help="elements across the plate width (8)")
     ap.add_argument("--preload", type=float, default=30.0, help="bolt load in kN (30)")
     ap.add_argument(
@@ -280,6 +313,7 @@ def parser() -> argparse.ArgumentParser:
     return ap
 
 
+# %%
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
@@ -315,5 +349,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return result
 
 
+# %%
 if __name__ == "__main__":
     sys.exit(cli.run_main(main))

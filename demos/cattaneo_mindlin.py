@@ -1,12 +1,21 @@
 # ---
 # jupyter:
 #   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
 #     text_representation:
 #       extension: .py
-#       format_name: light
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
 # ---
 
-"""Cattaneo-Mindlin partial slip of a cylinder on a flat (2-D), and the subloading law on it.
+# %% [markdown]
+"""# Cattaneo-Mindlin partial slip of a cylinder on a flat (2-D), and the subloading law on it.
 
 The Hertz contact of ``hertz.py`` is sheared by moving the top sideways: with Coulomb friction
 the stick zone and the tangential traction are compared with Cattaneo's and Mindlin's solution
@@ -14,95 +23,102 @@ for the measured ``Q / mu P``; the subloading law (calibrated to the same slidin
 its smooth elastic-plastic transition and its saturation change the partial-slip picture.
 """
 
-# # Cattaneo–Mindlin: partial slip under a tangential force
-#
-# Press the cylinder of `hertz.py` on the flat with $P$, then push it sideways with $Q < \mu P$.
-# With Coulomb friction the contact does not slide as a whole: a central **stick zone**
-# $|x| < c$ stays put while the outer parts slip, and (Cattaneo 1938, Mindlin 1949; Johnson,
-# *Contact Mechanics*, Sec. 7.1, for elastically similar bodies)
-#
-# $$\frac{c}{a} = \sqrt{1 - \frac{Q}{\mu P}},\qquad
-# q(x) = \mu p_0\left(\sqrt{1 - \frac{x^2}{a^2}} - \frac{c}{a}\sqrt{1 - \frac{x^2}{c^2}}\right)
-# \ (|x| < c),\qquad q(x) = \mu p(x)\ (c \le |x| \le a).$$
-#
-# **Loading.** Hertz's scene (approach $\delta = 50$ µm, 0 - 1 s), then the top face is moved
-# sideways by $s = 12$ µm with the approach held (1 - 2 s). $Q$ is measured (the reaction on the
-# top); the closed form is evaluated at the measured $Q/\mu P$ (0.56 at the default mesh). The
-# tangential force is applied through a prescribed displacement because the scene had no
-# traction vector on a face when this demo was written; with the same material on both sides the
-# shear does not change the pressure (Dundurs' $\beta = 0$), as the closed form assumes.
-#
-# **Measured.** The stick zone is where the Coulomb points are ELASTIC. Its half-width $c$ two
-# ways: the **edge** (midway between the outermost sticking and the first slipping point) and the
-# **fit**: in the stick zone the slack $\mu p - |q| = \mu p_0 (c/a)\sqrt{1 - x^2/c^2}$ is an
-# ellipse of half-width $c$, fitted like Hertz's pressure. And the largest error of $q(x)$
-# against the closed form, relative to $\mu p_0$.
-#
-# ## The subloading-friction law on the same contact
-#
-# Two things differ from Coulomb:
-#
-# * **Saturation**: the strength is $g(f_n)\,\mu$ with $g = 1 - e^{-c_n f_n}$, not $\mu_c f_n$.
-#   With $c_n = 10^{-3}$ 1/MPa, $g$ is 0.70 at the peak pressure $p_0 \approx 1200$ MPa where a
-#   linear law would give 1.2: the strength profile is flatter than the pressure. $\mu_s$ is
-#   calibrated so that the whole contact carries the same sliding force as Coulomb's,
-#   $\int g(p(x))\,\mu_s\,dx = \mu P$ (with Hertz's $p(x)$). No softening and no recovery
-#   ($\mu_k = \mu_s$, $\kappa = 0$): what remains is the law's shape.
-# * **Smooth transition**: the subloading surface grows with the plastic slip,
-#   $\dot r = \tilde u \cot(\pi r/2)|\dot u^p|$, so every loaded point slips a little, more as
-#   its stress ratio $\rho = |f_t|/(g\mu)$ nears 1: there is no sharp stick zone. With
-#   $\tilde u = 2000$ 1/mm the ratio reaches 0.5 after 0.11 µm of slip and 0.99 after 1.3 µm,
-#   the scale of the slips here (the paper's $\tilde u = 15$ 1/mm, made for millimetre slides,
-#   would let the whole contact slip by micrometres before anything like a stick zone forms).
-#
-# Both laws get the same top displacement; the figure `partial_slip.png` shows $|q(x)|$ with the
-# closed form and each law's strength, and the plastic slip $u^p(x)$ (log scale).
-#
-# ## What it gives
-#
-# Coulomb against the closed form at $Q/\mu P$ = 0.564 ($c$ = 0.690 mm), for 4, 8 and 16
-# elements per half-width: $c$ (fit) +0.14, -0.058, +0.18 %; $c$ (edge) -2.2, +3.6, +0.98 % (the
-# points are $h/2$ = 0.125, 0.0625, 0.031 mm apart); the largest error of $q(x)$ 3.7, 5.3, 3.0 %
-# of $\mu p_0$, its RMS 1.3, 1.6, 0.80 % (the largest at the cusp of $q$ at $|x| = c$).
-#
-# The subloading law at `--n 8` ($\mu_s$ = 476.6 MPa): $Q$ = 332.1 N/mm against Coulomb's 335.3
-# for the same displacement. Under the centre it carries 130 MPa of a strength 334 (Coulomb: 123
-# of 362): **saturation** lowers the strength where the pressure is highest and, the total being
-# the same, raises it towards the edges. Its **smooth transition** makes every point slip: 0.064
-# µm at the centre, where Coulomb's points stick, up to 0.92 µm at the edges (Coulomb 0.84), and
-# no point reaches the yield surface (largest $\rho$ 0.965): there is no sharp stick zone; the
-# slip stays below a tenth of its largest value within $|x| \le 0.37$ mm (Coulomb: 0.75 mm,
-# about $c$).
-#
-# ## Newton and the subloading law
-#
-# While the contact is pressed, the finite bodies make small tangential tractions (a few MPa
-# against 400-1200 MPa of pressure) whose sign changes from one Newton iterate to the next at a
-# few points near the contact edge. Coulomb's points stay elastic there; the subloading law's are
-# plastic as soon as they load (the subloading surface passes through the current stress), with
-# a plastic compliance of about $\pi r^2/(4\tilde u)$ that is ten times the elastic one for
-# $\tilde u$ = 2000 1/mm at $r \approx 0.04$: loading and unloading tangents differ by that
-# factor, and Newton cycles between the two branches (residual stuck near 1 N/mm from 9e3).
-# Full Newton steps and the stepper's l2 retry cycle too, and cutting the step does not help; a
-# backtracking line search does. So the subloading run is given `snes_linesearch_type bt`
-# (`SUBLOADING_SNES`): at `--n 8` it then takes 115 s instead of 424 s (both on a loaded
-# machine), and at `--n 4` it completes where the default fails at t = 0.35 s.
-#
-#     mpirun -n 2 python3 demos/cattaneo_mindlin.py [--n 8] [--slide 0.012] [--out DIR]
-#
-# PETSc options go under the prefixes `cm_coulomb_` and `cm_subloading_`.
+# %% [markdown]
+r"""
+# Cattaneo–Mindlin: partial slip under a tangential force
 
+Press the cylinder of `hertz.py` on the flat with $P$, then push it sideways with $Q < \mu P$.
+With Coulomb friction the contact does not slide as a whole: a central **stick zone**
+$|x| < c$ stays put while the outer parts slip, and (Cattaneo 1938, Mindlin 1949; Johnson,
+*Contact Mechanics*, Sec. 7.1, for elastically similar bodies)
+
+$$\frac{c}{a} = \sqrt{1 - \frac{Q}{\mu P}},\qquad
+q(x) = \mu p_0\left(\sqrt{1 - \frac{x^2}{a^2}} - \frac{c}{a}\sqrt{1 - \frac{x^2}{c^2}}\right)
+\ (|x| < c),\qquad q(x) = \mu p(x)\ (c \le |x| \le a).$$
+
+**Loading.** Hertz's scene (approach $\delta = 50$ µm, 0 - 1 s), then the top face is moved
+sideways by $s = 12$ µm with the approach held (1 - 2 s). $Q$ is measured (the reaction on the
+top); the closed form is evaluated at the measured $Q/\mu P$ (0.56 at the default mesh). The
+tangential force is applied through a prescribed displacement because the scene had no
+traction vector on a face when this demo was written; with the same material on both sides the
+shear does not change the pressure (Dundurs' $\beta = 0$), as the closed form assumes.
+
+**Measured.** The stick zone is where the Coulomb points are ELASTIC. Its half-width $c$ two
+ways: the **edge** (midway between the outermost sticking and the first slipping point) and the
+**fit**: in the stick zone the slack $\mu p - |q| = \mu p_0 (c/a)\sqrt{1 - x^2/c^2}$ is an
+ellipse of half-width $c$, fitted like Hertz's pressure. And the largest error of $q(x)$
+against the closed form, relative to $\mu p_0$.
+
+## The subloading-friction law on the same contact
+
+Two things differ from Coulomb:
+
+* **Saturation**: the strength is $g(f_n)\,\mu$ with $g = 1 - e^{-c_n f_n}$, not $\mu_c f_n$.
+  With $c_n = 10^{-3}$ 1/MPa, $g$ is 0.70 at the peak pressure $p_0 \approx 1200$ MPa where a
+  linear law would give 1.2: the strength profile is flatter than the pressure. $\mu_s$ is
+  calibrated so that the whole contact carries the same sliding force as Coulomb's,
+  $\int g(p(x))\,\mu_s\,dx = \mu P$ (with Hertz's $p(x)$). No softening and no recovery
+  ($\mu_k = \mu_s$, $\kappa = 0$): what remains is the law's shape.
+* **Smooth transition**: the subloading surface grows with the plastic slip,
+  $\dot r = \tilde u \cot(\pi r/2)|\dot u^p|$, so every loaded point slips a little, more as
+  its stress ratio $\rho = |f_t|/(g\mu)$ nears 1: there is no sharp stick zone. With
+  $\tilde u = 2000$ 1/mm the ratio reaches 0.5 after 0.11 µm of slip and 0.99 after 1.3 µm,
+  the scale of the slips here (the paper's $\tilde u = 15$ 1/mm, made for millimetre slides,
+  would let the whole contact slip by micrometres before anything like a stick zone forms).
+
+Both laws get the same top displacement; the figure `partial_slip.png` shows $|q(x)|$ with the
+closed form and each law's strength, and the plastic slip $u^p(x)$ (log scale).
+
+## What it gives
+
+Coulomb against the closed form at $Q/\mu P$ = 0.564 ($c$ = 0.690 mm), for 4, 8 and 16
+elements per half-width: $c$ (fit) +0.14, -0.058, +0.18 %; $c$ (edge) -2.2, +3.6, +0.98 % (the
+points are $h/2$ = 0.125, 0.0625, 0.031 mm apart); the largest error of $q(x)$ 3.7, 5.3, 3.0 %
+of $\mu p_0$, its RMS 1.3, 1.6, 0.80 % (the largest at the cusp of $q$ at $|x| = c$).
+
+The subloading law at `--n 8` ($\mu_s$ = 476.6 MPa): $Q$ = 332.1 N/mm against Coulomb's 335.3
+for the same displacement. Under the centre it carries 130 MPa of a strength 334 (Coulomb: 123
+of 362): **saturation** lowers the strength where the pressure is highest and, the total being
+the same, raises it towards the edges. Its **smooth transition** makes every point slip: 0.064
+µm at the centre, where Coulomb's points stick, up to 0.92 µm at the edges (Coulomb 0.84), and
+no point reaches the yield surface (largest $\rho$ 0.965): there is no sharp stick zone; the
+slip stays below a tenth of its largest value within $|x| \le 0.37$ mm (Coulomb: 0.75 mm,
+about $c$).
+
+## Newton and the subloading law
+
+While the contact is pressed, the finite bodies make small tangential tractions (a few MPa
+against 400-1200 MPa of pressure) whose sign changes from one Newton iterate to the next at a
+few points near the contact edge. Coulomb's points stay elastic there; the subloading law's are
+plastic as soon as they load (the subloading surface passes through the current stress), with
+a plastic compliance of about $\pi r^2/(4\tilde u)$ that is ten times the elastic one for
+$\tilde u$ = 2000 1/mm at $r \approx 0.04$: loading and unloading tangents differ by that
+factor, and Newton cycles between the two branches (residual stuck near 1 N/mm from 9e3).
+Full Newton steps and the stepper's l2 retry cycle too, and cutting the step does not help; a
+backtracking line search does. So the subloading run is given `snes_linesearch_type bt`
+(`SUBLOADING_SNES`): at `--n 8` it then takes 115 s instead of 424 s (both on a loaded
+machine), and at `--n 4` it completes where the default fails at t = 0.35 s.
+
+    mpirun -n 2 python3 demos/cattaneo_mindlin.py [--n 8] [--slide 0.012] [--out DIR]
+
+PETSc options go under the prefixes `cm_coulomb_` and `cm_subloading_`.
+"""
+
+# %%
 import argparse
 import math
 import sys
 
+# %%
 import numpy as np
 from mpi4py import MPI
 
+# %%
 from demos import hertz
 from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.scenes import cli, run_scene
 
+# %%
 SLIDE = 0.012  # mm, sideways displacement of the top
 C_N = 1e-3  # 1/MPa, the subloading law's saturation
 U_TILDE = 2000.0  # 1/mm, the subloading law's transition
@@ -110,6 +126,7 @@ LITTLE = 0.1  # a point slips "little" below this fraction of the largest slip
 SUBLOADING_SNES = {"snes_linesearch_type": "bt"}  # see "Newton and the subloading law"
 
 
+# %%
 def cattaneo_mindlin(x: np.ndarray, a: float, p0: float, mu: float, ratio: float) -> np.ndarray:
     """The closed-form tangential traction ``|q(x)|`` for ``Q / mu P = ratio`` (< 1)."""
     c = a * math.sqrt(1.0 - ratio)
@@ -119,6 +136,7 @@ def cattaneo_mindlin(x: np.ndarray, a: float, p0: float, mu: float, ratio: float
     return q
 
 
+# %%
 def calibrated_mu_s(P: float, c_n: float = C_N, mu: float = hertz.MU) -> float:
     """``mu_s`` with ``int g(p(x)) mu_s dx = mu P`` over Hertz's pressure (Gauss-Chebyshev)."""
     a, p0 = hertz.hertz(P)
@@ -128,6 +146,7 @@ def calibrated_mu_s(P: float, c_n: float = C_N, mu: float = hertz.MU) -> float:
     return mu * P / integral
 
 
+# %%
 def subloading_law(mu_s: float, c_n: float = C_N, u_tilde: float = U_TILDE) -> dict:
     """The subloading law of the demo: stiff penalties, no softening, no recovery."""
     return {
@@ -139,6 +158,7 @@ def subloading_law(mu_s: float, c_n: float = C_N, u_tilde: float = U_TILDE) -> d
     }  # fmt: skip
 
 
+# %%
 def measure_coulomb(result) -> dict:
     """Stick zone and tangential traction of the Coulomb run against the closed form."""
     key = hertz.measure(result, 2.0)
@@ -180,6 +200,7 @@ def measure_coulomb(result) -> dict:
     }
 
 
+# %%
 def slip_profile(result, strength) -> dict:
     """Slips and stress ratios ``rho = |f_t| / strength(f_n, snapshot)`` of a run at its end."""
     snap = result.snapshots[2.0]
@@ -204,16 +225,19 @@ def slip_profile(result, strength) -> dict:
     }
 
 
+# %%
 def coulomb_strength(fn: np.ndarray, snap: dict) -> np.ndarray:
     """``mu f_n``."""
     return hertz.MU * fn
 
 
+# %%
 def subloading_strength(fn: np.ndarray, snap: dict) -> np.ndarray:
     """``g(f_n) mu`` with the demo's ``c_n``."""
     return (1.0 - np.exp(-C_N * fn)) * snap["mu"]
 
 
+# %%
 def report(cou: dict, slips: dict, mu_s: float, u_tilde: float = U_TILDE) -> str:
     """The numbers of both runs."""
     co, su = slips.get("coulomb", {}), slips.get("subloading", {})
@@ -244,6 +268,7 @@ def report(cou: dict, slips: dict, mu_s: float, u_tilde: float = U_TILDE) -> str
     )
 
 
+# %%
 def figure(cres, sres, cou: dict, mu_s: float, outdir) -> str:
     """Tangential traction and plastic slip along the contact, both laws."""
     import matplotlib
@@ -289,9 +314,10 @@ def figure(cres, sres, cou: dict, mu_s: float, outdir) -> str:
     return str(path)
 
 
+# %%
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = cli.demo_parser("Cattaneo-Mindlin partial slip, Coulomb and the subloading law")
+    ap = cli.demo_parser(__doc__)
     ap.add_argument("--n", type=int, default=8, help="elements per contact half-width (8)")
     ap.add_argument("--slide", type=float, default=SLIDE, help="sideways displacement, mm")
     ap.add_argument("--out", default="demos/output/cattaneo_mindlin", help="output directory")
@@ -301,6 +327,7 @@ def parser() -> argparse.ArgumentParser:
     return ap
 
 
+# %%
 def main(argv=None, comm=MPI.COMM_WORLD):
     from pathlib import Path
 
@@ -333,5 +360,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return cres, sres
 
 
+# %%
 if __name__ == "__main__":
     sys.exit(cli.run_main(main))

@@ -35,6 +35,16 @@ SMALL = {
     ),
     "elastic_smoke": (["--n", "4"], ["u.xdmf"]),
     "paper_figures": (["--quick", "--only", "fig5"], ["fig5.png", "fig5.csv"]),
+    "calibration": (["--quick"], ["DATA.json", "FIT.json", "calibration.png"]),
+    "hertz": (["--n", "4"], ["history.csv", "pressure.png"]),
+    "cattaneo_mindlin": (
+        ["--n", "4", "--no-subloading"],
+        ["coulomb/history.csv"],
+    ),
+    "bolted_joint": (
+        ["--n", "2", "--cycles", "1"],
+        ["history.csv", "hysteresis.png"],
+    ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],
