@@ -68,7 +68,8 @@ def main() -> int:
     )
     args = ap.parse_args()
     data = HERE / "data"
-    for f in [HERE / "README.md", *HERE.glob("*.png")]:
+    kept = "mp_old_new"  # report/mp_study.py's figure, not regenerated here
+    for f in [HERE / "README.md", *(p for p in HERE.glob("*.png") if not p.name.startswith(kept))]:
         f.unlink(missing_ok=True)
     if not args.reuse:
         shutil.rmtree(data, ignore_errors=True)
@@ -91,6 +92,8 @@ def main() -> int:
         mp, mp_lines, stab_tab, stab_sum, fe, fe_lines, cfg,
         quick=args.quick, elapsed=elapsed, reuse=args.reuse,
     )  # fmt: skip
+    section = data / "mp_section.md"  # written by report/mp_study.py (previous and current map)
+    context["mp_section"] = section.read_text() if section.exists() else ""
     (HERE / "README.md").write_text(render(context))
     say(f"wrote {HERE / 'README.md'} and {len(list(HERE.glob('*.png')))} PNGs in {elapsed:.0f} s")
     if any(stab_sum[k][0] < stab_sum[k][1] for k in ("point", "fe1", "fe2")):
