@@ -40,19 +40,19 @@ def points(P, nt, n, rng, fmax):
     return gap, up, mu, r, np.column_stack([f0t, fn0])
 
 
-@pytest.mark.parametrize("name", ["sec7", "sec6-mus10000"])
+@pytest.mark.parametrize("name", ["sec7", "sec6-mus10000", "sec7-literal"])
 @pytest.mark.parametrize("nt", [1, 2])
 @pytest.mark.parametrize("dt", [0.05, 30.0])
 def test_c_reference_equals_the_package_map(cmap, name, nt, dt):
     P = preset(name)
     rng = np.random.default_rng(11)
-    gap, up, mu, r, f = points(P, nt, 3000, rng, 600.0 if name == "sec7" else 5000.0)
+    gap, up, mu, r, f = points(P, nt, 3000, rng, 5000.0 if name.startswith("sec6") else 600.0)
     for with_f in (True, False):
         st = InterfaceState({"up": up, "mu": mu, "r": r, **({"f": f} if with_f else {})}, nt)
         res = P.return_map(gap, st, dt)
         c = cmap(P, gap, up, mu, r, f if with_f else None, dt)
         use = c["status"] != 5  # (the C reference has no branch-and-bound scan)
-        assert use.sum() > 2900
+        assert use.sum() > (900 if name.endswith("literal") else 2900)
         np.testing.assert_array_equal(c["status"][use], res.status[use])
         sc = np.abs(res.tangent).reshape(len(gap), -1).max(axis=1)[:, None]
         np.testing.assert_allclose(c["traction"][use], res.traction[use], rtol=0,

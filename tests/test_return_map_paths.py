@@ -270,3 +270,34 @@ def test_per_point_time_increments(n):
         P.return_map(gap, st, dt[:-1])
     with pytest.raises(ValueError, match="dt"):
         P.return_map(gap, st, np.where(np.arange(n) == 1, -1.0, dt))
+
+
+def test_no_split_where_the_plastic_part_would_start_unstable():
+    """A point of the literal Sec. 7 set in FE (600 MPa, the block's edge): the elastic trial
+    reaches its loading switch at s = 0.946 of the step, but there phi rises (softening faster
+    than the elastic unloading), so the smallest root lies 0.018 mm away and the traction would
+    drop from 17.3 to 8.3 MPa within a 1.6-ms step: no continuous branch. The split is not
+    taken; the whole step's loading test decides (elastic here), on both paths; C agrees too
+    (tests/test_c_reference.py)."""
+    from subfric_dolfinx.constitutive._subloading.switch import (
+        ROOT,
+        split_point,
+        unstable_start,
+    )
+
+    lit = preset("sec7-literal")
+    L = lit._consts
+    gap = np.array([[0.04377685, 1.1105782]])
+    up, mu, r, f0 = 0.00908828, 412.43076, 0.39865093, [17.28639315, 555.42994531]
+    st = InterfaceState({"up": [[up]], "mu": [mu], "r": [r], "f": [f0]}, 1)
+    dt = 0.0015625
+    ft = [L.at * (gap[0, 0] - up)]
+    s, kind = split_point(L, f0[:1], f0[1], ft, L.an * gap[0, 1], abs(ft[0]), mu, L.xi * dt)
+    assert kind == ROOT and 0.9 < s < 1.0
+    for res in (lit.return_map(gap, st, dt),
+                lit.return_map(np.repeat(gap, 40, 0), st.take(np.zeros(40, int)), dt)):  # fmt: skip
+        assert np.all(res.status == Status.ELASTIC)
+        np.testing.assert_allclose(res.traction[:, 0], ft[0], rtol=1e-15)
+    # the rule itself: H(0) <= 0 at the split state, > 0 at a virgin-like one
+    assert unstable_start(L, -math.expm1(-L.cn * L.an * gap[0, 1]), 0.3986, 413.84, 0.017, -86.2)
+    assert not unstable_start(L, 0.1, 0.3986, 63.5, 0.017, -436.5)

@@ -307,6 +307,22 @@ static int split_point(const Law *L, int nt, const double *f0t, double fn0, cons
     return ROOT;
 }
 
+/* phi rises at the start of a plastic part from (r0, mu0): H(0) <= 0 (switch.unstable_start) */
+static int unstable_start(const Law *L, double g, double r0, double mu0, double b, double d_s) {
+    double qq, sq, s0, sin0, U0, Eb, dEb, mu_rec, dmu0;
+    if (!(r0 > 0.0)) return 0;
+    qq = 0.25 * M_PI * r0;
+    sq = sin(qq);
+    s0 = sq * sq;
+    sin0 = 2.0 * sqrt(s0 * (1.0 - s0));
+    if (!(sin0 > 0.0)) return 0;
+    U0 = L->ut * cos(2.0 * qq) / sin0;
+    e_de(b, &Eb, &dEb);
+    mu_rec = clamp(mu0 - b * d_s * Eb, L->mu_k, L->mu_s);
+    dmu0 = L->kappa * (-(mu0 - L->mu_k) * Eb - b * d_s * dEb);
+    return L->at + g * (U0 * mu_rec + r0 * dmu0) <= 0.0;
+}
+
 /* derivative of the split point over the m gap components (switch.split_ds) */
 static void split_ds(const Law *L, int nt, const double *f0t, const double *ft, double fn0,
                      double fn, double mu_c, double b, double s, int kind, double *ds) {
@@ -405,6 +421,15 @@ static int point(const Law *L, int nt, const double *gap, const double *up, doub
                 r_st = gm > 0.0 ? (rho_s < gm ? rho_s / gm : 1.0) : (rho_s > 0.0 ? 1.0 : 0.0);
             }
             b_st = b - bs;
+            if (split == ROOT && unstable_start(L, g, r_st, mu_st, b_st, d_st)) {
+                /* no continuous branch from the switch: the whole step's loading test */
+                split = 0;
+                for (i = 0; i < nt; i++) f_s[i] = f0[i];
+                mu_st = mu_c; r_st = r_c; b_st = b; d_st = NAN;
+                rho_s = nt == 1 ? fabs(f_s[0]) : hypot(f_s[0], f_s[1]);
+                fn_s = fn0;
+                g_s = gfun(L, fn0);
+            }
         } else {
             rho_s = nt == 1 ? fabs(f_s[0]) : hypot(f_s[0], f_s[1]);
             fn_s = fn0;

@@ -7,13 +7,18 @@ gap ``(ubar_t, ubar_n)``:
 1. **Trial** ``f_t* = alpha_t (ubar_t - up_n)``, ``A = |f_t*|``, ``f_n = alpha_n ubar_n``,
    ``g = 1 - exp(-c_n f_n)``. Out of contact (``ubar_n`` negative, or within the contact band
    of :mod:`.tolerances`): zero traction, ``r = 0``, ``up`` frozen, ``mu`` recovers.
-2. **Reversal split.** The elastic trial runs from the start traction ``f0`` along
-   ``f(s) = f0 + s (f* - f0)``. Where ``|f_t|`` falls at ``s = 0`` and reaches its minimum
-   inside the step (``s* = -f0.(f* - f0) / |f* - f0|^2``, the rest of the segment resolved
-   against the rounding of ``f0 + s w``), that part is elastic unloading: the rest of the step
-   starts at ``f_s = f(s*)`` with ``mu`` recovered over ``s* dt`` and ``r = |f_s| / (g_s mu)``
-   (``0`` after an exact 1-D reversal). Without it the step holding the zero crossing of
-   ``f_t`` would start its return from the ``r`` of the step start.
+2. **Split at the loading switch** (``_subloading.switch``). The elastic trial runs from the
+   start traction ``f0`` along ``f(s) = f0 + s (f* - f0)``; ``r`` of an elastic state,
+   ``|f(s)| / (g(f_n(s)) mu_e(s))``, can only grow by plastic flow, so the step is elastic up to
+   the first minimum of ``r_el`` along the segment and plastic from there: a cusp where ``f_t``
+   passes through zero (any 1-D reversal: ``r = 0`` there), or the first root of
+   ``d ln r_el / ds`` (a 2-D near-reversal, a turn while ``mu`` recovers, a reload slower than
+   the recovery; ``r`` scaled by ``r_el(s) / r_el(0)``). The rest of the step starts there with
+   ``mu`` recovered over ``s dt``. Without it the step holding the zero crossing of ``f_t``
+   would start its return from the ``r`` of the step start. Not taken where the rest of the
+   segment is below the rounding of ``f0 + s w``, nor where ``phi`` would rise at the start of
+   the plastic part (softening faster than elastic unloading: no continuous branch from the
+   switch; the whole step's loading test decides, as without the split).
 3. For a plastic slip ``dl`` at a constant rate over the (rest of the) step ``r`` and ``mu``
    integrate exactly: ``cos(pi r / 2) = cos(pi r_0 / 2) exp(-pi u_tilde dl / 2)`` and
    ``mu = mu_0 - (a (mu_0 - mu_k) + b (mu_0 - mu_s)) E(a + b)``, ``a = kappa dl``, ``b = xi dt``,

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..tolerances import contact_band
 from .common import CHUNK, ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
-from .switch import ROOT, vsplit_point
+from .switch import ROOT, vsplit_point, vunstable_start
 from .vgeneral import general
 from .vroot import VBr, finish, g_of, vroot
 
@@ -123,6 +123,15 @@ def _chunk(L, gap, up, mu, r, f0, dt, tol, max_iter, contact_tol, tr, tan, up_o,
             d_st = d_st.copy()
             d_st[si] = (mu_c_ - mu_s) * np.exp(-bs)  # mu_st - mu_s without cancellation
             mu_rec_st[si] = np.minimum(mu_m + (mu_s - mu_m) * (-np.expm1(-b_st[si])), mu_s)
+            if ro.any():  # no ROOT split where the plastic part would start unstable (.switch)
+                sr = si[ro]
+                bad = vunstable_start(L, g[sr], r_st[sr], mu_st[sr], b_st[sr], d_st[sr])
+                if bad.any():
+                    j = sr[bad]
+                    split[j], split_s[j] = 0, 0.0
+                    f_s[j] = f0t[j]
+                    mu_st[j], r_st[j], b_st[j] = mu_c[j], r_c[j], b[j]
+                    d_st[j], mu_rec_st[j] = mu_c[j] - mu_s, mu_rec[j]
     finite = np.isfinite(A)
     # plastic only when the trial leaves the loading surface by more than tol g mu
     gm_st = g * mu_rec_st

@@ -15,7 +15,7 @@ from .common import ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
 from .fast import collinear, rotate_fixed
 from .general import general
 from .root import Br, certified_root, finish, g_of
-from .switch import ROOT, split_point
+from .switch import ROOT, split_point, unstable_start
 
 __all__ = ["point"]
 
@@ -92,6 +92,13 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
                 gm = g_s * mu_st
                 r_st = (rho_s / gm if rho_s < gm else 1.0) if gm > 0.0 else float(rho_s > 0)
             b_st = b - bs
+            if split[1] == ROOT and unstable_start(L, g, r_st, mu_st, b_st, d_st):
+                # the plastic part would start where phi rises (softening faster than elastic
+                # unloading): no continuous branch from the switch; the whole step's loading
+                # test decides, as without the split
+                split, f_s = None, [f0[i] for i in range(nt)]
+                mu_st, r_st, b_st, d_st = mu_c, r_c, b, None
+                rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
         else:
             rho_s = abs(f_s[0]) if nt == 1 else _hypot(f_s[0], f_s[1])
 

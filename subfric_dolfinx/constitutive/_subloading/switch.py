@@ -20,7 +20,13 @@ step's mean rates, up to a positive factor) the split point is:
   loading test decides).
 
 The split is taken only where the rest of the segment, ``(1 - s) |w|``, is resolved against the
-rounding of ``f0 + s w``. Its derivative over the gap components, for the tangent: the classic
+rounding of ``f0 + s w``, and a ``ROOT`` split only where the plastic part starts on a stable
+branch (:func:`unstable_start`): where ``phi`` rises at the switch (softening faster than the
+elastic unloading, ``H(0) = alpha_t + g (U(r_s) mu + r_s mu'(0)) <= 0``) its smallest root lies
+a finite slip away, so the traction would jump at the switch; the whole step's loading test
+decides there, as without the split (the literal Sec. 7 set in FE needs it to converge).
+
+The split point's derivative over the gap components, for the tangent: the classic
 ``ds = -(f0 + 2 s w).dw / |w|^2`` at a cusp, ``ds = -dh / h'(s)`` at a root.
 """
 
@@ -30,14 +36,24 @@ import math
 
 import numpy as np
 
-from .common import EPS, ROT_HI, ROT_LO, SPLIT_EPS, Law
+from .common import EPS, ROT_HI, ROT_LO, S_SERIES, SPLIT_EPS, Law
 
-__all__ = ["CUSP", "ROOT", "split_ds", "split_point", "vsplit_ds", "vsplit_point"]
+__all__ = [
+    "CUSP",
+    "ROOT",
+    "split_ds",
+    "split_point",
+    "unstable_start",
+    "vsplit_ds",
+    "vsplit_point",
+    "vunstable_start",
+]
 
 CUSP, ROOT = 1, 2
 CUSP_REL = 1e-8  # |f| at its minimum below this times (|f0| + |f*|): a cusp (r_el = 0 there)
 _MAX_IT = 60
 _expm1, _exp, _sqrt, _hypot = math.expm1, math.exp, math.sqrt, math.hypot
+_sin, _cos, _PI = math.sin, math.cos, math.pi
 
 
 def _h(L: Law, f0t, w, ww, fn0, dfn, mu_c, b, s):
@@ -138,6 +154,52 @@ def split_point(L: Law, f0t, fn0, ft, fn, A, mu_c, b):
     if not (1.0 - s) * W > SPLIT_EPS * (rho0 + A):
         return None
     return s, ROOT
+
+
+def _E_dE(s):
+    if s < S_SERIES:
+        return (-_expm1(-s) / s if s > 0.0 else 1.0), -0.5 + s * (1.0 / 3.0 - 0.125 * s)
+    em = _expm1(-s)
+    return -em / s, (em * (1.0 + s) + s) / (s * s)
+
+
+def unstable_start(L: Law, g, r0, mu0, b, d_s) -> bool:
+    """Whether ``phi`` rises at the start of a plastic part from ``(r0, mu0)`` (scalar).
+
+    ``H(0) = alpha_t + g (U(r0) mu_rec + r0 mu'(0)) <= 0`` with the closed forms of
+    :class:`.root.Br` (``mu_rec`` after the recovery ``b``, ``d_s = mu0 - mu_s``).
+    """
+    if not r0 > 0.0:
+        return False  # U(0) = inf
+    qq = 0.25 * _PI * r0
+    sq = _sin(qq)
+    s0 = sq * sq
+    sin0 = 2.0 * _sqrt(s0 * (1.0 - s0))
+    if not sin0 > 0.0:
+        return False
+    U0 = L.ut * _cos(2.0 * qq) / sin0
+    Eb, dEb = _E_dE(b)
+    mu_rec = min(max(mu0 - b * d_s * Eb, L.mu_k), L.mu_s)
+    dmu0 = L.kappa * (-(mu0 - L.mu_k) * Eb - b * d_s * dEb)
+    return L.at + g * (U0 * mu_rec + r0 * dmu0) <= 0.0
+
+
+def vunstable_start(L: Law, g, r0, mu0, b, d_s):
+    """Vector :func:`unstable_start` (bool array)."""
+    qq = 0.25 * _PI * r0
+    s0 = np.sin(qq) ** 2
+    sin0 = 2.0 * np.sqrt(s0 * (1.0 - s0))
+    ok = (r0 > 0.0) & (sin0 > 0.0)
+    U0 = L.ut * np.cos(2.0 * qq) / np.where(ok, sin0, 1.0)
+    bb = np.asarray(b, dtype=float)
+    em = np.expm1(-bb)
+    bs = np.where(bb > 0.0, bb, 1.0)
+    E = np.where(bb > 0.0, -em / bs, 1.0)
+    series = -0.5 + bb * (1.0 / 3.0 - 0.125 * bb)
+    dE = np.where(bb < S_SERIES, series, (em * (1.0 + bb) + bb) / (bs * bs))
+    mu_rec = np.minimum(np.maximum(mu0 - bb * d_s * E, L.mu_k), L.mu_s)
+    dmu0 = L.kappa * (-(mu0 - L.mu_k) * E - bb * d_s * dE)
+    return ok & (L.at + g * (U0 * mu_rec + r0 * dmu0) <= 0.0)
 
 
 def split_ds(L: Law, f0t, ft, fn0, fn, mu_c, b, s, kind):
