@@ -36,7 +36,8 @@ def test_each_region_gets_its_own_law(nt):
     n = 60
     region = rng.integers(0, 3, n)
     law = RegionalLaw(COULOMB, {"rough": ROUGH, "sub": SUB}, region)
-    assert [v.name for v in law.variables] == ["up", "mu", "r"]
+    # the union of the laws' variables, in order (the subloading law's start traction f last)
+    assert [v.name for v in law.variables] == ["up", "mu", "r", "f"]
     state = law.initial_state(n, nt)
     # virgin values: the subloading points start at mu_s, Coulomb points have mu = 0
     np.testing.assert_array_equal(state.mu[region == 2], SUB.mu_s)
