@@ -206,7 +206,14 @@ def _point_vector(V: dolfinx.fem.FunctionSpace, domain: Any, c: PointForce) -> t
     mesh.topology.create_connectivity(0, mesh.topology.dim)
     verts = locate_node_group(domain, c.group, NodeGroup(xv.reshape(1, 3), (c.body,)))
     blocks = dolfinx.fem.locate_dofs_topological(V, 0, verts)
-    return blocks[blocks < V.dofmap.index_map.size_local], xv
+    blocks = blocks[blocks < V.dofmap.index_map.size_local]
+    if mesh.comm.allreduce(blocks.size) > 1:  # both copies of a duplicated interface node
+        where = tuple(float(v) for v in xv[: mesh.geometry.dim])
+        raise InterfaceError(
+            f"point force at {c.group[6:]}: its nearest vertex {where} is an interface node, "
+            "duplicated; give the body it acts on"
+        )
+    return blocks, xv
 
 
 def load_vectors(

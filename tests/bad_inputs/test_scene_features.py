@@ -9,7 +9,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
-from subfric_dolfinx.fem import InterfaceError, InterfaceProblem, Material, Spring
+from subfric_dolfinx.fem import InterfaceError, InterfaceProblem, Material, PointForce, Spring
 from subfric_dolfinx.fem.probes import PointEvaluator
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
 from tests.helpers import LAW, PROGRAM, prefix, raised_on_every_rank, small_scene
@@ -179,5 +179,7 @@ def test_a_node_group_not_at_a_vertex_and_a_spring_on_nodes_are_named():
         dom.add_node_group("pin", [[0.5, 1.0]])
     with raised_on_every_rank(ValueError, "spring on 'top': stiffness must be"):
         InterfaceProblem(dom, LAW, mats, PROGRAM, springs=[Spring("top", (1.0, np.inf))])
+    with raised_on_every_rank(InterfaceError, "its nearest vertex (1.0, 0.5) is an interface node"):
+        InterfaceProblem(dom, LAW, mats, PROGRAM, [], [PointForce((1.01, 0.5), (0.0, 1.0))])
     with raised_on_every_rank(InterfaceError, "point 'P' at (5.0, 5.0) is in no cell"):
         PointEvaluator(dom, np.array([[5.0, 5.0]]), [None], ["P"])
