@@ -19,7 +19,7 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, prefix
+from tests.helpers import LAW, block_problem, prefix
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
 
@@ -258,3 +258,25 @@ def test_a_step_failure_says_what_the_return_map_saw():
     assert np.min(np.linalg.norm(points - np.array(worst["x"]), axis=1)) < 1e-12
     assert att["text"] in str(e.value) and "worst point" in str(e.value)
     assert comm.allgather(str(e.value)) == [str(e.value)] * comm.size
+
+
+def test_a_domain_error_on_one_rank_stops_every_rank():
+    """The return map fails at a point of one rank only (here: forced, at the first residual
+    of the line search): SNES sees the domain error on every rank and the solve fails alike
+    everywhere. SNES's line search checks the domain error rank by rank; ranks that disagreed
+    would part ways (one leaving the solve, the other waiting in a collective), which hung a
+    2-rank run before the error was made collective."""
+    comm = MPI.COMM_WORLD
+    prob = block_problem(comm)
+    residual, calls = prob.residual, [0]
+
+    def failing(x, F):
+        calls[0] += 1
+        ok = residual(x, F)
+        return ok and not (comm.rank == comm.size - 1 and calls[0] == 2)
+
+    prob.residual = failing
+    with FrictionSolver(prob, prefix("domain")) as solver:
+        r = solver.solve(0.5, 0.5)
+    outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
+    assert len(set(outcomes)) == 1 and not r["converged"], outcomes

@@ -32,6 +32,7 @@ from collections.abc import Iterator, Mapping
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
@@ -183,6 +184,9 @@ class FrictionSolver:
         ok = self.problem.residual(x, F)
         if not ok:
             self.failed_points = self.problem.interface.last.failed_indices
+        # on every rank or none: SNES's line search checks the domain error on each rank alone,
+        # and ranks that disagree would part ways (one leaves the solve, the other waits)
+        if not self.problem.comm.allreduce(bool(ok), op=MPI.LAND):
             set_function_domain_error(snes, F)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
