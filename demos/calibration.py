@@ -77,6 +77,7 @@ from subfric_dolfinx.calibrate import (
 )
 from subfric_dolfinx.calibrate.cli import plot_fit
 from subfric_dolfinx.constitutive import preset
+from subfric_dolfinx.logs import launcher_rank
 
 # %% [markdown]
 """
@@ -185,6 +186,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if not args.noise >= 0:
         ap.error("--noise must be >= 0")
+    if launcher_rank() != 0:  # under mpirun: rank 0 fits and writes, the others have nothing to do
+        return 0
     t0 = time.perf_counter()
     run_demo(args.out, quick=args.quick, noise=args.noise)
     print(f"done in {time.perf_counter() - t0:.1f} s")

@@ -91,6 +91,7 @@ import numpy as np
 
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.driver import run_case
+from subfric_dolfinx.logs import launcher_rank
 from subfric_dolfinx.scenes.cli import HelpFormatter
 
 SEC6 = ("sec6-mus10000", "sec6-mus7500")
@@ -559,26 +560,11 @@ def run_demo(
 # ### Running under MPI
 #
 # Every point is independent and cheap, so there is nothing to distribute: under `mpirun`, rank 0
-# computes and writes, the other ranks exit at once. mpi4py is imported only when the process was
-# started by an MPI launcher, and it is optional even then (the rank is read from the launcher's
-# environment).
+# computes and writes, the other ranks exit at once (`logs.launcher_rank` reads the rank from the
+# launcher's environment; MPI is not initialised).
 
 
 # %%
-def mpi_rank() -> int:
-    launched = any(k in os.environ for k in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"))
-    if not launched:
-        return 0
-    try:
-        from mpi4py import MPI
-    except ImportError:
-        for k in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-            if k in os.environ:
-                return int(os.environ[k])
-        return 0
-    return MPI.COMM_WORLD.rank
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
     ap.add_argument("--out", default="demos/output/paper_figures", help="output directory")
@@ -596,7 +582,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
     if only and set(only) - set(FIGURES):
         ap.error(f"--only: unknown figure(s) {sorted(set(only) - set(FIGURES))}")
-    if mpi_rank() != 0:
+    if launcher_rank() != 0:
         return 0
     t0 = time.perf_counter()
     run_demo(args.out, steps_per_mm=args.steps_per_mm, only=only, quick=args.quick)

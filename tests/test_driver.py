@@ -14,6 +14,7 @@ import pytest
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
 from tests.helpers import driver_cli as cli
+from tests.helpers import singleton_env
 
 pytestmark = pytest.mark.numpy_only
 
@@ -98,6 +99,37 @@ def test_cli_prints_json_without_out_and_steps_per_mm_overrides(tmp_path):
     data = json.loads(proc.stdout)
     assert data["n_steps"] == 1 + 5 + 10 + 8 + 3  # ceil(50 * length) per interval
     assert data["complete"]
+
+
+@pytest.mark.serial
+def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
+    """``mpirun -n 2 python3 -m subfric_dolfinx.driver``: one JSON on stdout (two ranks writing
+    the same files side by side raced and failed), exit 0, the same result as one process."""
+    case_file = write(tmp_path, SEC7)
+    env = {**singleton_env(), "PYTHONPATH": str(REPO)}
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "subfric_dolfinx.driver", str(case_file)]
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stderr.count("ok:") == 1, proc.stderr
+    serial = json.loads(cli(case_file).stdout)
+    assert json.loads(proc.stdout)["samples"] == serial["samples"]
+
+
+def test_launcher_rank_reads_the_launchers_environment(monkeypatch):
+    from subfric_dolfinx.logs import launcher_rank
+
+    for k in ("OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_RANK", "PMI_SIZE", "PMI_RANK", "PMIX_RANK"):
+        monkeypatch.delenv(k, raising=False)
+    assert launcher_rank() == 0
+    monkeypatch.setenv("PMI_RANK", "3")  # a rank without a launcher's size: not launched
+    assert launcher_rank() == 0
+    monkeypatch.setenv("PMI_SIZE", "4")
+    assert launcher_rank() == 3
+    monkeypatch.setenv("PMIX_RANK", "1")
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
+    monkeypatch.delenv("PMI_RANK")
+    assert launcher_rank() == 1
 
 
 def test_status_counts_with_separation_and_the_coulomb_law(tmp_path):

@@ -9,13 +9,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..driver.cli import check_out, write_atomically
+from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
 from .fit import STEPS_PER_MM, FitResult, fit, simulate
 
@@ -61,9 +64,11 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout(rect=(0, 0.04, 1, 1))
-    tmp = path.with_name(f".{path.name}.tmp.png")
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
+    tmp = Path(name)
     try:
-        fig.savefig(tmp, dpi=110)
+        with os.fdopen(fd, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=110)
         tmp.replace(path)
     finally:
         plt.close(fig)
@@ -88,6 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = ap.parse_args(argv)
     except _ArgumentError as e:
         return _error(str(e))
+    if launcher_rank() != 0:  # under mpirun: rank 0 computes and writes, the others return
+        return 0
     spm = args.steps_per_mm
     if not (math.isfinite(spm) and spm > 0):
         return _error(f"--steps-per-mm must be finite and > 0, got {spm!r}")

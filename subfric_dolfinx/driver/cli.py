@@ -25,6 +25,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..logs import launcher_rank
 from .case import MAX_TOTAL_STEPS, CaseError, load_case
 from .run import RunawayError, run_case
 
@@ -145,6 +146,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = ap.parse_args(argv)
     except _ArgumentError as e:
         return _error(str(e))
+    if launcher_rank() != 0:  # under mpirun: rank 0 computes and writes, the others return
+        return 0
     try:
         spm = args.steps_per_mm
         if spm is not None and not (math.isfinite(spm) and spm > 0):
