@@ -1,34 +1,54 @@
-# # Block on a base: press, slide forward, back, hold, slide again
-#
-# The main demo of subfric-dolfinx. An aluminium block (A6111-T4 in the paper's Sec. 7) sits on a
-# steel base (tool steel); the interface between them is a zero-thickness interface element whose
-# traction follows the subloading-friction law with saturation, with the paper's Sec. 7 parameter
-# set (normalised reading, see `subfric_dolfinx.constitutive.presets`).
-#
-# Loading program (1 mm/s sliding as in the paper's experiments):
-#
-# | time (s)   | what happens                                                   |
-# |------------|----------------------------------------------------------------|
-# | 0 - 1      | a pressure of 300 MPa is applied on the top of the block       |
-# | 1 - 2      | the top of the block is moved +1 mm: static peak, softening    |
-# | 2 - 4      | moved back to -1 mm: reverse sliding                           |
-# | 4 - 24     | held still for 20 s: the static friction recovers              |
-# | 24 - 26    | moved to +1 mm again: a new, smaller peak                      |
-#
-# Run it on two ranks (`./run demo` does exactly this):
-#
-#     mpirun -n 2 python3 demos/block_on_base.py [--n 32] [--fields vtx] [--out DIR]
-#
-# With `--checkpoint-every N` it writes `checkpoint.h5` every N steps; `--restart
-# DIR/checkpoint.h5` continues from one, on any number of ranks. To stop a run cleanly, send
-# SIGUSR1 to `mpirun` (`kill -USR1 <pid of mpirun>`): every rank finishes its step, the checkpoint
-# is written and the demo exits with code 75 and one line (SIGTERM to `mpirun` is followed by a
-# kill ~0.2 s later, usually too soon; SIGTERM, SIGUSR1 or SIGUSR2 to a single process work alike).
-#
-# It prints progress on rank 0, the timing breakdown, and writes the CSV history and two figures
-# into the output directory. PETSc options apply under the prefix `block_`, e.g.
-# `-block_snes_monitor`.
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
+# %% [markdown]
+"""# Block on a base: press, slide forward, back, hold, slide again
+
+The main demo of subfric-dolfinx. An aluminium block (A6111-T4 in the paper's Sec. 7) sits on a
+steel base (tool steel); the interface between them is a zero-thickness interface element whose
+traction follows the subloading-friction law with saturation, with the paper's Sec. 7 parameter
+set (normalised reading, see `subfric_dolfinx.constitutive.presets`).
+
+Loading program (1 mm/s sliding as in the paper's experiments):
+
+| time (s)   | what happens                                                   |
+|------------|----------------------------------------------------------------|
+| 0 - 1      | a pressure of 300 MPa is applied on the top of the block       |
+| 1 - 2      | the top of the block is moved +1 mm: static peak, softening    |
+| 2 - 4      | moved back to -1 mm: reverse sliding                           |
+| 4 - 24     | held still for 20 s: the static friction recovers              |
+| 24 - 26    | moved to +1 mm again: a new, smaller peak                      |
+
+Run it on two ranks (`./run demo` does exactly this):
+
+    mpirun -n 2 python3 demos/block_on_base.py [--n 32] [--fields vtx] [--out DIR]
+
+With `--checkpoint-every N` it writes `checkpoint.h5` every N steps; `--restart
+DIR/checkpoint.h5` continues from one, on any number of ranks. To stop a run cleanly, send
+SIGUSR1 to `mpirun` (`kill -USR1 <pid of mpirun>`): every rank finishes its step, the checkpoint
+is written and the demo exits with code 75 and one line (SIGTERM to `mpirun` is followed by a
+kill ~0.2 s later, usually too soon; SIGTERM, SIGUSR1 or SIGUSR2 to a single process work alike).
+
+It prints progress on rank 0, the timing breakdown, and writes the CSV history and two figures
+into the output directory. PETSc options apply under the prefix `block_`, e.g.
+`-block_snes_monitor`.
+"""
+
+
+# %%
 import argparse
 import sys
 
@@ -37,12 +57,14 @@ from mpi4py import MPI
 
 from subfric_dolfinx.scenes import cli, run_scene
 
+# %% [markdown]
 # ## The scene
 #
 # A scene is a declarative description; the runner builds the mesh (gmsh, with the interface nodes
 # duplicated), the problem, the SNES solver and only the outputs asked for.
 
 
+# %%
 def scene(
     n: int = 16,
     hold: float = 20.0,
@@ -74,7 +96,10 @@ def scene(
             {"group": "top", "component": 0, "value": 1.0, "amplitude": "slide"},
         ],
         "loads": [{"type": "pressure", "group": "top", "value": 300.0, "amplitude": "press"}],
-        "solver": {"prefix": "block_", "dt": dt, "dt_max": 2.5 * dt},
+        # the hold in steps of 5 s: nothing moves, the return map integrates the recovery of mu
+        # exactly whatever the step (docs/model.md §6.7); the 0.05 s steps of the sliding
+        # would take 400 steps there
+        "solver": {"prefix": "block_", "dt": dt, "dt_max": 2.5 * dt, "hold_dt": 5.0},
         "outputs": {
             "history": True,
             "fields": fields,
@@ -84,12 +109,14 @@ def scene(
     }
 
 
+# %% [markdown]
 # ## Figures
 #
 # The tangential force on the block against the displacement of its top and against the mean
 # plastic slip, and the interface fields along the interface at a few instants.
 
 
+# %%
 def figures(result, outdir, hold):
     import matplotlib
 
@@ -145,9 +172,9 @@ def figures(result, outdir, hold):
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
     ap = cli.demo_parser(__doc__)
-    ap.add_argument("--n", type=int, default=16, help="elements along the interface (16)")
-    ap.add_argument("--hold", type=float, default=20.0, help="hold time in s (20)")
-    ap.add_argument("--dt", type=float, default=0.02, help="initial time step in s (0.02)")
+    ap.add_argument("--n", type=int, default=16, help="elements along the interface")
+    ap.add_argument("--hold", type=float, default=20.0, help="hold time in s")
+    ap.add_argument("--dt", type=float, default=0.02, help="initial time step in s")
     ap.add_argument("--fields", choices=["vtx", "xdmf"], default=None, help="field output")
     ap.add_argument("--out", default="demos/output/block_on_base", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")

@@ -1,49 +1,69 @@
-# # Smoke test: a linear-elastic bar meshed with gmsh
-#
-# This demo is the first end-to-end check of the toolchain the project builds on: gmsh builds a
-# mesh on one rank, DOLFINx distributes it, a small-strain linear-elastic problem is assembled and
-# solved with a direct (LU) solver through petsc4py, and two scalar quantities of interest are
-# reduced over all ranks. It runs unchanged on one or more MPI ranks:
-#
-# ```bash
-# python3 demos/elastic_smoke.py --n 8
-# mpirun -n 2 python3 demos/elastic_smoke.py --n 8 --out demos/output/elastic_smoke
-# ```
-#
-# and prints, on rank 0 only, the mean displacement of the loaded (right) edge ("tip
-# displacement") and the total strain energy. Both are independent of the number of ranks up to
-# round-off, which is what `tests/test_elastic_smoke.py` checks, together with a closed-form
-# solution.
-#
-# The problem: a plane-stress rectangle $\Omega = (0, L) \times (0, H)$, clamped on its left edge
-# $\Gamma_D = \{x = 0\}$ and loaded by a uniform traction $\bar{t}$ on its right edge
-# $\Gamma_N = \{x = L\}$; the top and bottom edges are traction free. Find
-# $u \in V = \{v \in [H^1(\Omega)]^2 : v = 0 \text{ on } \Gamma_D\}$ such that
-#
-# $$
-# \int_\Omega \sigma(u) : \varepsilon(v) \, \mathrm{d}x
-#   = \int_{\Gamma_N} \bar{t} \cdot v \, \mathrm{d}s \quad \forall v \in V,
-# \qquad
-# \sigma(u) = 2 \mu \varepsilon(u) + \lambda^* \operatorname{tr} \varepsilon(u) I,
-# $$
-#
-# with $\varepsilon(u) = \operatorname{sym} \nabla u$, $\mu = E / (2 (1 + \nu))$ and the
-# plane-stress $\lambda^* = E \nu / (1 - \nu^2)$.
-#
-# Two load cases are useful:
-#
-# * the default, a downward shear traction $\bar{t} = (0, -q)$: a cantilever, compared below
-#   with Timoshenko beam theory only as a plausibility check (P1 triangles are too stiff in
-#   bending on coarse meshes);
-# * an axial traction $\bar{t} = (\sigma_0, 0)$ with $\nu = 0$: the exact solution
-#   $u = (\sigma_0 x / E, 0)$ is linear, so P1 elements reproduce it to round-off, and the tip
-#   displacement is $\sigma_0 L / E$ and the strain energy $\sigma_0^2 L H / (2 E)$.
-#
-# ## Implementation
-#
-# The modules used: gmsh for the geometry and mesh, DOLFINx/UFL for the discretisation,
-# petsc4py for the linear solve.
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
+# %% [markdown]
+r"""# Smoke test: a linear-elastic bar meshed with gmsh
+
+This demo is the first end-to-end check of the toolchain the project builds on: gmsh builds a
+mesh on one rank, DOLFINx distributes it, a small-strain linear-elastic problem is assembled and
+solved with a direct (LU) solver through petsc4py, and two scalar quantities of interest are
+reduced over all ranks. It runs unchanged on one or more MPI ranks:
+
+```bash
+python3 demos/elastic_smoke.py --n 8
+mpirun -n 2 python3 demos/elastic_smoke.py --n 8 --out demos/output/elastic_smoke
+```
+
+and prints, on rank 0 only, the mean displacement of the loaded (right) edge ("tip
+displacement") and the total strain energy. Both are independent of the number of ranks up to
+round-off, which is what `tests/test_elastic_smoke.py` checks, together with a closed-form
+solution.
+
+The problem: a plane-stress rectangle $\Omega = (0, L) \times (0, H)$, clamped on its left edge
+$\Gamma_D = \{x = 0\}$ and loaded by a uniform traction $\bar{t}$ on its right edge
+$\Gamma_N = \{x = L\}$; the top and bottom edges are traction free. Find
+$u \in V = \{v \in [H^1(\Omega)]^2 : v = 0 \text{ on } \Gamma_D\}$ such that
+
+$$
+\int_\Omega \sigma(u) : \varepsilon(v) \, \mathrm{d}x
+  = \int_{\Gamma_N} \bar{t} \cdot v \, \mathrm{d}s \quad \forall v \in V,
+\qquad
+\sigma(u) = 2 \mu \varepsilon(u) + \lambda^* \operatorname{tr} \varepsilon(u) I,
+$$
+
+with $\varepsilon(u) = \operatorname{sym} \nabla u$, $\mu = E / (2 (1 + \nu))$ and the
+plane-stress $\lambda^* = E \nu / (1 - \nu^2)$.
+
+Two load cases are useful:
+
+* the default, a downward shear traction $\bar{t} = (0, -q)$: a cantilever, compared below
+  with Timoshenko beam theory only as a plausibility check (P1 triangles are too stiff in
+  bending on coarse meshes);
+* an axial traction $\bar{t} = (\sigma_0, 0)$ with $\nu = 0$: the exact solution
+  $u = (\sigma_0 x / E, 0)$ is linear, so P1 elements reproduce it to round-off, and the tip
+  displacement is $\sigma_0 L / E$ and the strain energy $\sigma_0^2 L H / (2 E)$.
+
+## Implementation
+
+The modules used: gmsh for the geometry and mesh, DOLFINx/UFL for the discretisation,
+petsc4py for the linear solve.
+"""
+
+
+# %%
 """Linear-elastic smoke demo: a gmsh rectangle, clamped on the left, traction on the right."""
 
 import argparse
@@ -58,10 +78,13 @@ from dolfinx.io import gmshio
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from subfric_dolfinx.scenes.cli import HelpFormatter
+
 # Physical-group tags of the gmsh model: one for the surface, one for each loaded/clamped edge.
 DOMAIN, CLAMPED, LOADED = 1, 1, 2
 
 
+# %% [markdown]
 # ### The mesh
 #
 # The gmsh model is built on rank 0 only. An exception raised there while the other ranks wait
@@ -71,6 +94,7 @@ DOMAIN, CLAMPED, LOADED = 1, 1, 2
 # case, so the function can be called repeatedly in one process (as the tests do).
 
 
+# %%
 def _build_gmsh_model(length: float, height: float, n: int) -> None:
     """Create the meshed rectangle as the current gmsh model (rank 0 only)."""
     gmsh.option.setNumber("General.Terminal", 0)
@@ -139,6 +163,7 @@ def build_mesh(comm: MPI.Comm, n: int, length: float = 4.0, height: float = 1.0,
                 gmsh.finalize()
 
 
+# %% [markdown]
 # ### The variational problem and its solution
 #
 # P1 vector elements; the clamp is a homogeneous Dirichlet condition on the dofs of the facets
@@ -149,6 +174,7 @@ def build_mesh(comm: MPI.Comm, n: int, length: float = 4.0, height: float = 1.0,
 # factorisation raises instead of returning garbage.
 
 
+# %%
 def solve(
     comm: MPI.Comm,
     n: int = 8,
@@ -251,6 +277,7 @@ def solve(
     }
 
 
+# %% [markdown]
 # ### Beam-theory reference for the default load case
 #
 # For a shear load $q$ per unit length of the end edge (total $P = q H$ per unit thickness), the
@@ -258,6 +285,7 @@ def solve(
 # $P L^3 / (3 E I) + P L / (k G A)$ with $I = H^3 / 12$, $A = H$, $k = 5/6$ and $G = \mu$.
 
 
+# %%
 def timoshenko_tip_deflection(length, height, young, poisson, shear_load):
     """Timoshenko-beam tip deflection of the cantilever under a uniform end shear traction."""
     force = shear_load * height
@@ -268,15 +296,17 @@ def timoshenko_tip_deflection(length, height, young, poisson, shear_load):
     return bending + shear
 
 
+# %% [markdown]
 # ### Driver
 #
 # Command-line options choose the resolution and, optionally, an output directory for an XDMF file
 # of the displacement (viewable in ParaView). Nothing is written without `--out`.
 
 
+# %%
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--n", type=int, default=8, help="mesh resolution: h = H / n (default 8)")
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
+    parser.add_argument("--n", type=int, default=8, help="mesh resolution: h = H / n")
     parser.add_argument("--out", type=pathlib.Path, default=None, help="write u.xdmf into OUT")
     args = parser.parse_args(argv)
     if args.n < 1:

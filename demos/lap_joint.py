@@ -1,64 +1,84 @@
-# # A clamped joint under a cyclic tangential load: slip that accumulates (ratcheting)
-#
-# (A lap joint reduced to its essentials: one clamped block on a base.)
-#
-# Bolted and clamped joints loosen under vibration even when the tangential load never reaches
-# the force that would make them slide: the paper's introduction names this loosening as one of
-# the things a friction model should describe. Coulomb's law cannot: below its sliding force a
-# Coulomb contact is elastic (or, where the stress concentrates, it slips a little in the first
-# cycle and then shakes down), and the slip does not grow from cycle to cycle.
-#
-# The subloading-friction law has no purely elastic domain: the subloading surface
-# $|f_t| = r\,g(f_n)\,\mu$ always passes through the current stress, and every increase of the
-# stress ratio produces some plastic slip, with a rate $\dot u^p = \dot r / U(r)$ that is small
-# at low stress ($U(r) = \tilde u \cot(\pi r/2)$ is large) and grows smoothly towards the yield
-# surface. Unloading is elastic. So a load that pulses between zero and a fraction of the
-# strength slips forward a little in every loading half-cycle and never slips back: the slip
-# ratchets. For a point at constant $\mu$ unloaded to zero stress the slip per cycle is
-# $\frac{2}{\pi\tilde u}\ln\frac{1}{\cos(\pi r_{\max}/2)}$: with $\tilde u = 15$ 1/mm, 9.0 µm
-# at this demo's $r_{\max} = 0.4$ (the FE run gives 8.97 µm in its first cycle). And since slip
-# softens $\mu$ towards the kinetic $\mu_k$, each cycle reaches a higher $r_{\max}$ than the
-# one before: the increments grow, which is the loosening.
-#
-# ## The model
-#
-# A block (aluminium, the paper's A6111-T4) is clamped on a base (tool steel) by a pressure of
-# 300 MPa on its top. The same top carries a tangential traction $q(t)$ that pulses between 0 and
-# $q_{\max}$: force control, as a vibration load is. The base is clamped at its bottom; the block
-# is held only by the interface (whose elastic-plastic tangent stays positive below the yield
-# surface, so there is no rigid-body mode to suppress).
-#
-# * This law: the paper's Sec. 7 set (preset `sec7`): static strength at 300 MPa
-#   $g(f_n)\,\mu_s = 29.1$ MPa, kinetic strength $g(f_n)\,\mu_k = 3.7$ MPa; with one change, a
-#   stiff interface, $\alpha_t = \alpha_n = 10^5$ MPa/mm instead of 500 (`--alpha`). With the
-#   paper's soft layer the interface stresses are uniform and Coulomb is simply elastic below its
-#   sliding force; with a stiff one the shear concentrates at the block's edges, as it does in
-#   a real joint, and Coulomb slips there a little in the first cycle, which makes the
-#   comparison a fair one. This law's ratcheting hardly depends on $\alpha$ (the plastic slip
-#   per cycle comes from $r$ and $U(r)$, not from the elastic part).
-# * Coulomb with the **same peak strength**: $\mu_c = g(p)\,\mu_s / p = 0.097$, so that its
-#   sliding stress at the clamp pressure equals this law's static strength.
-# * $q_{\max} = 0.4\,g(p)\,\mu_s = 11.6$ MPa: 40 % of Coulomb's sliding force, and 40 % of
-#   this law's static strength (though above its kinetic strength: once slipping, the joint
-#   would not stop; the ratcheting softens $\mu$ towards that point cycle by cycle).
-# * 20 cycles of 2 s (`--cycles`); the slip per cycle is checked against the material-point
-#   driver in `tests/test_fe_demos.py`.
-#
-# | time (s)            | what happens                                           |
-# |---------------------|--------------------------------------------------------|
-# | 0 - 1               | the clamp pressure is applied                          |
-# | 1 + 2k - 2 + 2k     | the traction rises from 0 to $q_{\max}$ (cycle k + 1)  |
-# | 2 + 2k - 3 + 2k     | and falls back to 0                                    |
-#
-# Run it on two ranks:
-#
-#     mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 20] [--load 0.4] [--out DIR]
-#
-# It prints progress on rank 0, the timing breakdown of each run and the slip per cycle, and
-# writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and two
-# figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
-# `lap_coul_`.
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
+# %% [markdown]
+r"""# A clamped joint under a cyclic tangential load: slip that accumulates (ratcheting)
+
+(A lap joint reduced to its essentials: one clamped block on a base.)
+
+Bolted and clamped joints loosen under vibration even when the tangential load never reaches
+the force that would make them slide: the paper's introduction names this loosening as one of
+the things a friction model should describe. Coulomb's law cannot: below its sliding force a
+Coulomb contact is elastic (or, where the stress concentrates, it slips a little in the first
+cycle and then shakes down), and the slip does not grow from cycle to cycle.
+
+The subloading-friction law has no purely elastic domain: the subloading surface
+$|f_t| = r\,g(f_n)\,\mu$ always passes through the current stress, and every increase of the
+stress ratio produces some plastic slip, with a rate $\dot u^p = \dot r / U(r)$ that is small
+at low stress ($U(r) = \tilde u \cot(\pi r/2)$ is large) and grows smoothly towards the yield
+surface. Unloading is elastic. So a load that pulses between zero and a fraction of the
+strength slips forward a little in every loading half-cycle and never slips back: the slip
+ratchets. For a point at constant $\mu$ unloaded to zero stress the slip per cycle is
+$\frac{2}{\pi\tilde u}\ln\frac{1}{\cos(\pi r_{\max}/2)}$: with $\tilde u = 15$ 1/mm, 9.0 µm
+at this demo's $r_{\max} = 0.4$ (the FE run gives 8.97 µm in its first cycle). And since slip
+softens $\mu$ towards the kinetic $\mu_k$, each cycle reaches a higher $r_{\max}$ than the
+one before: the increments grow, which is the loosening.
+
+## The model
+
+A block (aluminium, the paper's A6111-T4) is clamped on a base (tool steel) by a pressure of
+300 MPa on its top. The same top carries a tangential traction $q(t)$ that pulses between 0 and
+$q_{\max}$: force control, as a vibration load is. The base is clamped at its bottom; the block
+is held only by the interface (whose elastic-plastic tangent stays positive below the yield
+surface, so there is no rigid-body mode to suppress).
+
+* This law: the paper's Sec. 7 set (preset `sec7`): static strength at 300 MPa
+  $g(f_n)\,\mu_s = 29.1$ MPa, kinetic strength $g(f_n)\,\mu_k = 3.7$ MPa; with one change, a
+  stiff interface, $\alpha_t = \alpha_n = 10^5$ MPa/mm instead of 500 (`--alpha`). With the
+  paper's soft layer the interface stresses are uniform and Coulomb is simply elastic below its
+  sliding force; with a stiff one the shear concentrates at the block's edges, as it does in
+  a real joint, and Coulomb slips there a little in the first cycle, which makes the
+  comparison a fair one. This law's ratcheting hardly depends on $\alpha$ (the plastic slip
+  per cycle comes from $r$ and $U(r)$, not from the elastic part).
+* Coulomb with the **same peak strength**: $\mu_c = g(p)\,\mu_s / p = 0.097$, so that its
+  sliding stress at the clamp pressure equals this law's static strength.
+* $q_{\max} = 0.4\,g(p)\,\mu_s = 11.6$ MPa: 40 % of Coulomb's sliding force, and 40 % of
+  this law's static strength (though above its kinetic strength: once slipping, the joint
+  would not stop; the ratcheting softens $\mu$ towards that point cycle by cycle).
+* 20 cycles of 2 s (`--cycles`); the slip per cycle is checked against the material-point
+  driver in `tests/test_fe_demos.py`.
+
+| time (s)            | what happens                                           |
+|---------------------|--------------------------------------------------------|
+| 0 - 1               | the clamp pressure is applied                          |
+| 1 + 2k - 2 + 2k     | the traction rises from 0 to $q_{\max}$ (cycle k + 1)  |
+| 2 + 2k - 3 + 2k     | and falls back to 0                                    |
+
+Run it on two ranks:
+
+    mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 20] [--load 0.4] [--out DIR]
+
+It prints progress on rank 0, the timing breakdown of each run and the slip per cycle, and
+writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and two
+figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
+`lap_coul_`.
+"""
+
+
+# %%
 import argparse
 import math
 import sys
@@ -74,11 +94,13 @@ PERIOD = 2.0  # s
 CLAMP_TIME = 1.0  # s
 ALPHA = 1e5  # MPa/mm, alpha_t = alpha_n
 
+# %% [markdown]
 # ## The scenes
 #
 # One function makes both: only the law and the solver prefix differ.
 
 
+# %%
 def strength(pressure: float = PRESSURE) -> float:
     """This law's static strength g(p) mu_s at the clamp pressure (Sec. 7 set), MPa."""
     p = PRESETS["sec7"].law
@@ -147,12 +169,14 @@ def scene(
     }
 
 
+# %% [markdown]
 # ## What the demo measures
 #
 # The mean plastic slip over the interface (`up_t1` of the history) at the end of each cycle,
 # when the traction is back to zero, and its increments from cycle to cycle.
 
 
+# %%
 def slip_per_cycle(history, cycles: int) -> np.ndarray:
     """Mean plastic slip at the end of each cycle (index 0: before the first cycle)."""
     t = np.array([r["t"] for r in history])
@@ -161,9 +185,11 @@ def slip_per_cycle(history, cycles: int) -> np.ndarray:
     return np.array([up[int(np.argmin(np.abs(t - te)))] for te in ends])
 
 
+# %% [markdown]
 # ## Figures
 
 
+# %%
 def figures(results, cycles, load, outdir):
     import matplotlib
 
@@ -224,14 +250,14 @@ def figures(results, cycles, load, outdir):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = cli.demo_parser("Clamped joint under a cyclic tangential load")
-    ap.add_argument("--n", type=int, default=16, help="elements along the interface (16)")
-    ap.add_argument("--cycles", type=int, default=20, help="number of load cycles (20)")
+    ap = cli.demo_parser(__doc__)
+    ap.add_argument("--n", type=int, default=16, help="elements along the interface")
+    ap.add_argument("--cycles", type=int, default=20, help="number of load cycles")
     ap.add_argument(
-        "--load", type=float, default=0.4, help="peak traction over the static strength (0.4)"
+        "--load", type=float, default=0.4, help="peak traction over the static strength"
     )
-    ap.add_argument("--dt", type=float, default=0.05, help="initial time step in s (0.05)")
-    ap.add_argument("--alpha", type=float, default=ALPHA, help="alpha_t = alpha_n (1e5)")
+    ap.add_argument("--dt", type=float, default=0.05, help="initial time step in s")
+    ap.add_argument("--alpha", type=float, default=ALPHA, help="alpha_t = alpha_n in MPa/mm")
     ap.add_argument("--out", default="demos/output/lap_joint", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     return ap

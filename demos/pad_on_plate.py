@@ -1,60 +1,80 @@
-# # Pad on a plate (3-D): reciprocal sliding with holds, and the recovery of static friction
-#
-# An aluminium pad (A6111-T4) is pressed on a steel plate (tool steel) and slid back and forth.
-# Between some strokes it is held still for a while. While the contact rests, the hardening
-# function of the subloading-friction law recovers towards its static value,
-#
-# $$\dot\mu = -\kappa(\mu - \mu_k)|\dot u^p| + \xi(\mu_s - \mu),$$
-#
-# so the next stroke starts with a peak of tangential force that is higher the longer the hold was,
-# then softens back to the kinetic level as the pad slides. This is the static friction's growth
-# with the time of stationary contact, measured in friction tests since Rabinowicz, and the reason
-# a machine slide "sticks" after standing overnight.
-#
-# The interface follows the paper's Sec. 7 parameter set (preset `sec7`, normalised reading):
-# $\mu_s = 500$, $\mu_k = 63$ MPa, $\xi = 11/500 = 0.022$ 1/s, i.e. a recovery time
-# $1/\xi \approx 45$ s, so holds of 0, 5, 20 and 60 s recover 0, 10, 36 and 73 % of the gap
-# between the kinetic and the static strength.
-#
-# Loading program (1 mm/s sliding as in the paper's experiments; $a$ = stroke amplitude, 1 mm):
-#
-# | phase          | what happens                                                          |
-# |----------------|-----------------------------------------------------------------------|
-# | 0 - 1 s        | a pressure of 300 MPa is applied on the top of the pad                |
-# | run-in         | the top is moved to $+a$, then to $-a$: static peak, then softening   |
-# | hold $h_1$     | the top is held still for $h_1$ s                                     |
-# | stroke         | moved to the other end ($\pm a$): a peak, then kinetic sliding        |
-# | hold $h_2$ ... | and so on, one hold before each stroke                                |
-#
-# The holds come in a shuffled order (5, 60, 0, 20 s by default): the peak then follows the
-# hold length and not the number of strokes done, which is the point of the demo. Every stroke
-# is 2 mm long, enough for the hardening function to return close to its kinetic steady state
-# ($\kappa = 98/63$ 1/mm: 2 mm of slip removes 96 % of the excess over it), so each hold starts
-# from about the same state (the stroke after the 60 s hold still ends 20 % above it, which is
-# why the kinetic level before the 0 s hold is a little higher than the others).
-#
-# What the default run shows: the mean tangential traction peaks at 4.7, 6.2, 11.0 and 18.6 MPa
-# after holds of 0, 5, 20 and 60 s, from a kinetic level of about 4.1-4.9 MPa; the strengths the
-# holds restored ($g(f_n)\,\mu$ with the mean $\mu$ at the end of the hold) are 4.9, 6.9, 13.0
-# and 22.5 MPa, and the virgin peak of the run-in is 23.9 MPa (the static strength
-# $g(f_n)\,\mu_s$ is 29.1 MPa).
-#
-# Run it on two ranks:
-#
-#     mpirun -n 2 python3 demos/pad_on_plate.py [--n 6] [--cell hexahedron|tetrahedron]
-#         [--holds 5 60 0 20] [--fields vtx|xdmf|none] [--out DIR]
-#
-# The default mesh is coarse (6 hexahedra along the pad's side, 2616 dofs): in 3-D the LU
-# factorisation of the Jacobian at every Newton iteration dominates the run time, and the default
-# must run in well under two minutes on two cores. The pressure under the pad is nearly uniform
-# (the paper's soft interface, $\alpha = 500$ MPa/mm, is far more compliant than the bodies), so
-# the mean traction hardly depends on the mesh: `--n 8` gives the same peaks to 0.01 MPa.
-#
-# It prints progress on rank 0, the timing breakdown, and writes the CSV history, three figures
-# and (by default) VTX fields for ParaView (`fields/displacement.bp`, `fields/interface.bp`, at the
-# end of the pressing, of every stroke and of every hold) into the output directory. PETSc options
-# apply under the prefix `pad_`, e.g. `-pad_snes_monitor`.
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
+# %% [markdown]
+r"""# Pad on a plate (3-D): reciprocal sliding with holds, and the recovery of static friction
+
+An aluminium pad (A6111-T4) is pressed on a steel plate (tool steel) and slid back and forth.
+Between some strokes it is held still for a while. While the contact rests, the hardening
+function of the subloading-friction law recovers towards its static value,
+
+$$\dot\mu = -\kappa(\mu - \mu_k)|\dot u^p| + \xi(\mu_s - \mu),$$
+
+so the next stroke starts with a peak of tangential force that is higher the longer the hold was,
+then softens back to the kinetic level as the pad slides. This is the static friction's growth
+with the time of stationary contact, measured in friction tests since Rabinowicz, and the reason
+a machine slide "sticks" after standing overnight.
+
+The interface follows the paper's Sec. 7 parameter set (preset `sec7`, normalised reading):
+$\mu_s = 500$, $\mu_k = 63$ MPa, $\xi = 11/500 = 0.022$ 1/s, i.e. a recovery time
+$1/\xi \approx 45$ s, so holds of 0, 5, 20 and 60 s recover 0, 10, 36 and 73 % of the gap
+between the kinetic and the static strength.
+
+Loading program (1 mm/s sliding as in the paper's experiments; $a$ = stroke amplitude, 1 mm):
+
+| phase          | what happens                                                          |
+|----------------|-----------------------------------------------------------------------|
+| 0 - 1 s        | a pressure of 300 MPa is applied on the top of the pad                |
+| run-in         | the top is moved to $+a$, then to $-a$: static peak, then softening   |
+| hold $h_1$     | the top is held still for $h_1$ s                                     |
+| stroke         | moved to the other end ($\pm a$): a peak, then kinetic sliding        |
+| hold $h_2$ ... | and so on, one hold before each stroke                                |
+
+The holds come in a shuffled order (5, 60, 0, 20 s by default): the peak then follows the
+hold length and not the number of strokes done, which is the point of the demo. Every stroke
+is 2 mm long, enough for the hardening function to return close to its kinetic steady state
+($\kappa = 98/63$ 1/mm: 2 mm of slip removes 96 % of the excess over it), so each hold starts
+from about the same state (the stroke after the 60 s hold still ends 20 % above it, which is
+why the kinetic level before the 0 s hold is a little higher than the others).
+
+What the default run shows: the mean tangential traction peaks at 4.7, 6.2, 11.0 and 18.6 MPa
+after holds of 0, 5, 20 and 60 s, from a kinetic level of about 4.1-4.9 MPa; the strengths the
+holds restored ($g(f_n)\,\mu$ with the mean $\mu$ at the end of the hold) are 4.9, 6.9, 13.0
+and 22.5 MPa, and the virgin peak of the run-in is 23.9 MPa (the static strength
+$g(f_n)\,\mu_s$ is 29.1 MPa).
+
+Run it on two ranks:
+
+    mpirun -n 2 python3 demos/pad_on_plate.py [--n 6] [--cell hexahedron|tetrahedron]
+        [--holds 5 60 0 20] [--fields vtx|xdmf|none] [--out DIR]
+
+The default mesh is coarse (6 hexahedra along the pad's side, 2616 dofs): in 3-D the LU
+factorisation of the Jacobian at every Newton iteration dominates the run time, and the default
+must run in well under two minutes on two cores. The pressure under the pad is nearly uniform
+(the paper's soft interface, $\alpha = 500$ MPa/mm, is far more compliant than the bodies), so
+the mean traction hardly depends on the mesh: `--n 8` gives the same peaks to 0.01 MPa.
+
+It prints progress on rank 0, the timing breakdown, and writes the CSV history, three figures
+and (by default) VTX fields for ParaView (`fields/displacement.bp`, `fields/interface.bp`, at the
+end of the pressing, of every stroke and of every hold) into the output directory. PETSc options
+apply under the prefix `pad_`, e.g. `-pad_snes_monitor`.
+"""
+
+
+# %%
 import argparse
 import math
 import sys
@@ -65,6 +85,7 @@ from mpi4py import MPI
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.scenes import cli, run_scene
 
+# %% [markdown]
 # ## The loading program
 #
 # The runner's load steps end on every breakpoint of the program and grow during easy stretches
@@ -76,6 +97,7 @@ from subfric_dolfinx.scenes import cli, run_scene
 # where the pad slides at a slowly varying kinetic level. `dt_max` is large: the steps lengthen
 # during holds and follow the breakpoints during strokes.
 
+# %%
 RATE = 1.0  # sliding velocity, mm/s (the paper's Sec. 7 tests)
 PRESS_TIME = 1.0  # s
 FINE = 0.5  # mm at the start of each stroke with the fine step
@@ -122,6 +144,7 @@ def program(amplitude: float, holds, dt: float):
     return times, {"press": press, "slide": slide}, strokes
 
 
+# %% [markdown]
 # ## The scene
 #
 # The plate (master) is clamped at its bottom. The pad's top carries the pressure and is moved in
@@ -129,6 +152,7 @@ def program(amplitude: float, holds, dt: float):
 # the pad's sideways position is not left to the interface's tangential stiffness alone.
 
 
+# %%
 def scene(
     n: int = 6,
     cell: str = "hexahedron",
@@ -174,6 +198,7 @@ def scene(
     }
 
 
+# %% [markdown]
 # ## What the demo measures
 #
 # For each stroke after a hold: the peak of the mean tangential traction $|F_t|/A$ during the
@@ -183,6 +208,7 @@ def scene(
 # surface smoothly, and $\mu$ already softens on the way up).
 
 
+# %%
 def peaks(history, strokes, c_n: float):
     """Per hold: hold length, peak |F_t|/A, kinetic level before it, g(f_n) mu after the hold."""
     t = np.array([r["t"] for r in history])
@@ -199,9 +225,11 @@ def peaks(history, strokes, c_n: float):
     return rows
 
 
+# %% [markdown]
 # ## Figures
 
 
+# %%
 def figures(result, outdir, strokes, c_n):
     import matplotlib
 
@@ -287,26 +315,28 @@ def figures(result, outdir, strokes, c_n):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = cli.demo_parser("Pad on a plate: reciprocal sliding with holds")
-    ap.add_argument("--n", type=int, default=6, help="elements along the pad's side (6)")
-    ap.add_argument("--cell", choices=["hexahedron", "tetrahedron"], default="hexahedron")
+    ap = cli.demo_parser(__doc__)
+    ap.add_argument("--n", type=int, default=6, help="elements along the pad's side")
+    ap.add_argument(
+        "--cell", choices=["hexahedron", "tetrahedron"], default="hexahedron", help="cell type"
+    )
     ap.add_argument(
         "--holds",
         type=float,
         nargs="+",
         default=[5.0, 60.0, 0.0, 20.0],
-        help="hold times in s, one before each stroke (5 60 0 20)",
+        help="hold times in s, one before each stroke",
     )
-    ap.add_argument("--amplitude", type=float, default=1.0, help="stroke amplitude in mm (1)")
-    ap.add_argument("--pressure", type=float, default=300.0, help="pressure in MPa (300)")
+    ap.add_argument("--amplitude", type=float, default=1.0, help="stroke amplitude in mm")
+    ap.add_argument("--pressure", type=float, default=300.0, help="pressure in MPa")
     ap.add_argument(
-        "--dt", type=float, default=0.025, help="time step at the start of the strokes in s (0.025)"
+        "--dt", type=float, default=0.025, help="time step at the start of the strokes in s"
     )
     ap.add_argument(
         "--fields",
         choices=["vtx", "xdmf", "none"],
         default="vtx",
-        help="field output for ParaView (vtx)",
+        help="field output for ParaView",
     )
     ap.add_argument("--out", default="demos/output/pad_on_plate", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")

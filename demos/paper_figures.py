@@ -1,62 +1,81 @@
-# # The paper's figures at a material point
-#
-# This demo recomputes, one interface point at a time, the numerical experiments of Hashiguchi et
-# al. (*Friction*, 2022), "Subloading-friction model with saturation of tangential contact
-# stress": Figs. 5-9 (Sec. 6, two static hardening levels $\mu_s = 10000$ and $7500$ MPa) and the
-# computed curves of Figs. 10-11 (Sec. 7, the boric-acid lubricated Al 6111-T4 / tool steel
-# interface). It uses only the material-point driver (`subfric_dolfinx.driver.run_case`), so it
-# needs numpy and matplotlib but neither DOLFINx nor MPI:
-#
-# ```bash
-# python3 demos/paper_figures.py                      # all figures, demos/output/paper_figures
-# python3 demos/paper_figures.py --quick --only fig10,fig11 --out /tmp/figs
-# mpirun -n 2 python3 demos/paper_figures.py --quick  # rank 0 computes, the others just exit
-# ```
-#
-# Each figure is written as `figN.png` with `figN.csv` (the plotted data, one row per point,
-# columns `panel, series, x, y, ...` named by their quantity) next to it.
-#
-# ## The model in one paragraph
-#
-# The tangential traction is bounded by the normal-yield surface $|f_t| = g(f_n)\,\mu$ with
-# $g(f_n) = 1 - e^{-c_n f_n}$: it saturates at $\mu$ as $f_n \to \infty$, where Coulomb's
-# $\mu_c f_n$ grows without bound. Inside, the subloading surface $|f_t| = r\,g(f_n)\,\mu$ passes
-# through the current stress; plastic sliding drives $r \to 1$ (smooth elastic-plastic
-# transition), softens $\mu$ from the static $\mu_s$ towards the kinetic $\mu_k$, and time at rest
-# recovers it: $\dot\mu = -\kappa(\mu - \mu_k)|\dot u^p| + \xi(\mu_s - \mu)$.
-#
-# ## Parameters and what the paper leaves open
-#
-# * The parameter sets are the project's presets `sec6-mus10000`, `sec6-mus7500` and `sec7`: the
-#   paper's values in the *normalised* reading of the evolution law ($\kappa = \kappa_N/\mu_k$,
-#   $\xi = \xi_N/\mu_s$; read literally the Sec. 6 set has no stable quasi-static solution,
-#   see `MODEL.md`). Slip rates as in the paper: 1 mm/min in Sec. 6, 1 mm/s in Sec. 7.
-# * The normal stresses of Figs. 5-9 are not given numerically in the text. This demo uses
-#   **five levels 1000, 2000, 3000, 4000 and 5000 MPa** for Figs. 5-6 and **1000 MPa** for
-#   Figs. 7-9 (one level: those figures vary the hold time). Up to 5000 MPa the normalised
-#   set stays clear of the fold $\alpha_t/g(f_n) < \kappa(\mu - \mu_k)$ (at 5000 MPa:
-#   $\alpha_t/g = 7910 > \kappa(\mu_s - \mu_k) = 6430$ MPa/mm).
-# * Sliding distances and hold times are not given either: the demo slides far enough for the
-#   stress to settle (3 mm at 1 mm/min), and uses holds of 0, 20, 60, 180 and 600 s (Figs. 7-8;
-#   the recovery time $1/\xi$ is 91 s for $\mu_s = 10000$) and 10, 60 and 300 s (Fig. 9).
-# * "Unloading" always means back to exactly zero tangential stress. Unloading is elastic, so it
-#   ends where $\bar u_t = u^p$; the demo reads $u^p$ from a run of the path so far and appends the
-#   unloading leg there (the driver is deterministic, so the prefix is reproduced exactly).
-# * Fig. 9, "pulsating contact tangential stress": the stress pulses between zero and a maximum,
-#   with a hold at zero after each unloading. The paper describes the maxima as a *response*
-#   (higher after longer holds, decreasing from cycle to cycle), so the demo prescribes the
-#   **displacement**: each cycle slides a fixed 0.6 mm beyond the last zero-stress point, then
-#   unloads to zero stress and holds. Prescribing the stress instead would fix the maxima by
-#   construction, and a maximum above the softened strength would run away (the driver reports
-#   that as an error).
-# * Figs. 10-11 are the computed curves only (the test data of the paper's Ref. [14] are not
-#   reproduced). Beside them a penalty Coulomb law, calibrated to the subloading model at
-#   100 MPa, shows what saturation changes: Coulomb grows linearly with $f_n$.
-#
-# ## Implementation
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
-"""Recompute the paper's Figs. 5-11 at a material point (driver only; numpy and matplotlib)."""
+# %% [markdown]
+r"""# The paper's figures at a material point
 
+This demo recomputes, one interface point at a time, the numerical experiments of Hashiguchi et
+al. (*Friction*, 2022), "Subloading-friction model with saturation of tangential contact
+stress": Figs. 5-9 (Sec. 6, two static hardening levels $\mu_s = 10000$ and $7500$ MPa) and the
+computed curves of Figs. 10-11 (Sec. 7, the boric-acid lubricated Al 6111-T4 / tool steel
+interface). It uses only the material-point driver (`subfric_dolfinx.driver.run_case`), so it
+needs numpy and matplotlib but neither DOLFINx nor MPI:
+
+```bash
+python3 demos/paper_figures.py                      # all figures, demos/output/paper_figures
+python3 demos/paper_figures.py --quick --only fig10,fig11 --out /tmp/figs
+mpirun -n 2 python3 demos/paper_figures.py --quick  # rank 0 computes, the others just exit
+```
+
+Each figure is written as `figN.png` with `figN.csv` (the plotted data, one row per point,
+columns `panel, series, x, y, ...` named by their quantity) next to it.
+
+## The model in one paragraph
+
+The tangential traction is bounded by the normal-yield surface $|f_t| = g(f_n)\,\mu$ with
+$g(f_n) = 1 - e^{-c_n f_n}$: it saturates at $\mu$ as $f_n \to \infty$, where Coulomb's
+$\mu_c f_n$ grows without bound. Inside, the subloading surface $|f_t| = r\,g(f_n)\,\mu$ passes
+through the current stress; plastic sliding drives $r \to 1$ (smooth elastic-plastic
+transition), softens $\mu$ from the static $\mu_s$ towards the kinetic $\mu_k$, and time at rest
+recovers it: $\dot\mu = -\kappa(\mu - \mu_k)|\dot u^p| + \xi(\mu_s - \mu)$.
+
+## Parameters and what the paper leaves open
+
+* The parameter sets are the project's presets `sec6-mus10000`, `sec6-mus7500` and `sec7`: the
+  paper's values in the *normalised* reading of the evolution law ($\kappa = \kappa_N/\mu_k$,
+  $\xi = \xi_N/\mu_s$; read literally the Sec. 6 set has no stable quasi-static solution,
+  see `docs/model.md` §2 and §8). Slip rates as in the paper: 1 mm/min in Sec. 6, 1 mm/s in
+  Sec. 7.
+* The normal stresses of Figs. 5-9 are not given numerically in the text. This demo uses
+  **five levels 1000, 2000, 3000, 4000 and 5000 MPa** for Figs. 5-6 and **1000 MPa** for
+  Figs. 7-9 (one level: those figures vary the hold time). Up to 5000 MPa the normalised
+  set stays clear of the fold $\alpha_t/g(f_n) < \kappa(\mu - \mu_k)$ (at 5000 MPa:
+  $\alpha_t/g = 7910 > \kappa(\mu_s - \mu_k) = 6430$ MPa/mm).
+* Sliding distances and hold times are not given either: the demo slides far enough for the
+  stress to settle (3 mm at 1 mm/min), and uses holds of 0, 20, 60, 180 and 600 s (Figs. 7-8;
+  the recovery time $1/\xi$ is 91 s for $\mu_s = 10000$) and 10, 60 and 300 s (Fig. 9).
+* "Unloading" always means back to exactly zero tangential stress. Unloading is elastic, so it
+  ends where $\bar u_t = u^p$; the demo reads $u^p$ from a run of the path so far and appends the
+  unloading leg there (the driver is deterministic, so the prefix is reproduced exactly).
+* Fig. 9, "pulsating contact tangential stress": the stress pulses between zero and a maximum,
+  with a hold at zero after each unloading. The paper describes the maxima as a *response*
+  (higher after longer holds, decreasing from cycle to cycle), so the demo prescribes the
+  **displacement**: each cycle slides a fixed 0.6 mm beyond the last zero-stress point, then
+  unloads to zero stress and holds. Prescribing the stress instead would fix the maxima by
+  construction, and a maximum above the softened strength would run away (the driver reports
+  that as an error).
+* Figs. 10-11 are the computed curves only (the test data of the paper's Ref. [14] are not
+  reproduced). Beside them a penalty Coulomb law, calibrated to the subloading model at
+  100 MPa, shows what saturation changes: Coulomb grows linearly with $f_n$.
+
+## Implementation
+"""
+
+
+# %%
 from __future__ import annotations
 
 import argparse
@@ -72,6 +91,8 @@ import numpy as np
 
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.driver import run_case
+from subfric_dolfinx.logs import launcher_rank
+from subfric_dolfinx.scenes.cli import HelpFormatter
 
 SEC6 = ("sec6-mus10000", "sec6-mus7500")
 FIGURES = ("fig5", "fig6", "fig7", "fig8", "fig9", "fig10", "fig11")
@@ -84,6 +105,7 @@ SLIPS_FIG11 = (0.5, 1.0, 5.0, 10.0, 20.0)  # mm
 DEFAULT_SPM = {"sec6": 50.0, "sec7": 50.0}
 QUICK_SPM = {"sec6": 20.0, "sec7": 10.0}
 
+# %% [markdown]
 # ### Paths
 #
 # A path is built leg by leg at the preset's slip rate. Samples are placed along each leg every
@@ -91,6 +113,7 @@ QUICK_SPM = {"sec6": 20.0, "sec7": 10.0}
 # `unload()` runs the path so far to find where the tangential stress is zero.
 
 
+# %%
 class PathBuilder:
     """Build a displacement-controlled 1-D path and its sample times, leg by leg."""
 
@@ -182,6 +205,7 @@ def label(name: str) -> str:
     return f"$\\mu_s$ = {p.mu_s:g}, $\\mu_k$ = {p.mu_k:g} MPa"
 
 
+# %% [markdown]
 # ### Fig. 5: stress paths at five normal stresses
 #
 # Normal approach to $f_n$ first ($f_t = 0$), then sliding 3 mm at 1 mm/min: the path climbs
@@ -191,6 +215,7 @@ def label(name: str) -> str:
 # $g(f_n)\mu_s$ (red) and $g(f_n)\mu_k$ (black).
 
 
+# %%
 def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
@@ -222,12 +247,14 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
     return save(fig, out, "fig5", ("panel", "series", "f_n_MPa", "f_t_MPa"), rows)
 
 
+# %% [markdown]
 # ### Fig. 6: monotonic, then reverse sliding
 #
 # Slide to +2 mm, then back to -2 mm. The reverse branch has no static peak: $\mu$ has softened
 # and the short unloading leaves little time to recover it.
 
 
+# %%
 def fig6(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
@@ -249,6 +276,7 @@ def fig6(plt, out: pathlib.Path, spm: dict) -> dict:
     return save(fig, out, "fig6", ("panel", "series", "t_s", "ubar_t_mm", "f_t_MPa"), rows)
 
 
+# %% [markdown]
 # ### Fig. 7: recovery after holds at zero stress
 #
 # Slide 1.5 mm, unload to zero stress, hold, then slide 1.5 mm more. During the hold $\mu$
@@ -256,6 +284,7 @@ def fig6(plt, out: pathlib.Path, spm: dict) -> dict:
 # exactly), so the reloading peak grows with the hold time.
 
 
+# %%
 def fig7(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
@@ -278,11 +307,13 @@ def fig7(plt, out: pathlib.Path, spm: dict) -> dict:
     return save(fig, out, "fig7", header, rows)
 
 
+# %% [markdown]
 # ### Fig. 8: reciprocal sliding with holds
 #
 # Two cycles between +1 and -1 mm, each reversal made of an unloading to zero stress and a hold.
 
 
+# %%
 def fig8(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
@@ -306,6 +337,7 @@ def fig8(plt, out: pathlib.Path, spm: dict) -> dict:
     return save(fig, out, "fig8", ("panel", "series", "t_s", "ubar_t_mm", "f_t_MPa"), rows)
 
 
+# %% [markdown]
 # ### Fig. 9: pulsating tangential stress with holds
 #
 # Five cycles, each sliding 0.6 mm beyond the last zero-stress point, unloading to zero stress
@@ -313,6 +345,7 @@ def fig8(plt, out: pathlib.Path, spm: dict) -> dict:
 # written to the CSV as series `max hold=...`.
 
 
+# %%
 def fig9(plt, out: pathlib.Path, spm: dict) -> dict:
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.4), sharey=True)
     rows = []
@@ -346,6 +379,7 @@ def fig9(plt, out: pathlib.Path, spm: dict) -> dict:
     return save(fig, out, "fig9", header, rows)
 
 
+# %% [markdown]
 # ### Figs. 10-11: the Sec. 7 set, 100-600 MPa, slip up to 20 mm at 1 mm/s
 #
 # Fig. 10 is stress against slip at six normal stresses; the samples are dense where the peak
@@ -361,6 +395,7 @@ def fig9(plt, out: pathlib.Path, spm: dict) -> dict:
 # ($f_t/\alpha_t$), so $\mu$ has softened less; from 1 mm on the ratio falls.
 
 
+# %%
 def sec7_samples(spm: float) -> list[float]:
     v = PRESETS["sec7"].slip_rate
     u = np.union1d(np.arange(0.0, 0.5, 0.01), np.arange(0.5, 2.0, 0.05))
@@ -452,9 +487,11 @@ def fig10_11(plt, out: pathlib.Path, spm: dict, quick: bool, which: Sequence[str
     return written
 
 
+# %% [markdown]
 # ### Output and the driver function
 
 
+# %%
 def save(fig, out: pathlib.Path, stem: str, header: Sequence[str], rows: list) -> dict:
     fig.tight_layout()
     png, csv_path = out / f"{stem}.png", out / f"{stem}.csv"
@@ -519,32 +556,24 @@ def run_demo(
     return written
 
 
+# %% [markdown]
 # ### Running under MPI
 #
 # Every point is independent and cheap, so there is nothing to distribute: under `mpirun`, rank 0
-# computes and writes, the other ranks exit at once. mpi4py is imported only when the process was
-# started by an MPI launcher, and it is optional even then (the rank is read from the launcher's
-# environment).
+# computes and writes, the other ranks exit at once (`logs.launcher_rank` reads the rank from the
+# launcher's environment; MPI is not initialised).
 
 
-def mpi_rank() -> int:
-    launched = any(k in os.environ for k in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"))
-    if not launched:
-        return 0
-    try:
-        from mpi4py import MPI
-    except ImportError:
-        for k in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-            if k in os.environ:
-                return int(os.environ[k])
-        return 0
-    return MPI.COMM_WORLD.rank
-
-
+# %%
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
     ap.add_argument("--out", default="demos/output/paper_figures", help="output directory")
-    ap.add_argument("--steps-per-mm", type=float, default=None, help="step density of every run")
+    ap.add_argument(
+        "--steps-per-mm",
+        type=float,
+        default=None,
+        help="step density of every run (each figure's own when not given)",
+    )
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(FIGURES)}")
     ap.add_argument("--quick", action="store_true", help="coarse and fast (a check, ~10 s)")
     args = ap.parse_args(argv)
@@ -553,7 +582,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
     if only and set(only) - set(FIGURES):
         ap.error(f"--only: unknown figure(s) {sorted(set(only) - set(FIGURES))}")
-    if mpi_rank() != 0:
+    if launcher_rank() != 0:
         return 0
     t0 = time.perf_counter()
     run_demo(args.out, steps_per_mm=args.steps_per_mm, only=only, quick=args.quick)

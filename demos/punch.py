@@ -1,83 +1,103 @@
-# # A flat punch at high pressure: saturation of the tangential stress, against Coulomb
-#
-# A narrow, stiff flat punch (cemented carbide, 0.5 mm wide) is pressed into an aluminium base and
-# then slid sideways. Under a rigid flat punch the contact pressure is far from uniform: elastic
-# theory gives $p(x) \propto 1/\sqrt{a^2 - x^2}$, infinite at the edges $x = \pm a$. The
-# subloading-friction law bounds the tangential stress by $g(f_n)\,\mu$ with
-# $g(f_n) = 1 - e^{-c_n f_n}$, which *saturates* at high pressure; Coulomb's bound $\mu_c f_n$
-# grows without limit. Under the punch edges the two laws must therefore differ, and this demo
-# shows by how much: the same mesh, the same loading, once with each law.
-#
-# ## Making the pressure peaks visible: the penalty stiffness
-#
-# The interface is a penalty layer, $f_n = \alpha_n \bar u_n$. In series with the bulk it smooths
-# the pressure over a length of about $\ell = E^*/\alpha_n$ ($E^*$ the plane-strain modulus of
-# the softer body, 79 GPa here). With the paper's $\alpha = 500$ MPa/mm that length is 160 m: the
-# layer is so soft that the punch sinks into it uniformly and the pressure is flat. Only when
-# $\ell$ is small compared with the punch (and comparable to an element) do the edge peaks
-# appear. Peak over mean pressure under the punch for this mesh (16 elements across the punch),
-# measured with this scene's geometry:
-#
-# | $\alpha_n$ (MPa/mm) | 500  | 1e4  | 1e5  | 1e6  | 1e7  |
-# |---------------------|------|------|------|------|------|
-# | $\ell$ (mm)         | 160  | 7.9  | 0.79 | 0.079| 0.0079 |
-# | peak / mean         | 1.00 | 1.02 | 1.15 | 1.87 | 3.29 |
-#
-# (1.95 at $\alpha_n = 10^6$ with 32 elements: the penalty regularises the edge singularity over
-# $\ell$, so the peak converges with the mesh.) The demo uses $\alpha_t = \alpha_n = 10^6$ MPa/mm
-# (`--alpha` changes both).
-#
-# ## Parameters of the two laws
-#
-# * This law: the paper's Sec. 7 set (preset `sec7`, $\mu_s = 500$, $\mu_k = 63$ MPa,
-#   $\kappa = 98/63$ 1/mm, $\xi = 11/500$ 1/s, $\tilde u = 15$ 1/mm) with the stiff penalties and
-#   **$c_n = 10^{-3}$ 1/MPa** instead of $2\cdot 10^{-4}$: the punch is pressed to a mean pressure
-#   of about 1000 MPa, with peaks near 1900 MPa at the edges, so $c_n f_n = 1$ at the mean and
-#   about 2 at the peaks: $g$ = 0.63 at the mean and 0.85 at the peaks, well into the saturation
-#   range. (With the paper's $c_n$, $g$ would be almost linear up to several GPa.)
-# * Coulomb: $\mu_c$ is calibrated to **this law at the mean pressure**: it is the ratio
-#   $f_t/f_n$ that this law gives for a uniform contact at the mean pressure $\bar p$, slid the
-#   same distance at the same rate (computed with the material-point driver, so with the same
-#   softening of $\mu$ from $\mu_s$ towards $\mu_k$ and the same smooth approach to the yield
-#   surface). A uniformly loaded contact would therefore carry the same friction with both laws;
-#   every difference between the two runs comes from the non-uniform pressure. Coulomb has no
-#   static peak and no softening: the comparison is made at the end of the slide, where the whole
-#   interface slides under both laws.
-#
-# ## Loading (1 mm/s sliding, as the paper's Sec. 7 tests)
-#
-# | time (s) | what happens                                                                |
-# |----------|-----------------------------------------------------------------------------|
-# | 0 - 1    | the top of the punch is pushed down 8.3 µm (mean pressure about 1000 MPa)   |
-# | 1 - 2    | the top is moved 1 mm sideways, the depth held: the punch slides            |
-#
-# The top of the punch is held by a stiff fixture: both displacement components are prescribed
-# there, so the moment of the friction force is taken by the fixture and the punch does not tilt.
-# The base is clamped at its bottom.
-#
-# ## What it shows (default run)
-#
-# The mean pressure is 996 MPa and Coulomb's calibrated $\mu_c = 0.100$. At the end of the slide
-# the whole interface slides under both laws and the pressure is the same under both (1931 MPa at
-# the edge points, 785 MPa in the middle). Under the highest pressure this law carries
-# $f_t = 135$ MPa, on its bound $g(f_n)\,\mu$ ($\mu$ = 158 MPa: 1 mm of slip has softened it
-# from 500 most of the way to its kinetic level) and far below the static bound
-# $g(f_n)\,\mu_s = 428$ MPa; Coulomb carries $\mu_c f_n = 194$ MPa there, 43 % more. In the
-# middle, under less than the mean pressure, it is the other way round (86 against 79 MPa): the
-# concave $g$ gives more to low pressures and less to high ones. The two friction forces are
-# nearly equal (97.8 and 99.7 MPa on average), as the calibration intends: what differs is *where*
-# the tangential stress sits, which matters for wear, fretting and crack initiation at the edges
-# of a contact. In `ft_vs_fn.png` the points of this law lie on the curve $g(f_n)\,\mu$, their
-# $f_t/f_n$ falling with $f_n$; Coulomb's lie on the straight line $\mu_c f_n$.
-#
-# Run it on two ranks:
-#
-#     mpirun -n 2 python3 demos/punch.py [--n 16] [--alpha 1e6] [--out DIR]
-#
-# It prints progress on rank 0 and the timing breakdown of each run, and writes each law's CSV
-# history (`subloading/history.csv`, `coulomb/history.csv`) and three figures into the output
-# directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
+# ---
+# jupyter:
+#   jupytext:
+#     cell_markers: '"""'
+#     formats: py:percent
+#     text_representation:
+#       extension: .py
+#       format_name: percent
+#       format_version: '1.3'
+#       jupytext_version: 1.16.4
+#   kernelspec:
+#     display_name: Python 3 (ipykernel)
+#     language: python
+#     name: python3
+# ---
 
+# %% [markdown]
+r"""# A flat punch at high pressure: saturation of the tangential stress, against Coulomb
+
+A narrow, stiff flat punch (cemented carbide, 0.5 mm wide) is pressed into an aluminium base and
+then slid sideways. Under a rigid flat punch the contact pressure is far from uniform: elastic
+theory gives $p(x) \propto 1/\sqrt{a^2 - x^2}$, infinite at the edges $x = \pm a$. The
+subloading-friction law bounds the tangential stress by $g(f_n)\,\mu$ with
+$g(f_n) = 1 - e^{-c_n f_n}$, which *saturates* at high pressure; Coulomb's bound $\mu_c f_n$
+grows without limit. Under the punch edges the two laws must therefore differ, and this demo
+shows by how much: the same mesh, the same loading, once with each law.
+
+## Making the pressure peaks visible: the penalty stiffness
+
+The interface is a penalty layer, $f_n = \alpha_n \bar u_n$. In series with the bulk it smooths
+the pressure over a length of about $\ell = E^*/\alpha_n$ ($E^*$ the plane-strain modulus of
+the softer body, 79 GPa here). With the paper's $\alpha = 500$ MPa/mm that length is 160 m: the
+layer is so soft that the punch sinks into it uniformly and the pressure is flat. Only when
+$\ell$ is small compared with the punch (and comparable to an element) do the edge peaks
+appear. Peak over mean pressure under the punch for this mesh (16 elements across the punch),
+measured with this scene's geometry:
+
+| $\alpha_n$ (MPa/mm) | 500  | 1e4  | 1e5  | 1e6  | 1e7  |
+|---------------------|------|------|------|------|------|
+| $\ell$ (mm)         | 160  | 7.9  | 0.79 | 0.079| 0.0079 |
+| peak / mean         | 1.00 | 1.02 | 1.15 | 1.87 | 3.29 |
+
+(1.95 at $\alpha_n = 10^6$ with 32 elements: the penalty regularises the edge singularity over
+$\ell$, so the peak converges with the mesh.) The demo uses $\alpha_t = \alpha_n = 10^6$ MPa/mm
+(`--alpha` changes both).
+
+## Parameters of the two laws
+
+* This law: the paper's Sec. 7 set (preset `sec7`, $\mu_s = 500$, $\mu_k = 63$ MPa,
+  $\kappa = 98/63$ 1/mm, $\xi = 11/500$ 1/s, $\tilde u = 15$ 1/mm) with the stiff penalties and
+  **$c_n = 10^{-3}$ 1/MPa** instead of $2\cdot 10^{-4}$: the punch is pressed to a mean pressure
+  of about 1000 MPa, with peaks near 1900 MPa at the edges, so $c_n f_n = 1$ at the mean and
+  about 2 at the peaks: $g$ = 0.63 at the mean and 0.85 at the peaks, well into the saturation
+  range. (With the paper's $c_n$, $g$ would be almost linear up to several GPa.)
+* Coulomb: $\mu_c$ is calibrated to **this law at the mean pressure**: it is the ratio
+  $f_t/f_n$ that this law gives for a uniform contact at the mean pressure $\bar p$, slid the
+  same distance at the same rate (computed with the material-point driver, so with the same
+  softening of $\mu$ from $\mu_s$ towards $\mu_k$ and the same smooth approach to the yield
+  surface). A uniformly loaded contact would therefore carry the same friction with both laws;
+  every difference between the two runs comes from the non-uniform pressure. Coulomb has no
+  static peak and no softening: the comparison is made at the end of the slide, where the whole
+  interface slides under both laws.
+
+## Loading (1 mm/s sliding, as the paper's Sec. 7 tests)
+
+| time (s) | what happens                                                                |
+|----------|-----------------------------------------------------------------------------|
+| 0 - 1    | the top of the punch is pushed down 8.3 µm (mean pressure about 1000 MPa)   |
+| 1 - 2    | the top is moved 1 mm sideways, the depth held: the punch slides            |
+
+The top of the punch is held by a stiff fixture: both displacement components are prescribed
+there, so the moment of the friction force is taken by the fixture and the punch does not tilt.
+The base is clamped at its bottom.
+
+## What it shows (default run)
+
+The mean pressure is 996 MPa and Coulomb's calibrated $\mu_c = 0.100$. At the end of the slide
+the whole interface slides under both laws and the pressure is the same under both (1931 MPa at
+the edge points, 785 MPa in the middle). Under the highest pressure this law carries
+$f_t = 135$ MPa, on its bound $g(f_n)\,\mu$ ($\mu$ = 158 MPa: 1 mm of slip has softened it
+from 500 most of the way to its kinetic level) and far below the static bound
+$g(f_n)\,\mu_s = 428$ MPa; Coulomb carries $\mu_c f_n = 194$ MPa there, 43 % more. In the
+middle, under less than the mean pressure, it is the other way round (86 against 79 MPa): the
+concave $g$ gives more to low pressures and less to high ones. The two friction forces are
+nearly equal (97.8 and 99.7 MPa on average), as the calibration intends: what differs is *where*
+the tangential stress sits, which matters for wear, fretting and crack initiation at the edges
+of a contact. In `ft_vs_fn.png` the points of this law lie on the curve $g(f_n)\,\mu$, their
+$f_t/f_n$ falling with $f_n$; Coulomb's lie on the straight line $\mu_c f_n$.
+
+Run it on two ranks:
+
+    mpirun -n 2 python3 demos/punch.py [--n 16] [--alpha 1e6] [--out DIR]
+
+It prints progress on rank 0 and the timing breakdown of each run, and writes each law's CSV
+history (`subloading/history.csv`, `coulomb/history.csv`) and three figures into the output
+directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
+"""
+
+
+# %%
 import argparse
 import sys
 
@@ -92,11 +112,13 @@ SLIDE = 1.0  # mm, at 1 mm/s
 DEPTH = 0.0083  # mm: mean pressure about 1000 MPa with alpha_n = 1e6
 C_N = 1e-3  # 1/MPa
 
+# %% [markdown]
 # ## The scenes
 #
 # One function makes both: only the law and the solver prefix differ.
 
 
+# %%
 def subloading_law(alpha: float = 1e6, c_n: float = C_N) -> dict:
     """The law of this demo: the Sec. 7 set with stiff penalties and a larger c_n."""
     return {
@@ -140,12 +162,14 @@ def scene(law: dict, name: str, n: int = 16, depth: float = DEPTH, dt: float = 0
     }
 
 
+# %% [markdown]
 # ## Calibrating Coulomb
 #
 # The material-point driver runs this law at one point: pressed to the mean pressure, then slid
 # by the same distance at the same rate. Its $f_t/f_n$ at the end is Coulomb's $\mu_c$.
 
 
+# %%
 def calibrate_mu_c(law: dict, p_mean: float) -> float:
     """Coulomb's mu_c: this law's f_t / f_n at the end of the same slide, at the mean pressure."""
     params = build_law(law)
@@ -163,12 +187,14 @@ def calibrate_mu_c(law: dict, p_mean: float) -> float:
     return float(res.samples["f_t1"][-1] / res.samples["f_n"][-1])
 
 
+# %% [markdown]
 # ## What the demo measures
 #
 # At the end of the slide, for each law: the interface profiles $f_n(x)$, $f_t(x)$, and at the
 # point of highest pressure the tangential stress of each law against both bounds.
 
 
+# %%
 def summary(sub, coul, mu_c: float, c_n: float, mu_s: float) -> dict:
     """Key numbers at the end of the slide (the highest-pressure point of the subloading run)."""
     end = max(sub.snapshots)
@@ -191,9 +217,11 @@ def summary(sub, coul, mu_c: float, c_n: float, mu_s: float) -> dict:
     }
 
 
+# %% [markdown]
 # ## Figures
 
 
+# %%
 def figures(sub, coul, mu_c, c_n, mu_s, outdir):
     import matplotlib
 
@@ -286,12 +314,12 @@ def figures(sub, coul, mu_c, c_n, mu_s, outdir):
 
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
-    ap = cli.demo_parser("Flat punch: saturation against Coulomb")
-    ap.add_argument("--n", type=int, default=16, help="elements across the punch (16)")
-    ap.add_argument("--alpha", type=float, default=1e6, help="alpha_t = alpha_n in MPa/mm (1e6)")
-    ap.add_argument("--c-n", type=float, default=C_N, help="c_n in 1/MPa (1e-3)")
-    ap.add_argument("--depth", type=float, default=DEPTH, help="indentation in mm (0.0083)")
-    ap.add_argument("--dt", type=float, default=0.01, help="initial time step in s (0.01)")
+    ap = cli.demo_parser(__doc__)
+    ap.add_argument("--n", type=int, default=16, help="elements across the punch")
+    ap.add_argument("--alpha", type=float, default=1e6, help="alpha_t = alpha_n in MPa/mm")
+    ap.add_argument("--c-n", type=float, default=C_N, help="c_n in 1/MPa")
+    ap.add_argument("--depth", type=float, default=DEPTH, help="indentation in mm")
+    ap.add_argument("--dt", type=float, default=0.01, help="initial time step in s")
     ap.add_argument("--out", default="demos/output/punch", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     return ap

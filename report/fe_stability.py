@@ -17,6 +17,7 @@ from tests.stability import FE_CASES
 
 
 def main():
+    """Run every FE stability case on this communicator; write the outcomes (rank 0)."""
     comm = MPI.COMM_WORLD
     out = {}
     for case in FE_CASES:

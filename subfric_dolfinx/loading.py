@@ -107,6 +107,17 @@ class LoadingProgram:
             return float(self.times[i + 1])
         return b
 
+    def is_hold(self, t: float) -> bool:
+        """Whether the segment that starts at or after ``t`` keeps every channel constant.
+
+        The segment runs from ``t`` to :meth:`next_breakpoint` ``(t)``; in a hold time passes and
+        nothing is moved or loaded (a load stepper may take long steps there).
+        """
+        if t >= self.t_end:
+            return False
+        j = int(np.searchsorted(self.times, self.next_breakpoint(t), side="left"))
+        return all(a[j - 1] == a[j] for a in self.channels.values())
+
     def segment(self, t: float) -> int:
         """Index of the segment ``[times[i], times[i+1]]`` containing ``t``."""
         return int(

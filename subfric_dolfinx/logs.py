@@ -1,4 +1,6 @@
-"""The package's log: one ``subfric_dolfinx`` logger, and a handler that prints on rank 0 only.
+"""The package's log: one logger, a handler printing on rank 0, the rank of a serial program.
+
+Under ``mpirun``, a numpy-only program finds its rank with :func:`launcher_rank`.
 
 Every module logs to a child of the ``subfric_dolfinx`` logger (``logging.getLogger(__name__)``).
 As a library, the package installs no output handler of its own; a program (a demo, a script)
@@ -15,10 +17,11 @@ failed attempt.
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from typing import Any, TextIO
 
-__all__ = ["LOGGER_NAME", "configure", "level_for"]
+__all__ = ["LOGGER_NAME", "configure", "launcher_rank", "level_for"]
 
 LOGGER_NAME = "subfric_dolfinx"
 logging.getLogger(LOGGER_NAME).addHandler(logging.NullHandler())
@@ -68,3 +71,24 @@ def configure(
     logger.setLevel(level_for(verbosity))
     logger.propagate = False
     return handler
+
+
+_LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK")
+_RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK")
+
+
+def launcher_rank() -> int:
+    """This process's rank when an MPI launcher started it, else 0; MPI is not initialised.
+
+    The numpy-only programs (the material-point driver, the calibration, their demos) have
+    nothing to distribute: under ``mpirun -n N`` rank 0 computes and writes, and the others
+    return at once instead of writing the same files side by side. The rank is read from the
+    launcher's environment (Open MPI, MPICH/Hydra, PMIx), so mpi4py is not needed.
+    """
+    if not any(k in os.environ for k in _LAUNCHED):
+        return 0
+    for k in _RANK_VARIABLES:
+        value = os.environ.get(k, "")
+        if value.isdigit():
+            return int(value)
+    return 0

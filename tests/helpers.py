@@ -109,11 +109,16 @@ def prefix(name: str) -> str:
 
 def driver_cli(*args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
     """Run ``python3 -m subfric_dolfinx.driver ARGS`` from the repository root (one process)."""
+    return module_cli("driver", *args, timeout=timeout)
+
+
+def module_cli(module: str, *args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run ``python3 -m subfric_dolfinx.<module> ARGS`` from the repository root (one process)."""
     env = dict(os.environ)
     extra = env.get("PYTHONPATH")
     env["PYTHONPATH"] = str(ROOT) + (os.pathsep + extra if extra else "")
     return subprocess.run(
-        [sys.executable, "-m", "subfric_dolfinx.driver", *map(str, args)],
+        [sys.executable, "-m", f"subfric_dolfinx.{module}", *map(str, args)],
         cwd=ROOT,
         env=env,
         capture_output=True,
@@ -134,6 +139,82 @@ def singleton_env() -> dict[str, str]:
         for k, v in os.environ.items()
         if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
     }
+
+
+# --------------------------------------------------------------------------------------------
+# Fault injection (output tests)
+
+
+def hang_fails(seconds: float = 600) -> Any:
+    """A pytest mark: after ``seconds`` the test fails and the job ends, even in a hang.
+
+    pytest-timeout's default (signal) method never fires while a rank waits inside an MPI call;
+    the thread method dumps every thread's stack and exits the process, and ``mpirun`` then
+    ends the other ranks: a fault test that hangs fails instead of blocking the suite.
+    """
+    import pytest
+
+    return pytest.mark.timeout(seconds, method="thread")
+
+
+@contextlib.contextmanager
+def tmpfs(path: Path, size: str = "1m", readonly: bool = False) -> Iterator[bool]:
+    """Mount a small tmpfs at ``path`` (rank 0, collective), unmounted on exit.
+
+    Yields whether the mount was made: mounting needs root in a private mount namespace (as
+    inside ``./run``); where it is not allowed, tests fall back to injected errors.
+    """
+    comm = MPI.COMM_WORLD
+
+    def mount() -> bool:
+        path.mkdir(parents=True, exist_ok=True)
+        opts = f"size={size}" + (",ro" if readonly else "")
+        cmd = ["mount", "-t", "tmpfs", "-o", opts, "tmpfs", str(path)]
+        try:
+            return subprocess.run(cmd, capture_output=True, timeout=30).returncode == 0
+        except OSError:
+            return False
+
+    mounted = on_root(comm, mount)
+    try:
+        yield mounted
+    finally:
+        comm.Barrier()
+        if mounted:
+            on_root(comm, lambda: subprocess.run(["umount", "-l", str(path)], timeout=30))
+
+
+def fill(directory: Path, leave: int) -> None:
+    """Fill the file system of ``directory`` but ``leave`` bytes (one filler file; rank 0)."""
+    import shutil
+
+    free = shutil.disk_usage(directory).free
+    with open(directory / "filler", "wb") as f:
+        f.write(b"\0" * max(free - leave, 0))
+
+
+def mpirun(code: str, n: int, timeout: float = 150) -> subprocess.CompletedProcess:
+    """Run Python ``code`` on ``n`` ranks (``mpirun``) from the repository root, in a process
+    group killed after ``timeout`` s (a hang fails the test instead of blocking the suite).
+
+    Returns:
+        The completed process (``returncode`` -9 after a timeout, with what it printed).
+    """
+    env = singleton_env()
+    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if "PYTHONPATH" in env else "")
+    cmd = ["mpirun", "-n", str(n), sys.executable, "-c", code]
+    p = subprocess.Popen(
+        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True,
+    )  # fmt: skip
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, 9)
+        out, err = p.communicate()
+        err += f"\n[test] killed after {timeout} s: a hang"
+        p.returncode = -9
+    return subprocess.CompletedProcess(cmd, p.returncode, out, err)
 
 
 # --------------------------------------------------------------------------------------------

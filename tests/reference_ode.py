@@ -1,9 +1,10 @@
 """High-accuracy reference of the RATE equations of the subloading-friction model (test support).
 
-This module does not use the project's return map: it integrates the rate form of ``MODEL.md``
-("Rate form") with :func:`scipy.integrate.solve_ivp` at a tight tolerance, for one interface point
-under a prescribed, piecewise-linear gap history ``ubar(t)`` (the same ``[t, x1, x2, ubar_n]`` rows
-as a driver case under displacement control). State ``y = (up, mu, r)``::
+This module does not use the project's return map: it integrates the rate form of
+``docs/model.md`` §2 ("Rate form") with :func:`scipy.integrate.solve_ivp` at a tight tolerance,
+for one interface point under a prescribed, piecewise-linear gap history ``ubar(t)`` (the same
+``[t, x1, x2, ubar_n]`` rows as a driver case under displacement control). State
+``y = (up, mu, r)``::
 
     f_t = alpha_t (ubar_t - up),   f_n = alpha_n ubar_n,   g = 1 - exp(-c_n f_n),
     F = |f_t| / g,   t_f = f_t / |f_t|,
@@ -39,7 +40,10 @@ Integration is piecewise, with a fresh ``solve_ivp`` call on each smooth piece:
   ``f_t . ubar_t'`` crosses zero from below (``|f_t|`` passes through its minimum: in a straight
   reversal ``f_t`` passes through zero and ``t_f`` flips, a jump of the right-hand side). If
   ``|f_t|`` is zero there to round-off, ``up`` is set to ``ubar_t`` (``f_t = 0`` exactly) and
-  ``r = 0``, and loading restarts in the direction of ``ubar_t'``.
+  ``r = 0``, and loading restarts in the direction of ``ubar_t'``. Along a path segment the gap
+  rate is constant, so that minimum is watched once per segment (restarting right at it could
+  fire the event again at once: a partial reversal in the plane cycled there, "too many
+  switches").
 
 At every piece end the invariant ``r = F / mu`` is checked (its largest violation is returned as
 ``drift``, a measure of the reference's own error) and ``r`` is then projected back onto it.
@@ -256,6 +260,7 @@ def solve_reference(
     def phase(t: float, y: np.ndarray, k: int) -> bool:
         return pt.parts(t, y, k)["num"] > 0.0
 
+    crossed = -1  # the path segment whose elastic |f_t| minimum has been passed
     for k, ta, tb in _segments_and_knots(path, samples):
         t = ta
         plastic = phase(t, y, k)
@@ -276,7 +281,10 @@ def solve_reference(
             ev_num.terminal = True
             ev_num.direction = -1.0 if plastic else 1.0
             events = [ev_num]
-            if not plastic and np.any(pt.gap(t, k)[1][:nt] != 0.0):
+            # along a segment the gap rate is constant: in an elastic stretch f_t is linear in t
+            # and |f_t| has one minimum, so once passed it is not watched again in the segment
+            # (a restart right at the event could fire it again at once, forever)
+            if not plastic and crossed != k and np.any(pt.gap(t, k)[1][:nt] != 0.0):
                 # (shifted up by a tiny amount: a start exactly at zero, e.g. right at a turn of
                 # the sliding direction, must not fire)
                 vt = pt.gap(t, k)[1][:nt]
@@ -319,6 +327,7 @@ def solve_reference(
                     y[:nt] = u[:nt]
                     y[nt + 1] = 0.0
                 switches.append((t_new, "f_t zero" if zero else "f_t min"))
+                crossed = k
                 plastic = phase(t_new, y, k)
             elif fired:
                 switches.append((t_new, "unload" if plastic else "load"))

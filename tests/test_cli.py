@@ -14,11 +14,19 @@ import sys
 import pytest
 from mpi4py import MPI
 
-from demos import block_on_base, lap_joint, pad_on_plate, punch
+from demos import (
+    block_on_base,
+    bolted_joint,
+    cattaneo_mindlin,
+    hertz,
+    lap_joint,
+    pad_on_plate,
+    punch,
+)
 from subfric_dolfinx.scenes import cli
 from tests.helpers import ROOT, everywhere, singleton_env
 
-DEMOS = [block_on_base, pad_on_plate, punch, lap_joint]
+DEMOS = [block_on_base, pad_on_plate, punch, lap_joint, hertz, cattaneo_mindlin, bolted_joint]
 SMALL = ["--n", "4", "--hold", "1", "--no-figures"]
 
 

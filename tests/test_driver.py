@@ -14,6 +14,7 @@ import pytest
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
 from tests.helpers import driver_cli as cli
+from tests.helpers import singleton_env
 
 pytestmark = pytest.mark.numpy_only
 
@@ -98,6 +99,37 @@ def test_cli_prints_json_without_out_and_steps_per_mm_overrides(tmp_path):
     data = json.loads(proc.stdout)
     assert data["n_steps"] == 1 + 5 + 10 + 8 + 3  # ceil(50 * length) per interval
     assert data["complete"]
+
+
+@pytest.mark.serial
+def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
+    """``mpirun -n 2 python3 -m subfric_dolfinx.driver``: one JSON on stdout (two ranks writing
+    the same files side by side raced and failed), exit 0, the same result as one process."""
+    case_file = write(tmp_path, SEC7)
+    env = {**singleton_env(), "PYTHONPATH": str(REPO)}
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "subfric_dolfinx.driver", str(case_file)]
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stderr.count("ok:") == 1, proc.stderr
+    serial = json.loads(cli(case_file).stdout)
+    assert json.loads(proc.stdout)["samples"] == serial["samples"]
+
+
+def test_launcher_rank_reads_the_launchers_environment(monkeypatch):
+    from subfric_dolfinx.logs import launcher_rank
+
+    for k in ("OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_RANK", "PMI_SIZE", "PMI_RANK", "PMIX_RANK"):
+        monkeypatch.delenv(k, raising=False)
+    assert launcher_rank() == 0
+    monkeypatch.setenv("PMI_RANK", "3")  # a rank without a launcher's size: not launched
+    assert launcher_rank() == 0
+    monkeypatch.setenv("PMI_SIZE", "4")
+    assert launcher_rank() == 3
+    monkeypatch.setenv("PMIX_RANK", "1")
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    monkeypatch.setenv("OMPI_COMM_WORLD_RANK", "1")
+    monkeypatch.delenv("PMI_RANK")
+    assert launcher_rank() == 1
 
 
 def test_status_counts_with_separation_and_the_coulomb_law(tmp_path):
@@ -193,7 +225,7 @@ def test_literal_sec6_set_is_flagged_unstable_and_the_normalised_one_is_not(tmp_
     assert lost is not None and data["stable"] is False
     assert {"t", "reason", "r", "f_t1", "mu"} <= set(lost)
     assert lost["reason"] in ("den <= 0", "jump at a fold")
-    assert 0.0 < lost["t"] < 2.0 and 0.03 < lost["r"] < 0.08  # early: r ~ 0.05 (MODEL.md)
+    assert 0.0 < lost["t"] < 2.0 and 0.03 < lost["r"] < 0.08  # early: r ~ 0.05 (docs/model.md §8)
     assert data["complete"] is False
     assert len(data["samples"]["t"]) < 7  # no complete curve
     assert data["status_counts"]["UNSTABLE"] >= 1
@@ -252,7 +284,8 @@ def test_stress_control_below_the_kinetic_strength_converges():
 def test_stress_control_between_the_kinetic_strength_and_the_peak_is_sustained():
     """Above g mu_k but reached before the interface has softened, a held stress does not run
     away: at constant stress the loading criterion is -m_c <= 0, so the hold is elastic and mu
-    recovers (MODEL.md's "beyond the kinetic strength runs away" needs this qualification)."""
+    recovers (docs/model.md §8: "beyond the kinetic strength runs away" needs this
+    qualification)."""
     p = preset("sec7")
     g = -math.expm1(-p.c_n * p.alpha_n * UN)
     f = 40.0
@@ -309,3 +342,97 @@ def test_core_and_driver_import_no_fe_or_mpi_stack():
     )
     assert proc.returncode == 0, proc.stderr
     assert "LOADED []" in proc.stdout
+
+
+# -------------------------------------------------------------------------------------------
+# Long runs: progress, and a cost per step independent of the number of path rows
+
+
+def test_progress_lines_on_stderr(tmp_path, monkeypatch, capsys):
+    """A progress line at most every PROGRESS_SECONDS (set to 0 here: one per 2000 steps)."""
+    from subfric_dolfinx.driver import cli as cli_mod
+
+    monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 0.0)
+    case = {**SEC7, "steps_per_mm": 20000}  # 10001 steps
+    out = tmp_path / "r.json"
+    assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    prog = [ln for ln in err if ln.startswith("progress:")]
+    assert len(prog) == 5 and "of 10001 steps" in prog[0], err
+    assert err[-1].startswith("ok:")
+    monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 3600.0)  # a short run prints none
+    assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
+    assert not [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("progress")]
+
+
+def test_a_path_of_many_rows_gives_the_same_steps():
+    """The same straight path given as 2 rows or as 100001 rows (with the knots as samples in the
+    first): the same steps, the same result. (The cost per step does not depend on the number of
+    rows: benchmarks/driver_steps.py measures it.)"""
+    n = 100_000
+    t = np.linspace(0.0, 0.3, n + 1)
+    many = {**SEC7, "n_tangential": 1, "path": [[ti, ti, 0.0, UN] for ti in t],
+            "t_samples": [0.0, 0.3]}  # fmt: skip
+    few = {**many, "path": [[0.0, 0.0, 0.0, UN], [0.3, 0.3, 0.0, UN]], "t_samples": t.tolist()}
+    a = run_case(many, steps_per_mm=1)  # one step per row interval
+    b = run_case(few, steps_per_mm=1)
+    assert a.n_steps == b.n_steps == n + 1
+    for k in ("f_t1", "up_t1", "mu", "r"):
+        assert a.samples[k][-1] == b.samples[k][-1], k
+
+
+# -------------------------------------------------------------------------------------------
+# The batch driver: many cases through one loop, the same results as one by one
+
+
+def fig10_case(fn, law=None, n_samples=11):
+    p = law or {"preset": "sec7"}
+    un = fn / preset("sec7").alpha_n
+    return {
+        "params": p,
+        "control": "disp",
+        "path": [[0.0, 0.0, 0.0, un], [20.0, 20.0, 0.0, un]],  # 1 mm/s to 20 mm (Fig. 10)
+        "t_samples": np.linspace(0.0, 20.0, n_samples).tolist(),
+        "n_tangential": 1,
+        "steps_per_mm": 20,
+    }
+
+
+def test_batch_driver_equals_one_by_one():
+    """Six normal stresses (Fig. 10), two parameter sets, a turn in 3-D, a reversal at another
+    velocity, a case that loses stability: every result equals run_case's."""
+    from subfric_dolfinx.driver import run_cases
+
+    cases = [fig10_case(fn) for fn in (100, 200, 300, 400, 500, 600)]
+    cases.append(fig10_case(300, {"preset": "sec7", "kappa": 0.5, "mu0": 400.0}))
+    cases.append(SEC7)
+    cases.append({**fig10_case(300), "path": [[0, 0, 0, 0.6], [2, 0.5, 0, 0.6], [6, -0.5, 0, 0.6]],
+                  "t_samples": [0, 1, 2, 3, 4.5, 6]})  # fmt: skip
+    cases.append(sec6_monotonic("sec6-mus10000-literal"))
+    batch = run_cases(cases)
+    for c, b in zip(cases, batch, strict=True):
+        one = run_case(c)
+        assert b.n_steps == one.n_steps and b.complete == one.complete
+        assert b.status_counts == one.status_counts and b.sample_status == one.sample_status
+        assert (b.stability_lost is None) == (one.stability_lost is None)
+        for k in one.samples:
+            np.testing.assert_allclose(b.samples[k], one.samples[k], rtol=1e-12, atol=1e-12)
+    assert batch[-1].stability_lost is not None and not batch[-1].complete
+
+
+def test_batch_driver_with_many_cases_takes_the_numpy_path():
+    """40 cases of one law (the numpy path of the map) equal the one-by-one runs to 1e-12."""
+    from subfric_dolfinx.driver import run_cases
+
+    cases = [fig10_case(fn, n_samples=5) for fn in np.linspace(50.0, 700.0, 40)]
+    for c, b in zip(cases, run_cases(cases, steps_per_mm=5), strict=True):
+        one = run_case(c, steps_per_mm=5)
+        np.testing.assert_allclose(b.samples["f_t1"], one.samples["f_t1"], rtol=1e-12)
+        np.testing.assert_allclose(b.samples["mu"], one.samples["mu"], rtol=1e-12)
+
+
+def test_batch_driver_refuses_stress_control():
+    from subfric_dolfinx.driver import CaseError, run_cases
+
+    with pytest.raises(CaseError, match="case 1: the batch driver runs displacement control"):
+        run_cases([SEC7, stress_case([[0, 0, 0, UN], [10, 5.0, 0, UN]])])

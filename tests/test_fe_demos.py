@@ -37,6 +37,7 @@ def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):
             assert peak > 1.1 * before, hold  # a real peak above the kinetic level
     assert (shared_tmp / "history.csv").is_file()
     assert (shared_tmp / "fields" / "interface.bp").is_dir()
+    assert (shared_tmp / "fields" / "interface_points.xdmf").is_file()  # the quadrature points
 
 
 def test_punch_saturates_under_the_pressure_peak(shared_tmp):

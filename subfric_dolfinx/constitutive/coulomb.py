@@ -1,8 +1,15 @@
 """The classical penalty Coulomb law (the baseline), with its parameters and batched return map.
 
-``f_n = alpha_n ubar_n`` (no contact when ``ubar_n <= 0``), ``f_t* = alpha_t (ubar_t - up_n)``;
-elastic when ``|f_t*| <= mu_c f_n``, otherwise radial return onto the cone. The law has no
+``f_n = alpha_n ubar_n`` (no contact when ``ubar_n <= 0`` or within the contact band of
+:mod:`.tolerances`), ``f_t* = alpha_t (ubar_t - up_n)``; elastic when ``|f_t*| <= mu_c f_n`` (to
+the loading margin of :mod:`.tolerances`), otherwise radial return onto the cone. The law has no
 hardening and no recovery: its only internal variable is the plastic slip ``up``.
+
+The radial return is exact on straight legs at constant ``f_n`` and first order where the
+sliding direction turns. It is kept so on purpose: this law is the baseline of the classical
+penalty implementation, and a rotation of the flow direction (as in the subloading law) would
+need the end-of-step traction as a second internal variable (outputs, checkpoints) for a law that
+is a reference, not a target.
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ from ._validate import positive, validate_fields
 from .protocol import LawBase
 from .result import ReturnMapResult, Status
 from .state import TANGENTIAL, InterfaceState, Variable
+from .tolerances import CONTACT_TOL, LOAD_TOL, contact_band
 
 __all__ = ["CoulombLaw", "coulomb_return_map"]
 
@@ -58,9 +66,10 @@ class CoulombLaw(LawBase):
         dt: float,
         *,
         out: InterfaceState | None = None,
+        contact_tol: float = CONTACT_TOL,
     ) -> ReturnMapResult:
         """Integrate the law over one step; see :func:`coulomb_return_map`."""
-        return coulomb_return_map(self, gap, state, dt, out=out)
+        return coulomb_return_map(self, gap, state, dt, out=out, contact_tol=contact_tol)
 
     def strength(self, state: InterfaceState, f_n: npt.ArrayLike, dt: float = 0.0) -> np.ndarray:
         """``mu_c f_n`` (0 where ``f_n <= 0``)."""
@@ -75,6 +84,7 @@ def coulomb_return_map(
     dt: float,
     *,
     out: InterfaceState | None = None,
+    contact_tol: float = CONTACT_TOL,
 ) -> ReturnMapResult:
     """Integrate the penalty Coulomb law over one step at N points.
 
@@ -82,8 +92,11 @@ def coulomb_return_map(
         params: Coulomb parameters.
         gap: Local gap ``(ubar_t1, [ubar_t2,] ubar_n)``, shape (N, nt + 1).
         state: Converged state at the start of the step (not modified).
-        dt: Time increment (unused by this rate-independent law; validated for symmetry).
+        dt: Time increment, a float or per point (N,) (unused by this rate-independent law;
+            validated for symmetry).
         out: State to write the end-of-step internal variables into.
+        contact_tol: Relative width of the contact band (:mod:`.tolerances`; this law has no
+            length of its own: the band is ``contact_tol max(|ubar_t|, |up|)``).
 
     Returns:
         Traction, consistent tangent, state and status, as for the subloading law.
@@ -94,10 +107,16 @@ def coulomb_return_map(
     m = nt + 1
     if gap.shape != (n, m):
         raise ValueError(f"gap must have shape ({n}, {m}) to match the state, got {gap.shape}")
-    if not np.isfinite(float(dt)) or float(dt) < 0.0:
+    dta = np.asarray(dt, dtype=np.float64)
+    if dta.ndim not in (0, 1) or (dta.ndim == 1 and dta.shape != (n,)):
+        raise ValueError(f"dt must be a float or have shape ({n},), got {dta.shape}")
+    if not np.all(np.isfinite(dta) & (dta >= 0.0)):
         raise ValueError(f"dt = {dt!r} must be finite and >= 0")
     if out is state:
         raise ValueError("out must not be the input state (inputs are never mutated)")
+    contact_tol = float(contact_tol)
+    if not (np.isfinite(contact_tol) and contact_tol >= 0.0):
+        raise ValueError(f"contact_tol = {contact_tol!r} must be finite and >= 0")
 
     ok_in = np.isfinite(gap).all(axis=1) & np.isfinite(state.up).all(axis=1)
     gap_s = np.where(ok_in[:, None], gap, 0.0)
@@ -106,9 +125,11 @@ def coulomb_return_map(
     A = tangential_norm(ft_trial)
     un = gap_s[:, nt]
     fn = p.alpha_n * un
-    contact = ok_in & (un > 0.0)
+    # contact band: |ubar_n| within the rounding of the gap touches (as ubar_n = 0)
+    touching = ok_in & (np.abs(un) <= contact_band(gap_s, up_s, 0.0, contact_tol))
+    contact = ok_in & (un > 0.0) & ~touching
     limit = p.mu_c * np.maximum(fn, 0.0)
-    plastic = contact & (A > limit)
+    plastic = contact & (A - limit > LOAD_TOL * limit)
     elastic = contact & ~plastic
 
     new = p.initial_state(n, nt) if out is None else out
@@ -130,8 +151,7 @@ def coulomb_return_map(
     tangent[plastic, :nt, :nt] = (p.alpha_t * ratio[plastic])[:, None, None] * (eye - nn[plastic])
     tangent[plastic, :nt, nt] = p.mu_c * p.alpha_n * nstar[plastic]
     tangent[contact, nt, nt] = p.alpha_n
-    # touching exactly (ubar_n = 0): zero traction, one-sided (contact) elastic tangent
-    touching = ok_in & (un == 0.0)
+    # touching: zero traction, one-sided (contact) elastic tangent
     tangent[touching, :nt, :nt] = p.alpha_t * np.eye(nt)
     tangent[touching, nt, nt] = p.alpha_n
 

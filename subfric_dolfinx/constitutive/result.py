@@ -15,14 +15,16 @@ __all__ = ["ReturnMapResult", "Status"]
 class Status(enum.IntEnum):
     """Outcome of the return map at one point.
 
-    ELASTIC: in contact, no plastic slip in the step.
-    PLASTIC: in contact, plastic slip on the continuous branch (smallest root).
-    SEPARATED: not in contact (``ubar_n <= 0``): zero traction. At ``ubar_n = 0`` exactly the
-        tangent is the one-sided elastic one from the contact side (a touching interface is stiff).
-    JUMP: plastic, but the smallest root lies beyond a local minimum of the consistency function,
-        i.e. the continuous branch ended in a fold inside the step and the solution jumped.
-    FAILED: the point could not be integrated (non-finite input or no converged root); its
-        outputs are the last converged values with zero traction, never NaN.
+    * ``ELASTIC``: in contact, no plastic slip in the step.
+    * ``PLASTIC``: in contact, plastic slip on the continuous branch (smallest root).
+    * ``SEPARATED``: not in contact (``ubar_n <= 0``): zero traction. At ``ubar_n = 0`` exactly
+      the tangent is the one-sided elastic one from the contact side (a touching interface is
+      stiff).
+    * ``JUMP``: plastic, but the smallest root lies beyond a local minimum of the consistency
+      function, i.e. the continuous branch ended in a fold inside the step and the solution
+      jumped.
+    * ``FAILED``: the point could not be integrated (non-finite input or no converged root):
+      zero traction, never NaN (its state: ``docs/model.md`` §7).
     """
 
     ELASTIC = 0

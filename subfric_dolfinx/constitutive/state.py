@@ -138,6 +138,17 @@ class InterfaceState:
         arrays = {v.name: np.zeros(v.array_shape(n_points, n_tangential)) for v in variables}
         return cls(arrays, n_tangential, copy=False)
 
+    @classmethod
+    def wrap(
+        cls, arrays: dict[str, np.ndarray], n_points: int, n_tangential: int
+    ) -> InterfaceState:
+        """Wrap float64 arrays of the right shapes without any check (a return map's outputs)."""
+        st = object.__new__(cls)
+        st._arrays = arrays
+        st.n_points = n_points
+        st.n_tangential = n_tangential
+        return st
+
     def __getitem__(self, name: str) -> np.ndarray:
         try:
             return self._arrays[name]

@@ -1,52 +1,77 @@
-"""Batched return map of the subloading-friction model with saturation (numpy only).
+"""The subloading-friction law with saturation: parameters and return map (numpy only).
 
-Scheme (``docs/model.md``): for a step of length ``dt`` from the converged state
-``(up_n, mu_n, r_n)`` to the prescribed local gap ``(ubar_t, ubar_n)``:
+Scheme (``docs/model.md``) for a step of length ``dt`` from the converged state
+``(up_n, mu_n, r_n, f_n)`` (``f_n`` the traction at the end of the previous step) to the local
+gap ``(ubar_t, ubar_n)``:
 
-1. Trial: ``f_t* = alpha_t (ubar_t - up_n)``, ``A = |f_t*|``, ``f_n = alpha_n ubar_n``,
-   ``g = 1 - exp(-c_n f_n)``. No contact (``ubar_n <= 0``): zero traction, ``r = 0``, ``up``
-   frozen, ``mu`` recovers.
-2. For a plastic slip ``dl`` at a constant rate over the step, ``r`` and ``mu`` integrate exactly:
-   ``cos(pi r / 2) = cos(pi r_n / 2) exp(-pi u_tilde dl / 2)`` and
-   ``mu = mu_n - (a (mu_n - mu_k) + b (mu_n - mu_s)) E(a + b)`` with ``a = kappa dl``,
-   ``b = xi dt`` and ``E(s) = (1 - exp(-s)) / s`` (``E(0) = 1``).
-3. Radial return: ``phi(dl) = A - alpha_t dl - g r(dl) mu(dl)``.
-4. Loading test: plastic iff ``phi(0) > 0`` (the surface grown by recovery over the step).
-5. ``phi(A / alpha_t) < 0``: a root exists in ``(0, A / alpha_t]``; the **smallest** root is taken.
+1. **Trial** ``f_t* = alpha_t (ubar_t - up_n)``, ``A = |f_t*|``, ``f_n = alpha_n ubar_n``,
+   ``g = 1 - exp(-c_n f_n)``. Out of contact (``ubar_n`` negative, or within the contact band
+   of :mod:`.tolerances`): zero traction, ``r = 0``, ``up`` frozen, ``mu`` recovers.
+2. **Split at the loading switch** (``_subloading.switch``). The elastic trial runs from the
+   start traction ``f0`` along ``f(s) = f0 + s (f* - f0)``; ``r`` of an elastic state,
+   ``|f(s)| / (g(f_n(s)) mu_e(s))``, can only grow by plastic flow, so the step is elastic up to
+   the first minimum of ``r_el`` along the segment and plastic from there: a cusp where ``f_t``
+   passes through zero (any 1-D reversal: ``r = 0`` there), or the first root of
+   ``d ln r_el / ds`` (a 2-D near-reversal, a turn while ``mu`` recovers, a reload slower than
+   the recovery; ``r`` scaled by ``r_el(s) / r_el(0)``). The rest of the step starts there with
+   ``mu`` recovered over ``s dt``. Without it the step holding the zero crossing of ``f_t``
+   would start its return from the ``r`` of the step start. Not taken where the rest of the
+   segment is below the rounding of ``f0 + s w``, nor where ``phi`` would rise at the start of
+   the plastic part (softening faster than elastic unloading: no continuous branch from the
+   switch; the whole step's loading test decides, as without the split).
+3. For a plastic slip ``dl`` at a constant rate over the (rest of the) step ``r`` and ``mu``
+   integrate exactly: ``cos(pi r / 2) = cos(pi r_0 / 2) exp(-pi u_tilde dl / 2)`` and
+   ``mu = mu_0 - (a (mu_0 - mu_k) + b (mu_0 - mu_s)) E(a + b)``, ``a = kappa dl``, ``b = xi dt``,
+   ``E(s) = (1 - exp(-s)) / s``. **Loading test**: plastic iff ``phi(0) > tol g mu``
+   (:mod:`.tolerances`), ``phi(dl) = A - alpha_t dl - g r(dl) mu(dl)``.
+4. **Predictor**: the smallest root of ``phi`` (the radial return), by Newton in
+   ``z`` (``dl = z (2 c + z)``: ``r`` is regular in ``z`` at ``r_0 = 0``) from ``dl = 0``, each
+   iteration solving a quadratic model exactly, safeguarded by a bracket and bisection;
+   *certified* smallest by the slope bound ``alpha_t + g U(r*) mu* - g r* |mu'(0)| > 0``
+   (``phi`` strictly decreasing on ``[0, dl*]``), else by a branch-and-bound scan
+   (``_subloading.scan``), which also detects folds (``JUMP``).
+5. **Rotation of the flow direction** (3-D contact, with a start traction, ``|f_t|`` not
+   shrinking all through the step): plastic flow is radial, so only the elastic increment
+   ``w = f* - f_s`` turns the traction; its angle ``theta`` to ``w`` obeys
+   ``tan(theta / 2) = tan(theta_0 / 2) exp(-|w| J(s))``, ``J(s) = int_0^s dy / |f_t|(y)``,
+   exactly, and ``|f_1| = |f_s| + |w| C - alpha_t dl``, ``C = int_0^1 cos(theta) ds``.
+   ``|f_t|(s)`` is modelled by the quadratic through ``|f_s|``, its rate-form slope and the
+   predictor's end value, blended with the elastic path (exact for a constant ``|f_t|`` and for
+   an elastic step); the elastic path's integrals are closed forms and Gauss integrates the
+   smooth rest. The **corrector** solves ``phi`` again with ``A_eff = |f_s| + |w| C`` from the
+   predictor's root and puts the traction along the rotated direction. Second to third order
+   at a turn (the radial return alone is first order).
+6. **Consistent tangent**: the closed form of the radial return for a fixed direction from a
+   fixed start; otherwise forward derivatives through split, predictor, rotation and corrector
+   (exact for what is computed, so that FE Newton converges quadratically).
 
-Finding the smallest root, certified. On an interval ``[x, y]`` the monotonicity of the closed
-forms (``r`` increasing and concave, ``mu`` decreasing, ``|mu'|`` non-increasing in ``dl``) gives:
+The start traction is the internal variable ``f`` (:data:`SubloadingLaw.variables`); a state
+without it gives the radial return of steps 1, 3, 4 (no split, no rotation). Small batches (at
+most ``SMALL_N`` = 32 points) go through a scalar path in plain floats (``_subloading.point``,
+the readable specification), larger ones through numpy in chunks of 8192 points
+(``_subloading.batch``); both give the same numbers to round-off.
 
-* a lower bound of the value, ``phi >= A - alpha_t y - g r(y) mu(x)``;
-* bounds of the slope, ``-C <= phi' <= -B`` with
-  ``B = alpha_t + g r'(y) mu(y) - g r(y) |mu'(x)|`` and
-  ``C = alpha_t + g r'(x) mu(x) - g r(x) |mu'(y)|``.
-
-A safeguarded Newton iteration finds a root ``x*``; if ``B(0, x*) > 0``, ``phi`` is strictly
-decreasing on ``[0, x*]`` and ``x*`` is the smallest root (the usual case, one extra check). If not
-(strong softening: ``g kappa (mu - mu_k)`` comparable with ``alpha_t``), a vectorised
-branch-and-bound scan over ``[0, x*]`` with these bounds certifies the smallest root; if ``phi``
-falls and then rises before it (a local minimum), the continuous branch ended in a fold inside
-the step and the point is reported as a ``JUMP``.
-
-The result is never NaN or inf; a point that cannot be integrated (non-finite input) gets status
-``FAILED``, zero traction and its last converged state.
+The result is never NaN or inf; a point that cannot be integrated (non-finite input, or no
+converged root) gets status ``FAILED``, zero traction and its last converged state.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
-from ._norm import tangential_norm
-from ._smallest_root import Branch, rtsafe, scan
+from ._subloading.batch import batch
+from ._subloading.common import SMALL_N, Law
+from ._subloading.point import point
 from ._validate import non_negative, positive, real, validate_fields
 from .protocol import LawBase
-from .result import ReturnMapResult, Status
-from .state import SCALAR, TANGENTIAL, InterfaceState, Variable
+from .result import ReturnMapResult
+from .state import LOCAL, SCALAR, TANGENTIAL, InterfaceState, Variable
+from .tolerances import CONTACT_TOL, LOAD_TOL
 
 __all__ = ["SubloadingLaw", "subloading_return_map"]
 
@@ -67,7 +92,9 @@ class SubloadingLaw(LawBase):
         mu0: Initial ``mu`` in ``[mu_k, mu_s]``; ``None`` means ``mu_s`` (a fresh, rested contact).
 
     Internal variables: ``up`` (plastic slip, mm, tangential), ``mu`` (hardening function, MPa),
-    ``r`` (normal-yield ratio ``F / mu``, in [0, 1]).
+    ``r`` (normal-yield ratio ``F / mu``, in [0, 1]) and ``f`` (the traction at the end of the
+    step, MPa, local: the start of the next step's elastic trial, for the reversal split and the
+    rotation of the flow direction).
 
     Raises:
         TypeError: A value is not a real number.
@@ -89,6 +116,7 @@ class SubloadingLaw(LawBase):
         Variable("up", TANGENTIAL, "plastic slip (mm)"),
         Variable("mu", SCALAR, "hardening function (MPa)"),
         Variable("r", SCALAR, "normal-yield ratio F / mu"),
+        Variable("f", LOCAL, "traction at the end of the step (MPa): the next trial's start"),
     )
 
     def __post_init__(self) -> None:
@@ -120,6 +148,7 @@ class SubloadingLaw(LawBase):
                     f"mu_k <= mu0 <= mu_s = [{lo!r}, {hi!r}]",
                 ),
             )
+        object.__setattr__(self, "_consts", Law(self))  # the map's floats, once per law
 
     @property
     def mu_initial(self) -> float:
@@ -127,7 +156,7 @@ class SubloadingLaw(LawBase):
         return self.mu_s if self.mu0 is None else float(self.mu0)
 
     def initial_value(self, name: str) -> float:
-        """Virgin values: ``up = 0``, ``mu = mu_initial``, ``r = 0``."""
+        """Virgin values: ``up = 0``, ``mu = mu_initial``, ``r = 0``, ``f = 0``."""
         return self.mu_initial if name == "mu" else 0.0
 
     def return_map(
@@ -137,11 +166,14 @@ class SubloadingLaw(LawBase):
         dt: float,
         *,
         out: InterfaceState | None = None,
-        tol: float = 1e-13,
+        tol: float = LOAD_TOL,
         max_iter: int = 100,
+        contact_tol: float = CONTACT_TOL,
     ) -> ReturnMapResult:
         """Integrate the law over one step; see :func:`subloading_return_map`."""
-        return subloading_return_map(self, gap, state, dt, out=out, tol=tol, max_iter=max_iter)
+        return subloading_return_map(
+            self, gap, state, dt, out=out, tol=tol, max_iter=max_iter, contact_tol=contact_tol
+        )
 
     def strength(self, state: InterfaceState, f_n: npt.ArrayLike, dt: float = 0.0) -> np.ndarray:
         """``g(f_n) mu`` with ``mu`` recovered over ``dt`` (0 where ``f_n <= 0``)."""
@@ -158,8 +190,9 @@ def subloading_return_map(
     dt: float,
     *,
     out: InterfaceState | None = None,
-    tol: float = 1e-13,
+    tol: float = LOAD_TOL,
     max_iter: int = 100,
+    contact_tol: float = CONTACT_TOL,
 ) -> ReturnMapResult:
     """Integrate the subloading-friction law over one step at N points.
 
@@ -167,215 +200,124 @@ def subloading_return_map(
         params: Material parameters.
         gap: Local gap ``(ubar_t1, [ubar_t2,] ubar_n)`` at the end of the step, shape (N, nt + 1);
             ``ubar_n > 0`` on approach.
-        state: Converged state at the start of the step (not modified).
-        dt: Time increment of the step (>= 0), s; drives the recovery of ``mu``.
+        state: Converged state at the start of the step (not modified); with the start traction
+            ``f`` (the law's own states) or without it (then the radial return: no split, no
+            rotation).
+        dt: Time increment of the step (>= 0), s; drives the recovery of ``mu``. A float, or
+            one increment per point, shape (N,) (the material-point batch driver advances cases
+            with different steps together).
         out: State to write the end-of-step internal variables into (e.g. views of DOLFINx
-            Quadrature functions); a new one is allocated when omitted. Must not be ``state``.
-        tol: Relative tolerance of the consistency condition, on ``phi / (g mu_s)``.
-        max_iter: Iteration limit of the safeguarded Newton solves.
+            Quadrature functions); a new one with the variables of ``state`` is allocated when
+            omitted. Must not be ``state``.
+        tol: Relative tolerance of the consistency condition, on ``phi / (g mu_s)``, and margin
+            of the loading test (:mod:`.tolerances`).
+        max_iter: Iteration limit of the root finders.
+        contact_tol: Relative width of the contact band (:mod:`.tolerances`).
 
     Returns:
         Traction, consistent tangent, end-of-step state, per-point status and stability flags.
 
     Raises:
-        ValueError: Bad shapes or a non-finite or negative ``dt``.
+        ValueError: Bad shapes, a non-finite or negative ``dt``, ``tol`` or ``contact_tol``, or
+            ``out`` being ``state``.
     """
-    p = params
     gap = np.asarray(gap, dtype=np.float64)
-    nt = state.n_tangential
-    n = state.n_points
+    up = state["up"]
+    n, nt = up.shape
     m = nt + 1
     if gap.shape != (n, m):
         raise ValueError(f"gap must have shape ({n}, {m}) to match the state, got {gap.shape}")
-    dt = float(dt)
-    if not np.isfinite(dt) or dt < 0.0:
-        raise ValueError(f"dt = {dt!r} must be finite and >= 0")
+    dt = _check_dt(dt, n)
+    tol, contact_tol = float(tol), float(contact_tol)
+    if not (math.isfinite(tol) and tol >= 0.0 and math.isfinite(contact_tol) and contact_tol >= 0):
+        raise ValueError(f"tol = {tol!r} and contact_tol = {contact_tol!r} must be finite, >= 0")
     if out is state:
         raise ValueError("out must not be the input state (inputs are never mutated)")
+    L: Law = params._consts  # type: ignore[attr-defined]
+    has_f = "f" in state
+    if out is not None:
+        if out.n_points != n or out["up"].shape != up.shape:
+            raise ValueError(f"out has {out.n_points} points of {out['up'].shape}, expected {n}")
+    if n <= SMALL_N:
+        return _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol)
+    if out is None:
+        names = ("up", "mu", "r", "f") if has_f else ("up", "mu", "r")
+        out = InterfaceState.zeros([v for v in params.variables if v.name in names], n, nt)
+    tr, tan, status, unstable, iters = batch(L, gap, state, dt, out, tol, max_iter, contact_tol)
+    return ReturnMapResult(tr, tan, out, status, unstable, iters)
 
-    up_n, mu_n, r_n = state.up, state.mu, state.r
-    ok_in = (
-        np.isfinite(gap).all(axis=1)
-        & np.isfinite(up_n).all(axis=1)
-        & np.isfinite(mu_n)
-        & np.isfinite(r_n)
-        & (r_n >= -1e-9)
-        & (r_n <= 1.0 + 1e-9)
-        & (mu_n >= p.mu_k * (1 - 1e-12))
-        & (mu_n <= p.mu_s * (1 + 1e-12))
+
+def _check_dt(dt, n: int) -> float | np.ndarray:
+    """``dt`` as a float, or as a float64 array (n,); finite and >= 0."""
+    if np.ndim(dt) == 0:
+        d = float(dt)
+        if not (math.isfinite(d) and d >= 0.0):
+            raise ValueError(f"dt = {d!r} must be finite and >= 0")
+        return d
+    a = np.asarray(dt, dtype=np.float64)
+    if a.shape != (n,):
+        raise ValueError(f"dt must be a float or have shape ({n},), got {a.shape}")
+    if not np.all(np.isfinite(a) & (a >= 0.0)):
+        i = int(np.flatnonzero(~(np.isfinite(a) & (a >= 0.0)))[0])
+        raise ValueError(f"dt[{i}] = {a[i]!r} must be finite and >= 0")
+    return a
+
+
+def _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol) -> ReturnMapResult:
+    """The scalar path: :func:`~._subloading.point.point` per point, outputs from one list.
+
+    All float outputs are contiguous slices of one array (one ``np.array`` call), laid out
+    component-major: traction, tangent, up, mu, r (and ``f`` = the traction, copied).
+    """
+    up_a = state["up"]
+    n, nt = up_a.shape
+    m = nt + 1
+    f_a = state["f"].tolist() if has_f else [None] * n
+    mu_a, r_a = state["mu"].tolist(), state["r"].tolist()
+    if isinstance(dt, float):
+        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, strict=True)
+        res = [point(L, g, u, mu, r, f, dt, tol, max_iter, contact_tol) for g, u, mu, r, f in rows]
+    else:
+        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, dt.tolist(), strict=True)
+        res = [point(L, g, u, mu, r, f, d, tol, max_iter, contact_tol)
+               for g, u, mu, r, f, d in rows]  # fmt: skip
+    if n == 1:
+        t, D, up1, mu1, r1, st, un, it = res[0]
+        flat = t + [x for row in D for x in row] + up1
+        flat.append(mu1)
+        flat.append(r1)
+        status, unstable, iters = [st], [un], [it]
+    else:
+        flat = [x for q in res for x in q[0]]
+        flat += [x for q in res for row in q[1] for x in row]
+        flat += [x for q in res for x in q[2]]
+        flat += [q[3] for q in res]
+        flat += [q[4] for q in res]
+        status = [q[5] for q in res]
+        unstable = [q[6] for q in res]
+        iters = [q[7] for q in res]
+    buf = np.array(flat)
+    a = n * m
+    b = a + n * m * m
+    c = b + n * nt
+    tr = buf[:a].reshape(n, m)
+    tan = buf[a:b].reshape(n, m, m)
+    if out is None:
+        arrays = {"up": buf[b:c].reshape(n, nt), "mu": buf[c : c + n], "r": buf[c + n :]}
+        if has_f:
+            arrays["f"] = tr.copy()
+        out = InterfaceState.wrap(arrays, n, nt)
+    else:
+        out["up"][...] = buf[b:c].reshape(n, nt)
+        out["mu"][...] = buf[c : c + n]
+        out["r"][...] = buf[c + n :]
+        if "f" in out:
+            out["f"][...] = tr
+    return ReturnMapResult(
+        tr,
+        tan,
+        out,
+        np.array(status, dtype=np.int8),
+        np.array(unstable, dtype=bool),
+        np.array(iters, dtype=np.int64),
     )
-    # Sanitise rejected points so that no NaN enters the arithmetic below.
-    gap_s = np.where(ok_in[:, None], gap, 0.0)
-    up_s = np.where(ok_in[:, None], up_n, 0.0)
-    mu_s = np.where(ok_in, np.clip(mu_n, p.mu_k, p.mu_s), p.mu_s)
-    r_s = np.where(ok_in, np.clip(r_n, 0.0, 1.0), 0.0)
-
-    ft_trial = p.alpha_t * (gap_s[:, :nt] - up_s)
-    A = tangential_norm(ft_trial)
-    un = gap_s[:, nt]
-    fn = p.alpha_n * un
-    g = -np.expm1(-p.c_n * np.maximum(fn, 0.0))
-    contact = ok_in & (un > 0.0) & (g > 0.0)
-
-    b = p.xi * dt
-    # mu after recovery alone; the min keeps the rounding of mu + (mu_s - mu) from exceeding mu_s
-    mu_rec = np.minimum(mu_s + (p.mu_s - mu_s) * (-np.expm1(-b)), p.mu_s)
-    phi0 = A - g * r_s * mu_rec
-    plastic = contact & (phi0 > 0.0) & (A > 0.0)
-    elastic = contact & ~plastic
-
-    status = np.full(n, Status.FAILED, dtype=np.int8)
-    status[elastic] = Status.ELASTIC
-    status[ok_in & ~contact] = Status.SEPARATED
-    unstable = np.zeros(n, dtype=bool)
-    iterations = np.zeros(n, dtype=np.int64)
-
-    new = p.initial_state(n, nt) if out is None else out
-    if new.up.shape != up_n.shape:
-        raise ValueError(f"out has shape {new.up.shape}, expected {up_n.shape}")
-    traction = np.zeros((n, m))
-    tangent = np.zeros((n, m, m))
-
-    # Defaults: elastic trial everywhere (overwritten below for the other cases).
-    np.copyto(new.up, up_s)
-    np.copyto(new.mu, mu_rec)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        # F = 0 gives r = 0 even where g mu_rec underflows to 0 (subnormal g): no 0/0
-        r_el = np.where(contact & (A > 0.0), A / (g * mu_rec), 0.0)
-    np.copyto(new.r, np.clip(r_el, 0.0, 1.0))
-    traction[:, :nt] = np.where(elastic[:, None], ft_trial, 0.0)
-    traction[:, nt] = np.where(elastic, fn, 0.0)
-    diag = np.zeros(m)
-    diag[:nt], diag[nt] = p.alpha_t, p.alpha_n
-    # Touching exactly (ubar_n = 0, e.g. an unloaded initial state): zero traction, but the
-    # one-sided tangent from the contact side, so that a touching interface has stiffness.
-    touching = ok_in & (un == 0.0)
-    tangent[elastic | touching] = np.diag(diag)
-
-    # Failed inputs keep their last converged state where it was finite.
-    bad = ~ok_in
-    if np.any(bad):
-        new.up[bad] = up_s[bad]
-        new.mu[bad] = mu_s[bad]
-        new.r[bad] = r_s[bad]
-
-    pidx = np.flatnonzero(plastic)
-    if pidx.size:
-        _plastic(
-            p,
-            pidx,
-            ft_trial,
-            A,
-            fn,
-            g,
-            r_s,
-            mu_s,
-            mu_rec,
-            b,
-            up_s,
-            tol,
-            max_iter,
-            new,
-            traction,
-            tangent,
-            status,
-            unstable,
-            iterations,
-        )
-
-    return ReturnMapResult(traction, tangent, new, status, unstable, iterations)
-
-
-def _plastic(
-    p: SubloadingLaw,
-    pidx: np.ndarray,
-    ft_trial: np.ndarray,
-    A_all: np.ndarray,
-    fn_all: np.ndarray,
-    g_all: np.ndarray,
-    r_all: np.ndarray,
-    mu_all: np.ndarray,
-    mu_rec_all: np.ndarray,
-    b: float,
-    up_all: np.ndarray,
-    tol: float,
-    max_iter: int,
-    new: InterfaceState,
-    traction: np.ndarray,
-    tangent: np.ndarray,
-    status: np.ndarray,
-    unstable: np.ndarray,
-    iterations: np.ndarray,
-) -> None:
-    """Solve the plastic points ``pidx`` and write their outputs in place."""
-    nt = ft_trial.shape[1]
-    A, fn, g = A_all[pidx], fn_all[pidx], g_all[pidx]
-    r_n, mu_n, mu_rec = r_all[pidx], mu_all[pidx], mu_rec_all[pidx]
-    br = Branch(p, A, g, r_n, mu_n, b)
-    npl = pidx.size
-    rows = np.arange(npl)
-    dl_max = A / p.alpha_t
-    # Tolerances relative to the size of the yield surface, floored at what the float resolution
-    # of dl (and hence of A - alpha_t dl) allows when the trial is far outside (huge steps).
-    eps = np.finfo(float).eps
-    tol_f = np.maximum(tol * g * p.mu_s, 8.0 * eps * A)
-
-    # A certified first point: one Newton step on phi with mu frozen at mu(0) (a convex lower
-    # bound of phi) stays left of the smallest root. Infinite slope (r_n = 0) gives 0.
-    phi0 = A - g * r_n * mu_rec
-    with np.errstate(divide="ignore"):
-        dr0 = br.eval(np.zeros(npl))[3]
-        x1 = np.where(np.isfinite(dr0), phi0 / (p.alpha_t + g * mu_rec * dr0), 0.0)
-    x1 = np.clip(x1, 0.0, dl_max)
-    start = np.where(x1 > 0.0, x1, dl_max)
-    x, conv, iters = rtsafe(br, rows, x1, dl_max, start, tol_f, max_iter)
-
-    # Certify: phi strictly decreasing on [0, x] means x is the smallest root.
-    _, dphi, r, dr, mu, _ = br.eval(x)
-    dmu0 = br.eval(np.zeros(npl))[5]
-    certified = conv & (p.alpha_t + g * dr * mu - g * r * np.abs(dmu0) > 0.0)
-    jump = np.zeros(npl, dtype=bool)
-    unc = np.flatnonzero(~certified & conv)
-    if unc.size:
-        x_s, conv_s, it_s, jump_s = scan(br, unc, x[unc], tol_f[unc], max_iter)
-        x[unc], conv[unc], jump[unc] = x_s, conv_s, jump_s
-        iters[unc] += it_s
-        _, dphi, r, dr, mu, _ = br.eval(x)
-
-    # Outputs
-    nstar = ft_trial[pidx] / A[:, None]
-    # On the subloading surface exactly (equal to A - alpha_t dl within the root tolerance).
-    ft_mag = np.minimum(g * np.clip(r, 0.0, 1.0) * mu, A)
-    traction[pidx, :nt] = ft_mag[:, None] * nstar
-    traction[pidx, nt] = fn
-    new.up[pidx] = up_all[pidx] + x[:, None] * nstar
-    new.mu[pidx] = mu
-    new.r[pidx] = np.clip(r, 0.0, 1.0)
-
-    # Consistent tangent: d dl = (dA - g' r mu d f_n) / H with H = -phi'(dl).
-    H = -dphi
-    H_safe = np.maximum(np.where(np.isfinite(H), H, p.alpha_t), 1e-12 * p.alpha_t)
-    dg = p.c_n * (1.0 - g)
-    nn = nstar[:, :, None] * nstar[:, None, :]
-    eye = np.eye(nt)[None]
-    D = np.zeros((npl, nt + 1, nt + 1))
-    D[:, :nt, :nt] = p.alpha_t * (
-        (1.0 - p.alpha_t / H_safe)[:, None, None] * nn + (ft_mag / A)[:, None, None] * (eye - nn)
-    )
-    D[:, :nt, nt] = (p.alpha_t * p.alpha_n * dg * r * mu / H_safe)[:, None] * nstar
-    D[:, nt, nt] = p.alpha_n
-    tangent[pidx] = D
-
-    # Rate-form denominator at the end state: den = -kappa (mu - mu_k) r + U(r) mu + alpha_t / g.
-    with np.errstate(over="ignore"):
-        den = -p.kappa * (mu - p.mu_k) * r + dr * mu + p.alpha_t / g
-    st = np.where(jump, Status.JUMP, Status.PLASTIC).astype(np.int8)
-    st[~conv] = Status.FAILED
-    status[pidx] = st
-    unstable[pidx] = conv & (den <= 0.0)
-    iterations[pidx] = iters
-    if np.any(~conv):
-        f = pidx[~conv]
-        new.up[f], new.mu[f], new.r[f] = up_all[f], mu_all[f], r_all[f]
-        traction[f] = 0.0
-        tangent[f] = 0.0

@@ -2,8 +2,9 @@
 
 Library use::
 
-    from subfric_dolfinx.driver import load_case, run_case
+    from subfric_dolfinx.driver import load_case, run_case, run_cases
     result = run_case(load_case("case.json"), steps_per_mm=500)
+    results = run_cases([case_100MPa, case_300MPa, case_600MPa])  # advanced together
 
 Command line::
 
@@ -24,7 +25,9 @@ CASE.json::
 Steps are split at every path breakpoint and sample time; between them a segment gets
 ``ceil(steps_per_mm * L)`` equal steps, ``L`` being the largest change of ``|ubar_t|`` or ``ubar_n``
 in mm (under stress control the tangential change counts as ``|f_t| / alpha_t`` mm). A hold (no
-change) is one step: recovery integrates exactly.
+change) is one step: recovery integrates exactly. Every step count is checked before the first
+step: at most ``MAX_STEPS_PER_SEGMENT`` per segment and ``MAX_TOTAL_STEPS`` in all (an option).
+A step interpolates the path within its segment: its cost does not depend on the number of rows.
 
 Output (JSON): at each sample time ``t, f_t1, f_t2, f_n, up_t1, up_t2, mu, r, ubar_t1, ubar_t2,
 ubar_n`` and the status of the step ending there; the number of steps per status; and
@@ -34,15 +37,18 @@ stable quasi-static solution exists beyond (``on_instability="continue"`` goes o
 Under stress control, loading beyond what the interface can sustain raises :class:`RunawayError`
 at the time it happened.
 
-Modules: :mod:`.case` (parsing and validation), :mod:`.run` (the step loop), :mod:`.cli` (the
-command line).
+Modules: :mod:`.case` (parsing and validation), :mod:`.path` (the plan of steps), :mod:`.run` (the
+step loop of one case), :mod:`.batch` (many cases through one vectorised loop), :mod:`.cli` (the
+command line: exit codes, ``--out`` checked up front and written atomically, progress).
 
 May import: :mod:`subfric_dolfinx.constitutive`, numpy and the standard library only.
 """
 
+from .batch import run_cases
 from .case import (
     DEFAULT_STEPS_PER_MM,
     MAX_STEPS_PER_SEGMENT,
+    MAX_TOTAL_STEPS,
     Case,
     CaseError,
     load_case,
@@ -54,6 +60,7 @@ from .run import DriverResult, RunawayError, fields, run_case
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
     "MAX_STEPS_PER_SEGMENT",
+    "MAX_TOTAL_STEPS",
     "Case",
     "CaseError",
     "DriverResult",
@@ -63,4 +70,5 @@ __all__ = [
     "main",
     "parse_case",
     "run_case",
+    "run_cases",
 ]

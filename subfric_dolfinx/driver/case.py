@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,14 +19,18 @@ from ..constitutive import FrictionLaw, LawError, build_law
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
     "MAX_STEPS_PER_SEGMENT",
+    "MAX_TOTAL_STEPS",
     "Case",
     "CaseError",
     "load_case",
     "parse_case",
+    "read_json",
 ]
 
 DEFAULT_STEPS_PER_MM = 200.0
 MAX_STEPS_PER_SEGMENT = 1e7  # steps between two knots of the path; more is a mistake
+MAX_TOTAL_STEPS = 1e8  # steps of a whole case (about an hour at 30 us per step)
+MAX_CASE_BYTES = 1 << 30  # a case file larger than this is refused before it is read
 
 
 class CaseError(ValueError):
@@ -44,12 +49,24 @@ class Case:
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
 
 
+def _short(v: Any, n: int = 60) -> str:
+    """``repr(v)`` cut to ``n`` characters (a 400-digit integer is not echoed whole)."""
+    try:
+        r = repr(v)
+    except ValueError:  # an int beyond Python's digit limit for str()
+        return f"<int of more than {sys.get_int_max_str_digits()} digits>"
+    return r if len(r) <= n else r[: n - 3] + "..."
+
+
 def _number(where: str, v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise CaseError(f"field '{where}' must be a number, got {v!r}")
-    x = float(v)
+        raise CaseError(f"field '{where}' must be a number, got {_short(v)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
     if not math.isfinite(x):
-        raise CaseError(f"field '{where}' must be finite, got {v!r}")
+        raise CaseError(f"field '{where}' must be finite, got {_short(v)}")
     return x
 
 
@@ -61,6 +78,13 @@ def parse_case(obj: Any) -> Case:
     """
     if not isinstance(obj, dict):
         raise CaseError(f"the case must be a JSON object, got {type(obj).__name__}")
+    try:
+        return _parse(obj)
+    except RecursionError:  # (a deeply nested value somewhere in a field)
+        raise CaseError("the case nests too deeply") from None
+
+
+def _parse(obj: dict) -> Case:
     allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
     unknown = sorted(set(obj) - allowed)
     if unknown:
@@ -70,18 +94,20 @@ def parse_case(obj: Any) -> Case:
     except LawError as e:
         raise CaseError(str(e)) from None
     control = obj.get("control")
-    if control not in ("disp", "stress"):
-        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {control!r}")
+    if not isinstance(control, str) or control not in ("disp", "stress"):
+        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {_short(control)}")
     nt = obj.get("n_tangential", 2)
-    if nt not in (1, 2) or isinstance(nt, bool):
-        raise CaseError(f"field 'n_tangential' must be 1 or 2, got {nt!r}")
+    if isinstance(nt, bool) or not isinstance(nt, int | float) or nt not in (1, 2):
+        raise CaseError(f"field 'n_tangential' must be 1 or 2, got {_short(nt)}")
     raw = obj.get("path")
     if not isinstance(raw, list) or len(raw) < 2:
         raise CaseError("field 'path' must be a list of at least two rows [t, x1, x2, ubar_n]")
     rows = []
     for i, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != 4:
-            raise CaseError(f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {row!r}")
+            raise CaseError(
+                f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {_short(row)}"
+            )
         rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
     path = np.array(rows)
     for i in range(1, len(path)):
@@ -112,19 +138,47 @@ def parse_case(obj: Any) -> Case:
     return Case(law, control, path, samples, int(nt), spm)
 
 
+def read_json(path: str | Path, what: str = "case file") -> Any:
+    """Read a JSON file defensively: every malformed file gives one :class:`CaseError`.
+
+    Args:
+        path: The file.
+        what: How the message calls it (``"case file"``, ``"data file"``).
+
+    Raises:
+        CaseError: Unreadable, a directory, larger than ``MAX_CASE_BYTES``, not UTF-8, invalid
+            JSON, nested too deeply, or an integer beyond Python's digit limit.
+    """
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise CaseError(f"{what} {str(p)!r} is a directory")
+        if p.stat().st_size > MAX_CASE_BYTES:
+            raise CaseError(f"{what} {str(p)!r} is larger than {MAX_CASE_BYTES} bytes")
+        data = p.read_bytes()
+    except OSError as e:
+        raise CaseError(f"cannot read {what} {str(p)!r}: {e.strerror}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        bad = data[e.start : e.start + 1]
+        msg = f"{what} {str(p)!r} is not UTF-8 text (byte {e.start}: {bad!r})"
+        raise CaseError(msg) from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CaseError(f"{what} {str(p)!r} is not valid JSON: {e}") from None
+    except RecursionError:
+        raise CaseError(f"{what} {str(p)!r} nests too deeply to be read") from None
+    except ValueError as e:  # e.g. an integer beyond Python's digit limit
+        raise CaseError(f"{what} {str(p)!r} is not valid: {e}") from None
+
+
 def load_case(path: str | Path) -> Case:
     """Read and validate a CASE.json file.
 
     Raises:
-        CaseError: Unreadable file, invalid JSON, or a bad field (named in the message).
+        CaseError: Unreadable file, not UTF-8, invalid JSON (also: nested too deeply, an integer
+            beyond Python's digit limit), or a bad field (named in the message).
     """
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except OSError as e:
-        raise CaseError(f"cannot read case file {str(p)!r}: {e.strerror}") from None
-    try:
-        obj = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise CaseError(f"case file {str(p)!r} is not valid JSON: {e}") from None
-    return parse_case(obj)
+    return parse_case(read_json(path, "case file"))

@@ -2,7 +2,8 @@
 
 * :mod:`.interface`: pairing of the interface sides across ranks, interface elements (quadrature,
   frames, Quadrature-space state, kernels), the parallel layout with cross-interface couplings.
-* :mod:`.conditions`: materials, prescribed displacements and loads (plain data).
+* :mod:`.conditions`: materials, prescribed displacements, loads and springs (plain data);
+  :mod:`.boundary`: the groups they act on, Dirichlet dofs, load vectors, spring forms.
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
 * :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
@@ -13,7 +14,15 @@ May import: DOLFINx, PETSc, MPI, numpy, and :mod:`subfric_dolfinx.constitutive`,
 :mod:`subfric_dolfinx.loading`, :mod:`subfric_dolfinx.logs` (not io or scenes).
 """
 
-from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
+from .conditions import (
+    Dirichlet,
+    DirichletField,
+    Material,
+    PointForce,
+    Pressure,
+    Spring,
+    Traction,
+)
 from .interface import InterfaceError
 from .problem import InterfaceProblem
 from .solver import DEFAULT_OPTIONS, FrictionSolver
@@ -29,7 +38,9 @@ __all__ = [
     "InterfaceProblem",
     "LoadStepper",
     "Material",
+    "PointForce",
     "Pressure",
+    "Spring",
     "StepFailure",
     "StepRecord",
     "Traction",

@@ -1,7 +1,10 @@
 """Boundary conditions, loads and materials of a two-body interface problem (plain data).
 
 Each condition refers to a physical group by name and to a channel of the loading program
-(:class:`~subfric_dolfinx.loading.LoadingProgram`) that scales it over time.
+(:class:`~subfric_dolfinx.loading.LoadingProgram`) that scales it over time. A Dirichlet
+condition acts on a group of facets, of cells (every dof of the cells: a whole body held) or of
+nodes (gmsh physical points, or node groups added to the mesh); loads and springs on facet groups;
+a point force on the vertex nearest to a point.
 """
 
 from __future__ import annotations
@@ -11,7 +14,15 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["Dirichlet", "DirichletField", "Material", "Pressure", "Traction"]
+__all__ = [
+    "Dirichlet",
+    "DirichletField",
+    "Material",
+    "PointForce",
+    "Pressure",
+    "Spring",
+    "Traction",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -30,9 +41,11 @@ class Material:
 
 @dataclasses.dataclass(frozen=True)
 class Dirichlet:
-    """Prescribed displacement ``value * amplitude(t)`` on a facet group.
+    """Prescribed displacement ``value * amplitude(t)`` on a group of facets, cells or nodes.
 
-    Where conditions share a dof (e.g. along an edge of two faces), the later one wins.
+    On a facet group, the dofs of its facets; on a cell group (a body), every dof of its cells;
+    on a node group, the dofs at its vertices. Where conditions share a dof (e.g. along an edge of
+    two faces), the later one wins.
     ``value`` is a vector (all components) or a scalar with ``component`` given, or a callable
     taking the dof coordinates ``x`` (3, n) and returning values (gdim, n), or (n,) with
     ``component``.
@@ -60,11 +73,15 @@ class DirichletField:
 
 @dataclasses.dataclass(frozen=True)
 class Traction:
-    """Surface traction vector ``value * amplitude(t)`` (MPa) on a facet group."""
+    """Surface traction vector (MPa, any direction) on a facet group.
+
+    Component ``i`` is ``value[i] * amplitude(t)``, or ``value[i] * amplitude[i](t)`` when
+    ``amplitude`` is a sequence of channel names (``None``: constant), one per component.
+    """
 
     group: str
     value: Sequence[float]
-    amplitude: str | None = None
+    amplitude: str | None | Sequence[str | None] = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,3 +91,56 @@ class Pressure:
     group: str
     value: float
     amplitude: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Spring:
+    """Elastic support (Robin condition) on a facet group: ``t = -k (u - u0)`` per component.
+
+    A distributed spring: ``stiffness`` in MPa/mm (N/mm per mm² of surface), one value for every
+    component or one per component (0 leaves a component free). The spring's other end moves as
+    ``u0[i] * amplitude[i](t)`` (``amplitude`` one channel for all components, or one per
+    component; ``u0`` defaults to 0, a fixed end). A discrete spring of ``K`` N/mm spread over a
+    face of area ``A`` is ``stiffness = K / A``. The stiffness enters the Jacobian (it is part of
+    the bulk matrix).
+    """
+
+    group: str
+    stiffness: float | Sequence[float]
+    u0: Sequence[float] | None = None
+    amplitude: str | None | Sequence[str | None] = None
+
+
+@dataclasses.dataclass(frozen=True)
+class PointForce:
+    """A force vector (N) at the mesh vertex nearest to the point ``x``.
+
+    The vertex is searched among the vertices of the cells of ``body`` (``None``: all cells;
+    give the body for a point on the interface, whose nodes are duplicated); it is found in
+    parallel and the force applied once. Component ``i`` is ``value[i] * amplitude(t)`` (or
+    ``amplitude[i]``, as for :class:`Traction`).
+    """
+
+    x: Sequence[float]
+    value: Sequence[float]
+    amplitude: str | None | Sequence[str | None] = None
+    body: str | None = None
+
+    @property
+    def group(self) -> str:
+        """A name for messages."""
+        return f"point {tuple(float(v) for v in self.x)}"
+
+
+def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:
+    """The channel of each of ``n`` components: one name for all, or a sequence of ``n``.
+
+    Raises:
+        ValueError: A sequence of the wrong length (naming ``what``).
+    """
+    if amplitude is None or isinstance(amplitude, str):
+        return [amplitude] * n
+    out = list(amplitude)
+    if len(out) != n:
+        raise ValueError(f"{what}: {len(out)} amplitude channels for {n} components")
+    return out

@@ -2,13 +2,13 @@
 
 The residual ``F = K u - f_ext + R_int`` (free rows) is a sum of terms that cancel at the
 solution, each computed in floating point: it cannot be made smaller than about ``eps`` times
-the size of those terms, however exact the linear solves. That size is
+the size of those terms, however exact the linear solves. That size is::
 
     S = || |K| |u| + |f_ext| + |R_int| ||_2        (free rows, not the Dirichlet ones)
 
 with ``|K|`` the entrywise absolute value of the bulk stiffness. Measured on the 2-D block and
-the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; ``/work/notes/scale_findings.md``
-section 6) the smallest residual Newton reaches is 0.17 to 0.33 ``eps S``, at every size. An
+the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; the scale study
+of issue 13) the smallest residual Newton reaches is 0.17 to 0.33 ``eps S``, at every size. An
 absolute tolerance (``snes_atol``) or one relative to a step's first residual (``snes_rtol``)
 cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at
 300 MPa and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first

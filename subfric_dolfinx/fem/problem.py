@@ -1,10 +1,11 @@
 """Two linear-elastic bodies joined by a frictional zero-thickness interface.
 
 The residual is ``F(u) = K u - f_ext(t) + R_int(u)`` with ``K`` the bulk stiffness assembled once
-from UFL (small strain, plane strain in 2-D; one material per body), ``f_ext`` the tractions and
-pressures scaled by their loading channels, and ``R_int`` the interface forces from the friction
-law's return map. Dirichlet rows are replaced by ``u - g(t)`` and the Jacobian rows by identity
-rows, which keeps the Jacobian exact (no symmetric elimination, no lifting).
+from UFL (small strain, plane strain in 2-D; one material per body; springs ``k_i u_i v_i`` on
+their facets), ``f_ext`` the tractions, pressures, point forces and the springs' moving ends, each
+scaled by its loading channel (:mod:`.boundary`), and ``R_int`` the interface forces from the
+friction law's return map. Dirichlet rows are replaced by ``u - g(t)`` and the Jacobian rows by
+identity rows, which keeps the Jacobian exact (no symmetric elimination, no lifting).
 
 The interface's return map runs in :meth:`InterfaceProblem.residual`; its consistent tangent is
 reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
@@ -13,7 +14,7 @@ reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -24,8 +25,19 @@ from petsc4py import PETSc
 
 from ..constitutive import FrictionLaw
 from ..loading import LoadingProgram
-from .conditions import Dirichlet, DirichletField, Material, Pressure, Traction
+from .boundary import check_groups, dirichlet_dofs, load_vectors, spring_forms
+from .conditions import (
+    Dirichlet,
+    DirichletField,
+    Material,
+    PointForce,
+    Pressure,
+    Spring,
+    Traction,
+    channels,
+)
 from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
+from .interface.regions import element_regions
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
 __all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
@@ -38,41 +50,6 @@ PENETRATION_WARNING = 0.1
 linear model (pairs and frames fixed at the reference geometry) no longer describes the contact."""
 
 
-def _check_facet_groups(domain, conditions: Sequence) -> None:
-    """Every condition must be on a group of facets (collective).
-
-    Raises:
-        InterfaceError: A condition on a group of cells, of another dimension, or without facets.
-    """
-    mesh = domain.mesh
-    tdim = mesh.topology.dim
-    dims = getattr(domain, "dims", None) or {}
-    groups = list(dict.fromkeys(c.group for c in conditions))
-    n_owned = mesh.topology.index_map(tdim - 1).size_local
-    ncells = mesh.topology.index_map(tdim).size_local
-    local = np.zeros((len(groups), 2), dtype=np.int64)
-    for i, g in enumerate(groups):
-        tag = domain.tags[g]
-        local[i, 0] = np.count_nonzero(domain.facet_tags.find(tag) < n_owned)
-        local[i, 1] = np.count_nonzero(domain.cell_tags.find(tag) < ncells)
-    total = mesh.comm.allreduce(local) if groups else local
-    for g, (nf, nc) in zip(groups, total, strict=True):
-        kind = type(next(c for c in conditions if c.group == g)).__name__
-        dim = dims.get(g)
-        if dim == tdim or (dim is None and nf == 0 and nc > 0):
-            raise InterfaceError(
-                f"{kind} condition on {g!r}: a group of cells (dimension {tdim}), not of facets "
-                f"(dimension {tdim - 1}); conditions act on boundary facets"
-            )
-        if dim is not None and dim != tdim - 1:
-            raise InterfaceError(
-                f"{kind} condition on {g!r}: a group of dimension {dim}, not of facets "
-                f"(dimension {tdim - 1}); conditions act on boundary facets"
-            )
-        if nf == 0:
-            raise InterfaceError(f"{kind} condition on {g!r}: the group has no facets")
-
-
 class InterfaceProblem:
     """Residual and Jacobian of two elastic bodies with a frictional interface.
 
@@ -83,11 +60,19 @@ class InterfaceProblem:
         law: The friction law (a :class:`~subfric_dolfinx.constitutive.FrictionLaw`).
         materials: Body name (``master``/``slave``) -> :class:`Material`.
         program: Loading program whose channels the conditions refer to.
-        dirichlet: Prescribed displacements.
-        loads: Tractions and pressures.
+        dirichlet: Prescribed displacements (on facet, cell or node groups).
+        loads: Tractions, pressures and point forces.
+        springs: Elastic supports (:class:`Spring`).
         degree: Displacement degree (1 or 2).
         quadrature: Interface quadrature, ``"gauss"`` or ``"nodal"``.
         names: Group names of ``interface``, ``master`` and ``slave`` if not these.
+        initial_gap: Initial normal gap ``g0`` of the interface (mm, > 0 open): a number or a
+            function of the coordinates ``x`` (gdim, n) (see
+            :class:`~.interface.InterfaceElements`).
+        regions: Interface regions: name of a subgroup of the interface (see
+            :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`) -> its law; ``law``
+            holds elsewhere. :attr:`law` is then a
+            :class:`~subfric_dolfinx.constitutive.RegionalLaw`.
 
     Raises:
         InterfaceError: A required physical group is missing (named), or the interface is unusable.
@@ -100,11 +85,14 @@ class InterfaceProblem:
         materials: Mapping[str, Material],
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),
-        loads: Sequence[Traction | Pressure] = (),
+        loads: Sequence[Traction | Pressure | PointForce] = (),
         *,
+        springs: Sequence[Spring] = (),
         degree: int = 1,
         quadrature: str = "gauss",
         names: Mapping[str, str] | None = None,
+        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
+        regions: Mapping[str, FrictionLaw] | None = None,
     ) -> None:
         self.timings = Timings()
         mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
@@ -113,21 +101,24 @@ class InterfaceProblem:
         self.comm = mesh.comm
         self.law = law
         self.program = program
+        self.materials = dict(materials)
         self.tags = dict(domain.tags)
         nm = {"interface": "interface", "master": "master", "slave": "slave", **(names or {})}
         needed = [nm["interface"], nm["master"], nm["slave"]]
-        needed += [c.group for c in dirichlet] + [c.group for c in loads]
+        needed += [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
         missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
         if missing:
             raise InterfaceError(
                 f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
             )
-        for c in [*dirichlet, *loads]:
-            program.amplitude(c.amplitude, program.t_start)  # unknown channel -> LoadingError
-        _check_facet_groups(domain, [*dirichlet, *loads])
+        gdim = mesh.geometry.dim
+        for c in [*dirichlet, *loads, *springs]:
+            n = gdim if isinstance(c, Traction | PointForce | Spring) else 1
+            for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
+                program.amplitude(ch, program.t_start)  # unknown channel -> LoadingError
+        self.group_kinds = check_groups(domain, [*dirichlet, *loads, *springs])
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
-        gdim = mesh.geometry.dim
         tdim = mesh.topology.dim
         self.gdim = gdim
         V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (gdim,)))
@@ -143,7 +134,14 @@ class InterfaceProblem:
                 self.tags[nm["master"]],
                 self.tags[nm["slave"]],
             )
-            self.interface = InterfaceElements(self.pairs, V, law, quadrature)
+            by_region = None
+            if regions:
+                groups = getattr(domain, "interface_groups", None) or {}
+                by_region = (element_regions(self.pairs, groups, list(regions)), dict(regions))
+            self.interface = InterfaceElements(
+                self.pairs, V, law, quadrature, initial_gap=initial_gap, regions=by_region
+            )
+            self.law = self.interface.law
             self.layout = ExtendedLayout(V, self.pairs.index_map, self.interface.nodes)
 
         # Bulk stiffness from UFL, one material per body.
@@ -163,62 +161,22 @@ class InterfaceProblem:
             mu = mat.E / (2 * (1 + mat.nu))
             sig = 2 * mu * eps(du) + lam * ufl.tr(eps(du)) * ufl.Identity(gdim)
             a = a + ufl.inner(sig, eps(v)) * dx(self.tags[nm[body]])
+        a_springs, spring_loads, self.spring_forces = spring_forms(V, domain, springs, ds)
+        a = a + a_springs
+        self.springs = list(springs)
         with self.timings(TIMER_BULK):
             self.K = self.layout.create_matrix()
             dolfinx.fem.petsc.assemble_matrix(self.K, dolfinx.fem.form(a))
             self.K.assemble()
-            # Load vectors, one per condition (scaled by its channel at run time).
-            n = ufl.FacetNormal(mesh)
-            self.loads = []
-            for c in loads:
-                if isinstance(c, Pressure):
-                    L = -float(c.value) * ufl.dot(n, v) * ds(self.tags[c.group])
-                else:
-                    tv = np.asarray(c.value, dtype=float)
-                    if tv.shape != (gdim,):
-                        raise ValueError(f"traction on {c.group!r} must have {gdim} components")
-                    L = ufl.dot(ufl.as_vector(tv.tolist()), v) * ds(self.tags[c.group])
-                f = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(L))
-                f.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                self.loads.append((c, f))
+            # Load vectors, one per condition and channel (scaled by the channel at run time).
+            self.loads = load_vectors(V, domain, loads, ds) + spring_loads
 
         # Dirichlet dofs (owned, unrolled) with their reference values.
         mesh.topology.create_connectivity(tdim - 1, tdim)
         bs = V.dofmap.bs
-        n_owned = self.layout.n_owned
-        self.dirichlet = []
-        xdof = V.tabulate_dof_coordinates()
-        for c in dirichlet:
-            facets = facet_tags.find(self.tags[c.group])
-            if c.component is None:
-                nodes = dolfinx.fem.locate_dofs_topological(V, tdim - 1, facets)
-                dofs = (nodes[:, None] * bs + np.arange(bs)).ravel()
-                if callable(c.value):
-                    val = np.asarray(c.value(xdof[nodes].T), dtype=float).reshape(gdim, -1)
-                    vals = val.T.ravel()
-                else:
-                    val = np.asarray(c.value, dtype=float)
-                    if val.shape != (gdim,):
-                        raise ValueError(
-                            f"Dirichlet value on {c.group!r} must have {gdim} components"
-                        )
-                    vals = np.tile(val, nodes.size)
-            else:
-                if not 0 <= c.component < gdim:
-                    raise ValueError(f"component {c.component!r} out of range on {c.group!r}")
-                Vc, _ = V.sub(c.component).collapse()
-                dofs = dolfinx.fem.locate_dofs_topological(
-                    (V.sub(c.component), Vc), tdim - 1, facets
-                )[0]
-                if isinstance(c, DirichletField):
-                    vals = xdof[dofs // bs].T  # coordinates, evaluated at each time
-                elif callable(c.value):
-                    vals = np.asarray(c.value(xdof[dofs // bs].T), dtype=float).reshape(-1)
-                else:
-                    vals = np.full(dofs.size, float(c.value))
-            keep = dofs < n_owned
-            vals = vals[:, keep] if isinstance(c, DirichletField) else vals[keep]
-            self.dirichlet.append((c, dofs[keep].astype(np.int32), vals))
+        self.dirichlet = [
+            (c, *dirichlet_dofs(V, domain, c, self.group_kinds[c.group])) for c in dirichlet
+        ]
         # the dofs of each Dirichlet group (all its conditions, e.g. one per component)
         self._reaction_dofs = {
             g: np.unique(np.concatenate([d for c, d, _ in self.dirichlet if c.group == g]))

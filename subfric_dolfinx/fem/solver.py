@@ -54,6 +54,13 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 """Options used where neither the solver's options nor the options database give a value
 (with those of the linear strategy, :data:`~.linear.STRATEGY_OPTIONS`)."""
 
+SNORM_SLACK = 1e4
+"""A solve that PETSc ends with ``CONVERGED_SNORM_RELATIVE`` (the Newton step stopped moving
+``x``) counts as converged only if its last residual norm is within this factor of the function
+tolerance ``max(atol, rtol * |F_0|)``: stagnation at round-off. A step that stops moving with a
+large residual (a line search shrinking its steps on a load the interface cannot carry) is a
+failure, not a solution."""
+
 _LIVE_PREFIXES: set[str] = set()
 _AUTO_PREFIX = itertools.count()
 
@@ -230,6 +237,8 @@ class FrictionSolver:
             (return-map statuses at the last evaluation, global), ``krylov`` (Krylov iterations)
             and ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
             Krylov failure with a stale one; the other values are the repeat's).
+            ``CONVERGED_SNORM_RELATIVE`` with a residual far above the tolerances is not
+            converged (:data:`SNORM_SLACK`).
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
@@ -278,10 +287,14 @@ class FrictionSolver:
                 self._configure()
         reason = self.snes.getConvergedReason()
         hist, _ = self.snes.getConvergenceHistory()
+        converged = reason > 0
+        if reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and len(hist):
+            rtol, atol, _, _ = self.snes.getTolerances()
+            converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
         last = p.interface.last
         counts = {k: p.comm.allreduce(v) for k, v in last.counts().items()} if last else {}
         return {
-            "converged": reason > 0,
+            "converged": converged,
             "iterations": self.snes.getIterationNumber(),
             "reason": int(reason),
             "converged_by": self.convergence.by if reason > 0 else None,

@@ -5,9 +5,13 @@ problem's loading program: steps end on every breakpoint (a reversal or the star
 stepped over) and on requested stop times; a failed step is undone (displacement and interface
 state), tried again with a backtracking line search (:data:`RETRY_OPTIONS`: Newton with full steps
 can cycle on the switch between open and closed contact) and, if that fails too, retried with a
-smaller step; easy steps let the step grow; state is committed only after convergence. After too
-many cuts it raises :class:`StepFailure` naming the time, the last converged step, whose state is
-intact, and what the return map saw at the failed attempt (status counts, the worst point, where).
+smaller step; easy steps let the step grow; state is committed only after convergence. With
+``hold_dt``, a hold of the program (a segment where no channel changes: time passes, nothing moves)
+is crossed in steps of ``hold_dt`` (the subloading return map integrates the recovery of a hold
+exactly, whatever the step: docs/model.md §6.7), and the step outside holds is kept for after it.
+After too many cuts it raises :class:`StepFailure` naming the time, the last converged step,
+whose state is intact, and what the return map saw at the failed attempt (status counts, the
+worst point, where).
 A step that converges at once costs nothing extra.
 
 Logging (:mod:`subfric_dolfinx.logs`): one INFO line per segment of the program (steps, Newton
@@ -198,6 +202,9 @@ class LoadStepper:
             (default :data:`RETRY_OPTIONS`, a line search); ``None``: cut at once.
         sticky_retry: Once a step needed the retry, start the following steps of the same
             segment of the program (up to the next breakpoint) with the retry options.
+        hold_dt: Step in the holds of the program (segments where every channel is constant),
+            instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
+            untouched); ``None``: holds are stepped like the rest.
     """
 
     def __init__(
@@ -215,9 +222,12 @@ class LoadStepper:
         on_step: Callable[[StepRecord], None] | None = None,
         retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
         sticky_retry: bool = True,
+        hold_dt: float | None = None,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
+        if hold_dt is not None and not (math.isfinite(hold_dt) and hold_dt > 0):
+            raise ValueError(f"hold_dt = {hold_dt!r} must be finite and > 0")
         self.solver = solver
         self.problem = solver.problem
         self.program = self.problem.program
@@ -230,6 +240,8 @@ class LoadStepper:
         self.on_step = on_step
         self.retry_options = dict(retry_options) if retry_options else None
         self.sticky_retry = sticky_retry
+        self.hold_dt = float(hold_dt) if hold_dt is not None else None
+        self._hold_step: float | None = None  # the hold's step after a cut (until its end)
         self._keep_retry = False
         self.retries = 0  # steps whose first attempt failed and the retry converged (run)
         self.line_search_steps = 0  # steps solved with the retry options (run)
@@ -283,9 +295,11 @@ class LoadStepper:
         while self.t < t_end - tol:
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
-            target = min(self.t + self.dt, nb)
+            hold = self.hold_dt is not None and self.program.is_hold(self.t)
+            size = (self._hold_step or self.hold_dt) if hold else self.dt
+            target = min(self.t + size, nb)
             # do not leave a sliver before a breakpoint
-            if nb - target < 0.25 * self.dt:
+            if nb - target < 0.25 * size:
                 target = nb
             dt = target - self.t
             t0 = time.perf_counter()
@@ -311,9 +325,12 @@ class LoadStepper:
                     "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
                     target, dt, why, attempt["text"],
                 )  # fmt: skip
-                self.dt = dt * self.cut
-                self.easy = 0
-                if cuts > self.max_cuts or self.dt < self.dt_min:
+                if hold:
+                    self._hold_step = dt * self.cut
+                else:
+                    self.dt = dt * self.cut
+                    self.easy = 0
+                if cuts > self.max_cuts or dt * self.cut < self.dt_min:
                     tried = f" (and with {_options_text(self.retry_options)})" if retried else ""
                     raise StepFailure(
                         f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
@@ -355,11 +372,13 @@ class LoadStepper:
                 logger.info(segment.line(target, rec))
                 segment = _Segment(target)
                 self._keep_retry = False  # a new segment starts with the solver's own options
+                self._hold_step = None
             cuts = 0
-            self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
-            if self.easy >= self.easy_steps:
-                self.dt = min(self.dt * self.grow, self.dt_max)
-                self.easy = 0
+            if not hold:  # the step outside holds grows on easy steps
+                self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
+                if self.easy >= self.easy_steps:
+                    self.dt = min(self.dt * self.grow, self.dt_max)
+                    self.easy = 0
             if self.on_step is not None:  # last: the stepper's state is that of the next step
                 self.on_step(rec)
         return self.records

@@ -5,28 +5,49 @@
 * :mod:`.summary`: :func:`interface_summary`, resultant forces and area-weighted means.
 * :mod:`.history`: :class:`HistoryCSV`, one row per converged step.
 * :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView.
+* :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
+  as a point-cloud time series (XDMF/HDF5) for ParaView.
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
-* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file.
+* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file (:mod:`.checkpoint_format`: its
+  validation).
+* :mod:`.collective`: collective errors (:class:`OutputError`), the directory probe.
+* :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run.
+* :mod:`.h5`, :mod:`.slabs`: HDF5 files written and read in per-rank slabs (h5py's MPI driver).
 
 May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, DOLFINx, MPI, h5py
 (not scenes).
 """
 
-from .checkpoint import CheckpointError, read_checkpoint, restore_checkpoint, write_checkpoint
+from .checkpoint import (
+    CheckpointError,
+    CheckpointWriteError,
+    read_checkpoint,
+    restore_checkpoint,
+    write_checkpoint,
+)
+from .collective import OutputError, probe_directory
 from .fields import FieldWriter
 from .gather import gather_interface, interface_order
 from .history import HistoryCSV
 from .interface_history import InterfaceHistoryH5
+from .outdir import OutputDirectory
+from .points import InterfacePointsXDMF, PointCloudError
 from .summary import interface_summary
 
 __all__ = [
     "CheckpointError",
+    "CheckpointWriteError",
     "FieldWriter",
     "HistoryCSV",
     "InterfaceHistoryH5",
+    "InterfacePointsXDMF",
+    "OutputDirectory",
+    "OutputError",
+    "PointCloudError",
     "gather_interface",
     "interface_order",
     "interface_summary",
+    "probe_directory",
     "read_checkpoint",
     "restore_checkpoint",
     "write_checkpoint",

@@ -1,21 +1,32 @@
-"""Checkpoint and restart of a load-stepped run, in one HDF5 file (h5py).
+"""Checkpoint and restart of a load-stepped run, in one HDF5 file written and read in slabs.
 
 A checkpoint holds the whole solver state with partition-independent keys, so a run written on 2
-ranks restarts on 1 or 2:
+ranks restarts on 1 or 2 (format version 2):
 
 * ``/displacement``: values per (original cell index, cell-local dof, component), shape
   ``(n_cells, n_dofs_per_cell, gdim)``;
 * ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
-  ``up``, ``mu``, ``r``): the committed interface state per quadrature point, keyed by the point's
-  coordinates (unique on the interface);
+  ``up``, ``mu``, ``r``): the committed interface state per quadrature point, in the order of
+  :func:`~.gather.gather_interface` (points sorted by rounded coordinates);
+* ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
+  initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
+  restarts only with the same initial gap and regions);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
-  counter of the stepper), ``law`` and ``program`` (JSON), ``n_cells``, ``degree``, ``gdim``;
+  counter of the stepper), ``law``, ``program`` and ``settings`` (JSON: what the runner passed,
+  e.g. the scene's materials, boundary conditions and loads), ``n_cells``, ``n_points``,
+  ``degree``, ``gdim``;
 * ``/history``: the rows of the history so far (column names in the attribute ``columns``).
 
-It is gathered to rank 0 and written to ``<path>.tmp``, flushed and renamed over ``<path>``: a run
-killed while writing leaves the previous checkpoint intact. Reading checks the format, version,
-mesh and parameters, and raises :class:`CheckpointError` naming what is wrong (truncated or
-foreign file, other mesh, other parameters).
+Every rank writes and reads its own contiguous slab of rows (:mod:`.slabs`) through h5py's MPI
+driver (:class:`~.h5.ParallelH5`): memory O(local) per rank. The file is written as
+``<path>.tmp``, flushed, closed and renamed over ``<path>`` by rank 0: a run killed (or a disk
+filling up) while writing leaves the previous checkpoint intact; any failure is a
+:class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
+:class:`~.collective.OutputError`), naming the file and the OS error.
+
+Reading validates the file (:mod:`.checkpoint_format`: format, version, the type of every
+attribute, the shape, dtype and finiteness of every dataset) and a restart compares the mesh, the
+law, the loading program and the runner's settings with the run's, naming the first difference.
 """
 
 from __future__ import annotations
@@ -27,27 +38,49 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from ..constitutive import law_description
-from ..fem.interface.geometry import match_points
+from .checkpoint_format import (
+    FORMAT,
+    VERSION,
+    CheckpointError,
+    check_blocks,
+    check_metadata,
+    first_difference,
+    jsonable,
+)
+from .collective import OutputError, collective
+from .h5 import ParallelH5
+from .slabs import interface_rows, pull, push, slab
 
-__all__ = ["CheckpointError", "read_checkpoint", "restore_checkpoint", "write_checkpoint"]
-
-FORMAT = "subfric-dolfinx checkpoint"
-VERSION = 1
+__all__ = ["Checkpoint", "CheckpointError", "CheckpointWriteError", "read_checkpoint",
+           "restore_checkpoint", "write_checkpoint"]  # fmt: skip
 
 
-class CheckpointError(RuntimeError):
-    """An unusable checkpoint; the message says why."""
+class CheckpointWriteError(CheckpointError, OutputError):
+    """A checkpoint could not be written (an output failure: a full disk, ...).
+
+    Both a :class:`CheckpointError` and an :class:`~.collective.OutputError`: a program tells it
+    from an unusable restart file (bad input) by the latter.
+    """
 
 
-def _cell_dofs(problem: Any) -> tuple[np.ndarray, np.ndarray]:
+def _cell_dofs(problem: Any) -> tuple[np.ndarray, np.ndarray, int]:
     mesh, V = problem.mesh, problem.V
-    n = mesh.topology.index_map(mesh.topology.dim).size_local
-    return mesh.topology.original_cell_index[:n].astype(np.int64), V.dofmap.list[:n]
+    imap = mesh.topology.index_map(mesh.topology.dim)
+    n = imap.size_local
+    cells = mesh.topology.original_cell_index[:n].astype(np.int64)
+    return cells, V.dofmap.list[:n], imap.size_global
 
 
-def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list[dict]) -> None:
+def write_checkpoint(
+    path: str | Path,
+    problem: Any,
+    stepper: Any,
+    history: list[dict],
+    settings: dict[str, Any] | None = None,
+) -> None:
     """Write the converged state of ``problem`` and the position of ``stepper`` (collective).
 
     Args:
@@ -55,184 +88,310 @@ def write_checkpoint(path: str | Path, problem: Any, stepper: Any, history: list
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
         stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt).
         history: History rows so far (stored so that a restarted run continues them).
+        settings: JSON-ready settings a restart must match (e.g. the scene's materials,
+            boundary conditions and loads); compared by :func:`restore_checkpoint`.
+
+    Raises:
+        CheckpointWriteError: On every rank, naming the file and the OS error; the previous
+            checkpoint at ``path`` is intact.
     """
     comm = problem.comm
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    what = f"writing the checkpoint {str(path)!r}"
     gdim = problem.gdim
-    cells, dofs = _cell_dofs(problem)
+    cells, dofs, n_cells = _cell_dofs(problem)
     u = problem.u.x.array.reshape(-1, gdim)
-    u_cells = u[dofs]  # (n, ndofs, gdim)
     el = problem.interface
     st = el.state.old
+    rows, n_points = interface_rows(el)
+    # every rank's slab of every dataset (one Alltoallv each)
+    ublock = push(comm, cells, u[dofs], n_cells)
     pts = el.points.reshape(-1, gdim)
-    gathered = comm.gather((cells, u_cells, pts, {k: a for k, a in st.items()}), root=0)
-    error = None
-    if comm.rank == 0:
-        try:
-            import h5py
+    blocks = {"x": push(comm, rows, pts, n_points)}
+    for name in st.names:
+        blocks[name] = push(comm, rows, st[name], n_points)
+    pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
+    cols = list(history[0]) if history else []
+    table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
+        len(history), len(cols)
+    )
+    attrs = dict(
+        format=FORMAT,
+        version=VERSION,
+        time=float(stepper.t),
+        step=int(stepper.step),
+        dt=float(stepper.dt),
+        easy=int(stepper.easy),
+        law=json.dumps(law_description(problem.law)),
+        program=json.dumps(problem.program.to_dict()),
+        settings=json.dumps(jsonable(settings or {})),
+        n_cells=int(n_cells),
+        n_points=int(n_points),
+        degree=int(problem.V.ufl_element().embedded_superdegree),
+        gdim=int(gdim),
+    )
+    c0, c1 = slab(n_cells, comm.size, comm.rank)
+    p0, p1 = slab(n_points, comm.size, comm.rank)
 
-            cells_g = np.concatenate([g[0] for g in gathered])
-            ucells = np.concatenate([g[1] for g in gathered])
-            n_cells = int(cells_g.max()) + 1 if cells_g.size else 0
-            U = np.zeros((n_cells, ucells.shape[1], gdim))
-            U[cells_g] = ucells
-            path = Path(path)
-            tmp = path.with_name(path.name + ".tmp")
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with h5py.File(tmp, "w") as f:
-                f.attrs.update(
-                    format=FORMAT,
-                    version=VERSION,
-                    time=stepper.t,
-                    step=stepper.step,
-                    dt=stepper.dt,
-                    easy=stepper.easy,
-                    law=json.dumps(law_description(problem.law)),
-                    program=json.dumps(problem.program.to_dict()),
-                    n_cells=n_cells,
-                    degree=problem.V.ufl_element().embedded_superdegree,
-                    gdim=gdim,
-                )
-                f["displacement"] = U
-                g = f.create_group("interface")
-                g["x"] = np.concatenate([x[2] for x in gathered]).reshape(-1, gdim)
-                for name in st.names:
-                    a = np.concatenate([x[3][name] for x in gathered])
-                    g[name] = a.reshape(-1, *st[name].shape[1:])
-                cols = list(history[0]) if history else []
-                h = f.create_dataset(
-                    "history",
-                    data=np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
-                        len(history), len(cols)
-                    ),
-                )
-                h.attrs["columns"] = json.dumps(cols)
-                f.flush()
-                os.fsync(f.id.get_vfd_handle())
-            os.replace(tmp, path)
-        except Exception as e:  # reported on all ranks below
-            error = f"writing the checkpoint {str(path)!r} failed: {e}"
-    error = comm.bcast(error, root=0)
-    if error:
-        raise CheckpointError(error)
+    def create(f: Any) -> None:  # collective metadata calls, the same on every rank
+        f.attrs.update(attrs)
+        kw = {"dtype": float, "fill_time": "never"}
+        f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
+        g = f.create_group("interface")
+        g.create_dataset("x", (n_points, gdim), **kw)
+        for name in st.names:
+            g.create_dataset(name, (n_points, *st[name].shape[1:]), **kw)
+        pd = f.create_group("point_data")
+        for name in pblocks:
+            pd.create_dataset(name, (n_points,), **kw)
+        h = f.create_dataset("history", table.shape, **kw)
+        h.attrs["columns"] = json.dumps(cols)
+
+    def fill(f: Any) -> None:  # independent transfers: each rank its own slab
+        if c1 > c0:
+            f["displacement"][c0:c1] = ublock
+        if p1 > p0:
+            for name, b in blocks.items():
+                f["interface"][name][p0:p1] = b
+            for name, b in pblocks.items():
+                f["point_data"][name][p0:p1] = b
+        if comm.rank == 0 and table.size:
+            f["history"][...] = table
+
+    try:
+        collective(
+            comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
+        )
+        values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * (
+            sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
+        )  # fmt: skip
+        with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
+            h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
+            h.call(create, meta=True)
+            h.call(fill)
+            h.call(lambda f: f.flush(), meta=True)
+    except CheckpointError:
+        if comm.rank == 0:
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+        raise
+
+    def publish() -> None:
+        os.replace(tmp, path)
+        fd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+    collective(comm, publish, what, error=CheckpointWriteError, path=path)
 
 
 @dataclasses.dataclass
 class Checkpoint:
-    """The contents of a checkpoint file (as read, on every rank)."""
+    """The contents of a checkpoint file, as read.
+
+    The same metadata and history on every rank, and each rank's slab of the datasets.
+
+    Attributes:
+        attrs: The attributes (validated types).
+        history: The history rows.
+        cells: ``(lo, hi)``, this rank's rows of ``displacement``.
+        points: ``(lo, hi)``, this rank's rows of the interface datasets.
+        displacement: ``(hi - lo, n_dofs_per_cell, gdim)``.
+        x: This rank's interface points.
+        interface: Name -> this rank's rows of every interface variable.
+        point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
+            empty for a checkpoint written without them.
+    """
 
     attrs: dict[str, Any]
+    history: list[dict[str, float]]
+    cells: tuple[int, int]
+    points: tuple[int, int]
     displacement: np.ndarray
     x: np.ndarray
     interface: dict[str, np.ndarray]
-    history: list[dict[str, float]]
+    point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
-    """Read a checkpoint on rank 0 and broadcast it (collective).
+    """Read and validate a checkpoint, each rank its own slab (collective).
 
     Raises:
-        CheckpointError: Missing, truncated or foreign file (on all ranks).
+        CheckpointError: On every rank: a missing, truncated, foreign or damaged file, an
+            attribute of the wrong type, a dataset of the wrong shape or dtype, non-finite values.
     """
-    data, error = None, None
+    p = Path(path)
+    name = repr(str(p))
+
+    def exists() -> None:
+        if not p.exists():
+            raise CheckpointError(f"checkpoint {name} does not exist")
+        if not p.is_file():
+            raise CheckpointError(f"checkpoint {name} is not a regular file")
+
+    msg = None
     if comm.rank == 0:
         try:
-            import h5py
-
-            p = Path(path)
-            if not p.is_file():
-                raise CheckpointError(f"checkpoint {str(p)!r} does not exist")
-            try:
-                f = h5py.File(p, "r")
-            except OSError as e:
-                raise CheckpointError(
-                    f"checkpoint {str(p)!r} is not a readable HDF5 file (truncated?): {e}"
-                ) from None
-            with f:
-                if f.attrs.get("format") != FORMAT:
-                    raise CheckpointError(
-                        f"{str(p)!r} is not a subfric-dolfinx checkpoint "
-                        f"(format attribute {f.attrs.get('format')!r})"
-                    )
-                if int(f.attrs.get("version", -1)) != VERSION:
-                    raise CheckpointError(
-                        f"checkpoint {str(p)!r} has version {f.attrs.get('version')!r}, "
-                        f"this code reads version {VERSION}"
-                    )
-                need = ["displacement", "interface/x", "history"]
-                missing = [k for k in need if k not in f]
-                if missing:
-                    raise CheckpointError(f"checkpoint {str(p)!r} lacks {missing}")
-                attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in f.attrs.items()}
-                cols = json.loads(f["history"].attrs["columns"])
-                hist = [dict(zip(cols, row.tolist(), strict=True)) for row in f["history"][()]]
-                data = Checkpoint(
-                    attrs,
-                    f["displacement"][()],
-                    f["interface/x"][()],
-                    {k: f["interface"][k][()] for k in f["interface"] if k != "x"},
-                    hist,
-                )
+            exists()
         except CheckpointError as e:
-            error = str(e)
-        except Exception as e:  # h5py errors on damaged datasets
-            error = f"checkpoint {str(path)!r} is damaged: {type(e).__name__}: {e}"
-    error = comm.bcast(error, root=0)
-    if error:
-        raise CheckpointError(error)
-    return comm.bcast(data, root=0)
+            msg = str(e)
+    msg = comm.bcast(msg, root=0)
+    if msg:
+        raise CheckpointError(msg)
+    what = f"reading the checkpoint {name}"
+    hint = "not a readable HDF5 file (truncated?)"
+    with ParallelH5(p, "r", comm, what, CheckpointError, hint) as h:
+        attrs, history = h.call(lambda f: check_metadata(f, name))
+        c0, c1 = slab(int(attrs["n_cells"]), comm.size, comm.rank)
+        p0, p1 = slab(int(attrs["n_points"]), comm.size, comm.rank)
+
+        def read(f: Any) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+            u = f["displacement"][c0:c1]
+            g = f["interface"]
+            iface = {k: g[k][p0:p1] for k in g}
+            pdata = {}
+            if "point_data" in f:
+                for k in f["point_data"]:
+                    d = f["point_data"][k]
+                    if getattr(d, "shape", None) != (int(attrs["n_points"]),):
+                        raise CheckpointError(
+                            f"checkpoint {name}: 'point_data/{k}' has shape "
+                            f"{getattr(d, 'shape', None)}, not ({attrs['n_points']},)"
+                        )
+                    pdata[k] = np.asarray(d[p0:p1], dtype=float)
+            check_blocks(name, u, iface)
+            for k, v in pdata.items():
+                if not np.all(np.isfinite(v)):
+                    raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
+            return u, iface, pdata
+
+        u, iface, pdata = h.call(read)
+    x = iface.pop("x")
+    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata)
 
 
-def restore_checkpoint(path: str | Path, problem: Any, stepper: Any) -> list[dict[str, float]]:
+def restore_checkpoint(
+    path: str | Path, problem: Any, stepper: Any, settings: dict[str, Any] | None = None
+) -> list[dict[str, float]]:
     """Put the state of a checkpoint into ``problem``, ``stepper`` and its solver (collective).
+
+    Args:
+        path: The checkpoint.
+        problem: The problem (built as for the run that wrote it).
+        stepper: Its stepper.
+        settings: The run's settings (see :func:`write_checkpoint`); every key given must equal
+            the checkpoint's. Solver options are not settings: they may change (the step size
+            the run continues with is the checkpoint's, at most the stepper's ``dt_max``).
 
     Returns:
         The history rows stored in the checkpoint.
 
     Raises:
-        CheckpointError: The checkpoint does not fit: other mesh (cell count, degree, dimension),
-            other law parameters or loading program, or interface points that do not match.
+        CheckpointError: On every rank: an unreadable or invalid file (see
+            :func:`read_checkpoint`), or one that does not fit: another mesh (cell count,
+            degree, dimension, interface points), law, loading program or setting (named).
     """
     comm = problem.comm
+    name = repr(str(path))
     ck = read_checkpoint(path, comm)
     a = ck.attrs
-    cells, dofs = _cell_dofs(problem)
-    n_cells = problem.mesh.topology.index_map(problem.mesh.topology.dim).size_global
+    cells, dofs, n_cells = _cell_dofs(problem)
+    el = problem.interface
+    rows, n_points = interface_rows(el)
     here = {
         "n_cells": n_cells,
         "degree": problem.V.ufl_element().embedded_superdegree,
         "gdim": problem.gdim,
+        "n_points": n_points,
     }
     for k, v in here.items():
         if int(a[k]) != v:
             raise CheckpointError(
-                f"checkpoint {str(path)!r} is for a mesh with {k} = {a[k]}, this one has {v}"
+                f"checkpoint {name} is for a mesh with {k} = {a[k]}, this one has {v}"
             )
-    if json.loads(a["law"]) != law_description(problem.law):
+    if ck.displacement.shape[1] != dofs.shape[1]:
         raise CheckpointError(
-            f"checkpoint {str(path)!r} was written with law {a['law']}, "
-            f"this run has {json.dumps(law_description(problem.law))}"
+            f"checkpoint {name} has {ck.displacement.shape[1]} dofs per cell, this run "
+            f"{dofs.shape[1]}"
         )
-    if json.loads(a["program"]) != problem.program.to_dict():
-        raise CheckpointError(f"checkpoint {str(path)!r} was written with another loading program")
+    compare = [("law", law_description(problem.law)), ("program", problem.program.to_dict())]
+    if settings is not None:
+        compare.append(("settings", jsonable(settings)))
+    for key, mine in compare:
+        d = first_difference(json.loads(a[key]), mine)
+        if d is not None:
+            where, theirs, ours = d
+            label = where if key == "settings" else f"{key}{'.' if where else ''}{where}"
+            raise CheckpointError(
+                f"checkpoint {name} was written with {label or key} = {json.dumps(theirs)}, "
+                f"this run has {json.dumps(ours)}"
+            )
+    st = el.state.old
+    want = {v: (n_points, *st[v].shape[1:]) for v in st.names}
+    for v, shape in want.items():
+        got = ck.interface.get(v)
+        if got is None:
+            raise CheckpointError(f"checkpoint {name} lacks the interface variable {v!r}")
+        if (n_points, *got.shape[1:]) != shape:
+            raise CheckpointError(
+                f"checkpoint {name}: interface/{v} has shape {(n_points, *got.shape[1:])}, "
+                f"this run's law needs {shape}"
+            )
     gdim = problem.gdim
+    # the displacement by original cell index, the interface by global row
     u = problem.u.x.array.reshape(-1, gdim)
-    u[dofs] = ck.displacement[cells]
+    u[dofs] = pull(comm, cells, ck.displacement, n_cells)
     problem.u.x.scatter_forward()
-    el = problem.interface
     pts = el.points.reshape(-1, gdim)
-    scale = float(np.abs(ck.x).max()) if ck.x.size else 1.0
-    idx, _ = match_points(ck.x, pts, 1e-9 * max(scale, 1.0))
-    bad = comm.allreduce(int(np.count_nonzero(idx < 0)))
+    x = pull(comm, rows, ck.x, n_points)
+    scale = comm.allreduce(float(np.abs(pts).max()) if pts.size else 0.0, op=MPI.MAX)
+    off = np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)
+    bad = comm.allreduce(int(np.count_nonzero(off)))
     if bad:
         raise CheckpointError(
-            f"{bad} interface points of this run are not in the checkpoint {str(path)!r}"
+            f"{bad} interface points of this run are not in the checkpoint {name} "
+            "(another mesh or quadrature)"
         )
-    st = el.state.old
-    missing = sorted(set(st.names) - set(ck.interface))
-    if missing:
-        raise CheckpointError(f"checkpoint {str(path)!r} lacks the interface variable(s) {missing}")
-    for name in st.names:
-        st[name][:] = ck.interface[name][idx]
+    _compare_point_data(name, el, ck, rows, n_points, comm)
+    for v in st.names:
+        st[v][:] = pull(comm, rows, ck.interface[v], n_points)
     el.state.revert()  # trial = committed
-    stepper.restore(float(a["time"]), int(a["step"]), float(a["dt"]), int(a["easy"]))
+    dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
+    stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history
+
+
+_POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}
+
+
+def _compare_point_data(
+    name: str, el: Any, ck: Checkpoint, rows: np.ndarray, n_points: int, comm: Any
+) -> None:
+    """The run's fixed point data must equal the checkpoint's (collective).
+
+    A checkpoint without point data (an older one) fits a run whose data are all zero.
+
+    Raises:
+        CheckpointError: On every rank, naming the datum, the largest difference and where.
+    """
+    pts = el.points.reshape(-1, el.gdim)
+    for key, here in el.point_data.items():
+        stored = key in ck.point_data
+        there = pull(comm, rows, ck.point_data[key], n_points) if stored else np.zeros_like(here)
+        diff = np.abs(there - here)
+        i = int(np.argmax(diff)) if diff.size else -1
+        local = (float(diff[i]), tuple(pts[i]), float(there[i]), float(here[i])) if i >= 0 else None
+        worst = max((w for w in comm.allgather(local) if w), default=None, key=lambda w: w[0])
+        scale = comm.allreduce(float(np.abs(here).max()) if here.size else 0.0, op=MPI.MAX)
+        if worst is not None and worst[0] > 1e-9 * max(1.0, scale):
+            where = ", ".join(f"{v:.6g}" for v in worst[1])
+            raise CheckpointError(
+                f"checkpoint {name} was written with another {_POINT_DATA.get(key, key)}: "
+                f"{worst[2]:.6g} there, {worst[3]:.6g} in this run at ({where})"
+                + ("" if stored else " (the checkpoint has none)")
+            )

@@ -2,9 +2,20 @@
 
 The interface fields are ``f_t`` (tangential traction, as a vector in global components), ``f_n``
 and every internal variable of the law (tangential ones as vectors in global components, scalar
-ones as they are), as cell averages of the quadrature values on the interface submesh (DG0).
+ones as they are) and the fixed point data (the initial gap ``g0``; ``region``, the region
+number, with interface regions), as cell averages of the quadrature values on the interface
+submesh (DG0).
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
+
+Failures are collective (:mod:`.collective`): the directory is created and probed by rank 0, and
+every write ends with the ranks agreeing on its outcome. ADIOS2 (VTX) and DOLFINx's HDF5 (XDMF)
+write collectively: a full disk stops one rank inside an MPI collective where the others wait
+for it (measured: a hang, then SIGABRT at exit). So before each write rank 0 checks that the
+file system has room for about twice what a step takes (estimated from the mesh sizes, then
+measured on the steps written) plus 1 MiB, and ends the run with an
+:class:`~.collective.OutputError` on every rank when it has not. A disk filled by another
+process between that check and the write is not covered.
 """
 
 from __future__ import annotations
@@ -17,8 +28,29 @@ import dolfinx.io
 import numpy as np
 
 from ..constitutive import SCALAR
+from .collective import collective, ensure_space, probe_directory
 
 __all__ = ["FieldWriter"]
+
+MARGIN = 1 << 20  # bytes left free beyond the estimate of a step
+
+
+def _mesh_bytes(mesh: Any) -> int:
+    """Bytes of a mesh's geometry and topology as written (an upper estimate)."""
+    g = mesh.geometry
+    n_nodes = g.index_map().size_global
+    n_cells = mesh.topology.index_map(mesh.topology.dim).size_global
+    return 8 * (3 * n_nodes + (g.dofmap.shape[1] + 2) * n_cells)
+
+
+def _dir_bytes(d: Path) -> int:
+    total = 0
+    for p in d.rglob("*"):
+        try:
+            total += p.lstat().st_size
+        except OSError:
+            pass
+    return total
 
 
 class FieldWriter:
@@ -34,10 +66,8 @@ class FieldWriter:
     def __init__(self, directory: str | Path, problem: Any, fmt: str = "vtx") -> None:
         if fmt not in ("vtx", "xdmf"):
             raise ValueError(f"output format must be 'vtx' or 'xdmf', got {fmt!r}")
-        self.dir = Path(directory)
-        if problem.comm.rank == 0:
-            self.dir.mkdir(parents=True, exist_ok=True)
-        problem.comm.Barrier()
+        comm = problem.comm
+        self.dir = probe_directory(comm, directory)
         self.problem = problem
         self.fmt = fmt
         el = problem.interface
@@ -50,10 +80,33 @@ class FieldWriter:
         for var in problem.law.variables:
             space = D0s if var.shape == SCALAR else D0v
             self.fields[var.name] = F(space, name=var.name)
+        for k in el.point_data:
+            self.fields[k] = F(D0s, name=k)
         u = problem.u
-        comm = problem.comm
+        n_u = u.function_space.dofmap.index_map.size_global
+        n_sub = sub.topology.index_map(sub.topology.dim).size_global
+        self.step_bytes = 2 * (
+            _mesh_bytes(problem.mesh) + 24 * n_u + _mesh_bytes(sub) + 24 * n_sub * len(self.fields)
+        )  # fmt: skip
+        self._wu: Any = None
+        self._wi: Any = None
+        self._u = u
+        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("creating"))
+        collective(
+            comm, lambda: self._open(fmt), self._what("creating"), root=None,
+            path=self.dir / "displacement", cleanup=self.abandon,
+        )  # fmt: skip
+
+    def _what(self, verb: str, t: float | None = None) -> str:
+        at = "" if t is None else f" at t = {t:.6g}"
+        return f"{verb} the {self.fmt.upper()} fields in {str(self.dir)!r}{at}"
+
+    def _open(self, fmt: str) -> None:
+        problem, comm = self.problem, self.problem.comm
+        u = problem.u
+        gdim = problem.interface.gdim
+        sub = problem.interface.submesh
         if fmt == "vtx":
-            self._u = u
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
             self._wi = dolfinx.io.VTXWriter(
                 comm, self.dir / "interface.bp", list(self.fields.values()), engine="BP4"
@@ -65,8 +118,6 @@ class FieldWriter:
                     mesh, ("Lagrange", mesh.geometry.cmap.degree, (gdim,))
                 )
                 self._u = dolfinx.fem.Function(V1, name="displacement")
-            else:
-                self._u = u
             self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
             self._wu.write_mesh(mesh)
             self._wi = dolfinx.io.XDMFFile(comm, self.dir / "interface.xdmf", "w")
@@ -94,21 +145,60 @@ class FieldWriter:
             self.fields[var.name].x.array[:] = (
                 avg(a) if var.shape == SCALAR else global_vector(a).ravel()
             )
+        for k, a in el.point_data.items():
+            self.fields[k].x.array[:] = avg(a)
 
     def write(self, t: float) -> None:
-        """Write the current (converged) state at time ``t``."""
+        """Write the current (converged) state at time ``t`` (collective).
+
+        Raises:
+            OutputError: On every rank: too little space left, or the write failed.
+        """
+        comm = self.problem.comm
+        if self._wu is None:
+            raise RuntimeError("the field writer is closed")
         self._update()
         if self._u is not self.problem.u:
             self._u.interpolate(self.problem.u)
-        if self.fmt == "vtx":
-            self._wu.write(t)
-            self._wi.write(t)
-        else:
-            self._wu.write_function(self._u, t)
-            for f in self.fields.values():
-                self._wi.write_function(f, t)
+        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("writing", t))
+        before = _dir_bytes(self.dir) if comm.rank == 0 else 0
+
+        def write() -> None:
+            if self.fmt == "vtx":
+                self._wu.write(t)
+                self._wi.write(t)
+            else:
+                self._wu.write_function(self._u, t)
+                for f in self.fields.values():
+                    self._wi.write_function(f, t)
+
+        collective(
+            comm, write, self._what("writing", t), root=None,
+            path=self.dir / "displacement", cleanup=self.abandon,
+        )  # fmt: skip
+        if comm.rank == 0:  # what a step really took, for the next check
+            self.step_bytes = max(self.step_bytes, 2 * (_dir_bytes(self.dir) - before))
+
+    def abandon(self) -> None:
+        """Close the files after a failure, ignoring errors (collective)."""
+        for w in (self._wu, self._wi):
+            if w is not None:
+                try:
+                    w.close()
+                except Exception:
+                    pass
+        self._wu = self._wi = None
 
     def close(self) -> None:
-        """Close the files."""
-        self._wu.close()
-        self._wi.close()
+        """Close the files (collective; a failure is raised on every rank)."""
+        if self._wu is None:
+            return
+
+        def close() -> None:
+            self._wu.close()
+            self._wi.close()
+
+        try:
+            collective(self.problem.comm, close, self._what("closing"), root=None)
+        finally:
+            self._wu = self._wi = None

@@ -3,15 +3,22 @@
 A row holds the step (``step``, ``t``, ``dt``, ``newton``, ``cuts``), the interface summary
 (:func:`~.summary.interface_summary`: resultant forces, area-weighted means of the traction and of
 the law's internal variables, status fractions) and the reaction force of every Dirichlet group
-(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]).
+(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]), then the columns of ``columns()`` if given
+(e.g. probes).
+
+Writing is collective: rank 0 writes and flushes each row inside ``try`` and every rank raises the
+same :class:`~.collective.OutputError` if that failed (naming the file and the OS error); the file
+is then closed, and nothing more is written to it.
 """
 
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from .collective import collective
 from .summary import interface_summary
 
 __all__ = ["HistoryCSV"]
@@ -23,11 +30,18 @@ class HistoryCSV:
     Args:
         path: File to write (parent directories are created); ``None``: memory only.
         problem: The problem (for the averages and the reaction forces).
+        columns: More columns of each row (collective), e.g. probes.
     """
 
-    def __init__(self, path: str | Path | None, problem: Any) -> None:
+    def __init__(
+        self,
+        path: str | Path | None,
+        problem: Any,
+        columns: Callable[[], dict[str, float]] | None = None,
+    ) -> None:
         self.path = Path(path) if path is not None else None
         self.problem = problem
+        self.columns = columns
         self._writer: Any = None
         self._file: Any = None
         self.rows: list[dict[str, float]] = []
@@ -50,21 +64,45 @@ class HistoryCSV:
         for group, force in p.reactions.items():
             for i, f in enumerate(force):
                 row[f"R_{group}_{'xyz'[i]}"] = float(f)
+        if self.columns is not None:
+            row.update(self.columns())
         self.rows.append(row)
-        if p.comm.rank == 0 and self.path is not None:
-            if self._writer is None:
-                self.path.parent.mkdir(parents=True, exist_ok=True)
-                self._file = self.path.open("w", newline="")
-                self._writer = csv.DictWriter(self._file, fieldnames=list(row))
-                self._writer.writeheader()
-                for old in self.rows[:-1]:  # preloaded rows of a restart
-                    self._writer.writerow({k: f"{v:.17g}" for k, v in old.items()})
-            self._writer.writerow({k: f"{v:.17g}" for k, v in row.items()})
-            self._file.flush()
+        if self.path is not None:
+            collective(
+                p.comm, lambda: self._append(row), f"writing {str(self.path)!r}",
+                path=self.path, cleanup=self._discard,
+            )  # fmt: skip
         return row
 
+    def _append(self, row: dict[str, float]) -> None:
+        """Write a row (rank 0), the header and the preloaded rows first."""
+        assert self.path is not None
+        if self._writer is None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = self.path.open("w", newline="")
+            self._writer = csv.DictWriter(self._file, fieldnames=list(row))
+            self._writer.writeheader()
+            for old in self.rows[:-1]:  # preloaded rows of a restart
+                self._writer.writerow({k: f"{v:.17g}" for k, v in old.items()})
+        self._writer.writerow({k: f"{v:.17g}" for k, v in row.items()})
+        self._file.flush()
+
+    def _discard(self) -> None:
+        """After a failed write: close the file, dropping what could not be written."""
+        self.path = None
+        f, self._file = self._file, None
+        if f is not None:
+            try:
+                f.close()
+            except OSError:
+                pass
+
     def close(self) -> None:
-        """Close the file."""
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        """Close the file (collective: a failure is raised on every rank)."""
+        if self.path is not None:
+            f, path = self._file, self.path
+            self._file = self._writer = self.path = None
+            collective(
+                self.problem.comm, lambda: f.close() if f is not None else None,
+                f"closing {str(path)!r}", path=path,
+            )  # fmt: skip

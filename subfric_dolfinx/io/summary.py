@@ -14,11 +14,13 @@ def interface_summary(problem) -> dict[str, float]:
     """Area-weighted means over the interface, totals and status fractions (same on all ranks).
 
     Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
-    ``f_t`` (mean |f_t|), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
+    ``f_t`` (mean ``|f_t|``), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
     as its mean ``v``, a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
     [``v_t2``] (means of its components), a local one as the means of ``v_t1`` [``v_t2``],
     ``v_n``; and the fractions of quadrature points ``plastic``
-    (PLASTIC or JUMP), ``separated`` and ``unstable``.
+    (PLASTIC or JUMP), ``separated`` and ``unstable``. With interface regions, per region
+    ``<region>.area``, ``<region>.F_t1`` [``.F_t2``], ``<region>.F_n``, ``<region>.plastic`` and
+    ``<region>.separated`` (region ``default``: the points of the default law).
     """
     el = problem.interface
     nt = el.nt
@@ -47,6 +49,8 @@ def interface_summary(problem) -> dict[str, float]:
         w.size,
     ]
     loc = np.array([c.sum() for c in cols] + counts, dtype=float)
+    if len(el.region_names) > 1:
+        loc = np.concatenate([loc, _by_region(el, w, tr, status)])
     tot = np.zeros_like(loc)
     problem.comm.Allreduce(loc, tot, op=MPI.SUM)
     area = tot[0]
@@ -56,10 +60,46 @@ def interface_summary(problem) -> dict[str, float]:
         for i, k in enumerate(names)
     }
     out["f_n"] = out["F_n"] / area
-    npts = max(tot[-1], 1.0)
+    n0 = len(names) + len(counts)
+    npts = max(tot[n0 - 1], 1.0)
     out["plastic"], out["separated"], out["unstable"] = (
-        tot[-4] / npts,
-        tot[-3] / npts,
-        tot[-2] / npts,
+        tot[n0 - 4] / npts,
+        tot[n0 - 3] / npts,
+        tot[n0 - 2] / npts,
     )
+    if len(el.region_names) > 1:
+        out.update(_region_columns(el, tot[n0:]))
+    return out
+
+
+def _by_region(el, w: np.ndarray, tr: np.ndarray, status: np.ndarray) -> np.ndarray:
+    """Local sums per region: area, the resultant (nt + 1), points, plastic, separated points."""
+    region = el.point_data["region"].astype(np.int64)
+    plastic = (status == Status.PLASTIC) | (status == Status.JUMP)
+    rows = []
+    for k in range(len(el.region_names)):
+        m = region == k
+        rows.append(
+            [
+                w[m].sum(),
+                *((w[m] * tr[m, i]).sum() for i in range(el.nt + 1)),
+                np.count_nonzero(m),
+                np.count_nonzero(m & plastic),
+                np.count_nonzero(m & (status == Status.SEPARATED)),
+            ]
+        )
+    return np.asarray(rows, dtype=float).ravel()
+
+
+def _region_columns(el, tot: np.ndarray) -> dict[str, float]:
+    nt = el.nt
+    out = {}
+    for name, row in zip(el.region_names, tot.reshape(len(el.region_names), -1), strict=True):
+        npts = max(row[nt + 2], 1.0)
+        out[f"{name}.area"] = row[0]
+        for i in range(nt):
+            out[f"{name}.F_t{i + 1}"] = row[1 + i]
+        out[f"{name}.F_n"] = row[1 + nt]
+        out[f"{name}.plastic"] = row[nt + 3] / npts
+        out[f"{name}.separated"] = row[nt + 4] / npts
     return out

@@ -2,7 +2,10 @@
 
 * :mod:`.groups`: physical-group names and default tags, :class:`InterfaceMeshError`.
 * :mod:`.builders`: gmsh builders (2-D block on a base, 3-D pad on a plate) with the Crack step.
+* :mod:`.joints`: gmsh builder of a 3-D bolted lap joint (two plates, a bolt hole, head and nut
+  annuli).
 * :mod:`.partitioners`: deterministic partitions for tests (bodies apart, pairs together).
+* :mod:`.nodes`: node groups (physical points), vertices by coordinates, nearest vertex.
 * :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks.
 
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
@@ -11,6 +14,8 @@ May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
 from .builders import ModelInfo, build_block_on_base, build_pad_on_plate
 from .groups import (
     BODIES,
+    BOLT_HEAD,
+    BOLT_NUT,
     BOTTOM,
     BOUNDARY_GROUPS_2D,
     BOUNDARY_GROUPS_3D,
@@ -35,11 +40,15 @@ from .groups import (
     TOP,
     InterfaceMeshError,
 )
+from .joints import build_bolted_lap_joint
+from .nodes import NodeGroup, locate_node_group, nearest_vertex
 from .partitioners import PARTITIONER_KINDS, body_partitioner
 from .reader import InterfaceMesh, create_interface_mesh, read_interface_mesh
 
 __all__ = [
     "BODIES",
+    "BOLT_HEAD",
+    "BOLT_NUT",
     "BOTTOM",
     "BOUNDARY_GROUPS_2D",
     "BOUNDARY_GROUPS_3D",
@@ -66,9 +75,13 @@ __all__ = [
     "InterfaceMesh",
     "InterfaceMeshError",
     "ModelInfo",
+    "NodeGroup",
     "body_partitioner",
     "build_block_on_base",
+    "build_bolted_lap_joint",
     "build_pad_on_plate",
     "create_interface_mesh",
+    "locate_node_group",
+    "nearest_vertex",
     "read_interface_mesh",
 ]

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ._features import add_region_groups, check_grading, check_regions, graded_mesh
 from ._gmsh import gmsh_module, group_elements, group_nodes, interface_sides
 from .groups import (
     BODIES,
@@ -77,9 +78,11 @@ class ModelInfo:
     num_interface_nodes: int
 
 
-def _segments(lo: float, hi: float, a: float, b: float) -> list[tuple[float, float]]:
-    """Split [lo, hi] at a and b (which lie in it), dropping empty pieces."""
-    cuts = sorted({lo, a, b, hi})
+def _segments(
+    lo: float, hi: float, a: float, b: float, more: Sequence[float] = ()
+) -> list[tuple[float, float]]:
+    """Split [lo, hi] at a, b and ``more`` (which lie in it), dropping empty pieces."""
+    cuts = sorted({lo, a, b, hi, *more})
     return [(c0, c1) for c0, c1 in itertools.pairwise(cuts) if c1 - c0 > 0.0]
 
 
@@ -116,6 +119,11 @@ def build_block_on_base(
     mesh_size: float | None = None,
     cell_type: str = "triangle",
     model_name: str = "block_on_base",
+    interface_regions: dict[str, Sequence[float]] | None = None,
+    far_size: float | None = None,
+    growth: float = 0.25,
+    refine_center: Sequence[float] | None = None,
+    refine_radius: float = 0.0,
 ) -> ModelInfo:
     """Build the 2-D "block on a base" model in the current gmsh session (call on one rank).
 
@@ -135,12 +143,21 @@ def build_block_on_base(
         mesh_size: Element size; if given it sets ``n_interface = round(block_width / mesh_size)``.
         cell_type: ``"triangle"`` or ``"quadrilateral"``.
         model_name: Name of the gmsh model added to the session (it becomes the current model).
+        interface_regions: Name -> ``[x0, x1]``: strips of the interface, each a physical group
+            of interface facets (see :mod:`._features`).
+        far_size: Grade the mesh (triangles): the element size is ``h`` within
+            ``refine_radius`` of ``refine_center`` (default: the interface's centre) and grows
+            by ``growth`` per unit distance beyond, up to ``far_size``; curves are then not
+            divided uniformly.
+        growth: See ``far_size``.
+        refine_center: See ``far_size``.
+        refine_radius: See ``far_size``.
 
     Returns:
         Description of the model.
 
     Raises:
-        ValueError: Invalid sizes or cell type.
+        ValueError: Invalid sizes, cell type, regions or grading.
         RuntimeError: gmsh did not produce two bodies joined only by a duplicated interface.
     """
     _check_cell_type(2, cell_type)
@@ -155,6 +172,7 @@ def build_block_on_base(
             f"the block [{block_x}, {block_x + block_width}] must lie on the base [0, {base_width}]"
         )
     h = _interface_size(block_width, n_interface, mesh_size)
+    check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
     return _build(
         gdim=2,
         master_box=((0.0, 0.0), (base_width, base_height)),
@@ -162,6 +180,8 @@ def build_block_on_base(
         h=h,
         cell_type=cell_type,
         model_name=model_name,
+        regions=check_regions(interface_regions, block_x, block_x + block_width),
+        grading=None if far_size is None else (far_size, growth, refine_center, refine_radius),
     )
 
 
@@ -174,6 +194,11 @@ def build_pad_on_plate(
     mesh_size: float | None = None,
     cell_type: str = "tetrahedron",
     model_name: str = "pad_on_plate",
+    interface_regions: dict[str, Sequence[float]] | None = None,
+    far_size: float | None = None,
+    growth: float = 0.25,
+    refine_center: Sequence[float] | None = None,
+    refine_radius: float = 0.0,
 ) -> ModelInfo:
     """Build the 3-D "pad on a plate" model in the current gmsh session (call on one rank).
 
@@ -191,12 +216,18 @@ def build_pad_on_plate(
         mesh_size: Element size; if given it sets ``n_interface = round(pad_size[0] / mesh_size)``.
         cell_type: ``"tetrahedron"`` or ``"hexahedron"``.
         model_name: Name of the gmsh model added to the session (it becomes the current model).
+        interface_regions: Name -> ``[x0, x1]``: strips of the interface across its y extent,
+            each a physical group of interface facets.
+        far_size: Grade the mesh (tetrahedra), as in :func:`build_block_on_base`.
+        growth: See ``far_size``.
+        refine_center: See ``far_size``.
+        refine_radius: See ``far_size``.
 
     Returns:
         Description of the model.
 
     Raises:
-        ValueError: Invalid sizes or cell type.
+        ValueError: Invalid sizes, cell type, regions or grading.
         RuntimeError: gmsh did not produce two bodies joined only by a duplicated interface.
     """
     _check_cell_type(3, cell_type)
@@ -215,6 +246,7 @@ def build_pad_on_plate(
                 f"the pad [{o}, {o + a}] must lie on the plate [0, {length}] in {axis}"
             )
     h = _interface_size(pad[0], n_interface, mesh_size)
+    check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
     return _build(
         gdim=3,
         master_box=((0.0, 0.0, 0.0), plate),
@@ -222,6 +254,8 @@ def build_pad_on_plate(
         h=h,
         cell_type=cell_type,
         model_name=model_name,
+        regions=check_regions(interface_regions, ox, ox + pad[0]),
+        grading=None if far_size is None else (far_size, growth, refine_center, refine_radius),
     )
 
 
@@ -233,6 +267,8 @@ def _build(
     h: float,
     cell_type: str,
     model_name: str,
+    regions: list[tuple[str, float, float]] = (),  # type: ignore[assignment]
+    grading: tuple[float, float, Sequence[float] | None, float] | None = None,
 ) -> ModelInfo:
     gmsh = gmsh_module()
     if not gmsh.isInitialized():
@@ -246,7 +282,7 @@ def _build(
 
     # Master pieces: the master box cut along the slave's footprint, so that the interface is one
     # face (curve) and every piece is a box (rectangle) for structured meshing.
-    xs = _segments(m0[0], m1[0], s0[0], s1[0])
+    xs = _segments(m0[0], m1[0], s0[0], s1[0], [x for r in regions for x in r[1:]])
     ys = _segments(m0[1], m1[1], s0[1], s1[1]) if gdim == 3 else [(m0[1], m1[1])]
     pieces = []
     for x0, x1 in xs:
@@ -255,12 +291,15 @@ def _build(
         else:
             for y0, y1 in ys:
                 pieces.append((3, occ.addBox(x0, y0, m0[2], x1 - x0, y1 - y0, m1[2] - m0[2])))
-    ext = [b - a for a, b in zip(s0, s1, strict=True)]
-    if gdim == 2:
-        slave = (2, occ.addRectangle(s0[0], s0[1], 0.0, *ext))
-    else:
-        slave = (3, occ.addBox(*s0, *ext))
-    occ.fragment(pieces, [slave])
+    # the slave cut at the regions' ends too (boxes with four-sided faces, for structured meshing)
+    slaves = []
+    for x0, x1 in _segments(s0[0], s1[0], s0[0], s1[0], [x for r in regions for x in r[1:]]):
+        ext = [x1 - x0, *(b - a for a, b in zip(s0[1:], s1[1:], strict=True))]
+        if gdim == 2:
+            slaves.append((2, occ.addRectangle(x0, s0[1], 0.0, *ext)))
+        else:
+            slaves.append((3, occ.addBox(x0, *s0[1:], *ext)))
+    occ.fragment(pieces, slaves)
     occ.synchronize()
 
     def com(dim: int, tag: int) -> np.ndarray:
@@ -274,7 +313,7 @@ def _build(
     groups: dict[str, list[int]] = {MASTER: [], SLAVE: []}
     for _, tag in gmsh.model.getEntities(gdim):
         groups[SLAVE if com(gdim, tag)[-1] > z_if else MASTER].append(tag)
-    if len(groups[SLAVE]) != 1 or len(groups[MASTER]) != len(pieces):
+    if len(groups[SLAVE]) != len(slaves) or len(groups[MASTER]) != len(pieces):
         raise RuntimeError(f"unexpected geometry after fragment: {groups}")
 
     # facets, by position and normal direction
@@ -311,7 +350,7 @@ def _build(
                 name = names[1] if lower else names[3]
         if name is not None:
             groups.setdefault(name, []).append(tag)
-    if len(groups.get(INTERFACE, [])) != 1:
+    if not groups.get(INTERFACE) or (not regions and len(groups[INTERFACE]) != 1):
         raise RuntimeError(f"expected one interface entity, found {groups.get(INTERFACE)}")
 
     tags: dict[str, int] = {}
@@ -319,6 +358,14 @@ def _build(
         if groups.get(name):
             dim = gdim if name in BODIES else fdim
             tags[name] = gmsh.model.addPhysicalGroup(dim, groups[name], TAGS[name], name=name)
+    tags.update(add_region_groups(gmsh, gdim, groups[INTERFACE], list(regions)))
+    if grading is not None:
+        far, growth, centre, radius = grading
+        if centre is None:
+            centre = [0.5 * (s0[i] + s1[i]) for i in range(gdim - 1)] + [z_if]
+        graded_mesh(gmsh, gdim, h, far, growth, centre, radius)
+        _crack(gdim, tags[INTERFACE], groups[INTERFACE])
+        return _model_info(model_name, gdim, cell_type, tags, h)
 
     # Discretisation: uniform, fixed on every curve; structured cells for quads/hexes.
     for _, tag in gmsh.model.getEntities(1):
@@ -339,34 +386,42 @@ def _build(
         for option, value in saved.items():
             gmsh.option.setNumber(option, value)
 
-    _crack(gdim, tags[INTERFACE], groups[INTERFACE][0])
+    _crack(gdim, tags[INTERFACE], groups[INTERFACE])
     return _model_info(model_name, gdim, cell_type, tags, h)
 
 
-def _crack(gdim: int, interface_tag: int, interface_entity: int) -> None:
+def _crack(gdim: int, interface_tag: int, interface_entities: Sequence[int]) -> None:
     """Duplicate the interface nodes; the slave side (above the interface) gets the new nodes."""
     gmsh = gmsh_module()
     fdim = gdim - 1
-    _, etags, enodes = gmsh.model.mesh.getElements(fdim, interface_entity)
     ntags, coords, _ = gmsh.model.mesh.getNodes()
     x = np.zeros((int(ntags.max()) + 1, 3))
     x[ntags] = np.asarray(coords).reshape(-1, 3)
-    el = x[np.asarray(enodes[0]).reshape(len(etags[0]), -1)]
-    normal_z = 1.0
-    if gdim == 2:
-        # Crack's side normal is (0, 0, NormalZ) x tangent = (0, NormalZ * t_x, 0): make it +y.
-        tx = el[:, 1, 0] - el[:, 0, 0]
-        if not (np.all(tx > 0) or np.all(tx < 0)):
-            raise RuntimeError("interface line elements are not consistently oriented")
-        normal_z = 1.0 if tx[0] > 0 else -1.0
-    else:
-        # Crack's side normal is the element normal: make it +z (reverse the interface mesh if not).
-        nz = np.cross(el[:, 1] - el[:, 0], el[:, 2] - el[:, 0])[:, 2]
-        if not (np.all(nz > 0) or np.all(nz < 0)):
-            raise RuntimeError("interface surface elements are not consistently oriented")
-        if nz[0] < 0:
-            gmsh.model.mesh.reverse([(fdim, interface_entity)])
-    boundary = gmsh.model.getBoundary([(fdim, interface_entity)], combined=True, oriented=False)
+    normal_z = 0.0
+    for entity in interface_entities:
+        _, etags, enodes = gmsh.model.mesh.getElements(fdim, entity)
+        el = x[np.asarray(enodes[0]).reshape(len(etags[0]), -1)]
+        if gdim == 2:
+            # Crack's side normal is (0, 0, NormalZ) x tangent = (0, NormalZ * t_x, 0): make it
+            # +y (the pieces of a split interface oriented like the first one).
+            tx = el[:, 1, 0] - el[:, 0, 0]
+            if not (np.all(tx > 0) or np.all(tx < 0)):
+                raise RuntimeError("interface line elements are not consistently oriented")
+            if normal_z == 0.0:
+                normal_z = 1.0 if tx[0] > 0 else -1.0
+            elif (tx[0] > 0) != (normal_z > 0):
+                gmsh.model.mesh.reverse([(fdim, entity)])
+        else:
+            # Crack's side normal is the element normal: make it +z (reverse the mesh if not).
+            normal_z = 1.0
+            nz = np.cross(el[:, 1] - el[:, 0], el[:, 2] - el[:, 0])[:, 2]
+            if not (np.all(nz > 0) or np.all(nz < 0)):
+                raise RuntimeError("interface surface elements are not consistently oriented")
+            if nz[0] < 0:
+                gmsh.model.mesh.reverse([(fdim, entity)])
+    boundary = gmsh.model.getBoundary(
+        [(fdim, e) for e in interface_entities], combined=True, oriented=False
+    )
     open_tag = gmsh.model.addPhysicalGroup(fdim - 1, sorted({abs(t) for _, t in boundary}))
     for option, value in (
         ("Dimension", fdim), ("PhysicalGroup", interface_tag),

@@ -19,6 +19,10 @@ Layout of a model (2-D "block on a base", 3-D "pad on a plate")::
 * 3-D sides: ``master_xmin``, ``master_xmax``, ``master_ymin``, ``master_ymax`` and
   ``slave_xmin``, ``slave_xmax``, ``slave_ymin``, ``slave_ymax``.
 
+The bolted lap joint (:mod:`.joints`) has ``master_xmin`` and ``slave_xmax`` (the plates' far
+ends) and ``bolt_head``/``bolt_nut``: the annuli under the bolt head (top of the upper plate,
+slave) and under the nut (bottom of the lower plate, master).
+
 Files may use other integer tags: look groups up by name.
 """
 
@@ -26,6 +30,8 @@ from __future__ import annotations
 
 __all__ = [
     "BODIES",
+    "BOLT_HEAD",
+    "BOLT_NUT",
     "BOTTOM",
     "BOUNDARY_GROUPS_2D",
     "BOUNDARY_GROUPS_3D",
@@ -69,6 +75,8 @@ SLAVE_XMIN = "slave_xmin"
 SLAVE_XMAX = "slave_xmax"
 SLAVE_YMIN = "slave_ymin"
 SLAVE_YMAX = "slave_ymax"
+BOLT_HEAD = "bolt_head"
+BOLT_NUT = "bolt_nut"
 
 #: The two bodies (cell groups), master first.
 BODIES: tuple[str, str] = (MASTER, SLAVE)
@@ -89,6 +97,7 @@ TAGS: dict[str, int] = {
     MASTER_LEFT: 7, MASTER_RIGHT: 8, SLAVE_LEFT: 9, SLAVE_RIGHT: 10,
     MASTER_XMIN: 11, MASTER_XMAX: 12, MASTER_YMIN: 13, MASTER_YMAX: 14,
     SLAVE_XMIN: 15, SLAVE_XMAX: 16, SLAVE_YMIN: 17, SLAVE_YMAX: 18,
+    BOLT_HEAD: 19, BOLT_NUT: 20,
 }  # fmt: skip
 
 

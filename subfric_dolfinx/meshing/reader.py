@@ -31,8 +31,10 @@ from ._gmsh import (
     remove_new_models,
 )
 from ._msh import open_msh
+from ._subgroups import restore_groups, withhold_interface_subgroups
 from .builders import ModelInfo
 from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
+from .nodes import NodeGroup, node_groups
 from .partitioners import Partitioner, body_partitioner
 
 __all__ = ["InterfaceMesh", "create_interface_mesh", "read_interface_mesh"]
@@ -49,6 +51,12 @@ class InterfaceMesh:
         tags: Physical-group name -> integer tag (the names of the file or model).
         num_interface_facets: Global number of interface facets on each side.
         dims: Physical-group name -> its dimension (cells: ``tdim``, facets: ``tdim - 1``).
+        interface_groups: Subgroups of the interface (named facet groups of interface facets,
+            e.g. regions with their own friction law) -> the centroids of their facets (n, gdim),
+            on every rank. A facet carries one tag in DOLFINx, so these groups are not among the
+            facet tags (nor in ``tags``): find their facets by centroid.
+        node_groups: Node groups by name: the named physical groups of points of the file or
+            model, and those added with :meth:`add_node_group`.
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -57,6 +65,8 @@ class InterfaceMesh:
     tags: dict[str, int]
     num_interface_facets: int = 0
     dims: dict[str, int] = dataclasses.field(default_factory=dict)
+    interface_groups: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    node_groups: dict[str, NodeGroup] = dataclasses.field(default_factory=dict)
     _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
@@ -79,6 +89,29 @@ class InterfaceMesh:
             return self.tags[name]
         except KeyError:
             raise KeyError(f"no physical group {name!r}; groups: {sorted(self.tags)}") from None
+
+    def add_node_group(
+        self, name: str, x: npt.ArrayLike, body: str | None = None
+    ) -> NodeGroup:
+        """Name the nodes at the points ``x`` (n, gdim) of ``body`` (any body if ``None``).
+
+        Conditions may then refer to ``name`` (a Dirichlet condition on its nodes). A point must
+        be a vertex of the mesh (within a millionth of the mesh's extent); the nodes are located
+        when a condition uses the group.
+
+        Raises:
+            ValueError: ``name`` is already a physical group or node group, or ``body`` unknown.
+        """
+        if name in self.tags or name in self.node_groups:
+            raise ValueError(f"a group named {name!r} exists already")
+        if body is not None and body not in BODIES:
+            raise ValueError(f"body must be one of {BODIES} or None, got {body!r}")
+        xa = np.atleast_2d(np.asarray(x, dtype=float))
+        x3 = np.zeros((xa.shape[0], 3))
+        x3[:, : xa.shape[1]] = xa
+        group = NodeGroup(x3, (body,) * xa.shape[0])
+        self.node_groups[name] = group
+        return group
 
     def body_cells(self, body: str) -> npt.NDArray[np.int32]:
         """Local indices (owned and ghost) of the cells of ``body`` ("master" or "slave")."""
@@ -264,6 +297,7 @@ def read_interface_mesh(
     names: dict[str, int] = {}
     counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
     dims: dict[str, int] = {}  # name -> dimension, every named group
+    nodes: dict[str, NodeGroup] = {}  # physical groups of points
     model = None
     with contextlib.ExitStack() as stack:
         if comm.rank == 0:
@@ -283,12 +317,17 @@ def read_interface_mesh(
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
                 names = _inspect_current_model(gdim, required, what)
+                subgroups, withheld = withhold_interface_subgroups(gdim, names, what)
+                stack.callback(restore_groups, withheld)
+                for name in subgroups:
+                    names.pop(name)
                 for d, t in gmsh.model.getPhysicalGroups():
                     name = gmsh.model.getPhysicalName(d, t)
                     if name:
                         dims[name] = d
                     if d >= gdim - 1 and name:
                         counts[name] = (d, sum(c.shape[0] for c in group_elements(d, t)[1]))
+                nodes = node_groups(gdim, names, {b: names[b] for b in BODIES if b in names})
                 model = gmsh.model
             except (FileNotFoundError, InterfaceMeshError) as e:
                 error = (type(e).__name__, str(e))
@@ -296,12 +335,22 @@ def read_interface_mesh(
                 error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
         _raise_collectively(comm, error)
         names = comm.bcast(names, root=0)
+        subgroups = comm.bcast(subgroups if comm.rank == 0 else None, root=0)
         counts = comm.bcast(counts, root=0)
         dims = comm.bcast(dims, root=0)
+        nodes = comm.bcast(nodes, root=0)
         mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
             model, comm, 0, gdim=gdim, partitioner=partitioner
         )
-    imesh = InterfaceMesh(mesh=mesh, cell_tags=ct, facet_tags=ft, tags=names, dims=dims)
+    imesh = InterfaceMesh(
+        mesh=mesh,
+        cell_tags=ct,
+        facet_tags=ft,
+        tags=names,
+        dims=dims,
+        interface_groups=subgroups,
+        node_groups=nodes,
+    )
     _check_group_counts(imesh, counts, what)
     if INTERFACE in names:
         _find_sides(imesh, what)

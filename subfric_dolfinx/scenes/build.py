@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 
 from .. import meshing
-from ..fem import Dirichlet, InterfaceProblem, Material, Pressure, Traction
+from ..fem import Dirichlet, InterfaceProblem, Material, PointForce, Pressure, Spring, Traction
+from .interface_spec import gap_function, parse_regions
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
@@ -16,6 +17,7 @@ __all__ = ["BUILDERS", "build_mesh", "build_problem"]
 BUILDERS = {
     "block_on_base": meshing.build_block_on_base,
     "pad_on_plate": meshing.build_pad_on_plate,
+    "bolted_lap_joint": meshing.build_bolted_lap_joint,
 }
 """Mesh builders a scene may name."""
 
@@ -53,16 +55,38 @@ def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
     return Dirichlet(spec.group, vector, None, spec.amplitude)
 
 
+def _supports(scene: FEScene, domain: meshing.InterfaceMesh) -> tuple[list, list]:
+    """The scene's springs and point forces (collective).
+
+    The scene's points named by Dirichlet conditions become node groups of ``domain`` (the vertex
+    nearest to each, in its body).
+    """
+    for name in dict.fromkeys(d.group for d in scene.dirichlet):
+        pt = scene.points.get(name)
+        if pt is None or name in domain.tags or name in domain.node_groups:
+            continue
+        cells = None if pt.body is None else domain.body_cells(pt.body)
+        x, _ = meshing.nearest_vertex(domain.mesh, pt.x, cells)
+        domain.add_node_group(name, x[None, : domain.gdim], pt.body)
+    springs = [Spring(s.group, s.stiffness, s.u0, s.amplitude) for s in scene.springs]
+    forces = [
+        PointForce(scene.points[f.point].x, f.value, f.amplitude, scene.points[f.point].body)
+        for f in scene.point_forces
+    ]
+    return springs, forces
+
+
 def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfaceProblem:
     """The interface problem of a scene on ``domain`` (collective)."""
     gdim = domain.mesh.geometry.dim
+    springs, point_forces = _supports(scene, domain)
     bcs = [_dirichlet(d, gdim, f"scene.dirichlet[{i}]") for i, d in enumerate(scene.dirichlet)]
     loads = [
         Pressure(ld.group, float(ld.value), ld.amplitude)  # type: ignore[arg-type]
         if ld.type == "pressure"
         else Traction(ld.group, ld.value, ld.amplitude)  # type: ignore[arg-type]
         for ld in scene.loads
-    ]
+    ] + point_forces
     materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}
     return InterfaceProblem(
         domain,
@@ -71,6 +95,9 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         build_program(scene.program),
         bcs,
         loads,
+        springs=springs,
         degree=scene.degree,
         quadrature=scene.quadrature,
+        initial_gap=gap_function(scene.initial_gap, gdim),
+        regions=parse_regions(scene.regions) or None,
     )

@@ -32,6 +32,7 @@ __all__ = [
     "EXIT_BAD_INPUT",
     "EXIT_FAILED",
     "EXIT_INTERRUPTED",
+    "HelpFormatter",
     "demo_parser",
     "parse_args",
     "run_main",
@@ -43,6 +44,10 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 75  # EX_TEMPFAIL of sysexits.h: stopped on request, restart later
 
 logger = logging.getLogger(__name__)
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """``--help`` with every option's default, and the description as written (Markdown)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -60,7 +65,9 @@ def demo_parser(description: str, prog: str | None = None) -> argparse.ArgumentP
 
     Add the demo's own (long) options to it. Abbreviated options are not accepted.
     """
-    ap = _Parser(description=description, prog=prog, allow_abbrev=False)
+    ap = _Parser(
+        description=description, prog=prog, allow_abbrev=False, formatter_class=HelpFormatter
+    )
     ap.epilog = "Options with one dash (e.g. -<prefix>snes_monitor, -log_view) go to PETSc."
     ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
     ap.add_argument("-q", "--quiet", action="count", default=0, help="warnings only")
@@ -142,7 +149,9 @@ def parse_args(
     """
     if isinstance(parser, _Parser) and comm is not None:
         parser.rank = comm.rank
-    demo, petsc = split_petsc(parser, sys.argv[1:] if argv is None else argv)
+    if argv is None:  # in a Jupyter kernel (a demo opened as a notebook) argv is the kernel's
+        argv = [] if "ipykernel" in sys.modules else sys.argv[1:]
+    demo, petsc = split_petsc(parser, argv)
     args, unknown = parser.parse_known_args(demo)
     if unknown:
         long_ = [u for u in unknown if u.startswith("--")]
@@ -171,9 +180,11 @@ def _exit_code(e: BaseException) -> int | None:
         return EXIT_BAD_INPUT
     if "subfric_dolfinx.fem" in sys.modules:  # only then can these have been raised
         from ..fem import InterfaceError, StepFailure
-        from ..io import CheckpointError
+        from ..io import CheckpointError, OutputError
         from ..meshing import InterfaceMeshError
 
+        if isinstance(e, OutputError):  # a file not written (a checkpoint's too): disk full, ...
+            return EXIT_FAILED
         if isinstance(e, InterfaceError | InterfaceMeshError | CheckpointError):
             return EXIT_BAD_INPUT
         if isinstance(e, StepFailure):

@@ -1,13 +1,21 @@
 """Running an FE scene: build, solve step by step, write what was asked for, clean up.
 
 Everything from the solver's creation on is guarded: whatever ends the run (a finished program, a
-:class:`~subfric_dolfinx.fem.StepFailure`, a stop signal, a bad restart file), the files are
-closed and the solver is destroyed (its options prefix released).
+:class:`~subfric_dolfinx.fem.StepFailure`, a stop signal, a bad restart file, a failed write), the
+files are closed, the output directory's lock is released and the solver is destroyed (its
+options prefix released).
+
+Output directory: once the mesh and the problem are built (bad input writes nothing), the
+directory is created, probed with a test write and locked for this run
+(:class:`~subfric_dolfinx.io.OutputDirectory`); a fresh run moves an earlier run's files to
+``previous_run/``. Checkpoints carry the scene's settings (:func:`restart_settings`), and a
+restart refuses a checkpoint whose settings differ, naming the setting.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -18,16 +26,35 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
-from ..io import interface_summary, restore_checkpoint
+from ..io import OutputDirectory, interface_summary, restore_checkpoint
 from .build import build_mesh, build_problem
+from .derived import DerivedOutputs
 from .outputs import SceneOutputs
 from .result import SceneResult
 from .schema import FEScene, SceneError
 from .signals import SceneInterrupted, StopSignals
 
-__all__ = ["run_fe_scene"]
+__all__ = ["restart_settings", "run_fe_scene"]
 
 logger = logging.getLogger(__name__)
+
+
+def restart_settings(scene: FEScene) -> dict[str, Any]:
+    """What a restart must match beyond the mesh, law and program (compared anyway).
+
+    The materials, the Dirichlet conditions and loads (values, components, channels), the
+    quadrature and the mesh builder's options. Solver settings and the partitioner may change.
+    """
+    mesh: dict[str, Any] = {"builder": scene.mesh.builder, "options": scene.mesh.options}
+    if scene.mesh.file is not None:
+        mesh = {"file": Path(scene.mesh.file).name, "gdim": scene.mesh.gdim}
+    return {
+        "materials": scene.materials,
+        "dirichlet": [dataclasses.asdict(d) for d in scene.dirichlet],
+        "loads": [dataclasses.asdict(ld) for ld in scene.loads],
+        "quadrature": scene.quadrature,
+        "mesh": mesh,
+    }
 
 
 def run_fe_scene(
@@ -58,7 +85,10 @@ def run_fe_scene(
         "[%s] %d-D, %d cells, %d dofs, %d interface points, %d rank(s)",
         scene.name, i["gdim"], i["cells"], i["dofs"], i["interface points"], i["ranks"],
     )  # fmt: skip
+    settings = restart_settings(scene)
     with contextlib.ExitStack() as stack:
+        if wants_files:
+            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
         solver = stack.enter_context(
             FrictionSolver(
                 problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
@@ -70,10 +100,11 @@ def run_fe_scene(
             dt_max=scene.solver.dt_max,
             dt_min=scene.solver.dt_min,
             max_cuts=scene.solver.max_cuts,
+            hold_dt=scene.solver.hold_dt,
         )
         restart_time, restart_history = None, None
         if restart is not None:
-            restart_history = restore_checkpoint(restart, problem, stepper)
+            restart_history = restore_checkpoint(restart, problem, stepper, settings)
             restart_time = stepper.t
             logger.info(
                 "[%s] restarted from %s at t = %.6g (step %d)",
@@ -87,6 +118,10 @@ def run_fe_scene(
                 stepper,
                 restart_time=restart_time,
                 restart_history=restart_history,
+                settings=settings,
+                derived=DerivedOutputs(
+                    scene, problem, outdir / "fields" if out.fields is not None else None
+                ),
             )
         )
         guard = stack.enter_context(StopSignals())
@@ -108,8 +143,7 @@ def run_fe_scene(
         except StepFailure:
             outputs.write_checkpoint()  # the last converged state, for a restart
             raise
-        finally:
-            outputs.close()
+        finally:  # the files are closed by the exit stack (a close error never hides the run's)
             res.history = outputs.history.rows
             res.snapshots = outputs.snapshots
             res.iterations = outputs.iterations

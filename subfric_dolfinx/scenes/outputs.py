@@ -5,6 +5,12 @@
 history, checkpoints, and the interface profiles (snapshots) returned in memory. The runner calls
 :meth:`SceneOutputs.on_step` after each converged step and :meth:`SceneOutputs.close` at the end
 (it is a context manager).
+
+Every file operation is collective (:mod:`subfric_dolfinx.io.collective`): a failure on any rank
+is an :class:`~subfric_dolfinx.io.OutputError` (a :class:`~subfric_dolfinx.io.CheckpointError`
+for checkpoints) on every rank, naming the file and the OS error, and every file is closed
+however the run ends. The output directory itself is prepared (probed, locked, cleared of an
+earlier run's files) by :class:`~subfric_dolfinx.io.OutputDirectory` in the runner.
 """
 
 from __future__ import annotations
@@ -15,7 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from ..io import FieldWriter, HistoryCSV, InterfaceHistoryH5, gather_interface, write_checkpoint
+from ..io import (
+    FieldWriter,
+    HistoryCSV,
+    InterfaceHistoryH5,
+    InterfacePointsXDMF,
+    gather_interface,
+    write_checkpoint,
+)
 from .schema import OutputSpec
 from .signals import SceneInterrupted
 
@@ -26,15 +39,21 @@ def interface_profile(problem: Any) -> dict[str, np.ndarray]:
     """Interface fields at all points, gathered on every rank (collective).
 
     In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
-    ``status`` and every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``).
+    ``status``, every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``),
+    the law's input gap ``gap`` (n, nt + 1: ``ubar_t``, ``ubar_n - g0``) and the fixed point data
+    (``g0``, and ``region`` with regions).
     """
     el = problem.interface
     nt = el.nt
     tr = el.last.traction
     values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "status": el.last.status}
     values.update(dict(el.state.old.items()))
+    values["gap"] = el.last_gap
+    values.update(el.point_data)
     out = gather_interface(el, values)
     out["status"] = out["status"].astype(int)
+    if "region" in out:
+        out["region"] = out["region"].astype(int)
     return out
 
 
@@ -48,6 +67,9 @@ class SceneOutputs:
         stepper: The load stepper (its position goes into checkpoints).
         restart_time: Time of the checkpoint a restarted run continues from.
         restart_history: History rows of that checkpoint.
+        settings: What a restart from its checkpoints must match (see
+            :func:`~subfric_dolfinx.io.write_checkpoint`).
+        derived: The scene's :class:`~.derived.DerivedOutputs` (history columns, stress fields).
 
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
@@ -65,26 +87,39 @@ class SceneOutputs:
         *,
         restart_time: float | None = None,
         restart_history: list[dict[str, float]] | None = None,
+        settings: dict[str, Any] | None = None,
+        derived: Any = None,
     ) -> None:
         self.spec, self.problem, self.stepper = spec, problem, stepper
+        self.settings = settings
         self.outdir = outdir
         self.files: list[str] = []
         self.snapshots: dict[float, dict[str, np.ndarray]] = {}
         self.iterations: list[int] = []
         self.fields: FieldWriter | None = None
+        self.points: InterfacePointsXDMF | None = None  # quadrature points, beside the fields
         self.ihist: InterfaceHistoryH5 | None = None
-        self.history = HistoryCSV(outdir / "history.csv" if spec.history else None, problem)
+        self.derived = derived
+        self.history = HistoryCSV(
+            outdir / "history.csv" if spec.history else None,
+            problem,
+            derived.columns if derived is not None else None,
+        )
         if restart_history:
             self.history.preload(restart_history)
         try:
             if spec.fields:
                 self.fields = FieldWriter(outdir / "fields", problem, spec.fields)
+                self.points = InterfacePointsXDMF(outdir / "fields/interface_points.xdmf", problem)
             if spec.interface_history:
                 self.ihist = InterfaceHistoryH5(
                     outdir / "interface_history.h5", problem, restart_time
                 )
         except BaseException:
-            self.close()
+            try:
+                self.close()
+            except Exception:
+                pass
             raise
         self.checkpoint_path = outdir / "checkpoint.h5" if spec.checkpoints else None
         self._ck_times = np.asarray(spec.checkpoint_times, dtype=float)
@@ -99,7 +134,9 @@ class SceneOutputs:
     def write_checkpoint(self) -> None:
         """Write the converged state now (collective); nothing without checkpoints."""
         if self.checkpoint_path is not None:
-            write_checkpoint(self.checkpoint_path, self.problem, self.stepper, self.history.rows)
+            write_checkpoint(
+                self.checkpoint_path, self.problem, self.stepper, self.history.rows, self.settings
+            )
             self.files.append(str(self.checkpoint_path))
 
     def on_step(self, rec: Any, stopping: bool = False) -> None:
@@ -118,6 +155,10 @@ class SceneOutputs:
             self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
         ):
             self.fields.write(rec.t)
+            if self.points is not None:
+                self.points.write(rec.t)
+            if self.derived is not None:
+                self.derived.write_fields(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
@@ -138,18 +179,37 @@ class SceneOutputs:
             )
 
     def close(self) -> None:
-        """Close the files (collective) and list them in :attr:`files`."""
-        self.history.close()
-        if self.spec.history and self.outdir is not None:
-            self.files.append(str(self.outdir / "history.csv"))
+        """Close the files (collective) and list them in :attr:`files`.
+
+        Every file is closed even if closing another failed; the first failure is then raised
+        (on every rank).
+        """
+        first: Exception | None = None
+        closers = [("history", self.history.close)]
+        if self.points is not None:
+            closers.append(("fields/interface_points.xdmf", self.points.close))
         if self.fields is not None:
-            self.fields.close()
-            self.fields = None
-            self.files.append(str(self.outdir / "fields"))
+            closers.append(("fields", self.fields.close))
         if self.ihist is not None:
-            self.ihist.close()
-            self.ihist = None
-            self.files.append(str(self.outdir / "interface_history.h5"))
+            closers.append(("interface_history.h5", self.ihist.close))
+        if self.derived is not None and self.derived.writer is not None:
+            closers.append((str(self.derived.path), self.derived.close))
+        for name, close in closers:
+            try:
+                close()
+            except Exception as e:  # collective errors: the same on every rank
+                first = first or e
+            if self.outdir is None:
+                continue
+            if name == "history" and self.spec.history:
+                self.files.append(str(self.outdir / "history.csv"))
+            elif name != "history":
+                self.files.append(str(self.outdir / name))
+        self.fields = None
+        self.points = None
+        self.ihist = None
+        if first is not None:
+            raise first
 
     def __enter__(self) -> SceneOutputs:
         return self
@@ -160,4 +220,10 @@ class SceneOutputs:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self.close()
+        if exc_type is None:
+            self.close()
+            return
+        try:  # the run's own error comes first
+            self.close()
+        except Exception:
+            pass

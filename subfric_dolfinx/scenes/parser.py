@@ -18,7 +18,10 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
+from .interface_spec import parse_initial_gap, parse_regions
+from .parse_features import check_features
 from .schema import (
+    BUILDER_GDIM,
     LINEAR_STRATEGIES,
     FEScene,
     MeshSpec,
@@ -220,9 +223,12 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     check_plain(prog, "scene.program")
     _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
-    parse_law(scene.law)
+    law = parse_law(scene.law)
+    parse_initial_gap(scene.initial_gap)
+    parse_regions(scene.regions)
     program = build_program(prog)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
+    check_features(scene, program, tuple(v.name for v in law.variables))
     return scene
 
 
@@ -246,18 +252,15 @@ def check_name(name: str, path: str) -> None:
         )
 
 
-_BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3}
-
-
 def _check_mesh(m: MeshSpec) -> None:
     if (m.builder is None) == (m.file is None):
         raise SceneError("scene.mesh: give exactly one of 'builder' and 'file'")
     if m.builder is not None:
-        _choice("scene.mesh.builder", m.builder, tuple(_BUILDER_GDIM))
-        if m.gdim is not None and m.gdim != _BUILDER_GDIM[m.builder]:
+        _choice("scene.mesh.builder", m.builder, tuple(BUILDER_GDIM))
+        if m.gdim is not None and m.gdim != BUILDER_GDIM[m.builder]:
             raise SceneError(
                 f"scene.mesh.gdim: the builder {m.builder!r} makes a "
-                f"{_BUILDER_GDIM[m.builder]}-D mesh, got gdim = {m.gdim!r}"
+                f"{BUILDER_GDIM[m.builder]}-D mesh, got gdim = {m.gdim!r}"
             )
         check_plain(m.options, "scene.mesh.options")
     else:
@@ -311,6 +314,8 @@ def _check_solver(sv: SolverSpec) -> None:
         raise SceneError(f"{path}.dt_max: must be >= dt = {sv.dt!r}, got {sv.dt_max!r}")
     if sv.dt_min is not None and not 0 <= sv.dt_min <= sv.dt:
         raise SceneError(f"{path}.dt_min: must be in [0, dt = {sv.dt!r}], got {sv.dt_min!r}")
+    if sv.hold_dt is not None and not sv.hold_dt > 0:
+        raise SceneError(f"{path}.hold_dt: must be > 0, got {sv.hold_dt!r}")
     if sv.max_cuts < 0:
         raise SceneError(f"{path}.max_cuts: must be >= 0, got {sv.max_cuts!r}")
     _choice(f"{path}.linear", sv.linear, LINEAR_STRATEGIES)

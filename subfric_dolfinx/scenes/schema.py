@@ -13,12 +13,17 @@ __all__ = [
     "LINEAR_STRATEGIES",
     "DirichletSpec",
     "FEScene",
+    "FrameSpec",
     "LoadSpec",
     "MeshSpec",
     "OutputSpec",
+    "PointForceSpec",
     "PointScene",
+    "PointSpec",
+    "ProbeSpec",
     "SceneError",
     "SolverSpec",
+    "SpringSpec",
 ]
 
 
@@ -30,12 +35,17 @@ class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
 
 
+BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
+"""The mesh builders a scene may name, with the dimension of their meshes."""
+
+
 @dataclasses.dataclass(frozen=True)
 class MeshSpec:
     """Where the mesh comes from.
 
     Attributes:
-        builder: ``"block_on_base"`` (2-D) or ``"pad_on_plate"`` (3-D), built with gmsh.
+        builder: ``"block_on_base"`` (2-D), ``"pad_on_plate"`` or ``"bolted_lap_joint"`` (3-D),
+            built with gmsh.
         file: Or a ``.msh`` file (relative to the working directory).
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
@@ -51,9 +61,11 @@ class MeshSpec:
 
 @dataclasses.dataclass(frozen=True)
 class DirichletSpec:
-    """Prescribed displacement ``(value + gradient . x) * amplitude(t)`` on a facet group.
+    """Prescribed displacement ``(value + gradient . x) * amplitude(t)`` on a group.
 
-    ``value`` is a list (all components) or a number with ``component``.
+    ``value`` is a list (all components) or a number with ``component``. The group is a facet
+    group (its facets' dofs), a cell group (every dof of the body), a node group of the mesh
+    (gmsh physical points) or a point of the scene's ``points`` (its nearest vertex).
     """
 
     group: str
@@ -65,12 +77,74 @@ class DirichletSpec:
 
 @dataclasses.dataclass(frozen=True)
 class LoadSpec:
-    """A pressure (``value`` a number, positive inwards) or traction (``value`` a vector)."""
+    """A pressure (``value`` a number, positive inwards) or traction (``value`` a vector).
+
+    A traction's ``amplitude`` may be a list, one channel (or null) per component.
+    """
 
     type: str
     group: str
     value: float | list[float]
-    amplitude: str | None = None
+    amplitude: str | None | list[str | None] = None
+
+
+# --- supports, points, probes and frames (issue 16, items 2, 3, 5) --------------------------------
+@dataclasses.dataclass(frozen=True)
+class SpringSpec:
+    """Elastic support ``t = -k (u - u0 amplitude(t))`` per component on a facet group.
+
+    ``stiffness`` (MPa/mm: N/mm per mm² of the face) is one number or one per component (0: that
+    component free); ``u0`` the springs' end, ``amplitude`` one channel or one per component.
+    """
+
+    group: str
+    stiffness: float | list[float]
+    u0: list[float] | None = None
+    amplitude: str | None | list[str | None] = None
+
+
+@dataclasses.dataclass(frozen=True)
+class PointSpec:
+    """A named point: coordinates ``x`` and, on the interface, the ``body`` it belongs to."""
+
+    x: list[float]
+    body: str | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class PointForceSpec:
+    """A force vector (N) at the mesh vertex nearest to the named point ``point``."""
+
+    point: str
+    value: list[float]
+    amplitude: str | None | list[str | None] = None
+
+
+@dataclasses.dataclass(frozen=True)
+class ProbeSpec:
+    """Values at a named point in the history.
+
+    ``fields`` among ``u`` (displacement), ``sigma`` (stress components), ``von_mises``, and the
+    interface's ``f_t``, ``f_n``, ``gap``, ``status`` and the law's variables (at the nearest
+    interface quadrature point).
+    """
+
+    point: str
+    fields: list[str] = dataclasses.field(default_factory=lambda: ["u"])
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameSpec:
+    """Reaction of ``group`` resolved in the local frame (tangent [, n x tangent], normal).
+
+    Columns ``R_<name>_t``, ``R_<name>_n`` (2-D) or ``R_<name>_t1``, ``_t2``, ``_n`` (3-D);
+    ``name`` defaults to the group.
+    """
+
+    group: str
+    normal: list[float]
+    tangent: list[float]
+    name: str | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,6 +158,8 @@ class SolverSpec:
         dt_max: Largest step (default ``dt``).
         dt_min: Smallest step before the run gives up.
         max_cuts: Consecutive step cuts allowed.
+        hold_dt: Step in the program's holds (segments where no channel changes), e.g. the
+            hold's length: one step (``None``: holds are stepped like the rest).
         options: PETSc options under the prefix, for this scene's solver only.
         linear: Linear strategy, ``"reuse"``, ``"lu"`` or ``"gamg"``
             (:mod:`subfric_dolfinx.fem.linear`).
@@ -94,6 +170,7 @@ class SolverSpec:
     dt_max: float | None = None
     dt_min: float | None = None
     max_cuts: int = 10
+    hold_dt: float | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     linear: str = "reuse"
 
@@ -104,13 +181,19 @@ class OutputSpec:
 
     Attributes:
         history: Write ``history.csv`` (one row per converged step).
-        fields: ``"vtx"`` or ``"xdmf"`` field output, or ``None``.
+        fields: ``"vtx"`` or ``"xdmf"`` field output (per-facet averages, and the interface
+            state at the quadrature points in ``fields/interface_points.xdmf``), or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
         interface_history: Write ``interface_history.h5`` (every field at every step, see
             :class:`~subfric_dolfinx.io.InterfaceHistoryH5`).
         checkpoint_every: Write ``checkpoint.h5`` every so many converged steps (0: never).
         checkpoint_times: And at these times (steps end there).
+        probes: Values at named points in the history (:class:`ProbeSpec`).
+        reaction_frames: Reactions (and spring forces) of groups resolved in local frames
+            (:class:`FrameSpec`).
+        stress: Also write the Cauchy stress and von Mises stress of the bodies with the fields
+            (``stress.bp``, or ``stress.xdmf`` for degree 1 only).
 
     With checkpoints enabled, SIGTERM makes the run write a checkpoint after the current step and
     stop (:class:`SceneInterrupted`), and a step that cannot be solved leaves the last converged
@@ -124,6 +207,9 @@ class OutputSpec:
     interface_history: bool = False
     checkpoint_every: int = 0
     checkpoint_times: list[float] = dataclasses.field(default_factory=list)
+    probes: list[ProbeSpec] = dataclasses.field(default_factory=list)
+    reaction_frames: list[FrameSpec] = dataclasses.field(default_factory=list)
+    stress: bool = False
 
     @property
     def checkpoints(self) -> bool:
@@ -143,10 +229,18 @@ class FEScene:
     solver: SolverSpec
     dirichlet: list[DirichletSpec] = dataclasses.field(default_factory=list)
     loads: list[LoadSpec] = dataclasses.field(default_factory=list)
+    springs: list[SpringSpec] = dataclasses.field(default_factory=list)
+    points: dict[str, PointSpec] = dataclasses.field(default_factory=dict)
+    point_forces: list[PointForceSpec] = dataclasses.field(default_factory=list)
     degree: int = 1
     quadrature: str = "gauss"
     outputs: OutputSpec = dataclasses.field(default_factory=OutputSpec)
     kind: str = "fe"
+    # the interface beyond its law (see scenes/interface_spec.py): the initial gap g0 (a number,
+    # {"expression": ..., "parameters": ...}, {"parabola": ...} or {"circle": ...}) and regions
+    # (a group of interface facets -> its law)
+    initial_gap: Any = None
+    regions: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -24,9 +24,15 @@ One module per kind of input:
 * ``test_scenes.py``: scene configurations (unknown keys, wrong types, values the dataclasses
   would let through — a list as a pressure, a vector with ``component``, 10**400, a list as a
   PETSc option —, keys that would be ignored — mesh options beside a file, output times outside
-  the program, ``dt_min > dt`` —, names that are not plain file names, conditions on a cell
-  group, files requested without a directory) and checkpoints (missing, truncated, foreign,
+  the program, ``dt_min > dt`` —, names that are not plain file names, loads and springs on a
+  cell group, files requested without a directory) and checkpoints (missing, truncated, foreign,
   other law or mesh).
+* ``test_checkpoints.py``: damaged checkpoint contents (shapes, dtypes, NaN/inf, attribute types
+  and ranges, JSON) and restarts with other materials, loads, boundary values or program.
+* ``test_scene_features.py``: springs, named points, point forces, probes, reaction frames and
+  stress output of a scene (wrong lengths, negative or zero stiffness, unknown channels, points
+  or probe fields, frames of groups without a reaction or with non-orthogonal axes, stress
+  without fields; points outside their body, node groups that are not vertices).
 
 The numpy-only modules run on 1 rank; the others on 1 and 2 ranks.
 """

@@ -251,3 +251,138 @@ def test_case_with_absurd_path_magnitude(tmp_path, capsys, value):
     err = capsys.readouterr().err
     assert code == 2 and "field 'path'" in err and f"{value:g} mm" in err, err
     assert not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
+# Malformed files (issue 12, item 8): one error line and exit code 2, never a traceback
+
+
+def cli_rejects(tmp_path, text_or_bytes, *words, name="case.json"):
+    """The real command line on a file with these contents: exit 2, ``error:`` naming ``words``,
+    no traceback, nothing on stdout, no output file."""
+    f = tmp_path / name
+    if isinstance(text_or_bytes, bytes):
+        f.write_bytes(text_or_bytes)
+    else:
+        f.write_text(text_or_bytes)
+    out = tmp_path / "result.json"
+    proc = driver_cli(f, "--out", out)
+    assert proc.returncode == 2, (proc.returncode, proc.stderr)
+    assert proc.stderr.startswith("error: ") and "Traceback" not in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    for w in words:
+        assert w in proc.stderr, (w, proc.stderr)
+    assert proc.stdout == "" and not out.exists()
+    return proc
+
+
+BIG = "1" + "0" * 399  # a 400-digit integer
+
+
+@pytest.mark.parametrize(
+    ("contents", "words"),
+    [
+        (b"\xff\xfe{\x00}", ("not UTF-8",)),
+        (json.dumps(CASE).encode("utf-8").replace(b"disp", b"d\xe9sp"), ("not UTF-8",)),
+        ("[" * 100_000 + "]" * 100_000, ("nests too deeply",)),
+        ('{"params": ' + "[" * 5000 + "]" * 5000 + "}", ("'params'",)),
+        (json.dumps(CASE).replace('"steps_per_mm": 100', f'"steps_per_mm": {BIG}'),
+         ("steps_per_mm", "must be finite")),
+        (json.dumps(CASE).replace("[0.3, 0.3, 0.0, 1.2]", f"[0.3, {BIG}, 0.0, 1.2]"),
+         ("path[1][1]", "must be finite")),
+        (json.dumps(CASE).replace('"n_tangential": 2', f'"n_tangential": {BIG}'),
+         ("n_tangential",)),
+        (json.dumps(CASE).replace('"preset": "sec7"', f'"preset": "sec7", "kappa": {BIG}'),
+         ("kappa",)),
+        (json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": ' + "9" * 5000),
+         ("is not valid",)),
+        ('"a string"', ("JSON object",)),
+        ("", ("not valid JSON",)),
+        (json.dumps({**CASE, "control": ["disp"]}), ("'control'",)),
+        (json.dumps({**CASE, "t_samples": {"a": 1}}), ("t_samples",)),
+        (json.dumps({**CASE, "law": {"subloading": 1}}), ("'law'",)),
+        (json.dumps({**CASE, "path": [[0, 0, 0, 1.2], [0.3, "x", 0, 1.2]]}), ("path[1][1]",)),
+    ],
+    ids=["bom16", "latin1", "deep", "deep-field", "big-spm", "big-path", "big-nt", "big-param",
+         "5000-digits", "string", "empty", "control-list", "samples-dict", "law-dict", "row-str"],
+)  # fmt: skip
+def test_malformed_file_gets_one_error_line(tmp_path, contents, words):
+    cli_rejects(tmp_path, contents, *words)
+
+
+def test_a_directory_as_case_file(tmp_path):
+    (tmp_path / "dir.json").mkdir()
+    out = tmp_path / "result.json"
+    proc = driver_cli(tmp_path / "dir.json", "--out", out)
+    assert proc.returncode == 2 and "is a directory" in proc.stderr and not out.exists()
+
+
+# --------------------------------------------------------------------------------------------
+# --out is checked before the run and written atomically
+
+
+@pytest.mark.parametrize(
+    ("target", "words"),
+    [
+        ("missing/result.json", ("does not exist",)),
+        (".", ("directory",)),
+        ("adir", ("is a directory",)),
+        ("/dev/full", ("not a regular file",)),
+    ],
+)
+def test_bad_out_is_refused_before_the_run(tmp_path, target, words):
+    (tmp_path / "adir").mkdir()
+    case = base_case()
+    case["steps_per_mm"] = 1e6  # (a run that would take minutes: refused before it starts)
+    f = write(tmp_path, case)
+    out = target if target.startswith("/") else str(tmp_path / target)
+    proc = driver_cli(f, "--out", out, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.startswith("error: ") and "--out" in proc.stderr, proc.stderr
+    for w in words:
+        assert w in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr and proc.stdout == ""
+
+
+def test_out_is_written_atomically(tmp_path, monkeypatch, capsys):
+    """A write that fails (disk full, injected at the flush to disk) leaves the previous result
+    intact and no temporary file behind; exit code 1, one error line."""
+    import errno
+    import os
+
+    out = tmp_path / "result.json"
+    out.write_text("previous result\n")
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", full)
+    code = main([str(write(tmp_path, CASE)), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1 and "error: cannot write" in err and "No space left" in err, err
+    assert out.read_text() == "previous result\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["case.json", "result.json"]
+    monkeypatch.undo()
+    assert main([str(write(tmp_path, CASE)), "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["complete"] is True
+
+
+# --------------------------------------------------------------------------------------------
+# Step limits: per knot interval and in total, before any step
+
+
+def test_total_step_limit_is_checked_up_front(tmp_path, capsys):
+    """10^4 segments of 5e6 steps each: every segment is within the per-segment limit (1e7), the
+    total (5e10) is not; refused at once, naming the total."""
+    import time
+
+    rows = [[float(i), 0.5 * (i % 2), 0.0, 1.2] for i in range(10_001)]
+    case = {**base_case(), "path": rows, "t_samples": [0.0, 10_000.0], "steps_per_mm": 1e7}
+    t0 = time.perf_counter()
+    with raised_on_every_rank(CaseError, "field 'path'", "steps in all", "5e+10"):
+        run_case(case)
+    assert time.perf_counter() - t0 < 30.0  # (generous: it is a check, not a run)
+    code, out = run_cli(tmp_path, case)
+    assert code == 2 and "steps in all" in capsys.readouterr().err and not out.exists()
+    code, out = run_cli(tmp_path, CASE, "--max-steps", "10")  # the limit is an option too
+    assert code == 2 and "steps in all" in capsys.readouterr().err and not out.exists()

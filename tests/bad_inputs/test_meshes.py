@@ -265,6 +265,15 @@ def test_bad_builder_options():
         meshing.create_interface_mesh(meshing.build_block_on_base, comm, cell_type="hexahedron")
     with raised_on_every_rank(ValueError, "must lie on the base"):
         meshing.create_interface_mesh(meshing.build_block_on_base, comm, block_x=1.5)
+    joint = meshing.build_bolted_lap_joint
+    with raised_on_every_rank(ValueError, "overlap (70.0) must not exceed plate_length (60.0)"):
+        meshing.create_interface_mesh(joint, comm, overlap=70.0)
+    with raised_on_every_rank(ValueError, "the washer (diameter 32.0) inside the overlap"):
+        meshing.create_interface_mesh(joint, comm, washer_radius=16.0)
+    with raised_on_every_rank(ValueError, "hole_radius must be a positive finite number"):
+        meshing.create_interface_mesh(joint, comm, hole_radius=float("nan"))
+    with raised_on_every_rank(ValueError, "cell_type must be 'tetrahedron'"):
+        meshing.create_interface_mesh(joint, comm, cell_type="hexahedron")
 
 
 def test_bad_partitioner_kind_group_and_side():
@@ -275,3 +284,47 @@ def test_bad_partitioner_kind_group_and_side():
         im.tag("nope")
     with raised_on_every_rank(ValueError, "side must be one of"):
         im.interface_facets("interface")
+
+
+# --------------------------------------------------------------------------------------------
+# Interface regions and graded meshes (builder options), a group partly on the interface
+
+
+@pytest.mark.parametrize(
+    ("options", "words"),
+    [
+        ({"interface_regions": {"a": [0.2, 0.8]}}, "inside the interface [0.5, 1.5]"),
+        ({"interface_regions": {"a": [0.9, 0.7]}}, "must be an increasing interval"),
+        ({"interface_regions": {"a": [0.6, 1.0], "b": [0.9, 1.2]}}, "'a' and 'b' overlap"),
+        ({"interface_regions": {"top": [0.6, 1.0]}}, "must be an identifier other than"),
+        ({"interface_regions": {"a b": [0.6, 1.0]}}, "must be an identifier other than"),
+        ({"interface_regions": {"a": "left"}}, "expected [x0, x1]"),
+        ({"interface_regions": {"a": [0.6, float("nan")]}}, "must be an increasing interval"),
+        ({"far_size": 1.0, "cell_type": "quadrilateral"}, "needs triangles or tetrahedra"),
+        ({"far_size": 0.01}, "must be at least the interface size"),
+        ({"far_size": 1.0, "growth": -1}, "growth must be a positive finite number"),
+        ({"far_size": 1.0, "refine_radius": -1}, "refine_radius must be a finite number >= 0"),
+    ],
+)
+def test_bad_region_and_grading_options(options, words):
+    with raised_on_every_rank(ValueError, words):
+        meshing.create_interface_mesh(meshing.build_block_on_base, MPI.COMM_WORLD, **options)
+
+
+def test_a_facet_group_partly_on_the_interface():
+    """A named facet group holding an interface curve and another curve: a region must lie on
+    the interface only (DOLFINx keeps one tag per facet, so subgroups are read apart)."""
+
+    def with_a_straddling_group():
+        meshing.build_block_on_base(n_interface=4)
+        iface = gmsh.model.getEntitiesForPhysicalGroup(1, meshing.TAGS[meshing.INTERFACE])
+        bottom = gmsh.model.getEntitiesForPhysicalGroup(1, meshing.TAGS[meshing.BOTTOM])
+        gmsh.model.addPhysicalGroup(1, [int(iface[0]), int(bottom[0])], name="straddle")
+
+    def read():
+        with raised_on_every_rank(
+            meshing.InterfaceMeshError, "'straddle' lies partly on the 'interface' group"
+        ):
+            meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
+
+    on_root_with_a_gmsh_model(with_a_straddling_group, read)

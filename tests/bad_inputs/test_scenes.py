@@ -133,6 +133,7 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         (lambda s: s["solver"].update(dt_min=-1e-3), r"scene.solver.dt_min: must be in \[0, dt"),
         (lambda s: s["solver"].update(dt_max=0.01), r"scene.solver.dt_max: must be >= dt"),
         (lambda s: s["solver"].update(max_cuts=-1), r"scene.solver.max_cuts: must be >= 0"),
+        (lambda s: s["solver"].update(hold_dt=0.0), r"scene.solver.hold_dt: must be > 0"),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
@@ -161,16 +162,17 @@ def test_a_pointwise_scene_name_is_a_plain_file_name(tmp_path, name):
     assert not (tmp_path / "out").exists() and not (tmp_path / "escaped.json").exists()
 
 
-def test_a_dirichlet_condition_on_a_cell_group_says_so():
-    """A Dirichlet condition (or a load) on a group of cells, not facets, is named as such
-    instead of failing later as a step that does not converge."""
+def test_a_load_or_spring_on_a_cell_group_says_so():
+    """A load or a spring on a group of cells, not facets, is named as such instead of failing
+    later as a step that does not converge (a Dirichlet condition on a cell group is a feature:
+    every dof of the body is held, ``tests/test_loads_constraints.py``)."""
     for key, entry in (
-        ("dirichlet", {"group": "slave", "component": 0, "value": 0.1}),
         ("loads", {"type": "pressure", "group": "master", "value": 1.0}),
+        ("springs", {"group": "slave", "stiffness": 1.0}),
     ):
         s = small_scene()
         s["solver"]["prefix"] = prefix("cells")
-        s[key].append(entry)
+        s.setdefault(key, []).append(entry)
         with raised_on_every_rank(
             InterfaceError, repr(entry["group"]), "a group of cells (dimension 2), not of facets"
         ):
@@ -220,3 +222,47 @@ def test_bad_checkpoints_are_refused(shared_tmp):
     finer["mesh"]["options"]["n_interface"] = 12
     with raised_on_every_rank(CheckpointError, "n_cells"):
         run_scene(finer, comm=comm, restart=good)
+
+
+# --------------------------------------------------------------------------------------------
+# The interface beyond its law: initial gaps and regions
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "pattern"),
+    [
+        ("initial_gap", "0.1", r"scene.initial_gap: expected a number or an object"),
+        ("initial_gap", float("nan"), r"scene.initial_gap: expected a finite number"),
+        ("initial_gap", {"expression": "__import__('os')"}, r"unknown function '__import__'"),
+        ("initial_gap", {"expression": "x.real"}, r"scene.initial_gap.expression: Attribute"),
+        ("initial_gap", {"parabola": {"R": 0, "center": [1, 0.5]}}, r"parabola.R: must be"),
+        ("regions", [1], r"scene.regions: expected an object"),
+        ("regions", {"default": {"law": "coulomb"}}, r"scene.regions: 'default' cannot name"),
+        ("regions", {"rough": {"law": "coulomb", "params": {"mu_c": -1}}}, r"scene.regions.rough:"),
+        ("regions", {"rough": {"law": "teapot", "params": {}}}, r"scene.regions.rough: .*'law'"),
+        ("regions", {"rough": {"laws": "coulomb"}}, r"scene.regions.rough: expected"),
+    ],
+)
+def test_bad_gaps_and_regions_are_named(key, value, pattern):
+    s = copy.deepcopy(small_scene())
+    s[key] = value
+    with raised_on_every_rank(SceneError, match=pattern):
+        parse_scene(s)
+
+
+@pytest.mark.parametrize(
+    ("gap", "words"),
+    [
+        ({"expression": "sqrt(x - 1)"}, "the initial gap is not finite at ("),
+        ({"expression": "1 / (x - x)"}, "the initial gap is not finite at ("),
+        ({"circle": {"R": 0.2, "center": [1.0, 0.5]}}, "farther than R = 0.2 from the centre"),
+        ({"expression": "z"}, "unknown name 'z'"),
+    ],
+)
+def test_a_gap_that_cannot_be_evaluated_is_named(gap, words):
+    """Found when the mesh is known (the points, their dimension), on every rank."""
+    s = small_scene()
+    s["solver"]["prefix"] = prefix("gap")
+    s["initial_gap"] = gap
+    with raised_on_every_rank((InterfaceError, SceneError), words):
+        run_scene(s)

@@ -301,7 +301,7 @@ CASES: list[Case] = [
     Case(
         "FE f_n -> 0",
         "fe",
-        "pressure 1e-9 MPa, slide +-0.3 mm",
+        "pressure 1e-6 MPa, slide +-0.3 mm",
         "converged",
         "traction ~ 0, no cuts",
         fe_fn_to_zero,

@@ -294,7 +294,7 @@ def mp_sec6_literal(comm: Any = None) -> Outcome:
 
 def check_sec6(o: Outcome) -> None:
     check_flag_early(o)
-    require(0.03 < o.data["lost_r"] < 0.08, f"MODEL.md: r ~ 0.05 at the loss, got {o.data}")
+    require(0.03 < o.data["lost_r"] < 0.08, f"docs/model.md §8: r ~ 0.05 at the loss, got {o.data}")
 
 
 def _sec7_literal(f_n: float) -> Outcome:

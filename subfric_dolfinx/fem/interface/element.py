@@ -13,6 +13,10 @@ to ``ubar``, so the interface adds ``+int N f`` to the slave rows of the residua
 to the master rows, and ``int N N Q^T D Q`` with the signs of ``[[1, -1], [-1, 1]]`` to the
 Jacobian (``D`` the consistent tangent of the law, not symmetric).
 
+An initial gap ``g0`` (per point, > 0 where the interface starts open) enters the law's normal
+input as ``ubar_n - g0``: the bodies touch where ``ubar_n`` reaches ``g0``. Interface regions
+give points their own law (a :class:`~subfric_dolfinx.constitutive.RegionalLaw`).
+
 Geometrically linear: small sliding, the pairs and frames are fixed at the reference geometry.
 
 The internal variables live in DOLFINx Quadrature functions on the interface submesh (one cell per
@@ -21,14 +25,16 @@ owned master facet), point ``q`` of cell ``c`` at index ``c * nq + q``; they are
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+
 import basix
 import basix.ufl
 import dolfinx
 import numpy as np
 
-from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, StatePair
+from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
 from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
-from .pairing import InterfacePairs
+from .pairing import InterfaceError, InterfacePairs
 
 __all__ = ["InterfaceElements"]
 
@@ -41,6 +47,10 @@ class InterfaceElements:
         V: The displacement space.
         law: The friction law (:class:`~subfric_dolfinx.constitutive.FrictionLaw`).
         quadrature: ``"gauss"`` or ``"nodal"``, see :func:`quadrature_rule`.
+        initial_gap: The initial normal gap ``g0`` (mm, > 0 open): a number, or a function of the
+            points' coordinates ``x`` (gdim, n) returning (n,) values; ``None``: 0.
+        regions: ``(region, laws)``: the region of every element (0: ``law``, ``i``: the
+            ``i``-th of ``laws``, name -> law), for interface regions with their own laws.
 
     Attributes:
         nq: Quadrature points per element.
@@ -53,7 +63,11 @@ class InterfaceElements:
             the Quadrature functions ``functions[name]`` (and ``functions[name + "_old"]``).
         functions: Quadrature functions: one per internal variable the law declares (trial
             state, e.g. ``up``, ``mu``, ``r``), the same with ``_old`` (committed state), and
-            ``traction`` (``f_t..., f_n``, local components).
+            ``traction`` (``f_t..., f_n``, local components) and ``g0`` (the initial gap).
+        g0: Initial normal gap at every point, (nf * nq,), a view of ``functions["g0"]``.
+        point_data: Fixed data per point, for outputs and checkpoints: ``g0`` and, with regions,
+            ``region`` (the region number, as floats; names in :attr:`region_names`).
+        region_names: ``("default", <regions>...)``; ``("default",)`` without regions.
         coordinate_tolerance: Points closer than this are the same point (a small fraction of
             the smallest interface facet), for matching and ordering.
     """
@@ -64,10 +78,12 @@ class InterfaceElements:
         V: dolfinx.fem.FunctionSpace,
         law: FrictionLaw,
         quadrature: str = "gauss",
+        *,
+        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
+        regions: tuple[np.ndarray, Mapping[str, FrictionLaw]] | None = None,
     ) -> None:
         self.pairs = pairs
         self.V = V
-        self.law = law
         sub = pairs.submesh
         self.submesh = sub
         gdim = V.mesh.geometry.dim
@@ -81,6 +97,13 @@ class InterfaceElements:
         self.nq = X.shape[0]
         nf = pairs.facets.size
         self.n_elements = nf
+        self.region_names: tuple[str, ...] = ("default",)
+        region = None
+        if regions is not None:
+            region = np.repeat(np.asarray(regions[0], dtype=np.int64), self.nq)
+            law = RegionalLaw(law, regions[1], region)
+            self.region_names = law.names
+        self.law = law
 
         felem = basix.create_element(
             basix.ElementFamily.P, fcell, degree, basix.LagrangeVariant.gll_warped
@@ -124,6 +147,8 @@ class InterfaceElements:
         fn: dict[str, dolfinx.fem.Function] = {}
         views: dict[str, dict[str, np.ndarray]] = {"": {}, "_old": {}}
         for var in law.variables:
+            if var.name in ("g0", "region", "traction"):
+                raise ValueError(f"a law variable may not be named {var.name!r} (reserved)")
             space = {SCALAR: self.Qs, LOCAL: self.Qf}.get(var.shape, self.Qv)
             for suffix, arrays in views.items():
                 f = F(space, name=var.name + suffix)
@@ -132,7 +157,13 @@ class InterfaceElements:
                 fn[var.name + suffix] = f
                 arrays[var.name] = f.x.array.reshape(var.array_shape(npts, self.nt))
         fn["traction"] = F(self.Qf, name="traction")
+        fn["g0"] = F(self.Qs, name="g0")
         self.functions = fn
+        self.g0 = fn["g0"].x.array
+        self.g0[:] = _initial_gap(initial_gap, self.points.reshape(-1, gdim), sub.comm)
+        self.point_data: dict[str, np.ndarray] = {"g0": self.g0}
+        if region is not None:
+            self.point_data["region"] = region.astype(float)
         init = law.initial_state(npts, self.nt)
         self.state = StatePair(
             InterfaceState(views["_old"], self.nt, copy=False),
@@ -152,7 +183,10 @@ class InterfaceElements:
 
     # ----------------------------------------------------------------------------------------
     def gap(self, u_local: np.ndarray) -> np.ndarray:
-        """Local gap at all points, (nf * nq, gdim), from the local array of the extended vector."""
+        """Local gap ``Q ubar`` at all points, (nf * nq, gdim), without the initial gap.
+
+        From the local array of the extended vector.
+        """
         U = u_local[self.dofs].reshape(self.n_elements, 2, self.nfd, self.bs)
         jump = U[:, 1] - U[:, 0]  # slave - master, (nf, nfd, gdim)
         ubar = np.einsum("qk,ckd->cqd", self.N, jump)
@@ -161,10 +195,14 @@ class InterfaceElements:
     def update(self, u_local: np.ndarray, dt: float):
         """Evaluate the law at ``u`` from the committed state; fill the trial state.
 
+        The law's input (kept in :attr:`last_gap`) is the gap with ``ubar_n - g0`` as its normal
+        component.
+
         Returns:
             The :class:`~subfric_dolfinx.constitutive.ReturnMapResult`.
         """
         self.last_gap = self.gap(u_local)
+        self.last_gap[:, self.nt] -= self.g0
         res = self.law.return_map(self.last_gap, self.state.old, dt, out=self.state.new)
         self.functions["traction"].x.array[:] = res.traction.ravel()
         self.last = res
@@ -200,3 +238,31 @@ class InterfaceElements:
     def revert(self) -> None:
         """Reject the trial state."""
         self.state.revert()
+
+
+def _initial_gap(
+    spec: float | Callable[[np.ndarray], np.ndarray] | None, x: np.ndarray, comm
+) -> np.ndarray:
+    """The initial gap at points ``x`` (n, gdim) (collective: a failure is raised on every rank).
+
+    Raises:
+        InterfaceError: The function failed, gave the wrong number of values or a value that is
+            not finite (the first such point is named).
+    """
+    n = x.shape[0]
+    error = None
+    g = np.zeros(n)
+    try:
+        if spec is not None:
+            vals = spec(x.T.copy()) if callable(spec) else spec
+            g = np.array(np.broadcast_to(np.asarray(vals, dtype=float), (n,)))
+            bad = np.flatnonzero(~np.isfinite(g))
+            if bad.size:
+                where = ", ".join(f"{v:.6g}" for v in x[bad[0]])
+                error = f"the initial gap is not finite at ({where}): {g[bad[0]]:g}"
+    except Exception as e:  # a function of the user's, or values of the wrong shape
+        error = f"the initial gap could not be evaluated: {type(e).__name__}: {e}"
+    errors = [m for m in comm.allgather(error) if m]
+    if errors:
+        raise InterfaceError(errors[0])
+    return g

@@ -5,6 +5,7 @@ from __future__ import annotations
 import basix
 import dolfinx
 import numpy as np
+from scipy.spatial import cKDTree
 
 __all__ = [
     "basix_cell",
@@ -93,29 +94,17 @@ def frames(n: np.ndarray) -> np.ndarray:
 def match_points(
     keys: np.ndarray, queries: np.ndarray, tol: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """For each query point, the index of a key point within ``tol`` (or -1), and the distance.
+    """For each query point, the nearest key point's index if within ``tol`` (else -1), distance.
 
-    Hashes the keys on a grid of spacing ``4 tol`` and searches the neighbouring grid cells.
+    The distance is ``inf`` where there is none. A k-d tree of the keys
+    (``scipy.spatial.cKDTree``): O((n + m) log m) for m keys and n queries.
     """
-    n, d = queries.shape
+    n = queries.shape[0]
     out = np.full(n, -1, dtype=np.int64)
     dist = np.full(n, np.inf)
     if keys.shape[0] == 0 or n == 0:
         return out, dist
-    h = 4.0 * tol
-    kq = np.floor(keys / h).astype(np.int64)
-    table: dict[tuple[int, ...], list[int]] = {}
-    for i, k in enumerate(map(tuple, kq)):
-        table.setdefault(k, []).append(i)
-    qq = np.floor(queries / h).astype(np.int64)
-    shifts = np.array(np.meshgrid(*[[-1, 0, 1]] * d, indexing="ij")).reshape(d, -1).T
-    for i in range(n):
-        best, bd = -1, np.inf
-        for s in shifts:
-            for j in table.get(tuple(qq[i] + s), ()):
-                dd = float(np.linalg.norm(keys[j] - queries[i]))
-                if dd < bd:
-                    best, bd = j, dd
-        if bd <= tol:
-            out[i], dist[i] = best, bd
+    d, k = cKDTree(keys).query(queries)
+    ok = d <= tol
+    out[ok], dist[ok] = k[ok], d[ok]
     return out, dist

@@ -3,8 +3,13 @@
 The interface facets carry one facet tag on both sides (the nodes are duplicated, so each side is an
 exterior facet of its own body); the side is told by the body tag of the adjacent cell. For every
 owned master facet this module finds the slave facet at the same place, possibly on another rank,
-and the slave facet's displacement nodes, ordered like the master's. The slave facets' data are
-all-gathered (memory O(interface size) per rank) and matched by coordinates.
+and the slave facet's displacement nodes, ordered like the master's. Memory and communication are
+local: every rank all-gathers only the bounding box of its master facets (two points per rank) and
+sends each of its slave facets (midpoint, node numbers, owners and coordinates) to the ranks whose
+box holds it (``MPI_Alltoallv``); a rank thus receives the slave facets near its own master facets,
+never the whole interface. The midpoints are matched with a k-d tree (``scipy.spatial.cKDTree``),
+the nodes of a pair by vectorised nearest-point searches, and the owners learn how many master
+facets took each of their slave facets (each must be taken once).
 
 The displacement space's index map is then extended with the slave nodes that are not local as
 extra ghosts, so that one ghost update brings the other side's values and one reverse update sends
@@ -15,13 +20,15 @@ couplings (see :mod:`.layout`).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import basix
 import dolfinx
 import numpy as np
 from mpi4py import MPI
+from scipy.spatial import cKDTree
 
-from .geometry import basix_cell, match_points, push_forward
+from .geometry import basix_cell, push_forward
 
 __all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
 
@@ -47,6 +54,9 @@ class InterfacePairs:
         n_extra_ghosts: Number of nodes added to the ghosts of the displacement index map.
         n_split: Number of this rank's pairs whose slave facet is owned by another rank.
         h_min: Smallest distance between two nodes of an interface facet, over all ranks.
+        n_received: Number of slave facets this rank received from other ranks to pair its
+            master facets (the size of the exchange: the slave facets near this rank's master
+            facets that other ranks own).
     """
 
     submesh: dolfinx.mesh.Mesh
@@ -60,6 +70,7 @@ class InterfacePairs:
     n_extra_ghosts: int
     n_split: int
     h_min: float
+    n_received: int = 0
 
 
 def _adjacent_cells(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -160,8 +171,8 @@ def pair_interface(
     # The interface's own mesh: the owned master facets. Its cells define the parametrisation
     # (vertex order) used for the quadrature points, so everything below follows submesh order.
     sub, entity_map, _, _ = dolfinx.mesh.create_submesh(mesh, tdim - 1, m_facets)
-    order = {int(f): i for i, f in enumerate(m_facets)}
-    perm = np.array([order[int(f)] for f in entity_map], dtype=np.int64)
+    sorter = np.argsort(m_facets)
+    perm = sorter[np.searchsorted(m_facets, np.asarray(entity_map), sorter=sorter)]
     m_facets, m_cells = m_facets[perm], m_cells[perm]
     nf = m_facets.size
 
@@ -176,55 +187,58 @@ def pair_interface(
     nfd = Xn.shape[0]
 
     # Facet sizes for the tolerance (global minimum)
-    dists = np.linalg.norm(node_points[:, :, None, :] - node_points[:, None, :, :], axis=-1)
-    off_diagonal = ~np.eye(nfd, dtype=bool)
-    h_loc = float(dists[:, off_diagonal].min()) if nf else np.inf
+    h_loc = np.inf
+    for i in range(nfd if nf else 0):  # one pair of nodes at a time: memory O(nf)
+        for j in range(i + 1, nfd):
+            d_ij = np.linalg.norm(node_points[:, i] - node_points[:, j], axis=-1)
+            h_loc = min(h_loc, float(d_ij.min()))
     h = comm.allreduce(h_loc, op=MPI.MIN)
     tol = rel_tol * (h if np.isfinite(h) else 1.0)
 
     dof_x = V.tabulate_dof_coordinates()[:, :gdim]
     imap = V.dofmap.index_map
-    n_local_nodes = imap.size_local + imap.num_ghosts
     dofs = V.dofmap.list
 
     # Master facet nodes, ordered like the reference nodes (match within the adjacent cell).
-    master_nodes = np.empty((nf, nfd), dtype=np.int32)
-    lost = None
-    for i in range(nf):
-        cn = dofs[m_cells[i]]
-        d = np.linalg.norm(dof_x[cn][None, :, :] - node_points[i][:, None, :], axis=-1)
-        j = np.argmin(d, axis=1)
-        if lost is None and np.any(d[np.arange(nfd), j] > tol):
-            lost = node_points[i].tolist()
-        master_nodes[i] = cn[j]
+    cell_nodes = dofs[m_cells]
+    j, far = _nearest(dof_x[cell_nodes], node_points, tol)
+    master_nodes = np.take_along_axis(cell_nodes, j, axis=1).astype(np.int32)
+    lost = node_points[far[0]].tolist() if far.size else None
     fail(None if lost is None else f"internal error: master facet nodes not found at {lost}")
 
     # Slave facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
     vector_element = V.ufl_element().sub_elements[0].basix_element
-    closure = vector_element.entity_closure_dofs[tdim - 1]
+    closure = np.asarray(vector_element.entity_closure_dofs[tdim - 1], dtype=np.int32)
     lfi = _local_facet_index(mesh, s_cells, s_facets) if s_facets.size else np.zeros(0, int)
     s_nodes = (
-        np.array([dofs[c][closure[lf]] for c, lf in zip(s_cells, lfi, strict=True)], dtype=np.int32)
+        dofs[s_cells[:, None], closure[lfi]].astype(np.int32)
         if s_facets.size
         else np.zeros((0, nfd), dtype=np.int32)
     )
     owners_all = np.concatenate([np.full(imap.size_local, comm.rank, np.int32), imap.owners])
-    l2g = imap.local_to_global(np.arange(n_local_nodes, dtype=np.int32))
-    s_mid = dof_x[s_nodes].mean(axis=1) if s_facets.size else np.zeros((0, gdim))
-    s_data = (
-        s_mid,
-        l2g[s_nodes].astype(np.int64),
-        owners_all[s_nodes],
-        dof_x[s_nodes],
-    )
-    gathered = comm.allgather(s_data)
-    all_mid = np.concatenate([g[0] for g in gathered]).reshape(-1, gdim)
-    all_glob = np.concatenate([g[1] for g in gathered]).reshape(-1, nfd)
-    all_own = np.concatenate([g[2] for g in gathered]).reshape(-1, nfd)
-    all_x = np.concatenate([g[3] for g in gathered]).reshape(-1, nfd, gdim)
-
+    s_x = dof_x[s_nodes]
+    s_mid = s_x.mean(axis=1) if s_facets.size else np.zeros((0, gdim))
     m_mid = node_points.mean(axis=1) if nf else np.zeros((0, gdim))
-    match, _ = match_points(all_mid, m_mid, tol)
+
+    # Each slave facet goes to the ranks whose master facets' bounding box (grown by the
+    # tolerance) holds its midpoint: a rank receives the slave facets near its own master facets.
+    cand = _exchange_slave_facets(
+        comm,
+        m_mid,
+        s_mid,
+        [
+            s_x,
+            imap.local_to_global(s_nodes.ravel()).reshape(s_nodes.shape).astype(np.int64),
+            owners_all[s_nodes],
+            np.arange(s_facets.size, dtype=np.int32),
+        ],
+        2.0 * tol,
+    )
+    c_mid, c_x, c_glob, c_own, c_index = cand.rows
+    match = np.full(nf, -1, dtype=np.int64)
+    if nf and c_mid.shape[0]:
+        d, k = cKDTree(c_mid).query(m_mid)
+        match = np.where(d <= tol, k, -1)
     unmatched = np.flatnonzero(match < 0)
     n_unmatched = comm.allreduce(unmatched.size)
     n_slave = comm.allreduce(s_facets.size)
@@ -237,49 +251,43 @@ def pair_interface(
             f"{n_slave} slave facets, {n_unmatched} master facets without a slave facet at the "
             f"same place{where} (tolerance {tol:.3g})"
         )
-    used = np.zeros(all_mid.shape[0], dtype=np.int64)
-    np.add.at(used, match, 1)
-    used = comm.allreduce(used)
-    if np.any(used != 1):
-        k = int(np.flatnonzero(used != 1)[0])
+    # How many master facets took each slave facet: counted where matched, summed by its owner.
+    times = np.bincount(match, minlength=c_mid.shape[0])
+    taken = np.flatnonzero(times)
+    back = _exchange(comm, cand.source[taken], [c_index[taken], times[taken]])
+    used = np.zeros(s_facets.size, dtype=np.int64)
+    np.add.at(used, back.rows[0], back.rows[1])
+    n_none = comm.allreduce(int(np.sum(used == 0)))
+    n_several = comm.allreduce(int(np.sum(used > 1)))
+    if n_none or n_several:
+        k = np.flatnonzero(used != 1)
+        example = s_mid[k[0]].tolist() if k.size else None
+        examples = [e for e in comm.allgather(example) if e is not None]
         raise InterfaceError(
-            f"the interface sides do not pair node to node: {int(np.sum(used == 0))} slave facets "
-            f"have no master partner and {int(np.sum(used > 1))} have several, e.g. the slave "
-            f"facet at {all_mid[k].tolist()}"
+            f"the interface sides do not pair node to node: {n_none} slave facets have no master "
+            f"partner and {n_several} have several, e.g. the slave facet at {examples[0]}"
         )
 
     # Slave nodes ordered like the master's reference nodes.
-    slave_glob = np.empty((nf, nfd), dtype=np.int64)
-    slave_own = np.empty((nf, nfd), dtype=np.int32)
-    bad = None
-    for i in range(nf):
-        k = match[i]
-        d = np.linalg.norm(all_x[k][None, :, :] - node_points[i][:, None, :], axis=-1)
-        j = np.argmin(d, axis=1)
-        if np.any(d[np.arange(nfd), j] > tol) or len(set(j.tolist())) != nfd:
-            bad = node_points[i].tolist()
-            break
-        slave_glob[i], slave_own[i] = all_glob[k][j], all_own[k][j]
+    j, far = _nearest(c_x[match], node_points, tol)
+    twice = np.flatnonzero(np.any(np.diff(np.sort(j, axis=1), axis=1) == 0, axis=1))
+    first = min(far[0] if far.size else nf, twice[0] if twice.size else nf)
     fail(
         None
-        if bad is None
-        else f"the interface sides do not pair node to node: the facet at {bad} has a partner "
-        "whose nodes are elsewhere"
+        if first == nf
+        else f"the interface sides do not pair node to node: the facet at "
+        f"{node_points[first].tolist()} has a partner whose nodes are elsewhere"
     )
+    slave_glob = np.take_along_axis(c_glob[match], j, axis=1)
+    slave_own = np.take_along_axis(c_own[match], j, axis=1)
 
-    # Extend the index map: slave nodes that are not local become extra ghosts.
-    g2l = {int(g): i for i, g in enumerate(l2g)}
-    flat_g, flat_o = slave_glob.ravel(), slave_own.ravel()
-    extra: dict[int, int] = {}
-    for g, o in zip(flat_g.tolist(), flat_o.tolist(), strict=True):
-        if g not in g2l and g not in extra:
-            extra[g] = o
-    ghosts = np.concatenate([imap.ghosts, np.fromiter(extra.keys(), np.int64, len(extra))])
-    owners = np.concatenate([imap.owners, np.fromiter(extra.values(), np.int32, len(extra))])
+    # Extend the index map: slave nodes that are not local become extra ghosts (in the order in
+    # which they first appear).
+    slave_nodes, extra_g, extra_o = _local_indices(imap, slave_glob.ravel(), slave_own.ravel())
+    ghosts = np.concatenate([imap.ghosts, extra_g])
+    owners = np.concatenate([imap.owners, extra_o])
     imap_ext = dolfinx.common.IndexMap(comm, imap.size_local, ghosts, owners)
-    for k, g in enumerate(extra):
-        g2l[g] = n_local_nodes + k
-    slave_nodes = np.array([g2l[int(g)] for g in flat_g], dtype=np.int32).reshape(nf, nfd)
+    slave_nodes = slave_nodes.reshape(nf, nfd)
     n_split = int(np.count_nonzero(np.any(slave_own != comm.rank, axis=1)))
 
     return InterfacePairs(
@@ -291,9 +299,127 @@ def pair_interface(
         master_nodes=master_nodes,
         slave_nodes=slave_nodes,
         index_map=imap_ext,
-        n_extra_ghosts=len(extra),
+        n_extra_ghosts=extra_g.size,
         n_split=n_split,
         h_min=float(h) if np.isfinite(h) else 1.0,
+        n_received=int(np.count_nonzero(cand.source != comm.rank)),
+    )
+
+
+@dataclasses.dataclass
+class _Received:
+    """Rows received in an exchange, grouped by source rank (ascending)."""
+
+    source: np.ndarray
+    rows: list[np.ndarray]
+
+
+def _exchange(comm: MPI.Comm, dest: np.ndarray, arrays: list[np.ndarray]) -> _Received:
+    """Send row ``i`` of each array to rank ``dest[i]`` (``MPI_Alltoallv``; collective).
+
+    Only the counts go to every rank; the rows go where they are needed.
+    """
+    order = np.argsort(dest, kind="stable")
+    counts = np.bincount(dest, minlength=comm.size).astype(np.int64)
+    recv_counts = np.empty_like(counts)
+    comm.Alltoall(counts, recv_counts)
+    n_recv = int(recv_counts.sum())
+    out = []
+    for a in arrays:
+        a = np.ascontiguousarray(a[order])
+        width = math.prod(a.shape[1:])
+        recv = np.empty((n_recv, *a.shape[1:]), dtype=a.dtype)
+        sc, rc = counts * width, recv_counts * width
+        sd = np.concatenate([[0], np.cumsum(sc)[:-1]])
+        rd = np.concatenate([[0], np.cumsum(rc)[:-1]])
+        comm.Alltoallv([a, (sc, sd)], [recv, (rc, rd)])
+        out.append(recv)
+    return _Received(np.repeat(np.arange(comm.size, dtype=np.int32), recv_counts), out)
+
+
+def _exchange_slave_facets(
+    comm: MPI.Comm,
+    m_mid: np.ndarray,
+    s_mid: np.ndarray,
+    data: list[np.ndarray],
+    pad: float,
+) -> _Received:
+    """Send each slave facet (midpoint and ``data`` rows) to the ranks that may pair it.
+
+    Those are the ranks whose master facet midpoints have a bounding box that, grown by ``pad``,
+    holds the slave facet's midpoint (this rank included). Only the boxes are all-gathered (two
+    points per rank).
+
+    Returns:
+        The candidates: their source rank, and rows ``[midpoint, *data]``.
+    """
+    gdim = s_mid.shape[1]
+    box = np.empty(2 * gdim)
+    box[:gdim] = m_mid.min(axis=0) - pad if m_mid.size else np.inf
+    box[gdim:] = m_mid.max(axis=0) + pad if m_mid.size else -np.inf
+    boxes = np.empty((comm.size, 2 * gdim))
+    comm.Allgather(box, boxes)
+    inside = np.all(
+        (s_mid[:, None, :] >= boxes[None, :, :gdim]) & (s_mid[:, None, :] <= boxes[None, :, gdim:]),
+        axis=2,
+    )
+    facet, rank = np.nonzero(inside)
+    return _exchange(comm, rank.astype(np.int32), [s_mid[facet]] + [a[facet] for a in data])
+
+
+def _nearest(
+    candidates: np.ndarray, points: np.ndarray, tol: float, chunk: int = 512
+) -> tuple[np.ndarray, np.ndarray]:
+    """For each of ``points[i]`` (nf, n, gdim), the nearest of ``candidates[i]`` (nf, m, gdim).
+
+    Returns:
+        The indices (nf, n) into the candidates (the first of equally near ones), and the rows
+        ``i`` (ascending) with a point farther than ``tol`` from every candidate.
+    """
+    nf, n = points.shape[:2]
+    j = np.empty((nf, n), dtype=np.int64)
+    far = []
+    for s in range(0, nf, chunk):
+        d = np.linalg.norm(
+            candidates[s : s + chunk, None, :, :] - points[s : s + chunk, :, None, :], axis=-1
+        )
+        jj = np.argmin(d, axis=2)
+        j[s : s + chunk] = jj
+        dmin = np.take_along_axis(d, jj[..., None], axis=2)[..., 0]
+        far.append(s + np.flatnonzero(np.any(dmin > tol, axis=1)))
+    return j, np.concatenate(far) if far else np.zeros(0, dtype=np.int64)
+
+
+def _local_indices(
+    imap: dolfinx.common.IndexMap, glob: np.ndarray, owner: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Local indices of global node numbers, the nodes not local becoming extra ghosts.
+
+    Returns:
+        The local indices in the index map extended with the extra ghosts, and the extra ghosts'
+        global numbers and owners, in the order in which they first appear in ``glob``.
+    """
+    start = imap.local_range[0]
+    n_local = imap.size_local + imap.num_ghosts
+    local = np.full(glob.size, -1, dtype=np.int64)
+    owned = (glob >= start) & (glob < start + imap.size_local)
+    local[owned] = glob[owned] - start
+    ghosts = imap.ghosts
+    if ghosts.size:
+        sorter = np.argsort(ghosts)
+        pos = np.minimum(np.searchsorted(ghosts, glob, sorter=sorter), ghosts.size - 1)
+        hit = ~owned & (ghosts[sorter[pos]] == glob)
+        local[hit] = imap.size_local + sorter[pos[hit]]
+    rest = np.flatnonzero(local < 0)
+    uniq, first, inverse = np.unique(glob[rest], return_index=True, return_inverse=True)
+    order = np.argsort(first)  # first appearance
+    rank_of = np.empty_like(order)
+    rank_of[order] = np.arange(order.size)
+    local[rest] = n_local + rank_of[inverse.reshape(-1)]
+    return (
+        local.astype(np.int32),
+        uniq[order].astype(np.int64),
+        owner[rest][first[order]].astype(np.int32),
     )
 
 

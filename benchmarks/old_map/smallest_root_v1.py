@@ -1,4 +1,6 @@
-"""The closed-form plastic branch of the subloading law and its certified smallest root.
+"""THE PREVIOUS SMALLEST-ROOT MODULE (main at 961eee5), for ``subloading_v1``; verbatim.
+
+The closed-form plastic branch of the subloading law and its certified smallest root.
 
 For a plastic point with trial magnitude ``A = |f_t*|``, ``g = g(f_n)`` and start-of-step state
 ``(r_n, mu_n)``, :class:`Branch` evaluates in closed form, at a trial slip ``dl``, ``r(dl)``,

@@ -1,0 +1,231 @@
+"""DATA.json of the calibration: parsing and validation (every error names the field)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..constitutive import SubloadingLaw
+from ..driver.case import CaseError, read_json
+
+__all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
+
+NAMES = ("alpha_t", "alpha_n", "mu_s", "mu_k", "kappa", "xi", "u_tilde", "c_n")
+"""The eight parameters of the subloading law, in the order of FIT.json's ``params``."""
+
+MAX_POINTS = 1_000_000  # data points in all; more is a mistake (or another tool's job)
+
+
+class CalibrationError(ValueError):
+    """Bad calibration data, or parameters the data cannot identify; the message says which."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Curve:
+    """One measured curve: a monotonic slide at constant normal stress from the virgin state.
+
+    Attributes:
+        f_n: Normal stress, MPa (> 0).
+        velocity: Sliding velocity, mm/s (> 0).
+        slip: Tangential displacement ``ubar_t``, mm, strictly increasing, from >= 0, (k,).
+        f_t: Measured tangential stress at ``slip``, MPa, (k,).
+    """
+
+    f_n: float
+    velocity: float
+    slip: np.ndarray
+    f_t: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class CalibrationData:
+    """A validated DATA.json.
+
+    Attributes:
+        params: All eight parameters: start values of the fitted ones, values of the fixed ones.
+        fit: Names of the fitted parameters (in the order of the correlation matrix).
+        bounds: ``name -> (lo, hi)`` for every fitted name (``(0, inf)`` unless given).
+        curves: The measured curves.
+    """
+
+    params: dict[str, float]
+    fit: tuple[str, ...]
+    bounds: dict[str, tuple[float, float]]
+    curves: tuple[Curve, ...]
+
+    @property
+    def n_points(self) -> int:
+        """Number of measured points in all."""
+        return sum(c.slip.size for c in self.curves)
+
+
+def _num(where: str, v: Any, *, allow_none: bool = False) -> float | None:
+    if v is None and allow_none:
+        return None
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise CalibrationError(f"field '{where}' must be a number, got {_short(v)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise CalibrationError(f"field '{where}' must be finite, got {_short(v)}")
+    return x
+
+
+def _short(v: Any, n: int = 60) -> str:
+    try:
+        r = repr(v)
+    except ValueError:  # an int beyond Python's digit limit
+        return "<an integer with too many digits>"
+    return r if len(r) <= n else r[: n - 3] + "..."
+
+
+def _numbers(where: str, v: Any) -> np.ndarray:
+    if not isinstance(v, list):
+        raise CalibrationError(f"field '{where}' must be a list of numbers, got {_short(v)}")
+    return np.array([_num(f"{where}[{i}]", x) for i, x in enumerate(v)], dtype=float)
+
+
+def _curve(i: int, c: Any) -> Curve:
+    w = f"curves[{i}]"
+    if not isinstance(c, dict):
+        raise CalibrationError(f"field '{w}' must be an object, got {_short(c)}")
+    unknown = sorted(set(c) - {"f_n", "velocity", "slip", "f_t"})
+    if unknown:
+        raise CalibrationError(f"field '{w}': unknown keys {unknown}; allowed: f_n, velocity, "
+                               "slip, f_t")  # fmt: skip
+    for k in ("f_n", "velocity", "slip", "f_t"):
+        if k not in c:
+            raise CalibrationError(f"field '{w}.{k}' is missing")
+    f_n = _num(f"{w}.f_n", c["f_n"])
+    v = _num(f"{w}.velocity", c["velocity"])
+    if not f_n > 0.0:
+        raise CalibrationError(f"field '{w}.f_n' must be > 0 (MPa, in contact), got {f_n!r}")
+    if not v > 0.0:
+        raise CalibrationError(f"field '{w}.velocity' must be > 0 (mm/s), got {v!r}")
+    slip = _numbers(f"{w}.slip", c["slip"])
+    f_t = _numbers(f"{w}.f_t", c["f_t"])
+    if slip.size < 2:
+        raise CalibrationError(f"field '{w}.slip' must hold at least two points, got {slip.size}")
+    if f_t.size != slip.size:
+        raise CalibrationError(
+            f"field '{w}.f_t' has {f_t.size} values for {slip.size} slip values"
+        )
+    if slip[0] < 0.0:
+        raise CalibrationError(f"field '{w}.slip[0]' must be >= 0 (the slide starts at 0 from "
+                               f"the virgin state), got {slip[0]!r}")  # fmt: skip
+    bad = np.flatnonzero(~(np.diff(slip) > 0.0))
+    if bad.size:
+        j = int(bad[0]) + 1
+        raise CalibrationError(f"field '{w}.slip[{j}]' = {slip[j]!r}: slip must increase "
+                               f"strictly (a monotonic slide), after {slip[j - 1]!r}")  # fmt: skip
+    return Curve(f_n, v, slip, f_t)
+
+
+def parse_data(obj: Any) -> CalibrationData:
+    """Validate a DATA.json object.
+
+    Raises:
+        CalibrationError: A missing, unknown or bad field (named), or an unknown parameter name.
+    """
+    if not isinstance(obj, dict):
+        raise CalibrationError(f"the data must be a JSON object, got {type(obj).__name__}")
+    try:
+        return _parse(obj)
+    except RecursionError:
+        raise CalibrationError("the data nests too deeply") from None
+
+
+def _parse(obj: dict) -> CalibrationData:
+    unknown = sorted(set(obj) - {"params", "fit", "bounds", "curves"})
+    if unknown:
+        raise CalibrationError(f"unknown fields {unknown}; allowed: params, fit, bounds, curves")
+    raw = obj.get("params")
+    if not isinstance(raw, dict):
+        raise CalibrationError(f"field 'params' must be an object with all eight parameters "
+                               f"{', '.join(NAMES)}; got {_short(raw)}")  # fmt: skip
+    unknown = sorted(set(raw) - set(NAMES))
+    if unknown:
+        raise CalibrationError(f"field 'params': unknown parameter names {unknown}; the eight "
+                               f"are {', '.join(NAMES)}")  # fmt: skip
+    missing = [k for k in NAMES if k not in raw]
+    if missing:
+        raise CalibrationError(f"field 'params': missing {missing} (give all eight: start "
+                               "values of the fitted ones, values of the fixed ones)")  # fmt: skip
+    params = {k: _num(f"params.{k}", raw[k]) for k in NAMES}
+    try:
+        SubloadingLaw(**params)
+    except (TypeError, ValueError) as e:
+        raise CalibrationError(f"field 'params': {e}") from None
+    fit = obj.get("fit")
+    if not isinstance(fit, list) or not fit or not all(isinstance(k, str) for k in fit):
+        raise CalibrationError(f"field 'fit' must be a non-empty list of parameter names, got "
+                               f"{_short(fit)}")  # fmt: skip
+    bad = [k for k in fit if k not in NAMES]
+    if bad:
+        raise CalibrationError(f"field 'fit': unknown parameter names {bad}; the eight are "
+                               f"{', '.join(NAMES)}")  # fmt: skip
+    dup = sorted({k for k in fit if fit.count(k) > 1})
+    if dup:
+        raise CalibrationError(f"field 'fit' names {dup} more than once")
+    rb = obj.get("bounds", {})
+    if not isinstance(rb, dict):
+        raise CalibrationError(f"field 'bounds' must be an object {{name: [lo, hi]}}, got "
+                               f"{_short(rb)}")  # fmt: skip
+    bad = sorted(set(rb) - set(fit))
+    if bad:
+        raise CalibrationError(f"field 'bounds': {bad} not fitted (bounds only for names in "
+                               "'fit')")  # fmt: skip
+    bounds: dict[str, tuple[float, float]] = {}
+    for k in fit:
+        lo, hi = 0.0, math.inf
+        if k in rb:
+            b = rb[k]
+            if not isinstance(b, list) or len(b) != 2:
+                raise CalibrationError(f"field 'bounds.{k}' must be [lo, hi] (null: no bound), "
+                                       f"got {_short(b)}")  # fmt: skip
+            lo_, hi_ = (_num(f"bounds.{k}[{j}]", b[j], allow_none=True) for j in (0, 1))
+            lo = 0.0 if lo_ is None else lo_
+            hi = math.inf if hi_ is None else hi_
+            if not 0.0 <= lo < hi:
+                raise CalibrationError(f"field 'bounds.{k}' = [{lo!r}, {hi!r}]: need "
+                                       "0 <= lo < hi (every parameter is >= 0)")  # fmt: skip
+        x0 = params[k]
+        if not x0 > 0.0:
+            raise CalibrationError(f"field 'params.{k}': the start value of a fitted "
+                                   f"parameter must be > 0 (the fit works on log {k}), "
+                                   f"got {x0!r}")  # fmt: skip
+        if not lo <= x0 <= hi:
+            raise CalibrationError(f"field 'params.{k}': the start value {x0!r} lies outside "
+                                   f"its bounds [{lo!r}, {hi!r}]")  # fmt: skip
+        bounds[k] = (lo, hi)
+    curves = obj.get("curves")
+    if not isinstance(curves, list) or not curves:
+        raise CalibrationError("field 'curves' must be a non-empty list of curves {f_n, "
+                               "velocity, slip, f_t}")  # fmt: skip
+    cs = tuple(_curve(i, c) for i, c in enumerate(curves))
+    n = sum(c.slip.size for c in cs)
+    if n > MAX_POINTS:
+        raise CalibrationError(f"field 'curves': {n} points in all (limit {MAX_POINTS})")
+    if n <= len(fit):
+        raise CalibrationError(f"field 'curves': {n} points for {len(fit)} fitted parameters; "
+                               "need more points than parameters")  # fmt: skip
+    return CalibrationData(params, tuple(fit), bounds, cs)
+
+
+def load_data(path: str | Path) -> CalibrationData:
+    """Read and validate a DATA.json file.
+
+    Raises:
+        CalibrationError: Unreadable or malformed file, or a bad field (named).
+    """
+    try:
+        obj = read_json(path, "data file")
+    except CaseError as e:
+        raise CalibrationError(str(e)) from None
+    return parse_data(obj)

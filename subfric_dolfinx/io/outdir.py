@@ -1,0 +1,162 @@
+"""An output directory belongs to one run at a time, and holds that run's files only.
+
+:class:`OutputDirectory` (a context manager, collective) prepares a run's output directory before
+the first step:
+
+1. creates it and makes a test write (:func:`~.collective.probe_directory`): a directory under a
+   regular file, on a read-only or full file system fails here, on every rank;
+2. takes the lock ``.subfric.lock`` in it (``fcntl.flock``, held by rank 0 for the whole run and
+   released when the run ends, however it ends; the kernel releases it if the process dies): a
+   second run into the same directory is refused on every rank, naming the directory and the
+   process holding it. The lock file is removed when the run ends (a killed run leaves it,
+   unlocked: the next run takes it); a run that locked a file another run removed meanwhile
+   sees that the name no longer leads to it and starts again;
+3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
+   (:data:`RUN_FILES`: ``history.csv``, ``interface_history.h5``, ``checkpoint.h5``, the
+   ``fields`` directory, a stale ``checkpoint.h5.tmp``) into ``previous_run/``, replacing what was
+   there: the directory then holds this run's files only, and the last run's files are kept one
+   generation. A restart continues the files it finds (the interface history is cut back to the
+   restart time). Other files are left alone.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import shutil
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from .collective import OutputError, collective, probe_directory
+
+__all__ = ["LOCK_NAME", "PREVIOUS", "RUN_FILES", "OutputDirectory"]
+
+LOCK_NAME = ".subfric.lock"
+PREVIOUS = "previous_run"
+RUN_FILES = (
+    "history.csv",
+    "interface_history.h5",
+    "checkpoint.h5",
+    "checkpoint.h5.tmp",
+    "fields",
+)
+"""Names this code writes in an output directory (moved aside by a fresh run)."""
+
+
+class OutputDirectory:
+    """The output directory of a run, locked for it (collective context manager).
+
+    Args:
+        path: The directory (created).
+        comm: The run's communicator.
+        fresh: A new run (not a restart): earlier files are moved to ``previous_run/``.
+
+    Attributes:
+        moved: Names moved aside (on rank 0; empty elsewhere).
+
+    Raises:
+        OutputError: On every rank: the directory is not usable (the OS error named), or
+            another run holds it.
+    """
+
+    def __init__(self, path: str | Path, comm: Any, fresh: bool = True) -> None:
+        self.path = Path(path)
+        self.comm = comm
+        self.fresh = fresh
+        self.moved: list[str] = []
+        self._fd: int | None = None
+
+    def __enter__(self) -> OutputDirectory:
+        probe_directory(self.comm, self.path)
+        holder = collective(
+            self.comm, self._lock, f"locking the output directory {str(self.path)!r}",
+            path=self.path / LOCK_NAME, share=True,
+        )  # fmt: skip
+        if holder is not None:
+            raise OutputError(
+                f"the output directory {str(self.path)!r} is in use by another run ({holder}); "
+                "give each run its own directory",
+                self.path,
+            )
+        if self.fresh:
+            try:
+                collective(
+                    self.comm, self._move_aside,
+                    f"moving the earlier run's files in {str(self.path)!r} to {PREVIOUS}/",
+                    path=self.path / PREVIOUS,
+                )  # fmt: skip
+            except OutputError:
+                self._unlock()
+                raise
+        return self
+
+    def _lock(self) -> str | None:
+        """Take the lock (rank 0); a description of the holder when another run has it."""
+        path = self.path / LOCK_NAME
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                try:
+                    who = os.pread(fd, 200, 0).decode(errors="replace").strip()
+                finally:
+                    os.close(fd)
+                return who or "unknown process"
+            except BaseException:
+                os.close(fd)
+                raise
+            try:  # the run that held it may have removed it after we opened it
+                here, mine = os.stat(path), os.fstat(fd)
+                if (here.st_dev, here.st_ino) == (mine.st_dev, mine.st_ino):
+                    break
+            except FileNotFoundError:
+                pass
+            os.close(fd)
+        self._fd = fd
+        try:  # who holds it, for the message of a refused run (best effort)
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pid {os.getpid()} on {os.uname().nodename}\n".encode(), 0)
+        except OSError:
+            pass
+        return None
+
+    def _move_aside(self) -> None:
+        found = [n for n in RUN_FILES if os.path.lexists(self.path / n)]
+        if not found:
+            return
+        prev = self.path / PREVIOUS
+        if prev.is_dir() and not prev.is_symlink():
+            shutil.rmtree(prev)
+        elif os.path.lexists(prev):
+            prev.unlink()
+        prev.mkdir()
+        for n in found:
+            os.replace(self.path / n, prev / n)
+        self.moved = found
+
+    def _unlock(self) -> None:
+        """Remove the lock file, then release the lock (rank 0).
+
+        In that order, no run can take a lock on a file about to disappear without seeing it
+        (see :meth:`_lock`).
+        """
+        if self._fd is not None:
+            fd, self._fd = self._fd, None
+            try:
+                (self.path / LOCK_NAME).unlink(missing_ok=True)
+            except OSError:  # e.g. the directory became read-only: the lock is released anyway
+                pass
+            try:
+                fcntl.flock(fd, fcntl.LOCK_UN)
+            finally:
+                os.close(fd)
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self._unlock()

@@ -1,0 +1,172 @@
+"""Bad checkpoints: damaged contents (shapes, dtypes, non-finite values, attribute types) and
+checkpoints of another setting (materials, loads, boundary values, program). Each is refused on
+every rank with a ``CheckpointError`` naming the file and the item or the setting, before the run
+takes anything from it; solver settings may change across a restart.
+
+One good checkpoint is written per module (at t = 1 s of a 2 s program: press, then slide
+0.5 mm); each case copies it and damages the copy with plain h5py on rank 0.
+"""
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from subfric_dolfinx.io import CheckpointError
+from subfric_dolfinx.scenes import run_scene
+from tests.helpers import hang_fails, on_root, prefix, raised_on_every_rank, small_scene
+
+pytestmark = hang_fails()
+
+T_CK, T_END = 1.0, 2.0
+
+
+def scene(**outputs):
+    s = small_scene()
+    s["program"] = {"times": [0, 1, T_END], "channels": {"press": [0, 1, 1], "slide": [0, 0, 0.5]}}
+    s["outputs"] = dict(outputs)
+    s["solver"]["prefix"] = prefix("badck")
+    return s
+
+
+@pytest.fixture(scope="module")
+def good():
+    """A checkpoint at ``T_CK``, in a directory common to all ranks."""
+    comm = MPI.COMM_WORLD
+    d = Path(comm.bcast(tempfile.mkdtemp(prefix="subfric-ck-") if comm.rank == 0 else None))
+    run_scene(scene(checkpoint_times=[T_CK]), outdir=d / "run", comm=comm)
+    yield d / "run" / "checkpoint.h5"
+    comm.Barrier()
+    if comm.rank == 0:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def replace(f, key, data):
+    del f[key]
+    f[key] = data
+
+
+def _shorter_up(f):  # a row missing: the IndexError on one rank of old
+    replace(f, "interface/up", f["interface/up"][:-1])
+
+
+def _mu_nan(f):
+    mu = f["interface/mu"][()]
+    mu[-1] = np.nan  # on the last rank's slab
+    replace(f, "interface/mu", mu)
+
+
+def _columns(f):
+    f["history"].attrs["columns"] = json.dumps(["t"])
+
+
+def _set(key, value):
+    def mutate(f):
+        f.attrs[key] = value
+
+    return mutate
+
+
+DAMAGED = {
+    "up one row short": (_shorter_up, "'interface/up' has shape (15, 1), expected (16, *)"),
+    "r of dtype int": (
+        lambda f: replace(f, "interface/r", f["interface/r"][()].astype(np.int64)),
+        "'interface/r' has dtype int64, not float",
+    ),
+    "NaN in mu": (_mu_nan, "'interface/mu' holds non-finite values"),
+    "inf in u": (
+        lambda f: f["displacement"].__setitem__((0, 0, 0), np.inf),
+        "'displacement' holds non-finite values",
+    ),
+    "no displacement": (
+        lambda f: f.__delitem__("displacement"),
+        "lacks the dataset 'displacement'",
+    ),
+    "u of another dimension": (
+        lambda f: replace(f, "displacement", f["displacement"][()][..., :1]),
+        "'displacement' has shape",
+    ),
+    "time as text": (_set("time", "soon"), "attribute 'time' is 'soon', not a number"),
+    "time NaN": (_set("time", np.nan), "attribute 'time' = nan is not finite"),
+    "step as float": (_set("step", 2.5), "attribute 'step' is 2.5, not an integer"),
+    "negative dt": (_set("dt", -0.1), "attribute 'dt' = -0.1 is not > 0"),
+    "law not JSON": (_set("law", "{subloading"), "attribute 'law' is not JSON"),
+    "settings a list": (_set("settings", "[1, 2]"), "attribute 'settings' is not a JSON object"),
+    "more points claimed": (_set("n_points", 17), "'interface/x' has shape (16, 2), expected"),
+    "old version": (_set("version", 1), "has version 1, this code reads version 2"),
+    "history columns": (_columns, "1 history columns for"),
+}
+
+
+@pytest.mark.parametrize("case", list(DAMAGED))
+def test_damaged_checkpoints_are_refused_on_every_rank(good, case):
+    comm = MPI.COMM_WORLD
+    mutate, words = DAMAGED[case]
+    bad = good.with_name(case.replace(" ", "_") + ".h5")
+
+    def damage():
+        shutil.copy(good, bad)
+        with h5py.File(bad, "r+") as f:
+            mutate(f)
+
+    on_root(comm, damage)
+    with raised_on_every_rank(CheckpointError, repr(str(bad)), words):
+        run_scene(scene(), comm=comm, restart=bad)
+
+
+def _slave_E(s):
+    s["materials"]["slave"]["E"] = 75000.0
+
+
+def _pressure(s):
+    s["loads"][0]["value"] = 250.0
+
+
+def _slide_value(s):
+    s["dirichlet"][1]["value"] = 0.8
+
+
+def _bottom_held(s):
+    s["dirichlet"][0]["value"] = [0.0, 0.01]
+
+
+def _slide_channel(s):
+    s["program"]["channels"]["slide"][2] = 0.6
+
+
+OTHER_SETTINGS = {
+    "Young's modulus": (_slave_E, "materials.slave.E = 70000.0, this run has 75000.0"),
+    "pressure": (_pressure, "loads[0].value = 300.0, this run has 250.0"),
+    "slide amplitude": (_slide_value, "dirichlet[1].value = 1.0, this run has 0.8"),
+    "boundary value": (_bottom_held, "dirichlet[0].value[1] = 0.0, this run has 0.01"),
+    "program": (_slide_channel, "program.slide[2] = 0.5, this run has 0.6"),
+}
+
+
+@pytest.mark.parametrize("case", list(OTHER_SETTINGS))
+def test_a_restart_with_other_settings_is_refused_naming_the_setting(good, case):
+    comm = MPI.COMM_WORLD
+    change, words = OTHER_SETTINGS[case]
+    s = scene()
+    change(s)
+    with raised_on_every_rank(CheckpointError, repr(str(good)), "was written with", words):
+        run_scene(s, comm=comm, restart=good)
+
+
+def test_solver_settings_may_change_across_a_restart(good):
+    """Other step sizes and PETSc options: accepted; the run goes on from the checkpoint with
+    the new ones and carries the checkpoint's history."""
+    comm = MPI.COMM_WORLD
+    s = scene()
+    s["solver"].update(dt=0.02, dt_max=0.02, options={"snes_rtol": 1e-11})
+    res = run_scene(s, comm=comm, restart=good)
+    t = np.array([r["t"] for r in res.history])
+    before, after = t[t <= T_CK + 1e-12], [r for r in res.history if r["t"] > T_CK + 1e-12]
+    assert before.size > 0 and before[-1] == pytest.approx(T_CK)
+    assert len(after) >= 50 and max(r["dt"] for r in after) <= 0.02 + 1e-12
+    assert res.history[-1]["t"] == pytest.approx(T_END)

@@ -1,0 +1,135 @@
+"""Every demo as a program, at a small size, on one rank and under ``mpirun -n 2``.
+
+The demos' physics is tested in-process on the suite's ranks (``test_fe_demos.py``,
+``test_scenes.py``, ``test_elastic_smoke.py``, ``test_paper_figures.py``); here each demo runs
+the way a user runs it: ``python3 demos/<name>.py`` (its ``__main__`` block, the command line,
+the exit code, the figures and files it writes), in a subprocess with a timeout. The main demo's
+output stays within 30 lines. The API demo (``two_bodies_api``) is also run in-process, on the
+suite's ranks, and checked for what its text says.
+"""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from demos import two_bodies_api
+from tests.helpers import ROOT, everywhere, on_root, singleton_env
+
+# demo -> (small command line, files it must write into --out)
+SMALL = {
+    "block_on_base": (
+        ["--n", "4", "--hold", "1", "--dt", "0.1"],
+        ["history.csv", "force_slip.png", "interface_profiles.png"],
+    ),
+    "pad_on_plate": (
+        ["--n", "2", "--holds", "0", "5", "--dt", "0.1", "--fields", "xdmf"],
+        ["history.csv", "fields/interface_points.xdmf"],
+    ),
+    "punch": (["--n", "4", "--dt", "0.1"], ["subloading/history.csv", "coulomb/history.csv"]),
+    "lap_joint": (
+        ["--n", "4", "--cycles", "2", "--dt", "0.2"],
+        ["subloading/history.csv", "coulomb/history.csv"],
+    ),
+    "elastic_smoke": (["--n", "4"], ["u.xdmf"]),
+    "paper_figures": (["--quick", "--only", "fig5"], ["fig5.png", "fig5.csv"]),
+    "calibration": (["--quick"], ["DATA.json", "FIT.json", "calibration.png"]),
+    "hertz": (["--n", "4"], ["history.csv", "pressure.png"]),
+    "cattaneo_mindlin": (
+        ["--n", "4", "--no-subloading"],
+        ["coulomb/history.csv"],
+    ),
+    "bolted_joint": (
+        ["--n", "2", "--cycles", "1"],
+        ["history.csv", "hysteresis.png"],
+    ),
+    "two_bodies_api": (
+        ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
+        ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],
+    ),
+}
+
+
+def demos_on_disk():
+    return sorted(p.stem for p in (ROOT / "demos").glob("*.py") if p.stem != "__init__")
+
+
+def test_every_demo_is_listed():
+    assert sorted(SMALL) == demos_on_disk()
+
+
+@pytest.mark.filterwarnings("ignore:Jupyter is migrating its paths:DeprecationWarning")
+@pytest.mark.parametrize("name", sorted(SMALL))
+def test_every_demo_is_a_notebook_whose_first_cell_is_its_docstring(name):
+    """The jupytext (percent) header, the docstring as the first Markdown cell, and ``--help``
+    with that text and every option's default."""
+    import importlib
+
+    import jupytext
+
+    nb = jupytext.read(ROOT / "demos" / f"{name}.py")
+    assert nb.metadata["jupytext"]["text_representation"]["format_name"] == "percent"
+    module = importlib.import_module(f"demos.{name}")
+    first = nb.cells[0]
+    assert first.cell_type == "markdown" and first.source.strip() == module.__doc__.strip()
+    assert first.source.startswith("# ")  # a title
+    kinds = {c.cell_type for c in nb.cells}
+    assert kinds == {"markdown", "code"}
+    if hasattr(module, "parser"):  # the FE demos (the others build theirs in main)
+        text = module.parser().format_help()
+        assert module.__doc__.splitlines()[0] in text
+        assert "(default: " in text
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("name", sorted(SMALL))
+def test_the_demo_runs_as_a_program(tmp_path, name, ranks):
+    args, files = SMALL[name]
+    out = tmp_path / name
+    cmd = [sys.executable, f"demos/{name}.py", *args, "--out", str(out)]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    p = subprocess.run(
+        cmd, cwd=ROOT, env=singleton_env(), capture_output=True, text=True, timeout=240
+    )
+    text = p.stdout + p.stderr
+    assert p.returncode == 0, text
+    assert "Traceback" not in text and "error" not in text.lower(), text
+    missing = [f for f in files if not (out / f).exists()]
+    assert not missing, (missing, sorted(str(q.relative_to(out)) for q in out.rglob("*")))
+    if name == "block_on_base":  # quiet by default: a line per program segment
+        assert len(text.splitlines()) <= 30, text
+
+
+def test_the_api_demo_shows_what_it_says(shared_tmp):
+    """Peak, softening, recovery in the hold and a second peak; the hold in a few steps; the
+    leading edge pressed harder than the trailing one; the outputs written."""
+    comm = MPI.COMM_WORLD
+    res = two_bodies_api.main(
+        ["--n", "8", "--dt", "0.05", "--fields", "xdmf", "--out", str(shared_tmp)], comm
+    )
+    h = res["history"]
+    t = np.array([r["t"] for r in h])
+    ft = np.array([r["F_t1"] / r["area"] for r in h])
+    hold0, hold1 = two_bodies_api.TIMES[2:4]
+    first = ft[(t > 1.0) & (t <= hold0)].max()
+    held = ft[np.isclose(t, hold1)][0]
+    second = ft[t > hold1].max()
+    checks = [
+        first > 1.3 * ft[np.isclose(t, hold0)][0],  # a static peak, then softening
+        second > 1.1 * held,  # the hold recovered a peak
+        np.sum((t > hold0) & (t <= hold1 + 1e-9)) <= 5,  # the hold in a handful of steps
+    ]
+    for p in res["profiles"].values():
+        checks.append(p["f_n"][-1] > 1.05 * p["f_n"][0])  # leading edge (right) pressed harder
+    assert everywhere(comm, all(checks)), (checks, first, held, second)
+    on_root(
+        comm,
+        lambda: [
+            (shared_tmp / f).stat()
+            for f in ("history.csv", "fields/interface.xdmf", "fields/interface_points.xdmf")
+        ],
+    )

@@ -1,0 +1,73 @@
+"""The verification demos at small sizes, against their closed forms (1 and 2 ranks).
+
+* hertz: a cylinder on a flat made of two flat bodies with the initial gap x^2/2R. At 4 and 8
+  elements per contact half-width (P2, nodal interface quadrature): the half-width and the
+  peak pressure of the fitted ellipse within 0.5 % of Hertz's for the measured load, the error of
+  p(x) inside the contact below 1 % and smaller on the finer mesh, the peak pressure's error
+  smaller too, the contact edge within a point spacing of Hertz's, the points beyond it SEPARATED
+  with the gap they were given.
+* cattaneo_mindlin (Coulomb part): the stick zone's half-width within 1 % of a sqrt(1 - Q/mu P)
+  for the measured Q/mu P (fit) and within a point spacing (edge), the sticking and slipping
+  points where the closed form puts them, the tangential traction's RMS error below 3 % of mu p0.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from demos import cattaneo_mindlin, hertz
+from subfric_dolfinx.constitutive import Status
+
+
+def run_hertz(n, outdir):
+    res = hertz.main(["--n", str(n), "--out", str(outdir), "--no-figures", "-q"], MPI.COMM_WORLD)
+    return res, res.info["hertz"]
+
+
+def test_hertz_contact_against_the_closed_form(shared_tmp):
+    keys = {}
+    for n in (4, 8):
+        res, key = run_hertz(n, shared_tmp / f"n{n}")
+        keys[n] = key
+        assert key["P"] == pytest.approx(key["F_n"], rel=1e-8)  # equilibrium
+        assert abs(key["err_a_fit"]) < 5e-3, key
+        assert abs(key["err_p0"]) < 5e-3 and abs(key["err_p0_fit"]) < 5e-3, key
+        assert key["err_p_inner"] < 1e-2, key
+        spacing = 0.5 * hertz.A_TARGET / n  # P2 nodes: the nodal points are h/2 apart
+        assert abs(key["a_edge"] - key["a_H"]) < spacing, key
+        snap = res.snapshots[1.0]
+        x = snap["x"][:, 0] - hertz.L
+        np.testing.assert_allclose(snap["g0"], x**2 / (2 * hertz.R), rtol=1e-10, atol=1e-15)
+        out = np.abs(x) > key["a_H"] + spacing
+        assert np.all(snap["status"][out] == Status.SEPARATED) and np.all(snap["f_n"][out] == 0)
+        assert np.all(snap["f_n"][np.abs(x) < 0.9 * key["a_H"]] > 0)
+    # the finer mesh is closer
+    assert keys[8]["err_p_inner"] < keys[4]["err_p_inner"]
+    assert abs(keys[8]["err_p0"]) < abs(keys[4]["err_p0"])
+    print({n: {k: v for k, v in key.items() if k.startswith("err")} for n, key in keys.items()})
+
+
+def test_cattaneo_mindlin_stick_zone_against_the_closed_form(shared_tmp):
+    n = 4
+    argv = ["--n", str(n), "--out", str(shared_tmp), "--no-subloading", "--no-figures", "-q"]
+    res, none = cattaneo_mindlin.main(argv, MPI.COMM_WORLD)
+    assert none is None
+    key = res.info["cattaneo_mindlin"]
+    assert 0.45 < key["ratio"] < 0.65, key  # Q / mu P, measured
+    assert key["c"] == pytest.approx(key["a_H"] * math.sqrt(1 - key["ratio"]), rel=1e-12)
+    assert abs(key["err_c_fit"]) < 1e-2, key
+    spacing = 0.5 * hertz.A_TARGET / n
+    assert abs(key["c_edge"] - key["c"]) < 0.5 * spacing, key
+    assert key["err_q_rms"] < 3e-2, key
+    snap = res.snapshots[2.0]
+    x = np.abs(snap["x"][:, 0] - hertz.L)
+    c, a = key["c"], key["a_H"]
+    assert np.all(snap["status"][x < c - spacing] == Status.ELASTIC)
+    assert np.all(snap["status"][(x > c + spacing) & (x < a - spacing)] == Status.PLASTIC)
+    # where it slips, |q| = mu p
+    slip = snap["status"] == Status.PLASTIC
+    np.testing.assert_allclose(
+        np.abs(snap["f_t"][slip, 0]), hertz.MU * snap["f_n"][slip], rtol=1e-9
+    )
