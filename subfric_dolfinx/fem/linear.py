@@ -2,7 +2,7 @@
 
 Newton stays exact in every strategy (the Krylov method works on the true Jacobian ``J``); they
 differ in the preconditioner and in how often it is rebuilt. Measurements behind the choices:
-``/work/notes/scale_findings.md`` and ``/work/notes/scale.md``.
+``report/fe_scaling.md`` (written by ``benchmarks/fe_scaling.py``).
 
 ``"reuse"`` (the default)
     GMRES (right preconditioning, so its residual is the true one) on ``J``, preconditioned by

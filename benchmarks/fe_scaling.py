@@ -1,0 +1,447 @@
+"""Scaling of the FE solver with the size, per linear strategy, on 1 and 2 ranks (issue 13).
+
+The 3-D pad on a plate (hexahedra, ``meshing.build_pad_on_plate``: plate 2 x 2 x 0.5 mm of steel,
+pad 1 x 1 x 0.5 mm of aluminium, ``n`` elements along the pad's side; the Sec. 7 law), bottom
+clamped, the pad's top pressed at 300 MPa and moved in x (y held). Programs (steps end on the
+breakpoints, ``dt = dt_max`` = the program's spacing): **24 steps** = press in 4, slide to
++0.5 mm past the static peak in 8, back to -0.5 mm in 12; **100 steps** = 10 + 30 + 60; other
+counts split 1/6, 1/3, 1/2. dofs = 3 [(2n+1)^2 (n/2+1) + (n+1)^2 (n/2+1)]: n = 8: 5,550;
+12: 16,674; 16: 37,206; 20: 70,026; 24: 118,014; 28: 184,050; 30: 224,736; 50: 998,556.
+
+Each run is its own process (``mpirun -n R``), recorded in ``--out``/``<tag>.json``: dofs,
+interface points, steps, Newton and Krylov iterations, preconditioner refreshes, cuts, wall time
+by section (mesh, problem set-up, bulk and interface assembly, return map, preconditioner
+set-up = PETSc's ``PCSetUp``, Krylov = ``KSPSolve``; max over ranks), peak RSS per rank, the load
+average before and after, and the history of the interface's tangential force (to compare the
+strategies: difference to LU's relative to its peak). A run that exceeds ``--time-limit`` stops
+after the step in progress and says how far it got. Existing results are kept (``--force``
+redoes them), so a campaign can be resumed. Then ``--table`` writes a Markdown and a CSV table
+and a log-log plot of the time against the dofs with fitted exponents::
+
+    ./run exec python3 benchmarks/fe_scaling.py --sizes 8 12 16 20 24 28 30 --ranks 1 2
+    ./run exec python3 benchmarks/fe_scaling.py --table      # report/fe_scaling.md, .png, data/
+
+The machine is shared: run the largest sizes last and read the load column. No timing is
+asserted anywhere.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "output" / "fe_scaling"
+REPORT = ROOT / "report"
+STRATEGIES = ("reuse", "lu", "gamg")
+
+
+def dofs_of(n: int) -> int:
+    """Dofs of the pad on a plate with ``n`` hexahedra along the pad's side."""
+    nz = max(1, round(0.5 * n))
+    return 3 * ((2 * n + 1) ** 2 * (nz + 1) + (n + 1) ** 2 * (nz + 1))
+
+
+def program_points(steps: int) -> tuple[list[float], list[float], list[float]]:
+    """Times and channels (press, slide) of the program with ``steps`` steps."""
+    import numpy as np
+
+    if steps == 24:
+        npress, nf, nb = 4, 8, 12
+    elif steps == 100:
+        npress, nf, nb = 10, 30, 60
+    else:
+        npress = max(1, steps // 6)
+        nf = max(1, steps // 3)
+        nb = max(1, steps - npress - nf)
+    t = list(np.linspace(0.0, 1.0, npress + 1))
+    press = list(np.linspace(0.0, 1.0, npress + 1))
+    slide = [0.0] * (npress + 1)
+    t += list(np.linspace(1.0, 1.5, nf + 1)[1:])
+    slide += list(np.linspace(0.0, 0.5, nf + 1)[1:])
+    t += list(np.linspace(1.5, 2.5, nb + 1)[1:])
+    slide += list(np.linspace(0.5, -0.5, nb + 1)[1:])
+    press += [1.0] * (nf + nb)
+    return t, press, slide
+
+
+def tag_of(n: int, strategy: str, ranks: int, steps: int) -> str:
+    return f"pad_n{n}_{strategy}_r{ranks}_s{steps}"
+
+
+# ------------------------------------------------------------------------------------------------
+# One run (inside mpirun)
+
+
+def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> None:
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from subfric_dolfinx import logs, meshing
+    from subfric_dolfinx.constitutive import preset
+    from subfric_dolfinx.fem import (
+        Dirichlet,
+        FrictionSolver,
+        InterfaceProblem,
+        LoadStepper,
+        Material,
+        Pressure,
+        timing_breakdown,
+    )
+    from subfric_dolfinx.io import interface_summary
+    from subfric_dolfinx.loading import LoadingProgram
+
+    comm = MPI.COMM_WORLD
+    logs.configure(-1, comm)
+    PETSc.Log.begin()
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    dom, _ = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate, comm, n_interface=n, cell_type="hexahedron",
+        plate_size=(2.0, 2.0, 0.5), pad_size=(1.0, 1.0, 0.5),
+    )  # fmt: skip
+    t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    t, press, slide = program_points(steps)
+    prog = LoadingProgram(t, {"press": press, "slide": slide})
+    bcs = [
+        Dirichlet("bottom", [0.0, 0.0, 0.0]),
+        Dirichlet("top", 1.0, component=0, amplitude="slide"),
+        Dirichlet("top", 0.0, component=1),
+    ]
+    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    t1 = time.perf_counter()
+    problem = InterfaceProblem(
+        dom, preset("sec7"), mats, prog, bcs, [Pressure("top", 300.0, "press")]
+    )
+    solver = FrictionSolver(problem, "fs_", linear=strategy)
+    t_problem = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
+    rss_setup = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    history, krylov, stopped = [], [], [None]
+    start = time.perf_counter()
+
+    class TimeLimit(Exception):
+        pass
+
+    def on_step(rec):
+        s = interface_summary(problem)
+        history.append({"t": rec.t, "F_t1": s["F_t1"], "F_n": s["F_n"], "newton": rec.iterations})
+        late = time.perf_counter() - start > time_limit
+        if comm.allreduce(late, op=MPI.LOR):
+            stopped[0] = f"time limit {time_limit:g} s: stopped after step {rec.step} (t {rec.t:g})"
+            raise TimeLimit
+
+    orig = solver.solve
+
+    def solve(*a, **k):
+        r = orig(*a, **k)
+        krylov.append(r.get("krylov", 0))
+        return r
+
+    solver.solve = solve
+    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step)
+    failure = None
+    try:
+        stepper.run()
+    except TimeLimit:
+        pass
+    except Exception as e:  # StepFailure: recorded, not raised
+        failure = f"{type(e).__name__}: {e}"
+    wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    sections = timing_breakdown(problem, solver.event_start)
+    sections = {"mesh": t_mesh, "problem + solver set-up": t_problem, **sections}
+    sections.pop("setup", None)  # the pairing, inside "problem + solver set-up"
+    sections["other"] = wall - sum(
+        v for k, v in sections.items() if k not in ("mesh", "problem + solver set-up")
+    )
+    events = {}
+    for name in ("PCSetUp", "PCApply", "KSPSolve", "MatLUFactorNum", "MatMult"):
+        info = PETSc.Log.Event(name).getPerfInfo()
+        seconds = comm.allreduce(info["time"], op=MPI.MAX)
+        events[name] = {"count": int(info["count"]), "time": seconds}
+    rss = comm.gather(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, root=0)
+    newton = sum(r.iterations for r in stepper.records)
+    result = {
+        "tag": tag_of(n, strategy, comm.size, steps),
+        "n": n,
+        "strategy": strategy,
+        "ranks": comm.size,
+        "steps_program": steps,
+        "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
+        "interface_points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
+        "steps": len(stepper.records),
+        "newton": newton,
+        "krylov": int(sum(krylov)),
+        "cuts": int(sum(r.cuts for r in stepper.records)),
+        "line_search_steps": stepper.line_search_steps,
+        "linear": solver.linear.stats,
+        "wall": wall,
+        "wall_per_newton": wall / newton if newton else math.nan,
+        "sections": sections,
+        "events": events,
+        "rss_mib": rss,
+        "rss_setup_mib": comm.allreduce(rss_setup, op=MPI.MAX),
+        "load": [load0[0], os.getloadavg()[0]],
+        "failure": failure,
+        "stopped": stopped[0],
+        "history": history,
+    }
+    solver.destroy()
+    if comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / f"{result['tag']}.json").write_text(json.dumps(result, indent=1))
+        print(
+            f"[{result['tag']}] dofs {result['dofs']}: {result['steps']} steps, Newton {newton}, "
+            f"Krylov {result['krylov']}, refreshes {result['linear']['refreshes']}, wall "
+            f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank, load {result['load'][0]:.1f}"
+            + (f", FAILED: {failure}" if failure else "")
+            + (f", {stopped[0]}" if stopped[0] else ""),
+            flush=True,
+        )
+
+
+# ------------------------------------------------------------------------------------------------
+# Campaign
+
+
+def _env() -> dict[str, str]:
+    keep = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
+    }
+
+
+def launch(n, strategy, ranks, steps, time_limit, out, force=False) -> dict | None:
+    path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
+    if path.exists() and not force:
+        print(f"[{path.stem}] kept (--force to redo)", flush=True)
+        return json.loads(path.read_text())
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
+           "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
+           "--out", str(out)]  # fmt: skip
+    proc = subprocess.run(cmd, cwd=ROOT, env=_env())
+    if proc.returncode != 0 or not path.exists():
+        print(f"[{path.stem}] exit code {proc.returncode}, no result", flush=True)
+        return None
+    return json.loads(path.read_text())
+
+
+# ------------------------------------------------------------------------------------------------
+# Tables and plot
+
+
+def history_difference(a: dict, b: dict) -> float:
+    """Max |F_t1(a) - F_t1(b)| / max |F_t1(b)| over the steps both have at the same times."""
+    hb = {round(h["t"], 9): h["F_t1"] for h in b["history"]}
+    diffs = [abs(h["F_t1"] - hb[round(h["t"], 9)]) for h in a["history"] if round(h["t"], 9) in hb]
+    peak = max((abs(v) for v in hb.values()), default=0.0)
+    return max(diffs) / peak if diffs and peak > 0 else math.nan
+
+
+def fit_exponent(x, y) -> float:
+    """Slope of log y against log x (least squares), nan with fewer than 2 points."""
+    import numpy as np
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if ok.sum() < 2:
+        return math.nan
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+COLUMNS = [
+    "strategy", "ranks", "steps_program", "n", "dofs", "interface_points", "steps", "newton",
+    "krylov", "krylov_per_newton", "refreshes", "cuts", "wall_s", "s_per_newton", "mesh_s",
+    "setup_s", "bulk_s", "return_map_s", "interface_s", "pc_setup_s", "krylov_s", "other_s",
+    "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "load", "status",
+]  # fmt: skip
+
+
+def rows_of(results: list[dict]) -> list[dict]:
+    lu = {(r["n"], r["ranks"], r["steps_program"]): r for r in results if r["strategy"] == "lu"}
+    rows = []
+    for r in sorted(results, key=lambda r: (r["steps_program"], r["strategy"], r["ranks"], r["n"])):
+        s = r["sections"]
+        ref = lu.get((r["n"], r["ranks"], r["steps_program"]))
+        complete = r["failure"] is None and r["stopped"] is None
+        ref_ok = ref is not None and ref["failure"] is None and ref["stopped"] is None
+        status = "ok" if complete else (r["stopped"] or r["failure"])[:90]
+        rows.append({
+            "strategy": r["strategy"], "ranks": r["ranks"], "steps_program": r["steps_program"],
+            "n": r["n"], "dofs": r["dofs"], "interface_points": r["interface_points"],
+            "steps": r["steps"], "newton": r["newton"], "krylov": r["krylov"],
+            "krylov_per_newton": r["krylov"] / r["newton"] if r["newton"] else math.nan,
+            "refreshes": r["linear"]["refreshes"], "cuts": r["cuts"], "wall_s": r["wall"],
+            "s_per_newton": r["wall_per_newton"], "mesh_s": s["mesh"],
+            "setup_s": s["problem + solver set-up"], "bulk_s": s["bulk assembly"],
+            "return_map_s": s["return map"], "interface_s": s["interface assembly"],
+            "pc_setup_s": s["factorisation"], "krylov_s": s["linear solve"], "other_s": s["other"],
+            "rss_max_mib": max(r["rss_mib"]),
+            "diff_vs_lu": history_difference(r, ref) if ref is not None else math.nan,
+            "speedup_vs_lu": ref["wall"] / r["wall"] if (ref_ok and complete) else math.nan,
+            "load": r["load"][0], "status": status,
+        })  # fmt: skip
+    return rows
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "—"
+        if v != 0 and (abs(v) < 1e-3 or abs(v) >= 1e5):
+            return f"{v:.1e}"
+        return f"{v:.3g}" if abs(v) < 100 else f"{v:.0f}"
+    if isinstance(v, int) and v >= 10000:
+        return f"{v:,}"
+    return str(v)
+
+
+def write_tables(out: Path, report: Path) -> None:
+    import numpy as np
+
+    results = [json.loads(p.read_text()) for p in sorted(out.glob("pad_*.json"))]
+    if not results:
+        print(f"no results in {out}")
+        return
+    rows = rows_of(results)
+    (report / "data").mkdir(parents=True, exist_ok=True)
+    with open(report / "data" / "fe_scaling.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    head = ["strategy", "ranks", "dofs", "interface_points", "steps", "newton",
+            "krylov_per_newton", "refreshes", "wall_s", "s_per_newton", "pc_setup_s", "krylov_s",
+            "bulk_s", "return_map_s", "interface_s", "mesh_s", "rss_max_mib", "diff_vs_lu",
+            "speedup_vs_lu", "load", "status"]  # fmt: skip
+    lines = [
+        "# FE scaling: the pad on a plate, per linear strategy (issue 13)",
+        "",
+        "Generated by `benchmarks/fe_scaling.py --table` from `benchmarks/output/fe_scaling/`; "
+        "CSV: `report/data/fe_scaling.csv`, figure: `report/fe_scaling.png`. 2-core shared "
+        "machine: `load` is the 1-minute load average when the run started (2 = both cores "
+        "busy with other work); compare counts first, times within a load window. Times in s "
+        "(wall, max over ranks); `pc_setup` = PETSc's PCSetUp (factorisations or AMG set-ups), "
+        "`krylov` = KSPSolve; `diff_vs_lu` = max |F_t - F_t(LU)| / peak |F_t(LU)|; RSS = peak "
+        "resident memory of the largest rank (MiB).",
+        "",
+    ]
+    exps = []
+    for steps in sorted({r["steps_program"] for r in rows}):
+        sub = [r for r in rows if r["steps_program"] == steps]
+        lines += [f"## {steps}-step program", ""]
+        lines.append("| " + " | ".join(head) + " |")
+        lines.append("|" + "---|" * len(head))
+        for r in sub:
+            lines.append("| " + " | ".join(_fmt(r[k]) for k in head) + " |")
+        lines.append("")
+        for strategy in STRATEGIES:
+            for ranks in (1, 2):
+                pts = [r for r in sub if r["strategy"] == strategy and r["ranks"] == ranks
+                       and r["status"] == "ok"]  # fmt: skip
+                if len(pts) < 2:
+                    continue
+                d = [p["dofs"] for p in pts]
+                big = [p for p in pts if 20000 <= p["dofs"] <= 250000]
+                exps.append({
+                    "steps": steps, "strategy": strategy, "ranks": ranks,
+                    "time": fit_exponent(d, [p["wall_s"] for p in pts]),
+                    "per_newton_20k_200k": fit_exponent(
+                        [p["dofs"] for p in big], [p["s_per_newton"] for p in big]
+                    ),
+                    "rss": fit_exponent(d, [p["rss_max_mib"] for p in pts]),
+                    "range": f"{min(d):,}–{max(d):,}",
+                })  # fmt: skip
+    if exps:
+        lines += [
+            "## Fitted exponents (time ∝ dofs^p, least squares in log-log, completed runs)",
+            "",
+            "| program | strategy | ranks | dofs | p (wall) | p (s per Newton, 20k–250k) | "
+            "p (peak RSS) |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for e in exps:
+            lines.append(
+                f"| {e['steps']} steps | {e['strategy']} | {e['ranks']} | {e['range']} | "
+                f"{_fmt(e['time'])} | {_fmt(e['per_newton_20k_200k'])} | {_fmt(e['rss'])} |"
+            )
+        lines.append("")
+    (report / "fe_scaling.md").write_text("\n".join(lines))
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    markers = {"reuse": "o", "lu": "s", "gamg": "^"}
+    for steps in sorted({r["steps_program"] for r in rows}):
+        if steps != 24 and len({r["steps_program"] for r in rows}) > 1:
+            continue
+        for strategy in STRATEGIES:
+            for ranks, style in ((1, "-"), (2, "--")):
+                pts = [r for r in rows if r["strategy"] == strategy and r["ranks"] == ranks
+                       and r["steps_program"] == steps and r["status"] == "ok"]  # fmt: skip
+                if not pts:
+                    continue
+                d = np.array([p["dofs"] for p in pts])
+                p_exp = fit_exponent(d, [p["wall_s"] for p in pts])
+                label = f"{strategy}, {ranks} rank{'s' if ranks > 1 else ''} (p = {p_exp:.2f})"
+                axes[0].loglog(d, [p["wall_s"] for p in pts], style, marker=markers[strategy],
+                               label=label)  # fmt: skip
+                axes[1].loglog(d, [p["s_per_newton"] for p in pts], style,
+                               marker=markers[strategy], label=f"{strategy}, {ranks}")  # fmt: skip
+    axes[0].set_xlabel("dofs")
+    axes[0].set_ylabel("wall time of the program (s)")
+    axes[0].set_title("Pad on a plate, 24-step program")
+    axes[0].legend(fontsize=7)
+    axes[1].set_xlabel("dofs")
+    axes[1].set_ylabel("wall time per Newton iteration (s)")
+    axes[1].set_title("Cost per Newton iteration")
+    for a in axes:
+        a.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(report / "fe_scaling.png", dpi=120)
+    print(f"wrote {report / 'fe_scaling.md'}, {report / 'fe_scaling.png'}, "
+          f"{report / 'data' / 'fe_scaling.csv'}")  # fmt: skip
+
+
+# ------------------------------------------------------------------------------------------------
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[8, 12, 16, 20, 24, 28, 30])
+    ap.add_argument("--strategies", nargs="+", choices=STRATEGIES, default=list(STRATEGIES))
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--steps", type=int, default=24, help="program: 24 or 100 steps (or any)")
+    ap.add_argument("--time-limit", type=float, default=1800.0, help="seconds per run")
+    ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--force", action="store_true", help="redo runs whose result exists")
+    ap.add_argument("--table", action="store_true", help="only write the tables and the plot")
+    ap.add_argument("--report", type=Path, default=REPORT)
+    ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--strategy", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.one:
+        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out)
+        return
+    if not args.table:
+        for n in sorted(args.sizes):  # the largest last
+            for ranks in args.ranks:
+                for strategy in args.strategies:
+                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force)
+    write_tables(args.out, args.report)
+
+
+if __name__ == "__main__":
+    main()
