@@ -34,6 +34,19 @@ from fe_analysis import fe_analysis  # noqa: E402
 from running import say  # noqa: E402
 
 
+def scale_section(path: Path) -> str:
+    """The tables of ``benchmarks/fe_scaling.py --table``, or "" before it has run.
+
+    Its title is dropped and its headings go one level down.
+    """
+    if not path.exists():
+        return ""
+    lines = path.read_text().splitlines()
+    if lines and lines[0].startswith("# "):
+        lines = lines[1:]
+    return "\n".join("#" + ln if ln.startswith("## ") else ln for ln in lines).strip()
+
+
 def render(context: dict[str, Any]) -> str:
     """The README text: the template with the analysis' numbers."""
     import jinja2
@@ -94,6 +107,7 @@ def main() -> int:
     )  # fmt: skip
     section = data / "mp_section.md"  # written by report/mp_study.py (previous and current map)
     context["mp_section"] = section.read_text() if section.exists() else ""
+    context["scale_section"] = scale_section(HERE / "fe_scaling.md")
     (HERE / "README.md").write_text(render(context))
     say(f"wrote {HERE / 'README.md'} and {len(list(HERE.glob('*.png')))} PNGs in {elapsed:.0f} s")
     if any(stab_sum[k][0] < stab_sum[k][1] for k in ("point", "fe1", "fe2")):

@@ -44,11 +44,22 @@ def columns(hist, after):
     return np.array([[r[k] for k in keys] for r in rows])
 
 
-def test_restart_gives_the_same_history(shared_tmp):
-    """1 -> 1 on one rank; 2 -> 2 and 2 -> 1 on two ranks."""
+@pytest.mark.parametrize("linear", ["lu", "reuse"])
+def test_restart_gives_the_same_history(shared_tmp, linear):
+    """1 -> 1 on one rank; 2 -> 2 and 2 -> 1 on two ranks. To round-off with LU, and with the
+    reused factor on one rank (a checkpoint refreshes it, as a restart does); on two ranks
+    MUMPS's factors differ from run to run in the last bits, which GMRES's inexact solves turn
+    into differences of the order of Newton's tolerance (measured 5e-9 to 1e-8 of the peak
+    between two identical runs): 1e-7 of each column's largest value there."""
     comm = MPI.COMM_WORLD
+
+    def scene_(**outputs):
+        s = scene(**outputs)
+        s["solver"]["linear"] = linear
+        return s
+
     full = run_scene(
-        scene(checkpoint_times=[T_CK], history=True, interface_history=True),
+        scene_(checkpoint_times=[T_CK], history=True, interface_history=True),
         outdir=shared_tmp / "a",
         comm=comm,
     )
@@ -56,13 +67,17 @@ def test_restart_gives_the_same_history(shared_tmp):
     ref = columns(full.history, T_CK)
     assert ref.shape[0] > 10
     again = run_scene(
-        scene(history=True, interface_history=True),
+        scene_(history=True, interface_history=True),
         outdir=shared_tmp / "a",
         comm=comm,
         restart=ck,
     )
     assert len(again.history) == len(full.history)
-    np.testing.assert_allclose(columns(again.history, T_CK), ref, rtol=1e-10, atol=1e-10)
+    got = columns(again.history, T_CK)
+    if linear == "lu" or comm.size == 1:
+        np.testing.assert_allclose(got, ref, rtol=1e-10, atol=1e-10)
+    else:
+        assert np.all(np.abs(got - ref) <= 1e-7 * np.abs(ref).max(axis=0)), np.abs(got - ref)
 
     def check_interface_history():
         """It continues where it stopped: one row per step, times increasing."""

@@ -304,6 +304,17 @@ class FrictionSolver:
             "linear_retry": retried,
         }
 
+    def refresh_preconditioner(self) -> None:
+        """Rebuild the preconditioner at the next Newton iteration (strategies that reuse one).
+
+        :func:`~subfric_dolfinx.io.write_checkpoint` calls it: a run restarted from the
+        checkpoint starts with a fresh preconditioner, and so does the run that wrote it from
+        there on, so both continue alike, to round-off (with a factor kept from earlier, the
+        inexact Krylov solves would leave differences of the order of Newton's tolerance).
+        """
+        if self.linear is not None:
+            self.linear.force = True
+
     # -- lifecycle ------------------------------------------------------------------------------
     def destroy(self) -> None:
         """Free the PETSc objects and release the prefix (safe to call more than once)."""

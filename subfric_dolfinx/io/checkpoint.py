@@ -86,7 +86,9 @@ def write_checkpoint(
     Args:
         path: Checkpoint file.
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
-        stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt).
+        stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt); its solver
+            rebuilds its preconditioner at the next iteration, as a restart will
+            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`).
         history: History rows so far (stored so that a restarted run continues them).
         settings: JSON-ready settings a restart must match (e.g. the scene's materials,
             boundary conditions and loads); compared by :func:`restore_checkpoint`.
@@ -188,6 +190,9 @@ def write_checkpoint(
             os.close(fd)
 
     collective(comm, publish, what, error=CheckpointWriteError, path=path)
+    refresh = getattr(getattr(stepper, "solver", None), "refresh_preconditioner", None)
+    if refresh is not None:  # a restart starts fresh: so does this run, from here on
+        refresh()
 
 
 @dataclasses.dataclass
