@@ -103,16 +103,19 @@ def test_cli_prints_json_without_out_and_steps_per_mm_overrides(tmp_path):
 
 @pytest.mark.serial
 def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
-    """``mpirun -n 2 python3 -m subfric_dolfinx.driver``: one JSON on stdout (two ranks writing
-    the same files side by side raced and failed), exit 0, the same result as one process."""
+    """``mpirun -n 2 python3 -m subfric_dolfinx.driver --out``: one run, one "ok:" line (two
+    ranks writing the same files side by side raced and failed), exit 0, the same result as one
+    process."""
     case_file = write(tmp_path, SEC7)
+    out = tmp_path / "r.json"
     env = {**singleton_env(), "PYTHONPATH": str(REPO)}
     cmd = ["mpirun", "-n", "2", sys.executable, "-m", "subfric_dolfinx.driver", str(case_file)]
+    cmd += ["--out", str(out)]
     proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert proc.stderr.count("ok:") == 1, proc.stderr
+    assert (proc.stdout + proc.stderr).count("ok:") == 1, proc.stdout + proc.stderr
     serial = json.loads(cli(case_file).stdout)
-    assert json.loads(proc.stdout)["samples"] == serial["samples"]
+    assert json.loads(out.read_text())["samples"] == serial["samples"]
 
 
 def test_launcher_rank_reads_the_launchers_environment(monkeypatch):
