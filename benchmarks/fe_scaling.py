@@ -262,7 +262,7 @@ COLUMNS = [
     "strategy", "ranks", "steps_program", "n", "dofs", "interface_points", "steps", "newton",
     "krylov", "krylov_per_newton", "refreshes", "cuts", "wall_s", "s_per_newton", "mesh_s",
     "setup_s", "bulk_s", "return_map_s", "interface_s", "pc_setup_s", "krylov_s", "other_s",
-    "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "load", "status",
+    "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "per_newton_vs_lu", "load", "status",
 ]  # fmt: skip
 
 
@@ -288,6 +288,8 @@ def rows_of(results: list[dict]) -> list[dict]:
             "rss_max_mib": max(r["rss_mib"]),
             "diff_vs_lu": history_difference(r, ref) if ref is not None else math.nan,
             "speedup_vs_lu": ref["wall"] / r["wall"] if (ref_ok and complete) else math.nan,
+            "per_newton_vs_lu": (ref["wall_per_newton"] / r["wall_per_newton"]
+                                 if ref is not None else math.nan),
             "load": r["load"][0], "status": status,
         })  # fmt: skip
     return rows
@@ -321,7 +323,7 @@ def write_tables(out: Path, report: Path) -> None:
     head = ["strategy", "ranks", "dofs", "interface_points", "steps", "newton",
             "krylov_per_newton", "refreshes", "wall_s", "s_per_newton", "pc_setup_s", "krylov_s",
             "bulk_s", "return_map_s", "interface_s", "mesh_s", "rss_max_mib", "diff_vs_lu",
-            "speedup_vs_lu", "load", "status"]  # fmt: skip
+            "speedup_vs_lu", "per_newton_vs_lu", "load", "status"]  # fmt: skip
     lines = [
         "# FE scaling: the pad on a plate, per linear strategy (issue 13)",
         "",
@@ -330,8 +332,12 @@ def write_tables(out: Path, report: Path) -> None:
         "machine: `load` is the 1-minute load average when the run started (2 = both cores "
         "busy with other work); compare counts first, times within a load window. Times in s "
         "(wall, max over ranks); `pc_setup` = PETSc's PCSetUp (factorisations or AMG set-ups), "
-        "`krylov` = KSPSolve; `diff_vs_lu` = max |F_t - F_t(LU)| / peak |F_t(LU)|; RSS = peak "
-        "resident memory of the largest rank (MiB).",
+        "`krylov` = KSPSolve; `diff_vs_lu` = max |F_t - F_t(LU)| / peak |F_t(LU)|; "
+        "`speedup_vs_lu` = LU's wall time over this one's (complete runs), `per_newton_vs_lu` "
+        "the same per Newton iteration (LU runs stopped by the time limit count too); RSS = "
+        "peak resident memory of the largest rank (MiB).",
+        "",
+        "![Wall time and time per Newton iteration against dofs](fe_scaling.png)",
         "",
     ]
     exps = []
@@ -343,6 +349,19 @@ def write_tables(out: Path, report: Path) -> None:
         for r in sub:
             lines.append("| " + " | ".join(_fmt(r[k]) for k in head) + " |")
         lines.append("")
+        pairs = []
+        for strategy in STRATEGIES:
+            one = {r["dofs"]: r for r in sub if r["strategy"] == strategy and r["ranks"] == 1}
+            for r in sub:
+                if r["strategy"] == strategy and r["ranks"] == 2 and r["dofs"] in one:
+                    o = one[r["dofs"]]
+                    pairs.append(f"| {strategy} | {r['dofs']:,} | {_fmt(o['s_per_newton'])} | "
+                                 f"{_fmt(r['s_per_newton'])} | "
+                                 f"{_fmt(o['s_per_newton'] / r['s_per_newton'])} |")  # fmt: skip
+        if pairs:
+            lines += ["2 ranks against 1 (time per Newton iteration, s):", "",
+                      "| strategy | dofs | 1 rank | 2 ranks | speed-up |",
+                      "|---|---|---|---|---|", *pairs, ""]  # fmt: skip
         for strategy in STRATEGIES:
             for ranks in (1, 2):
                 pts = [r for r in sub if r["strategy"] == strategy and r["ranks"] == ranks

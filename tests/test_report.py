@@ -31,6 +31,7 @@ def test_the_report_template_renders_from_report_data():
         mp, analysis.mp_tables(mp), stab_tab, stab_sum, fe, fe_lines, cfg,
         quick=False, elapsed=123.0, reuse=True,
     )  # fmt: skip
+    ctx["scale_section"] = generate.scale_section(REPORT / "fe_scaling.md")
     text = generate.render(ctx)
     assert "{{" not in text and "{%" not in text
     assert "in\n**123 s**" in text and "REUSE MODE" in text and "QUICK MODE" not in text
@@ -44,3 +45,6 @@ def test_the_report_template_renders_from_report_data():
         assert block in text
     for h in ("## Headline numbers", "## 1. Material point", "## 2. FE", "## 3. Stability"):
         assert h in text
+    # the scaling benchmark's tables, one heading level down (benchmarks/fe_scaling.py --table)
+    assert "## Scale: the linear strategies" in text and "### 24-step program" in text
+    assert "\n# FE scaling" not in text
