@@ -151,12 +151,13 @@ def demo_problem(preset, program, n=16):
     return build_problem(scene, build_mesh(scene.mesh, MPI.COMM_WORLD)), scene
 
 
-def run_stepper(prob, scene, **kwargs):
-    """Run with the scene's step controls; (stepper, StepFailure or None)."""
+def run_stepper(prob, scene, linear=None, **kwargs):
+    """Run with the scene's step controls (and its linear strategy unless ``linear`` is given);
+    (stepper, StepFailure or None)."""
     from subfric_dolfinx.fem import StepFailure
 
     sv = scene.solver
-    with FrictionSolver(prob, prefix("retry")) as solver:
+    with FrictionSolver(prob, prefix("retry"), linear=linear or sv.linear) as solver:
         st = LoadStepper(solver, sv.dt, dt_max=sv.dt_max, max_cuts=sv.max_cuts, **kwargs)
         try:
             st.run()
@@ -223,7 +224,9 @@ def test_a_run_that_needs_no_retry_is_unchanged_by_it():
         def on_step(rec, prob=prob, rows=rows):
             rows.append([rec.t, rec.iterations, *interface_summary(prob).values()])
 
-        st, err = run_stepper(prob, scene, on_step=on_step, **kwargs)
+        # LU: the claim is reproducibility to round-off, which the Krylov strategies give only
+        # to Newton's tolerance on two ranks (README, "Which linear strategy")
+        st, err = run_stepper(prob, scene, linear="lu", on_step=on_step, **kwargs)
         assert err is None and st.line_search_steps == 0
         runs.append(np.array(rows))
     assert runs[0].shape == runs[1].shape

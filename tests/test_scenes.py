@@ -108,6 +108,7 @@ def test_a_hold_in_one_step_recovers_as_in_forty():
         s = small_scene()
         s["solver"]["hold_dt"] = hold_dt
         s["solver"]["prefix"] = None
+        s["solver"]["linear"] = "lu"  # compared to round-off (README, "Which linear strategy")
         s["outputs"] = {"snapshots": [9.0]}
         runs[hold_dt] = run_scene(s, comm=comm)
     one, many = runs[5.0], runs[None]
