@@ -211,15 +211,6 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
 # Campaign
 
 
-def _env() -> dict[str, str]:
-    keep = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
-    return {
-        k: v
-        for k, v in os.environ.items()
-        if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
-    }
-
-
 def launch(n, strategy, ranks, steps, time_limit, out, force=False) -> dict | None:
     path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
     if path.exists() and not force:
@@ -228,7 +219,9 @@ def launch(n, strategy, ranks, steps, time_limit, out, force=False) -> dict | No
     cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
            "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
            "--out", str(out)]  # fmt: skip
-    proc = subprocess.run(cmd, cwd=ROOT, env=_env())
+    from subfric_dolfinx.logs import singleton_environment
+
+    proc = subprocess.run(cmd, cwd=ROOT, env=singleton_environment())
     if proc.returncode != 0 or not path.exists():
         print(f"[{path.stem}] exit code {proc.returncode}, no result", flush=True)
         return None

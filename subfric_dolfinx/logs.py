@@ -1,6 +1,7 @@
 """The package's log: one logger, a handler printing on rank 0, the rank of a serial program.
 
-Under ``mpirun``, a numpy-only program finds its rank with :func:`launcher_rank`.
+Under ``mpirun``, a numpy-only program finds its rank with :func:`launcher_rank`; a child process
+started from a rank gets :func:`singleton_environment` so that it does not join the job.
 
 Every module logs to a child of the ``subfric_dolfinx`` logger (``logging.getLogger(__name__)``).
 As a library, the package installs no output handler of its own; a program (a demo, a script)
@@ -21,7 +22,7 @@ import os
 import sys
 from typing import Any, TextIO
 
-__all__ = ["LOGGER_NAME", "configure", "launcher_rank", "level_for"]
+__all__ = ["LOGGER_NAME", "configure", "launcher_rank", "level_for", "singleton_environment"]
 
 LOGGER_NAME = "subfric_dolfinx"
 logging.getLogger(LOGGER_NAME).addHandler(logging.NullHandler())
@@ -92,3 +93,21 @@ def launcher_rank() -> int:
         if value.isdigit():
             return int(value)
     return 0
+
+
+_LAUNCHER_PREFIXES = ("OMPI_", "PMI_", "PMIX_", "PRTE_", "HYDRA_")
+_LAUNCHER_KEEP = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
+
+
+def singleton_environment() -> dict[str, str]:
+    """This process's environment without the variables of the MPI job that started it.
+
+    A child started from an MPI rank would otherwise try to join the parent's job; without them
+    it starts as an MPI singleton (or as its own ``mpirun``). Open MPI's settings that are not
+    about the job (running as root, the transport) are kept.
+    """
+    return {
+        k: v
+        for k, v in os.environ.items()
+        if k in _LAUNCHER_KEEP or not k.startswith(_LAUNCHER_PREFIXES)
+    }

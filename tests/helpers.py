@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.loading import LoadingProgram
 
@@ -133,12 +134,7 @@ def singleton_env() -> dict[str, str]:
     A child started from an MPI rank would otherwise try to join the parent's job; without them
     it starts as an MPI singleton.
     """
-    keep = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
-    return {
-        k: v
-        for k, v in os.environ.items()
-        if k in keep or not k.startswith(("OMPI_", "PMIX_", "PRTE_"))
-    }
+    return logs.singleton_environment()
 
 
 # --------------------------------------------------------------------------------------------

@@ -4,7 +4,6 @@ paper describes, checked on the written CSV data."""
 import collections
 import csv
 import math
-import os
 import pathlib
 import subprocess
 import sys
@@ -14,6 +13,7 @@ import pytest
 
 from demos import paper_figures
 from subfric_dolfinx.constitutive import PRESETS
+from subfric_dolfinx.logs import singleton_environment
 
 pytestmark = pytest.mark.numpy_only
 
@@ -181,11 +181,7 @@ def test_fig8_reciprocal_reload_peaks_grow_with_hold(out):
 def test_demo_command_line(tmp_path):
     """The script runs as a program (MPI launcher variables removed: this may run under mpirun,
     and the demo must not start MPI in a child)."""
-    env = {
-        k: v
-        for k, v in os.environ.items()
-        if not k.startswith(("OMPI_", "PMI_", "PMIX_", "PRTE_", "HYDRA_"))
-    }
+    env = singleton_environment()
     env["PYTHONPATH"] = str(REPO)
     env["MPLBACKEND"] = "Agg"
     cmd = [sys.executable, str(DEMO), "--quick", "--only", "fig5", "--out", str(tmp_path)]

@@ -6,7 +6,6 @@ data or arguments or unidentifiable parameters, 3 not converged (FIT.json writte
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -17,26 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..driver.cli import check_out, write_atomically
+from ..driver.cli import _ArgumentError, _error, _Parser, check_out, write_atomically
 from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
 from .fit import STEPS_PER_MM, FitResult, fit, simulate
 
 __all__ = ["main", "plot_fit"]
-
-
-class _ArgumentError(Exception):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2
-        raise _ArgumentError(message)
-
-
-def _error(msg: str, code: int = 2) -> int:
-    print(f"error: {msg}", file=sys.stderr)
-    return code
 
 
 def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm: float) -> None:
