@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import SubloadingLaw
-from ..driver.case import CaseError, read_json
+from ..driver.case import CaseError, _number, _short, read_json
 
 __all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
 
@@ -64,25 +64,13 @@ class CalibrationData:
 
 
 def _num(where: str, v: Any, *, allow_none: bool = False) -> float | None:
+    """The driver's number check (finite, not a bool), raising :class:`CalibrationError`."""
     if v is None and allow_none:
         return None
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise CalibrationError(f"field '{where}' must be a number, got {_short(v)}")
     try:
-        x = float(v)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
-        raise CalibrationError(f"field '{where}' must be finite, got {_short(v)}")
-    return x
-
-
-def _short(v: Any, n: int = 60) -> str:
-    try:
-        r = repr(v)
-    except ValueError:  # an int beyond Python's digit limit
-        return "<an integer with too many digits>"
-    return r if len(r) <= n else r[: n - 3] + "..."
+        return _number(where, v)
+    except CaseError as e:
+        raise CalibrationError(str(e)) from None
 
 
 def _numbers(where: str, v: Any) -> np.ndarray:
