@@ -74,10 +74,10 @@ import dolfinx.fem.petsc
 import gmsh
 import numpy as np
 import ufl
-from dolfinx.io import gmshio
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from subfric_dolfinx.compat import model_to_mesh
 from subfric_dolfinx.scenes.cli import HelpFormatter
 
 # Physical-group tags of the gmsh model: one for the surface, one for each loaded/clamped edge.
@@ -133,7 +133,8 @@ def build_mesh(comm: MPI.Comm, n: int, length: float = 4.0, height: float = 1.0,
         rank: Rank of `comm` that runs gmsh.
 
     Returns:
-        `(mesh, cell_tags, facet_tags)` as returned by `dolfinx.io.gmshio.model_to_mesh`; the
+        `(mesh, cell_tags, facet_tags)` as returned by `subfric_dolfinx.compat.model_to_mesh`
+        (DOLFINx's `gmshio.model_to_mesh` in 0.9, `io.gmsh.model_to_mesh` in 0.11); the
         facet tags mark the left edge with `CLAMPED` and the right edge with `LOADED`.
 
     Raises:
@@ -153,7 +154,7 @@ def build_mesh(comm: MPI.Comm, n: int, length: float = 4.0, height: float = 1.0,
         if error is not None:
             raise RuntimeError(f"building the gmsh model failed on rank {rank}: {error}")
         model = gmsh.model if comm.rank == rank else None
-        return gmshio.model_to_mesh(model, comm, rank, gdim=2)
+        return model_to_mesh(model, comm, rank, gdim=2)
     finally:
         if comm.rank == rank and gmsh.isInitialized():
             if "elastic_smoke" in gmsh.model.list():

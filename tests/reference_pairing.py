@@ -15,6 +15,7 @@ import dolfinx
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx.compat import create_submesh, ghosted_index_map
 from subfric_dolfinx.fem.interface.geometry import basix_cell, push_forward
 from subfric_dolfinx.fem.interface.pairing import InterfaceError, InterfacePairs
 
@@ -118,7 +119,7 @@ def pair_interface(
 
     # The interface's own mesh: the owned master facets. Its cells define the parametrisation
     # (vertex order) used for the quadrature points, so everything below follows submesh order.
-    sub, entity_map, _, _ = dolfinx.mesh.create_submesh(mesh, tdim - 1, m_facets)
+    sub, entity_map = create_submesh(mesh, tdim - 1, m_facets)
     order = {int(f): i for i, f in enumerate(m_facets)}
     perm = np.array([order[int(f)] for f in entity_map], dtype=np.int64)
     m_facets, m_cells = m_facets[perm], m_cells[perm]
@@ -235,7 +236,7 @@ def pair_interface(
             extra[g] = o
     ghosts = np.concatenate([imap.ghosts, np.fromiter(extra.keys(), np.int64, len(extra))])
     owners = np.concatenate([imap.owners, np.fromiter(extra.values(), np.int32, len(extra))])
-    imap_ext = dolfinx.common.IndexMap(comm, imap.size_local, ghosts, owners)
+    imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
     for k, g in enumerate(extra):
         g2l[g] = n_local_nodes + k
     slave_nodes = np.array([g2l[int(g)] for g in flat_g], dtype=np.int32).reshape(nf, nfd)

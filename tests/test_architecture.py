@@ -3,6 +3,7 @@
 Layers, lowest first; a module may import its own subpackage and lower layers only:
 
 0. ``constitutive/``, ``loading.py``, ``logs.py``: numpy and the standard library only;
+   ``compat.py``: the differences between the supported DOLFINx versions (DOLFINx, PETSc, MPI);
 1. ``driver/`` (numpy only, on the constitutive core), ``meshing/`` (gmsh, DOLFINx);
 2. ``fem/`` (DOLFINx, PETSc, MPI), ``calibrate/`` (scipy, on the driver);
 3. ``io/``;
@@ -28,6 +29,7 @@ LAYERS = {
     f"{NAME}.constitutive": 0,
     f"{NAME}.loading": 0,
     f"{NAME}.logs": 0,
+    f"{NAME}.compat": 0,
     f"{NAME}.driver": 1,
     f"{NAME}.meshing": 1,
     f"{NAME}.fem": 2,
@@ -117,7 +119,8 @@ def group(mod: str) -> str | None:
 def test_the_layers_are_what_ls_shows():
     top = sorted(p.name for p in PKG.iterdir() if not p.name.startswith(("_", ".")))
     assert top == sorted(
-        ["constitutive", "driver", "fem", "io", "loading.py", "logs.py", "meshing", "scenes"]
+        ["compat.py", "constitutive", "driver", "fem", "io", "loading.py", "logs.py", "meshing"]
+        + ["scenes"]
         + (["calibrate"] if (PKG / "calibrate").is_dir() else [])
     )
     for m in MODULES:

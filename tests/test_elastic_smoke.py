@@ -19,6 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from demos.elastic_smoke import build_mesh, solve, timoshenko_tip_deflection
+from subfric_dolfinx.compat import geometry_dofmap
 from tests.helpers import ROOT, on_root, singleton_env
 
 DEMO = ROOT / "demos" / "elastic_smoke.py"
@@ -43,7 +44,7 @@ def gather_nodal(u, comm):
     bs = V.dofmap.index_map_bs
     # P1 on a P1 geometry: local dof i of a cell sits on local geometry node i of the cell.
     node = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1, np.int64)
-    node[V.dofmap.list.ravel()] = geometry.input_global_indices[geometry.dofmap.ravel()]
+    node[V.dofmap.list.ravel()] = geometry.input_global_indices[geometry_dofmap(V.mesh).ravel()]
     x = V.tabulate_dof_coordinates()[:n_owned, :2]
     values = u.x.array[: n_owned * bs].reshape(n_owned, bs)
     gathered = comm.gather((node[:n_owned], x, values), root=0)

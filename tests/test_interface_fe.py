@@ -6,6 +6,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.compat import geometry_dofmap
 from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.driver import run_case
 from subfric_dolfinx.fem import (
@@ -191,7 +192,7 @@ def _gather_state(prob):
     comm = prob.comm
     mesh, V = prob.mesh, prob.V
     ncells = mesh.topology.index_map(mesh.topology.dim).size_local
-    gnodes = mesh.geometry.input_global_indices[mesh.geometry.dofmap[:ncells]]
+    gnodes = mesh.geometry.input_global_indices[geometry_dofmap(mesh)[:ncells]]
     dofs = V.dofmap.list[:ncells]
     u = prob.u.x.array.reshape(-1, V.dofmap.bs)
     ids = np.concatenate(comm.allgather(gnodes.ravel()))

@@ -14,6 +14,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.compat import adjacency_list, geometry_dofmap
 from subfric_dolfinx.fem.interface import InterfaceError, match_points, pair_interface
 from subfric_dolfinx.meshing.partitioners import _gmsh_node_data
 from tests import reference_pairing
@@ -63,8 +64,8 @@ def differences(new, old) -> list[str]:
         bad.append("index_map.ghosts")
     if not np.array_equal(a.owners, b.owners):
         bad.append("index_map.owners")
-    xa = new.submesh.geometry.x[new.submesh.geometry.dofmap]
-    xb = old.submesh.geometry.x[old.submesh.geometry.dofmap]
+    xa = new.submesh.geometry.x[geometry_dofmap(new.submesh)]
+    xb = old.submesh.geometry.x[geometry_dofmap(old.submesh)]
     if not np.array_equal(xa, xb):
         bad.append("submesh")
     return bad
@@ -107,7 +108,7 @@ def interface_on_rank_0(x_cut):
         if conn.shape[0] and nparts > 1:
             _, x, _ = _gmsh_node_data(dolfinx.mesh.cell_dim(cell_types[0]))
             owner[x[conn, 0].mean(axis=1) >= x_cut] = nparts - 1
-        return dolfinx.graph.adjacencylist(owner.reshape(-1, 1))
+        return adjacency_list(owner.reshape(-1, 1))
 
     return partition
 

@@ -31,6 +31,7 @@ DEFAULT_STEPS_PER_MM = 200.0
 MAX_STEPS_PER_SEGMENT = 1e7  # steps between two knots of the path; more is a mistake
 MAX_TOTAL_STEPS = 1e8  # steps of a whole case (about an hour at 30 us per step)
 MAX_CASE_BYTES = 1 << 30  # a case file larger than this is refused before it is read
+MAX_JSON_DEPTH = 64  # arrays and objects nested deeper than this are refused
 
 
 class CaseError(ValueError):
@@ -164,14 +165,42 @@ def read_json(path: str | Path, what: str = "case file") -> Any:
         bad = data[e.start : e.start + 1]
         msg = f"{what} {str(p)!r} is not UTF-8 text (byte {e.start}: {bad!r})"
         raise CaseError(msg) from None
+    def too_deep(where: str = "") -> CaseError:
+        at = f" at {where}" if where else ""
+        return CaseError(
+            f"{what} {str(p)!r} nests too deeply{at} (more than {MAX_JSON_DEPTH} levels)"
+        )
+
     try:
-        return json.loads(text)
+        obj = json.loads(text)
     except json.JSONDecodeError as e:
         raise CaseError(f"{what} {str(p)!r} is not valid JSON: {e}") from None
-    except RecursionError:
-        raise CaseError(f"{what} {str(p)!r} nests too deeply to be read") from None
+    except RecursionError:  # Python <= 3.13's parser recurses; 3.14's does not
+        raise too_deep() from None
     except ValueError as e:  # e.g. an integer beyond Python's digit limit
         raise CaseError(f"{what} {str(p)!r} is not valid: {e}") from None
+    deep = _too_deep(obj, MAX_JSON_DEPTH)
+    if deep is not None:
+        raise too_deep(deep)
+    return obj
+
+
+def _too_deep(obj: Any, limit: int) -> str | None:
+    """Where a parsed JSON value nests deeper than ``limit``, or None.
+
+    Where: its top-level key or index (e.g. ``'params'``). Iterative: any depth, no recursion.
+    """
+    stack = [(obj, 1, "")]
+    while stack:
+        o, d, top = stack.pop()
+        if not isinstance(o, dict | list):
+            continue
+        if d > limit:
+            return top
+        items = o.items() if isinstance(o, dict) else enumerate(o)
+        for k, v in items:
+            stack.append((v, d + 1, top or (repr(k) if isinstance(o, dict) else f"[{k}]")))
+    return None
 
 
 def load_case(path: str | Path) -> Case:

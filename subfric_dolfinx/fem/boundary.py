@@ -22,6 +22,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..compat import petsc_vector
 from ..meshing import NodeGroup, locate_node_group, nearest_vertex
 from .conditions import Dirichlet, DirichletField, PointForce, Pressure, Spring, Traction, channels
 from .interface import InterfaceError
@@ -249,7 +250,7 @@ def load_vectors(
             continue
         blocks, _ = _point_vector(V, domain, c)
         for ch, part in parts.items():
-            f = dolfinx.la.create_petsc_vector(V.dofmap.index_map, V.dofmap.bs)
+            f = petsc_vector(V.dofmap.index_map, V.dofmap.bs)
             f.set(0.0)
             for b in blocks:
                 f.array_w[b * gdim : (b + 1) * gdim] += part

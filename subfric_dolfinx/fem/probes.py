@@ -75,7 +75,7 @@ class PointEvaluator:
             else:
                 own = domain.cell_tags.find(domain.tags[body])
                 own = own[own < n_cells]
-            tree = dolfinx.geometry.bb_tree(mesh, tdim, own)
+            tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=own)
             cand = dolfinx.geometry.compute_collisions_points(tree, x[idx])
             hits = dolfinx.geometry.compute_colliding_cells(mesh, cand, x[idx])
             for j, i in enumerate(idx):

@@ -23,6 +23,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..compat import petsc_vector
 from ..constitutive import FrictionLaw
 from ..loading import LoadingProgram
 from .boundary import check_groups, dirichlet_dofs, load_vectors, spring_forms
@@ -355,4 +356,4 @@ class InterfaceProblem:
 
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
-        return dolfinx.la.create_petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
+        return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)

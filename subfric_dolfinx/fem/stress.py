@@ -20,6 +20,7 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
+from ..compat import interpolation_points
 from .conditions import Material
 
 __all__ = ["STRESS_COMPONENTS", "StressField"]
@@ -67,8 +68,8 @@ class StressField:
         self.sigma = dolfinx.fem.Function(Vs, name="sigma")
         self.von_mises = dolfinx.fem.Function(Vv, name="von_mises")
         self._exprs = (
-            dolfinx.fem.Expression(sig, Vs.element.interpolation_points()),
-            dolfinx.fem.Expression(vm, Vv.element.interpolation_points()),
+            dolfinx.fem.Expression(sig, interpolation_points(Vs)),
+            dolfinx.fem.Expression(vm, interpolation_points(Vv)),
         )
 
     def update(self) -> None:

@@ -27,6 +27,7 @@ import dolfinx
 import dolfinx.io
 import numpy as np
 
+from ..compat import coordinate_element
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 
@@ -113,9 +114,10 @@ class FieldWriter:
             )
         else:
             mesh = problem.mesh
-            if u.function_space.ufl_element().embedded_superdegree != mesh.geometry.cmap.degree:
+            cdeg = coordinate_element(mesh).degree
+            if u.function_space.ufl_element().embedded_superdegree != cdeg:
                 V1 = dolfinx.fem.functionspace(
-                    mesh, ("Lagrange", mesh.geometry.cmap.degree, (gdim,))
+                    mesh, ("Lagrange", cdeg, (gdim,))
                 )
                 self._u = dolfinx.fem.Function(V1, name="displacement")
             self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")

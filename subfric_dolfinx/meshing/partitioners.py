@@ -12,6 +12,7 @@ import dolfinx.mesh
 import numpy as np
 from mpi4py import MPI
 
+from ..compat import adjacency_list, default_partitioner
 from ._gmsh import gmsh_module, group_nodes
 from .groups import BODIES, INTERFACE
 
@@ -83,7 +84,7 @@ def _ghost_destinations(
     for c, r in pairs:
         start[c] += 1
         data[offsets[c] + start[c]] = r
-    return dolfinx.graph.adjacencylist(data, offsets)
+    return adjacency_list(data, offsets)
 
 
 def body_partitioner(
@@ -119,7 +120,7 @@ def body_partitioner(
     if kind not in PARTITIONER_KINDS:
         raise ValueError(f"partitioner kind must be one of {PARTITIONER_KINDS}, got {kind!r}")
     if kind == "default":
-        return dolfinx.mesh.create_cell_partitioner(ghost_mode)
+        return default_partitioner(ghost_mode)
     if ghost_mode not in (dolfinx.mesh.GhostMode.none, dolfinx.mesh.GhostMode.shared_facet):
         raise ValueError(f"body_partitioner({kind!r}) supports GhostMode.none and shared_facet")
 
@@ -128,7 +129,7 @@ def body_partitioner(
         nv = dolfinx.cpp.mesh.cell_num_entities(cell_type, 0)
         conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
         if conn.shape[0] == 0:
-            return dolfinx.graph.adjacencylist(
+            return adjacency_list(
                 np.empty(0, dtype=np.int32), np.zeros(1, dtype=np.int32)
             )
         owner = np.zeros(conn.shape[0], dtype=np.int32)
@@ -155,6 +156,6 @@ def body_partitioner(
                 owner = np.searchsorted(cuts, key, side="right").astype(np.int32)
         if ghost_mode == dolfinx.mesh.GhostMode.shared_facet and nparts > 1:
             return _ghost_destinations(conn, cell_type, owner)
-        return dolfinx.graph.adjacencylist(owner.reshape(-1, 1))
+        return adjacency_list(owner.reshape(-1, 1))
 
     return partition

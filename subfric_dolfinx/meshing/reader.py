@@ -16,12 +16,12 @@ from pathlib import Path
 from typing import Any
 
 import dolfinx
-import dolfinx.io.gmshio
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from ..compat import default_partitioner, model_to_mesh
 from ._gmsh import (
     gmsh_module,
     gmsh_session,
@@ -291,7 +291,7 @@ def read_interface_mesh(
     if isinstance(partitioner, str):
         partitioner = body_partitioner(partitioner, ghost_mode)
     elif partitioner is None and comm.size > 1:
-        partitioner = dolfinx.mesh.create_cell_partitioner(ghost_mode)
+        partitioner = default_partitioner(ghost_mode)
     what = "current gmsh model" if source is None else str(source)
     error: tuple[str, str] | None = None
     names: dict[str, int] = {}
@@ -339,7 +339,7 @@ def read_interface_mesh(
         counts = comm.bcast(counts, root=0)
         dims = comm.bcast(dims, root=0)
         nodes = comm.bcast(nodes, root=0)
-        mesh, ct, ft = dolfinx.io.gmshio.model_to_mesh(
+        mesh, ct, ft = model_to_mesh(
             model, comm, 0, gdim=gdim, partitioner=partitioner
         )
     imesh = InterfaceMesh(

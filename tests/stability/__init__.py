@@ -367,7 +367,7 @@ CASES: list[Case] = [
         "fe",
         "same, Newton's full steps only",
         "error",
-        "StepFailure near the peak, named",
+        "StepFailure while sliding, named",
         fe_sec7_literal_600_no_retry,
         check_fe_newton_fails,
     ),

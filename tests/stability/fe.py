@@ -313,8 +313,11 @@ def fe_sec7_literal_600_l2(comm: Any) -> Outcome:
 
 
 def check_fe_newton_fails(o: Outcome) -> None:
+    """Full-step Newton cannot finish the slide. Where it first cycles depends on the linear
+    solver's round-off: near the forward peak (1.2 < t < 2) on DOLFINx 0.9 (1 and 2 ranks) and
+    0.11 on 1 rank, on the reverse stroke (t = 3.76) with 0.11 on 2 ranks."""
     require("no convergence at t = " in o.message and "SNES reason" in o.message, o.message)
-    require(1.2 < o.data["t_fail"] < 2.0, f"failure away from the peak: {o.data['t_fail']}")
+    require(1.2 < o.data["t_fail"] < 4.0, f"failure outside the slide: {o.data['t_fail']}")
 
 
 def check_fe_literal_l2(o: Outcome) -> None:

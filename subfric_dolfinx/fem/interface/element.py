@@ -32,6 +32,7 @@ import basix.ufl
 import dolfinx
 import numpy as np
 
+from ...compat import geometry_dofmap
 from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
 from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
 from .pairing import InterfaceError, InterfacePairs
@@ -114,7 +115,7 @@ class InterfaceElements:
         # Geometry: points, surface Jacobians, normals, frames.
         self.points = push_forward(sub, X)
         dphi = coordinate_basis(sub, X, 1)[1:]  # (fdim, nq, ngeo)
-        xg = sub.geometry.x[sub.geometry.dofmap][..., :gdim]  # (nf, ngeo, gdim)
+        xg = sub.geometry.x[geometry_dofmap(sub)][..., :gdim]  # (nf, ngeo, gdim)
         J = np.einsum("aqk,ckd->cqda", dphi, xg)  # (nf, nq, gdim, fdim)
         if gdim == 2:
             t = J[..., 0]
@@ -125,7 +126,7 @@ class InterfaceElements:
         nvec = nvec / np.where(detJ > 0, detJ, 1.0)[..., None]
         # Orient n outward from the master cell: away from the master cell's centroid.
         mesh = V.mesh
-        cnodes = mesh.geometry.dofmap[pairs.master_cells]
+        cnodes = geometry_dofmap(mesh)[pairs.master_cells]
         centroid = mesh.geometry.x[cnodes][..., :gdim].mean(axis=1) if nf else np.zeros((0, gdim))
         out = np.einsum("cqd,cqd->cq", nvec, self.points - centroid[:, None, :])
         nvec *= np.where(out < 0.0, -1.0, 1.0)[..., None]

@@ -7,6 +7,8 @@ import dolfinx
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ...compat import coordinate_element, geometry_dofmap
+
 __all__ = [
     "basix_cell",
     "coordinate_basis",
@@ -51,7 +53,7 @@ def basix_cell(cell_type: dolfinx.mesh.CellType) -> basix.CellType:
 
 def coordinate_basis(sub: dolfinx.mesh.Mesh, X: np.ndarray, nderiv: int = 0) -> np.ndarray:
     """Tabulate the coordinate element of ``sub`` at reference points ``X``."""
-    cmap = sub.geometry.cmap
+    cmap = coordinate_element(sub)
     e = basix.create_element(
         basix.ElementFamily.P,
         basix_cell(sub.topology.cell_type),
@@ -65,7 +67,7 @@ def push_forward(sub: dolfinx.mesh.Mesh, X: np.ndarray) -> np.ndarray:
     """Physical coordinates of reference points ``X`` in every cell of ``sub``, (nc, nX, gdim)."""
     gdim = sub.geometry.dim
     phi = coordinate_basis(sub, X)[0]  # (nX, ngeo)
-    xg = sub.geometry.x[sub.geometry.dofmap][..., :gdim]  # (nc, ngeo, gdim)
+    xg = sub.geometry.x[geometry_dofmap(sub)][..., :gdim]  # (nc, ngeo, gdim)
     return np.einsum("xk,ckd->cxd", phi, xg)
 
 

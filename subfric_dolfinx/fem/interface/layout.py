@@ -15,6 +15,8 @@ import numpy as np
 from dolfinx.cpp.la import SparsityPattern
 from petsc4py import PETSc
 
+from ...compat import petsc_vector
+
 __all__ = ["ExtendedLayout"]
 
 
@@ -44,7 +46,7 @@ class ExtendedLayout:
 
     def create_vector(self) -> PETSc.Vec:
         """A ghosted vector whose ghosts include the interface's extra ghosts."""
-        return dolfinx.la.create_petsc_vector(self.index_map, self.bs)
+        return petsc_vector(self.index_map, self.bs)
 
     def sparsity(self) -> SparsityPattern:
         """Bulk cell blocks plus interface master-slave blocks, finalised."""

@@ -28,6 +28,7 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
+from ...compat import create_submesh, ghosted_index_map
 from .geometry import basix_cell, push_forward
 
 __all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
@@ -170,7 +171,7 @@ def pair_interface(
 
     # The interface's own mesh: the owned master facets. Its cells define the parametrisation
     # (vertex order) used for the quadrature points, so everything below follows submesh order.
-    sub, entity_map, _, _ = dolfinx.mesh.create_submesh(mesh, tdim - 1, m_facets)
+    sub, entity_map = create_submesh(mesh, tdim - 1, m_facets)
     sorter = np.argsort(m_facets)
     perm = sorter[np.searchsorted(m_facets, np.asarray(entity_map), sorter=sorter)]
     m_facets, m_cells = m_facets[perm], m_cells[perm]
@@ -286,7 +287,7 @@ def pair_interface(
     slave_nodes, extra_g, extra_o = _local_indices(imap, slave_glob.ravel(), slave_own.ravel())
     ghosts = np.concatenate([imap.ghosts, extra_g])
     owners = np.concatenate([imap.owners, extra_o])
-    imap_ext = dolfinx.common.IndexMap(comm, imap.size_local, ghosts, owners)
+    imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
     slave_nodes = slave_nodes.reshape(nf, nfd)
     n_split = int(np.count_nonzero(np.any(slave_own != comm.rank, axis=1)))
 

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ...compat import geometry_dofmap
 from .geometry import match_points
 from .pairing import InterfaceError, InterfacePairs
 
@@ -43,7 +44,7 @@ def element_regions(
         )
     gdim = sub.geometry.dim
     nv = {"interval": 2, "triangle": 3, "quadrilateral": 4}[sub.topology.cell_type.name]
-    xg = sub.geometry.x[sub.geometry.dofmap[:, :nv]][..., :gdim]
+    xg = sub.geometry.x[geometry_dofmap(sub)[:, :nv]][..., :gdim]
     centroids = xg.mean(axis=1) if xg.size else np.zeros((0, gdim))
     tol = 1e-6 * pairs.h_min
     region = np.zeros(centroids.shape[0], dtype=np.int64)

@@ -1,0 +1,172 @@
+"""What differs between the DOLFINx versions this package supports, in one place.
+
+Supported: DOLFINx 0.9 (Debian 13 "trixie": PETSc 3.22, Python 3.13) and DOLFINx 0.11 (Debian
+sid: PETSc 3.25, Python 3.14). The rest of the package calls the functions below instead of
+testing the version itself. Each difference was read in the installed sources of both versions
+(``dolfinx/io/gmshio.py`` vs ``dolfinx/io/gmsh.py``, ``dolfinx/la.py`` vs ``dolfinx/la/petsc.py``,
+``dolfinx/mesh.py``, ``dolfinx/graph.py``, the nanobind signatures of ``dolfinx.cpp``):
+
+- gmsh model to mesh: ``io.gmshio.model_to_mesh`` returns ``(mesh, cell_tags, facet_tags)``
+  (0.9); ``io.gmsh.model_to_mesh`` returns a ``MeshData`` named tuple (0.11).
+- PETSc vector of an index map: ``la.create_petsc_vector(im, bs)`` (0.9);
+  ``la.petsc.create_vector([(im, bs)])`` (0.11).
+- Index map with ghosts: ``IndexMap(comm, n, ghosts, owners)`` (0.9); the same with the MPI
+  ``tag`` of its set-up communication (0.11).
+- ``create_submesh``: the parent entity of each sub-mesh cell as an array (0.9); an ``EntityMap``
+  that maps them on demand (0.11).
+- ``graph.adjacencylist``: the C++ adjacency list (0.9); a Python wrapper (0.11), while a cell
+  partitioner must still return the C++ object.
+- Default cell partitioner: ``create_cell_partitioner(mode)`` (0.9);
+  ``create_cell_partitioner(mode, max_facet_to_cell_links)`` (0.11).
+- Geometry of a mesh of one cell type: ``geometry.dofmap`` and ``geometry.cmap`` (0.9);
+  ``geometry.dofmaps[0]`` and ``geometry.cmaps[0]`` (0.11, the former deprecated).
+- Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
+  property, ``element.interpolation_points`` (0.11).
+- ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
+- ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
+  :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
+
+Everything else the package uses (forms, assembly into a given matrix, ``Expression``,
+``Function.eval``, VTX/XDMF writers, geometry searches, ``SparsityPattern``) has the same
+signature in both versions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import dolfinx
+import dolfinx.common
+import dolfinx.cpp
+import dolfinx.fem
+import dolfinx.graph
+import dolfinx.la
+import dolfinx.mesh
+import numpy as np
+from mpi4py import MPI
+from petsc4py import PETSc
+
+__all__ = [
+    "DOLFINX_VERSION",
+    "SUPPORTED",
+    "adjacency_list",
+    "coordinate_element",
+    "create_submesh",
+    "default_partitioner",
+    "geometry_dofmap",
+    "ghosted_index_map",
+    "interpolation_points",
+    "model_to_mesh",
+    "petsc_vector",
+]
+
+
+def _version(text: str) -> tuple[int, int]:
+    major, minor = text.split(".")[:2]
+    return int(major), int(minor)
+
+
+DOLFINX_VERSION: tuple[int, int] = _version(dolfinx.__version__)
+"""(major, minor) of the DOLFINx in use."""
+
+SUPPORTED: tuple[tuple[int, int], ...] = ((0, 9), (0, 11))
+"""The DOLFINx versions the package is tested with (0.10 is not: between the two, untested)."""
+
+_NEW = DOLFINX_VERSION >= (0, 10)
+
+if _NEW:
+    import dolfinx.io.gmsh as _gmsh_io
+    import dolfinx.la.petsc as _la_petsc
+else:  # pragma: no cover - the other stack's branch
+    import dolfinx.io.gmshio as _gmsh_io
+
+    _la_petsc = None
+
+
+def model_to_mesh(
+    model,
+    comm: MPI.Comm,
+    rank: int,
+    gdim: int,
+    partitioner: Callable | None = None,
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """A distributed mesh and its cell and facet tags from the gmsh model on rank ``rank``.
+
+    ``dolfinx.io.gmshio.model_to_mesh`` (0.9) or ``dolfinx.io.gmsh.model_to_mesh`` (0.11, whose
+    ``MeshData`` also holds ridge and peak tags, not used here).
+    """
+    out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    if _NEW:
+        return out.mesh, out.cell_tags, out.facet_tags
+    return out
+
+
+def petsc_vector(index_map: dolfinx.common.IndexMap, bs: int) -> PETSc.Vec:
+    """A ghosted PETSc vector laid out by ``index_map`` with block size ``bs``."""
+    if _NEW:
+        return _la_petsc.create_vector([(index_map, bs)])
+    return dolfinx.la.create_petsc_vector(index_map, bs)
+
+
+def ghosted_index_map(
+    comm: MPI.Comm, size_local: int, ghosts: np.ndarray, owners: np.ndarray
+) -> dolfinx.common.IndexMap:
+    """An index map with ``size_local`` owned indices and the given ghosts and their owners."""
+    ghosts = np.asarray(ghosts, dtype=np.int64)
+    owners = np.asarray(owners, dtype=np.int32)
+    if _NEW:
+        # the tag of the communication that sets the map up (DOLFINx's own default)
+        return dolfinx.common.IndexMap(comm, size_local, ghosts, owners, tag=1302)
+    return dolfinx.common.IndexMap(comm, size_local, ghosts, owners)
+
+
+def create_submesh(
+    mesh: dolfinx.mesh.Mesh, dim: int, entities: np.ndarray
+) -> tuple[dolfinx.mesh.Mesh, np.ndarray]:
+    """The sub-mesh of the ``dim``-dimensional ``entities`` and each of its cells' parent entity.
+
+    Returns:
+        The sub-mesh and an int32 array: the parent mesh's entity of each sub-mesh cell.
+    """
+    sub, emap, _, _ = dolfinx.mesh.create_submesh(mesh, dim, entities)
+    if _NEW:
+        n = sub.topology.index_map(dim).size_local + sub.topology.index_map(dim).num_ghosts
+        parents = emap.sub_topology_to_topology(np.arange(n, dtype=np.int32), inverse=False)
+        return sub, np.asarray(parents, dtype=np.int32)
+    return sub, np.asarray(emap, dtype=np.int32)
+
+
+def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):
+    """An adjacency list as DOLFINx's C++ layer takes it (e.g. from a cell partitioner)."""
+    adj = (
+        dolfinx.graph.adjacencylist(data)
+        if offsets is None
+        else dolfinx.graph.adjacencylist(data, offsets)
+    )
+    return getattr(adj, "_cpp_object", adj)
+
+
+def default_partitioner(ghost_mode: dolfinx.mesh.GhostMode) -> Callable:
+    """DOLFINx's graph partitioner with the given ghost mode (facets shared by two cells)."""
+    if _NEW:
+        return dolfinx.mesh.create_cell_partitioner(ghost_mode, 2)
+    return dolfinx.mesh.create_cell_partitioner(ghost_mode)
+
+
+def geometry_dofmap(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
+    """The geometry dofmap (cells x nodes) of a mesh of one cell type.
+
+    ``geometry.dofmap`` in 0.9, ``geometry.dofmaps[0]`` in 0.11 (``dofmap`` is deprecated there).
+    """
+    return mesh.geometry.dofmaps[0] if _NEW else mesh.geometry.dofmap
+
+
+def coordinate_element(mesh: dolfinx.mesh.Mesh):
+    """The coordinate element of a mesh of one cell type (``geometry.cmap`` / ``cmaps[0]``)."""
+    return mesh.geometry.cmaps[0] if _NEW else mesh.geometry.cmap
+
+
+def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
+    """The reference interpolation points of ``V``'s element (for a ``dolfinx.fem.Expression``)."""
+    pts = V.element.interpolation_points
+    return pts if _NEW else pts()
