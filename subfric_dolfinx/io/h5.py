@@ -26,7 +26,14 @@ and ROMIO) and HDF5 1.14:
   blocks they will need (:meth:`ParallelH5.reserve`: ``fallocate`` with ``FALLOC_FL_KEEP_SIZE``
   beyond the end of the file, an estimate with a margin): a full disk fails there, on rank 0
   alone and before any HDF5 call, and every rank raises. The blocks left unused beyond the end
-  are given back when the file is closed (:meth:`ParallelH5.close` trims it).
+  are given back when the file is closed (:meth:`ParallelH5.close` trims it);
+* closing a file after a failure writes its dirty metadata too, and HDF5 2.2 (Debian sid) aborts
+  the process (an assertion in its metadata cache, ``H5C_apply_candidate_list``) when that write
+  finds the disk full, where HDF5 1.14 returned an error. So a file opened for writing keeps a
+  *spare*: rank 0 allocates :data:`SPARE` bytes in a hidden file beside it
+  (``.<name>.spare``) before HDF5 opens it, and deletes it before closing after a failure (and
+  after every close), so that the close always finds room. A disk too full for the spare fails
+  before the file is opened.
 
 With a serial h5py (no MPI) one rank still works (the default driver); more ranks are refused
 with a clear error.
@@ -45,10 +52,13 @@ from typing import Any, TypeVar
 
 from .collective import OutputError, collective, reason
 
-__all__ = ["MARGIN", "ParallelH5"]
+__all__ = ["MARGIN", "SPARE", "ParallelH5"]
 
 MARGIN = 64 << 10
 """Bytes reserved beyond the estimate of what a group of calls writes (metadata, B-tree nodes)."""
+
+SPARE = 64 << 10
+"""Bytes kept free for the close of a file opened for writing (see the module's docstring)."""
 
 T = TypeVar("T")
 
@@ -80,6 +90,44 @@ def preallocate(path: Path, nbytes: int) -> None:
                 raise OSError(e, os.strerror(e))
     finally:
         os.close(fd)
+
+
+def spare_path(path: Path) -> Path:
+    """The hidden file that holds the spare of ``path``."""
+    return path.with_name(f".{path.name}.spare")
+
+
+def make_spare(path: Path, nbytes: int) -> None:
+    """Allocate ``nbytes`` of disk in :func:`spare_path`.
+
+    The spare is created, or replaced if a killed run left it; never opened through a link.
+
+    Raises:
+        OSError: ``ENOSPC`` when the file system has not that much room.
+    """
+    spare = spare_path(path)
+    fd = os.open(spare, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o600)
+    try:
+        if _fallocate is not None and _fallocate(fd, 0, 0, int(nbytes)) != 0:
+            e = ctypes.get_errno()
+            if e not in (errno.EINVAL, errno.EOPNOTSUPP, errno.ENOSYS):
+                raise OSError(e, os.strerror(e))
+    except BaseException:
+        os.close(fd)
+        fd = -1
+        spare.unlink(missing_ok=True)
+        raise
+    finally:
+        if fd >= 0:
+            os.close(fd)
+
+
+def drop_spare(path: Path) -> None:
+    """Delete the spare of ``path`` (if any): its blocks are free again."""
+    try:
+        spare_path(path).unlink(missing_ok=True)
+    except OSError:
+        pass
 
 
 def trim(path: Path) -> None:
@@ -135,7 +183,10 @@ class ParallelH5:
         self.what = what
         self.error = error
         self.f: Any = None
+        self._spare = mode != "r"
         try:
+            if self._spare:
+                self.call(lambda _: make_spare(self.path, SPARE), root=0)
             self.f = self.call(lambda _: _open(self.path, mode, comm), hint=open_hint, meta=True)
         except error:
             raise
@@ -208,8 +259,13 @@ class ParallelH5:
             return 0
 
     def abort(self) -> None:
-        """Close the file after a failure, on every rank, ignoring errors (collective)."""
+        """Close the file after a failure, on every rank, ignoring errors (collective).
+
+        The spare is deleted first, so that the metadata HDF5 writes while closing find room.
+        """
         f, self.f = self.f, None
+        if self._spare and self.comm.rank == 0:
+            drop_spare(self.path)
         if f is None:
             return
         try:
@@ -227,6 +283,8 @@ class ParallelH5:
                 trim(self.path)
             except Exception:
                 pass
+        # every rank returns with the file in its final state (trimmed, spare deleted)
+        self.comm.Barrier()
 
     def close(self) -> None:
         """Flush and close the file, trim what it did not use (collective).
@@ -238,7 +296,7 @@ class ParallelH5:
         try:
             self.call(lambda f: f.close(), meta=True)
         finally:
-            self.abort()
+            self.abort()  # trims, deletes the spare; ends with a barrier
 
     def __enter__(self) -> ParallelH5:
         return self

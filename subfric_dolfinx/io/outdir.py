@@ -8,7 +8,10 @@ the first step:
 2. takes the lock ``.subfric.lock`` in it (``fcntl.flock``, held by rank 0 for the whole run and
    released when the run ends, however it ends; the kernel releases it if the process dies): a
    second run into the same directory is refused on every rank, naming the directory and the
-   process holding it. The lock file is removed when the run ends (a killed run leaves it,
+   process holding it. The lock file is removed when the run ends, and every rank waits for
+   that (a barrier): when the context exits, on any rank, the directory is in its final state
+   (without the barrier a rank could list it before rank 0 had removed the lock; seen in CI on
+   2 ranks under load). A killed run leaves the lock file
    unlocked: the next run takes it); a run that locked a file another run removed meanwhile
    sees that the name no longer leads to it and starts again;
 3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
@@ -159,4 +162,12 @@ class OutputDirectory:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self._unlock()
+        """Unlock (rank 0), then wait for every rank: the directory is final on each one.
+
+        Also while an error unwinds: this package raises its errors on every rank (collective
+        errors), so every rank comes here.
+        """
+        try:
+            self._unlock()
+        finally:
+            self.comm.Barrier()
