@@ -12,10 +12,19 @@
 
 import gc
 import pathlib
+import sys
 import tempfile
 
 import pytest
 from mpi4py import MPI
+
+# The `tests` and `demos` packages live at the repository root. It is appended to sys.path, not
+# prepended: `subfric_dolfinx` must come from wherever the environment provides it (the package
+# installed with pip in ./run's test legs, see .ci/pytest-installed), never silently from the tree.
+_ROOT = str(pathlib.Path(__file__).resolve().parents[1])
+if _ROOT not in sys.path:
+    sys.path.append(_ROOT)
+
 
 _NUMPY_ONLY_DESELECTED = pytest.StashKey[int]()
 

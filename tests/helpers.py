@@ -113,11 +113,30 @@ def driver_cli(*args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
     return module_cli("driver", *args, timeout=timeout)
 
 
-def module_cli(module: str, *args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
-    """Run ``python3 -m subfric_dolfinx.<module> ARGS`` from the repository root (one process)."""
-    env = dict(os.environ)
+def python_env(env: dict[str, str] | None = None) -> dict[str, str]:
+    """``env`` (default: this process's environment) for a child ``python3`` that must import
+    ``subfric_dolfinx`` as this process does, and the ``tests``/``demos`` packages.
+
+    From the source tree (``./run exec``, a developer's ``python3 -m pytest``): the repository
+    root is put first on ``PYTHONPATH``. Against the installed package (``./run test``, see
+    ``.ci/pytest-installed``, which sets ``SUBFRIC_TEST_INSTALLED``): nothing is added, so that the
+    child imports the installed package too (its environment appends the root for ``tests`` and
+    ``demos``).
+    """
+    env = dict(os.environ if env is None else env)
+    if os.environ.get("SUBFRIC_TEST_INSTALLED"):
+        for k in ("PATH", "PYTHONSAFEPATH", "SUBFRIC_TEST_INSTALLED"):
+            if k in os.environ:
+                env.setdefault(k, os.environ[k])
+        return env
     extra = env.get("PYTHONPATH")
     env["PYTHONPATH"] = str(ROOT) + (os.pathsep + extra if extra else "")
+    return env
+
+
+def module_cli(module: str, *args: Any, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run ``python3 -m subfric_dolfinx.<module> ARGS`` from the repository root (one process)."""
+    env = python_env()
     return subprocess.run(
         [sys.executable, "-m", f"subfric_dolfinx.{module}", *map(str, args)],
         cwd=ROOT,
@@ -196,8 +215,7 @@ def mpirun(code: str, n: int, timeout: float = 150) -> subprocess.CompletedProce
     Returns:
         The completed process (``returncode`` -9 after a timeout, with what it printed).
     """
-    env = singleton_env()
-    env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if "PYTHONPATH" in env else "")
+    env = python_env(singleton_env())
     cmd = ["mpirun", "-n", str(n), sys.executable, "-c", code]
     p = subprocess.Popen(
         cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

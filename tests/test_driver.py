@@ -3,7 +3,6 @@ stress control and import isolation (bad cases are in the catalogue, tests/bad_i
 
 import json
 import math
-import os
 import pathlib
 import subprocess
 import sys
@@ -14,7 +13,7 @@ import pytest
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
 from tests.helpers import driver_cli as cli
-from tests.helpers import singleton_env
+from tests.helpers import python_env, singleton_env
 
 pytestmark = pytest.mark.numpy_only
 
@@ -108,7 +107,7 @@ def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
     process."""
     case_file = write(tmp_path, SEC7)
     out = tmp_path / "r.json"
-    env = {**singleton_env(), "PYTHONPATH": str(REPO)}
+    env = python_env(singleton_env())
     cmd = ["mpirun", "-n", "2", sys.executable, "-m", "subfric_dolfinx.driver", str(case_file)]
     cmd += ["--out", str(out)]
     proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
@@ -338,8 +337,7 @@ def test_core_and_driver_import_no_fe_or_mpi_stack():
         "print('LOADED', bad)\n"
         "assert not bad, bad\n"
     )
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(REPO)
+    env = python_env()
     proc = subprocess.run(
         [sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True, timeout=60
     )

@@ -14,6 +14,7 @@ import pytest
 from demos import paper_figures
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.logs import singleton_environment
+from tests.helpers import python_env
 
 pytestmark = pytest.mark.numpy_only
 
@@ -181,8 +182,7 @@ def test_fig8_reciprocal_reload_peaks_grow_with_hold(out):
 def test_demo_command_line(tmp_path):
     """The script runs as a program (MPI launcher variables removed: this may run under mpirun,
     and the demo must not start MPI in a child)."""
-    env = singleton_environment()
-    env["PYTHONPATH"] = str(REPO)
+    env = python_env(singleton_environment())
     env["MPLBACKEND"] = "Agg"
     cmd = [sys.executable, str(DEMO), "--quick", "--only", "fig5", "--out", str(tmp_path)]
     proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)

@@ -172,3 +172,106 @@ def test_a_missing_or_empty_package_list_stops_the_chroot_before_anything(tmp_pa
     assert "debian-packages.txt" in r.stderr
     assert ("is missing" if content is None else "names no package") in r.stderr
     assert not marker.exists() and not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("stack", ["bogus", "Sid", "bookworm"])
+def test_an_invalid_stack_stops_before_anything_runs(tmp_path, stack):
+    marker = tmp_path / "marker"
+    r = run_runner(RUN, tmp_path, "exec", "touch", str(marker), SUBFRIC_STACK=stack)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    want = f"SUBFRIC_STACK must be 'trixie' (DOLFINx 0.9) or 'sid' (DOLFINx 0.11), got '{stack}'"
+    assert want in r.stderr, r.stderr
+    assert not marker.exists()
+
+
+def packages_of(stack, text, tmp_path):
+    lst = tmp_path / "list.txt"
+    lst.write_text(text)
+    r = subprocess.run(
+        [str(ROOT / ".ci" / "packages"), stack, str(lst)], capture_output=True, text=True
+    )
+    assert r.returncode == 0, r.stderr
+    return r.stdout.split()
+
+
+def test_one_package_list_for_both_stacks(tmp_path):
+    """Plain lines are for both stacks, 'STACK: name' lines for one; comments and blank lines
+    are ignored; the real list gives each stack DOLFINx and the same names otherwise."""
+    text = "# a comment\nboth-a\n\n  both-b   # trailing\nsid: only-sid\ntrixie: only-trixie x\n"
+    assert packages_of("trixie", text, tmp_path) == ["both-a", "both-b", "only-trixie", "x"]
+    assert packages_of("sid", text, tmp_path) == ["both-a", "both-b", "only-sid"]
+    bad = subprocess.run([str(ROOT / ".ci" / "packages"), "bookworm"], capture_output=True)
+    assert bad.returncode == 2
+    real = (ROOT / "debian-packages.txt").read_text()
+    for stack in ("trixie", "sid"):
+        names = packages_of(stack, real, tmp_path)
+        assert "python3-dolfinx" in names and "python3-pip" in names, names
+        assert len(names) == len(set(names)), names
+
+
+FAILING_APT = r"""
+source "$RUNNER"
+select_stack sid
+in_root() {  # apt-get in the tree, as sid on a bad day answers it
+    echo "Reading package lists..."
+    echo "E: Unable to locate package python3-dolfinx-real"
+    echo "The following packages have unmet dependencies:"
+    echo " python3-dolfinx : Depends: python3-petsc4py-real3.25 but it is not going to be installed"
+    return 100
+}
+mkdir -p "$TREE"
+apt_install "$TREE"
+"""
+
+
+def test_a_stack_that_cannot_be_installed_says_which_and_why(tmp_path):
+    """sid's archive on a bad day: the error names the stack, apt's reasons (which package),
+    and how to run the other stack alone; the tree is not marked as built."""
+    tree = tmp_path / "tree"
+    r = subprocess.run(
+        ["bash", "-c", FAILING_APT], env=env(tmp_path, TREE=tree), capture_output=True,
+        text=True, timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert "the sid (Debian unstable, DOLFINx 0.11) stack cannot be installed" in r.stderr
+    assert "Unable to locate package python3-dolfinx-real" in r.stderr
+    assert "python3-petsc4py-real3.25 but it is not going to be installed" in r.stderr
+    assert "SUBFRIC_STACK=trixie ./run test" in r.stderr
+    assert not (tree / ".subfric-packages").exists()
+
+
+SUMMARY = r"""
+unset SUBFRIC_ROOTFS
+source "$RUNNER"
+lint() { :; }
+ensure_rootfs_if_chroot() { [ "$STACK" != sid ] || [ -z "${SID_BROKEN:-}" ] || return 2; }
+pytest_ranks() { echo "pytest $STACK $1" >>"$LOG"; [ "$STACK:$1" != "trixie:2" ]; }
+test_all
+"""
+
+
+@pytest.mark.parametrize("broken", [False, True], ids=["sid-ok", "sid-broken"])
+def test_the_summary_names_the_stack_of_each_line(tmp_path, broken):
+    extra = {"SID_BROKEN": "1"} if broken else {}
+    r = subprocess.run(
+        ["bash", "-c", SUMMARY], env=env(tmp_path, **extra), capture_output=True, text=True,
+        timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 1, (r.stdout, r.stderr)  # trixie's 2-rank leg "failed"
+    lines = [ln for ln in r.stderr.splitlines() if "DOLFINx" in ln and ": " in ln]
+    assert "[run] trixie (Debian 13, DOLFINx 0.9): 1 rank passed, 2 ranks FAILED" in "\n".join(
+        lines
+    ), r.stderr
+    if broken:
+        assert any("sid (Debian unstable, DOLFINx 0.11): NOT RUN" in ln for ln in lines)
+        assert log_lines(tmp_path) == ["pytest trixie 1", "pytest trixie 2"]
+    else:
+        assert any("sid (Debian unstable, DOLFINx 0.11): 1 rank passed, 2 ranks passed" in ln
+                   for ln in lines), r.stderr  # fmt: skip
+        assert log_lines(tmp_path) == [f"pytest {s} {n}" for s in ("trixie", "sid") for n in (1, 2)]
+
+
+def test_rootfs_without_a_stack_is_refused_for_both_stacks(tmp_path):
+    r = run_runner(RUN, tmp_path, "test")
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert "SUBFRIC_ROOTFS names the chroot of one stack: set SUBFRIC_STACK too" in r.stderr

@@ -10,7 +10,7 @@ from mpi4py import MPI
 
 from demos import block_on_base
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import ROOT, small_scene
+from tests.helpers import python_env, small_scene
 
 
 def test_pointwise_scene_needs_no_mesh_no_mpi_no_dolfinx(tmp_path):
@@ -25,7 +25,7 @@ def test_pointwise_scene_needs_no_mesh_no_mpi_no_dolfinx(tmp_path):
         "assert not bad, bad\n"
         "print('ok')\n"
     )
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)}
+    env = python_env({"PATH": "/usr/bin:/bin"})
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
 
