@@ -20,7 +20,6 @@ import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..compat import petsc_vector
@@ -41,15 +40,9 @@ from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_i
 from .interface.regions import element_regions
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
-__all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
+__all__ = ["InterfaceProblem"]
 
 logger = logging.getLogger(__name__)
-
-PENETRATION_WARNING = 0.1
-"""A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about
-(once per run, naming the largest): the penalty is too soft for the mesh, and the geometrically
-linear model (pairs and frames fixed at the reference geometry) no longer describes the contact."""
-
 
 class InterfaceProblem:
     """Residual and Jacobian of two elastic bodies with a frictional interface.
@@ -198,9 +191,6 @@ class InterfaceProblem:
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
-        self.penetration: dict | None = None  # the largest beyond the warning, see commit
-        self._penetration_warned = False
-        self._h_points: np.ndarray | None = None
 
     # ------------------------------------------------------------------------------------------
     def set_step(self, t: float, dt: float) -> None:
@@ -291,60 +281,8 @@ class InterfaceProblem:
 
     # ------------------------------------------------------------------------------------------
     def commit(self) -> None:
-        """Accept the interface's trial state (after a converged step; collective).
-
-        Also tracks the largest penetration ``ubar_n`` relative to the interface element size
-        over the run (:attr:`penetration`, see :meth:`warn_penetration`).
-        """
+        """Accept the interface's trial state (after a converged step)."""
         self.interface.commit()
-        self._track_penetration()
-
-    def _track_penetration(self) -> None:
-        el = self.interface
-        if self._h_points is None:  # element size at each point: length (2-D), sqrt(area) (3-D)
-            size = el.weights.sum(axis=1) ** (1.0 / max(self.gdim - 1, 1))
-            self._h_points = np.repeat(size, el.nq)
-        un = el.last_gap[:, el.nt] if el.last_gap.size else np.zeros(0)
-        ratio = un / self._h_points if un.size else un
-        i = int(np.argmax(ratio)) if ratio.size else -1
-        local = float(ratio[i]) if ratio.size else -np.inf
-        largest = self.comm.allreduce(local, op=MPI.MAX)
-        known = self.penetration["ratio"] if self.penetration else PENETRATION_WARNING
-        if not largest > known * (1.0 + 1e-3):  # one number per step, details when it grows
-            return
-        mine = None
-        if local == largest:
-            x = el.points.reshape(-1, self.gdim)[i]
-            mine = {
-                "ratio": largest,
-                "ubar_n": float(un[i]),
-                "h": float(self._h_points[i]),
-                "x": tuple(float(v) for v in x),
-                "f_n": float(el.last.traction[i, el.nt]),
-                "t": self.t,
-            }
-        self.penetration = next(p for p in self.comm.allgather(mine) if p is not None)
-
-    def warn_penetration(self) -> None:
-        """Warn once (log; rank 0 prints) if a penetration was large: name the largest, where, when.
-
-        Large: beyond :data:`PENETRATION_WARNING` times the interface element size. Not
-        collective (:meth:`commit` gathered it): safe while an error unwinds. The load stepper
-        calls it when its run ends, however it ends.
-        """
-        pen = self.penetration
-        if pen is None or self._penetration_warned:
-            return
-        self._penetration_warned = True
-        where = ", ".join(f"{v:.6g}" for v in pen["x"])
-        logger.warning(
-            "large penetration: ubar_n up to %.4g mm (at (%s), t = %.6g, f_n = %.4g MPa), %.3g "
-            "times the interface element size there (%.4g mm; warned beyond %g): the normal "
-            "penalty is soft for this mesh, and the small-sliding interface is no longer "
-            "accurate",
-            pen["ubar_n"], where, pen["t"], pen["f_n"], pen["ratio"], pen["h"],
-            PENETRATION_WARNING,
-        )  # fmt: skip
 
     def revert(self) -> None:
         """Reject the interface's trial state (after a failed step)."""
