@@ -16,7 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..driver.cli import _ArgumentError, _error, _Parser, check_out, write_atomically
+from ..driver.cli import (
+    _ArgumentError,
+    _error,
+    _Parser,
+    check_out,
+    program_name,
+    write_atomically,
+)
 from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
 from .fit import STEPS_PER_MM, FitResult, fit, simulate
@@ -63,7 +70,7 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status."""
     ap = _Parser(
-        prog="python3 -m subfric_dolfinx.calibrate",
+        prog=program_name("subfric_dolfinx.calibrate"),
         description="Fit the subloading law to measured friction curves (least squares).",
     )
     ap.add_argument("data", help="DATA.json")

@@ -29,7 +29,7 @@ from ..logs import launcher_rank
 from .case import MAX_TOTAL_STEPS, CaseError, load_case
 from .run import RunawayError, run_case
 
-__all__ = ["PROGRESS_SECONDS", "check_out", "main", "write_atomically"]
+__all__ = ["PROGRESS_SECONDS", "check_out", "main", "program_name", "write_atomically"]
 
 PROGRESS_SECONDS = logs.PROGRESS_SECONDS  # at most one progress line per this many seconds
 
@@ -112,6 +112,12 @@ class _Progress:
             )
 
 
+def program_name(module: str) -> str:
+    """The command as called: its console script (``subfric-driver``) or ``python3 -m ...``."""
+    name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
+    return name if name.startswith("subfric-") else f"python3 -m {module}"
+
+
 def _error(msg: str, code: int = 2) -> int:
     print(f"error: {msg}", file=sys.stderr)
     return code
@@ -120,7 +126,7 @@ def _error(msg: str, code: int = 2) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status (see the module docstring)."""
     ap = _Parser(
-        prog="python3 -m subfric_dolfinx.driver",
+        prog=program_name("subfric_dolfinx.driver"),
         description="Material-point driver of the subloading-friction law.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
