@@ -69,7 +69,9 @@ def test_demo_block_on_base_against_the_material_point_driver(shared_tmp):
     # the 5 s hold recovers friction: the reload peak beats the level before the hold
     before = abs(ft[np.flatnonzero(np.isclose(t, 4.0))[0]])
     assert ft[t > 9.0].max() > 1.2 * before
-    assert sorted(p.name for p in shared_tmp.iterdir()) == ["history.csv"]
+    assert sorted(p.name for p in shared_tmp.iterdir()) == [
+        "history.csv", "history.csv-metadata.json"
+    ]  # fmt: skip
     assert len(res.snapshots) == 7 and all(len(s["x"]) == 16 for s in res.snapshots.values())
 
 

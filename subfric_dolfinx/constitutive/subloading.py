@@ -121,10 +121,13 @@ class SubloadingLaw(LawBase):
 
     name: ClassVar[str] = "subloading"
     variables: ClassVar[tuple[Variable, ...]] = (
-        Variable("up", TANGENTIAL, "plastic slip (mm)"),
-        Variable("mu", SCALAR, "hardening function (MPa)"),
-        Variable("r", SCALAR, "normal-yield ratio F / mu"),
-        Variable("f", LOCAL, "traction at the end of the step (MPa): the next trial's start"),
+        Variable("up", TANGENTIAL, "plastic slip (mm)", "mm"),
+        Variable("mu", SCALAR, "hardening function (MPa)", "MPa"),
+        Variable("r", SCALAR, "normal-yield ratio F / mu", "1"),
+        Variable(
+            "f", LOCAL, "traction at the end of the step (MPa): the next trial's start", "MPa",
+            output=False,  # the traction f_t, f_n itself
+        ),
     )
 
     def __post_init__(self) -> None:

@@ -15,11 +15,11 @@ the first step:
    unlocked: the next run takes it); a run that locked a file another run removed meanwhile
    sees that the name no longer leads to it and starts again;
 3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
-   (:data:`RUN_FILES`: ``history.csv``, ``interface_history.h5``, ``checkpoint.h5``, the
-   ``fields`` directory, a stale ``checkpoint.h5.tmp``) into ``previous_run/``, replacing what was
-   there: the directory then holds this run's files only, and the last run's files are kept one
-   generation. A restart continues the files it finds (the interface history is cut back to the
-   restart time). Other files are left alone.
+   (:data:`RUN_FILES`: ``history.csv`` and its units, ``interface_history.h5``,
+   ``checkpoint.h5``, the ``fields`` directory, a stale ``checkpoint.h5.tmp``) into
+   ``previous_run/``, replacing what was there: the directory then holds this run's files only,
+   and the last run's files are kept one generation. A restart continues the files it finds
+   (the interface history is cut back to the restart time). Other files are left alone.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ LOCK_NAME = ".subfric.lock"
 PREVIOUS = "previous_run"
 RUN_FILES = (
     "history.csv",
+    "history.csv-metadata.json",
     "interface_history.h5",
     "checkpoint.h5",
     "checkpoint.h5.tmp",
