@@ -6,20 +6,14 @@ probes), and carries their units and the status legend (HDF5 attributes, XDMF ``
 elements, a JSON sidecar beside the VTX/XDMF fields, the W3C CSV-on-the-Web sidecar
 ``history.csv-metadata.json`` beside the history):
 
-==================  ============================================================  =========
-name                what                                                          unit
-==================  ============================================================  =========
-``f_t``             tangential traction, local frame: components ``f_t1``         MPa
-                    [``f_t2``]
-``f_n``             normal traction, > 0 in compression                            MPa
-``traction_global`` the traction on the master body, global components           MPa
-``gap``             the gap the law sees, local frame: ``gap_t1`` [``gap_t2``],    mm
-                    ``gap_n`` (``ubar_n - g0``, > 0 on approach)
-``g0``              the initial normal gap (> 0 open)                             mm
-``status``          return-map status, an integer (legend: :func:`status_legend`)  1
-``<v>``             a law variable, local frame for a vector (``up_t1`` ...); its  its own
-                    global vector is ``<v>_global`` where fields are drawn
-==================  ============================================================  =========
+* ``f_t``: tangential traction, local frame, components ``f_t1`` [``f_t2``] (MPa);
+* ``f_n``: normal traction, > 0 in compression (MPa);
+* ``traction_global``: the traction on the master body in global components (MPa);
+* ``gap``: the gap the law sees, local frame: ``gap_t1`` [``gap_t2``], ``gap_n`` (``ubar_n -
+  g0``, > 0 on approach) (mm); ``g0``: the initial normal gap, > 0 open (mm);
+* ``status``: the return-map status, an integer (legend: :func:`status_legend`);
+* ``<v>``: a law variable (its own unit), a vector by its local components (``up_t1`` ...) and,
+  where fields are drawn, as ``<v>_global`` in global components.
 
 Units MPa, mm, s; forces N (3-D) or N/mm, per unit thickness (2-D plane strain); areas mm² (3-D)
 or mm (2-D). The local frame of a point is ``(e1, [e2,] n)``, ``n`` the master body's outward
