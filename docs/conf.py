@@ -39,8 +39,8 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
 ]
-exclude_patterns = ["_build", "_mathjax", "conf.py", "demo_results.py", "figures",
-                    "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
+exclude_patterns = ["_build", "_mathjax", "conf.py", "demo_results.py", "readme_numbers.py",
+                    "figures", "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
 
 # -- MyST and MyST-NB: Markdown pages, demos as notebooks from their jupytext (percent) source
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
@@ -184,6 +184,10 @@ def results_cell(name: str) -> str:
             "`docs/demo_results.json`).",
             "",
         ]
+        if run["warnings"]:  # what a user running it sees first (their first sentences)
+            lines += ["The default run warns:", ""]
+            lines += [f"- `{w.split('. ')[0].split(' (at ')[0]}`" for w in run["warnings"]]
+            lines += [""]
     for f in figures:
         lines += [f"![{name}: {f.stem.replace('_', ' ')}](../figures/{name}/{f.name})", ""]
     return "\n# %% [markdown]\n" + "".join(f"# {ln}\n".replace("# \n", "#\n") for ln in lines)

@@ -54,6 +54,8 @@ RUNS: dict[str, tuple[str, list[str], int, bool]] = {
     "cattaneo_mindlin_n16": ("cattaneo_mindlin", ["--n", "16", "--no-subloading"], 2, False),
     "elastic_smoke": ("elastic_smoke", [], 2, False),
 }
+for _demo in sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__"):
+    RUNS.setdefault(_demo, (_demo, [], 2, True))  # a demo added later: its default run, 2 ranks
 
 
 def plain(v: Any, limit: int = 64) -> Any:
@@ -136,7 +138,7 @@ def child(key: str, out: Path) -> None:
                        if w.category.__module__.startswith("subfric_dolfinx")})  # fmt: skip
         record = {"command": ["mpirun", "-n", str(ranks), "python3", f"demos/{demo}.py", *options]
                   if ranks > 1 else ["python3", f"demos/{demo}.py", *options],
-                  "ranks": ranks, "wall_s": wall, "warnings": ours,
+                  "ranks": ranks, "wall_s": wall, "load": os.getloadavg()[0], "warnings": ours,
                   "numbers": numbers(demo, result)}  # fmt: skip
         (out / "result.json").write_text(json.dumps(record, indent=1, default=float))
 
@@ -147,11 +149,27 @@ def main() -> int:
     ap.add_argument("--only", nargs="+", choices=sorted(RUNS), help="these runs only")
     ap.add_argument("--child", choices=sorted(RUNS), help=argparse.SUPPRESS)
     ap.add_argument("--dir", help=argparse.SUPPRESS)
+    ap.add_argument("--results", type=Path, default=RESULTS,
+                    help="the results file (another one to run several jobs at once)")
+    ap.add_argument("--merge", type=Path, nargs="+",
+                    help="merge these results files (of the same code) into --results, run none")
     args = ap.parse_args()
     if args.child:
         child(args.child, Path(args.dir))
         return 0
-    data = json.loads(RESULTS.read_text()) if RESULTS.exists() else {"demos": {}}
+    results = args.results.resolve()
+    data = json.loads(results.read_text()) if results.exists() else {"demos": {}}
+    stamp = stamps.make(stamps.DEMOS_MEASURE)
+    if data.get("stamp", {}).get("trees") != stamp["trees"] or stamp["dirty"]:
+        data["demos"] = {}  # results of other code: not mixed with these
+    if args.merge:
+        for other in args.merge:
+            more = json.loads(other.read_text())
+            if more["stamp"]["trees"] != stamp["trees"] or more["stamp"]["dirty"]:
+                raise SystemExit(f"{other} measured other code: not merged")
+            data["demos"].update(more["demos"])
+        write(data, stamp, results)
+        return 0
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for key in args.only or list(RUNS):
         demo, _, ranks, keep_figures = RUNS[key]
@@ -177,11 +195,18 @@ def main() -> int:
                 for png in sorted(files.rglob("*.png")):
                     rel = png.relative_to(files)
                     shutil.copy2(png, dest / "_".join(rel.parts))
-    data["stamp"] = stamps.make(stamps.DEMOS_MEASURE)
-    data["demos"] = dict(sorted(data["demos"].items()))
-    RESULTS.write_text(json.dumps(data, indent=1) + "\n")
-    print(f"[demo_results] wrote {RESULTS} and {FIGURES}/", flush=True)
+        write(data, stamp, results)  # after each run: an interrupted run keeps what it measured
+    print(f"[demo_results] wrote {results} and {FIGURES}/", flush=True)
     return 0
+
+
+def write(data: dict[str, Any], stamp: dict[str, Any], results: Path = RESULTS) -> None:
+    """The results file (atomically: a temporary file renamed over it)."""
+    data["stamp"] = stamp
+    data["demos"] = dict(sorted(data["demos"].items()))
+    tmp = results.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(data, indent=1) + "\n")
+    tmp.replace(results)
 
 
 if __name__ == "__main__":

@@ -32,8 +32,18 @@ __all__ = ["main", "plot_fit"]
 
 
 def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm: float) -> None:
-    """Measured points and fitted curves, one colour per curve, written to ``path`` (PNG)."""
-    import matplotlib
+    """Measured points and fitted curves, one colour per curve, written to ``path`` (PNG).
+
+    Raises:
+        CalibrationError: matplotlib is not installed (the extra ``plot``).
+    """
+    try:
+        import matplotlib
+    except ImportError:
+        raise CalibrationError(
+            "--plot needs matplotlib (pip install 'subfric-dolfinx[plot]', or Debian's "
+            "python3-matplotlib)"
+        ) from None
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
