@@ -85,8 +85,12 @@ def amplitudes(t: float) -> tuple[float, float]:
 
 
 # %%
-def model(comm: MPI.Comm, n: int):
-    """Mesh, space, residual, Jacobian, boundary conditions and the load constants."""
+def model(comm: MPI.Comm, n: int, push: str = "top"):
+    """Mesh, space, residual, Jacobian, boundary conditions and the load constants.
+
+    ``push``: the facet group whose x-displacement slides the block (``"top"``; the block's left
+    flank ``"slave_left"`` holds an interface node: its condition reaches the interface's rows).
+    """
     domain, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=n)
     mesh = domain.mesh
     V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (2,)))
@@ -110,7 +114,7 @@ def model(comm: MPI.Comm, n: int):
     fdim = mesh.topology.dim - 1
     bottom = dolfinx.fem.locate_dofs_topological(V, fdim, domain.facets("bottom"))
     V0, _ = V.sub(0).collapse()
-    top_x = dolfinx.fem.locate_dofs_topological((V.sub(0), V0), fdim, domain.facets("top"))
+    top_x = dolfinx.fem.locate_dofs_topological((V.sub(0), V0), fdim, domain.facets(push))
     slide = dolfinx.fem.Function(V0)
     bcs = [
         dolfinx.fem.dirichletbc(np.zeros(2), bottom, V),
@@ -129,9 +133,9 @@ def model(comm: MPI.Comm, n: int):
 
 
 # %%
-def run(comm: MPI.Comm, n: int, dt: float) -> list[dict[str, float]]:
+def run(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict[str, float]]:
     """The hand-written time loop; one history row per step."""
-    domain, V, u, F, J, bcs, p, slide = model(comm, n)
+    domain, V, u, F, J, bcs, p, slide = model(comm, n, push)
     iface = FrictionInterface.from_mesh(V, domain, law())
     A = create_matrix(V, [iface])
     solver = compat.dolfinx_newton(
@@ -168,7 +172,7 @@ def run(comm: MPI.Comm, n: int, dt: float) -> list[dict[str, float]]:
 
 
 # %%
-def reference(comm: MPI.Comm, n: int, dt: float) -> list[dict[str, float]]:
+def reference(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict[str, float]]:
     """``InterfaceProblem`` + ``FrictionSolver`` + ``LoadStepper`` on the same model and steps."""
     from subfric_dolfinx.fem import (
         Dirichlet,
@@ -190,7 +194,7 @@ def reference(comm: MPI.Comm, n: int, dt: float) -> list[dict[str, float]]:
         domain, law(),
         {"master": Material(E_BASE, NU_BASE), "slave": Material(E_BLOCK, NU_BLOCK)},
         program,
-        [Dirichlet("bottom", [0.0, 0.0]), Dirichlet("top", 1.0, 0, amplitude="slide")],
+        [Dirichlet("bottom", [0.0, 0.0]), Dirichlet(push, 1.0, 0, amplitude="slide")],
         [Pressure("top", PRESSURE, amplitude="press")],
     )  # fmt: skip
     rows = []

@@ -64,6 +64,7 @@ __all__ = [
     "interpolation_points",
     "model_to_mesh",
     "petsc_vector",
+    "read_from_msh",
 ]
 
 
@@ -102,6 +103,19 @@ def model_to_mesh(
     ``MeshData`` also holds ridge and peak tags, not used here).
     """
     out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    if _NEW:
+        return out.mesh, out.cell_tags, out.facet_tags
+    return out
+
+
+def read_from_msh(
+    path, comm: MPI.Comm, gdim: int, rank: int = 0
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """DOLFINx's own reader of an MSH file: the mesh and its cell and facet tags.
+
+    ``io.gmshio.read_from_msh`` (0.9) or ``io.gmsh.read_from_msh`` (0.11, a ``MeshData``).
+    """
+    out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
     if _NEW:
         return out.mesh, out.cell_tags, out.facet_tags
     return out

@@ -45,6 +45,7 @@ SMALL = {
         ["--n", "2", "--cycles", "1"],
         ["history.csv", "hysteresis.png"],
     ),
+    "user_loop": (["--n", "4", "--dt", "0.25"], ["history.csv"]),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],

@@ -229,21 +229,22 @@ class UFLBulk(_Stateless):
         u: dolfinx.fem.Function | None = None,
         linear: bool = False,
     ) -> None:
-        if not callable(F) and u is None:
+        if isinstance(F, ufl.Form) and u is None:
             raise ValueError("UFLBulk: a form F needs the unknown u it is written in (u=...)")
         self.F, self.J, self.u_user = F, J, u
         self.linear = bool(linear)
 
     def forms(self, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[Any, Any]:
         """The user's forms in the problem's ``u``, ``v`` and ``du``."""
-        if callable(self.F):
-            F = self.F(u, v, ctx)
-        else:
+        if isinstance(self.F, ufl.Form):  # (a UFL form is callable too: test it first)
             F = _replace(self.F, self.u_user, u, v, du)
+        else:
+            F = self.F(u, v, ctx)
         if self.J is None:
             return F, None
-        J = self.J(u, v, du, ctx) if callable(self.J) else _replace(self.J, self.u_user, u, v, du)
-        return F, J
+        if isinstance(self.J, ufl.Form):
+            return F, _replace(self.J, self.u_user, u, v, du)
+        return F, self.J(u, v, du, ctx)
 
 
 def _replace(form: Any, u_user: Any, u: Any, v: Any, du: Any) -> Any:

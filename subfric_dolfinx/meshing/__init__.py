@@ -9,7 +9,8 @@
   annuli).
 * :mod:`.partitioners`: deterministic partitions for tests (bodies apart, pairs together).
 * :mod:`.nodes`: node groups (physical points), vertices by coordinates, nearest vertex.
-* :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks.
+* :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks
+  (:class:`InterfaceMesh`, :mod:`.interface_mesh`).
 
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
 """
