@@ -124,9 +124,11 @@ def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
 
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 0.25, on_step=on_step).run()
+        mallocs = solver.J.getInfo()["mallocs"]
     load = P_LID * W_CAP
     last = rows[-1]
     checks = {
+        "both interfaces in the sparsity": mallocs == 0,
         "F_n low": abs(last["low.F_n"] - load) < 1e-8 * load,
         "F_n high": abs(last["high.F_n"] - load) < 1e-8 * load,
         # the cap's reaction is carried through both interfaces
