@@ -76,9 +76,26 @@ def _number(s: str) -> float | None:
         return None
 
 
-def compare_file(a: Path, b: Path) -> list[tuple[str, float]]:
-    """(column, max |a - b| / max |a|) of every numeric column of ``a`` (inf: missing/shape)."""
+def kind(column: str) -> str:
+    """The quantity of a column: its prefix before ``_``; forces (``F_``, ``R_``, ``S_``) one."""
+    head = column.split("_")[0] if "_" in column else column
+    return "force" if head in ("F", "R", "S") else head
+
+
+def compare_file(a: Path, b: Path) -> list[tuple[str, float, float]]:
+    """Differences of every numeric column of ``a`` to ``b``.
+
+    Returns:
+        (column, difference / its kind's peak, difference / its own peak); ``inf`` where the
+        column is missing in ``b`` or of another length.
+    """
     ca, cb = _read(a), _read(b)
+    peaks: dict[str, float] = {}
+    for col, va in ca.items():
+        xa = [_number(s) for s in va]
+        if xa and all(x is not None for x in xa):
+            k = kind(col)
+            peaks[k] = max(peaks.get(k, 0.0), max(abs(x) for x in xa))
     out = []
     for col, va in ca.items():
         if any(s in col.lower() for s in SKIP):
@@ -87,16 +104,14 @@ def compare_file(a: Path, b: Path) -> list[tuple[str, float]]:
         if any(x is None for x in xa):
             continue  # a text column
         vb = cb.get(col)
-        if vb is None or len(vb) != len(va):
-            out.append((col, math.inf))
-            continue
-        xb = [_number(s) for s in vb]
+        xb = [_number(s) for s in vb] if vb is not None and len(vb) == len(va) else [None]
         if any(x is None for x in xb):
-            out.append((col, math.inf))
+            out.append((col, math.inf, math.inf))
             continue
-        peak = max((abs(x) for x in xa), default=0.0)
+        own = max((abs(x) for x in xa), default=0.0)
         diff = max((abs(x - y) for x, y in zip(xa, xb, strict=True)), default=0.0)
-        out.append((col, diff / peak if peak > 0 else diff))
+        scale = peaks[kind(col)]
+        out.append((col, diff / scale if scale > 0 else diff, diff / own if own > 0 else diff))
     return out
 
 
@@ -113,9 +128,11 @@ def compare(old: Path, new: Path, tol: float) -> int:
             bad += 1
             continue
         cols = compare_file(old / rel, new / rel)
-        worst = max((d for _, d in cols), default=0.0)
-        over = [f"{c} {d:.1e}" for c, d in cols if d > tol]
-        print(f"{rel}: {len(cols)} columns, largest difference {worst:.1e} of the peak"
+        worst = max(cols, key=lambda c: c[1], default=("-", 0.0, 0.0))
+        own = max(cols, key=lambda c: c[2], default=("-", 0.0, 0.0))
+        over = [f"{c} {d:.1e}" for c, d, _ in cols if d > tol]
+        print(f"{rel}: {len(cols)} columns; largest difference {worst[1]:.1e} of its quantity's "
+              f"peak ({worst[0]}), {own[2]:.1e} of its own ({own[0]})"
               + (f"; above {tol:g}: {', '.join(over)}" if over else ""))  # fmt: skip
         bad += bool(over)
     return int(bad > 0)
