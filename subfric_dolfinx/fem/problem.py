@@ -41,7 +41,7 @@ from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_i
 from .interface.regions import element_regions
 from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
 
-__all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
+__all__ = ["PENETRATION_WARNING", "InterfaceProblem", "stiffen_separated"]
 
 logger = logging.getLogger(__name__)
 
@@ -258,8 +258,13 @@ class InterfaceProblem:
             Fa[idx] = x.array_r[idx] - val
         return res.converged
 
-    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat) -> None:
-        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there)."""
+    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat, separated_stiffness: float = 0.0) -> None:
+        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
+
+        ``separated_stiffness``: in this Jacobian only (not the residual), points without
+        stiffness (separated beyond the contact band, failed) get this fraction of the law's
+        contact stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update_interface(x)
         res = self.interface.last
@@ -267,7 +272,8 @@ class InterfaceProblem:
             J.zeroEntries()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         with self.timings(TIMER_INTERFACE):
-            Ke = self.interface.element_matrices(res.tangent)
+            tangent = stiffen_separated(res.tangent, self.law, separated_stiffness)
+            Ke = self.interface.element_matrices(tangent)
             nodes = self.interface.nodes.astype(PETSc.IntType)
             if nodes.shape[0]:
                 J.setValuesBlockedLocalRCV(nodes, nodes, Ke, addv=PETSc.InsertMode.ADD_VALUES)
@@ -357,3 +363,33 @@ class InterfaceProblem:
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
         return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
+
+
+def stiffen_separated(tangent: np.ndarray, law: FrictionLaw, fraction: float) -> np.ndarray:
+    """The tangent with ``fraction`` of the contact stiffness at points that have none.
+
+    A point separated beyond the contact band (or failed) has a zero tangent: where every point
+    of a body's interface is so, and no support holds the body in some direction, the Jacobian
+    is singular (a block pulled sideways without load may tip about its one touching point, then
+    a pressure finds it floating: a failed linear solve). A Newton step on a Jacobian where such
+    points keep ``fraction * diag(alpha_t, ..., alpha_n)`` exists, and leaves the undetermined
+    motions alone where nothing pushes them; the residual, hence the converged solution, is
+    unchanged. Used by :class:`~.stepping.LoadStepper` in the retry of a failed step
+    (:data:`~.stepping.RETRY_SEPARATED_STIFFNESS`).
+
+    Args:
+        tangent: Consistent tangents (N, m, m).
+        law: The law (its ``alpha_t``, ``alpha_n``; the largest over regions).
+        fraction: Fraction of the contact stiffness; 0 returns ``tangent`` itself.
+    """
+    if not fraction or tangent.shape[0] == 0:
+        return tangent
+    free = ~tangent.reshape(tangent.shape[0], -1).any(axis=1)
+    if not free.any():
+        return tangent
+    m = tangent.shape[-1]
+    diag = np.full(m, float(law.alpha_t))
+    diag[-1] = float(law.alpha_n)
+    out = tangent.copy()
+    out[free] = fraction * np.diag(diag)
+    return out
