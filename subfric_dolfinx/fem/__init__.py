@@ -28,7 +28,7 @@ from .conditions import (
 from .interface import InterfaceError
 from .problem import InterfaceProblem
 from .solver import DEFAULT_OPTIONS, FrictionSolver
-from .stepping import LoadStepper, StepFailure, StepRecord
+from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
@@ -44,6 +44,7 @@ __all__ = [
     "Pressure",
     "Spring",
     "StepFailure",
+    "StepInterrupted",
     "StepRecord",
     "Traction",
     "format_breakdown",

@@ -30,7 +30,7 @@ import contextlib
 import itertools
 import math
 import weakref
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -178,6 +178,11 @@ class FrictionSolver:
             raise
         self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
         self.separated_stiffness = 0.0  # of the current solve (see solve)
+        self.interrupt: Callable[[], bool] | None = None
+        """Asked at every residual evaluation, on every rank: ``True`` on any rank abandons
+        the solve there (collectively, through a function-domain error; nothing is raised
+        inside PETSc): :meth:`solve` returns ``interrupted``. E.g. a second stop signal."""
+        self.interrupted = False
         # PETSc's log events are cumulative over the process: where this solver starts.
         self.event_start = event_times()
 
@@ -198,9 +203,12 @@ class FrictionSolver:
         ok = self.problem.residual(x, F)
         if not ok:
             self.failed_points = self.problem.interface.last.failed_indices
+        stop = self.interrupted or (self.interrupt is not None and bool(self.interrupt()))
         # on every rank or none: SNES's line search checks the domain error on each rank alone,
         # and ranks that disagree would part ways (one leaves the solve, the other waits)
-        if not self.problem.comm.allreduce(bool(ok), op=MPI.LAND):
+        flags = self.problem.comm.allreduce(int(not ok) | 2 * int(stop), op=MPI.BOR)
+        self.interrupted = bool(flags & 2)
+        if flags:
             set_function_domain_error(snes, F)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
@@ -209,6 +217,8 @@ class FrictionSolver:
         self.linear.jacobian(snes, J, self.convergence.floor())
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
+        if self.interrupted:  # agreed by every rank at the residual
+            return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN
         return self.convergence(snes, it, norms)
 
     # -- solving --------------------------------------------------------------------------------
@@ -240,8 +250,10 @@ class FrictionSolver:
             ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not converge or
             PETSc's own test was used), ``residuals`` (norms per iteration), ``counts``
             (return-map statuses at the last evaluation, global), ``krylov`` (Krylov iterations)
-            and ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
-            Krylov failure with a stale one; the other values are the repeat's).
+            ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
+            Krylov failure with a stale one; the other values are the repeat's) and
+            ``interrupted`` (:attr:`interrupt` asked to stop: not converged, ``x`` is that of an
+            abandoned iterate).
             ``CONVERGED_SNORM_RELATIVE`` with a residual far above the tolerances is not
             converged (:data:`~.convergence.SNORM_SLACK`).
         """
@@ -254,6 +266,7 @@ class FrictionSolver:
         p.set_step(t, dt)
         p.apply_dirichlet(self.x)
         self.failed_points = np.zeros(0, dtype=np.int64)
+        self.interrupted = False
         self.snes.setConvergenceHistory(length=200, reset=True)
         self.convergence.start()
         if options:
@@ -266,7 +279,8 @@ class FrictionSolver:
                 self.linear.start()
                 self.snes.solve(None, self.x)
                 krylov = self.snes.getLinearSolveIterations()
-                if self.linear.finish(self.snes, self.snes.getConvergedReason() > 0):
+                retry = self.linear.finish(self.snes, self.snes.getConvergedReason() > 0)
+                if retry and not self.interrupted:
                     # the Krylov solve failed with a stale preconditioner: once more, fresh
                     self.linear.retries += 1
                     retried = True
@@ -289,6 +303,7 @@ class FrictionSolver:
                 "residuals": [],
                 "counts": {},
                 "error": str(e),
+                "interrupted": self.interrupted,
             }
         finally:
             if options:
@@ -312,6 +327,7 @@ class FrictionSolver:
             "counts": counts,
             "krylov": int(krylov),
             "linear_retry": retried,
+            "interrupted": self.interrupted,
         }
 
     def refresh_preconditioner(self) -> None:

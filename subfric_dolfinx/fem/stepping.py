@@ -38,6 +38,7 @@ __all__ = [
     "RETRY_SEPARATED_STIFFNESS",
     "LoadStepper",
     "StepFailure",
+    "StepInterrupted",
     "StepRecord",
     "describe_attempt",
 ]
@@ -90,6 +91,22 @@ class StepFailure(RuntimeError):
         super().__init__(message)
         self.t, self.last_t, self.last_step, self.reason = t, last_t, last_step, reason
         self.attempt = attempt or {}
+
+
+class StepInterrupted(RuntimeError):
+    """A step abandoned because the solver's ``interrupt`` asked for it (a second stop signal).
+
+    The last converged state is in place.
+
+    Attributes:
+        t: Time the abandoned step aimed at.
+        last_t: Time of the last converged step (its state is intact).
+        last_step: Index of the last converged step.
+    """
+
+    def __init__(self, message: str, t: float, last_t: float, last_step: int) -> None:
+        super().__init__(message)
+        self.t, self.last_t, self.last_step = t, last_t, last_step
 
 
 _SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
@@ -308,6 +325,22 @@ class LoadStepper:
             if warn is not None:
                 warn()
 
+    def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
+        """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
+
+        On every rank: the solver agreed on it.
+        """
+        if not r.get("interrupted"):
+            return
+        self._undo()
+        raise StepInterrupted(
+            f"the step to t = {target:.6g} was abandoned on request; the last converged step "
+            f"is {self.step} at t = {self.t:.6g}, whose state is kept",
+            target,
+            self.t,
+            self.step,
+        )
+
     def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
@@ -326,6 +359,7 @@ class LoadStepper:
             first = self.retry_options if self._keep_retry else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
+            self._check_interrupted(r, target)
             retried = first is not None
             if not r["converged"] and not retried and self.retry_options is not None:
                 logger.debug(
@@ -339,6 +373,7 @@ class LoadStepper:
                     options=self.retry_options,
                     separated_stiffness=RETRY_SEPARATED_STIFFNESS,
                 )
+                self._check_interrupted(r, target)
                 retried = True
                 self._keep_retry = self.sticky_retry and bool(r["converged"])
             if not r["converged"]:

@@ -25,7 +25,14 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
+from ..fem import (
+    FrictionSolver,
+    LoadStepper,
+    StepFailure,
+    StepInterrupted,
+    format_breakdown,
+    timing_breakdown,
+)
 from ..io import OutputDirectory, interface_summary, restore_checkpoint
 from .build import build_mesh, build_problem
 from .derived import DerivedOutputs
@@ -69,6 +76,8 @@ def run_fe_scene(
     outdir = Path(outdir) if outdir is not None else None
     t_start = time.perf_counter()
     PETSc.Log.begin()
+    what = scene.mesh.builder or scene.mesh.file
+    logger.debug("[%s] building the mesh (%s) on %d rank(s)", scene.name, what, comm.size)
     domain = build_mesh(scene.mesh, comm)
     problem = build_problem(scene, domain)
     res = SceneResult(scene.name, "fe")
@@ -87,6 +96,8 @@ def run_fe_scene(
     )  # fmt: skip
     settings = restart_settings(scene)
     with contextlib.ExitStack() as stack:
+        # first in, last out: a stop signal is a request until every file is closed (.signals)
+        guard = stack.enter_context(StopSignals())
         if wants_files:
             stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
         solver = stack.enter_context(
@@ -124,11 +135,12 @@ def run_fe_scene(
                 ),
             )
         )
-        guard = stack.enter_context(StopSignals())
+        solver.interrupt = lambda: guard.urgent
 
         def on_step(rec: Any) -> None:
             stop = guard.requested(comm)
-            outputs.on_step(rec, stop)  # with checkpoints: writes one, raises SceneInterrupted
+            # with checkpoints: writes one, raises SceneInterrupted
+            outputs.on_step(rec, guard.name if stop else False)
             if stop:
                 raise SceneInterrupted(
                     f"interrupted by {guard.name} after step {rec.step} at t = {rec.t:.6g}; "
@@ -139,10 +151,31 @@ def run_fe_scene(
 
         stepper.on_step = on_step
         try:
+            if guard.requested(comm):  # during the set-up of the outputs or the restart
+                raise SceneInterrupted(
+                    f"interrupted by {guard.name} before the first step (t = {stepper.t:.6g}); "
+                    "nothing written",
+                    None,
+                    None,
+                )
             stepper.run(stops=outputs.stops)
         except StepFailure:
             outputs.write_checkpoint()  # the last converged state, for a restart
             raise
+        except StepInterrupted as e:  # a second stop signal: the step abandoned, state reverted
+            guard.requested(comm)  # agree on the signal's name
+            outputs.write_checkpoint()
+            where = (
+                f"checkpoint written to {outputs.checkpoint_path}"
+                if outputs.checkpoint_path is not None
+                else "no checkpoint (the scene writes none)"
+            )
+            raise SceneInterrupted(
+                f"interrupted by {guard.name} during the step to t = {e.t:.6g} (abandoned); "
+                f"state of step {e.last_step} at t = {e.last_t:.6g}; {where}",
+                e.last_t,
+                str(outputs.checkpoint_path) if outputs.checkpoint_path is not None else None,
+            ) from None
         finally:  # the files are closed by the exit stack (a close error never hides the run's)
             res.history = outputs.history.rows
             res.snapshots = outputs.snapshots
