@@ -30,6 +30,7 @@ import numpy as np
 from ..compat import coordinate_element
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
+from .links import refuse_links
 
 __all__ = ["FieldWriter"]
 
@@ -68,7 +69,7 @@ class FieldWriter:
         if fmt not in ("vtx", "xdmf"):
             raise ValueError(f"output format must be 'vtx' or 'xdmf', got {fmt!r}")
         comm = problem.comm
-        self.dir = probe_directory(comm, directory)
+        self.dir = probe_directory(comm, directory, link_ok=False)
         self.problem = problem
         self.fmt = fmt
         el = problem.interface
@@ -107,6 +108,9 @@ class FieldWriter:
         u = problem.u
         gdim = problem.interface.gdim
         sub = problem.interface.submesh
+        names = ("displacement", "interface")
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
+        refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
             self._wi = dolfinx.io.VTXWriter(
