@@ -34,6 +34,7 @@ from ..constitutive import Status
 from .solver import FrictionSolver
 
 __all__ = [
+    "MAX_STEPS",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "LoadStepper",
@@ -63,6 +64,11 @@ the Newton step exists and closes the gap (``tests/test_reliability.py``: every 
 and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on a
 converged step's Newton path where the Jacobian is regular) and far enough above round-off for
 GAMG (1e-9 was measured to fail with it)."""
+
+MAX_STEPS = 1_000_000
+"""Default limit of the converged steps of a run (:class:`LoadStepper`'s ``max_steps``; scenes:
+``solver.max_steps``), like the material-point driver's ``MAX_TOTAL_STEPS``: a million FE steps
+is days of computing."""
 
 logger = logging.getLogger(__name__)
 
@@ -242,6 +248,8 @@ class LoadStepper:
         hold_dt: Step in the holds of the program (segments where every channel is constant),
             instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
             untouched); ``None``: holds are stepped like the rest.
+        max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
+            :class:`StepFailure` when it has made that many and is not at its end.
     """
 
     def __init__(
@@ -260,6 +268,7 @@ class LoadStepper:
         retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
         sticky_retry: bool = True,
         hold_dt: float | None = None,
+        max_steps: int = MAX_STEPS,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -278,6 +287,9 @@ class LoadStepper:
         self.retry_options = dict(retry_options) if retry_options else None
         self.sticky_retry = sticky_retry
         self.hold_dt = float(hold_dt) if hold_dt is not None else None
+        if not (isinstance(max_steps, int | float) and max_steps >= 1):
+            raise ValueError(f"max_steps = {max_steps!r} must be >= 1")
+        self.max_steps = max_steps
         self._hold_step: float | None = None  # the hold's step after a cut (until its end)
         self._keep_retry = False
         self.retries = 0  # steps whose first attempt failed and the retry converged (run)
@@ -346,6 +358,12 @@ class LoadStepper:
         tol = 1e-12 * max(1.0, abs(t_end))
         segment = _Segment(self.t)
         while self.t < t_end - tol:
+            if self.step >= self.max_steps:
+                raise StepFailure(
+                    f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
+                    f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
+                    self.t, self.t, self.step, "max_steps",
+                )  # fmt: skip
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
             hold = self.hold_dt is not None and self.program.is_hold(self.t)

@@ -112,6 +112,7 @@ def run_fe_scene(
             dt_min=scene.solver.dt_min,
             max_cuts=scene.solver.max_cuts,
             hold_dt=scene.solver.hold_dt,
+            max_steps=scene.solver.max_steps,
         )
         restart_time, restart_history = None, None
         if restart is not None:
