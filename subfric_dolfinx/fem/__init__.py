@@ -27,7 +27,7 @@ from .conditions import (
 )
 from .interface import InterfaceError
 from .problem import InterfaceProblem
-from .solver import DEFAULT_OPTIONS, FrictionSolver
+from .solver import DEFAULT_OPTIONS, FrictionSolver, SolverOptionError
 from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
@@ -42,6 +42,7 @@ __all__ = [
     "Material",
     "PointForce",
     "Pressure",
+    "SolverOptionError",
     "Spring",
     "StepFailure",
     "StepInterrupted",

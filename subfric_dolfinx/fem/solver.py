@@ -30,7 +30,7 @@ import contextlib
 import itertools
 import math
 import weakref
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -43,7 +43,7 @@ from .linear import STRATEGY_OPTIONS, LinearStrategy
 from .problem import InterfaceProblem
 from .timing import event_times
 
-__all__ = ["DEFAULT_OPTIONS", "FrictionSolver"]
+__all__ = ["DEFAULT_OPTIONS", "FrictionSolver", "SolverOptionError"]
 
 DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
@@ -78,6 +78,60 @@ def _check_prefix(prefix: str | None) -> str:
             "give each solver its own prefix (or destroy the other one first)"
         )
     return prefix
+
+
+class SolverOptionError(ValueError):
+    """PETSc refused a solver option (a value of the wrong kind, an unknown type name).
+
+    Attributes:
+        key: The option (without the prefix) found to be refused alone, or ``None``.
+    """
+
+    def __init__(self, message: str, key: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+def _refused_alone(key: str, value: Any) -> PETSc.Error | None:
+    """PETSc's error on a scratch SNES (this process only) given only ``key = value``."""
+    prefix = "subfric_optcheck_"
+    snes = PETSc.SNES().create(PETSc.COMM_SELF)
+    try:
+        snes.setOptionsPrefix(prefix)
+        with pushed_options(prefix, {key: value}):
+            snes.setFromOptions()
+    except PETSc.Error as e:
+        return e
+    finally:
+        snes.destroy()
+    return None
+
+
+def option_error(prefix: str, layers: Sequence[Mapping[str, Any]], error: Exception) -> Exception:
+    """The error to raise when ``setFromOptions`` failed under ``prefix`` (on every rank).
+
+    The first option under the prefix (the database's, then ``layers``' values) that PETSc
+    refuses alone on a scratch solver is named with its value; each rank probes on its own
+    and finds the same.
+    """
+    given: dict[str, Any] = {}
+    db = PETSc.Options()
+    for name in db.getAll():
+        if name.startswith(prefix):
+            given[name[len(prefix) :]] = db.getString(name)
+    for layer in layers:
+        given.update({k.lstrip("?"): v for k, v in layer.items()})
+    code = getattr(error, "ierr", None)
+    why = f"PETSc error code {code}" if code is not None else str(error)
+    for key, value in given.items():
+        e = _refused_alone(key, value)
+        if e is not None:
+            return SolverOptionError(
+                f"PETSc refuses the option {prefix}{key} = {value!r} ({why}: a value of the "
+                "wrong kind or an unknown name)",
+                key,
+            )
+    return SolverOptionError(f"PETSc refuses the options under {prefix!r} ({why}): {given}")
 
 
 @contextlib.contextmanager
@@ -191,7 +245,11 @@ class FrictionSolver:
         given = {k for k in db.getAll() if k.startswith(self.prefix)}
         user = {k[len(self.prefix) :] for k in given} | set(self.options) | set(extra or {})
         with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
-            self.snes.setFromOptions()
+            try:
+                self.snes.setFromOptions()
+            except PETSc.Error as e:
+                layers = (self.options, extra or {})
+                raise option_error(self.prefix, layers, e) from None
             # PETSc's own test only where asked for by name (setFromOptions has set it then)
             if not db.hasName(self.prefix + "snes_convergence_test"):
                 self.snes.setConvergenceTest(self._converged)

@@ -25,9 +25,11 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..constitutive import FrictionLaw, law_description
 from ..fem import (
     FrictionSolver,
     LoadStepper,
+    SolverOptionError,
     StepFailure,
     StepInterrupted,
     format_breakdown,
@@ -46,22 +48,67 @@ __all__ = ["restart_settings", "run_fe_scene"]
 logger = logging.getLogger(__name__)
 
 
+# FEScene fields a restart does not compare here: the run's name and outputs, the solver (may
+# change), the law and program (compared by restore_checkpoint), the points (compared where a
+# condition uses them), the initial gap and regions (their point data g0 and region numbers are
+# compared at every interface point, and the region laws with the law)
+_NOT_SETTINGS = {"name", "kind", "outputs", "solver", "law", "program", "points"}
+_NOT_SETTINGS |= {"initial_gap", "regions"}
+
+
+def _plain(value: Any) -> Any:
+    """A scene value as JSON-ready data (laws described, Python functions by a fixed label)."""
+    if isinstance(value, FrictionLaw):
+        return law_description(value)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray | np.generic):
+        return value.tolist()
+    if callable(value):  # code in a Python scene: compared through what it produces, if at all
+        return "<a Python function>"
+    return value
+
+
 def restart_settings(scene: FEScene) -> dict[str, Any]:
     """What a restart must match beyond the mesh, law and program (compared anyway).
 
-    The materials, the Dirichlet conditions and loads (values, components, channels), the
-    quadrature and the mesh builder's options. Solver settings and the partitioner may change.
+    Every model input of the scene: the materials, the Dirichlet conditions and loads (values,
+    components, channels), the springs, the point forces with their points' coordinates and
+    bodies, the points Dirichlet conditions hold, the degree, the quadrature, the mesh builder's
+    options (or the mesh file's name) and any other field of the scene (e.g. interfaces) except
+    the solver, the outputs and the name. Solver settings and the partitioner may change. The
+    initial gap and the regions are compared point by point (``g0``, region numbers and laws).
+    A field at its default is left out, so checkpoints written before it was compared still fit
+    a run that does not use it.
     """
     mesh: dict[str, Any] = {"builder": scene.mesh.builder, "options": scene.mesh.options}
     if scene.mesh.file is not None:
         mesh = {"file": Path(scene.mesh.file).name, "gdim": scene.mesh.gdim}
-    return {
+    out: dict[str, Any] = {
         "materials": scene.materials,
         "dirichlet": [dataclasses.asdict(d) for d in scene.dirichlet],
         "loads": [dataclasses.asdict(ld) for ld in scene.loads],
         "quadrature": scene.quadrature,
         "mesh": mesh,
     }
+    for f in dataclasses.fields(scene):
+        if f.name in _NOT_SETTINGS or f.name in out:
+            continue
+        value = getattr(scene, f.name)
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        if value is default or (isinstance(value, list | dict | str | int) and value == default):
+            continue
+        if f.name == "point_forces":
+            value = [{**_plain(pf), "at": _plain(scene.points.get(pf.point))} for pf in value]
+        out[f.name] = _plain(value)
+    held = [d.group for d in scene.dirichlet if d.group in scene.points]
+    if held:
+        out["dirichlet_points"] = {name: _plain(scene.points[name]) for name in held}
+    return out
 
 
 def run_fe_scene(
@@ -100,11 +147,16 @@ def run_fe_scene(
         guard = stack.enter_context(StopSignals())
         if wants_files:
             stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
-        solver = stack.enter_context(
-            FrictionSolver(
-                problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
+        try:
+            solver = stack.enter_context(
+                FrictionSolver(
+                    problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
+                )
             )
-        )
+        except SolverOptionError as e:
+            if e.key not in scene.solver.options:  # the command line's or PETSC_OPTIONS'
+                raise
+            raise SceneError(f"scene.solver.options.{e.key}: {e}") from None
         stepper = LoadStepper(
             solver,
             scene.solver.dt,

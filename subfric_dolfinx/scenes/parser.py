@@ -214,6 +214,12 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
             raise SceneError(
                 f"scene.materials.{body}: keys must be 'E' and 'nu', got {sorted(mat)}"
             )
+        from ..fem import Material  # here: parsing a scene loads no DOLFINx at import
+
+        try:  # the values too, before the mesh is built
+            Material(mat["E"], mat["nu"])
+        except (TypeError, ValueError) as e:
+            raise SceneError(f"scene.materials.{body}: {e}") from None
     extra = sorted(set(scene.materials) - {"master", "slave"})
     if extra:
         raise SceneError(f"scene.materials: unknown key(s) {extra}; allowed: ['master', 'slave']")
