@@ -68,9 +68,11 @@ def _plain(value: Any) -> Any:
         return [_plain(v) for v in value]
     if isinstance(value, np.ndarray | np.generic):
         return value.tolist()
+    if value is None or isinstance(value, str | int | float | bool):
+        return value
     if callable(value):  # code in a Python scene: compared through what it produces, if at all
         return "<a Python function>"
-    return value
+    return f"<a {type(value).__name__} object>"  # e.g. a UFL expression: by its kind only
 
 
 def restart_settings(scene: FEScene) -> dict[str, Any]:

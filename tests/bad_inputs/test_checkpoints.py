@@ -215,6 +215,27 @@ def test_a_restart_with_other_springs_or_point_forces_is_refused(good_supported,
         run_scene(s, comm=comm, restart=ck)
 
 
+def test_the_settings_leave_defaults_out_and_store_any_scene_value():
+    """A scene without springs, point forces or held points stores none of these keys (a
+    checkpoint written before they were compared still fits); values that are not JSON (code
+    of a Python scene, objects) are stored by a fixed label, so every scene can checkpoint."""
+    import dataclasses
+
+    from subfric_dolfinx.io.checkpoint_format import jsonable
+    from subfric_dolfinx.scenes import parse_scene
+    from subfric_dolfinx.scenes.fe import restart_settings
+
+    plain = restart_settings(parse_scene(scene()))
+    assert set(plain) == {"materials", "dirichlet", "loads", "quadrature", "mesh"}
+    full = restart_settings(parse_scene(supported()))
+    assert full["springs"][0]["stiffness"] == [2.0, 0.0]
+    assert full["point_forces"][0]["at"] == {"x": [1.0, 0.75], "body": None}
+    assert full["dirichlet_points"] == {"P": {"x": [0.0, 0.0], "body": None}}
+    odd = dataclasses.replace(parse_scene(supported()), springs=[lambda x: x, object()])
+    labels = ["<a Python function>", "<a object object>"]
+    assert jsonable(restart_settings(odd))["springs"] == labels
+
+
 def test_the_same_supported_scene_restarts(good_supported):
     res = run_scene(supported(), comm=MPI.COMM_WORLD, restart=good_supported)
     assert res.history[-1]["t"] == pytest.approx(T_END)
