@@ -23,6 +23,8 @@ testing the version itself. Each difference was read in the installed sources of
 - Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
   property, ``element.interpolation_points`` (0.11).
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
+- SNES's reason for a NaN or infinite residual: ``DIVERGED_FNORM_NAN`` (petsc4py 3.22),
+  ``DIVERGED_FUNCTION_NANORINF`` (3.25; the value, -4, is the same): :data:`SNES_DIVERGED_NAN`.
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 - DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
@@ -53,6 +55,7 @@ from petsc4py import PETSc
 
 __all__ = [
     "DOLFINX_VERSION",
+    "SNES_DIVERGED_NAN",
     "SUPPORTED",
     "adjacency_list",
     "coordinate_element",
@@ -302,3 +305,15 @@ def dolfinx_newton(
         return snes.getIterationNumber(), bool(snes.getConvergedReason() > 0)
 
     return DolfinxNewton(solve, [problem, snes])
+
+
+def _snes_diverged_nan() -> int:
+    reasons = PETSc.SNES.ConvergedReason
+    for name in ("DIVERGED_FUNCTION_NANORINF", "DIVERGED_FNORM_NAN"):
+        if hasattr(reasons, name):
+            return int(getattr(reasons, name))
+    raise ImportError("petsc4py names no SNES reason for a NaN residual")  # pragma: no cover
+
+
+SNES_DIVERGED_NAN: int = _snes_diverged_nan()
+"""SNES's converged reason for a NaN or infinite residual (named differently by version)."""

@@ -139,6 +139,22 @@ def _parse(obj: dict) -> Case:
     return Case(law, control, path, samples, int(nt), spm)
 
 
+class _DuplicateKey(Exception):
+    def __init__(self, key: str, siblings: list[str]) -> None:
+        super().__init__(key)
+        self.key, self.siblings = key, siblings
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's dict, refusing a key given twice (``json.loads`` keeps the last)."""
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k, [key for key, _ in pairs if key != k])
+        out[k] = v
+    return out
+
+
 def read_json(path: str | Path, what: str = "case file") -> Any:
     """Read a JSON file defensively: every malformed file gives one :class:`CaseError`.
 
@@ -148,7 +164,8 @@ def read_json(path: str | Path, what: str = "case file") -> Any:
 
     Raises:
         CaseError: Unreadable, a directory, larger than ``MAX_CASE_BYTES``, not UTF-8, invalid
-            JSON, nested too deeply, or an integer beyond Python's digit limit.
+            JSON, a key twice in one object, nested too deeply, or an integer beyond Python's
+            digit limit.
     """
     p = Path(path)
     try:
@@ -172,7 +189,12 @@ def read_json(path: str | Path, what: str = "case file") -> Any:
         )
 
     try:
-        obj = json.loads(text)
+        obj = json.loads(text, object_pairs_hook=_unique_keys)
+    except _DuplicateKey as e:
+        raise CaseError(
+            f"{what} {str(p)!r} has the key {_short(e.key)} twice in one object (beside "
+            f"{_short(e.siblings)}): JSON would keep the last one silently"
+        ) from None
     except json.JSONDecodeError as e:
         raise CaseError(f"{what} {str(p)!r} is not valid JSON: {e}") from None
     except RecursionError:  # Python <= 3.13's parser recurses; 3.14's does not

@@ -34,8 +34,8 @@ from .conditions import (
 )
 from .interface import FrictionInterface, InterfaceError, create_matrix
 from .problem import InterfaceProblem
-from .solver import DEFAULT_OPTIONS, FrictionSolver
-from .stepping import LoadStepper, StepFailure, StepRecord
+from .solver import DEFAULT_OPTIONS, FrictionSolver, SolverOptionError
+from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
@@ -54,8 +54,10 @@ __all__ = [
     "Material",
     "PointForce",
     "Pressure",
+    "SolverOptionError",
     "Spring",
     "StepFailure",
+    "StepInterrupted",
     "StepRecord",
     "Traction",
     "UFLBulk",

@@ -26,6 +26,7 @@ from ..compat import petsc_vector
 from ..meshing import NodeGroup, locate_node_group, nearest_vertex
 from .conditions import Dirichlet, DirichletField, PointForce, Pressure, Spring, Traction, channels
 from .interface import InterfaceError
+from .probes import require_near
 
 __all__ = [
     "LoadPart",
@@ -202,6 +203,7 @@ def _by_channel(value: np.ndarray, chans: list[str | None]) -> dict[str | None, 
 def _point_vector(V: dolfinx.fem.FunctionSpace, domain: Any, c: PointForce) -> tuple:
     """The owned dof blocks at the vertex nearest to a point force's point, and the vertex."""
     mesh = domain.mesh
+    require_near(domain, c.x, c.body, f"point force at {c.group[6:]}")
     cells = None if c.body is None else domain.cell_tags.find(domain.tags[c.body])
     xv, _ = nearest_vertex(mesh, c.x, cells)
     mesh.topology.create_connectivity(0, mesh.topology.dim)

@@ -120,18 +120,21 @@ class PointForce:
     The vertex is searched among the vertices of the cells of ``body`` (``None``: all cells;
     give the body for a point on the interface, whose nodes are duplicated); it is found in
     parallel and the force applied once. Component ``i`` is ``value[i] * amplitude(t)`` (or
-    ``amplitude[i]``, as for :class:`Traction`).
+    ``amplitude[i]``, as for :class:`Traction`). A point farther from ``body`` (the mesh) than
+    the size of its nearest cell is refused; ``name`` names it in messages.
     """
 
     x: Sequence[float]
     value: Sequence[float]
     amplitude: str | None | Sequence[str | None] = None
     body: str | None = None
+    name: str | None = None
 
     @property
     def group(self) -> str:
         """A name for messages."""
-        return f"point {tuple(float(v) for v in self.x)}"
+        where = tuple(float(v) for v in self.x)
+        return f"point {self.name!r} {where}" if self.name else f"point {where}"
 
 
 @dataclasses.dataclass(frozen=True)

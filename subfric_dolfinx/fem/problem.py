@@ -45,11 +45,11 @@ from .conditions import (
     channels,
 )
 from .interface import FrictionInterface, InterfaceError
-from .interface.friction import layout_of
+from .interface.friction import layout_of, stiffen_separated
 from .kinematics import check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
-__all__ = ["PENETRATION_WARNING", "InterfaceProblem"]
+__all__ = ["PENETRATION_WARNING", "InterfaceProblem", "stiffen_separated"]
 
 logger = logging.getLogger(__name__)
 
@@ -315,8 +315,13 @@ class InterfaceProblem:
         Fa[idx] = x.array_r[idx] - val
         return ok
 
-    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat) -> None:
-        """Assemble the Jacobian at ``x`` (reusing the tangents of the last residual there)."""
+    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat, separated_stiffness: float = 0.0) -> None:
+        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
+
+        ``separated_stiffness``: in this Jacobian only (not the residual), points without
+        stiffness (separated beyond the contact band, failed) get this fraction of the law's
+        contact stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update(x)
         with self.timings(TIMER_BULK):
@@ -326,7 +331,7 @@ class InterfaceProblem:
                 J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            iface.assemble_jacobian(J)
+            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness)
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)
 

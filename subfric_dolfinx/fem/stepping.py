@@ -33,7 +33,16 @@ import numpy as np
 from ..constitutive import Status
 from .solver import FrictionSolver
 
-__all__ = ["RETRY_OPTIONS", "LoadStepper", "StepFailure", "StepRecord", "describe_attempt"]
+__all__ = [
+    "MAX_STEPS",
+    "RETRY_OPTIONS",
+    "RETRY_SEPARATED_STIFFNESS",
+    "LoadStepper",
+    "StepFailure",
+    "StepInterrupted",
+    "StepRecord",
+    "describe_attempt",
+]
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -42,6 +51,24 @@ The l2 line search (minimising the residual norm along the Newton direction) sol
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
 set (``tests/test_reliability.py``); a backtracking line search (``bt``) solves the first but not
 the second."""
+
+RETRY_SEPARATED_STIFFNESS = 1e-6
+"""In the retry of a failed step, points without stiffness keep this fraction of the contact
+stiffness in the Jacobian (:func:`~.problem.stiffen_separated`; the residual is unchanged).
+
+A body whose interface points are all separated, with no support in some direction, makes the
+Jacobian singular: the unloaded slide of the ``sec7`` block lets it tip about its one touching
+point (any such position is an equilibrium without load), and the pressure that follows then
+finds every point separated and the linear solve fails at every step size. With this fraction
+the Newton step exists and closes the gap (``tests/test_reliability.py``: every strategy, ``sec7``
+and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on a
+converged step's Newton path where the Jacobian is regular) and far enough above round-off for
+GAMG (1e-9 was measured to fail with it)."""
+
+MAX_STEPS = 1_000_000
+"""Default limit of the converged steps of a run (:class:`LoadStepper`'s ``max_steps``; scenes:
+``solver.max_steps``), like the material-point driver's ``MAX_TOTAL_STEPS``: a million FE steps
+is days of computing."""
 
 logger = logging.getLogger(__name__)
 
@@ -70,6 +97,22 @@ class StepFailure(RuntimeError):
         super().__init__(message)
         self.t, self.last_t, self.last_step, self.reason = t, last_t, last_step, reason
         self.attempt = attempt or {}
+
+
+class StepInterrupted(RuntimeError):
+    """A step abandoned because the solver's ``interrupt`` asked for it (a second stop signal).
+
+    The last converged state is in place.
+
+    Attributes:
+        t: Time the abandoned step aimed at.
+        last_t: Time of the last converged step (its state is intact).
+        last_step: Index of the last converged step.
+    """
+
+    def __init__(self, message: str, t: float, last_t: float, last_step: int) -> None:
+        super().__init__(message)
+        self.t, self.last_t, self.last_step = t, last_t, last_step
 
 
 _SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
@@ -211,6 +254,8 @@ class LoadStepper:
         hold_dt: Step in the holds of the program (segments where every channel is constant),
             instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
             untouched); ``None``: holds are stepped like the rest.
+        max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
+            :class:`StepFailure` when it has made that many and is not at its end.
     """
 
     def __init__(
@@ -229,6 +274,7 @@ class LoadStepper:
         retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
         sticky_retry: bool = True,
         hold_dt: float | None = None,
+        max_steps: int = MAX_STEPS,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -247,6 +293,9 @@ class LoadStepper:
         self.retry_options = dict(retry_options) if retry_options else None
         self.sticky_retry = sticky_retry
         self.hold_dt = float(hold_dt) if hold_dt is not None else None
+        if not (isinstance(max_steps, int | float) and max_steps >= 1):
+            raise ValueError(f"max_steps = {max_steps!r} must be >= 1")
+        self.max_steps = max_steps
         self._hold_step: float | None = None  # the hold's step after a cut (until its end)
         self._keep_retry = False
         self.retries = 0  # steps whose first attempt failed and the retry converged (run)
@@ -294,11 +343,33 @@ class LoadStepper:
             if warn is not None:
                 warn()
 
+    def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
+        """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
+
+        On every rank: the solver agreed on it.
+        """
+        if not r.get("interrupted"):
+            return
+        self._undo()
+        raise StepInterrupted(
+            f"the step to t = {target:.6g} was abandoned on request; the last converged step "
+            f"is {self.step} at t = {self.t:.6g}, whose state is kept",
+            target,
+            self.t,
+            self.step,
+        )
+
     def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
         segment = _Segment(self.t)
         while self.t < t_end - tol:
+            if self.step >= self.max_steps:
+                raise StepFailure(
+                    f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
+                    f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
+                    self.t, self.t, self.step, "max_steps",
+                )  # fmt: skip
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
             hold = self.hold_dt is not None and self.program.is_hold(self.t)
@@ -310,7 +381,9 @@ class LoadStepper:
             dt = target - self.t
             t0 = time.perf_counter()
             first = self.retry_options if self._keep_retry else None
-            r = self.solver.solve(target, dt, options=first)
+            stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+            r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
+            self._check_interrupted(r, target)
             retried = first is not None
             if not r["converged"] and not retried and self.retry_options is not None:
                 logger.debug(
@@ -318,7 +391,13 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
-                r = self.solver.solve(target, dt, options=self.retry_options)
+                r = self.solver.solve(
+                    target,
+                    dt,
+                    options=self.retry_options,
+                    separated_stiffness=RETRY_SEPARATED_STIFFNESS,
+                )
+                self._check_interrupted(r, target)
                 retried = True
                 self._keep_retry = self.sticky_retry and bool(r["converged"])
             if not r["converged"]:

@@ -31,6 +31,7 @@ from ..compat import coordinate_element, geometry_dofmap
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 from .gather import interface_of
+from .links import refuse_links
 
 __all__ = ["FieldWriter"]
 
@@ -70,7 +71,7 @@ class FieldWriter:
         if fmt not in ("vtx", "xdmf"):
             raise ValueError(f"output format must be 'vtx' or 'xdmf', got {fmt!r}")
         comm = problem.comm
-        self.dir = probe_directory(comm, directory)
+        self.dir = probe_directory(comm, directory, link_ok=False)
         self.problem = problem
         self.fmt = fmt
         ifaces = getattr(problem, "interfaces", None) or {"interface": None}
@@ -117,6 +118,9 @@ class FieldWriter:
         u = problem.u
         gdim = problem.mesh.geometry.dim
         self._wi = []
+        names = ("displacement", *(stem for stem, _, _, _ in self.parts))
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
+        refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
             for stem, _, _, fields in self.parts:

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from .collective import collective
+from .links import opener
 from .summary import interface_summary
 
 __all__ = ["HistoryCSV"]
@@ -79,7 +80,7 @@ class HistoryCSV:
         assert self.path is not None
         if self._writer is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = self.path.open("w", newline="")
+            self._file = open(self.path, "w", newline="", opener=opener)
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             self._writer.writeheader()
             for old in self.rows[:-1]:  # preloaded rows of a restart

@@ -18,8 +18,15 @@ the first step:
    (:data:`RUN_FILES`: ``history.csv``, ``interface_history.h5``, ``checkpoint.h5``, the
    ``fields`` directory, a stale ``checkpoint.h5.tmp``) into ``previous_run/``, replacing what was
    there: the directory then holds this run's files only, and the last run's files are kept one
-   generation. A restart continues the files it finds (the interface history is cut back to the
-   restart time). Other files are left alone.
+   generation. ``previous_run/`` is deleted only if it holds nothing but such names: one that
+   holds other files (the user's), or a regular file by that name, is never deleted, the run is
+   refused naming it. A restart continues the files it finds (the interface history is cut back
+   to the restart time). Other files are left alone.
+
+No file is ever created, truncated or written through a symbolic link (:mod:`.links`): the lock
+is opened with ``O_NOFOLLOW`` (a link there is refused, naming it), a link named like a run's
+file is moved to ``previous_run/`` as a link, a link named ``previous_run`` is removed (not what
+it points to).
 """
 
 from __future__ import annotations
@@ -31,7 +38,8 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from .collective import OutputError, collective, probe_directory
+from .collective import Failure, OutputError, collective, probe_directory
+from .links import open_nofollow
 
 __all__ = ["LOCK_NAME", "PREVIOUS", "RUN_FILES", "OutputDirectory"]
 
@@ -45,6 +53,7 @@ RUN_FILES = (
     "fields",
 )
 """Names this code writes in an output directory (moved aside by a fresh run)."""
+
 
 
 class OutputDirectory:
@@ -98,7 +107,7 @@ class OutputDirectory:
         """Take the lock (rank 0); a description of the holder when another run has it."""
         path = self.path / LOCK_NAME
         while True:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = open_nofollow(path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -130,10 +139,22 @@ class OutputDirectory:
         if not found:
             return
         prev = self.path / PREVIOUS
-        if prev.is_dir() and not prev.is_symlink():
-            shutil.rmtree(prev)
-        elif os.path.lexists(prev):
+        if prev.is_symlink():  # the link goes, never what it points to
             prev.unlink()
+        elif prev.is_dir():
+            foreign = sorted(set(os.listdir(prev)) - set(RUN_FILES))
+            if foreign:
+                raise Failure(
+                    f"{str(prev)!r} holds files this code did not write ({', '.join(foreign[:3])}"
+                    f"{', ...' if len(foreign) > 3 else ''}): not deleted; move or rename it, "
+                    "or give another output directory"
+                )
+            shutil.rmtree(prev)  # never follows a link inside (the links themselves go)
+        elif os.path.lexists(prev):
+            raise Failure(
+                f"{str(prev)!r} is a file this code did not write: not deleted; move or rename "
+                "it, or give another output directory"
+            )
         prev.mkdir()
         for n in found:
             os.replace(self.path / n, prev / n)

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..constitutive import LOCAL, SCALAR
 from .gather import interface_of
+from .links import refuse_links, write_text_nofollow
 
 __all__ = ["InterfacePointsXDMF", "PointCloudError"]
 
@@ -104,6 +105,7 @@ class InterfacePointsXDMF:
             raise PointCloudError("interface point output on several ranks needs h5py with MPI")
         error = None
         try:
+            refuse_links(self.path, self.h5path)  # .links
             kw = {"driver": "mpio", "comm": comm} if comm.size > 1 else {}
             self._f = h5py.File(self.h5path, "w", **kw)
         except Exception as e:
@@ -265,7 +267,9 @@ class InterfacePointsXDMF:
             lines.append("</Grid>")
         lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
         tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.write_text("\n".join(lines))
+        if tmp.is_symlink():  # our temporary name: a planted link is removed, not followed
+            tmp.unlink()
+        write_text_nofollow(tmp, "\n".join(lines))
         os.replace(tmp, self.path)
 
     def close(self) -> None:

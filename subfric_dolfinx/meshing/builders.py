@@ -20,6 +20,7 @@ import numpy as np
 
 from ._features import add_region_groups, check_grading, check_regions, graded_mesh
 from ._gmsh import gmsh_module, group_elements, group_nodes, interface_sides
+from ._size import check_mesh_size, estimate_cells
 from .crack import duplicate_interface_nodes
 from .groups import (
     BODIES,
@@ -100,6 +101,14 @@ def _positive(**values: float) -> None:
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
 
 
+def _check_size(
+    boxes: Sequence, h: float, cell_type: str, grading: tuple | None, n_interface, mesh_size
+) -> None:
+    """Refuse a mesh too large for the machine, before gmsh allocates it (:mod:`._size`)."""
+    option = ("mesh_size", mesh_size) if mesh_size is not None else ("n_interface", n_interface)
+    check_mesh_size(estimate_cells(boxes, h, cell_type, grading), *option)
+
+
 def _interface_size(width: float, n_interface: int | None, mesh_size: float | None) -> float:
     if mesh_size is not None:
         _positive(mesh_size=mesh_size)
@@ -174,10 +183,16 @@ def build_block_on_base(
         )
     h = _interface_size(block_width, n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
+    master_box = ((0.0, 0.0), (base_width, base_height))
+    slave_box = ((block_x, base_height), (block_x + block_width, base_height + block_height))
+    grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
+    if grading is not None and refine_center is None:  # the interface's centre
+        grading = (far_size, growth, (block_x + 0.5 * block_width, base_height), refine_radius)
+    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=2,
-        master_box=((0.0, 0.0), (base_width, base_height)),
-        slave_box=((block_x, base_height), (block_x + block_width, base_height + block_height)),
+        master_box=master_box,
+        slave_box=slave_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,
@@ -248,10 +263,17 @@ def build_pad_on_plate(
             )
     h = _interface_size(pad[0], n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
+    master_box = ((0.0, 0.0, 0.0), plate)
+    slave_box = ((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2]))
+    grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
+    if grading is not None and refine_center is None:  # the interface's centre
+        centre = (ox + 0.5 * pad[0], oy + 0.5 * pad[1], plate[2])
+        grading = (far_size, growth, centre, refine_radius)
+    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=3,
-        master_box=((0.0, 0.0, 0.0), plate),
-        slave_box=((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2])),
+        master_box=master_box,
+        slave_box=slave_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,

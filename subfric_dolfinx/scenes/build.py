@@ -17,6 +17,7 @@ from ..fem import (
     Spring,
     Traction,
 )
+from ..fem.probes import require_near
 from .interface_spec import gap_function, parse_regions
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
@@ -89,18 +90,22 @@ def _supports(scene: FEScene, domain: meshing.InterfaceMesh) -> tuple[list, list
     """The scene's springs and point forces (collective).
 
     The scene's points named by Dirichlet conditions become node groups of ``domain`` (the vertex
-    nearest to each, in its body).
+    nearest to each, in its body); such a point, like a point force's, must lie within a cell's
+    size of its body (:class:`~subfric_dolfinx.fem.InterfaceError` naming it otherwise).
     """
     for name in dict.fromkeys(d.group for d in scene.dirichlet):
         pt = scene.points.get(name)
         if pt is None or name in domain.tags or name in domain.node_groups:
             continue
+        require_near(domain, pt.x, pt.body, f"scene.points.{name} (held by scene.dirichlet)")
         cells = None if pt.body is None else domain.body_cells(pt.body)
         x, _ = meshing.nearest_vertex(domain.mesh, pt.x, cells)
         domain.add_node_group(name, x[None, : domain.gdim], pt.body)
     springs = [Spring(s.group, s.stiffness, s.u0, s.amplitude) for s in scene.springs]
     forces = [
-        PointForce(scene.points[f.point].x, f.value, f.amplitude, scene.points[f.point].body)
+        PointForce(
+            scene.points[f.point].x, f.value, f.amplitude, scene.points[f.point].body, f.point
+        )
         for f in scene.point_forces
     ]
     return springs, forces

@@ -25,6 +25,8 @@ import numpy as np
 
 from ..fem.probes import InterfacePointProbe, PointEvaluator
 from ..fem.stress import STRESS_COMPONENTS, StressField
+from ..io.collective import collective
+from ..io.links import refuse_links
 from .parse_features import frame_axes
 from .schema import FEScene, SceneError
 
@@ -156,6 +158,12 @@ class DerivedOutputs:
     # -- fields ----------------------------------------------------------------------------------
     def _open(self, directory: Path) -> None:
         comm = self.problem.comm
+        names = ["stress.bp"] if self.fmt == "vtx" else ["stress.xdmf", "stress.h5"]
+        paths = [directory, *(directory / n for n in names)]
+        collective(  # before anything is written (.io.links)
+            comm, lambda: refuse_links(*paths), f"writing the stress in {str(directory)!r}",
+            path=directory,
+        )  # fmt: skip
         if comm.rank == 0:
             directory.mkdir(parents=True, exist_ok=True)
         comm.Barrier()

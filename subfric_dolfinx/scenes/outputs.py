@@ -158,13 +158,13 @@ class SceneOutputs:
             )
             self.files.append(str(self.checkpoint_path))
 
-    def on_step(self, rec: Any, stopping: bool = False) -> None:
+    def on_step(self, rec: Any, stopping: bool | str = False) -> None:
         """Record a converged step (collective).
 
         Args:
             rec: The :class:`~subfric_dolfinx.fem.StepRecord`.
-            stopping: A stop was requested: write a checkpoint and raise
-                :class:`~.signals.SceneInterrupted`.
+            stopping: A stop was requested (true, or the signal's name): write a checkpoint and
+                raise :class:`~.signals.SceneInterrupted`.
         """
         self.history.write(rec)
         self.iterations.append(rec.iterations)
@@ -196,7 +196,8 @@ class SceneOutputs:
             self.write_checkpoint()
         if stopping:
             raise SceneInterrupted(
-                f"interrupted by a signal after step {rec.step} at t = {rec.t:.6g}; "
+                f"interrupted by {stopping if isinstance(stopping, str) else 'a signal'} after "
+                f"step {rec.step} at t = {rec.t:.6g}; "
                 f"checkpoint written to {self.checkpoint_path}",
                 rec.t,
                 str(self.checkpoint_path),

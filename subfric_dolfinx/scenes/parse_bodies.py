@@ -146,11 +146,17 @@ def check_topology(scene: FEScene) -> None:
 
 
 def _check_materials(scene: FEScene, known: set[str]) -> None:
+    from ..fem import Material  # here: parsing a scene loads no DOLFINx at import
+
     for name, mat in scene.materials.items():
         if set(mat) != {"E", "nu"}:
             raise SceneError(
                 f"scene.materials.{name}: keys must be 'E' and 'nu', got {sorted(mat)}"
             )
+        try:  # the values too, before the mesh is built
+            Material(mat["E"], mat["nu"])
+        except (TypeError, ValueError) as e:
+            raise SceneError(f"scene.materials.{name}: {e}") from None
     if is_classic(scene):
         for body in ("master", "slave"):
             if body not in scene.materials:

@@ -108,6 +108,8 @@ def check_features(scene: FEScene, program: LoadingProgram, variables: tuple[str
         _channels(f"{path}.amplitude", pf.amplitude, gdim, program)
     for i, ld in enumerate(scene.loads):
         if ld.type == "traction":
+            if gdim:
+                _vector(f"scene.loads[{i}].value", ld.value, gdim, "traction components")
             _channels(f"scene.loads[{i}].amplitude", ld.amplitude, gdim, program)
         elif isinstance(ld.amplitude, list):
             raise SceneError(

@@ -218,6 +218,7 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     parse_initial_gap(scene.initial_gap)
     parse_regions(scene.regions)
     program = build_program(prog)
+    _check_steps(scene.solver, program)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
     variables = tuple(dict.fromkeys(v.name for law in laws for v in law.variables))
     check_features(scene, program, variables)
@@ -310,6 +311,8 @@ def _check_solver(sv: SolverSpec) -> None:
         raise SceneError(f"{path}.hold_dt: must be > 0, got {sv.hold_dt!r}")
     if sv.max_cuts < 0:
         raise SceneError(f"{path}.max_cuts: must be >= 0, got {sv.max_cuts!r}")
+    if sv.max_steps < 1:
+        raise SceneError(f"{path}.max_steps: must be >= 1, got {sv.max_steps!r}")
     _choice(f"{path}.linear", sv.linear, LINEAR_STRATEGIES)
     for key, value in sv.options.items():
         where = f"{path}.options.{key}"
@@ -328,6 +331,27 @@ def _check_solver(sv: SolverSpec) -> None:
                 f"{where}: a PETSc option value is a string, number, true/false or null, got "
                 f"{type(value).__name__} {_short(value)}"
             )
+
+
+def _check_steps(sv: SolverSpec, program: Any) -> None:
+    """Refuse a program that needs more than ``max_steps`` steps even at the largest step."""
+    dt_max = sv.dt_max if sv.dt_max is not None else sv.dt
+    need = 0.0
+    t = program.t_start
+    while t < program.t_end:
+        b = program.next_breakpoint(t)
+        size = sv.hold_dt if sv.hold_dt is not None and program.is_hold(t) else dt_max
+        need += max(1.0, math.ceil((b - t) / size - 1e-9))
+        if b <= t:  # pragma: no cover - a program's times increase
+            break
+        t = b
+    if need > sv.max_steps:
+        raise SceneError(
+            f"scene.solver: the program (t = {program.t_start:g} to {program.t_end:g} s) needs "
+            f"at least {need:.3g} steps at dt_max = {dt_max:g} s"
+            + (f" (hold_dt = {sv.hold_dt:g} s in holds)" if sv.hold_dt is not None else "")
+            + f", more than max_steps = {sv.max_steps:g}: raise dt/dt_max, or max_steps"
+        )
 
 
 def _check_outputs(out: OutputSpec, t0: float, t1: float) -> None:

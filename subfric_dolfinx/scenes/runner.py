@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from ..driver import run_case
+from ..driver.cli import write_atomically
 from .parser import parse_scene
 from .result import SceneResult
 from .schema import FEScene, PointScene, SceneError
@@ -84,6 +85,7 @@ def _run_pointwise(scene: PointScene, outdir: str | Path | None) -> SceneResult:
     if scene.save:
         out = Path(outdir) / f"{scene.name}.json"
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps({k: v.to_dict() for k, v in res.cases.items()}, indent=1))
+        text = json.dumps({k: v.to_dict() for k, v in res.cases.items()}, indent=1)
+        write_atomically(out, text)  # a new file renamed over: never through a link
         res.files.append(str(out))
     return res

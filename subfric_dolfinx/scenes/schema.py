@@ -169,6 +169,10 @@ class SolverSpec:
         options: PETSc options under the prefix, for this scene's solver only.
         linear: Linear strategy, ``"reuse"``, ``"lu"`` or ``"gamg"``
             (:mod:`subfric_dolfinx.fem.linear`).
+        max_steps: Most load steps of the run (default
+            :data:`~subfric_dolfinx.fem.stepping.MAX_STEPS`, 1e6): a program that needs more
+            even at ``dt_max`` (and ``hold_dt`` in holds) is refused before anything is built;
+            a run that reaches it (cuts) stops with a ``StepFailure``, its checkpoint written.
     """
 
     dt: float
@@ -179,6 +183,7 @@ class SolverSpec:
     hold_dt: float | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     linear: str = "reuse"
+    max_steps: int = 1_000_000
 
 
 @dataclasses.dataclass(frozen=True)

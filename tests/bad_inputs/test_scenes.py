@@ -134,6 +134,32 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         (lambda s: s["solver"].update(dt_max=0.01), r"scene.solver.dt_max: must be >= dt"),
         (lambda s: s["solver"].update(max_cuts=-1), r"scene.solver.max_cuts: must be >= 0"),
         (lambda s: s["solver"].update(hold_dt=0.0), r"scene.solver.hold_dt: must be > 0"),
+        # issue 23, item 7: before the mesh is built, each naming its key path
+        (
+            lambda s: s.update(initial_gap={"expression": "1" + "0" * 400 + " * x"}),
+            r"scene.initial_gap.expression: the number 1000.* is not finite \(or beyond a float",
+        ),
+        (
+            lambda s: s.update(initial_gap={"expression": "p * x", "parameters": {"p": 10**400}}),
+            r"scene.initial_gap.expression: parameter 'p' must be a finite number",
+        ),
+        (
+            lambda s: s.update(initial_gap={"circle": {"R": 10**400, "center": [1, 0.5]}}),
+            r"scene.initial_gap.circle.R: must be a positive finite number",
+        ),
+        (lambda s: s.update(initial_gap=10**400), r"scene.initial_gap: expected a finite number"),
+        (
+            lambda s: s["loads"].append({"type": "traction", "group": "top", "value": [1, 2, 3]}),
+            r"scene.loads\[1\].value: expected a list of 2 traction components",
+        ),
+        (
+            lambda s: s["materials"]["slave"].update(E=-1.0),
+            r"scene.materials.slave: Young's modulus E = -1.0 must be finite and > 0",
+        ),
+        (
+            lambda s: s["materials"]["master"].update(nu=0.6),
+            r"scene.materials.master: Poisson's ratio nu = 0.6 must be in \[0, 0.5\)",
+        ),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
@@ -160,6 +186,29 @@ def test_a_pointwise_scene_name_is_a_plain_file_name(tmp_path, name):
     with raised_on_every_rank(SceneError, "scene.name: must be a plain file name"):
         run_scene(scene, outdir=tmp_path / "out")
     assert not (tmp_path / "out").exists() and not (tmp_path / "escaped.json").exists()
+
+
+def test_a_petsc_option_petsc_refuses_is_named():
+    """Issue 23, item 7: ``"snes_rtol": "abc"`` ended in "error code 63" without the key. Now
+    the scene's key path and the value are named, on every rank (a type name PETSc does not
+    know too); through the library, a SolverOptionError naming the prefixed option."""
+    from subfric_dolfinx.fem import FrictionSolver, SolverOptionError
+    from tests.helpers import block_problem
+
+    for key, value, code in (("snes_rtol", "abc", 63), ("ksp_type", "nosuchksp", 86)):
+        s = small_scene()
+        s["solver"]["prefix"] = prefix("badopt")
+        s["solver"]["options"] = {"snes_max_it": 20, key: value}
+        with raised_on_every_rank(
+            SceneError, f"scene.solver.options.{key}: PETSc refuses the option",
+            f"{key} = {value!r}", f"error code {code}",
+        ):  # fmt: skip
+            run_scene(s)
+    prob = block_problem(MPI.COMM_WORLD)
+    with raised_on_every_rank(SolverOptionError, "the option badsolver_snes_max_it = 'many'"):
+        FrictionSolver(prob, "badsolver_", {"snes_max_it": "many"})
+    with FrictionSolver(prob, "badsolver_") as solver:  # the prefix was released
+        assert solver.alive
 
 
 def test_a_load_or_spring_on_a_cell_group_says_so():

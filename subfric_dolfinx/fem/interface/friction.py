@@ -236,9 +236,14 @@ class FrictionInterface:
             self.force = self.b_ext.array_r[: self.n_owned].copy()
         return self.force
 
-    def element_matrices(self) -> np.ndarray:
-        """The element tangents of the last iterate, (nf, n, n), node-blocked, primary first."""
-        return self.elements.element_matrices(self.elements.last.tangent)
+    def element_matrices(self, separated_stiffness: float = 0.0) -> np.ndarray:
+        """The element tangents of the last iterate, (nf, n, n), node-blocked, primary first.
+
+        ``separated_stiffness``: points without stiffness get this fraction of the law's contact
+        stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        """
+        tangent = stiffen_separated(self.elements.last.tangent, self.law, separated_stiffness)
+        return self.elements.element_matrices(tangent)
 
     # -- into the user's vector and matrix -------------------------------------------------------
     def assemble_residual(
@@ -297,17 +302,21 @@ class FrictionInterface:
         x: PETSc.Vec | None = None,
         *,
         bcs: Sequence[Any] | None = None,
+        separated_stiffness: float = 0.0,
     ) -> None:
         """Add the consistent tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
         ``A`` must hold the interface couplings (:func:`create_matrix`). With ``bcs`` the rows and
         columns of constrained dofs are left out (their diagonal is the bulk assembly's).
+        ``separated_stiffness``: in this Jacobian only, points without stiffness (separated beyond
+        the contact band, failed) get this fraction of the law's contact stiffness
+        (:func:`stiffen_separated`); 0: the exact tangent.
         """
         from ..timing import TIMER_INTERFACE
 
         self._ensure(x)
         with self._time(TIMER_INTERFACE):
-            Ke = self.element_matrices()
+            Ke = self.element_matrices(separated_stiffness)
             if bcs:
                 mask = self._constrained(bcs)
                 Ke[mask[:, :, None] | mask[:, None, :]] = 0.0
@@ -390,3 +399,33 @@ def layout_of(
         [(el.index_map, el.elements.nodes) for el in interfaces],
     )
     return ExtendedLayout(V, imap, nodes)
+
+
+def stiffen_separated(tangent: np.ndarray, law: FrictionLaw, fraction: float) -> np.ndarray:
+    """The tangent with ``fraction`` of the contact stiffness at points that have none.
+
+    A point separated beyond the contact band (or failed) has a zero tangent: where every point
+    of a body's interface is so, and no support holds the body in some direction, the Jacobian
+    is singular (a block pulled sideways without load may tip about its one touching point, then
+    a pressure finds it floating: a failed linear solve). A Newton step on a Jacobian where such
+    points keep ``fraction * diag(alpha_t, ..., alpha_n)`` exists, and leaves the undetermined
+    motions alone where nothing pushes them; the residual, hence the converged solution, is
+    unchanged. Used by :class:`~.stepping.LoadStepper` in the retry of a failed step
+    (:data:`~.stepping.RETRY_SEPARATED_STIFFNESS`).
+
+    Args:
+        tangent: Consistent tangents (N, m, m).
+        law: The law (its ``alpha_t``, ``alpha_n``; the largest over regions).
+        fraction: Fraction of the contact stiffness; 0 returns ``tangent`` itself.
+    """
+    if not fraction or tangent.shape[0] == 0:
+        return tangent
+    free = ~tangent.reshape(tangent.shape[0], -1).any(axis=1)
+    if not free.any():
+        return tangent
+    m = tangent.shape[-1]
+    diag = np.full(m, float(law.alpha_t))
+    diag[-1] = float(law.alpha_n)
+    out = tangent.copy()
+    out[free] = fraction * np.diag(diag)
+    return out
