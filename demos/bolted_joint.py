@@ -24,7 +24,7 @@ the model is set by ``--n`` (elements across the plate width). Run as
 
 # %% [markdown]
 r"""
-# A bolted lap joint under cyclic shear: the friction hysteresis of a clamped interface
+## A bolted lap joint under cyclic shear: the friction hysteresis of a clamped interface
 
 Two steel plates overlap over a square and are clamped by one bolt through a hole at the
 centre of the overlap. The bolt is not meshed: its head and nut press on the annuli they cover

@@ -25,7 +25,7 @@ its smooth elastic-plastic transition and its saturation change the partial-slip
 
 # %% [markdown]
 r"""
-# Cattaneo–Mindlin: partial slip under a tangential force
+## Cattaneo–Mindlin: partial slip under a tangential force
 
 Press the cylinder of `hertz.py` on the flat with $P$, then push it sideways with $Q < \mu P$.
 With Coulomb friction the contact does not slide as a whole: a central **stick zone**

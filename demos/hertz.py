@@ -24,7 +24,7 @@ Hertz's solution for the measured load.
 
 # %% [markdown]
 r"""
-# Hertz: a cylinder pressed on a flat, against the closed form
+## Hertz: a cylinder pressed on a flat, against the closed form
 
 A long cylinder of radius $R$ pressed on a flat by a force $P$ per unit length touches it over
 a strip of half-width $a$ under the elliptical pressure

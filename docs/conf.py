@@ -2,14 +2,21 @@
 
 Pages: the index, the README (rewritten for its links: ``readme.md``), ``model.md``, the demos
 rendered from their jupytext sources (copied here from ``demos/`` at every build, not executed:
-see ``index.md``) and one API page per public module (generated here at every build:
-``automodule`` with its members). The generated folders (``demos/``, ``api/``) and ``readme.md``
-are rebuilt from the sources each time and not kept in git.
+see ``index.md``), each with the figures and numbers of its last full run (``figures/<demo>/``
+and ``demo_results.json``, made by ``docs/demo_results.py``), and one API page per public module
+(generated here at every build: ``automodule`` with its members). The generated folders
+(``demos/``, ``api/``, ``_mathjax/``) and ``readme.md`` are rebuilt from the sources each time and
+not kept in git.
+
+Offline: equations are rendered by the MathJax of Debian's ``libjs-mathjax`` (the part it needs
+is copied into the site: no CDN), and intersphinx reads only inventories installed on this
+machine (:data:`INVENTORIES`: PETSc's in both stacks), never the network.
 """
 
 from __future__ import annotations
 
 import importlib
+import json
 import pkgutil
 import re
 import shutil
@@ -27,11 +34,13 @@ copyright = "2026, the subfric-dolfinx developers"
 extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
+    "sphinx.ext.intersphinx",
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
 ]
-exclude_patterns = ["_build", "conf.py", "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
+exclude_patterns = ["_build", "_mathjax", "conf.py", "demo_results.py", "readme_numbers.py",
+                    "figures", "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
 
 # -- MyST and MyST-NB: Markdown pages, demos as notebooks from their jupytext (percent) source
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
@@ -40,10 +49,12 @@ nb_custom_formats = {".py": ["jupytext.reads", {"fmt": "py:percent"}]}
 nb_execution_mode = "off"  # the demos run in the test suite (tests/test_demos_run.py), not here
 source_suffix = {".md": "myst-nb", ".py": "myst-nb"}
 
-# -- autodoc with Google-style docstrings
+# -- autodoc with Google-style docstrings: each parameter once (its text from the docstring's
+# Args, its type in the signature; a class's signature on the class, no separate __init__)
 autodoc_default_options = {"members": True, "show-inheritance": True, "member-order": "bysource"}
-autodoc_typehints = "description"
-autodoc_class_signature = "separated"
+autodoc_typehints = "signature"
+autodoc_typehints_format = "short"
+autodoc_class_signature = "mixed"
 napoleon_google_docstring = True
 napoleon_numpy_docstring = False
 napoleon_use_rtype = False
@@ -52,8 +63,51 @@ suppress_warnings = ["myst.header"]  # the README starts at level 2 below its ti
 
 html_theme = "sphinx_book_theme"
 html_title = "subfric-dolfinx"
-html_static_path: list[str] = []
+html_static_path: list[str] = ["_mathjax"]
 html_theme_options = {"show_toc_level": 2, "navigation_with_keys": False}
+
+# -- MathJax from Debian's libjs-mathjax (2.7), copied into the site: equations render offline
+MATHJAX_SOURCE = Path("/usr/share/javascript/mathjax")
+MATHJAX_PARTS = [  # what the TeX-AMS_CHTML configuration loads (TeX in, CommonHTML out)
+    "MathJax.js",
+    "config/TeX-AMS_CHTML.js",
+    "config/local",
+    "jax/input/TeX",
+    "jax/output/CommonHTML",
+    "jax/element",
+    "extensions",
+    "fonts/HTML-CSS/TeX/woff",
+    "fonts/HTML-CSS/TeX/otf",
+    "localization/en",
+]
+mathjax_path = "mathjax/MathJax.js?config=TeX-AMS_CHTML"
+# MathJax 2 skips what lies inside class tex2jax_ignore (the page body, set by MyST-NB) unless the
+# element's class matches processClass: Sphinx's math elements have class "math"
+mathjax2_config = {
+    "tex2jax": {"processClass": "tex2jax_process|mathjax_process|math|output_area",
+                "ignoreClass": "tex2jax_ignore|mathjax_ignore"},
+}  # fmt: skip
+
+# -- intersphinx: only inventories installed here (the build never reads the network); links
+# point to the projects' sites
+INVENTORIES = {
+    "petsc4py": ("https://petsc.org/release/petsc4py/",
+                 ["/usr/share/doc/python-petsc4py-doc/html/objects.inv"]),
+    "mpi4py": ("https://mpi4py.readthedocs.io/en/stable/",
+               ["/usr/share/doc/python-mpi4py-doc/html/objects.inv"]),
+    "python": ("https://docs.python.org/3/", ["/usr/share/doc/python3/html/objects.inv",
+                                              f"/usr/share/doc/python3.{sys.version_info[1]}"
+                                              "/html/objects.inv"]),
+    "numpy": ("https://numpy.org/doc/stable/", ["/usr/share/doc/python-numpy-doc/html/objects.inv",
+                                                "/usr/share/doc/python-numpy/html/objects.inv"]),
+}  # fmt: skip
+intersphinx_mapping = {
+    name: (url, path)
+    for name, (url, paths) in INVENTORIES.items()
+    for path in paths[:1] + [q for q in paths[1:] if not Path(paths[0]).exists()]
+    if Path(path).exists()
+}
+intersphinx_timeout = 1
 
 DEMOS = ROOT / "demos"
 PACKAGE = "subfric_dolfinx"
@@ -87,8 +141,63 @@ def write_api_pages() -> list[str]:
     return names
 
 
+def copy_mathjax() -> None:
+    """The part of Debian's MathJax the site needs, into ``_mathjax/mathjax`` (its static files).
+
+    Raises:
+        RuntimeError: libjs-mathjax is not installed (debian-packages.txt lists it).
+    """
+    if not (MATHJAX_SOURCE / "MathJax.js").is_file():
+        raise RuntimeError(
+            f"MathJax is not installed at {MATHJAX_SOURCE} (Debian package libjs-mathjax, in "
+            "debian-packages.txt): the site renders its equations with a local copy"
+        )
+    out = HERE / "_mathjax" / "mathjax"
+    shutil.rmtree(out.parent, ignore_errors=True)
+    for part in MATHJAX_PARTS:
+        src = MATHJAX_SOURCE / part
+        if src.is_dir():
+            shutil.copytree(src, out / part)
+        elif src.exists():
+            (out / part).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, out / part)
+
+
+RESULTS = HERE / "demo_results.json"
+FIGURES = HERE / "figures"
+
+
+def results_cell(name: str) -> str:
+    """A Markdown cell (percent format) with a demo's figures and numbers from its last run."""
+    data = json.loads(RESULTS.read_text()) if RESULTS.exists() else {"demos": {}}
+    run = data["demos"].get(name)
+    figures = sorted((FIGURES / name).glob("*.png"))
+    if run is None and not figures:
+        return ""
+    lines = ["## Results of the last full run", ""]
+    if run is not None:
+        stamp = data.get("stamp", {})
+        lines += [
+            f"`{' '.join(run['command'])}`: {run['wall_s']:.0f} s on {run['ranks']} rank(s) of "
+            f"the documentation's machine, at commit `{stamp.get('commit', '?')[:10]}` "
+            "(`docs/demo_results.py` runs every demo and writes these figures and "
+            "`docs/demo_results.json`).",
+            "",
+        ]
+        if run["warnings"]:  # what a user running it sees first (their first sentences)
+            lines += ["The default run warns:", ""]
+            lines += [f"- `{w.split('. ')[0].split(' (at ')[0]}`" for w in run["warnings"]]
+            lines += [""]
+    for f in figures:
+        lines += [f"![{name}: {f.stem.replace('_', ' ')}](../figures/{name}/{f.name})", ""]
+    return "\n# %% [markdown]\n" + "".join(f"# {ln}\n".replace("# \n", "#\n") for ln in lines)
+
+
 def copy_demos() -> list[str]:
-    """``demos/<name>.py`` copied from the repository's ``demos/`` (the jupytext sources)."""
+    """``demos/<name>.py`` copied from the repository's ``demos/`` (the jupytext sources).
+
+    Each gets a last cell with the figures and numbers of its last full run.
+    """
     out = HERE / "demos"
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir()
@@ -96,7 +205,7 @@ def copy_demos() -> list[str]:
     for src in sorted(DEMOS.glob("*.py")):
         if src.name == "__init__.py":
             continue
-        shutil.copy2(src, out / src.name)
+        (out / src.name).write_text(src.read_text() + results_cell(src.stem))
         names.append(src.stem)
     return names
 
@@ -130,3 +239,4 @@ def write_readme() -> None:
 API_MODULES = write_api_pages()
 DEMO_NAMES = copy_demos()
 write_readme()
+copy_mathjax()

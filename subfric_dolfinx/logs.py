@@ -10,9 +10,17 @@ calls :func:`configure` once to see the log::
     from subfric_dolfinx import logs
     logs.configure(verbosity=0, comm=MPI.COMM_WORLD)   # -1 warnings, 0 info, 1 debug
 
-Levels: WARNING for things a user must see (e.g. a large penetration), INFO for one line per
-segment of the loading program and the run's summary, DEBUG for one line per load step and per
-failed attempt.
+Levels: INFO for the run's size and summary, a line per long segment of the loading program and a
+progress line every :data:`PROGRESS_SECONDS`, DEBUG for one line per load step and per failed
+attempt.
+
+**Warnings about the model's validity** (a penetration or a slide the small-sliding interface no
+longer describes) are not log records: they go through :func:`warn`, i.e. :func:`warnings.warn`
+with a :class:`SubfricWarning` category, so that every user sees them in a plain script without
+configuring anything, and the standard filters apply (``warnings.simplefilter("error",
+SubfricWarning)`` makes them errors, ``"ignore"`` silences them). Under MPI every rank evaluates
+the filters alike (an ``"error"`` filter raises on every rank, never on one alone) and rank 0
+shows the warning: one line per job, not one per rank.
 """
 
 from __future__ import annotations
@@ -20,9 +28,24 @@ from __future__ import annotations
 import logging
 import os
 import sys
+import time
+import warnings
+from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ["LOGGER_NAME", "configure", "launcher_rank", "level_for", "singleton_environment"]
+__all__ = [
+    "LOGGER_NAME",
+    "PROGRESS_SECONDS",
+    "PenetrationWarning",
+    "Progress",
+    "SlideWarning",
+    "SubfricWarning",
+    "configure",
+    "launcher_rank",
+    "level_for",
+    "singleton_environment",
+    "warn",
+]
 
 LOGGER_NAME = "subfric_dolfinx"
 logging.getLogger(LOGGER_NAME).addHandler(logging.NullHandler())
@@ -72,6 +95,103 @@ def configure(
     logger.setLevel(level_for(verbosity))
     logger.propagate = False
     return handler
+
+
+PROGRESS_SECONDS = 10.0
+"""A long run prints a progress line at most this often (wall seconds): the FE load stepping
+(INFO, when no other line came in between) and the material-point driver's command line."""
+
+
+class Progress:
+    """A clock that says when the next progress line is due (at most every ``interval`` s).
+
+    Args:
+        interval: Seconds between two lines (default :data:`PROGRESS_SECONDS`).
+    """
+
+    def __init__(self, interval: float | None = None) -> None:
+        self.interval = float(PROGRESS_SECONDS if interval is None else interval)
+        self.start = self.last = time.monotonic()
+
+    def due(self) -> bool:
+        """True (and the clock restarts) when ``interval`` has passed since the last line."""
+        now = time.monotonic()
+        if now - self.last < self.interval:
+            return False
+        self.last = now
+        return True
+
+    def reset(self) -> None:
+        """Another line was just printed: the next progress line is due ``interval`` from now."""
+        self.last = time.monotonic()
+
+    @property
+    def elapsed(self) -> float:
+        """Seconds since the clock was made."""
+        return time.monotonic() - self.start
+
+
+class SubfricWarning(UserWarning):
+    """A result the model may not describe: it is used outside what it was made for."""
+
+
+class PenetrationWarning(SubfricWarning):
+    """The normal penalty lets the bodies interpenetrate more than the contact can tolerate."""
+
+
+class SlideWarning(SubfricWarning):
+    """A slide longer than the small-sliding interface (pairs fixed at the reference) describes."""
+
+
+_PACKAGE_DIR = str(Path(__file__).resolve().parent)
+
+
+def warn(message: str, category: type[Warning] = SubfricWarning, comm: Any = None) -> None:
+    """Issue a warning once per MPI job: the filters act on every rank, rank 0 shows it.
+
+    The warning is attributed to the first frame outside this package (the user's call, e.g.
+    ``run_scene(...)`` or ``stepper.run()``). Every rank of ``comm`` must call it with the same
+    message (it is not collective: nothing is communicated), so that a filter that turns it into
+    an error raises on every rank.
+
+    Args:
+        message: The text.
+        category: A :class:`SubfricWarning` subclass.
+        comm: MPI communicator (``None``: this process alone shows it).
+    """
+    where: dict[str, Any] = (
+        {"skip_file_prefixes": (_PACKAGE_DIR,)} if sys.version_info >= (3, 12) else {}
+    )
+    with warnings.catch_warnings(record=True) as caught:  # the user's filters still apply
+        warnings.warn(message, category, stacklevel=2, **where)
+    if comm is not None and comm.rank != 0:
+        return
+    for w in caught:
+        show = warnings.showwarning
+        if _swallowed():  # what showwarning was before logging took it over
+            show = getattr(logging, "_warnings_showwarning", None) or _to_stderr
+        show(w.message, w.category, w.filename, w.lineno, w.file, w.line)
+
+
+def _to_stderr(message: Any, category: Any, filename: str, lineno: int, *_: Any) -> None:
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno))
+
+
+def _swallowed() -> bool:
+    """Would :func:`warnings.showwarning` drop a warning?
+
+    True when it is logging's (after ``logging.captureWarnings(True)``, which FFCx 0.9 calls when
+    it is imported) and no handler but a ``NullHandler`` would receive the ``py.warnings`` record
+    (logging adds one to that logger): every warning of a DOLFINx 0.9 program vanishes then.
+    """
+    if getattr(warnings.showwarning, "__module__", None) != "logging":
+        return False
+    logger: logging.Logger | None = logging.getLogger("py.warnings")
+    while logger is not None:
+        if any(not isinstance(h, logging.NullHandler) for h in logger.handlers):
+            return False
+        logger = logger.parent if logger.propagate else None
+    return True
 
 
 _LAUNCHED = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK")

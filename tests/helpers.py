@@ -274,9 +274,12 @@ def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program
 
 
 def small_scene() -> dict:
-    """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs."""
+    """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs, on
+    the builder's 1 mm block (the geometry the tests' points, probes and groups are placed in;
+    the demo's own block is 10 mm long). Its normal stiffness is the demo's."""
     from demos import block_on_base
 
     s = block_on_base.scene(n=8, hold=5.0, dt=0.05)
+    s["mesh"]["options"] = {"n_interface": 8, "cell_type": "triangle"}
     s["outputs"] = {}
     return s

@@ -6,17 +6,50 @@ demo claims (and that could fail), not just that it runs.
   saturates (below g(f_n) mu_s, clearly below Coulomb's mu_c f_n), while Coulomb's f_t/f_n is
   mu_c at every sliding point.
 * lap_joint (2-D): slip ratchets cycle by cycle with this law and not with Coulomb.
+* block_on_base (2-D, the main demo) at its default size: no warning; the paper's soft normal
+  penalty (500 MPa/mm) is warned about and moves the peaks as the demo says.
 """
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from demos import lap_joint, pad_on_plate, punch
+from demos import block_on_base, lap_joint, pad_on_plate, punch
+from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS, Status
 from subfric_dolfinx.driver import run_case
+
+
+def test_the_main_demo_trusts_itself():
+    """The default run (16 elements, alpha_n = 1e6 MPa/mm): no warning at all. With the paper's
+    500 MPa/mm: a PenetrationWarning; its forward and reload peaks 0.3 and 0.5 % above, its
+    reverse peak 5 % (the demo's text: 0.3, 0.5 and 5 %)."""
+    from subfric_dolfinx.scenes import run_scene
+
+    comm = MPI.COMM_WORLD
+    peaks, seen = {}, {}
+    for alpha in (block_on_base.ALPHA_N, 500.0):
+        s = block_on_base.scene()
+        s["law"]["params"]["alpha_n"] = alpha
+        s["outputs"], s["solver"]["prefix"] = {}, None
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = run_scene(s, comm=comm)
+        seen[alpha] = comm.allreduce([w.category.__name__ for w in caught])
+        t = np.array([r["t"] for r in res.history])
+        ft = np.array([r["F_t1"] / r["area"] for r in res.history])
+        peaks[alpha] = np.array(
+            [ft[(t > 1) & (t <= 2)].max(), -ft[(t > 2) & (t <= 4)].min(), ft[t > 24].max()]
+        )
+    assert seen[block_on_base.ALPHA_N] == [], seen
+    assert seen[500.0] == [logs.PenetrationWarning.__name__], seen
+    change = 100 * (peaks[500.0] / peaks[block_on_base.ALPHA_N] - 1)
+    assert change[0] == pytest.approx(0.3, abs=0.05), change
+    assert change[2] == pytest.approx(0.5, abs=0.05), change
+    assert change[1] == pytest.approx(5.0, abs=0.5), change
 
 
 def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):

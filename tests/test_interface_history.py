@@ -11,11 +11,14 @@
   access is spied on; meaningful on 2 ranks).
 """
 
+import json
+
 import h5py
 import numpy as np
 import pytest
 from mpi4py import MPI
 
+from demos import block_on_base
 from subfric_dolfinx.constitutive import Status, preset
 from subfric_dolfinx.io import OutputError
 from subfric_dolfinx.io.slabs import slab
@@ -29,12 +32,19 @@ pytestmark = hang_fails()
 def test_the_gap_in_the_interface_history_is_the_gap_the_law_saw(shared_tmp):
     comm = MPI.COMM_WORLD
     res = run_scene(short_scene(interface_history=True), outdir=shared_tmp, comm=comm)
-    law = preset("sec7")  # the small scene's law
+    law = preset("sec7").replace(alpha_n=block_on_base.ALPHA_N)  # the small scene's law
 
     def check():
         with h5py.File(shared_tmp / "interface_history.h5") as f:
             gap, f_t, f_n, up = (f[k][()] for k in ("gap", "f_t", "f_n", "up"))
             status, t = f["status"][()], f["time"][()]
+            # the vocabulary of every output file: units, frame, status legend; no dataset
+            # repeats the traction (the law's end-of-step traction is f_t, f_n itself)
+            units = {k: f[k].attrs["unit"] for k in f}
+            assert units == {"x": "mm", "time": "s", "g0": "mm", "f_t": "MPa", "f_n": "MPa",
+                             "gap": "mm", "status": "1", "up": "mm", "mu": "MPa", "r": "1"}
+            assert json.loads(f.attrs["units"])["gap_n"] == "mm" and "f" not in f
+            assert json.loads(f.attrs["status_legend"])["2"].startswith("SEPARATED")
         n, p = f_n.shape
         assert n == len(res.history) and gap.shape == (n, p, 2) and up.shape == (n, p, 1)
         contact = status != Status.SEPARATED

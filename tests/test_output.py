@@ -11,6 +11,7 @@ import csv
 import errno
 import fcntl
 import gc
+import json
 import os
 import shutil
 import subprocess
@@ -119,13 +120,28 @@ def test_history_and_fields(shared_tmp, fmt):
         assert len(rows) == len(hist.rows) == 8
         assert [float(r["t"]) for r in rows] == pytest.approx(np.arange(1, 9) * 0.25)
         assert float(rows[-1]["up_norm"]) > 0.05 and float(rows[-1]["mu"]) < 500
+        # every column has its unit and meaning in the CSV-on-the-Web sidecar
+        meta = json.loads((shared_tmp / "history.csv-metadata.json").read_text())
+        cols = meta["tableSchema"]["columns"]
+        assert [c["name"] for c in cols] == list(rows[0])
+        units = {c["name"]: c["schema:unitText"] for c in cols}
+        assert "?" not in units.values(), units
+        assert units["t"] == "s" and units["F_t1"] == "N/mm" and units["f_n"] == "MPa"
+        assert units["area"] == "mm" and units["up_t1"] == "mm" and units["mu"] == "MPa"
+        assert units["R_top_x"] == "N/mm" and units["plastic"] == "1"
+        assert meta["url"] == "history.csv" and "PLASTIC" in meta["status_legend"]["1"]
+        assert not {"f", "f_t", "f_t1"} & set(units)  # no law variable repeats the traction
         if fmt == "vtx":
             check_vtx(shared_tmp / "fields", by_rank, prob.gdim)
         else:
             with h5py.File(shared_tmp / "fields" / "interface.h5") as f:
-                assert {"f_t", "f_n", "up", "mu", "r"} <= set(f["Function"])
+                want = {"f_t1", "f_n", "traction_global", "up_t1", "up_global", "mu", "r"}
+                assert want <= set(f["Function"]), set(f["Function"])
+                assert not {"f_t", "up", "f", "f_n_global"} & set(f["Function"])
                 assert len(f["Function/mu"]) == 8
             assert (shared_tmp / "fields" / "displacement.h5").exists()
+        side = json.loads((shared_tmp / "fields" / "units.json").read_text())
+        assert side["units"]["traction_global"] == "MPa" and side["units"]["displacement"] == "mm"
 
     on_root(comm, check_files)
     solver.destroy()
@@ -287,7 +303,7 @@ def test_a_stale_or_vanishing_lock_file_is_handled(shared_tmp, monkeypatch):
     s = short_scene(history=True)
     s["program"]["times"] = [0, 0.5, 1]
     run_scene(s, outdir=out, comm=comm)
-    assert on_root(comm, lambda: listing(out)) == ["history.csv"]
+    assert on_root(comm, lambda: listing(out)) == ["history.csv", "history.csv-metadata.json"]
     real = fcntl.flock
     removed = []
 
@@ -302,7 +318,7 @@ def test_a_stale_or_vanishing_lock_file_is_handled(shared_tmp, monkeypatch):
         held = not lock_is_free(out)  # the file at the name is locked
     monkeypatch.undo()
     assert on_root(comm, lambda: bool(removed)) and held
-    assert on_root(comm, lambda: listing(out)) == ["history.csv"]
+    assert on_root(comm, lambda: listing(out)) == ["history.csv", "history.csv-metadata.json"]
 
 
 @contextlib.contextmanager
@@ -335,7 +351,9 @@ def test_every_rank_returns_with_the_directory_in_its_final_state_under_load(sha
         for i in range(12):
             out = shared_tmp / f"run{i}"
             run_scene(s, outdir=out, comm=comm)
-            assert listing(out) == ["history.csv", "interface_history.h5"], (comm.rank, i)
+            assert listing(out) == [
+                "history.csv", "history.csv-metadata.json", "interface_history.h5"
+            ], (comm.rank, i)  # fmt: skip
 
 
 def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
@@ -354,9 +372,12 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
     second = run_scene(s, outdir=out, comm=comm)
 
     def check():
-        assert listing(out) == ["history.csv", "notes.txt", "previous_run"]  # no lock left
+        assert listing(out) == [  # no lock left
+            "history.csv", "history.csv-metadata.json", "notes.txt", "previous_run"
+        ]  # fmt: skip
         prev = out / "previous_run"
-        assert listing(prev) == ["checkpoint.h5", "fields", "history.csv", "interface_history.h5"]
+        assert listing(prev) == ["checkpoint.h5", "fields", "history.csv",
+                                 "history.csv-metadata.json", "interface_history.h5"]  # fmt: skip
         rows = list(csv.DictReader(open(out / "history.csv")))
         assert len(rows) == len(second.history) and float(rows[-1]["t"]) == 1.5
         old = list(csv.DictReader(open(prev / "history.csv")))
@@ -369,7 +390,7 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
     run_scene(short_scene(interface_history=True), outdir=out, comm=comm)
 
     def check_third():
-        assert listing(out / "previous_run") == ["history.csv"]
+        assert listing(out / "previous_run") == ["history.csv", "history.csv-metadata.json"]
         assert "history.csv" not in listing(out)
 
     on_root(comm, check_third)

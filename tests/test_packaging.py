@@ -80,7 +80,7 @@ def venv_python(tmp_path: Path, name: str) -> Path:
     venv = tmp_path / name
     subprocess.run(
         [sys.executable, "-m", "venv", "--system-site-packages", str(venv)],
-        check=True, capture_output=True, timeout=120,
+        check=True, capture_output=True, timeout=900,  # ensurepip: over 120 s on a loaded machine
     )  # fmt: skip
     return venv / "bin" / "python"
 
@@ -88,7 +88,7 @@ def venv_python(tmp_path: Path, name: str) -> Path:
 def run(py: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONSAFEPATH")}
     return subprocess.run(
-        [str(py), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300
+        [str(py), *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=900
     )
 
 
@@ -102,7 +102,7 @@ PROBE = (
 
 
 @pytest.mark.numpy_only  # no MPI in this process: one rank is enough
-@pytest.mark.timeout(600)
+@pytest.mark.timeout(1800)  # a venv and a pip install: minutes on a loaded machine
 @pytest.mark.parametrize("editable", [False, True], ids=["pip-install", "pip-install-e"])
 def test_pip_install_into_an_environment_with_dolfinx_touches_nothing_else(tmp_path, editable):
     if shutil.which("pip") is None and run(Path(sys.executable), "-m", "pip", "--version",
@@ -140,6 +140,28 @@ def test_pip_install_into_an_environment_with_dolfinx_touches_nothing_else(tmp_p
     else:
         assert pkg.is_relative_to((tmp_path / "venv").resolve()), pkg
     assert got["license"] == "MIT"
-    # the command lines work from the installed package
+    # the command lines work from the installed package, and as console scripts
     r = run(py, "-m", "subfric_dolfinx.driver", "--help", cwd=tmp_path)
     assert r.returncode == 0 and "usage" in r.stdout.lower(), r.stdout + r.stderr
+    for script in ("subfric-driver", "subfric-calibrate"):
+        r = run(py.parent / script, "--help", cwd=tmp_path)
+        assert r.returncode == 0 and f"usage: {script}" in r.stdout, r.stdout + r.stderr
+
+
+@pytest.mark.numpy_only
+def test_citation_cff_cites_the_software_and_the_article():
+    """CITATION.cff (Citation File Format 1.2): the software with pyproject's version and
+    licence, and the article whose law it implements."""
+    import yaml
+
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert cff["cff-version"] == "1.2.0" and cff["type"] == "software"
+    assert str(cff["version"]) == project["version"] and cff["license"] == project["license"]
+    assert cff["title"].startswith("subfric-dolfinx") and cff["authors"] and cff["message"]
+    (article,) = [r for r in cff["references"] if r["type"] == "article"]
+    assert article["title"] == (
+        "Subloading-friction model with saturation of tangential contact stress"
+    )
+    assert article["journal"] == "Friction" and article["year"] == 2022
+    assert article["authors"][0]["family-names"] == "Hashiguchi"

@@ -6,6 +6,7 @@ with the interface state gathered (:func:`gather_interface`) at that step, point
 gathered order; on 1 and 2 ranks. Errors are the same on every rank.
 """
 
+import json
 import xml.etree.ElementTree as ET
 
 import h5py
@@ -57,6 +58,12 @@ def read_back(xdmf):
             geometry = data(grid.find("Geometry/DataItem"))
             attrs = grid.findall("Attribute")
             steps.append({a.get("Name"): data(a.find("DataItem")) for a in attrs})
+            for a in attrs:  # every array says its unit, in the XDMF and in the HDF5 file
+                if a.get("Name") == "rank":
+                    continue
+                unit = a.find("Information").get("Value")
+                path = a.find("DataItem").text.strip().split(":")[1]
+                assert f[path].attrs["unit"] == unit != "?", (a.get("Name"), unit)
             assert float(f[f"/{grid.get('Name')}"].attrs["time"]) == times[-1]
     return times, steps, geometry
 
@@ -87,7 +94,9 @@ def test_quadrature_point_cloud_read_back_against_the_gathered_state(shared_tmp)
         np.testing.assert_allclose(x[order], ref0["x"], rtol=0, atol=1e-12)
         plastic = 0
         for (_, ref), got in zip(expected, steps, strict=True):
-            assert set(got) >= {"f_t1", "f_n", "traction", "status", "up_t1", "mu", "r", "rank"}
+            assert set(got) >= {"f_t1", "f_n", "traction_global", "status", "up_t1", "mu", "r",
+                                "up_global", "rank"}  # fmt: skip
+            assert not [k for k in got if k.startswith(("state_", "f_t2")) or k == "f"], got
             g = {k: v[order] for k, v in got.items()}
             np.testing.assert_array_equal(g["f_t1"], ref["f_t"][:, 0])
             np.testing.assert_array_equal(g["f_n"], ref["f_n"])
@@ -97,15 +106,24 @@ def test_quadrature_point_cloud_read_back_against_the_gathered_state(shared_tmp)
             np.testing.assert_array_equal(g["status"], ref["status"])
             # the global traction vector: |traction| = |(f_t, f_n)|, zero third component
             np.testing.assert_allclose(
-                np.linalg.norm(g["traction"], axis=1),
+                np.linalg.norm(g["traction_global"], axis=1),
                 np.hypot(ref["f_t"][:, 0], ref["f_n"]),
                 rtol=1e-12,
                 atol=1e-12,
             )
-            assert np.all(g["traction"][:, 2] == 0.0)
+            assert np.all(g["traction_global"][:, 2] == 0.0)
+            np.testing.assert_allclose(  # the slip vector: |up_global| = |up_t1|
+                np.linalg.norm(g["up_global"], axis=1), np.abs(ref["up"][:, 0]), atol=1e-14
+            )
             plastic += int(np.sum(ref["status"] == Status.PLASTIC))
         # something happened: sliding steps, and the ranks' slabs cover every point
         assert plastic > 0 and len(times) >= 6
+        with h5py.File(path.with_suffix(".h5"), "r") as f:  # the vocabulary of every file
+            units = json.loads(f.attrs["units"])
+            assert units["f_n"] == "MPa" and units["up_t1"] == "mm" and units["r"] == "1"
+            legend = json.loads(f.attrs["status_legend"])
+            assert legend[str(int(Status.SEPARATED))].startswith("SEPARATED: ")
+            assert "outward normal" in f.attrs["frame"]
         ranks = steps[0]["rank"]
         assert sorted(set(ranks.tolist())) == list(range(comm.size))
 

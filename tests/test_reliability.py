@@ -1,8 +1,7 @@
 """Reliability of the FE run (issue 12): reactions of groups with several conditions, the
-warning on a penetration larger than the elements, the line-search retry of a failed Newton
-step and what a StepFailure says. 1 and 2 ranks."""
+line-search retry of a failed Newton step and what a StepFailure says (the warnings about
+penetration and slide: ``test_validity.py``). 1 and 2 ranks."""
 
-import logging
 
 import numpy as np
 import pytest
@@ -21,6 +20,9 @@ from subfric_dolfinx.fem.stepping import describe_attempt
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from tests.helpers import LAW, block_problem, prefix
+
+# the cases below run the paper's soft normal penalty on purpose
+pytestmark = pytest.mark.filterwarnings("ignore::subfric_dolfinx.logs.PenetrationWarning")
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
 
@@ -70,82 +72,21 @@ def test_reactions_sum_every_condition_of_a_group():
     assert abs(s["F_t1"]) > 5.0 and s["F_n"] > 100.0  # sliding under load: a real check
 
 
-class Captured(logging.Handler):
-    """The records of one logger, during a ``with`` block."""
-
-    def __init__(self, name):
-        super().__init__(logging.WARNING)
-        self.logger = logging.getLogger(name)
-        self.records = []
-
-    def emit(self, record):
-        self.records.append(record)
-
-    def __enter__(self):
-        self.logger.addHandler(self)
-        return self
-
-    def __exit__(self, *exc):
-        self.logger.removeHandler(self)
-
-
-@pytest.mark.parametrize(
-    ("alpha", "warned"), [(1.5, True), (500.0, True), (1e6, False)], ids=["200mm", "0.6mm", "stiff"]
-)
-def test_a_penetration_beyond_a_tenth_of_the_element_is_warned_once(alpha, warned):
-    """300 MPa on the block (8 elements of 0.125 mm along the interface): with alpha_n = 1.5
-    MPa/mm the block sinks 200 mm into the base, with 500 (the sec7 set) 0.6 mm: one warning at
-    the end of the run, naming the largest penetration of the run (checked against the gap
-    gathered at every step), where and when; with 1e6 (0.3 µm) nothing is said."""
-    from subfric_dolfinx.fem import Pressure
-
-    comm = MPI.COMM_WORLD
-    program = LoadingProgram([0, 1, 2], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    law = LAW.replace(alpha_n=alpha)
-    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.05, component=0, amplitude="slide")]
-    loads = [Pressure("top", 300.0, amplitude="press")]
-    prob = InterfaceProblem(block(comm), law, MATERIALS, program, bcs, loads)
-    el = prob.interface
-    seen = []  # the largest ubar_n at every step, all ranks
-
-    def on_step(rec):
-        un = el.last_gap[:, -1]
-        seen.append((comm.allreduce(float(un.max()) if un.size else -1.0, op=MPI.MAX), rec.t))
-
-    with Captured("subfric_dolfinx.fem.problem") as log:
-        # at 200 mm the residual's round-off floor (~3e-8 N) is above the default atol
-        with FrictionSolver(prob, prefix("pen"), {"snes_atol": 1e-6}) as solver:
-            LoadStepper(solver, 0.25, on_step=on_step).run()
-            prob.warn_penetration()  # again: nothing more
-    if not warned:
-        assert prob.penetration is None and not log.records
-        assert max(s for s, _ in seen) < 0.01 * 0.125
-        return
-    assert len(log.records) == 1
-    pen = prob.penetration
-    un_max, _ = max(seen)
-    assert pen["ubar_n"] == pytest.approx(un_max, rel=1e-3)  # the largest, to the tracking step
-    assert pen["ubar_n"] == pytest.approx(pen["f_n"] / alpha, rel=1e-9)
-    assert 300.0 / alpha < pen["ubar_n"] < 2.0 * 300.0 / alpha  # the edges carry more
-    assert pen["t"] >= 1.0 - 1e-12  # at full pressure
-    assert pen["h"] == pytest.approx(0.125, rel=1e-9) and pen["ratio"] > 0.1
-    assert pen["x"][1] == pytest.approx(0.5) and 0.5 - 1e-9 <= pen["x"][0] <= 1.5 + 1e-9
-    msg = log.records[0].getMessage()
-    assert f"ubar_n up to {pen['ubar_n']:.4g} mm" in msg and "(0.125 mm" in msg, msg
-
-
 # --------------------------------------------------------------------------------------------
 # A failed Newton step is tried again with a line search before it is cut
 
 
 def demo_problem(preset, program, n=16):
-    """The main demo's problem (block on a base, 300 MPa) with another law preset and program."""
+    """The main demo's problem as it was made when these cases were found (a 1 mm block on a
+    base, 300 MPa, the paper's set as it is: alpha_n = 500 MPa/mm) with another preset and
+    program."""
     from demos import block_on_base
     from subfric_dolfinx.scenes import parse_scene
     from subfric_dolfinx.scenes.build import build_mesh, build_problem
 
     s = block_on_base.scene(n=n)
-    s["law"]["params"]["preset"] = preset
+    s["mesh"]["options"] = {"n_interface": n, "cell_type": "triangle"}  # the builder's 1 mm
+    s["law"]["params"] = {"preset": preset}
     s["program"] = program
     s["outputs"] = {}
     scene = parse_scene(s)

@@ -137,13 +137,14 @@ def test_an_unmarked_tree_at_the_chroot_path_is_moved_aside(tmp_path, check_tool
     assert (rootfs / "owner").is_file()
 
 
-def run_runner(runner, tmp_path, *args, **extra):
+def run_runner(runner, tmp_path, *args, cwd=None, **extra):
     return subprocess.run(
         [str(runner), *args],
         env=env(tmp_path, **extra),
         capture_output=True,
         text=True,
         timeout=60,
+        cwd=cwd,
     )
 
 
@@ -167,7 +168,9 @@ def test_a_missing_or_empty_package_list_stops_the_chroot_before_anything(tmp_pa
     if content is not None:
         (repo / "debian-packages.txt").write_text(content)
     marker = tmp_path / "marker"
-    r = run_runner(repo / "run", tmp_path, "exec", "touch", str(marker), SUBFRIC_MODE="chroot")
+    r = run_runner(
+        repo / "run", tmp_path, "exec", "touch", str(marker), cwd=repo, SUBFRIC_MODE="chroot"
+    )
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert "debian-packages.txt" in r.stderr
     assert ("is missing" if content is None else "names no package") in r.stderr
@@ -275,3 +278,26 @@ def test_rootfs_without_a_stack_is_refused_for_both_stacks(tmp_path):
     r = run_runner(RUN, tmp_path, "test")
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert "SUBFRIC_ROOTFS names the chroot of one stack: set SUBFRIC_STACK too" in r.stderr
+
+
+def test_exec_runs_in_the_callers_folder(tmp_path):
+    """``./run exec`` runs in the folder it is called from: a script named relative to it is
+    found (natively: any folder; the repository's subfolders in the chroot, where the repository
+    is mounted at the same path). Called from outside the repository in chroot mode it stops
+    with exit code 2, naming the folder, before anything runs (the chroot does not see it)."""
+    import sys
+
+    sub = tmp_path / "work"
+    sub.mkdir()
+    (sub / "where.py").write_text("import os\nprint('ran in', os.getcwd())\n")
+    r = run_runner(RUN, tmp_path, "exec", sys.executable, "where.py", cwd=sub,
+                   SUBFRIC_MODE="native")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == f"ran in {sub.resolve()}"
+    r = run_runner(RUN, tmp_path, "exec", "pwd", cwd=ROOT / "demos", SUBFRIC_MODE="native")
+    assert r.returncode == 0 and r.stdout.strip() == str((ROOT / "demos").resolve()), r
+    marker = tmp_path / "marker"
+    r = run_runner(RUN, tmp_path, "exec", "touch", str(marker), cwd=sub, SUBFRIC_MODE="chroot")
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert f"{sub.resolve()} is outside the repository" in r.stderr, r.stderr
+    assert not marker.exists() and not (tmp_path / "cache").exists()

@@ -16,7 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..driver.cli import _ArgumentError, _error, _Parser, check_out, write_atomically
+from ..driver.cli import (
+    _ArgumentError,
+    _error,
+    _Parser,
+    check_out,
+    program_name,
+    write_atomically,
+)
 from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
 from .fit import MAX_STEPS, STEPS_PER_MM, FitResult, fit, simulate
@@ -25,8 +32,18 @@ __all__ = ["main", "plot_fit"]
 
 
 def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm: float) -> None:
-    """Measured points and fitted curves, one colour per curve, written to ``path`` (PNG)."""
-    import matplotlib
+    """Measured points and fitted curves, one colour per curve, written to ``path`` (PNG).
+
+    Raises:
+        CalibrationError: matplotlib is not installed (the extra ``plot``).
+    """
+    try:
+        import matplotlib
+    except ImportError:
+        raise CalibrationError(
+            "--plot needs matplotlib (pip install 'subfric-dolfinx[plot]', or Debian's "
+            "python3-matplotlib)"
+        ) from None
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -63,7 +80,7 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status."""
     ap = _Parser(
-        prog="python3 -m subfric_dolfinx.calibrate",
+        prog=program_name("subfric_dolfinx.calibrate"),
         description="Fit the subloading law to measured friction curves (least squares).",
     )
     ap.add_argument("data", help="DATA.json")

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import SubloadingLaw
-from ..driver.case import CaseError, _number, _short, read_json
+from ..driver.case import CaseError, _number, _short, _table_spec, read_json, read_table
 
 __all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
 
@@ -79,14 +79,29 @@ def _numbers(where: str, v: Any) -> np.ndarray:
     return np.array([_num(f"{where}[{i}]", x) for i, x in enumerate(v)], dtype=float)
 
 
-def _curve(i: int, c: Any) -> Curve:
+def _curve(i: int, c: Any, base: str | Path | None) -> Curve:
     w = f"curves[{i}]"
     if not isinstance(c, dict):
         raise CalibrationError(f"field '{w}' must be an object, got {_short(c)}")
-    unknown = sorted(set(c) - {"f_n", "velocity", "slip", "f_t"})
+    unknown = sorted(set(c) - {"f_n", "velocity", "slip", "f_t", "csv", "columns"})
     if unknown:
         raise CalibrationError(f"field '{w}': unknown keys {unknown}; allowed: f_n, velocity, "
-                               "slip, f_t")  # fmt: skip
+                               "slip, f_t (or csv, columns)")  # fmt: skip
+    if "csv" in c:  # the measured curve from a CSV file (e.g. a tribometer's export)
+        both = sorted({"slip", "f_t"} & set(c))
+        if both:
+            raise CalibrationError(f"field '{w}': give the curve as csv or as slip and f_t, not "
+                                   f"both (also {both})")  # fmt: skip
+        try:
+            spec = {"csv": c["csv"], **({"columns": c["columns"]} if "columns" in c else {})}
+            cols = _table_spec(spec, w, ("slip", "f_t"))
+            table = read_table(c["csv"], {k: (cols[k], True) for k in ("slip", "f_t")},
+                               what=f"field '{w}.csv'", base=base)  # fmt: skip
+        except CaseError as e:
+            raise CalibrationError(str(e)) from None
+        c = {**c, "slip": table["slip"].tolist(), "f_t": table["f_t"].tolist()}
+    elif "columns" in c:
+        raise CalibrationError(f"field '{w}.columns' names the columns of a csv file; give csv")
     for k in ("f_n", "velocity", "slip", "f_t"):
         if k not in c:
             raise CalibrationError(f"field '{w}.{k}' is missing")
@@ -115,8 +130,13 @@ def _curve(i: int, c: Any) -> Curve:
     return Curve(f_n, v, slip, f_t)
 
 
-def parse_data(obj: Any) -> CalibrationData:
+def parse_data(obj: Any, base: str | Path | None = None) -> CalibrationData:
     """Validate a DATA.json object.
+
+    Args:
+        obj: The data.
+        base: Directory that CSV files named in it are relative to (default: the current one;
+            :func:`load_data` gives the data file's).
 
     Raises:
         CalibrationError: A missing, unknown or bad field (named), or an unknown parameter name.
@@ -124,12 +144,12 @@ def parse_data(obj: Any) -> CalibrationData:
     if not isinstance(obj, dict):
         raise CalibrationError(f"the data must be a JSON object, got {type(obj).__name__}")
     try:
-        return _parse(obj)
+        return _parse(obj, base)
     except RecursionError:
         raise CalibrationError("the data nests too deeply") from None
 
 
-def _parse(obj: dict) -> CalibrationData:
+def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
     unknown = sorted(set(obj) - {"params", "fit", "bounds", "curves"})
     if unknown:
         raise CalibrationError(f"unknown fields {unknown}; allowed: params, fit, bounds, curves")
@@ -196,7 +216,7 @@ def _parse(obj: dict) -> CalibrationData:
     if not isinstance(curves, list) or not curves:
         raise CalibrationError("field 'curves' must be a non-empty list of curves {f_n, "
                                "velocity, slip, f_t}")  # fmt: skip
-    cs = tuple(_curve(i, c) for i, c in enumerate(curves))
+    cs = tuple(_curve(i, c, base) for i, c in enumerate(curves))
     n = sum(c.slip.size for c in cs)
     if n > MAX_POINTS:
         raise CalibrationError(f"field 'curves': {n} points in all (limit {MAX_POINTS})")
@@ -216,4 +236,4 @@ def load_data(path: str | Path) -> CalibrationData:
         obj = read_json(path, "data file")
     except CaseError as e:
         raise CalibrationError(str(e)) from None
-    return parse_data(obj)
+    return parse_data(obj, Path(path).parent)

@@ -47,7 +47,9 @@ class CoulombLaw(LawBase):
     mu_c: float
 
     name: ClassVar[str] = "coulomb"
-    variables: ClassVar[tuple[Variable, ...]] = (Variable("up", TANGENTIAL, "plastic slip (mm)"),)
+    variables: ClassVar[tuple[Variable, ...]] = (
+        Variable("up", TANGENTIAL, "plastic slip (mm)", "mm"),
+    )
 
     def __post_init__(self) -> None:
         validate_fields(

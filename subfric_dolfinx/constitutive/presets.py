@@ -12,7 +12,10 @@ The paper's parameter sets reproduce its curves only in the normalised reading o
 
 The presets below store the paper's sets in that normalised reading (converted with
 :func:`normalised_to_absolute`); the literal readings are available under ``...-literal`` names as
-stress tests (the literal Sec. 6 set has no stable quasi-static solution). Units: MPa, mm, s.
+stress tests (the literal Sec. 6 set has no stable quasi-static solution). Units: MPa, mm, s;
+``mu_s``, ``mu_k`` (and ``mu0``) are values of the hardening function, a stress in MPa (the
+strength is ``g(f_n) mu``, ``g`` dimensionless), not friction coefficients: ``sec7``'s
+``mu_s = 500`` MPa gives a static strength of 29 MPa at 300 MPa.
 """
 
 from __future__ import annotations
@@ -87,8 +90,9 @@ def _paper_sets() -> dict[str, Preset]:
             name,
             SubloadingLaw(mu_s=mu_s, kappa=kappa, xi=xi, **base),
             rate,
-            f"{what}; normalised reading: kappa = {kappa_n:g}/mu_k = {kappa:.6g} 1/mm, "
-            f"xi = {xi_n:g}/mu_s = {xi:.6g} 1/s",
+            f"{what}; mu_s = {mu_s:g} MPa, mu_k = {base['mu_k']:g} MPa (values of the hardening "
+            f"function, a stress); normalised reading: kappa = {kappa_n:g}/mu_k = {kappa:.6g} "
+            f"1/mm, xi = {xi_n:g}/mu_s = {xi:.6g} 1/s",
         )
         sets[name + "-literal"] = Preset(
             name + "-literal",

@@ -33,6 +33,22 @@ class Status(enum.IntEnum):
     JUMP = 3
     FAILED = 4
 
+    @classmethod
+    def legend(cls) -> dict[int, str]:
+        """Code -> ``"NAME: meaning"``, as written with the integer ``status`` in output files."""
+        return {int(s): f"{s.name}: {STATUS_MEANING[s.name]}" for s in cls}
+
+
+STATUS_MEANING = {
+    "ELASTIC": "in contact, no plastic slip in the step (sticking)",
+    "PLASTIC": "in contact, plastic slip in the step (the subloading law's micro-slip below its "
+    "strength included)",
+    "SEPARATED": "not in contact: zero traction",
+    "JUMP": "plastic, the solution jumped past a fold of the law in the step",
+    "FAILED": "could not be integrated: zero traction, last converged state kept",
+}
+"""What each :class:`Status` code means, for the legend written in output files."""
+
 
 @dataclasses.dataclass
 class ReturnMapResult:

@@ -39,11 +39,19 @@ class Variable:
             in the local frame) or ``LOCAL`` (a vector in the local frame: the tangential
             components, then the normal one, like a traction).
         description: What it is, with its unit.
+        unit: Its unit (``"mm"``, ``"MPa"``, ``"1"`` for a pure number), written with it in
+            every output file; ``""`` when the law does not say.
+        output: Whether the outputs (history, fields, point cloud, interface history, probes)
+            write it; ``False`` for a variable that repeats another output (the subloading
+            law's end-of-step traction ``f`` is the traction ``f_t``, ``f_n`` itself).
+            Checkpoints always hold it.
     """
 
     name: str
     shape: str = SCALAR
     description: str = ""
+    unit: str = ""
+    output: bool = True
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():

@@ -75,10 +75,18 @@ from .tolerances import CONTACT_TOL, LOAD_TOL
 
 __all__ = ["SubloadingLaw", "subloading_return_map"]
 
+_MU_UNIT = "a stress: the strength is g(f_n) mu, not a friction coefficient"
+
 
 @dataclasses.dataclass(frozen=True)
 class SubloadingLaw(LawBase):
     """The subloading-friction law with saturation of the tangential stress, with its parameters.
+
+    Units: the hardening function ``mu`` and its static and kinetic values ``mu_s``, ``mu_k``
+    are **stresses in MPa**, not friction coefficients: the strength is ``g(f_n) mu`` with the
+    dimensionless saturation ``g = 1 - exp(-c_n f_n)`` (the Sec. 7 set: ``mu_s = 500`` MPa,
+    ``c_n = 2e-4`` 1/MPa, so ``g mu_s = 29`` MPa at 300 MPa, a ratio ``f_t/f_n`` of 0.097).
+    Coulomb's ``mu_c`` is the coefficient.
 
     Attributes:
         alpha_t: Tangential penalty (elastic sliding) modulus, MPa/mm, > 0.
@@ -113,10 +121,13 @@ class SubloadingLaw(LawBase):
 
     name: ClassVar[str] = "subloading"
     variables: ClassVar[tuple[Variable, ...]] = (
-        Variable("up", TANGENTIAL, "plastic slip (mm)"),
-        Variable("mu", SCALAR, "hardening function (MPa)"),
-        Variable("r", SCALAR, "normal-yield ratio F / mu"),
-        Variable("f", LOCAL, "traction at the end of the step (MPa): the next trial's start"),
+        Variable("up", TANGENTIAL, "plastic slip (mm)", "mm"),
+        Variable("mu", SCALAR, "hardening function (MPa)", "MPa"),
+        Variable("r", SCALAR, "normal-yield ratio F / mu", "1"),
+        Variable(
+            "f", LOCAL, "traction at the end of the step (MPa): the next trial's start", "MPa",
+            output=False,  # the traction f_t, f_n itself
+        ),
     )
 
     def __post_init__(self) -> None:
@@ -125,7 +136,7 @@ class SubloadingLaw(LawBase):
             {
                 "alpha_t": (positive, "alpha_t > 0"),
                 "alpha_n": (positive, "alpha_n > 0"),
-                "mu_k": (positive, "mu_k > 0"),
+                "mu_k": (positive, f"mu_k > 0, in MPa ({_MU_UNIT})"),
                 "kappa": (non_negative, "kappa >= 0"),
                 "xi": (non_negative, "xi >= 0"),
                 "u_tilde": (positive, "u_tilde > 0"),
@@ -134,7 +145,14 @@ class SubloadingLaw(LawBase):
         )
         mu_k = self.mu_k
         object.__setattr__(
-            self, "mu_s", real("mu_s", self.mu_s, lambda v: v >= mu_k, f"mu_s >= mu_k = {mu_k!r}")
+            self,
+            "mu_s",
+            real(
+                "mu_s",
+                self.mu_s,
+                lambda v: v >= mu_k,
+                f"mu_s >= mu_k = {mu_k!r}, in MPa ({_MU_UNIT})",
+            ),
         )
         if self.mu0 is not None:
             lo, hi = self.mu_k, self.mu_s
@@ -145,7 +163,7 @@ class SubloadingLaw(LawBase):
                     "mu0",
                     self.mu0,
                     lambda v: lo <= v <= hi,
-                    f"mu_k <= mu0 <= mu_s = [{lo!r}, {hi!r}]",
+                    f"mu_k <= mu0 <= mu_s = [{lo!r}, {hi!r}], in MPa ({_MU_UNIT})",
                 ),
             )
         object.__setattr__(self, "_consts", Law(self))  # the map's floats, once per law

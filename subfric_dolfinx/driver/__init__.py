@@ -8,7 +8,8 @@ Library use::
 
 Command line::
 
-    python3 -m subfric_dolfinx.driver CASE.json [--steps-per-mm N] [--out OUT.json]
+    subfric-driver CASE.json [--steps-per-mm N] [--out OUT.json]
+    python3 -m subfric_dolfinx.driver CASE.json ...      # the same
 
 CASE.json::
 
@@ -17,10 +18,20 @@ CASE.json::
       "params": {"preset": "sec7", "mu0": 400.0},   # or every parameter by name
       "control": "disp",                   # "disp": x is ubar_t (mm); "stress": x is f_t (MPa)
       "path": [[t, x1, x2, ubar_n], ...],  # linear in between; times strictly increasing
-      "t_samples": [t, ...],               # output times within the path
+      "path": {"csv": "path.csv", "columns": {"t": "time"}},   # or from a CSV file (below)
+      "t_samples": [t, ...],               # output times within the path, or "path" (its times)
       "n_tangential": 2,                   # optional: 1 (2-D, x2 must be 0) or 2 (3-D)
       "steps_per_mm": 200                  # optional; --steps-per-mm overrides it
     }
+
+A path from a CSV file (relative to the case file's folder): a header line naming the columns
+``t, x1, x2, ubar_n`` (``x2`` may be left out with ``n_tangential`` 1; ``columns`` maps them to
+the file's own names), then rows of numbers; ``,``, ``;`` or tab; lines starting with ``#``
+(e.g. units) are skipped (:func:`~.case.read_table`).
+
+Units: MPa, mm, s. The subloading law's ``mu0``, ``mu_s``, ``mu_k`` are values of its hardening
+function, a stress in MPa (the strength is ``g(f_n) mu``, ``g`` dimensionless), not friction
+coefficients as Coulomb's ``mu_c``.
 
 Steps are split at every path breakpoint and sample time; between them a segment gets
 ``ceil(steps_per_mm * L)`` equal steps, ``L`` being the largest change of ``|ubar_t|`` or ``ubar_n``

@@ -5,10 +5,13 @@ See :mod:`subfric_dolfinx.driver` for the JSON form.
 
 from __future__ import annotations
 
+import csv
 import dataclasses
+import io
 import json
 import math
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +28,7 @@ __all__ = [
     "load_case",
     "parse_case",
     "read_json",
+    "read_table",
 ]
 
 DEFAULT_STEPS_PER_MM = 200.0
@@ -71,8 +75,13 @@ def _number(where: str, v: Any) -> float:
     return x
 
 
-def parse_case(obj: Any) -> Case:
+def parse_case(obj: Any, base: str | Path | None = None) -> Case:
     """Validate a case given as a JSON-like dictionary.
+
+    Args:
+        obj: The case.
+        base: Directory that a CSV file named in the case is relative to (default: the current
+            one; :func:`load_case` gives the case file's).
 
     Raises:
         CaseError: The message names the offending field.
@@ -80,12 +89,147 @@ def parse_case(obj: Any) -> Case:
     if not isinstance(obj, dict):
         raise CaseError(f"the case must be a JSON object, got {type(obj).__name__}")
     try:
-        return _parse(obj)
+        return _parse(obj, base)
     except RecursionError:  # (a deeply nested value somewhere in a field)
         raise CaseError("the case nests too deeply") from None
 
 
-def _parse(obj: dict) -> Case:
+PATH_COLUMNS = ("t", "x1", "x2", "ubar_n")
+"""The columns of a path: time (s), the two tangential components (``ubar_t`` in mm under
+displacement control, ``f_t`` in MPa under stress control) and ``ubar_n`` (mm)."""
+
+
+def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
+    """The path's rows from a list of rows or from ``{"csv": FILE, "columns": {...}}``."""
+    if isinstance(raw, dict):
+        cols = _table_spec(raw, "path", PATH_COLUMNS)
+        required = {k: k != "x2" or nt == 2 for k in PATH_COLUMNS}
+        table = read_table(raw["csv"], {k: (cols[k], required[k]) for k in PATH_COLUMNS},
+                           what="field 'path.csv'", base=base)  # fmt: skip
+        n = len(table["t"])
+        if n < 2:
+            raise CaseError(f"field 'path.csv': {raw['csv']!r} holds {n} row(s), need two")
+        x2 = table.get("x2", np.zeros(n))
+        return np.column_stack([table["t"], table["x1"], x2, table["ubar_n"]]).tolist()
+    if not isinstance(raw, list) or len(raw) < 2:
+        raise CaseError(
+            "field 'path' must be a list of at least two rows [t, x1, x2, ubar_n], or "
+            '{"csv": FILE} (columns t, x1, x2, ubar_n)'
+        )
+    rows = []
+    for i, row in enumerate(raw):
+        if not isinstance(row, list) or len(row) != 4:
+            raise CaseError(
+                f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {_short(row)}"
+            )
+        rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
+    return rows
+
+
+def _table_spec(raw: dict, where: str, names: tuple[str, ...]) -> dict[str, str]:
+    """Check ``{"csv": FILE, "columns": {name: header}}``; the header of each name."""
+    unknown = sorted(set(raw) - {"csv", "columns"})
+    if unknown:
+        raise CaseError(f"field '{where}': unknown keys {unknown}; allowed: csv, columns")
+    if not isinstance(raw.get("csv"), str) or not raw["csv"]:
+        raise CaseError(f"field '{where}.csv' must be a file name, got {_short(raw.get('csv'))}")
+    cols = raw.get("columns", {})
+    if not isinstance(cols, dict) or not all(isinstance(v, str) for v in cols.values()):
+        raise CaseError(
+            f"field '{where}.columns' must map names to the file's column headers, got "
+            f"{_short(cols)}"
+        )
+    bad = sorted(set(cols) - set(names))
+    if bad:
+        raise CaseError(f"field '{where}.columns': unknown names {bad}; allowed: {list(names)}")
+    return {k: cols.get(k, k) for k in names}
+
+
+MAX_TABLE_COLUMNS = 1000  # a header with more fields than this is not a table of ours
+
+
+def read_table(
+    path: str | Path,
+    columns: Mapping[str, tuple[str, bool]],
+    *,
+    what: str,
+    base: str | Path | None = None,
+) -> dict[str, np.ndarray]:
+    """Columns of numbers from a CSV file, by header name (the file is data: only read).
+
+    The first line that is not blank and not a comment (``#``) is the header; the delimiter is
+    the one of ``,``, ``;`` and tab that splits it into the most fields. Every other line is a
+    row of as many fields; the wanted columns must hold finite numbers (a decimal point, not a
+    comma). Lines starting with ``#`` (e.g. a units line) and blank lines are skipped.
+
+    Args:
+        path: The file; relative to ``base`` if given.
+        columns: Name -> (its header in the file, required).
+        what: How error messages call it (e.g. ``"field 'path.csv'"``).
+        base: Directory of relative paths.
+
+    Returns:
+        Name -> values, for the required columns and the optional ones present.
+
+    Raises:
+        CaseError: Unreadable, too large, not UTF-8, no header, a required column missing, a
+            short row or a value that is not a finite number (file, line and column named).
+    """
+    p = Path(path)
+    if base is not None and not p.is_absolute():
+        p = Path(base) / p
+    try:
+        if not p.is_file():
+            raise CaseError(f"{what}: {str(p)!r} is not a file")
+        if p.stat().st_size > MAX_CASE_BYTES:
+            raise CaseError(f"{what}: {str(p)!r} is larger than {MAX_CASE_BYTES} bytes")
+        data = p.read_bytes()
+    except OSError as e:
+        raise CaseError(f"{what}: cannot read {str(p)!r}: {e.strerror}") from None
+    try:
+        text = data.decode("utf-8-sig")  # a spreadsheet's byte-order mark is accepted
+    except UnicodeDecodeError as e:
+        raise CaseError(f"{what}: {str(p)!r} is not UTF-8 text (byte {e.start})") from None
+    lines = [
+        (i + 1, ln) for i, ln in enumerate(text.splitlines())
+        if ln.strip() and not ln.lstrip().startswith("#")
+    ]  # fmt: skip
+    if not lines:
+        raise CaseError(f"{what}: {str(p)!r} has no header line (the columns' names)")
+    first = lines[0][1]
+    delimiter = max((",", ";", "\t"), key=lambda d: len(first.split(d)))
+    rows = list(csv.reader(io.StringIO("\n".join(ln for _, ln in lines)), delimiter=delimiter))
+    header = [h.strip() for h in rows[0]]
+    if len(header) > MAX_TABLE_COLUMNS:
+        raise CaseError(f"{what}: {str(p)!r} has {len(header)} columns (limit "
+                        f"{MAX_TABLE_COLUMNS})")  # fmt: skip
+    where: dict[str, int] = {}
+    for name, (head, required) in columns.items():
+        if head in header:
+            where[name] = header.index(head)
+        elif required:
+            raise CaseError(f"{what}: {str(p)!r} has no column {head!r}; its columns: "
+                            f"{_short(header, 200)}")  # fmt: skip
+    out = {name: np.empty(len(rows) - 1) for name in where}
+    for k, row in enumerate(rows[1:]):
+        line = lines[k + 1][0]
+        if len(row) != len(header):
+            raise CaseError(f"{what}: {str(p)!r} line {line} has {len(row)} fields, the header "
+                            f"{len(header)}")  # fmt: skip
+        for name, j in where.items():
+            cell = row[j].strip()
+            try:
+                x = float(cell)
+            except ValueError:
+                x = math.nan
+            if not math.isfinite(x) or not cell:
+                raise CaseError(f"{what}: {str(p)!r} line {line}, column {header[j]!r}: "
+                                f"{_short(cell)} is not a finite number")  # fmt: skip
+            out[name][k] = x
+    return out
+
+
+def _parse(obj: dict, base: str | Path | None = None) -> Case:
     allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
     unknown = sorted(set(obj) - allowed)
     if unknown:
@@ -100,17 +244,7 @@ def _parse(obj: dict) -> Case:
     nt = obj.get("n_tangential", 2)
     if isinstance(nt, bool) or not isinstance(nt, int | float) or nt not in (1, 2):
         raise CaseError(f"field 'n_tangential' must be 1 or 2, got {_short(nt)}")
-    raw = obj.get("path")
-    if not isinstance(raw, list) or len(raw) < 2:
-        raise CaseError("field 'path' must be a list of at least two rows [t, x1, x2, ubar_n]")
-    rows = []
-    for i, row in enumerate(raw):
-        if not isinstance(row, list) or len(row) != 4:
-            raise CaseError(
-                f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {_short(row)}"
-            )
-        rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
-    path = np.array(rows)
+    path = np.array(_path_rows(obj.get("path"), int(nt), base))
     for i in range(1, len(path)):
         if not path[i, 0] > path[i - 1, 0]:
             raise CaseError(
@@ -121,8 +255,10 @@ def _parse(obj: dict) -> Case:
         i = int(np.flatnonzero(path[:, 2] != 0.0)[0])
         raise CaseError(f"field 'path[{i}][2]' must be 0 with n_tangential = 1, got {path[i, 2]!r}")
     ts = obj.get("t_samples")
+    if ts == "path":  # every time of the path (e.g. the rows of a measured CSV)
+        ts = path[:, 0].tolist()
     if not isinstance(ts, list) or not ts:
-        raise CaseError("field 't_samples' must be a non-empty list of times")
+        raise CaseError("field 't_samples' must be a non-empty list of times, or \"path\"")
     samples = np.array([_number(f"t_samples[{i}]", v) for i, v in enumerate(ts)])
     t0, t1 = path[0, 0], path[-1, 0]
     for i, t in enumerate(samples):
@@ -232,4 +368,4 @@ def load_case(path: str | Path) -> Case:
         CaseError: Unreadable file, not UTF-8, invalid JSON (also: nested too deeply, an integer
             beyond Python's digit limit), or a bad field (named in the message).
     """
-    return parse_case(read_json(path, "case file"))
+    return parse_case(read_json(path, "case file"), Path(path).parent)

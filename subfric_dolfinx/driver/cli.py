@@ -21,17 +21,17 @@ import os
 import stat
 import sys
 import tempfile
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from .. import logs
 from ..logs import launcher_rank
 from .case import MAX_TOTAL_STEPS, CaseError, load_case
 from .run import RunawayError, run_case
 
-__all__ = ["PROGRESS_SECONDS", "check_out", "main", "write_atomically"]
+__all__ = ["PROGRESS_SECONDS", "check_out", "main", "program_name", "write_atomically"]
 
-PROGRESS_SECONDS = 5.0  # at most one progress line per this many seconds
+PROGRESS_SECONDS = logs.PROGRESS_SECONDS  # at most one progress line per this many seconds
 
 
 class _ArgumentError(Exception):
@@ -100,18 +100,22 @@ class _Progress:
     """A progress line on stderr at most every ``PROGRESS_SECONDS`` (the first after that)."""
 
     def __init__(self) -> None:
-        self.t0 = self.last = time.monotonic()
+        self.clock = logs.Progress(PROGRESS_SECONDS)
 
     def __call__(self, done: int, total: int, t: float) -> None:
-        now = time.monotonic()
-        if now - self.last >= PROGRESS_SECONDS:
-            self.last = now
+        if self.clock.due():
             print(
                 f"progress: {100.0 * done / total:.0f} % ({done} of {total} steps), "
-                f"t = {t:.6g} s, {now - self.t0:.0f} s elapsed",
+                f"t = {t:.6g} s, {self.clock.elapsed:.0f} s elapsed",
                 file=sys.stderr,
                 flush=True,
             )
+
+
+def program_name(module: str) -> str:
+    """The command as called: its console script (``subfric-driver``) or ``python3 -m ...``."""
+    name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
+    return name if name.startswith("subfric-") else f"python3 -m {module}"
 
 
 def _error(msg: str, code: int = 2) -> int:
@@ -122,7 +126,7 @@ def _error(msg: str, code: int = 2) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status (see the module docstring)."""
     ap = _Parser(
-        prog="python3 -m subfric_dolfinx.driver",
+        prog=program_name("subfric_dolfinx.driver"),
         description="Material-point driver of the subloading-friction law.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )

@@ -12,7 +12,9 @@
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
 * :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
-* :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program.
+* :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program;
+  :mod:`.validity`: the warnings when a run's penetration or slide goes beyond what the
+  small-sliding penalty interface describes.
 * :mod:`.kinematics`: the small strain, elastic stress and weight of each modelling mode (3-D,
   plane strain, plane stress, axisymmetric).
 * :mod:`.timing`: wall time per section; :mod:`._petsc`: PETSc calls petsc4py 3.22 lacks.

@@ -24,7 +24,6 @@ import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..compat import petsc_vector
@@ -49,15 +48,9 @@ from .interface.friction import layout_of, stiffen_separated
 from .kinematics import check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
-__all__ = ["PENETRATION_WARNING", "InterfaceProblem", "stiffen_separated"]
+__all__ = ["InterfaceProblem", "stiffen_separated"]
 
 logger = logging.getLogger(__name__)
-
-PENETRATION_WARNING = 0.1
-"""A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about
-(once per run, naming the largest): the penalty is too soft for the mesh, and the geometrically
-linear model (pairs and frames fixed at the reference geometry) no longer describes the contact."""
-
 
 class InterfaceProblem:
     """Residual and Jacobian of bodies joined by frictional interfaces.
@@ -240,9 +233,6 @@ class InterfaceProblem:
         self._bulk_work = self.create_vector() if not self.linear_bulk else None
         self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
         self.reactions: dict[str, np.ndarray] = {}
-        self.penetration: dict | None = None  # the largest beyond the warning, see commit
-        self._penetration_warned = False
-        self._h_points: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------------------
     def set_step(self, t: float, dt: float) -> None:
@@ -374,69 +364,11 @@ class InterfaceProblem:
     def commit(self) -> None:
         """Accept the trial state of the interfaces and of the bulk (after a converged step).
 
-        Collective. Also tracks the largest penetration ``ubar_n`` relative to the interface
-        element size over the run (:attr:`penetration`, see :meth:`warn_penetration`).
+        Collective.
         """
         for iface in self.interfaces.values():
             iface.commit()
         self.bulk.commit()
-        self._track_penetration()
-
-    def _track_penetration(self) -> None:
-        best = (-np.inf, None, -1)
-        for name, iface in self.interfaces.items():
-            el = iface.elements
-            if name not in self._h_points:  # element size at each point: length, sqrt(area)
-                size = el.facet_weights.sum(axis=1) ** (1.0 / max(self.gdim - 1, 1))
-                self._h_points[name] = np.repeat(size, el.nq)
-            un = el.last_gap[:, el.nt] if el.last_gap.size else np.zeros(0)
-            ratio = un / self._h_points[name] if un.size else un
-            if ratio.size and float(ratio.max()) > best[0]:
-                i = int(np.argmax(ratio))
-                best = (float(ratio[i]), name, i)
-        local = best[0]
-        largest = self.comm.allreduce(local, op=MPI.MAX)
-        known = self.penetration["ratio"] if self.penetration else PENETRATION_WARNING
-        if not largest > known * (1.0 + 1e-3):  # one number per step, details when it grows
-            return
-        mine = None
-        if local == largest:
-            _, name, i = best
-            el = self.interfaces[name].elements
-            x = el.points.reshape(-1, self.gdim)[i]
-            mine = {
-                "ratio": largest,
-                "ubar_n": float(el.last_gap[i, el.nt]),
-                "h": float(self._h_points[name][i]),
-                "x": tuple(float(v) for v in x),
-                "f_n": float(el.last.traction[i, el.nt]),
-                "t": self.t,
-                "interface": name,
-            }
-        self.penetration = next(p for p in self.comm.allgather(mine) if p is not None)
-
-    def warn_penetration(self) -> None:
-        """Warn once (log; rank 0 prints) if a penetration was large: name the largest, where, when.
-
-        Large: beyond :data:`PENETRATION_WARNING` times the interface element size. Not
-        collective (:meth:`commit` gathered it): safe while an error unwinds. The load stepper
-        calls it when its run ends, however it ends.
-        """
-        pen = self.penetration
-        if pen is None or self._penetration_warned:
-            return
-        self._penetration_warned = True
-        where = ", ".join(f"{v:.6g}" for v in pen["x"])
-        if len(self.interfaces) > 1:
-            where += f" on the interface {pen['interface']!r}"
-        logger.warning(
-            "large penetration: ubar_n up to %.4g mm (at (%s), t = %.6g, f_n = %.4g MPa), %.3g "
-            "times the interface element size there (%.4g mm; warned beyond %g): the normal "
-            "penalty is soft for this mesh, and the small-sliding interface is no longer "
-            "accurate",
-            pen["ubar_n"], where, pen["t"], pen["f_n"], pen["ratio"], pen["h"],
-            PENETRATION_WARNING,
-        )  # fmt: skip
 
     def revert(self) -> None:
         """Reject the trial state of the interfaces and of the bulk (after a failed step)."""

@@ -14,9 +14,16 @@ whose state is intact, and what the return map saw at the failed attempt (status
 worst point, where).
 A step that converges at once costs nothing extra.
 
-Logging (:mod:`subfric_dolfinx.logs`): one INFO line per segment of the program (steps, Newton
-iterations mean/max, cuts, plastic fraction, wall time), one DEBUG line per step and per failed
-attempt.
+Logging (:mod:`subfric_dolfinx.logs`): an INFO line per long segment of the program (at least
+:data:`LONG_SEGMENT_STEPS` steps or :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` of wall time:
+its steps, Newton iterations mean/max, cuts, what the interface does at its end, wall time), and
+between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (programs of
+many short segments, e.g. sampled at knots, print those only); one DEBUG line per step and per
+failed attempt. What the interface does is said as the fractions of its points that slide (a
+traction at the law's strength, :meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`),
+stick (closed, below it; the subloading law's micro-slip included) and are open
+(:func:`interface_activity`). Warnings about the model's validity (penetration, slide) are
+issued when a run ends (:class:`~.validity.ValidityWatch`).
 """
 
 from __future__ import annotations
@@ -29,20 +36,34 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
+from .. import logs
 from ..constitutive import Status
 from .solver import FrictionSolver
+from .validity import ValidityWatch
 
 __all__ = [
+    "LONG_SEGMENT_STEPS",
     "MAX_STEPS",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
+    "SLIDING_FRACTION",
     "LoadStepper",
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
     "describe_attempt",
+    "interface_activity",
 ]
+
+
+LONG_SEGMENT_STEPS = 10
+"""A segment of the program of at least this many steps gets its own log line."""
+
+SLIDING_FRACTION = 0.95
+"""A point slides when it slips plastically with a traction at this fraction of the law's strength
+or more (below it, a closed point sticks: the subloading law's micro-slip included)."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -193,13 +214,59 @@ class StepRecord:
     residuals: list[float]
     counts: dict[str, int]
     retried: bool = False  # solved with the retry options (:data:`RETRY_OPTIONS`)
+    sliding: float = 0.0  # fraction of the points sliding at the end (:func:`interface_activity`)
+    open: float = 0.0  # fraction of the points open at the end
 
     @property
     def plastic_fraction(self) -> float:
-        """Fraction of the interface points that slid plastically in the step."""
+        """Fraction of the interface points on the (subloading) surface in the step.
+
+        With the subloading law this includes the micro-slip of points far below the strength
+        (e.g. the whole interface while it is pressed): :attr:`sliding` says what slides.
+        """
         c = self.counts
         n = sum(c.get(k, 0) for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED"))
         return (c.get("PLASTIC", 0) + c.get("JUMP", 0)) / n if n else 0.0
+
+    @property
+    def activity(self) -> str:
+        """What the interface does at the end of the step, e.g. ``sliding 40 %, sticking 60 %``."""
+        return _activity_text(self.sliding, self.open)
+
+
+def _activity_text(sliding: float, open_: float) -> str:
+    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
+    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
+
+
+def interface_activity(problem: Any) -> tuple[float, float]:
+    """Fractions of the interface points that slide and that are open (collective).
+
+    Over every interface of the problem (their points together).
+
+    After a converged step (committed state): a point slides when its status is PLASTIC or JUMP
+    and its tangential traction is at least :data:`SLIDING_FRACTION` of the law's strength at its
+    normal traction; it is open when SEPARATED; the others stick.
+
+    Returns:
+        ``(sliding, open)``, the same on every rank.
+    """
+    local = np.zeros(3)
+    for iface in problem.interfaces.values():  # every interface's points together
+        el, res = iface.elements, iface.elements.last
+        if res is None or not res.status.size:
+            continue
+        nt = el.nt
+        st = res.status
+        f_t = np.linalg.norm(res.traction[:, :nt], axis=1)
+        strength = iface.law.strength(el.state.old, res.traction[:, nt], 0.0)
+        plastic = (st == Status.PLASTIC) | (st == Status.JUMP)
+        sliding = plastic & (f_t >= SLIDING_FRACTION * strength) & (strength > 0.0)
+        local += np.count_nonzero(sliding), np.count_nonzero(st == Status.SEPARATED), st.size
+    total = np.zeros(3)
+    problem.comm.Allreduce(local, total, op=MPI.SUM)
+    n = max(total[2], 1.0)
+    return float(total[0] / n), float(total[1] / n)
 
 
 def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
@@ -215,8 +282,8 @@ def _options_text(options: Mapping[str, Any] | None) -> str:
     return ", ".join(f"-{k} {v}" for k, v in (options or {}).items())
 
 
-class _Segment:
-    """Statistics of the steps since the last breakpoint, for the segment's log line."""
+class _Tally:
+    """Statistics of the steps since ``t0``, for a log line (a segment, or progress)."""
 
     def __init__(self, t0: float) -> None:
         self.t0 = t0
@@ -225,12 +292,31 @@ class _Segment:
         self.line_search = 0
         self.wall = time.perf_counter()
 
-    def line(self, t1: float, last: StepRecord) -> str:
+    def add(self, rec: StepRecord) -> None:
+        self.iterations.append(rec.iterations)
+
+    def newton(self) -> str:
         its = self.iterations
         return (
-            f"t = {self.t0:.6g} -> {t1:.6g} s: {len(its)} steps, Newton {np.mean(its):.2f} mean / "
-            f"{max(its)} max, {self.cuts} cuts, {self.line_search} with the line search, "
-            f"plastic {100 * last.plastic_fraction:.0f} %, {time.perf_counter() - self.wall:.2f} s"
+            f"{len(its)} step{'s' if len(its) != 1 else ''}, Newton {np.mean(its):.2f} mean / "
+            f"{max(its)} max, {self.cuts} cuts, {self.line_search} with the line search"
+        )
+
+    def seconds(self) -> float:
+        return time.perf_counter() - self.wall
+
+    def segment_line(self, t1: float, last: StepRecord) -> str:
+        return (
+            f"t = {self.t0:.6g} -> {t1:.6g} s: {self.newton()}; at its end {last.activity}; "
+            f"{self.seconds():.2f} s"
+        )
+
+    def progress_line(self, t1: float, span: tuple[float, float], last: StepRecord) -> str:
+        t_start, t_end = span
+        done = 100.0 * (t1 - t_start) / (t_end - t_start) if t_end > t_start else 100.0
+        return (
+            f"t = {t1:.6g} s of {t_end:.6g} ({done:.0f} %): {self.newton()} since t = "
+            f"{self.t0:.6g} s; {last.activity}; {self.seconds():.1f} s"
         )
 
 
@@ -305,6 +391,9 @@ class LoadStepper:
         self.records: list[StepRecord] = []
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
+        # penetration and slide, warned at the end: a watch per interface, the first's here
+        self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
+        self.validity = next(iter(self.watches.values()))
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -338,10 +427,9 @@ class LoadStepper:
 
         try:
             return self._run(t_end, next_stop)
-        finally:  # however the run ends: a large penetration seen is said (once)
-            warn = getattr(self.problem, "warn_penetration", None)
-            if warn is not None:
-                warn()
+        finally:  # however the run ends: a large penetration or slide seen is said (once)
+            for watch in self.watches.values():
+                watch.warn()
 
     def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
         """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
@@ -362,7 +450,10 @@ class LoadStepper:
     def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
         tol = 1e-12 * max(1.0, abs(t_end))
-        segment = _Segment(self.t)
+        segment = _Tally(self.t)
+        since = _Tally(self.t)  # since the last line printed
+        clock = logs.Progress()
+        span = (self.t, t_end)
         while self.t < t_end - tol:
             if self.step >= self.max_steps:
                 raise StepFailure(
@@ -406,6 +497,7 @@ class LoadStepper:
                 self._undo()
                 cuts += 1
                 segment.cuts += 1
+                since.cuts += 1
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
                     target, dt, why, attempt["text"],
@@ -433,31 +525,48 @@ class LoadStepper:
             if retried:
                 self.line_search_steps += 1
                 segment.line_search += 1
+                since.line_search += 1
                 self.retries += int(first is None)
             self.problem.commit()
+            for watch in self.watches.values():
+                watch.track(target)
+            sliding, open_ = interface_activity(self.problem)
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()
             self.step += 1
             self.t = target
             rec = StepRecord(
-                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"], retried
-            )
+                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"],
+                retried, sliding, open_,
+            )  # fmt: skip
             self.records.append(rec)
-            segment.iterations.append(r["iterations"])
+            segment.add(rec)
+            since.add(rec)
             if logger.isEnabledFor(logging.DEBUG):
-                c, res = r["counts"], r["residuals"] or [0.0]
+                res = r["residuals"] or [0.0]
                 logger.debug(
-                    "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  "
-                    "plastic %.0f %%  sep %d  (%.2f s)",
-                    self.step, target, dt, r["iterations"], res[0], res[-1],
-                    100 * rec.plastic_fraction, c.get("SEPARATED", 0), time.perf_counter() - t0,
+                    "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  "
+                    "(%.2f s)",
+                    self.step, target, dt, r["iterations"], res[0], res[-1], rec.activity,
+                    time.perf_counter() - t0,
                 )  # fmt: skip
+            printed = False
             if target >= breakpoint_ - tol:
-                logger.info(segment.line(target, rec))
-                segment = _Segment(target)
+                long_ = len(segment.iterations) >= LONG_SEGMENT_STEPS
+                if long_ or segment.seconds() >= clock.interval:
+                    logger.info(segment.segment_line(target, rec))
+                    printed = True
+                segment = _Tally(target)
                 self._keep_retry = False  # a new segment starts with the solver's own options
                 self._hold_step = None
+            if printed:
+                clock.reset()
+            elif clock.due():  # only rank 0 prints: no rank needs to agree on it
+                logger.info(since.progress_line(target, span, rec))
+                printed = True
+            if printed:
+                since = _Tally(target)
             cuts = 0
             if not hold:  # the step outside holds grows on easy steps
                 self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0

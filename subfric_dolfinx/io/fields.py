@@ -1,10 +1,13 @@
 """Displacement and interface fields over time for ParaView (VTX or XDMF).
 
-The interface fields are ``f_t`` (tangential traction, as a vector in global components), ``f_n``
-and every internal variable of the law (tangential ones as vectors in global components, scalar
-ones as they are) and the fixed point data (the initial gap ``g0``; ``region``, the region
-number, with interface regions), as cell averages of the quadrature values on the interface
-submesh (DG0).
+The interface fields, named as in every output (:mod:`.units`), are ``f_t1`` [``f_t2``] and
+``f_n`` (the traction's local components), ``traction_global`` (the traction on the master body
+in global components, for glyphs), every output variable of the law (a scalar as it is, a vector
+by its local components ``up_t1`` ... and as ``<v>_global`` in global components) and the fixed
+point data (the initial gap ``g0``; ``region``, the region number, with interface regions), as
+cell averages of the quadrature values on the interface submesh (DG0). Their units, the frame
+and the ``status`` legend are in ``units.json`` beside the files (VTX and DOLFINx's XDMF carry
+no attributes of ours).
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
 
@@ -20,6 +23,7 @@ process between that check and the write is not covered.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +35,8 @@ from ..compat import coordinate_element, geometry_dofmap
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 from .gather import interface_of
-from .links import refuse_links
+from .links import refuse_links, write_text_nofollow
+from .units import FRAME, interface_units, status_legend
 
 __all__ = ["FieldWriter"]
 
@@ -83,10 +88,19 @@ class FieldWriter:
             sub = el.submesh
             D0s = dolfinx.fem.functionspace(sub, ("DG", 0))
             D0v = dolfinx.fem.functionspace(sub, ("DG", 0, (el.gdim,)))
-            fields = {"f_t": F(D0v, name="f_t"), "f_n": F(D0s, name="f_n")}
+            nt = el.nt
+            fields = {f"f_t{i + 1}": F(D0s, name=f"f_t{i + 1}") for i in range(nt)}
+            fields["f_n"] = F(D0s, name="f_n")
+            fields["traction_global"] = F(D0v, name="traction_global")
             for var in law.variables:
-                space = D0s if var.shape == SCALAR else D0v
-                fields[var.name] = F(space, name=var.name)
+                if not var.output:
+                    continue
+                if var.shape == SCALAR:
+                    fields[var.name] = F(D0s, name=var.name)
+                    continue
+                fields[f"{var.name}_global"] = F(D0v, name=f"{var.name}_global")
+                for c in var.column_names(nt):
+                    fields[c] = F(D0s, name=c)
             for k in el.point_data:
                 fields[k] = F(D0s, name=k)
             stem = "interface" if len(ifaces) == 1 else f"interface_{name}"
@@ -121,6 +135,15 @@ class FieldWriter:
         names = ("displacement", *(stem for stem, _, _, _ in self.parts))
         exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
         refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
+        if comm.rank == 0:
+            units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
+            for _, _, law, _ in self.parts:
+                units.update(interface_units(law, gdim))
+            stems = ", ".join(stem for stem, _, _, _ in self.parts)
+            meta = {"files": f"displacement, {stems} (DG0: the average of each interface "
+                    "facet) and stress, VTX (.bp) or XDMF", "units": units, "frame": FRAME,
+                    "status_legend": status_legend()}  # fmt: skip
+            write_text_nofollow(self.dir / "units.json", json.dumps(meta, indent=1) + "\n")
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
             for stem, _, _, fields in self.parts:
@@ -163,13 +186,20 @@ class FieldWriter:
             R = el.Q[..., :k, :]  # rows e1 [e2] (tangential) [-n] (local)
             return avg(np.einsum("cqi,cqid->cqd", a.reshape(nf, nq, k), R).reshape(-1, gdim))
 
-        fields["f_t"].x.array[:] = global_vector(tr[:, :nt]).ravel()
+        for i in range(nt):
+            fields[f"f_t{i + 1}"].x.array[:] = avg(tr[:, i])
         fields["f_n"].x.array[:] = avg(tr[:, nt])
+        fields["traction_global"].x.array[:] = global_vector(tr).ravel()
         for var in law.variables:
+            if not var.output:
+                continue
             a = st[var.name]
-            fields[var.name].x.array[:] = (
-                avg(a) if var.shape == SCALAR else global_vector(a).ravel()
-            )
+            if var.shape == SCALAR:
+                fields[var.name].x.array[:] = avg(a)
+                continue
+            fields[f"{var.name}_global"].x.array[:] = global_vector(a).ravel()
+            for i, c in enumerate(var.column_names(nt)):
+                fields[c].x.array[:] = avg(a[:, i])
         for k, a in el.point_data.items():
             fields[k].x.array[:] = avg(a)
 

@@ -6,6 +6,11 @@ the law's internal variables, status fractions) and the reaction force of every 
 (``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]), then the columns of ``columns()`` if given
 (e.g. probes).
 
+Units: beside the CSV file, ``history.csv-metadata.json`` describes every column (its unit and
+what it is, :func:`~.units.column_unit`; the frame and the ``status`` legend) in the W3C
+"CSV on the Web" metadata format (``tableSchema.columns``: ``name``, ``dc:description``,
+``schema:unitText``), so the CSV stays one header line and numbers for every reader.
+
 Writing is collective: rank 0 writes and flushes each row inside ``try`` and every rank raises the
 same :class:`~.collective.OutputError` if that failed (naming the file and the OS error); the file
 is then closed, and nothing more is written to it.
@@ -14,15 +19,35 @@ is then closed, and nothing more is written to it.
 from __future__ import annotations
 
 import csv
-from collections.abc import Callable
+import json
+import os
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from .collective import collective
-from .links import opener
+from .links import opener, write_text_nofollow
 from .summary import interface_summary
+from .units import FRAME, column_unit, status_legend
 
-__all__ = ["HistoryCSV"]
+__all__ = ["HistoryCSV", "history_metadata"]
+
+
+def history_metadata(path: Path, columns: Sequence[str], law: Any, gdim: int) -> dict[str, Any]:
+    """The CSV-on-the-Web metadata of a history file: every column's unit and meaning."""
+    cols = []
+    for name in columns:
+        unit, what = column_unit(name, law, gdim)
+        cols.append({"name": name, "titles": name, "datatype": "number",
+                     "dc:description": what, "schema:unitText": unit})  # fmt: skip
+    return {
+        "@context": ["http://www.w3.org/ns/csvw", {"@language": "en"}],
+        "url": path.name,
+        "dc:description": "subfric-dolfinx run history: one row per converged step; units MPa, "
+        "mm, s; forces N (3-D) or N/mm per unit thickness (2-D); " + FRAME,
+        "status_legend": status_legend(),
+        "tableSchema": {"columns": cols},
+    }
 
 
 class HistoryCSV:
@@ -80,6 +105,12 @@ class HistoryCSV:
         assert self.path is not None
         if self._writer is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            meta = self.path.with_name(self.path.name + "-metadata.json")
+            tmp = meta.with_name(meta.name + ".tmp")
+            p = self.problem
+            text = json.dumps(history_metadata(self.path, list(row), p.law, p.gdim), indent=1)
+            write_text_nofollow(tmp, text + "\n")
+            os.replace(tmp, meta)
             self._file = open(self.path, "w", newline="", opener=opener)
             self._writer = csv.DictWriter(self._file, fieldnames=list(row))
             self._writer.writeheader()

@@ -10,12 +10,14 @@ Layout (``n`` steps, ``p`` interface points in the order of
     /gap     (n, p, nt + 1)  the gap ubar in the local frame: tangential components, then
                              ubar_n (> 0 on approach; f_n = alpha_n ubar_n in contact) (mm)
     /status  (n, p)          return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
-    /<v>     (n, p[, nt])    every internal variable of the law (e.g. up, mu, r)
+    /<v>     (n, p[, nt])    every output variable of the law (e.g. up, mu, r), local frame
     /g0      (p,)            the initial gap (fixed; mm)
     /region  (p,)            with interface regions: the region of each point (fixed)
 
 The attribute ``variables`` lists the law's variables (JSON), ``regions`` the region names
-(``region`` indexes it; ``default`` first). A step counts once its time is in
+(``region`` indexes it; ``default`` first); ``units`` (name -> unit), ``frame`` and
+``status_legend`` (code -> meaning) are the vocabulary of :mod:`.units`, and every dataset has
+its ``unit``. A step counts once its time is in
 ``/time``, written last: after a failed write the other datasets may hold one more (incomplete)
 row, which a restart drops. Each rank writes its own slab of
 points (:mod:`.slabs`) through h5py's MPI driver (:class:`~.h5.ParallelH5`), and the file is
@@ -37,6 +39,7 @@ from .collective import Failure
 from .gather import interface_of
 from .h5 import ParallelH5
 from .slabs import interface_rows, push, slab
+from .units import file_attributes, interface_units
 
 __all__ = ["InterfaceHistoryH5"]
 
@@ -75,7 +78,8 @@ class InterfaceHistoryH5:
             "status": ((), np.int8),
         }
         for var in self.law.variables:
-            self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
+            if var.output:
+                self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
         self.rows, self.p = interface_rows(el)
         self.lo, self.hi = slab(self.p, comm.size, comm.rank)
         # what a step adds to the file (reserved before it, see ParallelH5.reserve): the new
@@ -104,9 +108,13 @@ class InterfaceHistoryH5:
         p, gdim = self.p, x.shape[1]
         names = [v.name for v in self.law.variables]
 
+        units = interface_units(self.problem.law, gdim)
+
         def create(f: Any) -> None:
             f.attrs["variables"] = json.dumps(names)
             f.attrs["regions"] = json.dumps(list(self.el.region_names))
+            for k, v in file_attributes(self.law, gdim).items():
+                f.attrs[k] = v
             f.create_dataset("x", (p, gdim), dtype=float, fill_time="never")
             for k in self.pdata:
                 dtype = np.int32 if k == "region" else float
@@ -117,6 +125,8 @@ class InterfaceHistoryH5:
                     k, (0, p, *shape), maxshape=(None, p, *shape), dtype=dtype,
                     chunks=(1, max(p, 1), *shape), fill_time="never",
                 )  # fmt: skip
+            for k in ("x", "time", *self.pdata, *self.shapes):
+                f[k].attrs["unit"] = units.get(k, "?")
 
         def fill(f: Any) -> None:
             if self.hi > self.lo:
@@ -126,7 +136,7 @@ class InterfaceHistoryH5:
 
         self.h.reserve(
             8 * (x.size + len(self.pdata) * max(x.shape[0], 1)) * self.h.comm.size
-            + 4096 * (len(self.shapes) + len(self.pdata))
+            + 4096 * (len(self.shapes) + len(self.pdata) + 2)  # + the vocabulary's attributes
         )
         self.h.call(create, meta=True)
         self.h.call(fill)
@@ -183,7 +193,7 @@ class InterfaceHistoryH5:
             "gap": el.last_gap,
             "status": res.status,
         }
-        values.update({name: a for name, a in st.items()})
+        values.update({name: a for name, a in st.items() if name in self.shapes})
         n_local = self.rows.size
         widths = {k: int(np.prod(s)) for k, (s, _) in self.shapes.items()}
         table = np.column_stack(

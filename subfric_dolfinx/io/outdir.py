@@ -15,13 +15,13 @@ the first step:
    unlocked: the next run takes it); a run that locked a file another run removed meanwhile
    sees that the name no longer leads to it and starts again;
 3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
-   (:data:`RUN_FILES`: ``history.csv``, ``interface_history.h5``, ``checkpoint.h5``, the
-   ``fields`` directory, a stale ``checkpoint.h5.tmp``) into ``previous_run/``, replacing what was
-   there: the directory then holds this run's files only, and the last run's files are kept one
-   generation. ``previous_run/`` is deleted only if it holds nothing but such names: one that
-   holds other files (the user's), or a regular file by that name, is never deleted, the run is
-   refused naming it. A restart continues the files it finds (the interface history is cut back
-   to the restart time). Other files are left alone.
+   (:data:`RUN_FILES`: ``history.csv`` and its units, ``interface_history.h5``,
+   ``checkpoint.h5``, the ``fields`` directory, a stale ``checkpoint.h5.tmp``) into
+   ``previous_run/``, replacing what was there: the directory then holds this run's files only,
+   and the last run's files are kept one generation. ``previous_run/`` is deleted only if it
+   holds nothing but such names: one that holds other files (the user's), or a regular file by
+   that name, is never deleted, the run is refused naming it. A restart continues the files it
+   finds (the interface history is cut back to the restart time). Other files are left alone.
 
 No file is ever created, truncated or written through a symbolic link (:mod:`.links`): the lock
 is opened with ``O_NOFOLLOW`` (a link there is refused, naming it), a link named like a run's
@@ -47,6 +47,7 @@ LOCK_NAME = ".subfric.lock"
 PREVIOUS = "previous_run"
 RUN_FILES = (
     "history.csv",
+    "history.csv-metadata.json",
     "interface_history.h5",
     "checkpoint.h5",
     "checkpoint.h5.tmp",

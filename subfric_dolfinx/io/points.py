@@ -11,11 +11,14 @@ ParaView; a temporal collection of polyvertex grids) and its HDF5 heavy data
     /rank            (p,)        the rank owning the point
     /step_<k>        group, attribute ``time``, for the k-th written step (k = 0, 1, ...):
       f_t1 [f_t2], f_n         traction, local components (MPa; f_n > 0 in compression)
-      traction       (p, 3)    traction on the master body in global components (glyphs)
+      traction_global (p, 3)   traction on the master body in global components (glyphs)
       status         (p,)      return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
-      <v>, <v>_t1 .. <v>_n     every internal variable of the law, by component (e.g. up_t1,
-                               mu, r; ``state_<name>`` where a name is taken, e.g. the
-                               subloading law's end-of-step traction ``f``: state_f_t1 ...)
+      <v>, <v>_t1 .. <v>_n     every output variable of the law by its local components (e.g.
+                               up_t1, mu, r), and a vector one as ``<v>_global`` (p, 3)
+
+The names are those of every output (:mod:`.units`); the file's attributes ``units``, ``frame``
+and ``status_legend`` and each dataset's ``unit`` say the rest, and the XDMF file repeats each
+array's unit in an ``Information`` element.
 
 The points are in rank order, each rank's points in its own order (a slab per rank, written by
 that rank with h5py's MPI driver: nothing is gathered); ``/rank`` tells which rank owned a
@@ -39,6 +42,7 @@ import numpy as np
 from ..constitutive import LOCAL, SCALAR
 from .gather import interface_of
 from .links import refuse_links, write_text_nofollow
+from .units import file_attributes, interface_units
 
 __all__ = ["InterfacePointsXDMF", "PointCloudError"]
 
@@ -93,6 +97,7 @@ class InterfacePointsXDMF:
         self.offset = int(sum(sizes[: comm.rank]))
         self.times: list[float] = []
         self.arrays: list[tuple[str, str]] = []  # (name, "Scalar" or "Vector") per step
+        self.units = interface_units(problem.law, el.gdim)
         self._f: Any = None
         error = None
         if comm.rank == 0:
@@ -116,7 +121,10 @@ class InterfacePointsXDMF:
         error = None
         try:
             f = self._f
+            for k, v in file_attributes(problem.law, self.gdim).items():
+                f.attrs[k] = v
             dg = self._dataset(f, "geometry", (self.n_points, self.gdim), float)
+            dg.attrs["unit"] = "mm"
             dt = self._dataset(f, "topology", (self.n_points, 1), np.int64)
             dr = self._dataset(f, "rank", (self.n_points,), np.int32)
         except Exception as e:
@@ -164,17 +172,26 @@ class InterfacePointsXDMF:
         tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))
         status = el.last.status if el.last is not None else np.zeros(n, dtype=np.int8)
         out = {name: tr[:, i] for i, name in enumerate(_components("f", LOCAL, nt))}
-        fg = np.einsum("cqji,cqj->cqi", el.Q, tr.reshape(el.n_elements, el.nq, gdim))
-        vec = np.zeros((n, 3))
-        vec[:, :gdim] = fg.reshape(n, gdim)
-        out["traction"] = vec
+
+        def global_vector(a: np.ndarray) -> np.ndarray:  # local components -> (n, 3) global
+            k = a.shape[1]
+            g = np.einsum("cqji,cqj->cqi", el.Q[..., :k, :], a.reshape(el.n_elements, el.nq, k))
+            vec = np.zeros((n, 3))
+            vec[:, :gdim] = g.reshape(n, gdim)
+            return vec
+
+        out["traction_global"] = global_vector(tr)
         out["status"] = np.asarray(status, dtype=np.int32)
         st = el.state.old
         for var in self.law.variables:
+            if not var.output:
+                continue
             width = int(np.prod(var.array_shape(1, nt)[1:]))
             a = np.asarray(st[var.name], dtype=float).reshape(n, width)
             for i, name in enumerate(_components(var.name, var.shape, nt)):
-                out[name if name not in out else f"state_{name}"] = a[:, i]
+                out[name] = a[:, i]
+            if var.shape != SCALAR:
+                out[f"{var.name}_global"] = global_vector(a)
         return out
 
     def write(self, t: float) -> None:
@@ -202,6 +219,7 @@ class InterfacePointsXDMF:
             g.attrs["time"] = float(t)
             for name, a in values.items():
                 datasets[name] = self._dataset(g, name, (self.n_points, *a.shape[1:]), a.dtype)
+                datasets[name].attrs["unit"] = self.units.get(name, "?")
         except Exception as e:
             error = e
         self._agree_or_close(error)
@@ -245,6 +263,8 @@ class InterfacePointsXDMF:
             '<?xml version="1.0"?>',
             '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
             "<Domain>",
+            *(f"<Information Name={quoteattr(k)} Value={quoteattr(v)}/>"
+              for k, v in file_attributes(self.problem.law, gdim).items()),
             '<Grid Name="interface_points" GridType="Collection" CollectionType="Temporal">',
         ]
         for k, t in enumerate(self.times):
@@ -260,9 +280,11 @@ class InterfacePointsXDMF:
             for name, kind in self.arrays:
                 dims = f"{p} 3" if kind == "Vector" else str(p)
                 number, prec = ("Int", 4) if name == "status" else ("Float", 8)
+                unit = quoteattr(self.units.get(name, "?"))
                 lines.append(
                     f"<Attribute Name={quoteattr(name)} AttributeType=\"{kind}\" "
-                    f'Center="Node">{item(f"/step_{k}/{name}", dims, number, prec)}</Attribute>'
+                    f'Center="Node"><Information Name="unit" Value={unit}/>'
+                    f'{item(f"/step_{k}/{name}", dims, number, prec)}</Attribute>'
                 )
             lines.append("</Grid>")
         lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]

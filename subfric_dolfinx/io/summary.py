@@ -33,10 +33,11 @@ def element_summary(el, law, comm) -> dict[str, float]:
     """Area-weighted means over one interface, totals and status fractions (collective).
 
     Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
-    ``f_t`` (mean ``|f_t|``), ``f_n`` (mean); for every internal variable of the law, a scalar ``v``
-    as its mean ``v``, a tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1``
-    [``v_t2``] (means of its components), a local one as the means of ``v_t1`` [``v_t2``],
-    ``v_n``; and the fractions of quadrature points ``plastic``
+    ``f_t_norm`` (mean ``|f_t|``), ``f_n`` (mean); for every output variable of the law
+    (:attr:`~subfric_dolfinx.constitutive.Variable.output`), a scalar ``v`` as its mean ``v``, a
+    tangential one as ``v_norm`` (mean of its magnitude) and ``v_t1`` [``v_t2``] (means of its
+    components), a local one as the means of ``v_t1`` [``v_t2``], ``v_n``; and the fractions of
+    quadrature points ``plastic``
     (PLASTIC or JUMP), ``separated`` and ``unstable``. With interface regions, per region
     ``<region>.area``, ``<region>.F_t1`` [``.F_t2``], ``<region>.F_n``, ``<region>.plastic`` and
     ``<region>.separated`` (region ``default``: the points of the default law).
@@ -46,9 +47,11 @@ def element_summary(el, law, comm) -> dict[str, float]:
     st = el.state.old
     res = el.last
     tr = res.traction if res is not None else np.zeros((w.size, nt + 1))
-    names = ["area", *(f"F_t{i + 1}" for i in range(nt)), "F_n", "f_t"]
+    names = ["area", *(f"F_t{i + 1}" for i in range(nt)), "F_n", "f_t_norm"]
     cols = [w, *(w * tr[:, i] for i in range(nt + 1)), w * np.linalg.norm(tr[:, :nt], axis=1)]
     for var in law.variables:
+        if not var.output:
+            continue
         a = st[var.name]
         if var.shape == SCALAR:
             names.append(var.name)

@@ -1,0 +1,255 @@
+"""Is the small-sliding penalty interface still describing the contact? Penetration and slide.
+
+The interface is a penalty layer (``f_n = alpha_n ubar_n``) whose pairs and local frames stay at
+the reference geometry. Two things can make a converged result mean less than it seems, and
+:class:`ValidityWatch` follows both over a run (after every converged step, collectively) and
+warns once at its end, naming the worst point, where and when (:func:`subfric_dolfinx.logs.warn`:
+a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
+:class:`~subfric_dolfinx.logs.SlideWarning`, visible in a plain script, one per MPI job):
+
+* **Penetration.** A pressed point sinks by ``ubar_n``; the interface is then as compliant as a
+  layer of the bodies ``l = E* ubar_n / f_n`` thick (``E*`` the contact modulus of the two
+  bodies, ``1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2``; ``l = E*/alpha_n`` for a linear
+  penalty), and it spreads the contact pressure over about ``l`` (``demos/punch.py`` measures
+  it). The bodies' own compliance over a contact of size ``L`` is about ``L / E*``: with ``l``
+  below a tenth of ``L`` the penalty adds less than a tenth to it. A mesh cannot resolve anything
+  shorter than its interface elements ``h`` either, so the tolerance is ``max(h,
+  PENETRATION_FRACTION L)``: on a fine mesh it is a fixed fraction of the contact (refining never
+  makes a warning appear), on a coarse one the element. ``L`` is the interface's size (its length
+  in 2-D, the square root of its area in 3-D). The warning says which ``alpha_n`` removes it
+  (``E*/tolerance``) and which makes the interface ten times stiffer than one interface element
+  of the bodies (``10 E*/h``, the usual rule for a penalty that the mesh cannot see).
+* **Slide.** The traction at a slave point acts on the master point that faced it at the start:
+  a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it several
+  elements away from the point the slave really touches. Results stay those of that
+  idealisation (exact for a uniformly loaded flat interface, not where the contact's state
+  varies over the slide, e.g. near its edges).
+
+A problem of several interfaces has one watch per interface (the
+:class:`~subfric_dolfinx.fem.LoadStepper` keeps them all); each uses the contact modulus of its
+own two bodies and names its interface in its warnings. A user bulk law without
+:class:`~subfric_dolfinx.fem.Material` values for an interface's bodies leaves ``E*`` unknown:
+that interface's penetration is then not judged (its slide is).
+
+The checks cost one all-reduce of two numbers per step (and a gather when a maximum grows).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from .. import logs
+
+__all__ = [
+    "PENETRATION_FRACTION",
+    "SLIDE_ELEMENTS",
+    "ValidityWatch",
+    "WorstPoint",
+    "contact_modulus",
+]
+
+PENETRATION_FRACTION = 0.1
+"""A penetration is tolerated while ``l = E* ubar_n / f_n`` stays below the larger of the
+interface element size and this fraction of the interface's size."""
+
+SLIDE_ELEMENTS = 3.0
+"""A slide ``|ubar_t|`` beyond this many interface element sizes is warned about."""
+
+
+def contact_modulus(materials: Mapping[str, Any]) -> float:
+    """``E*`` of the two bodies: ``1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2`` (MPa).
+
+    Args:
+        materials: Body name -> :class:`~subfric_dolfinx.fem.Material`; ``master`` and
+            ``slave`` if given, otherwise the two most compliant.
+    """
+    mats = [materials[k] for k in ("master", "slave") if k in materials]
+    if len(mats) < 2:
+        mats = sorted(materials.values(), key=lambda m: m.E / (1.0 - m.nu**2))[:2]
+        mats = (mats * 2)[:2]
+    return 1.0 / sum((1.0 - m.nu**2) / m.E for m in mats)
+
+
+@dataclasses.dataclass(frozen=True)
+class WorstPoint:
+    """The point where a check was furthest beyond its tolerance over the run.
+
+    Attributes:
+        ratio: The measure over its tolerance (> 1: warned).
+        value: The penetration ``ubar_n`` or the slide ``|ubar_t|`` there (mm).
+        h: The interface element size there (mm).
+        x: Coordinates of the point.
+        t: Time of the step.
+        f_n: Normal traction there (MPa).
+    """
+
+    ratio: float
+    value: float
+    h: float
+    x: tuple[float, ...]
+    t: float
+    f_n: float
+
+
+class ValidityWatch:
+    """Follows the penetration and the slide of an interface over a run; warns at its end.
+
+    Made by :class:`~subfric_dolfinx.fem.LoadStepper` (collective): :meth:`track` after every
+    converged step, :meth:`warn` when the run ends, however it ends.
+
+    Args:
+        problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: The interface's name (``None``: the problem's first interface).
+
+    Attributes:
+        interface: The interface's name.
+        penetration: The worst penetration beyond its tolerance so far, or ``None``.
+        slide: The worst slide beyond :data:`SLIDE_ELEMENTS` elements so far, or ``None``.
+        contact_modulus: ``E*`` of the interface's two bodies (MPa), ``None`` if unknown.
+        size: The interface's size ``L`` (mm).
+        h_min: The smallest interface element size (mm).
+    """
+
+    def __init__(self, problem: Any, interface: str | None = None) -> None:
+        self.problem = problem
+        self.comm = problem.comm
+        ifaces = problem.interfaces
+        self.interface = next(iter(ifaces)) if interface is None else interface
+        if self.interface not in ifaces:
+            raise KeyError(f"no interface {self.interface!r}; the problem has {list(ifaces)}")
+        self._named = len(ifaces) > 1
+        el = self._elements = ifaces[self.interface].elements
+        self.gdim = el.gdim
+        area = el.weights.sum(axis=1)  # length (2-D), area (3-D) of each element
+        dim = max(self.gdim - 1, 1)
+        self.h = np.repeat(area ** (1.0 / dim), el.nq)  # element size at each point
+        self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)
+        self.h_min = self.comm.allreduce(float(self.h.min()) if self.h.size else np.inf, MPI.MIN)
+        self.contact_modulus = _interface_modulus(problem, self.interface)
+        self.tolerance = np.maximum(self.h, PENETRATION_FRACTION * self.size)
+        self.penetration: WorstPoint | None = None
+        self.slide: WorstPoint | None = None
+        self._said: set[type[Warning]] = set()
+
+    def track(self, t: float) -> None:
+        """Look at the committed step that ended at ``t`` (collective).
+
+        Penetration: the worst point is the deepest among those beyond the tolerance (for a
+        linear penalty ``l`` is the same at every pressed point); slide: the point of the most
+        elements.
+        """
+        el = self._elements
+        nt = el.nt
+        res = el.last
+        n = self.h.size
+        gap = el.last_gap if n else np.zeros((0, nt + 1))
+        f_n = res.traction[:, nt] if res is not None and n else np.zeros(n)
+        un = gap[:, nt]
+        pressed = (un > 0.0) & (f_n > 0.0) & (self.contact_modulus is not None)
+        es = self.contact_modulus or 0.0
+        layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
+        pen = layer / self.tolerance
+        slide = np.linalg.norm(gap[:, :nt], axis=1)
+        checks = {  # name -> (ratio, value, what selects the worst point)
+            "penetration": (pen, un, np.where(pen > 1.0, un, -np.inf)),
+            "slide": (slide / (SLIDE_ELEMENTS * self.h), slide, slide / self.h),
+        }
+        local = np.array([key.max() if n else -np.inf for _, _, key in checks.values()])
+        largest = np.zeros_like(local)
+        self.comm.Allreduce(local, largest, op=MPI.MAX)
+        for k, (name, (ratio, value, key)) in enumerate(checks.items()):
+            known = getattr(self, name)
+            if not np.isfinite(largest[k]):  # nothing beyond the tolerance
+                continue
+            if known is not None:
+                floor = known.value if name == "penetration" else known.ratio * SLIDE_ELEMENTS
+                if not largest[k] > floor * (1.0 + 1e-3):  # details only when it grows
+                    continue
+            elif name == "slide" and not largest[k] > SLIDE_ELEMENTS:
+                continue
+            mine = None
+            if n and local[k] == largest[k]:
+                i = int(np.argmax(key))
+                x = tuple(float(v) for v in el.points.reshape(-1, self.gdim)[i])
+                mine = WorstPoint(
+                    float(ratio[i]), float(value[i]), float(self.h[i]), x, float(t), float(f_n[i])
+                )
+            found = [p for p in self.comm.allgather(mine) if p is not None]
+            setattr(self, name, min(found, key=lambda p: p.x))  # the same on every rank
+
+    def messages(self) -> list[tuple[type[Warning], str]]:
+        """The warnings of the run so far: (category, text) (the same on every rank)."""
+        out: list[tuple[type[Warning], str]] = []
+        on = f"on the interface {self.interface!r}: " if self._named else ""
+        p = self.penetration
+        if p is not None and self.contact_modulus is not None:
+            es = self.contact_modulus
+            layer = es * p.value / p.f_n
+            tol = layer / p.ratio
+            out.append((logs.PenetrationWarning, (
+                f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
+                f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa). The interface is as compliant as "
+                f"l = E* ubar_n / f_n "
+                f"= {layer:.3g} mm of the bodies (E* = {es:.4g} MPa, their contact modulus), "
+                f"{p.ratio:.3g} times the {tol:.3g} mm tolerated there, max(h, "
+                f"{PENETRATION_FRACTION:g} L) with h = {p.h:.3g} mm the interface element and L "
+                f"= {self.size:.3g} mm the interface's size: the penalty spreads the contact "
+                f"pressure over about l. Set alpha_n >= E*/{tol:.3g} mm = {es / tol:.3g} MPa/mm; "
+                f"10 E*/h = {10 * es / self.h_min:.3g} MPa/mm makes the interface ten times "
+                "stiffer than its smallest elements"
+            )))  # fmt: skip
+        s = self.slide
+        if s is not None:
+            out.append((logs.SlideWarning, (
+                f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
+                f"t = {s.t:.6g} s), "
+                f"{s.value / s.h:.3g} interface elements (h = {s.h:.3g} mm; warned beyond "
+                f"{SLIDE_ELEMENTS:g}). The interface is small-sliding: a slave point's traction "
+                f"still acts on the master point that faced it at the start, {s.value:.3g} mm "
+                "away, which is right for a uniformly loaded flat interface, not where the "
+                "contact's state varies over that distance (e.g. at its edges). Coarser interface "
+                "elements or a shorter slide keep it small"
+            )))  # fmt: skip
+        return out
+
+    def warn(self) -> None:
+        """Warn about what went beyond its tolerance, each kind once per watch.
+
+        Not collective (safe while an error unwinds); every rank applies the warning filters,
+        rank 0 shows the warning.
+        """
+        for category, text in self.messages():
+            if category not in self._said:
+                self._said.add(category)
+                logs.warn(text, category, self.comm)
+
+
+def _interface_modulus(problem: Any, name: str) -> float | None:
+    """``E*`` of the two bodies an interface joins, from the problem's materials.
+
+    A body's material is given by its name or by one of its cell groups (the most compliant of
+    those given); the legacy ``master``/``slave`` keys are resolved by the problem. ``None`` when
+    either body has none (a user bulk law).
+    """
+    materials = getattr(problem, "materials", None) or {}
+    topo = getattr(problem, "topology", None)
+    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
+    if spec is None:  # not a problem of the model layer: its two bodies are the materials
+        return contact_modulus(materials) if materials else None
+    mats = []
+    for body in (spec.primary, spec.secondary):
+        keys = [body, *topo.bodies.get(body, ())]
+        given = [materials[k] for k in keys if k in materials]
+        if not given:
+            return None
+        mats.append(min(given, key=lambda m: m.E / (1.0 - m.nu**2)))
+    return contact_modulus({"master": mats[0], "slave": mats[1]})
+
+
+def _xy(x: tuple[float, ...]) -> str:
+    return "(" + ", ".join(f"{v:.6g}" for v in x) + ")"
