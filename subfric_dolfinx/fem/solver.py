@@ -260,7 +260,7 @@ class FrictionSolver:
         self.linear.linear_done(snes)
         ok = self.problem.residual(x, F)
         if not ok:
-            self.failed_points = self.problem.interface.last.failed_indices
+            self.failed_points = self.problem.failed_points()
         stop = self.interrupted or (self.interrupt is not None and bool(self.interrupt()))
         # on every rank or none: SNES's line search checks the domain error on each rank alone,
         # and ranks that disagree would part ways (one leaves the solve, the other waits)
@@ -374,8 +374,7 @@ class FrictionSolver:
             # PETSc's own test (ours decides this itself, :mod:`.convergence`)
             rtol, atol, _, _ = self.snes.getTolerances()
             converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
-        last = p.interface.last
-        counts = {k: p.comm.allreduce(v) for k, v in last.counts().items()} if last else {}
+        counts = p.status_counts()
         return {
             "converged": converged,
             "iterations": self.snes.getIterationNumber(),

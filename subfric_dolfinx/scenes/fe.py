@@ -81,15 +81,17 @@ def restart_settings(scene: FEScene) -> dict[str, Any]:
     Every model input of the scene: the materials, the Dirichlet conditions and loads (values,
     components, channels), the springs, the point forces with their points' coordinates and
     bodies, the points Dirichlet conditions hold, the degree, the quadrature, the mesh builder's
-    options (or the mesh file's name) and any other field of the scene (e.g. interfaces) except
-    the solver, the outputs and the name. Solver settings and the partitioner may change. The
-    initial gap and the regions are compared point by point (``g0``, region numbers and laws).
-    A field at its default is left out, so checkpoints written before it was compared still fit
-    a run that does not use it.
+    options (or the mesh file's name) and group names, and any other field of the scene (bodies,
+    interfaces, mode) except the solver, the outputs and the name. Solver settings and the
+    partitioner may change. The initial gap and the regions are compared point by point (``g0``,
+    region numbers and laws). A field at its default is left out, so checkpoints written before
+    it was compared still fit a run that does not use it.
     """
     mesh: dict[str, Any] = {"builder": scene.mesh.builder, "options": scene.mesh.options}
     if scene.mesh.file is not None:
         mesh = {"file": Path(scene.mesh.file).name, "gdim": scene.mesh.gdim}
+    if scene.mesh.names:
+        mesh["names"] = scene.mesh.names
     out: dict[str, Any] = {
         "materials": scene.materials,
         "dirichlet": [dataclasses.asdict(d) for d in scene.dirichlet],
@@ -127,7 +129,7 @@ def run_fe_scene(
     PETSc.Log.begin()
     what = scene.mesh.builder or scene.mesh.file
     logger.debug("[%s] building the mesh (%s) on %d rank(s)", scene.name, what, comm.size)
-    domain = build_mesh(scene.mesh, comm)
+    domain = build_mesh(scene.mesh, comm, scene)
     problem = build_problem(scene, domain)
     res = SceneResult(scene.name, "fe")
     tdim = domain.mesh.topology.dim
@@ -135,7 +137,9 @@ def run_fe_scene(
         "ranks": comm.size,
         "cells": domain.mesh.topology.index_map(tdim).size_global,
         "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
-        "interface points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
+        "interface points": comm.allreduce(
+            sum(i.elements.n_elements * i.elements.nq for i in problem.interfaces.values())
+        ),
         "gdim": domain.mesh.geometry.dim,
     }
     i = res.info
