@@ -23,10 +23,12 @@ testing the version itself. Each difference was read in the installed sources of
 - Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
   property, ``element.interpolation_points`` (0.11).
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
+- ``Expression.eval`` on cells: an array (cells, points * value size) (0.9); (cells, points,
+  *value_shape) (0.11). The memory order is the same.
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 
-Everything else the package uses (forms, assembly into a given matrix, ``Expression``,
+Everything else the package uses (forms, assembly into a given matrix, ``Expression`` objects,
 ``Function.eval``, VTX/XDMF writers, geometry searches, ``SparsityPattern``) has the same
 signature in both versions.
 """
@@ -53,6 +55,7 @@ __all__ = [
     "coordinate_element",
     "create_submesh",
     "default_partitioner",
+    "eval_expression",
     "geometry_dofmap",
     "ghosted_index_map",
     "interpolation_points",
@@ -170,3 +173,17 @@ def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """The reference interpolation points of ``V``'s element (for a ``dolfinx.fem.Expression``)."""
     pts = V.element.interpolation_points
     return pts if _NEW else pts()
+
+
+def eval_expression(
+    expr: dolfinx.fem.Expression, mesh: dolfinx.mesh.Mesh, cells: np.ndarray, value_size: int
+) -> np.ndarray:
+    """Values of a (coefficient-only) ``Expression`` at its points in ``cells``.
+
+    Returns:
+        An array (cells, points, value_size): the ``eval`` array of 0.9 (cells, points *
+        value_size) or 0.11 (cells, points, *value_shape), reshaped.
+    """
+    cells = np.ascontiguousarray(cells, dtype=np.int32)
+    values = expr.eval(mesh, cells)
+    return np.reshape(values, (cells.size, expr.X().shape[0], value_size))
