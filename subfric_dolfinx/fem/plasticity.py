@@ -44,7 +44,6 @@ from mpi4py import MPI
 
 from ..compat import coordinate_element, eval_expression
 from ..constitutive.j2 import J2Material, J2State, LinearElastic
-from .interface.geometry import match_points
 from .kinematics import check_mode, elastic_stress, strain, weight
 
 __all__ = ["J2Bulk", "PlasticityError", "mandel_strain"]
@@ -80,9 +79,9 @@ class J2Bulk:
     """J2 plasticity (or linear elasticity) per body, state at the quadrature points.
 
     Args:
-        materials: Body name -> :class:`~subfric_dolfinx.constitutive.J2Material` or
-            :class:`~subfric_dolfinx.constitutive.LinearElastic`; every body of the problem
-            needs one.
+        materials: Body (or cell group) name -> :class:`~subfric_dolfinx.constitutive.J2Material`
+            or :class:`~subfric_dolfinx.constitutive.LinearElastic`; every body of the problem
+            needs one (a cell group takes its own entry if it has one, else its body's).
         quadrature_degree: Degree of the quadrature rule of the J2 bodies (see module docstring).
 
     Attributes:
@@ -90,12 +89,14 @@ class J2Bulk:
             ``plastic_strain``, ``backstress``, ``p`` (trial state) and ``plastic_strain_old``,
             ``backstress_old``, ``p_old`` (committed state).
         points: Physical coordinates of the J2 points this rank owns, (n, gdim), in the order
-            of :meth:`state`.
+            of :meth:`at_points`.
         n_components: 6 (3-D) or 4.
         plastic_points: Number of J2 points (all ranks) that yielded at the last update.
         failed_points: Number of points (all ranks) the return map could not integrate at the
             last update (non-finite strain): they carry zero stress.
     """
+
+    linear = False  # the residual is not linear in u: assembled at every iterate
 
     def __init__(
         self,
@@ -130,6 +131,8 @@ class J2Bulk:
         self._mode = ""
         self._X = np.zeros((0, 0))
         self._comm = MPI.COMM_SELF
+        self._n_owned_cells = 0
+        self._owned_points = np.zeros(0, dtype=np.int32)
 
     # ------------------------------------------------------------------------------------
     def forms(self, u, v, du, ctx) -> tuple[ufl.Form, ufl.Form]:
@@ -143,25 +146,13 @@ class J2Bulk:
 
         Raises:
             PlasticityError: A body without a material or a material for an unknown body, bodies
-                sharing a cell tag, J2 in plane stress, an unknown mode.
+                sharing a cell tag, J2 in plane stress.
+            ValueError: An unknown mode, or one that does not fit the mesh.
         """
         mesh = ctx.mesh
         mode = check_mode(ctx.mode, mesh.geometry.dim)
-        tags = {name: tuple(int(t) for t in np.atleast_1d(ts)) for name, ts in ctx.tags.items()}
-        missing = sorted(set(tags) - set(self.materials))
-        unknown = sorted(set(self.materials) - set(tags))
-        if missing or unknown:
-            raise PlasticityError(
-                f"every body needs a material: bodies without one: {missing}; materials for "
-                f"unknown bodies: {unknown} (bodies: {sorted(tags)})"
-            )
-        seen: dict[int, str] = {}
-        for name, ts in tags.items():
-            for t in ts:
-                if t in seen:
-                    raise PlasticityError(f"bodies {seen[t]!r} and {name!r} share cell tag {t}")
-                seen[t] = name
-        j2 = [b for b in tags if isinstance(self.materials[b], J2Material)]
+        groups = self._groups(ctx)
+        j2 = [g for g, (mat, _) in groups.items() if isinstance(mat, J2Material)]
         if j2 and mode == "plane_stress":
             raise PlasticityError(
                 f"J2 plasticity in plane stress needs its own return map (sigma_zz = 0 at every "
@@ -170,26 +161,55 @@ class J2Bulk:
             )
         self._mesh, self._mode, self._comm = mesh, mode, mesh.comm
         wt = weight(mesh, mode)
-        F = 0
-        J = 0
-        for name, ts in tags.items():
-            mat = self.materials[name]
+        F: Any = 0
+        J: Any = 0
+        for mat, ts in groups.values():
             if isinstance(mat, LinearElastic):
-                dxb = ctx.dx(ts)
+                dxb = ctx.dx(ts[0] if len(ts) == 1 else ts)
                 sig = elastic_stress(strain(u, mode), mat.E, mat.nu, mode)
                 F += ufl.inner(sig, strain(v, mode)) * wt * dxb
                 dsig = elastic_stress(strain(du, mode), mat.E, mat.nu, mode)
                 J += ufl.inner(dsig, strain(v, mode)) * wt * dxb
+        self._setup_points(ctx, {g: groups[g] for g in j2})
         if j2:
-            self._setup_points(ctx, tags, j2)
             fn = self.functions
-            dxq = ctx.dx(tuple(t for b in j2 for t in tags[b]))
+            dxq = ctx.dx(tuple(t for g in j2 for t in groups[g][1]))
             ev, edu = mandel_strain(v, mode), mandel_strain(du, mode)
             F += ufl.dot(fn["stress"], ev) * wt * dxq
             J += ufl.dot(ufl.dot(fn["tangent"], edu), ev) * wt * dxq
-        if isinstance(F, int):
-            raise PlasticityError("no bodies: the context's tags are empty")
         return F, J
+
+    def _groups(self, ctx) -> dict[str, tuple[J2Material | LinearElastic, tuple[int, ...]]]:
+        """Cell group -> (its material, its tags).
+
+        A group takes its own entry of :attr:`materials` if it has one, else its body's.
+        """
+        tags = {name: tuple(int(t) for t in np.atleast_1d(ts)) for name, ts in ctx.tags.items()}
+        bodies = dict(getattr(ctx, "groups", None) or {}) or {name: (name,) for name in tags}
+        if not bodies:
+            raise PlasticityError("no bodies: the context's tags are empty")
+        out: dict[str, tuple[J2Material | LinearElastic, tuple[int, ...]]] = {}
+        missing = []
+        for body, names in bodies.items():
+            for g in names:
+                mat = self.materials.get(g, self.materials.get(body))
+                if mat is None:
+                    missing.append(body if g == body else f"{body} (cell group {g})")
+                elif g not in out:
+                    out[g] = (mat, tags[g])
+        unknown = sorted(set(self.materials) - set(tags) - set(bodies))
+        if missing or unknown:
+            raise PlasticityError(
+                f"every body needs a material: bodies without one: {missing}; materials for "
+                f"unknown bodies: {unknown} (bodies: {sorted(bodies)})"
+            )
+        seen: dict[int, str] = {}
+        for g, (_, ts) in out.items():
+            for t in ts:
+                if t in seen:
+                    raise PlasticityError(f"bodies {seen[t]!r} and {g!r} share cell tag {t}")
+                seen[t] = g
+        return out
 
     def _degree(self, V: dolfinx.fem.FunctionSpace) -> int:
         if self.quadrature_degree is not None:
@@ -202,8 +222,12 @@ class J2Bulk:
             return max(2 * (k - 1), 1)
         return 2 * k
 
-    def _setup_points(self, ctx, tags: dict[str, tuple[int, ...]], j2: list[str]) -> None:
+    def _setup_points(self, ctx, j2: dict[str, tuple[J2Material, tuple[int, ...]]]) -> None:
         mesh, mode = ctx.mesh, self._mode
+        tdim = mesh.topology.dim
+        self._n_owned_cells = mesh.topology.index_map(tdim).size_local
+        if not j2:
+            return
         nc = 6 if mode == "3d" else 4
         self.n_components = nc
         cname = mesh.topology.cell_name()
@@ -223,21 +247,22 @@ class J2Bulk:
             fn[name] = F(Q, name=name)
             fn[name + "_old"] = F(Q, name=name + "_old")
         self.functions = fn
-        tdim = mesh.topology.dim
-        n_owned = mesh.topology.index_map(tdim).size_local
+        n_owned = self._n_owned_cells
         cell_tags = ctx.dx.subdomain_data()
         nq = X.shape[0]
         for Q in (Qv, Qt):
             if not np.array_equal(Q.dofmap.list, Qs.dofmap.list):
                 raise RuntimeError("unexpected layout of the blocked Quadrature spaces")
         self._bodies = []
-        for b in j2:
-            cells = np.unique(np.concatenate([cell_tags.find(t) for t in tags[b]]))
+        for g, (mat, ts) in j2.items():
+            cells = np.unique(np.concatenate([cell_tags.find(t) for t in ts]))
             cells = cells[cells < n_owned].astype(np.int32)
             pts = Qs.dofmap.list[cells].reshape(-1)
             if pts.size != cells.size * nq:
                 raise RuntimeError("unexpected layout of the Quadrature space")
-            self._bodies.append(_Body(b, self.materials[b], cells, pts))
+            self._bodies.append(_Body(g, mat, cells, pts))
+        # the owned cells' points, cell by cell (the layout of state() and restore())
+        self._owned_points = Qs.dofmap.list[:n_owned].reshape(-1)
         # the elastic tangent where nothing has happened yet
         tangent = fn["tangent"].x.array.reshape(-1, nc, nc)
         for body in self._bodies:
@@ -248,13 +273,6 @@ class J2Bulk:
             eval_expression(xexpr, mesh, b.cells, gdim).reshape(-1, gdim) for b in self._bodies
         ]
         self.points = np.concatenate(xs) if xs else np.zeros((0, gdim))
-        # points closer than 1e-8 of the J2 bodies' extent are the same point (restore)
-        ext = np.full(2 * gdim, -np.inf)
-        if self.points.size:
-            ext[:gdim], ext[gdim:] = -self.points.min(axis=0), self.points.max(axis=0)
-        mesh.comm.Allreduce(MPI.IN_PLACE, ext, op=MPI.MAX)
-        span = ext[gdim:] + ext[:gdim]
-        self._match_tol = 1e-8 * float(np.linalg.norm(span)) if np.all(span >= 0) else 0.0
 
     # ------------------------------------------------------------------------------------
     def _widen(self, a: np.ndarray) -> np.ndarray:
@@ -345,71 +363,58 @@ class J2Bulk:
         return vals.reshape(-1, nc, nc) if name == "tangent" else vals.copy()
 
     def state(self) -> dict[str, np.ndarray]:
-        """This rank's committed state at its J2 points (copies), for checkpoints.
+        """This rank's committed state (copies), for checkpoints, by owned cell.
 
         Returns:
-            ``x`` (the points' coordinates, (n, gdim)), ``plastic_strain`` and ``backstress``
-            ((n, nc), Mandel) and ``p`` ((n,)), in the order of :attr:`points`.
+            ``plastic_strain`` and ``backstress`` ((n_owned_cells * nq, nc), Mandel) and ``p``
+            ((n_owned_cells * nq,)): every owned cell's ``nq`` points, cell by cell in the
+            mesh's local order (zeros in the cells of elastic bodies); empty without J2 bodies.
         """
-        idx = self._owned_indices()
-        old = self._arrays("_old") if self.functions else {}
-        out = {"x": self.points.copy()}
-        for k in STATE_NAMES:
-            out[k] = old[k][idx].copy() if self.functions else np.zeros((0,))
-        return out
+        if not self.functions:
+            return {}
+        old = self._arrays("_old")
+        return {k: old[k][self._owned_points].copy() for k in STATE_NAMES}
 
     def restore(self, data: Mapping[str, np.ndarray]) -> None:
-        """Set the committed and trial state from :meth:`state`'s arrays (collective).
+        """Set the committed and trial state from arrays laid out as :meth:`state` gives them.
 
-        With ``x``, rows are matched to this rank's points by their coordinates (the data may
-        hold more rows, e.g. every rank's, in any order); without it, they are taken in the
-        order of :attr:`points`.
+        Collective: an error is raised on every rank.
 
         Raises:
-            PlasticityError: A missing key, a wrong shape, a non-finite value, or a point of this
-                rank's without a row (on every rank).
+            PlasticityError: A missing or unknown key, a wrong shape or a non-finite value.
         """
         error = None
         try:
             rows = self._restore_rows(data)
         except PlasticityError as e:
-            error, rows = str(e), None
+            error, rows = str(e), {}
         errors = [m for m in self._comm.allgather(error) if m]
         if errors:
             raise PlasticityError(errors[0])
         if not self.functions:
             return
-        idx = self._owned_indices()
         old, new = self._arrays("_old"), self._arrays("")
         for k in STATE_NAMES:
-            old[k][idx] = rows[k]
-            new[k][idx] = rows[k]
+            old[k][self._owned_points] = rows[k]
+            new[k][self._owned_points] = rows[k]
 
     def _restore_rows(self, data: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        n, nc = self.points.shape[0], self.n_components
-        for k in STATE_NAMES:
-            if k not in data:
-                raise PlasticityError(f"the J2 state has no {k!r}; keys: {sorted(data)}")
-        arrays = {k: np.asarray(data[k], dtype=float) for k in STATE_NAMES}
-        m = arrays["p"].shape[0] if arrays["p"].ndim == 1 else -1
-        for k, a in arrays.items():
-            want = (m,) if k == "p" else (m, nc)
-            if a.shape != want or m < 0:
+        names = STATE_NAMES if self.functions else ()
+        extra = sorted(set(data) - set(names))
+        missing = sorted(set(names) - set(data))
+        if extra or missing:
+            raise PlasticityError(
+                f"the J2 state needs the arrays {list(names)}; missing: {missing}, "
+                f"unknown: {extra}"
+            )
+        n, nc = self._owned_points.size if names else 0, self.n_components
+        out = {}
+        for k in names:
+            a = np.asarray(data[k], dtype=float)
+            want = (n,) if k == "p" else (n, nc)
+            if a.shape != want:
                 raise PlasticityError(f"J2 state {k!r} has shape {a.shape}, expected {want}")
             if not np.isfinite(a).all():
                 raise PlasticityError(f"J2 state {k!r} has non-finite values")
-        if "x" in data:
-            x = np.asarray(data["x"], dtype=float)
-            if x.shape != (m, self.points.shape[1]):
-                raise PlasticityError(
-                    f"J2 state 'x' has shape {x.shape}, expected ({m}, {self.points.shape[1]})"
-                )
-            take, _ = match_points(x, self.points, self._match_tol)
-            if np.any(take < 0):
-                where = ", ".join(f"{c:.6g}" for c in self.points[np.flatnonzero(take < 0)[0]])
-                raise PlasticityError(f"the J2 state has no row for the point ({where})")
-        elif m != n:
-            raise PlasticityError(f"the J2 state has {m} rows, this rank owns {n} points")
-        else:
-            take = np.arange(n)
-        return {k: a[take] for k, a in arrays.items()}
+            out[k] = a
+        return out
