@@ -23,8 +23,8 @@ testing the version itself. Each difference was read in the installed sources of
 - Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
   property, ``element.interpolation_points`` (0.11).
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
-- ``Expression.eval`` on cells: an array (cells, points * value size) (0.9); (cells, points,
-  *value_shape) (0.11). The memory order is the same.
+- ``Expression.eval`` on cells: an array ``(cells, points * value_size)`` (0.9);
+  ``(cells, points, *value_shape)`` (0.11). The memory order is the same.
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 
@@ -181,8 +181,8 @@ def eval_expression(
     """Values of a (coefficient-only) ``Expression`` at its points in ``cells``.
 
     Returns:
-        An array (cells, points, value_size): the ``eval`` array of 0.9 (cells, points *
-        value_size) or 0.11 (cells, points, *value_shape), reshaped.
+        An array ``(cells, points, value_size)``: the ``eval`` array of 0.9
+        ``(cells, points * value_size)`` or 0.11 ``(cells, points, *value_shape)``, reshaped.
     """
     cells = np.ascontiguousarray(cells, dtype=np.int32)
     values = expr.eval(mesh, cells)
