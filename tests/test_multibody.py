@@ -102,7 +102,7 @@ def test_the_stack_mesh_knows_its_bodies_and_interfaces(comm):
     assert counts[0] > counts[2]  # the middle block is wider than the cap
 
 
-@pytest.mark.parametrize("partitioner", [None, "bodies"])
+@pytest.mark.parametrize("partitioner", [None, "bodies", "together"])
 def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
     dom = stack(comm, partitioner)
     program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "push": [0, 0, 1]})
@@ -243,3 +243,23 @@ def test_duplicated_msh_file_is_read_by_dolfinx_gmsh_reader(comm, shared_tmp):
     owned = seam[seam < n_owned]
     assert comm.allreduce(owned.size) == 2 * n  # both sides tagged
     assert everywhere(comm, bool(np.all(np.isin(owned, exterior))))
+
+
+@pytest.mark.parametrize(
+    ("bodies", "interfaces", "message"),
+    [
+        ({"bolt": ["head", "shank"]}, None, r"cell group\(s\) \['plate'\] belong to no body"),
+        ({"a": "head", "b": ["head", "shank"]}, None, "'head' is in both 'a' and 'b'"),
+        ({"bolt": "seam"}, None, "bodies.bolt: physical group 'seam' must have dimension 2"),
+        (None, {"seam": ("head", "head")}, "interfaces.seam: joins the body 'head' to itself"),
+        (None, {"plate": ("head", "shank")}, "interfaces.plate: physical group 'plate' must have"),
+        (None, {"seam": ("head", "nut")}, "interfaces.seam: the body 'nut' is not a body"),
+    ],
+)
+def test_bodies_and_interfaces_that_do_not_fit_the_groups_are_named(bodies, interfaces, message):
+    """Every cell group belongs to exactly one body; every interface joins two bodies."""
+    groups = {"head": (2, 1), "shank": (2, 2), "plate": (2, 3), "seam": (1, 4)}
+    with pytest.raises(meshing.InterfaceMeshError, match=message):
+        meshing.mesh_topology(groups, 2, bodies=bodies, interfaces=interfaces)
+    good, _ = meshing.mesh_topology(groups, 2, bodies={"bolt": ["head", "shank"], "plate": "plate"})
+    assert good == {"bolt": ("head", "shank"), "plate": ("plate",)}
