@@ -54,8 +54,8 @@ SMALL = {
         ["history.csv", "bolt_clamped_joint.png"],
     ),
     "fretting": (
-        ["--n", "4", "--cycles", "1", "--steps", "4"],
-        ["coulomb.csv", "subloading.csv", "fretting.png"],
+        ["--n", "4", "--cycles", "1", "--steps", "4", "--no-subloading"],
+        ["coulomb.csv", "fretting.png"],
     ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
