@@ -22,6 +22,7 @@ Numpy only (pointwise scenes import the parser without DOLFINx).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..constitutive import J2Material, LinearElastic
@@ -39,8 +40,23 @@ _KEYS = {
 
 
 def _short(v: Any) -> str:
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**15:
+        return f"an integer of {len(str(abs(v)))} digits"
     text = repr(v)
     return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _number(v: Any, path: str) -> float:
+    """A material parameter: a finite real number (not a boolean)."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise SceneError(f"{path}: expected a number, got {_short(v)}")
+    try:
+        x = float(v)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise SceneError(f"{path}: expected a finite number, got {_short(v)}")
+    return x
 
 
 def is_j2(spec: dict[str, Any]) -> bool:
@@ -55,6 +71,8 @@ def parse_material(spec: dict[str, Any], path: str) -> LinearElastic | J2Materia
         SceneError: An unknown model, missing or unknown keys, a value out of range (the key path
             and the bad value named).
     """
+    if not isinstance(spec, dict):
+        raise SceneError(f"{path}: expected an object, got {_short(spec)}")
     model = spec.get("model", "elastic")
     if model not in MATERIAL_MODELS:
         raise SceneError(
@@ -67,10 +85,7 @@ def parse_material(spec: dict[str, Any], path: str) -> LinearElastic | J2Materia
             f"{path}: keys must be {sorted(required)} (optional: {sorted(optional)}) for the "
             f"model {model!r}, got {sorted(keys)}"
         )
-    params = {k: v for k, v in spec.items() if k != "model"}
-    for k, v in params.items():
-        if isinstance(v, str):
-            raise SceneError(f"{path}.{k}: expected a number, got {_short(v)}")
+    params = {k: _number(v, f"{path}.{k}") for k, v in spec.items() if k != "model"}
     try:
         return J2Material(**params) if model == "j2" else LinearElastic(**params)
     except (TypeError, ValueError) as e:
