@@ -25,6 +25,8 @@ testing the version itself. Each difference was read in the installed sources of
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
 - SNES's reason for a NaN or infinite residual: ``DIVERGED_FNORM_NAN`` (petsc4py 3.22),
   ``DIVERGED_FUNCTION_NANORINF`` (3.25; the value, -4, is the same): :data:`SNES_DIVERGED_NAN`.
+- ``Expression.eval`` on cells: an array ``(cells, points * value_size)`` (0.9);
+  ``(cells, points, *value_shape)`` (0.11). The memory order is the same.
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 - DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
@@ -33,7 +35,7 @@ testing the version itself. Each difference was read in the installed sources of
   ``assemble_jacobian`` callbacks (0.11; the Newton-solver pair is deprecated there).
   :func:`dolfinx_newton` hides it.
 
-Everything else the package uses (forms, assembly into a given matrix, ``Expression``,
+Everything else the package uses (forms, assembly into a given matrix, ``Expression`` objects,
 ``Function.eval``, VTX/XDMF writers, geometry searches, ``SparsityPattern``) has the same
 signature in both versions.
 """
@@ -62,6 +64,7 @@ __all__ = [
     "create_submesh",
     "default_partitioner",
     "dolfinx_newton",
+    "eval_expression",
     "geometry_dofmap",
     "ghosted_index_map",
     "interpolation_points",
@@ -317,3 +320,17 @@ def _snes_diverged_nan() -> int:
 
 SNES_DIVERGED_NAN: int = _snes_diverged_nan()
 """SNES's converged reason for a NaN or infinite residual (named differently by version)."""
+
+
+def eval_expression(
+    expr: dolfinx.fem.Expression, mesh: dolfinx.mesh.Mesh, cells: np.ndarray, value_size: int
+) -> np.ndarray:
+    """Values of a (coefficient-only) ``Expression`` at its points in ``cells``.
+
+    Returns:
+        An array ``(cells, points, value_size)``: the ``eval`` array of 0.9
+        ``(cells, points * value_size)`` or 0.11 ``(cells, points, *value_shape)``, reshaped.
+    """
+    cells = np.ascontiguousarray(cells, dtype=np.int32)
+    values = expr.eval(mesh, cells)
+    return np.reshape(values, (cells.size, expr.X().shape[0], value_size))

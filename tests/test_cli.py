@@ -18,6 +18,7 @@ from demos import (
     block_on_base,
     bolted_joint,
     cattaneo_mindlin,
+    fretting,
     hertz,
     lap_joint,
     pad_on_plate,
@@ -26,7 +27,9 @@ from demos import (
 from subfric_dolfinx.scenes import cli
 from tests.helpers import ROOT, everywhere, singleton_env
 
-DEMOS = [block_on_base, pad_on_plate, punch, lap_joint, hertz, cattaneo_mindlin, bolted_joint]
+DEMOS = [
+    block_on_base, pad_on_plate, punch, lap_joint, hertz, cattaneo_mindlin, bolted_joint, fretting,
+]
 SMALL = ["--n", "4", "--hold", "1", "--no-figures"]
 
 

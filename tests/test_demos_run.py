@@ -53,6 +53,10 @@ SMALL = {
         ["--h", "5", "--cycles", "1", "--dt", "1"],
         ["history.csv", "bolt_clamped_joint.png"],
     ),
+    "fretting": (
+        ["--n", "4", "--cycles", "1", "--steps", "4", "--no-subloading"],
+        ["coulomb.csv", "fretting.png"],
+    ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],

@@ -8,7 +8,8 @@
   :mod:`.bodies`: the bodies and interfaces of a problem.
 * :mod:`.bulk`: the bodies' law: the :class:`~.bulk.BulkModel` protocol (any UFL residual, with
   quadrature-point state committed and reverted with the step), :class:`UFLBulk`, and the
-  built-in :class:`LinearElasticity` (the fast path).
+  built-in :class:`LinearElasticity` (the fast path); :mod:`.plasticity`: :class:`J2Bulk`, J2
+  plasticity with its state at the quadrature points (a bulk model).
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
 * :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
@@ -35,6 +36,7 @@ from .conditions import (
     Traction,
 )
 from .interface import FrictionInterface, InterfaceError, create_matrix
+from .plasticity import J2Bulk, PlasticityError
 from .problem import InterfaceProblem
 from .solver import DEFAULT_OPTIONS, FrictionSolver, SolverOptionError
 from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
@@ -51,9 +53,11 @@ __all__ = [
     "Interface",
     "InterfaceError",
     "InterfaceProblem",
+    "J2Bulk",
     "LinearElasticity",
     "LoadStepper",
     "Material",
+    "PlasticityError",
     "PointForce",
     "Pressure",
     "SolverOptionError",

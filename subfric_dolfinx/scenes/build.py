@@ -17,8 +17,11 @@ from ..fem import (
     Spring,
     Traction,
 )
+from ..fem.bodies import resolve_topology
+from ..fem.plasticity import J2Bulk, PlasticityError
 from ..fem.probes import require_near
 from .interface_spec import gap_function, parse_regions
+from .materials import scene_materials
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
@@ -143,21 +146,42 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
                 )
             )  # fmt: skip
     _check_material_names(scene, domain)
-    return InterfaceProblem(
-        domain,
-        parse_law(scene.law) if scene.law is not None else None,
-        materials,
-        build_program(scene.program),
-        bcs,
-        loads,
-        springs=springs,
-        degree=scene.degree,
-        quadrature=scene.quadrature,
-        initial_gap=gap_function(scene.initial_gap, gdim) if not scene.interfaces else None,
-        regions=(parse_regions(scene.regions) or None) if not scene.interfaces else None,
-        interfaces=interfaces,
-        mode=scene.mode,
-    )
+    law = parse_law(scene.law) if scene.law is not None else None
+    bulk = _j2_bulk(scene, domain, law, interfaces)
+    try:
+        return InterfaceProblem(
+            domain,
+            law,
+            materials,
+            build_program(scene.program),
+            bcs,
+            loads,
+            springs=springs,
+            degree=scene.degree,
+            quadrature=scene.quadrature,
+            initial_gap=gap_function(scene.initial_gap, gdim) if not scene.interfaces else None,
+            regions=(parse_regions(scene.regions) or None) if not scene.interfaces else None,
+            interfaces=interfaces,
+            bulk=bulk,
+            mode=scene.mode,
+        )
+    except PlasticityError as e:
+        raise SceneError(f"scene.materials: {e}") from None
+
+
+def _j2_bulk(scene: FEScene, domain: Any, law: Any, interfaces: Any) -> J2Bulk | None:
+    """The J2 bulk of a scene with a J2 body (``None``: all elastic, the built-in fast path).
+
+    The materials keyed ``master``/``slave`` go to the first interface's primary and secondary
+    bodies, as the problem's own materials do.
+    """
+    mats = scene_materials(scene)
+    if mats is None:
+        return None
+    topo = resolve_topology(domain, law, interfaces=interfaces)  # as the problem resolves it
+    resolved = topo.materials(mats)  # type: ignore[arg-type]
+    known = set(topo.tags) | set(topo.bodies)
+    return J2Bulk({k: m for k, m in resolved.items() if k in known or k not in ("master", "slave")})
 
 
 def _check_material_names(scene: FEScene, domain: meshing.InterfaceMesh) -> None:

@@ -12,6 +12,7 @@ from typing import Any
 
 from ..constitutive import FrictionLaw
 from .interface_spec import parse_initial_gap, parse_regions
+from .materials import check_materials_fit, parse_material
 from .schema import BUILDER_GDIM, FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
@@ -146,17 +147,9 @@ def check_topology(scene: FEScene) -> None:
 
 
 def _check_materials(scene: FEScene, known: set[str]) -> None:
-    from ..fem import Material  # here: parsing a scene loads no DOLFINx at import
-
     for name, mat in scene.materials.items():
-        if set(mat) != {"E", "nu"}:
-            raise SceneError(
-                f"scene.materials.{name}: keys must be 'E' and 'nu', got {sorted(mat)}"
-            )
-        try:  # the values too, before the mesh is built
-            Material(mat["E"], mat["nu"])
-        except (TypeError, ValueError) as e:
-            raise SceneError(f"scene.materials.{name}: {e}") from None
+        parse_material(mat, f"scene.materials.{name}")
+    check_materials_fit(scene)
     if is_classic(scene):
         for body in ("master", "slave"):
             if body not in scene.materials:

@@ -278,7 +278,7 @@ class FEScene:
 
     name: str
     mesh: MeshSpec
-    materials: dict[str, dict[str, float]]
+    materials: dict[str, dict[str, Any]]  # checked by scenes/materials.py ("model": "j2")
     program: dict[str, Any]
     solver: SolverSpec
     law: Any = None  # {"law": name, "params": {...}}, or a FrictionLaw object
