@@ -23,6 +23,7 @@ testing the version itself. Each difference was read in the installed sources of
 - Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
   property, ``element.interpolation_points`` (0.11).
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
+- ``mesh.create_mesh``: ``(comm, cells, x, element)`` (0.9); ``(comm, cells, element, x)`` (0.11).
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 
@@ -51,6 +52,7 @@ __all__ = [
     "SUPPORTED",
     "adjacency_list",
     "coordinate_element",
+    "create_mesh",
     "create_submesh",
     "default_partitioner",
     "geometry_dofmap",
@@ -134,6 +136,22 @@ def create_submesh(
         parents = emap.sub_topology_to_topology(np.arange(n, dtype=np.int32), inverse=False)
         return sub, np.asarray(parents, dtype=np.int32)
     return sub, np.asarray(emap, dtype=np.int32)
+
+
+def create_mesh(
+    comm: MPI.Comm,
+    cells: np.ndarray,
+    x: np.ndarray,
+    element,
+    partitioner: Callable | None = None,
+) -> dolfinx.mesh.Mesh:
+    """A distributed mesh from cells (global node numbers) and node coordinates.
+
+    ``dolfinx.mesh.create_mesh``, whose coordinates and element swapped places in 0.11.
+    """
+    if _NEW:
+        return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
+    return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
 
 
 def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):
