@@ -176,3 +176,52 @@ def test_parallel_search_equals_the_serial_one(case, degree):
     ok &= bool(np.array_equal(table_o[k], cand.owners.ravel()))
     assert everywhere(COMM, ok)
     assert COMM.allreduce(int(pr.found.sum())) == all_pts.shape[0]
+
+
+@pytest.mark.parametrize("case", ["annuli", "plate"])
+def test_parallel_segments_equal_the_serial_ones(case):
+    """The cut of the slave facets by the master facets, made on each slave facet's rank from
+    its candidates, equals the cut of one process that has everything."""
+    from subfric_dolfinx.fem.interface.segments import overlap_points
+
+    if case == "annuli":
+        bodies = annuli(COMM, n_inner=18, n_outer=25, split_x=0.1)
+        c, s = np.cos(0.3), np.sin(0.3)
+        rot = np.array([[c, s], [-s, c]])
+
+        def move(p):
+            return 0.999 * p @ rot
+    else:
+        bodies = block_on_plate(COMM, split_x=2.0)
+
+        def move(p):
+            return p + np.array([1.3, 0.45, -0.01])
+
+    radius = 0.2
+    V = space(bodies, 1)
+    gdim = bodies.mesh.geometry.dim
+    ms, ss = surfaces(V, bodies)
+    x = V.tabulate_dof_coordinates()[:, :gdim]
+    data = master_data(V, ms, x)
+    slave_x = move(x[ss.nodes])
+    cand = exchange_facets(COMM, slave_x.reshape(-1, gdim), ms.cell, 1, *data, radius)
+    seg = overlap_points(slave_x, ss.cell, 1, cand.x, cand.normals, ms.cell, 1, radius)
+
+    def table(seg, slave_ids, master_ids):
+        key = np.stack([slave_ids[seg.slave], master_ids[seg.master]], axis=1)
+        rows = np.concatenate([key, seg.xi_slave, seg.xi_master, seg.weight[:, None]], axis=1)
+        return rows[np.lexsort(rows.T[::-1])]
+
+    mine = np.concatenate(COMM.allgather(table(seg, ss.global_facets, cand.global_facets)))
+    mine = mine[np.lexsort(mine.T[::-1])]
+    all_slave = np.concatenate(COMM.allgather(slave_x))
+    all_ids = np.concatenate(COMM.allgather(ss.global_facets))
+    all_data = gathered(data)
+    serial = overlap_points(all_slave, ss.cell, 1, all_data[0], all_data[1], ms.cell, 1, radius)
+    ref = table(serial, all_ids, all_data[4])
+    assert mine.shape == ref.shape
+    np.testing.assert_allclose(mine, ref, atol=1e-13)
+    # the pieces cover the whole hub / block bottom
+    total = ref[:, -1].sum()
+    expected = 25 * 2 * 0.999 * np.sin(np.pi / 25) if case == "annuli" else 1.0
+    assert abs(total - expected) < 1e-12

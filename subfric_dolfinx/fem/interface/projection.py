@@ -39,6 +39,7 @@ __all__ = [
     "normal_projection",
     "parametric_normal",
     "projection_jacobian",
+    "ray_start",
 ]
 
 _SINGULAR = 1e-14
@@ -163,6 +164,27 @@ def _segment_start(x: np.ndarray, Y: np.ndarray, Nn: np.ndarray) -> np.ndarray:
     return s[:, None]
 
 
+def ray_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Where the lines ``x + s n`` meet the line (plane) of each facet's vertex nodes 0, 1 (, 2).
+
+    Reference coordinates of the affine map of those vertices: the exact preimage on straight
+    segments, flat triangles and parallelograms; a start for Newton on the others.
+    """
+    m, gdim = x.shape
+    fdim = gdim - 1
+    P0 = Y[:, 0]
+    A = np.empty((m, gdim, gdim))
+    for a in range(fdim):
+        A[:, :, a] = Y[:, 1 + a] - P0
+    A[:, :, fdim] = -n
+    det = np.linalg.det(A)
+    good = np.abs(det) > 1e-300
+    lam = np.full((m, gdim), 0.5)
+    if np.any(good):
+        lam[good] = np.linalg.solve(A[good], (x - P0)[good][..., None])[..., 0]
+    return lam[:, :fdim]
+
+
 def _planar_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """Reference coordinates of the closest point of the facet's vertex plane (a Newton start).
 
@@ -195,6 +217,7 @@ def normal_projection(
     xi0: np.ndarray | None = None,
     inside_tol: float = 1e-10,
     maxit: int = 30,
+    margin: float = 2.0,
 ) -> FacetProjection:
     """Project each point along the facet's smooth normal field: ``x = y(xi) + gamma n~(xi)``.
 
@@ -209,6 +232,8 @@ def normal_projection(
             through the vertices (triangles, quadrilaterals).
         inside_tol: Tolerance of :attr:`FacetProjection.inside`, in reference coordinates.
         maxit: Newton iterations per start.
+        margin: How far (in reference coordinates) Newton's iterates may leave the reference
+            cell; a solution beyond is not found.
 
     Returns:
         The projections; a pair whose projection could not be found has ``converged`` False
@@ -225,14 +250,15 @@ def normal_projection(
         given = np.array(xi0, dtype=float).reshape(m, fdim)
         finite = np.all(np.isfinite(given), axis=1)
         xi[finite] = given[finite]
-    xi, gamma, ok = _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit)
+    xi, gamma, ok = _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin)
     # Fallback: restart the failures from a lattice of reference points, keeping the solution
     # nearest to the reference cell.
     bad = np.flatnonzero(~ok)
     if bad.size:
         for start in _lattice(cell):
+            start = np.tile(start, (bad.size, 1))
             xb, gb, okb = _normal_newton(
-                cell, degree, x[bad], Y[bad], Nn[bad], np.tile(start, (bad.size, 1)), h[bad], maxit
+                cell, degree, x[bad], Y[bad], Nn[bad], start, h[bad], maxit, margin
             )
             take = okb & (~ok[bad] | (_outside(cell, xb) < _outside(cell, xi[bad])))
             xi[bad[take]], gamma[bad[take]], ok[bad[take]] = xb[take], gb[take], True
@@ -269,7 +295,7 @@ def _lattice(cell: basix.CellType) -> list[np.ndarray]:
     return pts
 
 
-def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit):
+def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
     """Newton on ``F(xi, gamma) = y(xi) + gamma n~(xi) - x`` for all pairs at once."""
     m, gdim = x.shape
     fdim = gdim - 1
@@ -297,12 +323,14 @@ def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit):
         # damping: at most one reference cell per step
         big = np.abs(dz[:, :fdim]).max(axis=1)
         dz *= np.where(big > 1.0, 1.0 / np.maximum(big, 1e-300), 1.0)[:, None]
-        xi[active] = _clip_reference(cell, xa + dz[:, :fdim], 2.0)
+        xi[active] = _clip_reference(cell, xa + dz[:, :fdim], margin)
         gamma[active] = ga + dz[:, fdim]
+        # converged: a step of round-off size, or a residual at the round-off of evaluating
+        # y(xi) (coordinates times the basis' size, which grows like |xi|^p outside the cell)
         res = np.linalg.norm(F, axis=1)
-        done = regular & (
-            (np.abs(dz[:, :fdim]).max(axis=1) <= 1e-13) | (res <= 1e-14 * (h[active] + 1e-300))
-        )
+        size = np.linalg.norm(x[active], axis=1) + h[active]
+        floor = 1e-14 * size * (1.0 + np.abs(xa).max(axis=1)) ** degree
+        done = regular & ((np.abs(dz[:, :fdim]).max(axis=1) <= 1e-13) | (res <= floor))
         ok[active[done]] = True
         keep = regular & ~done
         active = active[keep]
