@@ -209,3 +209,92 @@ def test_clipping_areas():
     # the third: the part of the triangle (0.5,-0.5),(1.5,0.5),(0.5,0.5) in the cell
     np.testing.assert_allclose(a_tri, [0.02, 0.5, 0.125, 0.0], atol=1e-15)
     np.testing.assert_allclose(a_sq, [0.02, 1.0, 0.25, 0.0], atol=1e-15)
+
+
+# --------------------------------------------------------------------------------------------
+# Transfer of the slave points' tractions to the master nodes
+
+
+def slave_rule(S, cell, degree):
+    """The slave facets' own Gauss rule (degree 2p): points, basis, weights x Jacobian."""
+    X, w = basix.make_quadrature(cell, 2 * degree)
+    B = facet_basis(cell, degree, X, 1)
+    dy = np.einsum("aqk,fkd->fqda", B[1:], S)
+    if S.shape[2] == 2:
+        jac = np.linalg.norm(dy[..., 0], axis=-1)
+    else:
+        jac = np.linalg.norm(np.cross(dy[..., 0], dy[..., 1]), axis=-1)
+    x = np.einsum("qk,fkd->fqd", B[0], S)
+    return B[0], jac * w, x
+
+
+def master_forces(tr, t, shape):
+    F = np.zeros(shape)
+    np.add.at(F, tr.master, np.einsum("plq,pq->pl", tr.B, t[tr.slave]))
+    return F
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_transfer_of_uniform_and_linear_tractions_on_non_matching_lines(degree):
+    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+
+    xs, xm = np.linspace(0, 1, 4), np.linspace(0, 1, 3)  # 3 : 2
+    S, M = line_facets(xs, 0.0, degree), line_facets(xm, 0.0, degree)
+    N = np.zeros_like(M)
+    N[..., 1] = 1.0
+    seg = overlap_points(S, INTERVAL, degree, M, N, INTERVAL, degree, 0.1)
+    Nq, wq, xq = slave_rule(S, INTERVAL, degree)
+    P = l2_projector(Nq, wq)
+    tr = transfer_matrices(seg, P, INTERVAL, degree, INTERVAL, degree)
+    ref = reference_mortar_1d(xs, xm, degree)  # (s, k, m, l)
+    # a uniform traction: the master nodes get int N_m,l exactly
+    F = master_forces(tr, np.ones(wq.shape), M.shape[:2])
+    np.testing.assert_allclose(F, ref.sum(axis=(0, 1)), atol=1e-15)
+    # a linear traction t = 2 + 3 x: int t N_m,l, with t = sum_k t(x_k) N_s,k (exact for P1, P2)
+    t_nodes = 2 + 3 * S[..., 0]
+    F = master_forces(tr, 2 + 3 * xq[..., 0], M.shape[:2])
+    np.testing.assert_allclose(F, np.einsum("sk,skml->ml", t_nodes, ref), atol=1e-15)
+    # the slave nodes' forces are those of the points' own tractions, whatever they are
+    t = np.random.default_rng(8).normal(size=wq.shape)
+    lam = np.einsum("qk,fkj,fj->fq", Nq, P, t)
+    np.testing.assert_allclose(
+        np.einsum("fq,qk,fq->fk", wq, Nq, lam), np.einsum("fq,qk,fq->fk", wq, Nq, t), atol=1e-15
+    )
+
+
+@pytest.mark.parametrize(("cell", "degree"), [(INTERVAL, 1), (INTERVAL, 2), (TRIANGLE, 1)])
+def test_transfer_on_matching_facets_is_the_matching_element(cell, degree):
+    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+
+    if cell == INTERVAL:
+        M = line_facets(np.linspace(0, 1, 5), 0.0, degree)
+    else:
+        M = grid_facets((0, 0), (1, 1), (3, 2), cell, 0.0, jitter=0.2)
+    N = np.zeros_like(M)
+    N[..., -1] = 1.0
+    seg = overlap_points(M.copy(), cell, degree, M, N, cell, degree, 0.1)
+    Nq, wq, _ = slave_rule(M, cell, degree)
+    tr = transfer_matrices(seg, l2_projector(Nq, wq), cell, degree, cell, degree)
+    assert np.array_equal(tr.slave, tr.master) and tr.slave.size == M.shape[0]
+    np.testing.assert_allclose(tr.B, np.einsum("fq,ql->flq", wq[tr.slave], Nq), atol=1e-15)
+
+
+def test_transfer_of_a_uniform_pressure_in_3d():
+    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+
+    S = grid_facets((0, 0), (1, 1), (5, 4), TRIANGLE, 0.0, jitter=0.3, seed=1)
+    M = grid_facets((-0.25, -0.3), (1.3, 1.2), (3, 4), QUAD, 0.0, jitter=0.3, seed=2)
+    N = np.zeros_like(M)
+    N[..., 2] = 1.0
+    seg = overlap_points(S, TRIANGLE, 1, M, N, QUAD, 1, 0.1)
+    Nq, wq, xq = slave_rule(S, TRIANGLE, 1)
+    tr = transfer_matrices(seg, l2_projector(Nq, wq), TRIANGLE, 1, QUAD, 1)
+    F = master_forces(tr, np.ones(wq.shape), M.shape[:2])
+    assert abs(F.sum() - 1.0) < 1e-13  # the whole load arrives
+    # and where it arrives: its first moments are those of the unit square
+    assert abs(np.sum(F * M[..., 0]) - 0.5) < 1e-13 and abs(np.sum(F * M[..., 1]) - 0.5) < 1e-13
+    # a linear pressure t = 1 + x - 2 y: total int t = 1 + 0.5 - 1, moment int t x = 0.5 + 1/3 - 0.5
+    t = 1 + xq[..., 0] - 2 * xq[..., 1]
+    F = master_forces(tr, t, M.shape[:2])
+    assert abs(F.sum() - 0.5) < 1e-13
+    assert abs(np.sum(F * M[..., 0]) - (0.5 + 1 / 3 - 0.5)) < 1e-13

@@ -47,7 +47,7 @@ class Segments:
         xi_slave: Reference coordinates on the slave facet, (np, fdim).
         xi_master: Reference coordinates of the point's projection on the master facet.
         weight: Quadrature weight times the slave facet's surface Jacobian (the points integrate
-            over the slave surface in its current configuration), (np,).
+            over the slave surface, current or reference, see :func:`overlap_points`), (np,).
         converged: Whether the projection on the master facet was found.
     """
 
@@ -128,6 +128,7 @@ def overlap_points(
     radius: float,
     *,
     degree: int | None = None,
+    slave_measure_x: np.ndarray | None = None,
 ) -> Segments:
     """Integration points of every slave facet's overlap with the master facets (not collective).
 
@@ -143,6 +144,9 @@ def overlap_points(
         radius: Largest distance between the surfaces at which a pair is considered.
         degree: Degree of the Gauss rule on each piece; default ``2 p`` (simplices) or ``4 p``
             (quadrilaterals, whose ``N_s N_m`` products are of degree ``2 p`` per direction).
+        slave_measure_x: Node positions whose surface Jacobian weighs the points, e.g. the
+            reference ones, so that the pieces of a slave facet sum to the measure its own
+            quadrature uses (geometrically linear bodies); default ``slave_x``.
     """
     ns, _, gdim = slave_x.shape
     fdim = gdim - 1
@@ -231,7 +235,8 @@ def overlap_points(
     B = facet_basis(slave_cell, slave_degree, xi_s, 1)
     Ys = slave_x[si_q]
     y = np.einsum("mk,mkd->md", B[0], Ys)
-    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Ys)), axis=1)
+    Yj = Ys if slave_measure_x is None else slave_measure_x[si_q]
+    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
     proj = normal_projection(y, master_x[mi_q], master_normals[mi_q], master_cell, master_degree)
     return Segments(
         slave=si_q,
