@@ -121,7 +121,8 @@ def _geometry(cell, degree, Y, Nn, xi, nderiv):
 
 
 def _facet_size(Y: np.ndarray) -> np.ndarray:
-    return np.max(np.linalg.norm(Y - Y[:, :1], axis=-1), axis=1)
+    """A facet's size: the distance between its first two (vertex) nodes."""
+    return np.linalg.norm(Y[:, 1] - Y[:, 0], axis=-1)
 
 
 def _segment_start(x: np.ndarray, Y: np.ndarray, Nn: np.ndarray) -> np.ndarray:
@@ -242,14 +243,16 @@ def normal_projection(
     m, gdim = x.shape
     fdim = gdim - 1
     h = _facet_size(Y) if m else np.zeros(0)
-    if cell == basix.CellType.interval:
-        xi = _segment_start(x, Y, Nn) if m else np.zeros((0, 1))
-    else:
-        xi = _planar_start(cell, x, Y) if m else np.zeros((0, fdim))
+    xi = np.zeros((m, fdim))
+    todo = np.ones(m, dtype=bool)
     if xi0 is not None:  # the given starts, where they are numbers
-        given = np.array(xi0, dtype=float).reshape(m, fdim)
-        finite = np.all(np.isfinite(given), axis=1)
-        xi[finite] = given[finite]
+        xi[:] = np.asarray(xi0, dtype=float).reshape(m, fdim)
+        todo = ~np.all(np.isfinite(xi), axis=1)
+    if np.any(todo):
+        if cell == basix.CellType.interval:
+            xi[todo] = _segment_start(x[todo], Y[todo], Nn[todo])
+        else:
+            xi[todo] = _planar_start(cell, x[todo], Y[todo])
     xi, gamma, ok = _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin)
     # Fallback: restart the failures from a lattice of reference points, keeping the solution
     # nearest to the reference cell.
@@ -296,21 +299,27 @@ def _lattice(cell: basix.CellType) -> list[np.ndarray]:
 
 
 def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
-    """Newton on ``F(xi, gamma) = y(xi) + gamma n~(xi) - x`` for all pairs at once."""
+    """Newton on ``F(xi, gamma) = y(xi) + gamma n~(xi) - x`` for all pairs at once.
+
+    ``gamma`` starts as the distance along the normal at the starting ``xi``.
+    """
     m, gdim = x.shape
     fdim = gdim - 1
     xi = xi.copy()
-    y, _, n, _ = _geometry(cell, degree, Y, Nn, xi, 0)
-    nn = np.einsum("md,md->m", n, n)
-    gamma = np.einsum("md,md->m", x - y, n) / np.where(nn > 0, nn, 1.0)
+    gamma = np.zeros(m)
     ok = np.zeros(m, dtype=bool)
     active = np.arange(m)
-    for _ in range(maxit):
+    for it in range(maxit):
         if active.size == 0:
             break
-        xa, ga = xi[active], gamma[active]
+        xa = xi[active]
+        xx = x[active]
         y, dy, n, dn = _geometry(cell, degree, Y[active], Nn[active], xa, 1)
-        F = y + ga[:, None] * n - x[active]
+        if it == 0:
+            nn = np.einsum("md,md->m", n, n)
+            gamma[:] = np.einsum("md,md->m", xx - y, n) / np.where(nn > 0, nn, 1.0)
+        ga = gamma[active]
+        F = y + ga[:, None] * n - xx
         J = np.empty((active.size, gdim, gdim))
         J[:, :, :fdim] = dy + ga[:, None, None] * dn
         J[:, :, fdim] = n
@@ -328,12 +337,11 @@ def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
         # converged: a step of round-off size, or a residual at the round-off of evaluating
         # y(xi) (coordinates times the basis' size, which grows like |xi|^p outside the cell)
         res = np.linalg.norm(F, axis=1)
-        size = np.linalg.norm(x[active], axis=1) + h[active]
-        floor = 1e-14 * size * (1.0 + np.abs(xa).max(axis=1)) ** degree
-        done = regular & ((np.abs(dz[:, :fdim]).max(axis=1) <= 1e-13) | (res <= floor))
+        grow = (1.0 + np.abs(xa).max(axis=1)) ** degree
+        floor = 1e-14 * (np.abs(xx).sum(axis=1) + h[active]) * grow
+        done = regular & ((big <= 1e-13) | (res <= floor))
         ok[active[done]] = True
-        keep = regular & ~done
-        active = active[keep]
+        active = active[regular & ~done]
     # the last update of the pairs that converged on the residual test is kept (tiny)
     return xi, gamma, ok
 

@@ -33,7 +33,14 @@ from scipy.spatial import cKDTree
 from .pairing import _exchange
 from .projection import normal_projection
 
-__all__ = ["Candidates", "PointProjections", "exchange_facets", "find_projections", "point_boxes"]
+__all__ = [
+    "Candidates",
+    "PointProjections",
+    "exchange_facets",
+    "find_projections",
+    "near_pairs",
+    "point_boxes",
+]
 
 
 @dataclasses.dataclass
@@ -202,6 +209,51 @@ class PointProjections:
         return self.facet >= 0
 
 
+def near_pairs(
+    points: np.ndarray, extent: np.ndarray, X: np.ndarray, Nn: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (point, facet) that may project on each other within ``radius``.
+
+    A point ``x = y + gamma n~`` with ``y`` on facet ``f`` and ``|gamma n~| <= radius`` is, from
+    the facet's centre ``c`` and mean normal ``n_f``, within the facet's in-plane extent plus
+    ``radius`` times the sine of the largest angle of its nodal normals to ``n_f`` along ``n_f``'s
+    plane, and within its out-of-plane extent plus ``radius`` along ``n_f``; ``extent`` grows
+    both for objects of that size (a slave facet's nodes around its centre).
+
+    Args:
+        points: Positions (m, gdim).
+        extent: Size of the object at each point (0 for points), (m,).
+        X: Facet nodes, (nc, nfd, gdim).
+        Nn: Their nodal normals, (nc, nfd, gdim).
+        radius: Largest normal distance.
+
+    Returns:
+        The point and facet indices of the candidate pairs.
+    """
+    c = X.mean(axis=1)
+    nf = Nn.sum(axis=1)
+    nf /= np.maximum(np.linalg.norm(nf, axis=1, keepdims=True), 1e-300)
+    r = X - c[:, None, :]
+    rn = np.einsum("fkd,fd->fk", r, nf)
+    a = np.linalg.norm(r - rn[..., None] * nf[:, None, :], axis=-1).max(axis=1) * 1.1
+    b = np.abs(rn).max(axis=1)
+    tilt = Nn - np.einsum("fkd,fd->fk", Nn, nf)[..., None] * nf[:, None, :]
+    dev = np.linalg.norm(tilt, axis=-1).max(axis=1)
+    e = float(extent.max(initial=0.0))
+    inplane = a + e + 1.5 * dev * (radius + b + e) + 1e-12 * (a + radius)
+    normal = radius + b + e + 1e-12 * (a + radius)
+    near = cKDTree(c).query_ball_point(points, r=float(np.hypot(inplane, normal).max()))
+    lens = np.fromiter((len(v) for v in near), dtype=np.int64, count=points.shape[0])
+    p = np.repeat(np.arange(points.shape[0]), lens)
+    f = np.fromiter((j for v in near for j in v), dtype=np.int64, count=int(lens.sum()))
+    d = points[p] - c[f]
+    dn = np.einsum("pd,pd->p", d, nf[f])
+    dt = np.linalg.norm(d - dn[:, None] * nf[f], axis=1)
+    grow = extent[p] - e  # the bounds above used the largest extent
+    keep = (dt <= inplane[f] + grow * (1 + 1.5 * dev[f])) & (np.abs(dn) <= normal[f] + grow)
+    return p[keep], f[keep]
+
+
 def find_projections(
     points: np.ndarray,
     candidates: Candidates,
@@ -237,14 +289,7 @@ def find_projections(
     nc = X.shape[0]
     if m == 0 or nc == 0:
         return out
-    centre = X.mean(axis=1)
-    reach = np.linalg.norm(X - centre[:, None, :], axis=-1).max(axis=1) * 1.25
-    near = cKDTree(centre).query_ball_point(points, r=radius + float(reach.max()))
-    lens = np.fromiter((len(v) for v in near), dtype=np.int64, count=m)
-    p = np.repeat(np.arange(m), lens)
-    f = np.fromiter((j for v in near for j in v), dtype=np.int64, count=int(lens.sum()))
-    keep = np.linalg.norm(points[p] - centre[f], axis=1) <= radius + reach[f]
-    p, f = p[keep], f[keep]
+    p, f = near_pairs(points, np.zeros(m), X, Nn, radius)
     if p.size == 0:
         return out
     pr = normal_projection(

@@ -30,9 +30,9 @@ import dataclasses
 
 import basix
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .projection import facet_basis, normal_projection, parametric_normal, ray_start
+from .search import near_pairs
 
 __all__ = ["Segments", "clip_to_reference", "overlap_points"]
 
@@ -163,16 +163,10 @@ def overlap_points(
     nm = master_x.shape[0]
     if ns == 0 or nm == 0:
         return empty
-    # candidate pairs: centres within reach
-    cs, cm = slave_x.mean(axis=1), master_x.mean(axis=1)
-    rs = np.linalg.norm(slave_x - cs[:, None], axis=-1).max(axis=1) * 1.25
-    rm = np.linalg.norm(master_x - cm[:, None], axis=-1).max(axis=1) * 1.25
-    near = cKDTree(cm).query_ball_point(cs, r=radius + rs + float(rm.max()))
-    lens = np.fromiter((len(v) for v in near), dtype=np.int64, count=ns)
-    si = np.repeat(np.arange(ns), lens)
-    mi = np.fromiter((j for v in near for j in v), dtype=np.int64, count=int(lens.sum()))
-    close = np.linalg.norm(cs[si] - cm[mi], axis=1) <= radius + rs[si] + rm[mi]
-    si, mi = si[close], mi[close]
+    # candidate pairs: the slave facets' centres near the master facets
+    cs = slave_x.mean(axis=1)
+    rs = np.linalg.norm(slave_x - cs[:, None], axis=-1).max(axis=1) * 1.1
+    si, mi = near_pairs(cs, rs, master_x, master_normals, radius)
     if si.size == 0:
         return empty
     # preimages of the master vertices on the slave facet (along the vertices' normals)
@@ -237,7 +231,11 @@ def overlap_points(
     y = np.einsum("mk,mkd->md", B[0], Ys)
     Yj = Ys if slave_measure_x is None else slave_measure_x[si_q]
     jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
-    proj = normal_projection(y, master_x[mi_q], master_normals[mi_q], master_cell, master_degree)
+    # start from the ray along the master facet's mean normal through its vertex plane (exact
+    # on flat facets)
+    Ym, Nm = master_x[mi_q], master_normals[mi_q]
+    start = ray_start(master_cell, y, Ym, Nm.sum(axis=1))
+    proj = normal_projection(y, Ym, Nm, master_cell, master_degree, xi0=start)
     return Segments(
         slave=si_q,
         master=mi_q,
