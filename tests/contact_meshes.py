@@ -69,6 +69,7 @@ def _box(lo, hi, n):
 
 def _partitioner(x, split_x):
     def partition(comm, nparts, cell_types, cells):
+        # the cells' vertices (their input numbers) only, also for a curved mesh
         nv = dolfinx.cpp.mesh.cell_num_entities(cell_types[0], 0)
         conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
         owner = np.zeros(conn.shape[0], dtype=np.int32)
@@ -79,7 +80,7 @@ def _partitioner(x, split_x):
     return partition
 
 
-def _assemble(comm, parts, cell_name, gdim, contact, split_x):
+def _assemble(comm, parts, cell_name, gdim, contact, split_x, geometry_degree=1):
     """One mesh of the bodies ``parts`` [(nodes, cells, tag)], with tags."""
     xs, cs, tags, off = [], [], [], 0
     for pts, cells, tag in parts:
@@ -92,7 +93,7 @@ def _assemble(comm, parts, cell_name, gdim, contact, split_x):
         cells, xloc = np.zeros((0, cells.shape[1]), dtype=np.int64), np.zeros((0, gdim))
     else:
         xloc = x
-    element = basix.ufl.element("Lagrange", cell_name, 1, shape=(gdim,))
+    element = basix.ufl.element("Lagrange", cell_name, geometry_degree, shape=(gdim,))
     part = _partitioner(x, split_x) if split_x is not None else None
     mesh = create_mesh(comm, cells, xloc, element, partitioner=part)
     tdim = mesh.topology.dim
@@ -147,15 +148,21 @@ def annuli(
     n_inner: int = 16,
     n_outer: int = 24,
     split_x: float | None = None,
+    geometry_degree: int = 1,
 ) -> Bodies:
     """A shaft (annulus ``r0 <= r <= radius``, master) in a hub (``radius <= r <= r2``, slave),
     with ``n_inner`` and ``n_outer`` segments around: two polygons inscribed in the circle of
-    ``radius``, meshed independently."""
+    ``radius``, meshed independently; with ``geometry_degree=2``, curved triangles whose edges
+    are the images of straight lines of the (angle, radius) plane (the contact facets are arcs
+    through three points of the circle)."""
 
     def ring(ra, rb, n):
         pts, tris = _grid(0.0, 1.0, ra, rb, n, 2)
-        t, r = 2 * np.pi * pts[:, 0], pts[:, 1]
-        xy = np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+
+        def polar(q):
+            t, r = 2 * np.pi * q[:, 0], q[:, 1]
+            return np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+
         # close the ring: the nodes at t = 2 pi are those at t = 0
         last = np.flatnonzero(np.isclose(pts[:, 0], 1.0))
         first = np.flatnonzero(np.isclose(pts[:, 0], 0.0))
@@ -164,7 +171,23 @@ def annuli(
         keep = np.setdiff1d(np.arange(pts.shape[0]), last)
         new = -np.ones(pts.shape[0], dtype=np.int64)
         new[keep] = np.arange(keep.size)
-        return xy[keep], new[remap[tris]]
+        xy, cells = polar(pts[keep]), new[remap[tris]]
+        if geometry_degree == 1:
+            return xy, cells
+        # edge nodes (basix order: edge i opposite vertex i), one per edge of the closed ring
+        mids, index, extra = [], {}, []
+        for tri, tri_c in zip(tris, cells, strict=True):
+            row = []
+            for a, b in ((1, 2), (0, 2), (0, 1)):
+                key = tuple(sorted((tri_c[a], tri_c[b])))
+                if key not in index:
+                    index[key] = xy.shape[0] + len(mids)
+                    mids.append(0.5 * (pts[tri[a]] + pts[tri[b]]))
+                row.append(index[key])
+            extra.append(row)
+        return np.concatenate([xy, polar(np.array(mids))]), np.concatenate(
+            [cells, np.array(extra, dtype=np.int64)], axis=1
+        )
 
     inner = ring(r0, radius, n_inner)
     outer = ring(radius, r2, n_outer)
@@ -175,6 +198,7 @@ def annuli(
         2,
         lambda x: np.isclose(np.hypot(x[0], x[1]), radius),
         split_x,
+        geometry_degree,
     )
 
 

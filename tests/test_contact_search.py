@@ -225,3 +225,33 @@ def test_parallel_segments_equal_the_serial_ones(case):
     total = ref[:, -1].sum()
     expected = 25 * 2 * 0.999 * np.sin(np.pi / 25) if case == "annuli" else 1.0
     assert abs(total - expected) < 1e-12
+
+
+def test_a_curved_mesh_gives_a_round_contact():
+    """A shaft and a hub with degree-2 geometry (their contact facets are arcs through three
+    points of the circle) and P2 displacements: the hub's nodes, turned and shrunk onto the shaft,
+    project radially, at the distance to the circle within a small fraction of what the
+    polygons of a straight-sided mesh give (their sag)."""
+    errors = {}
+    for degree in (1, 2):
+        bodies = annuli(COMM, n_inner=12, n_outer=17, split_x=0.0, geometry_degree=degree)
+        V = space(bodies, degree)
+        ms, ss = surfaces(V, bodies)
+        x = V.tabulate_dof_coordinates()[:, :2]
+        data = master_data(V, ms, x)
+        nodes = np.unique(ss.nodes)
+        c, s = np.cos(0.2), np.sin(0.2)
+        pts = 0.997 * x[nodes] @ np.array([[c, s], [-s, c]])
+        cand = exchange_facets(COMM, pts, ms.cell, ms.degree, *data, 0.1)
+        pr = find_projections(pts, cand, 0.1)
+        rho = np.linalg.norm(pts, axis=1)
+        radial = pts / rho[:, None]
+        ok = bool(pr.found.all())
+        ok &= bool(np.abs(pr.normal - radial).max(initial=0.0) < 1e-13)
+        assert everywhere(COMM, ok)
+        err = np.abs(pr.distance - (rho - 1.0)).max(initial=0.0)
+        errors[degree] = COMM.allreduce(err, op=MPI.MAX)
+    sag = 1.0 - np.cos(np.pi / 12)  # the polygon's sag
+    assert 0.3 * sag < errors[1] <= sag * (1 + 1e-12)
+    print(f"distance to the circle: P1 {errors[1]:.3e}, P2 {errors[2]:.3e}, sag {sag:.3e}")
+    assert errors[2] < 0.01 * sag, errors
