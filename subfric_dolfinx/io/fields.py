@@ -27,7 +27,7 @@ import dolfinx
 import dolfinx.io
 import numpy as np
 
-from ..compat import coordinate_element
+from ..compat import coordinate_element, geometry_dofmap
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 
@@ -41,7 +41,7 @@ def _mesh_bytes(mesh: Any) -> int:
     g = mesh.geometry
     n_nodes = g.index_map().size_global
     n_cells = mesh.topology.index_map(mesh.topology.dim).size_global
-    return 8 * (3 * n_nodes + (g.dofmap.shape[1] + 2) * n_cells)
+    return 8 * (3 * n_nodes + (geometry_dofmap(mesh).shape[1] + 2) * n_cells)
 
 
 def _dir_bytes(d: Path) -> int:
