@@ -26,6 +26,11 @@ testing the version itself. Each difference was read in the installed sources of
 - ``mesh.create_mesh``: ``(comm, cells, x, element)`` (0.9); ``(comm, cells, element, x)`` (0.11).
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
+- DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
+  (0.9: the problem's ``F(x, b)`` and ``J(x, A)`` are methods, the solver a C++ Newton loop);
+  ``fem.petsc.NonlinearProblem`` is a PETSc SNES with ``assemble_residual`` and
+  ``assemble_jacobian`` callbacks (0.11; the Newton-solver pair is deprecated there).
+  :func:`dolfinx_newton` hides it.
 
 Everything else the package uses (forms, assembly into a given matrix, ``Expression``,
 ``Function.eval``, VTX/XDMF writers, geometry searches, ``SparsityPattern``) has the same
@@ -55,11 +60,13 @@ __all__ = [
     "create_mesh",
     "create_submesh",
     "default_partitioner",
+    "dolfinx_newton",
     "geometry_dofmap",
     "ghosted_index_map",
     "interpolation_points",
     "model_to_mesh",
     "petsc_vector",
+    "read_from_msh",
 ]
 
 
@@ -98,6 +105,19 @@ def model_to_mesh(
     ``MeshData`` also holds ridge and peak tags, not used here).
     """
     out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    if _NEW:
+        return out.mesh, out.cell_tags, out.facet_tags
+    return out
+
+
+def read_from_msh(
+    path, comm: MPI.Comm, gdim: int, rank: int = 0
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """DOLFINx's own reader of an MSH file: the mesh and its cell and facet tags.
+
+    ``io.gmshio.read_from_msh`` (0.9) or ``io.gmsh.read_from_msh`` (0.11, a ``MeshData``).
+    """
+    out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
     if _NEW:
         return out.mesh, out.cell_tags, out.facet_tags
     return out
@@ -188,3 +208,115 @@ def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """The reference interpolation points of ``V``'s element (for a ``dolfinx.fem.Expression``)."""
     pts = V.element.interpolation_points
     return pts if _NEW else pts()
+
+
+class DolfinxNewton:
+    """DOLFINx's own Newton solver on ``F(u; v) = 0``, with extra terms in residual and Jacobian.
+
+    Made by :func:`dolfinx_newton`; :meth:`solve` solves for ``u`` from its current value.
+    """
+
+    def __init__(self, solve: Callable[[], tuple[int, bool]], objects: list) -> None:
+        self._solve = solve
+        self._objects = objects  # kept alive with the solver
+
+    def solve(self) -> tuple[int, bool]:
+        """Newton from the current ``u``: (iterations, converged); ``u`` holds the result."""
+        return self._solve()
+
+
+def dolfinx_newton(
+    F,
+    u: dolfinx.fem.Function,
+    bcs: list,
+    J,
+    A: PETSc.Mat,
+    *,
+    add_residual: Callable[[PETSc.Vec, PETSc.Vec], None],
+    add_jacobian: Callable[[PETSc.Vec, PETSc.Mat], None],
+    prefix: str,
+    rtol: float = 1e-12,
+    atol: float = 1e-10,
+    max_it: int = 30,
+) -> DolfinxNewton:
+    """DOLFINx's nonlinear machinery with extra residual and Jacobian contributions.
+
+    0.9: ``fem.petsc.NonlinearProblem`` (its ``F`` and ``J`` extended) and
+    ``nls.petsc.NewtonSolver`` (the residual criterion, ``error_on_nonconvergence`` off); 0.11:
+    the SNES-based ``fem.petsc.NonlinearProblem`` whose residual and Jacobian callbacks call
+    DOLFINx's ``assemble_residual``/``assemble_jacobian`` and then the extras (Newton with a full
+    step, the same tolerances). Both: LU (MUMPS), the Jacobian assembled into ``A`` (a matrix
+    that holds the extra couplings, e.g. :func:`~subfric_dolfinx.fem.create_matrix`).
+
+    Args:
+        F: The residual form ``F(u; v)``.
+        u: The unknown.
+        bcs: DOLFINx Dirichlet conditions.
+        J: The Jacobian form.
+        A: The matrix to assemble the Jacobian into.
+        add_residual: ``(x, b)``: add to the residual ``b`` at ``x`` (after DOLFINx's assembly
+            with lifting and the boundary values).
+        add_jacobian: ``(x, A)``: add to the Jacobian (``ADD_VALUES``; ``A`` is assembled after).
+        prefix: PETSc options prefix of the solver.
+        rtol: Relative residual tolerance.
+        atol: Absolute residual tolerance.
+        max_it: Iteration limit.
+    """
+    import dolfinx.fem.petsc
+
+    lu = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+    if not _NEW:  # pragma: no cover - the other stack's branch
+        import dolfinx.nls.petsc
+
+        class _Problem(dolfinx.fem.petsc.NonlinearProblem):
+            def F(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+                super().F(x, b)
+                add_residual(x, b)
+
+            def J(self, x: PETSc.Vec, mat: PETSc.Mat) -> None:
+                super().J(x, mat)
+                add_jacobian(x, mat)
+                mat.assemble()
+
+        problem = _Problem(F, u, bcs, J)
+        solver = dolfinx.nls.petsc.NewtonSolver(u.function_space.mesh.comm, problem)
+        solver.setJ(problem.J, A)
+        solver.convergence_criterion = "residual"
+        solver.rtol, solver.atol, solver.max_it = rtol, atol, max_it
+        solver.error_on_nonconvergence = False
+        ksp = solver.krylov_solver
+        ksp.setOptionsPrefix(prefix)
+        opts = PETSc.Options()
+        for k, v in lu.items():
+            opts[prefix + k] = v
+        ksp.setFromOptions()
+        for k in lu:
+            del opts[prefix + k]
+        return DolfinxNewton(lambda: solver.solve(u), [problem, solver])
+    options = {
+        **{k: v for k, v in lu.items()},
+        "snes_type": "newtonls", "snes_linesearch_type": "basic",
+        "snes_rtol": rtol, "snes_atol": atol, "snes_stol": 0.0, "snes_max_it": max_it,
+    }  # fmt: skip
+    problem = dolfinx.fem.petsc.NonlinearProblem(
+        F, u, petsc_options_prefix=prefix, bcs=bcs, J=J, petsc_options=options
+    )
+    snes = problem.solver
+
+    def residual(snes_: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        dolfinx.fem.petsc.assemble_residual(snes_, x, b, u, problem.F, problem.J, bcs)
+        add_residual(x, b)
+
+    def jacobian(snes_: PETSc.SNES, x: PETSc.Vec, mat: PETSc.Mat, P: PETSc.Mat) -> None:
+        dolfinx.fem.petsc.assemble_jacobian(snes_, x, mat, P, u, problem.J, None, bcs)
+        add_jacobian(x, mat)
+        mat.assemble()
+
+    snes.setFunction(residual, problem.b)
+    snes.setJacobian(jacobian, A, A)
+
+    def solve() -> tuple[int, bool]:
+        problem.solve()
+        return snes.getIterationNumber(), bool(snes.getConvergedReason() > 0)
+
+    return DolfinxNewton(solve, [problem, snes])

@@ -45,6 +45,14 @@ SMALL = {
         ["--n", "2", "--cycles", "1"],
         ["history.csv", "hysteresis.png"],
     ),
+    "user_loop": (["--n", "4", "--dt", "0.25"], ["history.csv"]),
+    "shrink_fit": (
+        ["--h", "5", "--steps", "4"], ["coulomb.csv", "subloading.csv", "shrink_fit.png"]
+    ),
+    "bolt_clamped_joint": (
+        ["--h", "5", "--cycles", "1", "--dt", "1"],
+        ["history.csv", "bolt_clamped_joint.png"],
+    ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],

@@ -6,14 +6,15 @@ the size of those terms, however exact the linear solves. That size is::
 
     S = || |K| |u| + |f_ext| + |R_int| ||_2        (free rows, not the Dirichlet ones)
 
-with ``|K|`` the entrywise absolute value of the bulk stiffness. Measured on the 2-D block and
-the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; the scale study
+with ``|K|`` the entrywise absolute value of the bulk stiffness (for a nonlinear bulk law: of its
+tangent at rest, the elastic stiffness of the bodies, and ``K u`` is its internal force). Measured
+on the 2-D block and the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; the scale study
 of issue 13) the smallest residual Newton reaches is 0.17 to 0.33 ``eps S``, at every size. An
 absolute tolerance (``snes_atol``) or one relative to a step's first residual (``snes_rtol``)
-cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at
-300 MPa and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first
-residual of a pressing step), and Newton then stalls at its iteration limit, the step is cut,
-and cutting only lowers the relative target further.
+cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at 300 MPa
+and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first residual of a
+pressing step), and Newton then stalls at its iteration limit, the step is cut, and cutting only
+lowers the relative target further.
 
 :class:`ScaledConvergence` declares Newton's iteration ``k`` converged when, first that holds,
 
@@ -95,7 +96,8 @@ class ScaledConvergence:
 
     Args:
         problem: The :class:`~subfric_dolfinx.fem.problem.InterfaceProblem` (its ``K``, loads,
-            interface forces ``b_ext`` at the last residual, Dirichlet dofs).
+            interface forces ``interface_force`` at the last residual, Dirichlet dofs; with a
+            nonlinear bulk, ``K_scale`` (its tangent at rest) for ``|K|`` and ``bulk_force``).
         floor_factor: See :data:`FLOOR_FACTOR`.
         stall_factor: See :data:`STALL_FACTOR`.
     """
@@ -109,7 +111,7 @@ class ScaledConvergence:
         self.problem = problem
         self.floor_factor = float(floor_factor)
         self.stall_factor = float(stall_factor)
-        self.Kabs: PETSc.Mat | None = abs_matrix(problem.K)
+        self.Kabs: PETSc.Mat | None = abs_matrix(getattr(problem, "K_scale", problem.K))
         self._ua = problem.K.createVecRight()
         self._w = problem.K.createVecLeft()
         self._ku = problem.K.createVecLeft()
@@ -143,11 +145,14 @@ class ScaledConvergence:
         s = self._w.array_r.copy()
         fabs = np.zeros_like(s)
         reaction = self._ku.array_r.copy()
+        bulk = getattr(p, "bulk_force", None)  # a nonlinear bulk's F_bulk(u); K: springs only
+        if bulk is not None:
+            reaction += bulk
         for c, f in p.loads:
             a = p.program.amplitude(c.amplitude, p.t)
             fabs += abs(a) * np.abs(f.array_r)
             reaction -= a * f.array_r
-        r_int = p.b_ext.array_r[: s.size]
+        r_int = p.interface_force[: s.size]
         fabs += np.abs(r_int)
         reaction = (reaction + r_int)[~self._free]
         s = (s + fabs)[self._free]

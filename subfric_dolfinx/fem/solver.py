@@ -201,7 +201,7 @@ class FrictionSolver:
         self.linear.linear_done(snes)
         ok = self.problem.residual(x, F)
         if not ok:
-            self.failed_points = self.problem.interface.last.failed_indices
+            self.failed_points = self.problem.failed_points()
         # on every rank or none: SNES's line search checks the domain error on each rank alone,
         # and ranks that disagree would part ways (one leaves the solve, the other waits)
         if not self.problem.comm.allreduce(bool(ok), op=MPI.LAND):
@@ -291,8 +291,7 @@ class FrictionSolver:
         if reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and len(hist):
             rtol, atol, _, _ = self.snes.getTolerances()
             converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
-        last = p.interface.last
-        counts = {k: p.comm.allreduce(v) for k, v in last.counts().items()} if last else {}
+        counts = p.status_counts()
         return {
             "converged": converged,
             "iterations": self.snes.getIterationNumber(),

@@ -84,14 +84,17 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
         among those, of the largest traction: its ``status``, coordinates ``x``, local
         ``traction`` and ``gap``), and ``text``, a one-line summary of both.
     """
-    el = problem.interface
-    res = el.last
     names = [s.name for s in Status] + ["UNSTABLE"]
     local = np.zeros(len(names), dtype=np.int64)
     candidate = None
-    if res is not None and res.status.size:
+    ifaces = problem.interfaces
+    for iname, iface in ifaces.items():
+        el = iface.elements
+        res = el.last
+        if res is None or not res.status.size:
+            continue
         c = res.counts()
-        local[:] = [c.get(n, 0) for n in names]
+        local += [c.get(n, 0) for n in names]
         st = res.status
         sev = np.select(
             [st == Status.FAILED, res.unstable, st == Status.JUMP, st == Status.PLASTIC,
@@ -102,13 +105,15 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
         size = np.linalg.norm(res.traction, axis=1)
         i = int(np.lexsort((size, sev))[-1])
         x = el.points.reshape(-1, problem.gdim)[i]
-        candidate = (
+        mine = (
             int(sev[i]),
             float(size[i]),
             tuple(float(v) for v in x),
             tuple(float(v) for v in res.traction[i]),
             tuple(float(v) for v in el.last_gap[i]),
+            iname if len(ifaces) > 1 else "",
         )
+        candidate = mine if candidate is None else max(candidate, mine)
     counts_arr = np.zeros_like(local)
     problem.comm.Allreduce(local, counts_arr)
     counts = {n: int(v) for n, v in zip(names, counts_arr, strict=True)}
@@ -118,14 +123,15 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
     shown = ", ".join(f"{n} {counts[n]}" for n in reversed(_SEVERITY) if counts[n])
     text = f"return map at the last iterate: {shown or 'no point'} (of {total} points)"
     if found:
-        sev, _, x, tr, gap = max(found)
+        sev, _, x, tr, gap, iname = max(found)
         out["worst"] = {"status": _SEVERITY[sev], "x": x, "traction": tr, "gap": gap}
 
         def fmt(v: tuple[float, ...]) -> str:
             return "(" + ", ".join(f"{a:.4g}" for a in v) + ")"
 
+        on = f" on the interface {iname!r}" if iname else ""
         text += (
-            f"; worst point {_SEVERITY[sev]} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
+            f"; worst point {_SEVERITY[sev]}{on} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
             f"MPa, gap (ubar_t, ubar_n) = {fmt(gap)} mm"
         )
     out["text"] = text

@@ -27,12 +27,12 @@ from .checkpoint import (
 )
 from .collective import OutputError, probe_directory
 from .fields import FieldWriter
-from .gather import gather_interface, interface_order
+from .gather import gather_interface, interface_of, interface_order
 from .history import HistoryCSV
 from .interface_history import InterfaceHistoryH5
 from .outdir import OutputDirectory
 from .points import InterfacePointsXDMF, PointCloudError
-from .summary import interface_summary
+from .summary import element_summary, interface_summary
 
 __all__ = [
     "CheckpointError",
@@ -44,7 +44,9 @@ __all__ = [
     "OutputDirectory",
     "OutputError",
     "PointCloudError",
+    "element_summary",
     "gather_interface",
+    "interface_of",
     "interface_order",
     "interface_summary",
     "probe_directory",

@@ -50,6 +50,13 @@ from .checkpoint_format import (
     first_difference,
     jsonable,
 )
+from .checkpoint_parts import (
+    compare_point_data,
+    extra_parts,
+    read_extras,
+    restore_extras,
+    write_extras,
+)
 from .collective import OutputError, collective
 from .h5 import ParallelH5
 from .slabs import interface_rows, pull, push, slab
@@ -114,6 +121,7 @@ def write_checkpoint(
     for name in st.names:
         blocks[name] = push(comm, rows, st[name], n_points)
     pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
+    extras = extra_parts(problem, cells, n_cells)  # more interfaces, the bulk state
     cols = list(history[0]) if history else []
     table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
         len(history), len(cols)
@@ -149,6 +157,7 @@ def write_checkpoint(
             pd.create_dataset(name, (n_points,), **kw)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
+        write_extras(f, extras, comm, create=True)
 
     def fill(f: Any) -> None:  # independent transfers: each rank its own slab
         if c1 > c0:
@@ -160,6 +169,7 @@ def write_checkpoint(
                 f["point_data"][name][p0:p1] = b
         if comm.rank == 0 and table.size:
             f["history"][...] = table
+        write_extras(f, extras, comm, create=False)
 
     try:
         collective(
@@ -167,9 +177,10 @@ def write_checkpoint(
         )
         values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * (
             sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
-        )  # fmt: skip
+        ) + extras.values()  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
-            h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
+            n_sets = len(blocks) + 3 + len(extras.bulk) + 8 * len(extras.interfaces)
+            h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
             h.call(lambda f: f.flush(), meta=True)
@@ -211,6 +222,7 @@ class Checkpoint:
         interface: Name -> this rank's rows of every interface variable.
         point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
             empty for a checkpoint written without them.
+        extras: The further interfaces and the bulk state (:mod:`.checkpoint_parts`).
     """
 
     attrs: dict[str, Any]
@@ -221,6 +233,7 @@ class Checkpoint:
     x: np.ndarray
     interface: dict[str, np.ndarray]
     point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    extras: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -255,7 +268,7 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
         c0, c1 = slab(int(attrs["n_cells"]), comm.size, comm.rank)
         p0, p1 = slab(int(attrs["n_points"]), comm.size, comm.rank)
 
-        def read(f: Any) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+        def read(f: Any) -> tuple[Any, ...]:
             u = f["displacement"][c0:c1]
             g = f["interface"]
             iface = {k: g[k][p0:p1] for k in g}
@@ -273,11 +286,12 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
             for k, v in pdata.items():
                 if not np.all(np.isfinite(v)):
                     raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
-            return u, iface, pdata
+            extras = read_extras(f, name, comm, int(attrs["n_cells"]))
+            return u, iface, pdata, extras
 
-        u, iface, pdata = h.call(read)
+        u, iface, pdata, extras = h.call(read)
     x = iface.pop("x")
-    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata)
+    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata, extras)
 
 
 def restore_checkpoint(
@@ -362,41 +376,11 @@ def restore_checkpoint(
             f"{bad} interface points of this run are not in the checkpoint {name} "
             "(another mesh or quadrature)"
         )
-    _compare_point_data(name, el, ck, rows, n_points, comm)
+    compare_point_data(name, el, ck.point_data, rows, n_points, comm)
     for v in st.names:
         st[v][:] = pull(comm, rows, ck.interface[v], n_points)
     el.state.revert()  # trial = committed
+    restore_extras(name, problem, ck.extras, cells, n_cells)
     dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
     stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history
-
-
-_POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}
-
-
-def _compare_point_data(
-    name: str, el: Any, ck: Checkpoint, rows: np.ndarray, n_points: int, comm: Any
-) -> None:
-    """The run's fixed point data must equal the checkpoint's (collective).
-
-    A checkpoint without point data (an older one) fits a run whose data are all zero.
-
-    Raises:
-        CheckpointError: On every rank, naming the datum, the largest difference and where.
-    """
-    pts = el.points.reshape(-1, el.gdim)
-    for key, here in el.point_data.items():
-        stored = key in ck.point_data
-        there = pull(comm, rows, ck.point_data[key], n_points) if stored else np.zeros_like(here)
-        diff = np.abs(there - here)
-        i = int(np.argmax(diff)) if diff.size else -1
-        local = (float(diff[i]), tuple(pts[i]), float(there[i]), float(here[i])) if i >= 0 else None
-        worst = max((w for w in comm.allgather(local) if w), default=None, key=lambda w: w[0])
-        scale = comm.allreduce(float(np.abs(here).max()) if here.size else 0.0, op=MPI.MAX)
-        if worst is not None and worst[0] > 1e-9 * max(1.0, scale):
-            where = ", ".join(f"{v:.6g}" for v in worst[1])
-            raise CheckpointError(
-                f"checkpoint {name} was written with another {_POINT_DATA.get(key, key)}: "
-                f"{worst[2]:.6g} there, {worst[3]:.6g} in this run at ({where})"
-                + ("" if stored else " (the checkpoint has none)")
-            )

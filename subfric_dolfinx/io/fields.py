@@ -30,6 +30,7 @@ import numpy as np
 from ..compat import coordinate_element, geometry_dofmap
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
+from .gather import interface_of
 
 __all__ = ["FieldWriter"]
 
@@ -61,7 +62,8 @@ class FieldWriter:
         directory: Output directory (created).
         problem: The problem.
         fmt: ``"vtx"`` (``displacement.bp``, ``interface.bp``) or ``"xdmf"``
-            (``displacement.xdmf``, ``interface.xdmf``).
+            (``displacement.xdmf``, ``interface.xdmf``); with several interfaces one file each,
+            ``interface_<name>.bp`` (``.xdmf``).
     """
 
     def __init__(self, directory: str | Path, problem: Any, fmt: str = "vtx") -> None:
@@ -71,24 +73,32 @@ class FieldWriter:
         self.dir = probe_directory(comm, directory)
         self.problem = problem
         self.fmt = fmt
-        el = problem.interface
-        sub = el.submesh
-        gdim = el.gdim
-        D0s = dolfinx.fem.functionspace(sub, ("DG", 0))
-        D0v = dolfinx.fem.functionspace(sub, ("DG", 0, (gdim,)))
+        ifaces = getattr(problem, "interfaces", None) or {"interface": None}
         F = dolfinx.fem.Function
-        self.fields = {"f_t": F(D0v, name="f_t"), "f_n": F(D0s, name="f_n")}
-        for var in problem.law.variables:
-            space = D0s if var.shape == SCALAR else D0v
-            self.fields[var.name] = F(space, name=var.name)
-        for k in el.point_data:
-            self.fields[k] = F(D0s, name=k)
+        # one interface file per interface: interface.bp (or interface_<name>.bp with several)
+        self.parts: list[tuple[str, Any, Any, dict[str, Any]]] = []
+        for name in ifaces:
+            el, law = interface_of(problem, None if ifaces[name] is None else name)
+            sub = el.submesh
+            D0s = dolfinx.fem.functionspace(sub, ("DG", 0))
+            D0v = dolfinx.fem.functionspace(sub, ("DG", 0, (el.gdim,)))
+            fields = {"f_t": F(D0v, name="f_t"), "f_n": F(D0s, name="f_n")}
+            for var in law.variables:
+                space = D0s if var.shape == SCALAR else D0v
+                fields[var.name] = F(space, name=var.name)
+            for k in el.point_data:
+                fields[k] = F(D0s, name=k)
+            stem = "interface" if len(ifaces) == 1 else f"interface_{name}"
+            self.parts.append((stem, el, law, fields))
+        self.fields = self.parts[0][3]
         u = problem.u
         n_u = u.function_space.dofmap.index_map.size_global
-        n_sub = sub.topology.index_map(sub.topology.dim).size_global
-        self.step_bytes = 2 * (
-            _mesh_bytes(problem.mesh) + 24 * n_u + _mesh_bytes(sub) + 24 * n_sub * len(self.fields)
-        )  # fmt: skip
+        sub_bytes = 0
+        for _, el, _, fields in self.parts:
+            sub = el.submesh
+            n_sub = sub.topology.index_map(sub.topology.dim).size_global
+            sub_bytes += _mesh_bytes(sub) + 24 * n_sub * len(fields)
+        self.step_bytes = 2 * (_mesh_bytes(problem.mesh) + 24 * n_u + sub_bytes)
         self._wu: Any = None
         self._wi: Any = None
         self._u = u
@@ -105,13 +115,16 @@ class FieldWriter:
     def _open(self, fmt: str) -> None:
         problem, comm = self.problem, self.problem.comm
         u = problem.u
-        gdim = problem.interface.gdim
-        sub = problem.interface.submesh
+        gdim = problem.mesh.geometry.dim
+        self._wi = []
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
-            self._wi = dolfinx.io.VTXWriter(
-                comm, self.dir / "interface.bp", list(self.fields.values()), engine="BP4"
-            )
+            for stem, _, _, fields in self.parts:
+                self._wi.append(
+                    dolfinx.io.VTXWriter(
+                        comm, self.dir / f"{stem}.bp", list(fields.values()), engine="BP4"
+                    )
+                )
         else:
             mesh = problem.mesh
             cdeg = coordinate_element(mesh).degree
@@ -122,11 +135,17 @@ class FieldWriter:
                 self._u = dolfinx.fem.Function(V1, name="displacement")
             self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
             self._wu.write_mesh(mesh)
-            self._wi = dolfinx.io.XDMFFile(comm, self.dir / "interface.xdmf", "w")
-            self._wi.write_mesh(sub)
+            for stem, el, _, _ in self.parts:
+                w = dolfinx.io.XDMFFile(comm, self.dir / f"{stem}.xdmf", "w")
+                self._wi.append(w)
+                w.write_mesh(el.submesh)
 
     def _update(self) -> None:
-        el = self.problem.interface
+        for _, el, law, fields in self.parts:
+            self._update_one(el, law, fields)
+
+    @staticmethod
+    def _update_one(el: Any, law: Any, fields: dict[str, Any]) -> None:
         nf, nq, nt, gdim = el.n_elements, el.nq, el.nt, el.gdim
         w = el.w_ref / el.w_ref.sum()
         st = el.state.old
@@ -140,15 +159,15 @@ class FieldWriter:
             R = el.Q[..., :k, :]  # rows e1 [e2] (tangential) [-n] (local)
             return avg(np.einsum("cqi,cqid->cqd", a.reshape(nf, nq, k), R).reshape(-1, gdim))
 
-        self.fields["f_t"].x.array[:] = global_vector(tr[:, :nt]).ravel()
-        self.fields["f_n"].x.array[:] = avg(tr[:, nt])
-        for var in self.problem.law.variables:
+        fields["f_t"].x.array[:] = global_vector(tr[:, :nt]).ravel()
+        fields["f_n"].x.array[:] = avg(tr[:, nt])
+        for var in law.variables:
             a = st[var.name]
-            self.fields[var.name].x.array[:] = (
+            fields[var.name].x.array[:] = (
                 avg(a) if var.shape == SCALAR else global_vector(a).ravel()
             )
         for k, a in el.point_data.items():
-            self.fields[k].x.array[:] = avg(a)
+            fields[k].x.array[:] = avg(a)
 
     def write(self, t: float) -> None:
         """Write the current (converged) state at time ``t`` (collective).
@@ -168,11 +187,13 @@ class FieldWriter:
         def write() -> None:
             if self.fmt == "vtx":
                 self._wu.write(t)
-                self._wi.write(t)
+                for w in self._wi:
+                    w.write(t)
             else:
                 self._wu.write_function(self._u, t)
-                for f in self.fields.values():
-                    self._wi.write_function(f, t)
+                for w, (_, _, _, fields) in zip(self._wi, self.parts, strict=True):
+                    for f in fields.values():
+                        w.write_function(f, t)
 
         collective(
             comm, write, self._what("writing", t), root=None,
@@ -183,7 +204,7 @@ class FieldWriter:
 
     def abandon(self) -> None:
         """Close the files after a failure, ignoring errors (collective)."""
-        for w in (self._wu, self._wi):
+        for w in (self._wu, *(self._wi or [])):
             if w is not None:
                 try:
                     w.close()
@@ -198,7 +219,8 @@ class FieldWriter:
 
         def close() -> None:
             self._wu.close()
-            self._wi.close()
+            for w in self._wi:
+                w.close()
 
         try:
             collective(self.problem.comm, close, self._what("closing"), root=None)

@@ -12,10 +12,33 @@ run give the same order, row by row.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
-__all__ = ["gather_interface", "interface_order"]
+__all__ = ["gather_interface", "interface_of", "interface_order"]
+
+
+def interface_of(problem: Any, interface: str | None = None) -> tuple[Any, Any]:
+    """The :class:`~subfric_dolfinx.fem.interface.InterfaceElements` and law of an interface.
+
+    Args:
+        problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: The interface's name (``None``: the first, e.g. the only one).
+
+    Raises:
+        KeyError: No interface of that name (the interfaces are listed).
+    """
+    ifaces = getattr(problem, "interfaces", None)
+    if not ifaces:
+        return problem.interface, problem.law
+    if interface is None:
+        iface = next(iter(ifaces.values()))
+    elif interface in ifaces:
+        iface = ifaces[interface]
+    else:
+        raise KeyError(f"no interface {interface!r}; interfaces: {sorted(ifaces)}")
+    return iface.elements, iface.law
 
 
 def interface_order(x: np.ndarray, tol: float) -> np.ndarray:

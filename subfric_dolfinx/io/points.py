@@ -37,6 +37,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..constitutive import LOCAL, SCALAR
+from .gather import interface_of
 
 __all__ = ["InterfacePointsXDMF", "PointCloudError"]
 
@@ -69,19 +70,21 @@ class InterfacePointsXDMF:
     Args:
         path: The XDMF file (``.xdmf``); the HDF5 file is written beside it (``.h5``).
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: Which interface (``None``: the first, e.g. the only one).
 
     Raises:
         PointCloudError: On every rank, if the directory or the files cannot be written.
     """
 
-    def __init__(self, path: str | Path, problem: Any) -> None:
+    def __init__(self, path: str | Path, problem: Any, interface: str | None = None) -> None:
         import h5py
 
         self.path = Path(path)
         self.h5path = self.path.with_suffix(".h5")
         self.problem = problem
         self.comm = comm = problem.comm
-        el = problem.interface
+        el, self.law = interface_of(problem, interface)
+        self.el = el
         self.gdim, self.nt = el.gdim, el.nt
         self.n_local = el.n_elements * el.nq
         sizes = comm.allgather(self.n_local)
@@ -154,7 +157,7 @@ class InterfacePointsXDMF:
 
     def _values(self) -> dict[str, np.ndarray]:
         """This rank's values, by array name (scalars (n,), the traction vector (n, 3))."""
-        el = self.problem.interface
+        el = self.el
         n, nt, gdim = self.n_local, self.nt, self.gdim
         tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))
         status = el.last.status if el.last is not None else np.zeros(n, dtype=np.int8)
@@ -165,7 +168,7 @@ class InterfacePointsXDMF:
         out["traction"] = vec
         out["status"] = np.asarray(status, dtype=np.int32)
         st = el.state.old
-        for var in self.problem.law.variables:
+        for var in self.law.variables:
             width = int(np.prod(var.array_shape(1, nt)[1:]))
             a = np.asarray(st[var.name], dtype=float).reshape(n, width)
             for i, name in enumerate(_components(var.name, var.shape, nt)):

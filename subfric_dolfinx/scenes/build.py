@@ -7,7 +7,16 @@ from typing import Any
 import numpy as np
 
 from .. import meshing
-from ..fem import Dirichlet, InterfaceProblem, Material, PointForce, Pressure, Spring, Traction
+from ..fem import (
+    Dirichlet,
+    Interface,
+    InterfaceProblem,
+    Material,
+    PointForce,
+    Pressure,
+    Spring,
+    Traction,
+)
 from .interface_spec import gap_function, parse_regions
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
@@ -22,14 +31,35 @@ BUILDERS = {
 """Mesh builders a scene may name."""
 
 
-def build_mesh(spec: MeshSpec, comm: Any) -> meshing.InterfaceMesh:
-    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective)."""
-    if spec.builder is not None:
-        dom, _ = meshing.create_interface_mesh(
-            BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **spec.options
+def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshing.InterfaceMesh:
+    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective).
+
+    With the scene, its ``bodies`` and ``interfaces`` (and ``mesh.names``) say which groups the
+    reader checks as bodies and interfaces.
+    """
+    topo: dict[str, Any] = {"names": dict(spec.names) or None}
+    if scene is not None:
+        if scene.bodies:
+            topo["bodies"] = {b: ([g] if isinstance(g, str) else list(g))
+                              for b, g in scene.bodies.items()}  # fmt: skip
+        if scene.interfaces:  # sides given, or None: found from the mesh
+            topo["interfaces"] = {
+                n: (spec.sides if spec.sides[0] is not None else None)
+                for n, spec in scene.interfaces.items()
+            }
+    try:
+        if spec.builder is not None:
+            dom, _ = meshing.create_interface_mesh(
+                BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **topo, **spec.options
+            )
+            return dom
+        return meshing.read_interface_mesh(
+            spec.file, comm, spec.gdim, partitioner=spec.partitioner, **topo
         )
-        return dom
-    return meshing.read_interface_mesh(spec.file, comm, spec.gdim, partitioner=spec.partitioner)
+    except meshing.InterfaceMeshError as e:
+        if spec.names or (scene is not None and (scene.bodies or scene.interfaces)):
+            raise SceneError(f"scene.mesh: {e}") from None
+        raise
 
 
 def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
@@ -88,9 +118,29 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         for ld in scene.loads
     ] + point_forces
     materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}
+    interfaces = None
+    if scene.interfaces:
+        interfaces = []
+        for name, spec in scene.interfaces.items():
+            path = f"scene.interfaces.{name}"
+            primary, secondary = spec.sides
+            gap = spec.initial_gap if spec.initial_gap is not None else (
+                scene.initial_gap if len(scene.interfaces) == 1 else None
+            )
+            regions = spec.regions or (scene.regions if len(scene.interfaces) == 1 else {})
+            interfaces.append(
+                Interface(
+                    name, primary, secondary,
+                    law=parse_law(spec.law) if spec.law is not None else None,
+                    initial_gap=gap_function(gap, gdim, f"{path}.initial_gap"),
+                    regions=parse_regions(regions, f"{path}.regions") or None,
+                    quadrature=spec.quadrature,
+                )
+            )  # fmt: skip
+    _check_material_names(scene, domain)
     return InterfaceProblem(
         domain,
-        parse_law(scene.law),
+        parse_law(scene.law) if scene.law is not None else None,
         materials,
         build_program(scene.program),
         bcs,
@@ -98,6 +148,24 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         springs=springs,
         degree=scene.degree,
         quadrature=scene.quadrature,
-        initial_gap=gap_function(scene.initial_gap, gdim),
-        regions=parse_regions(scene.regions) or None,
+        initial_gap=gap_function(scene.initial_gap, gdim) if not scene.interfaces else None,
+        regions=(parse_regions(scene.regions) or None) if not scene.interfaces else None,
+        interfaces=interfaces,
+        mode=scene.mode,
     )
+
+
+def _check_material_names(scene: FEScene, domain: meshing.InterfaceMesh) -> None:
+    """Every material names a body or a cell group of the mesh (or master/slave).
+
+    Raises:
+        SceneError: Naming the unknown keys and the bodies there are.
+    """
+    cells = {n for n, d in domain.dims.items() if d == domain.tdim}
+    known = set(domain.bodies) | cells | {"master", "slave"}
+    extra = sorted(set(scene.materials) - known)
+    if extra:
+        raise SceneError(
+            f"scene.materials: {extra} are neither bodies nor cell groups of the mesh; bodies: "
+            f"{sorted(domain.bodies)}"
+        )

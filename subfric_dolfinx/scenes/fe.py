@@ -43,18 +43,33 @@ def restart_settings(scene: FEScene) -> dict[str, Any]:
     """What a restart must match beyond the mesh, law and program (compared anyway).
 
     The materials, the Dirichlet conditions and loads (values, components, channels), the
-    quadrature and the mesh builder's options. Solver settings and the partitioner may change.
+    quadrature, the mesh builder's options (or file) and group names, and, where the scene gives
+    them, its bodies, interfaces (sides, quadrature) and mode. Solver settings and the
+    partitioner may change.
     """
     mesh: dict[str, Any] = {"builder": scene.mesh.builder, "options": scene.mesh.options}
     if scene.mesh.file is not None:
         mesh = {"file": Path(scene.mesh.file).name, "gdim": scene.mesh.gdim}
-    return {
+    if scene.mesh.names:
+        mesh["names"] = scene.mesh.names
+    out = {
         "materials": scene.materials,
         "dirichlet": [dataclasses.asdict(d) for d in scene.dirichlet],
         "loads": [dataclasses.asdict(ld) for ld in scene.loads],
         "quadrature": scene.quadrature,
         "mesh": mesh,
     }
+    # beyond the classic scene (absent there, so that its checkpoints stay valid)
+    if scene.bodies:
+        out["bodies"] = scene.bodies
+    if scene.interfaces:
+        out["interfaces"] = {
+            n: {"sides": list(s.sides), "quadrature": s.quadrature}
+            for n, s in scene.interfaces.items()
+        }
+    if scene.mode is not None:
+        out["mode"] = scene.mode
+    return out
 
 
 def run_fe_scene(
@@ -69,7 +84,7 @@ def run_fe_scene(
     outdir = Path(outdir) if outdir is not None else None
     t_start = time.perf_counter()
     PETSc.Log.begin()
-    domain = build_mesh(scene.mesh, comm)
+    domain = build_mesh(scene.mesh, comm, scene)
     problem = build_problem(scene, domain)
     res = SceneResult(scene.name, "fe")
     tdim = domain.mesh.topology.dim
@@ -77,7 +92,9 @@ def run_fe_scene(
         "ranks": comm.size,
         "cells": domain.mesh.topology.index_map(tdim).size_global,
         "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
-        "interface points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
+        "interface points": comm.allreduce(
+            sum(i.elements.n_elements * i.elements.nq for i in problem.interfaces.values())
+        ),
         "gdim": domain.mesh.geometry.dim,
     }
     i = res.info

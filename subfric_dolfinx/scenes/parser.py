@@ -19,6 +19,7 @@ from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..loading import LoadingError, LoadingProgram
 from .interface_spec import parse_initial_gap, parse_regions
+from .parse_bodies import check_topology, interface_laws
 from .parse_features import check_features
 from .schema import (
     BUILDER_GDIM,
@@ -206,29 +207,20 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
     _choice("scene.degree", scene.degree, (1, 2))
     _choice("scene.quadrature", scene.quadrature, ("gauss", "nodal"))
     _check_conditions(scene)
-    for body in ("master", "slave"):
-        mat = scene.materials.get(body)
-        if mat is None:
-            raise SceneError(f"scene.materials: missing key '{body}'")
-        if set(mat) != {"E", "nu"}:
-            raise SceneError(
-                f"scene.materials.{body}: keys must be 'E' and 'nu', got {sorted(mat)}"
-            )
-    extra = sorted(set(scene.materials) - {"master", "slave"})
-    if extra:
-        raise SceneError(f"scene.materials: unknown key(s) {extra}; allowed: ['master', 'slave']")
+    check_topology(scene)
     prog = scene.program
     if set(prog) != {"times", "channels"}:
         raise SceneError(f"scene.program: keys must be 'times' and 'channels', got {sorted(prog)}")
     check_plain(prog, "scene.program")
     _check_solver(scene.solver)
     # validate the law and program now (clear errors before any mesh is built)
-    law = parse_law(scene.law)
+    laws = interface_laws(scene, parse_law)
     parse_initial_gap(scene.initial_gap)
     parse_regions(scene.regions)
     program = build_program(prog)
     _check_outputs(scene.outputs, program.t_start, program.t_end)
-    check_features(scene, program, tuple(v.name for v in law.variables))
+    variables = tuple(dict.fromkeys(v.name for law in laws for v in law.variables))
+    check_features(scene, program, variables)
     return scene
 
 

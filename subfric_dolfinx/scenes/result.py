@@ -21,7 +21,8 @@ class SceneResult:
         history: FE: one dict per converged step (see :class:`~subfric_dolfinx.io.HistoryCSV`).
         snapshots: FE: time -> interface profile (arrays over all interface points, in the order
             of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t``, ``f_n``, ``status``
-            and the law's internal variables by name).
+            and the law's internal variables by name); with several interfaces, time -> interface
+            name -> profile.
         timing: FE: seconds per section (max over ranks) and ``total``.
         iterations: FE: Newton iterations per step.
         files: Paths written.

@@ -14,6 +14,7 @@ __all__ = [
     "DirichletSpec",
     "FEScene",
     "FrameSpec",
+    "InterfaceSpec",
     "LoadSpec",
     "MeshSpec",
     "OutputSpec",
@@ -50,6 +51,9 @@ class MeshSpec:
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
         partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
+        names: The classic layout's roles (``master``, ``slave``, ``interface``; or
+            ``primary``, ``secondary``) -> the file's own group names, e.g.
+            ``{"master": "base", "slave": "block", "interface": "contact"}``.
     """
 
     builder: str | None = None
@@ -57,6 +61,7 @@ class MeshSpec:
     gdim: int | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     partitioner: str | None = None
+    names: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,11 +131,12 @@ class ProbeSpec:
 
     ``fields`` among ``u`` (displacement), ``sigma`` (stress components), ``von_mises``, and the
     interface's ``f_t``, ``f_n``, ``gap``, ``status`` and the law's variables (at the nearest
-    interface quadrature point).
+    quadrature point of ``interface``: needed when the scene has several interfaces).
     """
 
     point: str
     fields: list[str] = dataclasses.field(default_factory=lambda: ["u"])
+    interface: str | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,15 +224,52 @@ class OutputSpec:
 
 
 @dataclasses.dataclass(frozen=True)
+class InterfaceSpec:
+    """One interface of a scene (a facet group of the mesh with duplicated nodes).
+
+    Attributes:
+        primary: The body whose outward normal defines the interface frame (``master`` is
+            accepted as its other name); ``None``: the body the mesh gives.
+        secondary: The other body (``slave``).
+        master: Same as ``primary``.
+        slave: Same as ``secondary``.
+        law: Its friction law (``{"law": ..., "params": ...}``); ``None``: the scene's ``law``.
+        initial_gap: Its initial gap (as the scene's ``initial_gap``).
+        regions: Its regions (as the scene's ``regions``).
+        quadrature: ``"gauss"`` or ``"nodal"``; ``None``: the scene's.
+    """
+
+    primary: str | None = None
+    secondary: str | None = None
+    master: str | None = None
+    slave: str | None = None
+    law: Any = None
+    initial_gap: Any = None
+    regions: dict[str, Any] = dataclasses.field(default_factory=dict)
+    quadrature: str | None = None
+
+    @property
+    def sides(self) -> tuple[str | None, str | None]:
+        """(primary, secondary), from either name."""
+        return self.primary or self.master, self.secondary or self.slave
+
+
+@dataclasses.dataclass(frozen=True)
 class FEScene:
-    """A finite-element scene: two elastic bodies and a frictional interface."""
+    """A finite-element scene: bodies and frictional interfaces.
+
+    The classic scene has two bodies, ``master`` and ``slave``, and one ``interface`` with the
+    scene's ``law``, ``initial_gap`` and ``regions``. ``bodies`` names bodies made of cell groups
+    (e.g. ``{"bolt": ["head", "shank"]}``), ``interfaces`` the interfaces one by one, each with
+    its own sides and law (:class:`InterfaceSpec`); ``materials`` are keyed by body or cell group.
+    """
 
     name: str
     mesh: MeshSpec
-    law: Any  # {"law": name, "params": {...}}, or a FrictionLaw object
     materials: dict[str, dict[str, float]]
     program: dict[str, Any]
     solver: SolverSpec
+    law: Any = None  # {"law": name, "params": {...}}, or a FrictionLaw object
     dirichlet: list[DirichletSpec] = dataclasses.field(default_factory=list)
     loads: list[LoadSpec] = dataclasses.field(default_factory=list)
     springs: list[SpringSpec] = dataclasses.field(default_factory=list)
@@ -241,6 +284,9 @@ class FEScene:
     # (a group of interface facets -> its law)
     initial_gap: Any = None
     regions: dict[str, Any] = dataclasses.field(default_factory=dict)
+    bodies: dict[str, Any] = dataclasses.field(default_factory=dict)
+    interfaces: dict[str, InterfaceSpec] = dataclasses.field(default_factory=dict)
+    mode: str | None = None  # "3d", "plane_strain" (2-D default), "plane_stress", "axisymmetric"
 
 
 @dataclasses.dataclass(frozen=True)

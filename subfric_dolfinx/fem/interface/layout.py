@@ -15,9 +15,53 @@ import numpy as np
 from dolfinx.cpp.la import SparsityPattern
 from petsc4py import PETSc
 
-from ...compat import petsc_vector
+from ...compat import ghosted_index_map, petsc_vector
 
-__all__ = ["ExtendedLayout"]
+__all__ = ["ExtendedLayout", "combined_index_map"]
+
+
+def combined_index_map(
+    V: dolfinx.fem.FunctionSpace,
+    extras: list[tuple[np.ndarray, np.ndarray]],
+    nodes: list[tuple[dolfinx.common.IndexMap, np.ndarray]],
+) -> tuple[dolfinx.common.IndexMap, np.ndarray]:
+    """One index map for several interfaces, and their element nodes in its local numbering.
+
+    Args:
+        V: The displacement space.
+        extras: For each interface, its extra ghosts (global numbers) and their owners.
+        nodes: For each interface, its own extended index map and its element nodes (local in it).
+
+    Returns:
+        ``V``'s index map extended with the union of the extra ghosts (first appearance order),
+        and all interfaces' element nodes stacked, (sum nf, 2 nfd), local in it.
+    """
+    imap0 = V.dofmap.index_map
+    n0 = imap0.size_local + imap0.num_ghosts
+    glob = np.concatenate([g for g, _ in extras]) if extras else np.zeros(0, np.int64)
+    own = np.concatenate([o for _, o in extras]) if extras else np.zeros(0, np.int32)
+    uniq, first = np.unique(glob, return_index=True)
+    order = np.argsort(first)
+    extra_g, extra_o = uniq[order], own[first[order]]
+    imap = ghosted_index_map(
+        V.mesh.comm,
+        imap0.size_local,
+        np.concatenate([imap0.ghosts, extra_g]),
+        np.concatenate([imap0.owners, extra_o]),
+    )
+    sorter = np.argsort(extra_g)
+    out = []
+    for m, nd in nodes:
+        nd = np.asarray(nd, dtype=np.int64)
+        local = nd.copy()
+        far = nd >= n0
+        if np.any(far):
+            g = m.local_to_global(nd[far].astype(np.int32))
+            local[far] = n0 + sorter[np.searchsorted(extra_g, g, sorter=sorter)]
+        out.append(local.astype(np.int32))
+    width = nodes[0][1].shape[1] if nodes else 0
+    stacked = np.concatenate(out) if out else np.zeros((0, width), np.int32)
+    return imap, stacked.reshape(-1, width)
 
 
 class ExtendedLayout:
