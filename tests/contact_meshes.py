@@ -214,9 +214,7 @@ def block_on_plate(
 ) -> Bodies:
     """3-D: a plate ``[0, Lx] x [0, Ly] x [-0.5, 0]`` (master) and a block on it (slave), tets."""
     plate = _box((0.0, 0.0, -0.5), (size[0], size[1], 0.0), (*n_plate, 1))
-    blk = _box(
-        (x0[0], x0[1], 0.0), (x0[0] + block[0], x0[1] + block[1], 0.5), (*n_block, 1)
-    )
+    blk = _box((x0[0], x0[1], 0.0), (x0[0] + block[0], x0[1] + block[1], 0.5), (*n_block, 1))
     return _assemble(
         comm,
         [(*plate, MASTER), (*blk, SLAVE)],
@@ -224,4 +222,72 @@ def block_on_plate(
         3,
         lambda x: np.isclose(x[2], 0.0),
         split_x,
+    )
+
+
+@dataclasses.dataclass
+class TaggedBodies:
+    """Two independently meshed bodies with named groups, as :class:`InterfaceProblem` takes."""
+
+    mesh: dolfinx.mesh.Mesh
+    cell_tags: dolfinx.mesh.MeshTags
+    facet_tags: dolfinx.mesh.MeshTags
+    tags: dict[str, int]
+    bodies: dict[str, tuple[str, ...]]
+    interfaces: dict
+
+
+def _quads(x0, x1, y0, y1, nx, ny):
+    """Nodes and quadrilaterals (basix's tensor order) of a structured grid."""
+    xs, ys = np.linspace(x0, x1, nx + 1), np.linspace(y0, y1, ny + 1)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    pts = np.stack([X.ravel(), Y.ravel()], axis=1)
+    q = [
+        [i * (ny + 1) + j, (i + 1) * (ny + 1) + j, i * (ny + 1) + j + 1, (i + 1) * (ny + 1) + j + 1]
+        for i in range(nx)
+        for j in range(ny)
+    ]
+    return pts, np.array(q, dtype=np.int64)
+
+
+def tagged_blocks(
+    comm: MPI.Comm,
+    *,
+    base: tuple[float, float, float, float] = (0.0, 1.0, -1.0, 0.0),
+    block: tuple[float, float, float, float] = (0.0, 1.0, 0.0, 1.0),
+    n_base: tuple[int, int] = (3, 2),
+    n_block: tuple[int, int] = (2, 2),
+    cell: str = "triangle",
+    split_x: float | None = None,
+) -> TaggedBodies:
+    """A base (``x0, x1, y0, y1``, body ``base``) under a block (body ``block``), meshed apart.
+
+    Groups: ``base``, ``block`` (cells), ``contact`` (the base's top and the block's bottom,
+    y = 0), ``bottom`` (the base's), ``top`` (the block's), ``base_left`` (the base's facets on
+    x = the block's left end), ``block_left``, ``block_right`` (the block's ends).
+    """
+    grid = _grid if cell == "triangle" else _quads
+    parts = [(*grid(*base, *n_base), 1), (*grid(*block, *n_block), 2)]
+    bodies = _assemble(comm, parts, cell, 2, lambda x: np.isclose(x[1], 0.0), split_x)
+    mesh = bodies.mesh
+    tdim = mesh.topology.dim
+    groups = {
+        "contact": (3, lambda x: np.isclose(x[1], 0.0)),
+        "bottom": (4, lambda x: np.isclose(x[1], base[2])),
+        "top": (5, lambda x: np.isclose(x[1], block[3])),
+        "base_left": (6, lambda x: np.isclose(x[0], block[0]) & (x[1] <= 1e-12)),
+        "block_left": (7, lambda x: np.isclose(x[0], block[0]) & (x[1] >= -1e-12)),
+        "block_right": (8, lambda x: np.isclose(x[0], block[1]) & (x[1] >= -1e-12)),
+    }
+    ents, vals = [], []
+    for tag, where in groups.values():
+        f = dolfinx.mesh.locate_entities_boundary(mesh, tdim - 1, where)
+        ents.append(f)
+        vals.append(np.full(f.size, tag, np.int32))
+    ents, vals = np.concatenate(ents), np.concatenate(vals)
+    order = np.lexsort((vals, ents))
+    facet_tags = dolfinx.mesh.meshtags(mesh, tdim - 1, ents[order].astype(np.int32), vals[order])
+    tags = {"base": 1, "block": 2, **{k: v[0] for k, v in groups.items()}}
+    return TaggedBodies(
+        mesh, bodies.cell_tags, facet_tags, tags, {"base": ("base",), "block": ("block",)}, {}
     )

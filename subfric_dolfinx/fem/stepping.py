@@ -89,7 +89,7 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
     candidate = None
     ifaces = problem.interfaces
     for iname, iface in ifaces.items():
-        el = iface.elements
+        el = getattr(iface, "elements", iface)
         res = el.last
         if res is None or not res.status.size:
             continue

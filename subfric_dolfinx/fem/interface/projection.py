@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 
 import basix
 import numpy as np
@@ -58,9 +59,15 @@ def facet_basis(cell: basix.CellType, degree: int, xi: np.ndarray, nderiv: int =
     Returns:
         (1 + fdim * (nderiv > 0) [+ second derivatives], m, nfd): values, then the first
         derivatives along each reference direction (basix's order), then the second ones if
-        ``nderiv == 2``.
+        ``nderiv == 2``; no points give an empty array of that shape (basix wants points).
     """
-    return _element(cell, degree).tabulate(nderiv, np.ascontiguousarray(xi, dtype=float))[..., 0]
+    e = _element(cell, degree)
+    xi = np.ascontiguousarray(xi, dtype=float)
+    if xi.shape[0] == 0:
+        fdim = len(basix.topology(cell)) - 1
+        count = math.comb(fdim + nderiv, nderiv)
+        return np.zeros((count, 0, e.dim))
+    return e.tabulate(nderiv, xi)[..., 0]
 
 
 def _reference_vertices(cell: basix.CellType) -> np.ndarray:

@@ -1,0 +1,202 @@
+"""Finite sliding on non-matching interfaces inside :class:`InterfaceProblem` (issue 22).
+
+* The non-matching contact patch test (MOOSE ``plane_2``/NAFEMS-style): a block on a base of the
+  same width, meshed 3 : 2 (and 4 : 6, quadrilaterals, P2) across the interface, pressed by a
+  uniform pressure with friction: the exact solution is a uniform stress, the interface pressure
+  is uniform and the tangential traction zero; the FE solution is exact when the interface
+  transmits a uniform pressure exactly (slave Gauss points, segment transfer to the master).
+* A block sliding ten times its width along a long base at constant pressure, re-paired as it
+  goes (across the partition boundary on 2 ranks): the mean traction against slip equals the
+  material-point integration of the law on the same gap path (each point's path), the base
+  carries the load where the block is (the centroid of the master nodal forces is the block's
+  centre), and Newton needs at most 5 iterations per step.
+* The small-sliding interface is the default kind; a finite-sliding interface on a matching mesh
+  at small relative displacement gives the small-sliding forces (the finite-sliding transfer
+  follows the relative tangential displacement, here about 1e-5 of a facet: measured 6e-6 of
+  the largest nodal force).
+"""
+
+import numpy as np
+import pytest
+
+from subfric_dolfinx.constitutive import CoulombLaw, preset
+from subfric_dolfinx.fem import (
+    Dirichlet,
+    FrictionSolver,
+    Interface,
+    InterfaceProblem,
+    LoadStepper,
+    Material,
+    Pressure,
+)
+from subfric_dolfinx.fem.interface import InterfaceError, SlidingInterface
+from subfric_dolfinx.loading import LoadingProgram
+from tests.contact_meshes import tagged_blocks
+from tests.helpers import everywhere, raised_on_every_rank
+
+STEEL = Material(2.1e5, 0.3)
+
+
+def gather(comm, a):
+    return np.concatenate(comm.allgather(np.asarray(a)))
+
+
+@pytest.mark.parametrize(
+    "cell, degree, n_base, n_block",
+    [
+        ("triangle", 1, (3, 2), (2, 2)),
+        ("triangle", 1, (6, 2), (4, 3)),
+        ("quadrilateral", 1, (3, 2), (2, 3)),
+        ("triangle", 2, (3, 2), (2, 2)),
+        ("quadrilateral", 2, (2, 1), (3, 2)),
+    ],
+)
+def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree, n_base, n_block):
+    dom = tagged_blocks(comm, n_base=n_base, n_block=n_block, cell=cell, split_x=0.5)
+    p = 100.0
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("bottom", 0.0, 1), Dirichlet("base_left", 0.0, 0),
+         Dirichlet("block_left", 0.0, 0)],
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
+        degree=degree,
+    )  # fmt: skip
+    iface = problem.interfaces["contact"]
+    assert isinstance(iface, SlidingInterface)
+    with FrictionSolver(problem, linear="lu") as solver:
+        records = LoadStepper(solver, 0.5).run()
+    tr = gather(comm, iface.last.traction)
+    assert tr.shape[0] == n_block[0] * iface.nq  # every slave point, once over the ranks
+    checks = {
+        "f_n": np.abs(tr[:, 1] / p - 1.0).max() < 1e-6,
+        "f_t": np.abs(tr[:, 0]).max() < 1e-6 * p,
+        "reaction": abs(problem.reactions["bottom"][1] - p) < 1e-6 * p,
+        "newton": max(r.iterations for r in records) <= 5,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, tr)
+
+
+def slide_problem(comm, p, slide, law, n_base=36):
+    """A block (width 1, 2 elements) moved ``slide`` along a rigid base of 36 or more
+    elements (2 : 3 across the interface): every block dof's x is prescribed, so every point of
+    the interface follows the same slip path; the pressure is applied on top."""
+    length = 2.0 + slide
+    dom = tagged_blocks(
+        comm, base=(0.0, length, -1.0, 0.0), block=(0.5, 1.5, 0.0, 1.0),
+        n_base=(max(n_base, int(3 * length)), 1), n_block=(2, 2), split_x=length / 2,
+    )  # fmt: skip
+    program = LoadingProgram([0.0, 0.1, 0.2, 1.0], {
+        "press": [0, 1, 1, 1], "slide": [0, 0, 0.5 / slide, 1.0]
+    })  # fmt: skip
+    return InterfaceProblem(
+        dom, law, {"base": STEEL, "block": STEEL}, program,
+        [Dirichlet("base", (0.0, 0.0)), Dirichlet("block", slide, 0, amplitude="slide")],
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
+                              search_radius=2.5 * p / law.alpha_n)],
+    )  # fmt: skip
+
+
+def run_slide(comm, problem, dt):
+    iface = problem.interfaces["contact"]
+    X = problem.V.tabulate_dof_coordinates()
+    n_own = problem.V.dofmap.index_map.size_local
+    base_nodes = np.unique(iface.master.nodes)
+    base_nodes = base_nodes[base_nodes < n_own]
+    rows = []
+
+    def on_step(rec):
+        tr, w = iface.last.traction, iface.weights
+        f = problem.interface_force.reshape(-1, 2)[base_nodes]
+        sums = comm.allreduce(
+            np.array([w @ tr[:, 0], w @ tr[:, 1], w @ iface.last_gap[:, 1], w.sum(),
+                      f[:, 1].sum(), f[:, 1] @ X[base_nodes, 0]])
+        )  # fmt: skip
+        ft, fn, gn, area, fy, my = sums
+        slide = problem.program.amplitude("slide", rec.t)
+        rows.append(
+            (rec.t, rec.dt, rec.iterations, ft / area, fn / area, gn / area, my / fy, slide)
+        )
+
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, dt, dt_max=dt, on_step=on_step).run()
+    return np.array(rows)
+
+
+def material_point(law, rows, slide):
+    """The law integrated at one point over the same steps and gap path."""
+    state, out = law.initial_state(1, 1), []
+    for _t, dt, _, _, _, gn, _, s in rows:
+        res = law.return_map(np.array([[slide * s, gn]]), state, dt)
+        state = res.state
+        out.append(res.traction[0])
+    return np.array(out)
+
+
+def test_block_slides_ten_widths_with_the_load_under_it(comm):
+    law, p, slide = preset("sec7"), 300.0, 10.0
+    problem = slide_problem(comm, p, slide, law)
+    rows = run_slide(comm, problem, 0.01)
+    ref = material_point(law, rows, slide)
+    peak = np.abs(ref[:, 0]).max()
+    centre = 1.0 + slide * rows[:, 7]  # the block's centre
+    iface = problem.interfaces["contact"]
+    checks = {
+        "mean f_t": np.abs(rows[:, 3] - ref[:, 0]).max() < 1e-3 * peak,
+        "f_n": np.abs(rows[-1, 4] - p) < 1e-9 * p,
+        "peak resolved": np.argmax(np.abs(ref[:, 0])) > np.argmax(rows[:, 7] > 0),
+        "load under the block": np.abs(rows[rows[:, 4] > 0, 6] - centre[rows[:, 4] > 0]).max()
+        < 1e-9,
+        "re-paired": iface.layout_version > 3 and problem.layout_version > 0,
+        "newton": rows[:, 2].max() <= 5,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, rows[:, 3] - ref[:, 0])
+
+
+@pytest.mark.parametrize("p", [100.0, 600.0])
+def test_paper_fig10_as_a_boundary_value_problem(comm, p):
+    """Sec. 7 set, 20 mm of sliding: the FE mean traction against the material-point curve."""
+    law, slide = preset("sec7"), 20.0
+    rows = run_slide(comm, slide_problem(comm, p, slide, law), 0.0125)
+    ref = material_point(law, rows, slide)
+    err = np.abs(rows[:, 3] - ref[:, 0]).max() / np.abs(ref[:, 0]).max()
+    assert everywhere(comm, err < 1e-2 and abs(rows[-1, 7] - 1.0) < 1e-12), err
+
+
+def test_finite_sliding_on_a_matching_mesh_is_small_sliding_at_small_slip(comm):
+    """The same matching mesh, pressed and slid by 1e-6: both kinds give the same forces."""
+    law = CoulombLaw(alpha_t=1e6, alpha_n=1e5, mu_c=0.3)
+    out = {}
+    for kind in ("small_sliding", "finite_sliding"):
+        # matching sides: the base as wide as the block and meshed alike; nodes apart
+        dom = tagged_blocks(comm, n_base=(4, 2), n_block=(4, 2), split_x=0.5)
+        program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
+        problem = InterfaceProblem(
+            dom, law, {"base": STEEL, "block": STEEL}, program,
+            [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1e-6, 0, amplitude="slide")],
+            [Pressure("top", 100.0, amplitude="press")],
+            interfaces=[Interface("contact", "base", "block", kinematics=kind)],
+        )  # fmt: skip
+        with FrictionSolver(problem, linear="lu") as solver:
+            LoadStepper(solver, 0.5).run()
+        out[kind] = problem.interface_force.copy()
+    scale = np.abs(out["small_sliding"]).max()
+    diff = np.abs(out["finite_sliding"] - out["small_sliding"]).max()
+    assert everywhere(comm, diff < 5e-5 * scale), (diff, scale)
+
+
+def test_unknown_kinematics_and_axisymmetric_finite_sliding_are_named(comm):
+    dom = tagged_blocks(comm)
+    args = (dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+            LoadingProgram([0.0, 1.0], {"press": [0, 1]}))  # fmt: skip
+    with raised_on_every_rank(InterfaceError, "kinematics 'large' is not one of"):
+        InterfaceProblem(
+            *args, interfaces=[Interface("contact", "base", "block", kinematics="large")]
+        )
+    with raised_on_every_rank(InterfaceError, "not available in axisymmetric mode"):
+        InterfaceProblem(
+            *args, mode="axisymmetric",
+            interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
+        )  # fmt: skip
