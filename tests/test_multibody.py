@@ -102,7 +102,7 @@ def test_the_stack_mesh_knows_its_bodies_and_interfaces(comm):
     assert counts[0] > counts[2]  # the middle block is wider than the cap
 
 
-@pytest.mark.parametrize("partitioner", [None, "bodies"])
+@pytest.mark.parametrize("partitioner", [None, "bodies", "together"])
 def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
     dom = stack(comm, partitioner)
     program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "push": [0, 0, 1]})
@@ -124,9 +124,11 @@ def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
 
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 0.25, on_step=on_step).run()
+        mallocs = solver.J.getInfo()["mallocs"]
     load = P_LID * W_CAP
     last = rows[-1]
     checks = {
+        "both interfaces in the sparsity": mallocs == 0,
         "F_n low": abs(last["low.F_n"] - load) < 1e-8 * load,
         "F_n high": abs(last["high.F_n"] - load) < 1e-8 * load,
         # the cap's reaction is carried through both interfaces
@@ -243,3 +245,95 @@ def test_duplicated_msh_file_is_read_by_dolfinx_gmsh_reader(comm, shared_tmp):
     owned = seam[seam < n_owned]
     assert comm.allreduce(owned.size) == 2 * n  # both sides tagged
     assert everywhere(comm, bool(np.all(np.isin(owned, exterior))))
+
+
+@pytest.mark.parametrize(
+    ("bodies", "interfaces", "message"),
+    [
+        ({"bolt": ["head", "shank"]}, None, r"cell group\(s\) \['plate'\] belong to no body"),
+        ({"a": "head", "b": ["head", "shank"]}, None, "'head' is in both 'a' and 'b'"),
+        ({"bolt": "seam"}, None, "bodies.bolt: physical group 'seam' must have dimension 2"),
+        (None, {"seam": ("head", "head")}, "interfaces.seam: joins the body 'head' to itself"),
+        (None, {"plate": ("head", "shank")}, "interfaces.plate: physical group 'plate' must have"),
+        (None, {"seam": ("head", "nut")}, "interfaces.seam: the body 'nut' is not a body"),
+    ],
+)
+def test_bodies_and_interfaces_that_do_not_fit_the_groups_are_named(bodies, interfaces, message):
+    """Every cell group belongs to exactly one body; every interface joins two bodies."""
+    groups = {"head": (2, 1), "shank": (2, 2), "plate": (2, 3), "seam": (1, 4)}
+    with pytest.raises(meshing.InterfaceMeshError, match=message):
+        meshing.mesh_topology(groups, 2, bodies=bodies, interfaces=interfaces)
+    good, _ = meshing.mesh_topology(groups, 2, bodies={"bolt": ["head", "shank"], "plate": "plate"})
+    assert good == {"bolt": ("head", "shank"), "plate": ("plate",)}
+
+
+def layered_builder(h: float = 0.125):
+    """A base under a body of two layers (``soft`` below ``hard``), one interface between."""
+    import gmsh
+
+    gmsh.model.add("layered")
+    occ = gmsh.model.occ
+    tags = [occ.addRectangle(0.0, y, 0.0, 1.0, hh) for y, hh in LAYERS.values()]
+    occ.fragment([(2, tags[0])], [(2, t) for t in tags[1:]])
+    occ.synchronize()
+    groups: dict[str, list[int]] = {k: [] for k in LAYERS}
+    for _, t in gmsh.model.getEntities(2):
+        y = occ.getCenterOfMass(2, t)[1]
+        name = next(k for k, (y0, hh) in LAYERS.items() if y0 < y < y0 + hh)
+        groups[name].append(t)
+    curves: dict[str, list[int]] = {"seam": [], "ground": [], "lid": []}
+    for _, t in gmsh.model.getEntities(1):
+        y = occ.getCenterOfMass(1, t)[1]
+        _, y0, _, _, y1, _ = gmsh.model.getBoundingBox(1, t)
+        if abs(y1 - y0) > 1e-5:
+            continue
+        for name, at in (("ground", 0.0), ("seam", LAYERS["soft"][0]), ("lid", 1.0)):
+            if abs(y - at) < 1e-9:
+                curves[name].append(t)
+    for name, ents in {**groups, **curves}.items():
+        gmsh.model.addPhysicalGroup(2 if name in groups else 1, ents, name=name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.model.mesh.generate(2)
+    meshing.duplicate_interface_nodes(None, {"seam": (["base"], ["soft", "hard"])})
+    return types.SimpleNamespace(gdim=2)
+
+
+LAYERS = {"base": (0.0, 0.5), "soft": (0.5, 0.25), "hard": (0.75, 0.25)}  # y0, height
+
+
+def test_a_body_of_two_groups_with_their_own_materials(comm):
+    """Plane stress, uniaxial compression ``p`` of a base and a two-layer body (``nu / E`` the
+    same in every group, so the lateral strains match and the stress stays uniaxial): every dof
+    against the closed form, each layer straining by ``p / E`` of its own material."""
+    dom, _ = meshing.create_interface_mesh(
+        layered_builder, comm, bodies={"base": "base", "top": ["soft", "hard"]},
+        interfaces={"seam": ("base", "top")},
+    )  # fmt: skip
+    assert dom.bodies == {"base": ("base",), "top": ("soft", "hard")}
+    dom.add_node_group("pin", [[0.0, 0.0]], "base")
+    mats = {"base": Material(2e5, 0.3), "soft": Material(1e5, 0.15), "hard": Material(2e5, 0.3)}
+    alpha, p = 1e6, 50.0
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=0.5), mats,
+        LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]}),
+        [Dirichlet("ground", 0.0, component=1), Dirichlet("pin", 0.0, component=0)],
+        [Pressure("lid", p, amplitude="press")], mode="plane_stress",
+    )  # fmt: skip
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, 1.0).run()
+    V = problem.V
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n, :2]
+    top = np.zeros(n, dtype=bool)
+    cells = V.dofmap.list[dom.body_cells("top")].ravel()
+    top[cells[cells < n]] = True
+    # u_y(y): -p times the compliance integrated from the ground, the interface's jump on top
+    (_, hb), (ys, hs), (yh, _) = LAYERS.values()
+    E = {k: m.E for k, m in mats.items()}
+    y = x[:, 1]
+    uy = -p * (np.minimum(y, hb) / E["base"] + np.clip(y - ys, 0, hs) / E["soft"]
+               + np.clip(y - yh, 0, None) / E["hard"]) - np.where(top, p / alpha, 0.0)  # fmt: skip
+    ux = 0.3 / 2e5 * p * x[:, 0]
+    u = problem.u.x.array[: 2 * n].reshape(n, 2)
+    err = max(np.abs(u[:, 0] - ux).max(initial=0.0), np.abs(u[:, 1] - uy).max(initial=0.0))
+    assert everywhere(comm, err < 1e-9 * p / 1e5), err

@@ -140,6 +140,12 @@ def mesh_topology(
                     )
                 owner[g] = body
             out_bodies[body] = gs
+        stray = sorted(set(cells) - set(owner))
+        if stray:
+            raise InterfaceMeshError(
+                f"bodies: the cell group(s) {stray} belong to no body (their cells would have no "
+                "material); add them to a body"
+            )
     if interfaces is None:
         if nm[INTERFACE] in groups:
             out_ifaces: dict[str, InterfaceSides | None] = {

@@ -262,6 +262,13 @@ class FEScene:
     scene's ``law``, ``initial_gap`` and ``regions``. ``bodies`` names bodies made of cell groups
     (e.g. ``{"bolt": ["head", "shank"]}``), ``interfaces`` the interfaces one by one, each with
     its own sides and law (:class:`InterfaceSpec`); ``materials`` are keyed by body or cell group.
+    ``mode`` is ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
+    ``"axisymmetric"`` (coordinates ``(r, z)``, every integral with ``2 pi r``).
+
+    A scene's bodies are linear elastic (the built-in fast path). A bulk law of the user's (a UFL
+    residual, ``bulk=`` of :class:`~subfric_dolfinx.fem.InterfaceProblem`) and a solver loop of
+    the user's (:class:`~subfric_dolfinx.fem.FrictionInterface`) are Python API only: a scene is
+    data, and nothing in it is executed.
     """
 
     name: str
