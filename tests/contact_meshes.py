@@ -291,3 +291,26 @@ def tagged_blocks(
     return TaggedBodies(
         mesh, bodies.cell_tags, facet_tags, tags, {"base": ("base",), "block": ("block",)}, {}
     )
+
+
+def tagged_annuli(comm: MPI.Comm, **kw) -> TaggedBodies:
+    """:func:`annuli` with named groups: bodies ``shaft`` and ``hub``, facets ``contact`` (both
+    sides), ``outer`` (the hub's outer circle) and ``inner`` (the shaft's bore)."""
+    bodies = annuli(comm, **kw)
+    mesh = bodies.mesh
+    tdim = mesh.topology.dim
+    r0, radius, r2 = kw.get("r0", 0.5), kw.get("radius", 1.0), kw.get("r2", 1.5)
+    ents, vals = [], []
+    for tag, r in ((3, radius), (4, r2), (5, r0)):
+        f = dolfinx.mesh.locate_entities_boundary(
+            mesh, tdim - 1, lambda x, r=r: np.isclose(np.hypot(x[0], x[1]), r)
+        )
+        ents.append(f)
+        vals.append(np.full(f.size, tag, np.int32))
+    ents, vals = np.concatenate(ents), np.concatenate(vals)
+    order = np.argsort(ents)
+    facet_tags = dolfinx.mesh.meshtags(mesh, tdim - 1, ents[order].astype(np.int32), vals[order])
+    tags = {"shaft": MASTER, "hub": SLAVE, "contact": 3, "outer": 4, "inner": 5}
+    return TaggedBodies(
+        mesh, bodies.cell_tags, facet_tags, tags, {"shaft": ("shaft",), "hub": ("hub",)}, {}
+    )

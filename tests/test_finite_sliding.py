@@ -10,6 +10,10 @@
   material-point integration of the law on the same gap path (each point's path), the base
   carries the load where the block is (the centroid of the master nodal forces is the block's
   centre), and Newton needs at most 5 iterations per step.
+* A rigid shaft turned in a shrink-fitted hub, meshed independently with P2 arcs: the pressure
+  stays at Lame's at every point within 1 % (measured within 0.7 %), the torque reaches
+  Coulomb's ``2 pi R^2 mu p`` (0.995 of it); the straight-sided polygon separates (pressure 0
+  to 3.7 times Lame's, torque 0.64 to 0.76 of Coulomb's).
 * The small-sliding interface is the default kind; a finite-sliding interface on a matching mesh
   at small relative displacement gives the small-sliding forces (the finite-sliding transfer
   follows the relative tangential displacement, here about 1e-5 of a facet: measured 6e-6 of
@@ -22,6 +26,7 @@ import pytest
 from subfric_dolfinx.constitutive import CoulombLaw, preset
 from subfric_dolfinx.fem import (
     Dirichlet,
+    DirichletField,
     FrictionSolver,
     Interface,
     InterfaceProblem,
@@ -31,7 +36,7 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.fem.interface import InterfaceError, SlidingInterface
 from subfric_dolfinx.loading import LoadingProgram
-from tests.contact_meshes import tagged_blocks
+from tests.contact_meshes import tagged_annuli, tagged_blocks
 from tests.helpers import everywhere, raised_on_every_rank
 
 STEEL = Material(2.1e5, 0.3)
@@ -200,3 +205,71 @@ def test_unknown_kinematics_and_axisymmetric_finite_sliding_are_named(comm):
             *args, mode="axisymmetric",
             interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
         )  # fmt: skip
+
+
+def turn_hub(comm, geometry_degree, n_inner=48, n_outer=64, facets=3):
+    """A rigid shaft (every dof prescribed: the exact rotation) shrink-fitted in a hub (outer
+    circle fixed), meshed independently (48 : 64 around), turned by ``facets`` of its facets.
+
+    Returns the Lame pressure and per step: iterations, the smallest and largest pressure over
+    the points (relative to Lame's) and the torque over Coulomb's ``2 pi R^2 mu p``.
+    """
+    R, r2, delta, mu, E, nu, alpha = 1.0, 1.5, 1e-3, 0.2, 2.1e5, 0.3, 1e6
+    dom = tagged_annuli(
+        comm, n_inner=n_inner, n_outer=n_outer, geometry_degree=geometry_degree, split_x=0.0
+    )
+    turn = facets * 2 * np.pi / n_inner
+
+    def rotation(c):
+        def f(x, t):
+            th = turn * max(t - 0.1, 0.0)
+            rx = np.cos(th) * x[0] - np.sin(th) * x[1]
+            ry = np.sin(th) * x[0] + np.cos(th) * x[1]
+            return rx - x[0] if c == 0 else ry - x[1]
+
+        return f
+
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=mu),
+        {"shaft": Material(E, nu), "hub": Material(E, nu)},
+        LoadingProgram([0.0, 0.1, 1.1], {"turn": [0, 0, 1]}),
+        [DirichletField("shaft", rotation(0), 0), DirichletField("shaft", rotation(1), 1),
+         Dirichlet("outer", (0.0, 0.0))],
+        interfaces=[Interface("contact", "shaft", "hub", kinematics="finite_sliding",
+                              initial_gap=-delta)],
+        degree=2,
+    )  # fmt: skip
+    # Lame: the hub ring with u(R) = delta - p / alpha (the penalty's share), u(r2) = 0
+    lam, G = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    k = -(2 * (lam + G) + 2 * G * r2**2 / R**2) / (R - r2**2 / R)
+    p = k * delta / (1 + k / alpha)
+    iface = problem.interfaces["contact"]
+    rows = []
+
+    def on_step(rec):
+        tr = iface.last.traction
+        fn = gather(comm, tr[:, 1])
+        r = np.linalg.norm(iface.points, axis=1)
+        T = comm.allreduce(float(iface.weights @ (tr[:, 0] * r)))
+        rows.append((rec.iterations, fn.min() / p, fn.max() / p, T / (2 * np.pi * R**2 * mu * p)))
+
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, 0.1, dt_max=0.1, on_step=on_step).run()
+    return np.array(rows), iface
+
+
+def test_curved_shrink_fit_turns_without_locking(comm):
+    """P2 arcs on both sides (non-matching): every point's pressure stays within 1 % of Lame's
+    while the shaft turns by three of its facets, the torque reaches Coulomb's within 1 %, with
+    at most 5 Newton iterations a step; the straight-sided polygon separates and locks."""
+    rows, iface = turn_hub(comm, 2)
+    turning = rows[1:]
+    checks = {
+        "pressure": np.abs(rows[:, 1:3] - 1.0).max() < 1e-2,
+        "torque": np.abs(turning[:, 3] - 1.0).max() < 1e-2,
+        "newton": rows[:, 0].max() <= 5,
+        "re-searched": iface.layout_version >= 1,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, rows)
+    polygon, _ = turn_hub(comm, 1, facets=1)
+    assert everywhere(comm, polygon[:, 1].min() < 0.5 and polygon[:, 2].max() > 1.5), polygon

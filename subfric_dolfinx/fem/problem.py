@@ -230,6 +230,7 @@ class InterfaceProblem:
         self._x_at_update: np.ndarray | None = None
         self._bulk_work = self.create_vector() if not self.linear_bulk else None
         self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
+        self.interface_round_off: np.ndarray | None = None  # finite sliding (convergence)
         self.reactions: dict[str, np.ndarray] = {}
         self.penetration: dict | None = None  # the largest beyond the warning, see commit
         self._penetration_warned = False
@@ -332,6 +333,8 @@ class InterfaceProblem:
             force = force.copy()
             for iface in ifaces[1:]:
                 force += iface.forces()
+        offs = [i.round_off for i in ifaces if getattr(i, "round_off", None) is not None]
+        self.interface_round_off = sum(offs) if offs else None
         self.interface_force = force
         Fa = F.array_w
         Fa += force

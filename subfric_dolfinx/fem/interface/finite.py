@@ -57,7 +57,7 @@ from .finite_assembly import SlidingAssembly
 from .geometry import frames, quadrature_rule
 from .pairing import InterfaceError
 from .projection import facet_basis, normal_projection, parametric_normal
-from .reach import ReachSearch, surface_size
+from .reach import ReachSearch, _near, surface_size
 from .segments import Segments, overlap_points
 from .sliding import gap_operator, transport_matrix
 from .surface import contact_surface
@@ -244,11 +244,12 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
     def _project(self, xq: np.ndarray, Ym: np.ndarray) -> dict[str, np.ndarray]:
         """Every point along the smooth normal on the nearest facet of its reach it lands on."""
         nq, nt, gdim = self.nq, self.nt, self.gdim
-        sf = np.repeat(np.arange(self.slave.size), nq)
-        lens = (self.reach_ptr[1:] - self.reach_ptr[:-1])[sf]
-        pp = np.repeat(np.arange(self.n_points), lens)
-        offset = np.arange(pp.size) - np.repeat(np.cumsum(lens) - lens, lens)
-        ff = self.reach_idx[np.repeat(self.reach_ptr[:-1][sf], lens) + offset]
+        # the pairs that may project on each other (:func:`.search.near_pairs`) within the reach
+        pp, ff = _near(xq, np.zeros(xq.shape[0]), Ym, self.pf_normals, self.radius)
+        npf = max(self.pf_global.size, 1)
+        owner = np.repeat(np.arange(self.slave.size), np.diff(self.reach_ptr))
+        keep = np.isin((pp // nq) * npf + ff, owner * npf + self.reach_idx)
+        pp, ff = pp[keep], ff[keep]
         m = self.master
         pr = normal_projection(xq[pp], Ym[ff], self.pf_normals[ff], m.cell, m.degree)
         good = pr.inside & (np.abs(pr.distance) <= self.radius)
@@ -290,6 +291,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
             t0 = time.perf_counter()
             s, m = self.slave, self.master
             xq, Ym, Xs = self._current(u)
+            self._xq = xq
             Nm = self.pf_normals
             pj = self._project(xq, Ym)
             facet, xi, normal, gamma = pj["facet"], pj["xi"], pj["normal"], pj["gamma"]

@@ -46,7 +46,32 @@ class SlidingAssembly:
                     np.add.at(b[:, :gdim], self.pf_nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
             self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             self.force = self.b_ext.array_r[: self.n_owned].copy()
+            self.round_off = self._round_off(w)
         return self.force
+
+    def _round_off(self, w: np.ndarray) -> np.ndarray:
+        """Per dof, the size of the forces' round-off over ``EPS`` (collective).
+
+        The gap is a difference of positions, so its round-off is ``EPS |x|``, not ``EPS |u|``:
+        the forces carry ``EPS |D| |x|`` (``D`` the law's tangent), which the convergence test's
+        floor must know (:class:`~subfric_dolfinx.fem.convergence.ScaledConvergence`).
+        """
+        s, nq, gdim = self.slave, self.nq, self.gdim
+        D = np.abs(self.last.tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
+        m = (D * (np.linalg.norm(self._xq, axis=1) + self.h)).reshape(s.size, nq)
+        with self.b_ext.localForm() as bl:
+            bl.set(0.0)
+            b = bl.array_w.reshape(-1, self.bs)
+            Rs = np.einsum("fq,qk,fq->fk", w, np.abs(self.Ns[0]), m)
+            np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), self.bs, axis=1))
+            tr = self._transfer
+            if tr.slave.size:
+                Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.slave])
+                np.add.at(
+                    b, self.pf_nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), self.bs, 1)
+                )
+        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.b_ext.array_r[: self.n_owned].copy()
 
     def _blocks(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values."""
