@@ -314,3 +314,44 @@ def tagged_annuli(comm: MPI.Comm, **kw) -> TaggedBodies:
     return TaggedBodies(
         mesh, bodies.cell_tags, facet_tags, tags, {"shaft": ("shaft",), "hub": ("hub",)}, {}
     )
+
+
+def tagged_boxes(
+    comm: MPI.Comm,
+    *,
+    n_base: tuple[int, int, int] = (3, 3, 1),
+    n_block: tuple[int, int, int] = (2, 2, 1),
+    base_size: float = 1.0,
+    block_at: float = 0.0,
+    split_x: float | None = None,
+) -> TaggedBodies:
+    """3-D: a box ``[0, base_size]^2 x [-1, 0]`` (``base``) under a unit box (``block``) at
+    ``(block_at, block_at)``, tets, meshed apart; facets ``contact`` (z = 0, both), ``bottom``,
+    ``top`` and the planes ``x0`` and ``y0`` (x = 0, y = 0, both bodies)."""
+    base = _box((0.0, 0.0, -1.0), (base_size, base_size, 0.0), n_base)
+    a = block_at
+    blk = _box((a, a, 0.0), (a + 1.0, a + 1.0, 1.0), n_block)
+    bodies = _assemble(
+        comm, [(*base, 1), (*blk, 2)], "tetrahedron", 3, lambda x: np.isclose(x[2], 0.0), split_x
+    )
+    mesh = bodies.mesh
+    tdim = mesh.topology.dim
+    groups = {
+        "contact": (3, lambda x: np.isclose(x[2], 0.0)),
+        "bottom": (4, lambda x: np.isclose(x[2], -1.0)),
+        "top": (5, lambda x: np.isclose(x[2], 1.0)),
+        "x0": (6, lambda x: np.isclose(x[0], 0.0)),
+        "y0": (7, lambda x: np.isclose(x[1], 0.0)),
+    }
+    ents, vals = [], []
+    for tag, where in groups.values():
+        f = dolfinx.mesh.locate_entities_boundary(mesh, tdim - 1, where)
+        ents.append(f)
+        vals.append(np.full(f.size, tag, np.int32))
+    ents, vals = np.concatenate(ents), np.concatenate(vals)
+    order = np.lexsort((vals, ents))
+    facet_tags = dolfinx.mesh.meshtags(mesh, tdim - 1, ents[order].astype(np.int32), vals[order])
+    tags = {"base": 1, "block": 2, **{k: v[0] for k, v in groups.items()}}
+    return TaggedBodies(
+        mesh, bodies.cell_tags, facet_tags, tags, {"base": ("base",), "block": ("block",)}, {}
+    )

@@ -20,6 +20,8 @@
   the largest nodal force).
 """
 
+import types
+
 import numpy as np
 import pytest
 
@@ -35,8 +37,9 @@ from subfric_dolfinx.fem import (
     Pressure,
 )
 from subfric_dolfinx.fem.interface import InterfaceError, SlidingInterface
+from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
-from tests.contact_meshes import tagged_annuli, tagged_blocks
+from tests.contact_meshes import tagged_annuli, tagged_blocks, tagged_boxes
 from tests.helpers import everywhere, raised_on_every_rank
 
 STEEL = Material(2.1e5, 0.3)
@@ -273,3 +276,142 @@ def test_curved_shrink_fit_turns_without_locking(comm):
     assert everywhere(comm, all(checks.values())), (checks, rows)
     polygon, _ = turn_hub(comm, 1, facets=1)
     assert everywhere(comm, polygon[:, 1].min() < 0.5 and polygon[:, 2].max() > 1.5), polygon
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+def test_nonmatching_patch_test_in_3d(comm, degree):
+    """Tetrahedra meshed 3 x 3 under 2 x 2 across the interface (triangles on triangles cut
+    into polygons): the pressure is transmitted uniformly."""
+    dom = tagged_boxes(comm, n_base=(3, 3, 1), n_block=(2, 2, 1), split_x=0.5)
+    p = 100.0
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("bottom", 0.0, 2), Dirichlet("x0", 0.0, 0), Dirichlet("y0", 0.0, 1)],
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
+        degree=degree,
+    )  # fmt: skip
+    iface = problem.interfaces["contact"]
+    with FrictionSolver(problem, linear="lu") as solver:
+        records = LoadStepper(solver, 1.0).run()
+    tr = gather(comm, iface.last.traction)
+    checks = {
+        "f_n": np.abs(tr[:, 2] / p - 1.0).max() < 1e-6,
+        "f_t": np.abs(tr[:, :2]).max() < 1e-6 * p,
+        "newton": max(r.iterations for r in records) <= 5,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, tr)
+
+
+def test_3d_block_slides_diagonally_like_a_material_point(comm):
+    """3-D: a block slid along (1, 0.5) over a rigid plate (6 x 6 facets under 2 x 2), across
+    the partition boundary: the mean traction is along the slip and equals the material point's
+    on the same path (the two tangential components and the frame of the plate)."""
+    law, p = preset("sec7"), 300.0
+    e = np.array([1.0, 0.5])
+    dom = tagged_boxes(
+        comm, n_base=(6, 6, 1), n_block=(2, 2, 1), base_size=3.0, block_at=0.5, split_x=1.5
+    )
+    program = LoadingProgram(
+        [0.0, 0.1, 0.2, 1.0], {"press": [0, 1, 1, 1], "slide": [0, 0, 0.1, 1.0]}
+    )
+    problem = InterfaceProblem(
+        dom, law, {"base": STEEL, "block": STEEL}, program,
+        [Dirichlet("base", (0.0, 0.0, 0.0)), Dirichlet("block", e[0], 0, amplitude="slide"),
+         Dirichlet("block", e[1], 1, amplitude="slide")],
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
+                              search_radius=1.5)],
+    )  # fmt: skip
+    iface = problem.interfaces["contact"]
+    rows = []
+
+    def on_step(rec):
+        w = iface.weights
+        tg = np.einsum("mji,mj->mi", iface._Q, iface.last.traction)  # on the plate, global
+        sums = comm.allreduce(np.concatenate([w @ tg, [w @ iface.last_gap[:, 2], w.sum()]]))
+        s = program.amplitude("slide", rec.t)
+        rows.append((rec.dt, rec.iterations, *(sums[:3] / sums[4]), sums[3] / sums[4], s))
+
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, 0.02, dt_max=0.02, on_step=on_step).run()
+    rows = np.array(rows)
+    state, ref = law.initial_state(1, 2), []
+    for dt, _, _, _, _, gn, s in rows:
+        res = law.return_map(np.array([[s * np.linalg.norm(e), 0.0, gn]]), state, dt)
+        state = res.state
+        ref.append(res.traction[0])
+    ref = np.array(ref)
+    u = e / np.linalg.norm(e)
+    along = rows[:, 2:4] @ u
+    across = rows[:, 2:4] @ np.array([-u[1], u[0]])
+    peak = np.abs(ref[:, 0]).max()
+    checks = {
+        "along": np.abs(along - ref[:, 0]).max() < 1e-3 * peak,
+        "across": np.abs(across).max() < 1e-9 * peak,
+        "f_n": abs(rows[-1, 4] + p) < 1e-9 * p,
+        "newton": rows[:, 1].max() <= 5,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, along - ref[:, 0])
+
+
+def apart_builder(h_base: float = 0.3, h_block: float = 0.2):
+    """A block on a wider base, two gmsh surfaces meshed independently (not fragmented): the
+    interface group holds the base's top and the block's bottom, with 10 and 5 facets."""
+    import gmsh
+
+    gmsh.model.add("apart")
+    occ = gmsh.model.occ
+    base = occ.addRectangle(0.0, -1.0, 0.0, 3.0, 1.0)
+    block = occ.addRectangle(1.0, 0.0, 0.0, 1.0, 1.0)
+    occ.synchronize()
+    curves: dict[str, list[int]] = {"contact": [], "bottom": [], "top": []}
+    for _, t in gmsh.model.getEntities(1):
+        x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, t)
+        if abs(y1 - y0) > 1e-5:
+            continue
+        y = 0.5 * (y0 + y1)
+        key = "contact" if abs(y) < 1e-5 else "bottom" if y < -0.5 else "top"
+        curves[key].append(t)
+        wide = x1 - x0 > 2.0  # the base's
+        n = round((x1 - x0) / (h_base if wide else h_block))
+        gmsh.model.mesh.setTransfiniteCurve(t, n + 1)
+    gmsh.model.addPhysicalGroup(2, [base], name="base")
+    gmsh.model.addPhysicalGroup(2, [block], name="block")
+    for name, ents in curves.items():
+        gmsh.model.addPhysicalGroup(1, ents, name=name)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h_base)
+    gmsh.model.mesh.generate(2)
+    return types.SimpleNamespace(gdim=2)
+
+
+def test_the_reader_takes_sides_meshed_apart_for_finite_sliding(comm):
+    from subfric_dolfinx import meshing
+
+    small = {"contact": ("base", "block")}
+    with raised_on_every_rank(meshing.InterfaceMeshError, "need the interface's kinematics"):
+        meshing.create_interface_mesh(apart_builder, comm, interfaces=small)
+    finite = {"contact": {"primary": "base", "secondary": "block", "kinematics": "finite_sliding"}}
+    dom, _ = meshing.create_interface_mesh(apart_builder, comm, interfaces=finite)
+    assert dom.interfaces["contact"].kinematics == "finite_sliding"
+    p = 50.0
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("bottom", (0.0, 0.0))], [Pressure("top", p, amplitude="press")],
+    )  # fmt: skip
+    iface = problem.interfaces["contact"]
+    assert isinstance(iface, SlidingInterface)  # the mesh's kinematics
+    sizes = comm.allreduce(np.array([iface.master.size, iface.slave.size]))
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, 1.0).run()
+    Fn = comm.allreduce(float(iface.weights @ iface.last.traction[:, 1]))
+    summary = interface_summary(problem)  # the history's columns
+    checks = {
+        "summary": abs(summary["F_n"] - Fn) < 1e-12 * p and summary["area"] == pytest.approx(1.0),
+        "non-matching": sizes[0] != sizes[1],
+        "load carried": abs(Fn - p) < 1e-9 * p,
+        "reaction": abs(problem.reactions["bottom"][1] - p) < 1e-9 * p,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, sizes, Fn)

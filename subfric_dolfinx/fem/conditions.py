@@ -151,7 +151,8 @@ class Interface:
         kinematics: ``"small_sliding"`` (node-to-node pairs fixed at the reference geometry,
             matching meshes: :class:`~.interface.FrictionInterface`) or ``"finite_sliding"``
             (pairing in the current configuration, non-matching meshes:
-            :class:`~.interface.SlidingInterface`).
+            :class:`~.interface.SlidingInterface`); ``None``: as the mesh says (its
+            :class:`~subfric_dolfinx.meshing.InterfaceSides`), else small sliding.
         search_radius: Finite sliding: the largest normal distance at which a point faces the
             other body (mm); ``None``: twice the largest facet size.
         reach: Finite sliding: how far a point may slide in one step (mm); ``None``: the
@@ -165,7 +166,7 @@ class Interface:
     initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None
     regions: Any = None
     quadrature: str | None = None
-    kinematics: str = "small_sliding"
+    kinematics: str | None = None
     search_radius: float | None = None
     reach: float | None = None
 

@@ -103,6 +103,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
     """
 
     kinematics = "finite_sliding"
+    region_names = ("default",)  # no interface regions (summaries read it)
 
     def __init__(
         self,
