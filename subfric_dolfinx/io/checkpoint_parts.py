@@ -158,7 +158,8 @@ def restore_extras(
     """Put the extra interfaces' state and the bulk state into ``problem`` (collective).
 
     Raises:
-        CheckpointError: An interface or bulk array missing, of another law or shape (named).
+        .checkpoint_format.CheckpointError: An interface or bulk array missing, of another law or
+            shape (named).
     """
     comm = problem.comm
     ifaces = list(getattr(problem, "interfaces", {}).items())[1:]
@@ -228,7 +229,8 @@ def compare_point_data(
     A checkpoint without point data (an older one) fits a run whose data are all zero.
 
     Raises:
-        CheckpointError: On every rank, naming the datum, the largest difference and where.
+        .checkpoint_format.CheckpointError: On every rank, naming the datum, the largest
+            difference and where.
     """
     pts = el.points.reshape(-1, el.gdim)
     for key, here in el.point_data.items():
