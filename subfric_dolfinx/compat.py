@@ -27,6 +27,7 @@ testing the version itself. Each difference was read in the installed sources of
   ``DIVERGED_FUNCTION_NANORINF`` (3.25; the value, -4, is the same): :data:`SNES_DIVERGED_NAN`.
 - ``Expression.eval`` on cells: an array ``(cells, points * value_size)`` (0.9);
   ``(cells, points, *value_shape)`` (0.11). The memory order is the same.
+- ``mesh.create_mesh``: ``(comm, cells, x, element)`` (0.9); ``(comm, cells, element, x)`` (0.11).
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 - DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
@@ -61,6 +62,7 @@ __all__ = [
     "SUPPORTED",
     "adjacency_list",
     "coordinate_element",
+    "create_mesh",
     "create_submesh",
     "default_partitioner",
     "dolfinx_newton",
@@ -160,6 +162,22 @@ def create_submesh(
         parents = emap.sub_topology_to_topology(np.arange(n, dtype=np.int32), inverse=False)
         return sub, np.asarray(parents, dtype=np.int32)
     return sub, np.asarray(emap, dtype=np.int32)
+
+
+def create_mesh(
+    comm: MPI.Comm,
+    cells: np.ndarray,
+    x: np.ndarray,
+    element,
+    partitioner: Callable | None = None,
+) -> dolfinx.mesh.Mesh:
+    """A distributed mesh from cells (global node numbers) and node coordinates.
+
+    ``dolfinx.mesh.create_mesh``, whose coordinates and element swapped places in 0.11.
+    """
+    if _NEW:
+        return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
+    return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
 
 
 def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):

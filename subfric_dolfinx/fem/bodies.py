@@ -119,6 +119,9 @@ def resolve_topology(
                 secondary=secondary,
                 law=the_law,
                 quadrature=s.quadrature or quadrature,
+                kinematics=s.kinematics
+                or getattr(known, "kinematics", None)
+                or "small_sliding",
             )
         )
     bodies = dict(mesh_bodies)

@@ -151,6 +151,15 @@ class Interface:
             coordinates ``x`` (gdim, n).
         regions: Subgroups of its facets (``InterfaceMesh.interface_groups``) -> their laws.
         quadrature: ``"gauss"`` or ``"nodal"``; ``None``: the problem's.
+        kinematics: ``"small_sliding"`` (node-to-node pairs fixed at the reference geometry,
+            matching meshes: :class:`~.interface.FrictionInterface`) or ``"finite_sliding"``
+            (pairing in the current configuration, non-matching meshes:
+            :class:`~.interface.SlidingInterface`); ``None``: as the mesh says (its
+            :class:`~subfric_dolfinx.meshing.InterfaceSides`), else small sliding.
+        search_radius: Finite sliding: the largest normal distance at which a point faces the
+            other body (mm); ``None``: twice the largest facet size.
+        reach: Finite sliding: how far a point may slide in one step (mm); ``None``: the
+            largest facet size.
     """
 
     group: str
@@ -160,6 +169,9 @@ class Interface:
     initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None
     regions: Any = None
     quadrature: str | None = None
+    kinematics: str | None = None
+    search_radius: float | None = None
+    reach: float | None = None
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

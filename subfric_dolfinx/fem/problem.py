@@ -45,6 +45,7 @@ from .conditions import (
 )
 from .interface import FrictionInterface, InterfaceError
 from .interface.friction import layout_of, stiffen_separated
+from .interface.kinds import make_interface
 from .kinematics import check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
@@ -153,20 +154,18 @@ class InterfaceProblem:
             self.interfaces: dict[str, FrictionInterface] = {}
             groups = getattr(domain, "interface_groups", None) or {}
             for spec in topo.interfaces:
-                self.interfaces[spec.group] = FrictionInterface(
-                    V, cell_tags, facet_tags, spec.law,
-                    tag=self.tags[spec.group],
-                    primary=topo.tags[spec.primary],
-                    secondary=topo.tags[spec.secondary],
-                    name=spec.group, quadrature=spec.quadrature,
-                    initial_gap=spec.initial_gap, regions=spec.regions, groups=groups,
-                    mode=self.mode, timings=self.timings,
+                self.interfaces[spec.group] = make_interface(
+                    spec, V, cell_tags, facet_tags, self.tags[spec.group],
+                    topo.tags[spec.primary], topo.tags[spec.secondary], groups, self.mode,
+                    self.timings,
                 )  # fmt: skip
             first = next(iter(self.interfaces.values()))
-            self.pairs = first.pairs
-            self.interface = first.elements
+            self.pairs = getattr(first, "pairs", None)
+            self.interface = getattr(first, "elements", first)
             self.law = first.law
             self.layout = layout_of(V, list(self.interfaces.values()))
+            self._layout_versions = self._versions()
+            self.layout_version = 0
 
         # The bodies' law: the built-in linear elasticity (assembled once) or the user's.
         du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -184,26 +183,19 @@ class InterfaceProblem:
         w = weight(mesh, self.mode)
         a_springs, spring_loads, self.spring_forces = spring_forms(V, domain, springs, ds, w)
         self.springs = list(springs)
+        self._a_linear = J_bulk if self.linear_bulk else None
+        if isinstance(a_springs, ufl.Form):
+            self._a_linear = a_springs if self._a_linear is None else self._a_linear + a_springs
+        if self._a_linear is not None:
+            self._a_linear = dolfinx.fem.form(self._a_linear)
+        self._F_form = self._J_form = None
+        self.bulk_force: np.ndarray | None = None  # owned F_bulk(u) at the last residual
+        if not self.linear_bulk:
+            self._F_form = dolfinx.fem.form(F_bulk)
+            self._J_form = dolfinx.fem.form(J_bulk)
+        self.K = self.K_scale = None
         with self.timings(TIMER_BULK):
-            self.K = self.layout.create_matrix()
-            a = J_bulk if self.linear_bulk else None
-            if isinstance(a_springs, ufl.Form):
-                a = a_springs if a is None else a + a_springs
-            if a is not None:
-                dolfinx.fem.petsc.assemble_matrix(self.K, dolfinx.fem.form(a))
-            self.K.assemble()
-            self.K_scale = self.K  # |K_scale| |u|: the size of the bulk forces (convergence)
-            self._F_form = self._J_form = None
-            self.bulk_force: np.ndarray | None = None  # owned F_bulk(u) at the last residual
-            if not self.linear_bulk:
-                self._F_form = dolfinx.fem.form(F_bulk)
-                self._J_form = dolfinx.fem.form(J_bulk)
-                self.K_scale = self.layout.create_matrix()
-                self.bulk.update(self.u)  # the tangent at u = 0 (then reverted)
-                dolfinx.fem.petsc.assemble_matrix(self.K_scale, self._J_form)
-                self.K_scale.assemble()
-                self.K_scale.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-                self.bulk.revert()
+            self._build_matrices()
             # Load vectors, one per condition and channel (scaled by the channel at run time).
             self.loads = load_vectors(V, domain, loads, ds, w) + spring_loads
 
@@ -225,22 +217,57 @@ class InterfaceProblem:
         )
         rstart = V.dofmap.index_map.local_range[0] * bs
         self.bc_rows = (self.bc_dofs + rstart).astype(PETSc.IntType)
-        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
 
         self.t = program.t_start
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self._bulk_work = self.create_vector() if not self.linear_bulk else None
         self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
+        self.interface_round_off: np.ndarray | None = None  # finite sliding (convergence)
         self.reactions: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------------------
+    def _versions(self) -> tuple[int, ...]:
+        return tuple(getattr(i, "layout_version", 0) for i in self.interfaces.values())
+
+    def _build_matrices(self) -> None:
+        """The bulk stiffness (and scale) on the current layout's pattern (collective)."""
+        for name in ("K", "K_scale"):
+            old = getattr(self, name, None)
+            if old is not None:
+                old.destroy()
+        self.K = self.layout.create_matrix()
+        if self._a_linear is not None:
+            dolfinx.fem.petsc.assemble_matrix(self.K, self._a_linear)
+        self.K.assemble()
+        self.K_scale = self.K  # |K_scale| |u|: the size of the bulk forces (convergence)
+        if not self.linear_bulk:
+            self.K_scale = self.layout.create_matrix()
+            self.bulk.update(self.u)  # the tangent at u (then reverted)
+            dolfinx.fem.petsc.assemble_matrix(self.K_scale, self._J_form)
+            self.K_scale.assemble()
+            self.K_scale.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.bulk.revert()
+        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+
     def set_step(self, t: float, dt: float) -> None:
-        """Set the time at the end of the step and the step length (drives recovery)."""
+        """Set the time at the end of the step and the step length (drives recovery).
+
+        Collective. Finite-sliding interfaces search from the last converged configuration;
+        when one rebuilds its pattern, the layout and the bulk matrices are rebuilt and
+        :attr:`layout_version` grows (a solver then re-creates its matrices).
+        """
         self.t, self.dt = float(t), float(dt)
         self._x_at_update = None
         for iface in self.interfaces.values():
             iface.set_step(dt)
+        versions = self._versions()
+        if versions != self._layout_versions:
+            self._layout_versions = versions
+            with self.timings(TIMER_BULK):
+                self.layout = layout_of(self.V, list(self.interfaces.values()))
+                self._build_matrices()
+            self.layout_version += 1
 
     def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Owned Dirichlet dofs (local, unrolled, sorted) and their values at ``t``.
@@ -296,6 +323,8 @@ class InterfaceProblem:
             force = force.copy()
             for iface in ifaces[1:]:
                 force += iface.forces()
+        offs = [i.round_off for i in ifaces if getattr(i, "round_off", None) is not None]
+        self.interface_round_off = sum(offs) if offs else None
         self.interface_force = force
         Fa = F.array_w
         Fa += force
@@ -384,3 +413,4 @@ class InterfaceProblem:
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
         return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
+

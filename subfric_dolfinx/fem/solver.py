@@ -212,6 +212,7 @@ class FrictionSolver:
             self._x0 = problem.create_vector()
             self.F = problem.create_vector()
             self.J = problem.create_matrix()
+            self._layout_version = getattr(problem, "layout_version", 0)
             self.linear = LinearStrategy(linear, problem)
             snes = PETSc.SNES().create(problem.comm)
             self.snes = snes
@@ -239,6 +240,17 @@ class FrictionSolver:
         self.interrupted = False
         # PETSc's log events are cumulative over the process: where this solver starts.
         self.event_start = event_times()
+
+    def _new_pattern(self) -> None:
+        """New Jacobian matrices on the problem's new pattern (finite sliding re-paired)."""
+        self.J.destroy()
+        self.J = self.problem.create_matrix()
+        self.linear.new_pattern()
+        ref = weakref.ref(self)
+        self.snes.setJacobian(
+            lambda s, x, J, P: ref()._jacobian(s, x, J, P), *self.linear.matrices(self.J)
+        )
+        self._layout_version = self.problem.layout_version
 
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
         db = PETSc.Options()
@@ -322,6 +334,8 @@ class FrictionSolver:
             raise ValueError(f"separated_stiffness = {separated_stiffness!r} must be >= 0")
         self.separated_stiffness = float(separated_stiffness)
         p.set_step(t, dt)
+        if getattr(p, "layout_version", 0) != self._layout_version:
+            self._new_pattern()
         p.apply_dirichlet(self.x)
         self.failed_points = np.zeros(0, dtype=np.int64)
         self.interrupted = False

@@ -153,7 +153,7 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
     candidate = None
     ifaces = problem.interfaces
     for iname, iface in ifaces.items():
-        el = iface.elements
+        el = getattr(iface, "elements", iface)
         res = el.last
         if res is None or not res.status.size:
             continue
@@ -253,7 +253,8 @@ def interface_activity(problem: Any) -> tuple[float, float]:
     """
     local = np.zeros(3)
     for iface in problem.interfaces.values():  # every interface's points together
-        el, res = iface.elements, iface.elements.last
+        el = getattr(iface, "elements", iface)  # finite sliding: the interface holds them
+        res = el.last
         if res is None or not res.status.size:
             continue
         nt = el.nt
@@ -391,9 +392,14 @@ class LoadStepper:
         self.records: list[StepRecord] = []
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
-        # penetration and slide, warned at the end: a watch per interface, the first's here
-        self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
-        self.validity = next(iter(self.watches.values()))
+        # penetration and slide of the small-sliding interfaces, warned at the end: a watch per
+        # interface, the first's here (None if every interface slides finitely: re-paired)
+        self.watches = {
+            n: ValidityWatch(self.problem, n)
+            for n, iface in self.problem.interfaces.items()
+            if hasattr(iface, "elements")
+        }
+        self.validity = next(iter(self.watches.values()), None)
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""

@@ -161,10 +161,11 @@ def _inspect_current_model(
                 f"{what}: {n_0} {iface!r} facets do not belong to the boundary of exactly one "
                 f"of the bodies {p!r} and {q!r}"
             )
-        if n_p != n_s:
+        if n_p != n_s and side.kinematics == "small_sliding":
             raise InterfaceMeshError(
                 f"{what}: the two sides of the {iface!r} group have different numbers "
-                f"of facets: {n_p} on the {p!r} side, {n_s} on the {q!r} side"
+                f"of facets: {n_p} on the {p!r} side, {n_s} on the {q!r} side (sides meshed "
+                "independently need the interface's kinematics 'finite_sliding')"
             )
     if ntags.size and not np.array_equal(np.sort(ntags), np.arange(1, ntags.size + 1)):
         # e.g. right after the Crack plugin: gmshio needs contiguous node tags
@@ -368,7 +369,8 @@ def _find_sides(imesh: InterfaceMesh, iface: str, what: str) -> None:
             f"{what}: {n_interior} {iface!r} facets are interior facets (shared by two "
             "cells); the interface nodes must be duplicated"
         )
-    if n_p != n_s or n_p + n_s != n_owned:
+    matching = sides_of.kinematics == "small_sliding"
+    if (matching and n_p != n_s) or n_p + n_s != n_owned:
         p, q = sides_of.primary, sides_of.secondary
         raise InterfaceMeshError(
             f"{what}: the two sides of the {iface!r} group have different numbers of facets: "

@@ -12,7 +12,9 @@ groups of a gmsh model and from what the user says:
   other names);
 * ``bodies={"bolt": ["head", "shank"], "plate": "plate"}``: bodies made of cell groups (by
   default every named cell group is a body of its own);
-* ``interfaces={"contact": ("plate", "bolt"), ...}``: interfaces with (primary, secondary) bodies;
+* ``interfaces={"contact": ("plate", "bolt"), ...}``: interfaces with (primary, secondary) bodies
+  (or ``{"primary": ..., "secondary": ..., "kinematics": "finite_sliding"}`` for sides meshed
+  independently, whose facets need not pair);
   a list of interface groups lets the sides be found: the two bodies whose cells the facets touch,
   the primary being the one whose first cell group has the smaller physical tag.
 """
@@ -27,6 +29,9 @@ from .groups import INTERFACE, MASTER, SLAVE, InterfaceMeshError
 
 __all__ = ["ROLES", "InterfaceSides", "default_names", "mesh_topology"]
 
+KINEMATICS = ("small_sliding", "finite_sliding")
+"""The interface kinds (``docs/model.md`` §11-12): sides paired node to node, or meshed apart."""
+
 ROLES = ("master", "slave", "interface", "primary", "secondary")
 """The roles ``names=`` may map to the user's group names (primary = master, secondary = slave)."""
 
@@ -38,10 +43,13 @@ class InterfaceSides:
     Attributes:
         primary: The body whose outward normal defines the interface's local frame (master).
         secondary: The other body (slave).
+        kinematics: ``"small_sliding"`` (the sides' nodes pair one to one) or
+            ``"finite_sliding"`` (the sides are meshed independently: any numbers of facets).
     """
 
     primary: str
     secondary: str
+    kinematics: str = "small_sliding"
 
 
 def default_names(names: Mapping[str, str] | None) -> dict[str, str]:
@@ -70,14 +78,21 @@ def _sides(value: Any, name: str) -> InterfaceSides | None:
         return None
     if isinstance(value, InterfaceSides):
         return value
+    kinematics = "small_sliding"
     if isinstance(value, Mapping):
         keys = set(value)
         pk = "primary" if "primary" in keys else "master"
         sk = "secondary" if "secondary" in keys else "slave"
-        if keys != {pk, sk}:
+        if keys - {"kinematics"} != {pk, sk}:
             raise InterfaceMeshError(
                 f"interfaces.{name}: expected the keys 'primary' and 'secondary' (or 'master' "
-                f"and 'slave'), got {sorted(keys)}"
+                f"and 'slave') and optionally 'kinematics', got {sorted(keys)}"
+            )
+        kinematics = value.get("kinematics", kinematics)
+        if kinematics not in KINEMATICS:
+            raise InterfaceMeshError(
+                f"interfaces.{name}.kinematics: expected one of {list(KINEMATICS)}, got "
+                f"{kinematics!r}"
             )
         value = (value[pk], value[sk])
     if (
@@ -91,7 +106,7 @@ def _sides(value: Any, name: str) -> InterfaceSides | None:
         )
     if value[0] == value[1]:
         raise InterfaceMeshError(f"interfaces.{name}: joins the body {value[0]!r} to itself")
-    return InterfaceSides(value[0], value[1])
+    return InterfaceSides(value[0], value[1], kinematics)
 
 
 def mesh_topology(

@@ -77,6 +77,9 @@ class FrictionInterface:
         dt: The step of the return map.
     """
 
+    kinematics = "small_sliding"
+    layout_version = 0  # the pairs, ghosts and pattern never change
+
     def __init__(
         self,
         V: dolfinx.fem.FunctionSpace,
@@ -337,6 +340,11 @@ class FrictionInterface:
         with m.localForm() as ml:
             return ml.array_r[self.elements.dofs] > 0.5
 
+    def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, np.ndarray]:
+        """Extra ghosts, their owners, the extended index map and the element nodes in it."""
+        p = self.pairs
+        return p.extra_ghosts, p.extra_owners, self.index_map, self.elements.nodes
+
     # -- state -----------------------------------------------------------------------------------
     def commit(self) -> None:
         """Accept the trial state (after a converged step)."""
@@ -376,7 +384,7 @@ def _bc_values(
 
 
 def create_matrix(
-    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[FrictionInterface]
+    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]
 ) -> PETSc.Mat:
     """A matrix with every bulk cell's block and every interface's couplings preallocated.
 
@@ -387,16 +395,14 @@ def create_matrix(
 
 
 def layout_of(
-    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[FrictionInterface]
+    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]
 ) -> ExtendedLayout:
     """The :class:`~.layout.ExtendedLayout` of all interfaces on ``V`` (collective)."""
-    if len(interfaces) == 1:
-        el = interfaces[0]
-        return ExtendedLayout(V, el.index_map, el.elements.nodes)
+    parts = [el.layout_parts() for el in interfaces]
+    if len(parts) == 1:
+        return ExtendedLayout(V, parts[0][2], parts[0][3])
     imap, nodes = combined_index_map(
-        V,
-        [(el.pairs.extra_ghosts, el.pairs.extra_owners) for el in interfaces],
-        [(el.index_map, el.elements.nodes) for el in interfaces],
+        V, [(g, o) for g, o, _, _ in parts], [(m, nd) for _, _, m, nd in parts]
     )
     return ExtendedLayout(V, imap, nodes)
 
