@@ -26,7 +26,7 @@ with Cattaneo-Mindlin's at both ends of every cycle.
 
 # %% [markdown]
 r"""
-# Fretting of a cylinder on an elastic-plastic flat
+## The model
 
 **The contact.** The cylinder ($R$ = 50 mm) and the flat of `hertz.py` (two $2L\times L$ boxes
 whose interface starts open by $x^2/2R$, P2 triangles refined around the contact, nodal interface

@@ -5,7 +5,10 @@ Usage: ``mpirun -n 2 python3 tests/signal_job.py OUTDIR RUNS``. Rank 0 prints ``
 the first step of run ``k`` (the test then sends its signals) and, when the run has ended,
 ``RESULT {json}``: how it ended (``interrupted``, ``completed`` or ``error``), the time of the
 last converged step it reports, the time and step of the checkpoint read back (on every rank)
-and the last time of ``history.csv``. Between runs a stop signal changes nothing.
+and the last time of ``history.csv``. Between runs a stop signal changes nothing. After the last
+run the job waits for a line on its standard input (rank 0; the test writes it once it has sent
+its last signal): a signal the test sent just before the job's last ``RESULT`` would otherwise
+reach ``mpirun`` while it tears the job down, when its default action ends it (exit 138).
 """
 
 from __future__ import annotations
@@ -74,6 +77,9 @@ def main(out: Path, runs: int) -> None:
             result["history_t"] = float(rows[-1][rows[0].index("t")])
             print("RESULT " + json.dumps(result), flush=True)
         comm.Barrier()
+    if comm.rank == 0:
+        sys.stdin.readline()  # the test has sent its last signal
+    comm.Barrier()
 
 
 if __name__ == "__main__":

@@ -149,6 +149,7 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
         ["mpirun", "-n", "2", sys.executable, "tests/signal_job.py", str(tmp_path), str(runs)],
         cwd=ROOT,
         env=singleton_env(),
+        stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -172,6 +173,8 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
             elif line.startswith("RESULT"):
                 results.append(json.loads(line.split(" ", 1)[1]))
                 latencies.append(time.perf_counter() - sent if sent else float("nan"))
+        p.stdin.write("done\n")  # every signal sent: the job may end (tests/signal_job.py)
+        p.stdin.close()
         p.wait(timeout=120)
     finally:
         if p.poll() is None:

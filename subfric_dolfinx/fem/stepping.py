@@ -36,10 +36,9 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from mpi4py import MPI
 
 from .. import logs
-from ..constitutive import Status
+from .attempts import SLIDING_FRACTION, describe_attempt, interface_activity
 from .solver import FrictionSolver
 from .validity import ValidityWatch
 
@@ -60,10 +59,6 @@ __all__ = [
 
 LONG_SEGMENT_STEPS = 10
 """A segment of the program of at least this many steps gets its own log line."""
-
-SLIDING_FRACTION = 0.95
-"""A point slides when it slips plastically with a traction at this fraction of the law's strength
-or more (below it, a closed point sticks: the subloading law's micro-slip included)."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -136,70 +131,9 @@ class StepInterrupted(RuntimeError):
         self.t, self.last_t, self.last_step = t, last_t, last_step
 
 
-_SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
-
-
-def describe_attempt(problem: Any) -> dict[str, Any]:
-    """What the return map saw at its last evaluation (collective; the same on every rank).
-
-    Returns:
-        ``counts`` (points per status, and ``UNSTABLE``, over all ranks), ``worst`` (the point
-        of the most severe status — FAILED, UNSTABLE, JUMP, PLASTIC, ELASTIC, SEPARATED — and,
-        among those, of the largest traction: its ``status``, coordinates ``x``, local
-        ``traction`` and ``gap``), and ``text``, a one-line summary of both.
-    """
-    names = [s.name for s in Status] + ["UNSTABLE"]
-    local = np.zeros(len(names), dtype=np.int64)
-    candidate = None
-    ifaces = problem.interfaces
-    for iname, iface in ifaces.items():
-        el = getattr(iface, "elements", iface)
-        res = el.last
-        if res is None or not res.status.size:
-            continue
-        c = res.counts()
-        local += [c.get(n, 0) for n in names]
-        st = res.status
-        sev = np.select(
-            [st == Status.FAILED, res.unstable, st == Status.JUMP, st == Status.PLASTIC,
-             st == Status.ELASTIC],
-            [5, 4, 3, 2, 1],
-            0,
-        )  # fmt: skip
-        size = np.linalg.norm(res.traction, axis=1)
-        i = int(np.lexsort((size, sev))[-1])
-        x = el.points.reshape(-1, problem.gdim)[i]
-        mine = (
-            int(sev[i]),
-            float(size[i]),
-            tuple(float(v) for v in x),
-            tuple(float(v) for v in res.traction[i]),
-            tuple(float(v) for v in el.last_gap[i]),
-            iname if len(ifaces) > 1 else "",
-        )
-        candidate = mine if candidate is None else max(candidate, mine)
-    counts_arr = np.zeros_like(local)
-    problem.comm.Allreduce(local, counts_arr)
-    counts = {n: int(v) for n, v in zip(names, counts_arr, strict=True)}
-    found = [cand for cand in problem.comm.allgather(candidate) if cand is not None]
-    out: dict[str, Any] = {"counts": counts, "worst": None}
-    total = sum(counts[s.name] for s in Status)
-    shown = ", ".join(f"{n} {counts[n]}" for n in reversed(_SEVERITY) if counts[n])
-    text = f"return map at the last iterate: {shown or 'no point'} (of {total} points)"
-    if found:
-        sev, _, x, tr, gap, iname = max(found)
-        out["worst"] = {"status": _SEVERITY[sev], "x": x, "traction": tr, "gap": gap}
-
-        def fmt(v: tuple[float, ...]) -> str:
-            return "(" + ", ".join(f"{a:.4g}" for a in v) + ")"
-
-        on = f" on the interface {iname!r}" if iname else ""
-        text += (
-            f"; worst point {_SEVERITY[sev]}{on} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
-            f"MPa, gap (ubar_t, ubar_n) = {fmt(gap)} mm"
-        )
-    out["text"] = text
-    return out
+def _activity_text(sliding: float, open_: float) -> str:
+    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
+    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
 
 
 @dataclasses.dataclass
@@ -232,42 +166,6 @@ class StepRecord:
     def activity(self) -> str:
         """What the interface does at the end of the step, e.g. ``sliding 40 %, sticking 60 %``."""
         return _activity_text(self.sliding, self.open)
-
-
-def _activity_text(sliding: float, open_: float) -> str:
-    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
-    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
-
-
-def interface_activity(problem: Any) -> tuple[float, float]:
-    """Fractions of the interface points that slide and that are open (collective).
-
-    Over every interface of the problem (their points together).
-
-    After a converged step (committed state): a point slides when its status is PLASTIC or JUMP
-    and its tangential traction is at least :data:`SLIDING_FRACTION` of the law's strength at its
-    normal traction; it is open when SEPARATED; the others stick.
-
-    Returns:
-        ``(sliding, open)``, the same on every rank.
-    """
-    local = np.zeros(3)
-    for iface in problem.interfaces.values():  # every interface's points together
-        el = getattr(iface, "elements", iface)  # finite sliding: the interface holds them
-        res = el.last
-        if res is None or not res.status.size:
-            continue
-        nt = el.nt
-        st = res.status
-        f_t = np.linalg.norm(res.traction[:, :nt], axis=1)
-        strength = iface.law.strength(el.state.old, res.traction[:, nt], 0.0)
-        plastic = (st == Status.PLASTIC) | (st == Status.JUMP)
-        sliding = plastic & (f_t >= SLIDING_FRACTION * strength) & (strength > 0.0)
-        local += np.count_nonzero(sliding), np.count_nonzero(st == Status.SEPARATED), st.size
-    total = np.zeros(3)
-    problem.comm.Allreduce(local, total, op=MPI.SUM)
-    n = max(total[2], 1.0)
-    return float(total[0] / n), float(total[1] / n)
 
 
 def _why(r: dict[str, Any], solver: FrictionSolver) -> str:

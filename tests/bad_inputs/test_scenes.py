@@ -154,11 +154,11 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         ),
         (
             lambda s: s["materials"]["slave"].update(E=-1.0),
-            r"scene.materials.slave: Young's modulus E = -1.0 must be finite and > 0",
+            r"scene.materials.slave: parameter E = -1.0 is out of range; allowed: E > 0",
         ),
         (
             lambda s: s["materials"]["master"].update(nu=0.6),
-            r"scene.materials.master: Poisson's ratio nu = 0.6 must be in \[0, 0.5\)",
+            r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
         ),
         # a name is a plain file name
         *[
