@@ -20,11 +20,9 @@ import numpy as np
 import pytest
 import ufl
 
-from subfric_dolfinx import meshing
 from subfric_dolfinx.compat import interpolation_points
 from subfric_dolfinx.constitutive import CoulombLaw
 from subfric_dolfinx.fem import (
-    Dirichlet,
     FrictionSolver,
     InterfaceProblem,
     LinearElasticity,
@@ -35,33 +33,11 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary, restore_checkpoint, write_checkpoint
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, PROGRAM, block_problem, everywhere
+from tests.helpers import LAW, PROGRAM, block_problem, column, everywhere
 
 E, NU, P, ALPHA = 1.0e5, 0.3, 50.0, 1.0e6
 STICK = CoulombLaw(alpha_t=ALPHA, alpha_n=ALPHA, mu_c=0.5)
 RAMP = LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]})
-
-
-def column(mode: str, comm):
-    """Two bodies of one material on top of each other, the interface across the whole width."""
-    if mode == "3d":
-        dom, _ = meshing.create_interface_mesh(
-            meshing.build_pad_on_plate, comm, plate_size=(1.0, 1.0, 0.5),
-            pad_size=(1.0, 1.0, 0.5), n_interface=2, cell_type="tetrahedron",
-        )  # fmt: skip
-        dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "master")
-        dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "master")
-        bcs = [
-            Dirichlet("bottom", 0.0, component=2),
-            Dirichlet("pin", [0.0, 0.0, 0.0]),
-            Dirichlet("roll", 0.0, component=1),
-        ]
-        return dom, bcs
-    dom, _ = meshing.create_interface_mesh(
-        meshing.build_block_on_base, comm, base_width=1.0, block_width=1.0, n_interface=4
-    )
-    dom.add_node_group("pin", [[0.0, 0.0]], "master")
-    return dom, [Dirichlet("bottom", 0.0, component=1), Dirichlet("pin", 0.0, component=0)]
 
 
 def exact(mode: str, x: np.ndarray, upper: np.ndarray) -> np.ndarray:

@@ -20,10 +20,8 @@ import math
 import numpy as np
 import pytest
 
-from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import CoulombLaw, J2Material
 from subfric_dolfinx.fem import (
-    Dirichlet,
     FrictionSolver,
     InterfaceProblem,
     J2Bulk,
@@ -33,7 +31,7 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
-from tests.helpers import everywhere
+from tests.helpers import column, everywhere
 
 E, NU, SY, HI, HK, ALPHA = 1.0e5, 0.3, 100.0, 5.0e3, 5.0e3, 1.0e6
 H = HI + HK
@@ -46,28 +44,6 @@ MAT = J2Material(E=E, nu=NU, sigma_y=SY, H_iso=HI, H_kin=HK)
 def plastic_strain(peaks: np.ndarray) -> np.ndarray:
     """Uniaxial ``eps_p`` after the largest stress so far (monotone in one direction)."""
     return np.maximum(peaks - SY, 0.0) / H
-
-
-def column(mode: str, comm):
-    """Two bodies of one size on top of each other (as tests/test_bulk.py)."""
-    if mode == "3d":
-        dom, _ = meshing.create_interface_mesh(
-            meshing.build_pad_on_plate, comm, plate_size=(1.0, 1.0, 0.5),
-            pad_size=(1.0, 1.0, 0.5), n_interface=2, cell_type="tetrahedron",
-        )  # fmt: skip
-        dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "master")
-        dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "master")
-        bcs = [
-            Dirichlet("bottom", 0.0, component=2),
-            Dirichlet("pin", [0.0, 0.0, 0.0]),
-            Dirichlet("roll", 0.0, component=1),
-        ]
-        return dom, bcs
-    dom, _ = meshing.create_interface_mesh(
-        meshing.build_block_on_base, comm, base_width=1.0, block_width=1.0, n_interface=4
-    )
-    dom.add_node_group("pin", [[0.0, 0.0]], "master")
-    return dom, [Dirichlet("bottom", 0.0, component=1), Dirichlet("pin", 0.0, component=0)]
 
 
 def exact(x: np.ndarray, upper: np.ndarray, sigma: float, eps_p: float, gdim: int) -> np.ndarray:
