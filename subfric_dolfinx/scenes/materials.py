@@ -22,10 +22,10 @@ Numpy only (pointwise scenes import the parser without DOLFINx).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from ..constitutive import J2Material, LinearElastic
+from .expressions import finite_float
 from .schema import FEScene, SceneError
 
 __all__ = ["MATERIAL_MODELS", "check_materials_fit", "is_j2", "parse_material", "scene_materials"]
@@ -50,11 +50,8 @@ def _number(v: Any, path: str) -> float:
     """A material parameter: a finite real number (not a boolean)."""
     if isinstance(v, bool) or not isinstance(v, int | float):
         raise SceneError(f"{path}: expected a number, got {_short(v)}")
-    try:
-        x = float(v)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
+    x = finite_float(v)
+    if x is None:
         raise SceneError(f"{path}: expected a finite number, got {_short(v)}")
     return x
 
