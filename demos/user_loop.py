@@ -148,22 +148,25 @@ def run(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict[str, 
     times = np.concatenate([np.linspace(a, b, k + 1)[1:] for a, b, k in
                             zip(TIMES[:-1], TIMES[1:], steps, strict=True)])  # fmt: skip
     history, t0 = [], TIMES[0]
-    for t in times:
-        press, s = amplitudes(t)
-        p.value = PRESSURE * press
-        slide.x.array[:] = s
-        iface.set_step(t - t0)
-        its, converged = solver.solve()
-        if not converged:
-            iface.revert()
-            raise RuntimeError(f"no convergence at t = {t:g}")
-        iface.commit()
-        row = {"t": float(t), "newton": its}
-        row.update(element_summary(iface.elements, iface.law, comm))
-        history.append(row)
-        t0 = t
-    iface.destroy()
-    A.destroy()
+    try:
+        for t in times:
+            press, s = amplitudes(t)
+            p.value = PRESSURE * press
+            slide.x.array[:] = s
+            iface.set_step(t - t0)
+            its, converged = solver.solve()
+            if not converged:
+                iface.revert()
+                raise RuntimeError(f"no convergence at t = {t:g}")
+            iface.commit()
+            row = {"t": float(t), "newton": its}
+            row.update(element_summary(iface.elements, iface.law, comm))
+            history.append(row)
+            t0 = t
+    finally:  # PETSc objects are freed collectively, at the same point on every rank
+        solver.destroy()
+        iface.destroy()
+        A.destroy()
     return history
 
 

@@ -220,15 +220,39 @@ class DolfinxNewton:
     """DOLFINx's own Newton solver on ``F(u; v) = 0``, with extra terms in residual and Jacobian.
 
     Made by :func:`dolfinx_newton`; :meth:`solve` solves for ``u`` from its current value.
+    :meth:`destroy` (collective) frees its PETSc objects at the same point on every rank; it is
+    also a context manager that does so on leaving. Left to the garbage collector, DOLFINx 0.11's
+    ``NonlinearProblem.__del__`` destroys its SNES (a collective call) whenever each rank's
+    collector happens to run, which can hang a parallel run.
     """
 
-    def __init__(self, solve: Callable[[], tuple[int, bool]], objects: list) -> None:
+    def __init__(
+        self, solve: Callable[[], tuple[int, bool]], objects: list, petsc: Callable[[], list]
+    ) -> None:
         self._solve = solve
         self._objects = objects  # kept alive with the solver
+        self._petsc = petsc  # the PETSc objects destroy() frees
 
     def solve(self) -> tuple[int, bool]:
         """Newton from the current ``u``: (iterations, converged); ``u`` holds the result."""
+        if self._solve is None:
+            raise RuntimeError("the solver was destroyed")
         return self._solve()
+
+    def destroy(self) -> None:
+        """Free the solver's PETSc objects (collective: call it on every rank; idempotent)."""
+        if self._solve is None:
+            return
+        for obj in self._petsc():
+            if obj is not None:
+                obj.destroy()
+        self._solve, self._objects, self._petsc = None, [], list
+
+    def __enter__(self) -> DolfinxNewton:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.destroy()
 
 
 def dolfinx_newton(
@@ -298,7 +322,8 @@ def dolfinx_newton(
         ksp.setFromOptions()
         for k in lu:
             del opts[prefix + k]
-        return DolfinxNewton(lambda: solver.solve(u), [problem, solver])
+        # No reference cycle here: dropping the objects frees them at once (the C++ solver).
+        return DolfinxNewton(lambda: solver.solve(u), [problem, solver], list)
     options = {
         **{k: v for k, v in lu.items()},
         "snes_type": "newtonls", "snes_linesearch_type": "basic",
@@ -308,13 +333,17 @@ def dolfinx_newton(
         F, u, petsc_options_prefix=prefix, bcs=bcs, J=J, petsc_options=options
     )
     snes = problem.solver
+    # The callbacks hold the forms, not ``problem``: a reference cycle problem -> SNES ->
+    # callback -> problem would leave ``problem`` to the cyclic garbage collector, whose
+    # ``__del__`` (a collective destroy) then runs at a different moment on each rank.
+    F_form, J_form = problem.F, problem.J
 
     def residual(snes_: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
-        dolfinx.fem.petsc.assemble_residual(snes_, x, b, u, problem.F, problem.J, bcs)
+        dolfinx.fem.petsc.assemble_residual(snes_, x, b, u, F_form, J_form, bcs)
         add_residual(x, b)
 
     def jacobian(snes_: PETSc.SNES, x: PETSc.Vec, mat: PETSc.Mat, P: PETSc.Mat) -> None:
-        dolfinx.fem.petsc.assemble_jacobian(snes_, x, mat, P, u, problem.J, None, bcs)
+        dolfinx.fem.petsc.assemble_jacobian(snes_, x, mat, P, u, J_form, None, bcs)
         add_jacobian(x, mat)
         mat.assemble()
 
@@ -325,7 +354,9 @@ def dolfinx_newton(
         problem.solve()
         return snes.getIterationNumber(), bool(snes.getConvergedReason() > 0)
 
-    return DolfinxNewton(solve, [problem, snes])
+    return DolfinxNewton(
+        solve, [problem], lambda: [problem.solver, problem.A, problem.P_mat, problem.b, problem.x]
+    )
 
 
 def _snes_diverged_nan() -> int:
