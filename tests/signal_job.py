@@ -8,12 +8,14 @@ last converged step it reports, the time and step of the checkpoint read back (o
 and the last time of ``history.csv``. Between runs a stop signal changes nothing. After the last
 run the job waits for a line on its standard input (rank 0; the test writes it once it has sent
 its last signal): a signal the test sent just before the job's last ``RESULT`` would otherwise
-reach ``mpirun`` while it tears the job down, when its default action ends it (exit 138).
+reach ``mpirun`` while it tears the job down, when its default action ends it (exit 138). A run
+still going after 120 s (they take seconds) is a hang: each rank prints its stacks and exits.
 """
 
 from __future__ import annotations
 
 import csv
+import faulthandler
 import json
 import logging
 import signal
@@ -56,6 +58,9 @@ def main(out: Path, runs: int) -> None:
         outdir = out / f"run{k}"
         started.run, started.said = k, False
         result = {"run": k}
+        # A run takes seconds: one still going after 120 s is a hang; every rank then prints
+        # its threads' stacks (to the test's output) and exits, which ends the job.
+        faulthandler.dump_traceback_later(120, exit=True)
         try:
             run_scene(scene, outdir=outdir, comm=comm)
             result["outcome"] = "completed"
@@ -77,6 +82,7 @@ def main(out: Path, runs: int) -> None:
             result["history_t"] = float(rows[-1][rows[0].index("t")])
             print("RESULT " + json.dumps(result), flush=True)
         comm.Barrier()
+        faulthandler.cancel_dump_traceback_later()
     if comm.rank == 0:
         sys.stdin.readline()  # the test has sent its last signal
     comm.Barrier()

@@ -160,7 +160,10 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
     try:
         sent = None
         while len(results) < runs:
-            line = q.get(timeout=300)
+            try:
+                line = q.get(timeout=300)
+            except queue.Empty:
+                pytest.fail("no output from the job for 300 s:\n" + "".join(text))
             if line is None:
                 break
             text.append(line)
