@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..constitutive import FrictionLaw
+from ..driver.text import short_repr
 from .interface_spec import parse_initial_gap, parse_regions
 from .materials import check_materials_fit, parse_material
 from .schema import BUILDER_GDIM, FEScene, SceneError
@@ -34,9 +35,6 @@ def is_classic(scene: FEScene) -> bool:
     )
 
 
-def _short(v: Any) -> str:
-    text = repr(v)
-    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _gdim(scene: FEScene) -> int:
@@ -79,7 +77,9 @@ def check_topology(scene: FEScene) -> None:
     gdim = _gdim(scene)
     if scene.mode is not None:
         if scene.mode not in MODES:
-            raise SceneError(f"scene.mode: must be one of {list(MODES)}, got {_short(scene.mode)}")
+            raise SceneError(
+                f"scene.mode: must be one of {list(MODES)}, got {short_repr(scene.mode)}"
+            )
         want = 3 if scene.mode == "3d" else 2
         if gdim and gdim != want:
             raise SceneError(
@@ -95,7 +95,8 @@ def check_topology(scene: FEScene) -> None:
         gs = [gs] if isinstance(gs, str) else gs
         if not isinstance(gs, list) or not gs or not all(isinstance(g, str) and g for g in gs):
             raise SceneError(
-                f"scene.bodies.{body}: expected a cell group or a list of them, got {_short(gs)}"
+                f"scene.bodies.{body}: expected a cell group or a list of them, got "
+                f"{short_repr(gs)}"
             )
         for g in gs:
             if g in groups:
