@@ -376,8 +376,9 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
             "history.csv", "history.csv-metadata.json", "notes.txt", "previous_run"
         ]  # fmt: skip
         prev = out / "previous_run"
-        assert listing(prev) == ["checkpoint.h5", "fields", "history.csv",
-                                 "history.csv-metadata.json", "interface_history.h5"]  # fmt: skip
+        assert listing(prev) == [".made-by-subfric-dolfinx", "checkpoint.h5", "fields",
+                                 "history.csv", "history.csv-metadata.json",
+                                 "interface_history.h5"]  # fmt: skip
         rows = list(csv.DictReader(open(out / "history.csv")))
         assert len(rows) == len(second.history) and float(rows[-1]["t"]) == 1.5
         old = list(csv.DictReader(open(prev / "history.csv")))
@@ -390,7 +391,9 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
     run_scene(short_scene(interface_history=True), outdir=out, comm=comm)
 
     def check_third():
-        assert listing(out / "previous_run") == ["history.csv", "history.csv-metadata.json"]
+        assert listing(out / "previous_run") == [
+            ".made-by-subfric-dolfinx", "history.csv", "history.csv-metadata.json"
+        ]  # fmt: skip
         assert "history.csv" not in listing(out)
 
     on_root(comm, check_third)
