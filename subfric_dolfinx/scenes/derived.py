@@ -178,6 +178,16 @@ class DerivedOutputs:
             self.writer.write_mesh(self.problem.mesh)
         self.path = directory / ("stress.bp" if self.fmt == "vtx" else "stress.xdmf")
 
+    def field_bytes(self) -> int:
+        """What :meth:`write_fields` writes per step, about (bytes; 0 without stress files)."""
+        if self.writer is None or self.stress is None:
+            return 0
+        n = 0
+        for f in (self.stress.sigma, self.stress.von_mises):
+            im = f.function_space.dofmap.index_map
+            n += im.size_global * f.function_space.dofmap.index_map_bs
+        return 8 * n
+
     def write_fields(self, t: float) -> None:
         """Write the stress of the current state at time ``t`` (collective; with fields only)."""
         if self.writer is None or self.stress is None:

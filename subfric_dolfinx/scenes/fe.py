@@ -171,6 +171,7 @@ def run_fe_scene(
             max_cuts=scene.solver.max_cuts,
             hold_dt=scene.solver.hold_dt,
             max_steps=scene.solver.max_steps,
+            keep_records=False,  # the history holds what a scene reports of each step
         )
         restart_time, restart_history = None, None
         if restart is not None:
