@@ -199,3 +199,27 @@ def test_previous_run_of_the_user_is_not_deleted(place):
             or pytest.fail("not moved")
         ),
     )
+    # a file of the user's among the fields this code moved there (a ParaView state)
+    on_root(comm, lambda: (prev / "fields" / "view.pvsm").write_text(PRECIOUS))
+    with raised_on_every_rank(OutputError, "fields/view.pvsm", "not deleted"):
+        fresh(out)
+    on_root(comm, lambda: (prev / "fields" / "view.pvsm").read_text() == PRECIOUS or 1 / 0)
+
+
+@pytest.mark.parametrize("fields", ["vtx", "xdmf"])
+def test_every_field_file_a_run_writes_is_known_as_its_own(shared_tmp, fields):
+    """``previous_run/fields/`` is replaced only if it holds names this code writes: every file
+    of a run with every field output (displacement, interfaces, their points, stress) is one."""
+    from subfric_dolfinx.io.outdir import FIELD_NAMES
+
+    out = shared_tmp / fields
+    run_scene(scene(fields=fields), outdir=out, comm=MPI.COMM_WORLD)
+
+    def names():
+        found = sorted(os.listdir(out / "fields"))
+        assert {"displacement", "interface", "interface_points", "stress"} <= {
+            n.split(".")[0] for n in found
+        }, found
+        return [n for n in found if not FIELD_NAMES.fullmatch(n)]
+
+    assert on_root(MPI.COMM_WORLD, names) == []

@@ -21,7 +21,8 @@ the first step:
    and the last run's files are kept one generation. ``previous_run/`` is deleted only if this
    code made it (it holds the mark :data:`PREVIOUS_MARK`, written when it was made) and it holds
    nothing but such names, or if it is empty: one the user made (no mark: e.g. a directory
-   of the user's earlier results under that name), one that holds other files (the user's), or
+   of the user's earlier results under that name), one that holds other files (the user's, at
+   its top or in its ``fields/``, e.g. a ParaView state saved beside the fields), or
    a regular file by that name is never deleted, the run is refused naming it (a
    ``previous_run/`` made by a version of this code before the mark is refused too: move it
    or delete it). A restart continues the files it finds (the interface history is cut back to
@@ -37,6 +38,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import shutil
 from pathlib import Path
 from types import TracebackType
@@ -60,6 +62,11 @@ RUN_FILES = (
     "fields",
 )
 """Names this code writes in an output directory (moved aside by a fresh run)."""
+
+FIELD_NAMES = re.compile(
+    r"(displacement|stress|interface(_points)?(_.+)?)\.(bp|xdmf|h5)|units\.json|\..+\.spare"
+)
+"""Names this code writes in ``fields/`` (VTX, XDMF and their HDF5 files; a killed run's spare)."""
 
 
 
@@ -151,6 +158,10 @@ class OutputDirectory:
         elif prev.is_dir():
             names = set(os.listdir(prev))
             foreign = sorted(names - set(RUN_FILES) - {PREVIOUS_MARK})
+            fields = prev / "fields"
+            if fields.is_dir() and not fields.is_symlink():  # a link is removed, not followed
+                inside = os.listdir(fields)
+                foreign += sorted(f"fields/{n}" for n in inside if not FIELD_NAMES.fullmatch(n))
             if foreign:
                 raise Failure(
                     f"{str(prev)!r} holds files this code did not write ({', '.join(foreign[:3])}"
