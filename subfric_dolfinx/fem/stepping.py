@@ -295,13 +295,9 @@ class LoadStepper:
         self.keep_records = keep_records
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
-        # penetration and slide of the small-sliding interfaces, warned at the end: a watch per
-        # interface, the first's here (None if every interface slides finitely: re-paired)
-        self.watches = {
-            n: ValidityWatch(self.problem, n)
-            for n, iface in self.problem.interfaces.items()
-            if hasattr(iface, "elements")
-        }
+        # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
+        # per interface, the first's here
+        self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
         self.validity = next(iter(self.watches.values()), None)
 
     def _undo(self) -> None:

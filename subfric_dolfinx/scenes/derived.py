@@ -80,7 +80,7 @@ class DerivedOutputs:
                 )
             self._iface_of[p.point] = iname
         for iname in dict.fromkeys(self._iface_of.values()):
-            self.iprobes[iname] = InterfacePointProbe(ifaces[iname].elements, x)
+            self.iprobes[iname] = InterfacePointProbe(ifaces[iname].law_points, x)
         self.frames = [
             (f.name or f.group, f.group, np.asarray(frame_axes(f.normal, f.tangent, f.group)))
             for f in out.reaction_frames
@@ -125,7 +125,7 @@ class DerivedOutputs:
         per_iface: dict[str, dict[str, np.ndarray]] = {}
         for iname, iprobe in self.iprobes.items():
             iface = p.interfaces[iname]
-            el = iface.elements
+            el = iface.law_points
             nt = el.nt
             n = el.n_elements * el.nq
             tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))

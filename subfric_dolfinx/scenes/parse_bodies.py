@@ -14,7 +14,7 @@ from ..constitutive import FrictionLaw
 from ..driver.text import short_repr
 from .interface_spec import parse_initial_gap, parse_regions
 from .materials import check_materials_fit, parse_material
-from .schema import BUILDER_GDIM, FEScene, SceneError
+from .schema import BUILDER_GDIM, KINEMATICS, FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
 
@@ -66,6 +66,42 @@ def interface_laws(scene: FEScene, parse_law: Any) -> list[FrictionLaw]:
     if not laws:
         raise SceneError("scene: missing key 'law'")
     return laws
+
+
+def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
+    """The interface's kind and the settings only finite sliding has.
+
+    Raises:
+        SceneError: An unknown kind, a setting that is not a positive number, a finite-sliding
+            setting on a small-sliding interface (it would be ignored), or what finite sliding
+            does not have (regions, the axisymmetric mode), each naming its key path.
+    """
+    if spec.kinematics is not None and spec.kinematics not in KINEMATICS:
+        raise SceneError(
+            f"{path}.kinematics: must be one of {list(KINEMATICS)}, got {_short(spec.kinematics)}"
+        )
+    finite = spec.kinematics == "finite_sliding"
+    for key in ("search_radius", "reach"):
+        value = getattr(spec, key)
+        if value is None:
+            continue
+        if not finite:
+            raise SceneError(
+                f"{path}.{key}: a finite-sliding setting, but the interface slides small (give "
+                f"{path}.kinematics = 'finite_sliding')"
+            )
+        if not value > 0:
+            raise SceneError(f"{path}.{key}: must be > 0 (mm), got {_short(value)}")
+    if not finite:
+        return
+    if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
+        where = f"{path}.regions" if spec.regions else "scene.regions"
+        raise SceneError(f"{where}: interface regions are not available with finite sliding")
+    if scene.mode == "axisymmetric":
+        raise SceneError(
+            f"{path}.kinematics: finite sliding is not available in axisymmetric mode (use "
+            "'small_sliding')"
+        )
 
 
 def check_topology(scene: FEScene) -> None:
@@ -126,6 +162,7 @@ def check_topology(scene: FEScene) -> None:
             )
         parse_initial_gap(spec.initial_gap, f"{path}.initial_gap")
         parse_regions(spec.regions, f"{path}.regions")
+        _check_kinematics(scene, name, spec, path)
     if len(scene.interfaces) > 1 and (scene.initial_gap is not None or scene.regions):
         raise SceneError(
             "scene.initial_gap/regions: the scene has several interfaces; give them per interface "

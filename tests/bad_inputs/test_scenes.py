@@ -161,6 +161,60 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
             lambda s: s["materials"]["master"].update(nu=0.6),
             r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
         ),
+        # issue 22: an interface's kind and the settings of finite sliding
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": "large_sliding"}}),
+            r"scene.interfaces.interface.kinematics: must be one of \['small_sliding', "
+            r"'finite_sliding'\], got 'large_sliding'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": 1}}),
+            r"scene.interfaces.interface.kinematics: expected str or null, got 1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": -0.1}}
+            ),
+            r"scene.interfaces.interface.reach: must be > 0 \(mm\), got -0.1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "search_radius": 0}}
+            ),
+            r"scene.interfaces.interface.search_radius: must be > 0 \(mm\), got 0",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": "far"}}
+            ),
+            r"scene.interfaces.interface.reach: expected float or null, got 'far'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"reach": 0.5}}),
+            r"scene.interfaces.interface.reach: a finite-sliding setting, but the interface "
+            r"slides small",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "small_sliding", "search_radius": 0.5}}
+            ),
+            r"scene.interfaces.interface.search_radius: a finite-sliding setting",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding",
+                                          "regions": {"left": s["law"]}}}
+            ),
+            r"scene.interfaces.interface.regions: interface regions are not available with "
+            r"finite sliding",
+        ),
+        (
+            lambda s: s.update(
+                mode="axisymmetric", interfaces={"interface": {"kinematics": "finite_sliding"}}
+            ),
+            r"scene.interfaces.interface.kinematics: finite sliding is not available in "
+            r"axisymmetric mode",
+        ),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
