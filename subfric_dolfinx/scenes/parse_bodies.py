@@ -78,7 +78,8 @@ def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
     """
     if spec.kinematics is not None and spec.kinematics not in KINEMATICS:
         raise SceneError(
-            f"{path}.kinematics: must be one of {list(KINEMATICS)}, got {_short(spec.kinematics)}"
+            f"{path}.kinematics: must be one of {list(KINEMATICS)}, got "
+            f"{short_repr(spec.kinematics)}"
         )
     finite = spec.kinematics == "finite_sliding"
     for key in ("search_radius", "reach"):
@@ -91,7 +92,7 @@ def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
                 f"{path}.kinematics = 'finite_sliding')"
             )
         if not value > 0:
-            raise SceneError(f"{path}.{key}: must be > 0 (mm), got {_short(value)}")
+            raise SceneError(f"{path}.{key}: must be > 0 (mm), got {short_repr(value)}")
     if not finite:
         return
     if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
