@@ -39,6 +39,7 @@ the block's centre.
 import argparse
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from mpi4py import MPI
@@ -197,20 +198,39 @@ def compression_centre(row: dict, names: list[str], xs: np.ndarray) -> float:
     return float(s @ xs / s.sum()) if s.sum() > 0 else float("nan")
 
 
-def report(result, slide: float) -> dict:
-    """Friction at the end and the base's compression following the block (rank 0)."""
-    h = result.history
+class Track(NamedTuple):
+    """What the report and the figure read off a run.
+
+    The base's probes (names, x), the history's times, the block top's slide and the material
+    point's ``f_t`` (MPa) on the same slide.
+    """
+
+    names: list[str]
+    xs: np.ndarray
+    t: np.ndarray
+    moved: np.ndarray
+    point: np.ndarray
+
+
+def track(result, slide: float) -> Track:
+    """The run's :class:`Track` (the material point integrated once)."""
     pts = probes(slide)
     names = list(pts)
-    xs = np.array([pts[p]["x"][0] for p in names])
-    t = np.array([r["t"] for r in h])
+    t = np.array([r["t"] for r in result.history])
     moved = np.interp(t, [0.0, 1.0, 1.0 + slide], [0.0, 0.0, slide])
+    xs = np.array([pts[p]["x"][0] for p in names])
+    return Track(names, xs, t, moved, material_point(t, moved))
+
+
+def report(result, slide: float, tr: Track) -> dict:
+    """Friction at the end and the base's compression following the block (rank 0)."""
+    h = result.history
+    names, xs, t, moved, point = tr
     centre = MARGIN + 0.5 * BLOCK + moved
     found = np.array([compression_centre(r, names, xs) for r in h])
     sliding = t >= 1.0 + 0.2 * slide  # after the first fifth of the slide
     offset = found[sliding] - centre[sliding]
     mean_tr = np.array([r["F_t1"] / r["area"] for r in h])
-    point = material_point(t, moved)
     out = {
         "slide": slide,
         "steps": len(h),
@@ -236,7 +256,7 @@ def report(result, slide: float) -> dict:
     return out
 
 
-def figure(result, slide: float, outdir: Path) -> Path:
+def figure(result, slide: float, tr: Track, outdir: Path) -> Path:
     """Mean traction against the slide; the base's sigma_yy along its length at five instants."""
     import matplotlib
 
@@ -244,14 +264,10 @@ def figure(result, slide: float, outdir: Path) -> Path:
     import matplotlib.pyplot as plt
 
     h = result.history
-    pts = probes(slide)
-    names = list(pts)
-    xs = np.array([pts[p]["x"][0] for p in names])
-    t = np.array([r["t"] for r in h])
-    moved = np.interp(t, [0.0, 1.0, 1.0 + slide], [0.0, 0.0, slide])
+    names, xs, t, moved, point = tr
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
     ax[0].plot(moved, [r["F_t1"] / r["area"] for r in h], label="block (finite sliding)")
-    ax[0].plot(moved, material_point(t, moved), "--", label="material point, same slide")
+    ax[0].plot(moved, point, "--", label="material point, same slide")
     ax[0].legend(fontsize=8)
     ax[0].set_xlabel("slide of the block's top (mm)")
     ax[0].set_ylabel("mean tangential traction $F_t / A$ (MPa)")
@@ -290,9 +306,10 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     result = run_scene(scene(mesh, args.n, args.slide), outdir=outdir, comm=comm)
     out = {"result": result}
     if comm.rank == 0:
-        out["report"] = report(result, args.slide)
+        tr = track(result, args.slide)
+        out["report"] = report(result, args.slide, tr)
         if not args.no_figures:
-            print(f"wrote {figure(result, args.slide, outdir)}")
+            print(f"wrote {figure(result, args.slide, tr, outdir)}")
     return out
 
 
