@@ -23,17 +23,34 @@ testing the version itself. Each difference was read in the installed sources of
 - Interpolation points of a space's element: ``element.interpolation_points()`` (0.9); a
   property, ``element.interpolation_points`` (0.11).
 - ``geometry.bb_tree``: ``entities`` is the third positional argument (0.9), keyword-only (0.11).
+- SNES's reason for a NaN or infinite residual: ``DIVERGED_FNORM_NAN`` (petsc4py 3.22),
+  ``DIVERGED_FUNCTION_NANORINF`` (3.25; the value, -4, is the same): :data:`SNES_DIVERGED_NAN`.
+- ``Expression.eval`` on cells: an array ``(cells, points * value_size)`` (0.9);
+  ``(cells, points, *value_shape)`` (0.11). The memory order is the same.
+- ``mesh.create_mesh``: ``(comm, cells, x, element)`` (0.9); ``(comm, cells, element, x)`` (0.11).
+- The graph partitioner: both stacks' DOLFINx call PT-Scotch with a fixed seed, but sid's Scotch
+  (7.0.16) partitions with threads and gives a different partition from call to call (a 2-rank
+  block mesh: 162 or 164 owned dofs on rank 0, 152 once; trixie's 7.0.7 always 162). One thread
+  (``SCOTCH_PTHREAD_NUMBER=1``, read at each call) makes it repeatable: the mesh functions below
+  set it around their call unless the user has set it (:func:`repeatable_partitions`).
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
+- DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
+  (0.9: the problem's ``F(x, b)`` and ``J(x, A)`` are methods, the solver a C++ Newton loop);
+  ``fem.petsc.NonlinearProblem`` is a PETSc SNES with ``assemble_residual`` and
+  ``assemble_jacobian`` callbacks (0.11; the Newton-solver pair is deprecated there).
+  :func:`dolfinx_newton` hides it.
 
-Everything else the package uses (forms, assembly into a given matrix, ``Expression``,
+Everything else the package uses (forms, assembly into a given matrix, ``Expression`` objects,
 ``Function.eval``, VTX/XDMF writers, geometry searches, ``SparsityPattern``) has the same
 signature in both versions.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import os
+from collections.abc import Callable, Iterator
 
 import dolfinx
 import dolfinx.common
@@ -48,16 +65,22 @@ from petsc4py import PETSc
 
 __all__ = [
     "DOLFINX_VERSION",
+    "SNES_DIVERGED_NAN",
     "SUPPORTED",
     "adjacency_list",
     "coordinate_element",
+    "create_mesh",
     "create_submesh",
     "default_partitioner",
+    "dolfinx_newton",
+    "eval_expression",
     "geometry_dofmap",
     "ghosted_index_map",
     "interpolation_points",
     "model_to_mesh",
     "petsc_vector",
+    "read_from_msh",
+    "repeatable_partitions",
 ]
 
 
@@ -83,6 +106,29 @@ else:  # pragma: no cover - the other stack's branch
     _la_petsc = None
 
 
+_SCOTCH_THREADS = "SCOTCH_PTHREAD_NUMBER"
+
+
+@contextlib.contextmanager
+def repeatable_partitions() -> Iterator[None]:
+    """Within the block, PT-Scotch partitions a graph the same way at every call.
+
+    A threaded Scotch (Debian sid's) gives a different partition of the same mesh from one call to
+    the next, so that two runs of a script, or two problems built in one process, number and place
+    their dofs differently; one thread makes it repeatable, at no measurable cost (a 228k-cell
+    block mesh on 2 ranks: 9.4-9.5 s to build either way). The variable is set only
+    if the user has not set it, and restored afterwards.
+    """
+    if _SCOTCH_THREADS in os.environ:
+        yield
+        return
+    os.environ[_SCOTCH_THREADS] = "1"
+    try:
+        yield
+    finally:
+        os.environ.pop(_SCOTCH_THREADS, None)
+
+
 def model_to_mesh(
     model,
     comm: MPI.Comm,
@@ -95,7 +141,22 @@ def model_to_mesh(
     ``dolfinx.io.gmshio.model_to_mesh`` (0.9) or ``dolfinx.io.gmsh.model_to_mesh`` (0.11, whose
     ``MeshData`` also holds ridge and peak tags, not used here).
     """
-    out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    with repeatable_partitions():
+        out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    if _NEW:
+        return out.mesh, out.cell_tags, out.facet_tags
+    return out
+
+
+def read_from_msh(
+    path, comm: MPI.Comm, gdim: int, rank: int = 0
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """DOLFINx's own reader of an MSH file: the mesh and its cell and facet tags.
+
+    ``io.gmshio.read_from_msh`` (0.9) or ``io.gmsh.read_from_msh`` (0.11, a ``MeshData``).
+    """
+    with repeatable_partitions():
+        out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
     if _NEW:
         return out.mesh, out.cell_tags, out.facet_tags
     return out
@@ -136,6 +197,23 @@ def create_submesh(
     return sub, np.asarray(emap, dtype=np.int32)
 
 
+def create_mesh(
+    comm: MPI.Comm,
+    cells: np.ndarray,
+    x: np.ndarray,
+    element,
+    partitioner: Callable | None = None,
+) -> dolfinx.mesh.Mesh:
+    """A distributed mesh from cells (global node numbers) and node coordinates.
+
+    ``dolfinx.mesh.create_mesh``, whose coordinates and element swapped places in 0.11.
+    """
+    with repeatable_partitions():
+        if _NEW:
+            return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
+        return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
+
+
 def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):
     """An adjacency list as DOLFINx's C++ layer takes it (e.g. from a cell partitioner)."""
     adj = (
@@ -170,3 +248,172 @@ def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """The reference interpolation points of ``V``'s element (for a ``dolfinx.fem.Expression``)."""
     pts = V.element.interpolation_points
     return pts if _NEW else pts()
+
+
+class DolfinxNewton:
+    """DOLFINx's own Newton solver on ``F(u; v) = 0``, with extra terms in residual and Jacobian.
+
+    Made by :func:`dolfinx_newton`; :meth:`solve` solves for ``u`` from its current value.
+    :meth:`destroy` (collective) frees its PETSc objects at the same point on every rank; it is
+    also a context manager that does so on leaving. Left to the garbage collector, DOLFINx 0.11's
+    ``NonlinearProblem.__del__`` destroys its SNES (a collective call) whenever each rank's
+    collector happens to run, which can hang a parallel run.
+    """
+
+    def __init__(
+        self, solve: Callable[[], tuple[int, bool]], objects: list, petsc: Callable[[], list]
+    ) -> None:
+        self._solve = solve
+        self._objects = objects  # kept alive with the solver
+        self._petsc = petsc  # the PETSc objects destroy() frees
+
+    def solve(self) -> tuple[int, bool]:
+        """Newton from the current ``u``: (iterations, converged); ``u`` holds the result."""
+        if self._solve is None:
+            raise RuntimeError("the solver was destroyed")
+        return self._solve()
+
+    def destroy(self) -> None:
+        """Free the solver's PETSc objects (collective: call it on every rank; idempotent)."""
+        if self._solve is None:
+            return
+        for obj in self._petsc():
+            if obj is not None:
+                obj.destroy()
+        self._solve, self._objects, self._petsc = None, [], list
+
+    def __enter__(self) -> DolfinxNewton:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.destroy()
+
+
+def dolfinx_newton(
+    F,
+    u: dolfinx.fem.Function,
+    bcs: list,
+    J,
+    A: PETSc.Mat,
+    *,
+    add_residual: Callable[[PETSc.Vec, PETSc.Vec], None],
+    add_jacobian: Callable[[PETSc.Vec, PETSc.Mat], None],
+    prefix: str,
+    rtol: float = 1e-12,
+    atol: float = 1e-10,
+    max_it: int = 30,
+) -> DolfinxNewton:
+    """DOLFINx's nonlinear machinery with extra residual and Jacobian contributions.
+
+    0.9: ``fem.petsc.NonlinearProblem`` (its ``F`` and ``J`` extended) and
+    ``nls.petsc.NewtonSolver`` (the residual criterion, ``error_on_nonconvergence`` off); 0.11:
+    the SNES-based ``fem.petsc.NonlinearProblem`` whose residual and Jacobian callbacks call
+    DOLFINx's ``assemble_residual``/``assemble_jacobian`` and then the extras (Newton with a full
+    step, the same tolerances). Both: LU (MUMPS), the Jacobian assembled into ``A`` (a matrix
+    that holds the extra couplings, e.g. :func:`~subfric_dolfinx.fem.create_matrix`).
+
+    Args:
+        F: The residual form ``F(u; v)``.
+        u: The unknown.
+        bcs: DOLFINx Dirichlet conditions.
+        J: The Jacobian form.
+        A: The matrix to assemble the Jacobian into.
+        add_residual: ``(x, b)``: add to the residual ``b`` at ``x`` (after DOLFINx's assembly
+            with lifting and the boundary values).
+        add_jacobian: ``(x, A)``: add to the Jacobian (``ADD_VALUES``; ``A`` is assembled after).
+        prefix: PETSc options prefix of the solver.
+        rtol: Relative residual tolerance.
+        atol: Absolute residual tolerance.
+        max_it: Iteration limit.
+    """
+    import dolfinx.fem.petsc
+
+    lu = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+    if not _NEW:  # pragma: no cover - the other stack's branch
+        import dolfinx.nls.petsc
+
+        class _Problem(dolfinx.fem.petsc.NonlinearProblem):
+            def F(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+                super().F(x, b)
+                add_residual(x, b)
+
+            def J(self, x: PETSc.Vec, mat: PETSc.Mat) -> None:
+                super().J(x, mat)
+                add_jacobian(x, mat)
+                mat.assemble()
+
+        problem = _Problem(F, u, bcs, J)
+        solver = dolfinx.nls.petsc.NewtonSolver(u.function_space.mesh.comm, problem)
+        solver.setJ(problem.J, A)
+        solver.convergence_criterion = "residual"
+        solver.rtol, solver.atol, solver.max_it = rtol, atol, max_it
+        solver.error_on_nonconvergence = False
+        ksp = solver.krylov_solver
+        ksp.setOptionsPrefix(prefix)
+        opts = PETSc.Options()
+        for k, v in lu.items():
+            opts[prefix + k] = v
+        ksp.setFromOptions()
+        for k in lu:
+            del opts[prefix + k]
+        # No reference cycle here: dropping the objects frees them at once (the C++ solver).
+        return DolfinxNewton(lambda: solver.solve(u), [problem, solver], list)
+    options = {
+        **{k: v for k, v in lu.items()},
+        "snes_type": "newtonls", "snes_linesearch_type": "basic",
+        "snes_rtol": rtol, "snes_atol": atol, "snes_stol": 0.0, "snes_max_it": max_it,
+    }  # fmt: skip
+    problem = dolfinx.fem.petsc.NonlinearProblem(
+        F, u, petsc_options_prefix=prefix, bcs=bcs, J=J, petsc_options=options
+    )
+    snes = problem.solver
+    # The callbacks hold the forms, not ``problem``: a reference cycle problem -> SNES ->
+    # callback -> problem would leave ``problem`` to the cyclic garbage collector, whose
+    # ``__del__`` (a collective destroy) then runs at a different moment on each rank.
+    F_form, J_form = problem.F, problem.J
+
+    def residual(snes_: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        dolfinx.fem.petsc.assemble_residual(snes_, x, b, u, F_form, J_form, bcs)
+        add_residual(x, b)
+
+    def jacobian(snes_: PETSc.SNES, x: PETSc.Vec, mat: PETSc.Mat, P: PETSc.Mat) -> None:
+        dolfinx.fem.petsc.assemble_jacobian(snes_, x, mat, P, u, J_form, None, bcs)
+        add_jacobian(x, mat)
+        mat.assemble()
+
+    snes.setFunction(residual, problem.b)
+    snes.setJacobian(jacobian, A, A)
+
+    def solve() -> tuple[int, bool]:
+        problem.solve()
+        return snes.getIterationNumber(), bool(snes.getConvergedReason() > 0)
+
+    return DolfinxNewton(
+        solve, [problem], lambda: [problem.solver, problem.A, problem.P_mat, problem.b, problem.x]
+    )
+
+
+def _snes_diverged_nan() -> int:
+    reasons = PETSc.SNES.ConvergedReason
+    for name in ("DIVERGED_FUNCTION_NANORINF", "DIVERGED_FNORM_NAN"):
+        if hasattr(reasons, name):
+            return int(getattr(reasons, name))
+    raise ImportError("petsc4py names no SNES reason for a NaN residual")  # pragma: no cover
+
+
+SNES_DIVERGED_NAN: int = _snes_diverged_nan()
+"""SNES's converged reason for a NaN or infinite residual (named differently by version)."""
+
+
+def eval_expression(
+    expr: dolfinx.fem.Expression, mesh: dolfinx.mesh.Mesh, cells: np.ndarray, value_size: int
+) -> np.ndarray:
+    """Values of a (coefficient-only) ``Expression`` at its points in ``cells``.
+
+    Returns:
+        An array ``(cells, points, value_size)``: the ``eval`` array of 0.9
+        ``(cells, points * value_size)`` or 0.11 ``(cells, points, *value_shape)``, reshaped.
+    """
+    cells = np.ascontiguousarray(cells, dtype=np.int32)
+    values = expr.eval(mesh, cells)
+    return np.reshape(values, (cells.size, expr.X().shape[0], value_size))

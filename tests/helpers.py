@@ -241,6 +241,33 @@ PROGRAM = LoadingProgram(
 )
 
 
+def column(mode: str, comm):
+    """Two bodies of one size on top of each other, the interface across the whole width, held
+    against rigid motions only (``bottom`` fixed normally, a pinned and a rolling node): the
+    uniaxial column of tests/test_bulk.py and tests/test_j2_problem.py. Returns (domain, bcs)."""
+    from subfric_dolfinx import meshing
+    from subfric_dolfinx.fem import Dirichlet
+
+    if mode == "3d":
+        dom, _ = meshing.create_interface_mesh(
+            meshing.build_pad_on_plate, comm, plate_size=(1.0, 1.0, 0.5),
+            pad_size=(1.0, 1.0, 0.5), n_interface=2, cell_type="tetrahedron",
+        )  # fmt: skip
+        dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "master")
+        dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "master")
+        bcs = [
+            Dirichlet("bottom", 0.0, component=2),
+            Dirichlet("pin", [0.0, 0.0, 0.0]),
+            Dirichlet("roll", 0.0, component=1),
+        ]
+        return dom, bcs
+    dom, _ = meshing.create_interface_mesh(
+        meshing.build_block_on_base, comm, base_width=1.0, block_width=1.0, n_interface=4
+    )
+    dom.add_node_group("pin", [[0.0, 0.0]], "master")
+    return dom, [Dirichlet("bottom", 0.0, component=1), Dirichlet("pin", 0.0, component=0)]
+
+
 def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program=None, lift=None):
     """A narrower block on a base (8 interface elements), pressed then slid: a non-uniform
     interface state.

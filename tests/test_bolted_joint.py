@@ -25,7 +25,7 @@ from tests.helpers import everywhere, on_root
 N = 6
 ARGV = ["--n", str(N), "--amplitude", "1", "--cycles", "2", "--steps", "8", "--no-figures"]
 COMPARED = [
-    "t", "F_t1", "F_t2", "F_n", "f_t", "up_norm", "up_t1", "up_t2", "mu", "r", "f_n",
+    "t", "F_t1", "F_t2", "F_n", "f_t_norm", "up_norm", "up_t1", "up_t2", "mu", "r", "f_n",
     "plastic", "separated", "R_master_xmin_x", "R_master_xmin_y", "R_master_xmin_z",
     "R_slave_xmax_x", "R_slave_xmax_y", "R_slave_xmax_z",
 ]  # fmt: skip

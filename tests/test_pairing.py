@@ -106,7 +106,7 @@ def interface_on_rank_0(x_cut):
         conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
         owner = np.zeros(conn.shape[0], dtype=np.int32)
         if conn.shape[0] and nparts > 1:
-            _, x, _ = _gmsh_node_data(dolfinx.mesh.cell_dim(cell_types[0]))
+            _, x, _ = _gmsh_node_data(dolfinx.mesh.cell_dim(cell_types[0]), {}, [])
             owner[x[conn, 0].mean(axis=1) >= x_cut] = nparts - 1
         return adjacency_list(owner.reshape(-1, 1))
 

@@ -26,7 +26,7 @@ from ..driver.cli import (
 )
 from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
-from .fit import STEPS_PER_MM, FitResult, fit, simulate
+from .fit import MAX_STEPS, STEPS_PER_MM, FitResult, fit, simulate
 
 __all__ = ["main", "plot_fit"]
 
@@ -90,6 +90,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help=f"step density of the driver (default {STEPS_PER_MM:g})")  # fmt: skip
     ap.add_argument("--max-evaluations", type=int, default=200,
                     help="limit of the solver's residual evaluations (default 200)")  # fmt: skip
+    ap.add_argument("--max-steps", type=float, default=MAX_STEPS,
+                    help=f"limit of the driver steps of the whole fit, checked before it "
+                    f"(default {MAX_STEPS:g})")  # fmt: skip
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
     try:
         args = ap.parse_args(argv)
@@ -112,7 +115,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if plot is not None and plot.suffix.lower() != ".png":
             raise CalibrationError(f"--plot {args.plot!r} must name a .png file")
         log = None if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
-        result = fit(data, steps_per_mm=spm, max_evaluations=args.max_evaluations, log=log)
+        result = fit(
+            data, steps_per_mm=spm, max_evaluations=args.max_evaluations, log=log,
+            max_steps=args.max_steps,
+        )  # fmt: skip
     except CalibrationError as e:
         return _error(str(e))
     except (RecursionError, MemoryError, OverflowError, TypeError, ValueError) as e:

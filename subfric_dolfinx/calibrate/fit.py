@@ -32,11 +32,25 @@ from scipy.optimize import least_squares
 
 from ..constitutive import SubloadingLaw
 from ..driver import Case, CaseError, run_cases
+from ..driver.path import plan_steps
 from .data import NAMES, CalibrationData, CalibrationError, Curve
 
-__all__ = ["IDENT_TOL", "STEPS_PER_MM", "FitResult", "fit", "simulate", "synthetic_curves"]
+__all__ = [
+    "IDENT_TOL",
+    "MAX_STEPS",
+    "STEPS_PER_MM",
+    "FitResult",
+    "fit",
+    "simulate",
+    "synthetic_curves",
+]
 
 STEPS_PER_MM = 50.0  # the driver's step density (monotonic slides: 1e-6 of the peak at 50)
+MAX_STEPS = 1e9
+"""Default limit of the driver steps of a whole fit (``fit``'s ``max_steps``, the command
+line's ``--max-steps``), counted before it starts: the steps of one model run (every curve,
+with the fitted parameters' difference columns) times the runs ``max_evaluations`` allows.
+The batched driver makes a few million point-steps a second: 1e9 is minutes."""
 IDENT_TOL = 1e-5  # smallest singular value of the column-scaled Jacobian still identifiable
 _H = 1e-6  # forward-difference step in log p
 
@@ -262,12 +276,52 @@ def check_jacobian(J: np.ndarray, names: Sequence[str], where: str, scale: float
     return smin
 
 
+def check_steps(
+    data: CalibrationData, steps_per_mm: float, max_evaluations: int, max_steps: float
+) -> int:
+    """The driver steps a fit may take; refused beyond ``max_steps`` (before any run).
+
+    Returns:
+        The bound: steps of one model run (each curve's steps, ``1 + fitted`` cases each for a
+        Jacobian) times ``max_evaluations + 2`` runs.
+
+    Raises:
+        CalibrationError: Naming the longest curve, the bound and the limit.
+    """
+    if not (max_steps >= 1):
+        raise CalibrationError(f"max_steps must be >= 1, got {max_steps!r}")
+    law = _law(data.params)
+    per_curve = []
+    for i, case in enumerate(_cases(law, data.curves, steps_per_mm)):
+        try:
+            per_curve.append(plan_steps(case, steps_per_mm).total)
+        except CaseError as e:
+            c = data.curves[i]
+            raise CalibrationError(
+                f"curves[{i}] (slip to {c.slip[-1]:g} mm) needs too many driver steps: {e}"
+            ) from None
+    per_run = sum(per_curve) * (1 + len(data.fit))
+    bound = per_run * (max_evaluations + 2)
+    if bound > max_steps:
+        i = int(np.argmax(per_curve))
+        c = data.curves[i]
+        raise CalibrationError(
+            f"the fit may take {bound:.3g} driver steps ({per_run:.3g} per model run, "
+            f"{max_evaluations} evaluations), more than max_steps = {max_steps:g}: the longest "
+            f"curve (curves[{i}], slip to {c.slip[-1]:g} mm) needs {per_curve[i]:.3g} steps at "
+            f"steps_per_mm = {steps_per_mm:g}; lower steps_per_mm or max_evaluations, or raise "
+            "max_steps"
+        )
+    return bound
+
+
 def fit(
     data: CalibrationData,
     *,
     steps_per_mm: float = STEPS_PER_MM,
     max_evaluations: int = 200,
     log: Callable[[str], None] | None = None,
+    max_steps: float = MAX_STEPS,
 ) -> FitResult:
     """Fit ``data.fit`` to the curves by least squares.
 
@@ -276,16 +330,19 @@ def fit(
         steps_per_mm: Step density of the driver.
         max_evaluations: Limit of residual evaluations of the solver.
         log: Called with a line per Jacobian (progress), if given.
+        max_steps: Limit of the driver steps of the whole fit (:data:`MAX_STEPS`), checked
+            before the first run.
 
     Returns:
         Parameters, standard errors, correlations, rms, convergence.
 
     Raises:
         CalibrationError: Parameters the data cannot identify (before the fit, or at the
-            optimum), or a model run refused.
+            optimum), more steps than ``max_steps``, or a model run refused.
     """
     if not (math.isfinite(steps_per_mm) and steps_per_mm > 0):
         raise CalibrationError(f"steps_per_mm must be finite and > 0, got {steps_per_mm!r}")
+    check_steps(data, steps_per_mm, max_evaluations, max_steps)
     t0 = time.perf_counter()
     check_rules(data)
     model = _Model(data, steps_per_mm)

@@ -1,4 +1,4 @@
-"""Constitutive core: friction laws on interface points (imports numpy only).
+"""Constitutive core: friction laws on interface points, the bulk J2 law (imports numpy only).
 
 * :class:`FrictionLaw` (protocol) and :class:`LawBase`: what a law declares (its internal
   :class:`Variable` s) and provides (``return_map``, ``strength``, ``initial_state``,
@@ -11,11 +11,15 @@
 * :class:`ReturnMapResult` / :class:`Status`: traction, consistent tangent and per-point status.
 * :data:`PRESETS` / :func:`preset`: the paper's parameter sets.
 * :mod:`.tolerances`: the contact band and the loading margin of the return maps.
+* :class:`J2Material` (J2 plasticity with linear isotropic and kinematic hardening, its batched
+  return map :func:`j2_return_map` and :class:`J2State`) and :class:`LinearElastic`: bulk laws
+  of the bodies at their quadrature points (:mod:`.j2`).
 
 May import: numpy and the standard library only.
 """
 
 from .coulomb import CoulombLaw, coulomb_return_map
+from .j2 import J2Material, J2Result, J2State, LinearElastic, j2_return_map
 from .laws import LAWS, build_law, law_description, register_law
 from .presets import PRESETS, Preset, normalised_to_absolute, preset
 from .protocol import LOCAL, SCALAR, TANGENTIAL, FrictionLaw, LawBase, LawError, Variable
@@ -37,8 +41,12 @@ __all__ = [
     "CoulombLaw",
     "FrictionLaw",
     "InterfaceState",
+    "J2Material",
+    "J2Result",
+    "J2State",
     "LawBase",
     "LawError",
+    "LinearElastic",
     "Preset",
     "RegionalLaw",
     "ReturnMapResult",
@@ -48,6 +56,7 @@ __all__ = [
     "Variable",
     "build_law",
     "coulomb_return_map",
+    "j2_return_map",
     "law_description",
     "normalised_to_absolute",
     "preset",

@@ -1,9 +1,15 @@
-"""The finite-element layer: two elastic bodies joined by frictional interface elements (DOLFINx).
+"""The finite-element layer: bodies joined by frictional interface elements (DOLFINx).
 
 * :mod:`.interface`: pairing of the interface sides across ranks, interface elements (quadrature,
-  frames, Quadrature-space state, kernels), the parallel layout with cross-interface couplings.
-* :mod:`.conditions`: materials, prescribed displacements, loads and springs (plain data);
-  :mod:`.boundary`: the groups they act on, Dirichlet dofs, load vectors, spring forms.
+  frames, Quadrature-space state, kernels), the parallel layout with cross-interface couplings,
+  and :class:`FrictionInterface`, one interface as a building block of any DOLFINx problem.
+* :mod:`.conditions`: materials, prescribed displacements, loads, springs and interfaces (plain
+  data); :mod:`.boundary`: the groups they act on, Dirichlet dofs, load vectors, spring forms;
+  :mod:`.bodies`: the bodies and interfaces of a problem.
+* :mod:`.bulk`: the bodies' law: the :class:`~.bulk.BulkModel` protocol (any UFL residual, with
+  quadrature-point state committed and reverted with the step), :class:`UFLBulk`, and the
+  built-in :class:`LinearElasticity` (the fast path); :mod:`.plasticity`: :class:`J2Bulk`, J2
+  plasticity with its state at the quadrature points (a bulk model).
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
 * :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
@@ -18,36 +24,50 @@ May import: DOLFINx, PETSc, MPI, numpy, and :mod:`subfric_dolfinx.constitutive`,
 :mod:`subfric_dolfinx.loading`, :mod:`subfric_dolfinx.logs` (not io or scenes).
 """
 
+from .bulk import BulkContext, BulkModel, LinearElasticity, UFLBulk
 from .conditions import (
     Dirichlet,
     DirichletField,
+    Interface,
     Material,
     PointForce,
     Pressure,
     Spring,
     Traction,
 )
-from .interface import InterfaceError
+from .interface import FrictionInterface, InterfaceError, create_matrix
+from .plasticity import J2Bulk, PlasticityError
 from .problem import InterfaceProblem
-from .solver import DEFAULT_OPTIONS, FrictionSolver
-from .stepping import LoadStepper, StepFailure, StepRecord
+from .solver import DEFAULT_OPTIONS, FrictionSolver, SolverOptionError
+from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
     "DEFAULT_OPTIONS",
+    "BulkContext",
+    "BulkModel",
     "Dirichlet",
     "DirichletField",
+    "FrictionInterface",
     "FrictionSolver",
+    "Interface",
     "InterfaceError",
     "InterfaceProblem",
+    "J2Bulk",
+    "LinearElasticity",
     "LoadStepper",
     "Material",
+    "PlasticityError",
     "PointForce",
     "Pressure",
+    "SolverOptionError",
     "Spring",
     "StepFailure",
+    "StepInterrupted",
     "StepRecord",
     "Traction",
+    "UFLBulk",
+    "create_matrix",
     "format_breakdown",
     "timing_breakdown",
 ]

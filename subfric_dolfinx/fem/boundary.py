@@ -26,6 +26,7 @@ from ..compat import petsc_vector
 from ..meshing import NodeGroup, locate_node_group, nearest_vertex
 from .conditions import Dirichlet, DirichletField, PointForce, Pressure, Spring, Traction, channels
 from .interface import InterfaceError
+from .probes import require_near
 
 __all__ = [
     "LoadPart",
@@ -202,6 +203,7 @@ def _by_channel(value: np.ndarray, chans: list[str | None]) -> dict[str | None, 
 def _point_vector(V: dolfinx.fem.FunctionSpace, domain: Any, c: PointForce) -> tuple:
     """The owned dof blocks at the vertex nearest to a point force's point, and the vertex."""
     mesh = domain.mesh
+    require_near(domain, c.x, c.body, f"point force at {c.group[6:]}")
     cells = None if c.body is None else domain.cell_tags.find(domain.tags[c.body])
     xv, _ = nearest_vertex(mesh, c.x, cells)
     mesh.topology.create_connectivity(0, mesh.topology.dim)
@@ -217,16 +219,24 @@ def _point_vector(V: dolfinx.fem.FunctionSpace, domain: Any, c: PointForce) -> t
     return blocks, xv
 
 
+def _weighted(expr: Any, w: Any) -> Any:
+    """``w * expr``, or ``expr`` itself for the weight 1 (the same form as without a weight)."""
+    return expr if isinstance(w, int | float) and w == 1 else w * expr
+
+
 def load_vectors(
     V: dolfinx.fem.FunctionSpace,
     domain: Any,
     loads: Sequence[Pressure | Traction | PointForce],
     ds: ufl.Measure,
+    w: Any = 1,
 ) -> list[tuple[LoadPart, PETSc.Vec]]:
     """One load vector per condition and channel: ``(LoadPart(condition, channel), vector)``.
 
-    Pressures and tractions are integrated over their facets; a point force is put on the owned
-    dofs of the vertex nearest to its point (on one rank only). Collective.
+    Pressures and tractions are integrated over their facets, with the weight ``w`` (``2 pi r``
+    in axisymmetric mode, :func:`~.kinematics.weight`); a point force is put on the owned dofs of
+    the vertex nearest to its point (on one rank only; in axisymmetric mode it is a ring load, N
+    in total). Collective.
     """
     mesh = domain.mesh
     gdim = mesh.geometry.dim
@@ -235,7 +245,7 @@ def load_vectors(
     out: list[tuple[LoadPart, PETSc.Vec]] = []
     for c in loads:
         if isinstance(c, Pressure):
-            L = -float(c.value) * ufl.dot(n, v) * ds(domain.tags[c.group])
+            L = _weighted(-float(c.value) * ufl.dot(n, v), w) * ds(domain.tags[c.group])
             out.append((LoadPart(c, c.amplitude), _vector(V, L)))
             continue
         value = np.asarray(c.value, dtype=float)
@@ -245,8 +255,8 @@ def load_vectors(
         parts = _by_channel(value, channels(c.amplitude, gdim, f"{kind} on {c.group!r}"))
         if isinstance(c, Traction):
             for ch, part in parts.items():
-                L = ufl.dot(ufl.as_vector(part.tolist()), v) * ds(domain.tags[c.group])
-                out.append((LoadPart(c, ch), _vector(V, L)))
+                L = _weighted(ufl.dot(ufl.as_vector(part.tolist()), v), w)
+                out.append((LoadPart(c, ch), _vector(V, L * ds(domain.tags[c.group]))))
             continue
         blocks, _ = _point_vector(V, domain, c)
         for ch, part in parts.items():
@@ -273,9 +283,15 @@ def _stiffness(c: Spring, gdim: int) -> tuple[np.ndarray, np.ndarray, list[str |
 
 
 def spring_forms(
-    V: dolfinx.fem.FunctionSpace, domain: Any, springs: Sequence[Spring], ds: ufl.Measure
+    V: dolfinx.fem.FunctionSpace,
+    domain: Any,
+    springs: Sequence[Spring],
+    ds: ufl.Measure,
+    w: Any = 1,
 ) -> tuple[Any, list[tuple[LoadPart, PETSc.Vec]], SpringForces]:
-    """The springs' bulk form ``sum k_i du_i v_i ds``, load vectors and force read-back.
+    """The springs' bulk form ``sum k_i du_i v_i w ds``, load vectors and force read-back.
+
+    ``w``: the weight of the integrals (``2 pi r`` in axisymmetric mode).
 
     Returns:
         The bilinear form (0 without springs), ``(LoadPart, vector)`` for the moving ends,
@@ -290,11 +306,12 @@ def spring_forms(
         k, u0, chans = _stiffness(c, gdim)
         dsg = ds(domain.tags[c.group])
         K = ufl.as_matrix(np.diag(k).tolist())
-        a = a + ufl.inner(ufl.dot(K, du), v) * dsg
+        a = a + _weighted(ufl.inner(ufl.dot(K, du), v), w) * dsg
         for ch, part in _by_channel(k * u0, chans).items():
-            L = ufl.dot(ufl.as_vector(part.tolist()), v) * dsg
+            L = _weighted(ufl.dot(ufl.as_vector(part.tolist()), v), w) * dsg
             loads.append((LoadPart(c, ch), _vector(V, L)))
-        weights.append((c, u0, chans, _vector(V, ufl.dot(ufl.as_vector(k.tolist()), v) * dsg)))
+        m = _weighted(ufl.dot(ufl.as_vector(k.tolist()), v), w) * dsg
+        weights.append((c, u0, chans, _vector(V, m)))
     return a, loads, SpringForces(V, weights)
 
 

@@ -1,4 +1,4 @@
-"""Boundary conditions, loads and materials of a two-body interface problem (plain data).
+"""Boundary conditions, loads, materials and interfaces of an interface problem (plain data).
 
 Each condition refers to a physical group by name and to a channel of the loading program
 (:class:`~subfric_dolfinx.loading.LoadingProgram`) that scales it over time. A Dirichlet
@@ -11,12 +11,14 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 __all__ = [
     "Dirichlet",
     "DirichletField",
+    "Interface",
     "Material",
     "PointForce",
     "Pressure",
@@ -118,18 +120,58 @@ class PointForce:
     The vertex is searched among the vertices of the cells of ``body`` (``None``: all cells;
     give the body for a point on the interface, whose nodes are duplicated); it is found in
     parallel and the force applied once. Component ``i`` is ``value[i] * amplitude(t)`` (or
-    ``amplitude[i]``, as for :class:`Traction`).
+    ``amplitude[i]``, as for :class:`Traction`). A point farther from ``body`` (the mesh) than
+    the size of its nearest cell is refused; ``name`` names it in messages.
     """
 
     x: Sequence[float]
     value: Sequence[float]
     amplitude: str | None | Sequence[str | None] = None
     body: str | None = None
+    name: str | None = None
 
     @property
     def group(self) -> str:
         """A name for messages."""
-        return f"point {tuple(float(v) for v in self.x)}"
+        where = tuple(float(v) for v in self.x)
+        return f"point {self.name!r} {where}" if self.name else f"point {where}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Interface:
+    """One frictional interface of a problem: its facet group, its sides and its own settings.
+
+    Attributes:
+        group: The interface's facet group (both sides tagged; nodes duplicated).
+        primary: The body (a body of the mesh, or a cell group) whose outward normal defines the
+            interface's local frame (the *master* of older codes); ``None``: as the mesh says.
+        secondary: The other body (the *slave*); ``None``: as the mesh says.
+        law: Its friction law; ``None``: the problem's ``law``.
+        initial_gap: Its initial normal gap ``g0`` (mm, > 0 open): a number or a function of the
+            coordinates ``x`` (gdim, n).
+        regions: Subgroups of its facets (``InterfaceMesh.interface_groups``) -> their laws.
+        quadrature: ``"gauss"`` or ``"nodal"``; ``None``: the problem's.
+        kinematics: ``"small_sliding"`` (node-to-node pairs fixed at the reference geometry,
+            matching meshes: :class:`~.interface.FrictionInterface`) or ``"finite_sliding"``
+            (pairing in the current configuration, non-matching meshes:
+            :class:`~.interface.SlidingInterface`); ``None``: as the mesh says (its
+            :class:`~subfric_dolfinx.meshing.InterfaceSides`), else small sliding.
+        search_radius: Finite sliding: the largest normal distance at which a point faces the
+            other body (mm); ``None``: twice the largest facet size.
+        reach: Finite sliding: how far a point may slide in one step (mm); ``None``: the
+            largest facet size.
+    """
+
+    group: str
+    primary: str | None = None
+    secondary: str | None = None
+    law: Any = None
+    initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None
+    regions: Any = None
+    quadrature: str | None = None
+    kinematics: str | None = None
+    search_radius: float | None = None
+    reach: float | None = None
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

@@ -6,14 +6,15 @@ the size of those terms, however exact the linear solves. That size is::
 
     S = || |K| |u| + |f_ext| + |R_int| ||_2        (free rows, not the Dirichlet ones)
 
-with ``|K|`` the entrywise absolute value of the bulk stiffness. Measured on the 2-D block and
-the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; the scale study
+with ``|K|`` the entrywise absolute value of the bulk stiffness (for a nonlinear bulk law: of its
+tangent at rest, the elastic stiffness of the bodies, and ``K u`` is its internal force). Measured
+on the 2-D block and the 3-D pad (300 MPa, 1k to 230k dofs, pressing and sliding; the scale study
 of issue 13) the smallest residual Newton reaches is 0.17 to 0.33 ``eps S``, at every size. An
 absolute tolerance (``snes_atol``) or one relative to a step's first residual (``snes_rtol``)
-cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at
-300 MPa and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first
-residual of a pressing step), and Newton then stalls at its iteration limit, the step is cut,
-and cutting only lowers the relative target further.
+cannot see this floor: it grows with the load and the mesh (about 4e-9 for the 2-D block at 300 MPa
+and 230k dofs, above ``snes_atol = 1e-10`` and above ``snes_rtol`` times the first residual of a
+pressing step), and Newton then stalls at its iteration limit, the step is cut, and cutting only
+lowers the relative target further.
 
 :class:`ScaledConvergence` declares Newton's iteration ``k`` converged when, first that holds,
 
@@ -22,11 +23,19 @@ and cutting only lowers the relative target further.
 * ``|F_k| <= FLOOR_FACTOR eps S_k`` (any ``k``, also 0: a step that needs nothing costs nothing),
 * ``|F_k| <= STALL_FACTOR eps S_k`` and ``|F_k| > |F_{k-1}| / 2`` (``k >= 1``): stalled at the
   floor, no longer decreasing; a converged step, not a reason to cut it,
-* ``|du_k| <= stol |u_k|`` (``k >= 1``; ``snes_stol``, as PETSc's own test),
+* ``|du_k| <= stol |u_k|`` (``k >= 1``; ``snes_stol``, as PETSc's own test: the Newton step no
+  longer moves ``u``) with ``|F_k| <= STALL_FACTOR eps S_k`` or ``|F_k| <= SNORM_SLACK max(atol,
+  rtol |F_0|)``: a zero update at a residual at the floor or near the tolerances,
 
-and diverged on a NaN residual or beyond ``snes_divtol`` times ``|F_0|``; SNES applies
-``snes_max_it`` itself. ``FLOOR_FACTOR = 1`` is 3 to 6 times the measured floor; a stall is
-accepted only within two decades of it. No absolute number remains: the test is the same in
+and diverged on a NaN residual, beyond ``snes_divergence_tolerance`` times ``|F_0|`` at two
+iterations in a row without decreasing (a jump beyond it is the normal path of a step that
+closes a gap under a load: its first iterate, on the Jacobian of the open interface, lands deep
+in the other body; Code_Aster's SSNV503 skate pushed onto its frame across a 2 mm gap on soft
+springs goes 221 -> 8.3e9 -> 4.9e8 -> 142 -> ... -> 6e-8 in 8 iterations), or with a step that no
+longer moves ``u`` at a residual above these (``DIVERGED_LOCAL_MIN``: a line search shrinking its
+steps on a load the interface cannot carry); SNES applies ``snes_max_it`` itself.
+``FLOOR_FACTOR = 1`` is 3 to 6 times the measured floor; a stall is accepted only within two
+decades of it. No absolute number remains: the test is the same in
 any units and at any size.
 
 The floor and stall tests apply only while the floor is a negligible part of the forces at
@@ -36,6 +45,12 @@ work, ``eps S <= FORCE_FRACTION * Phi`` with ``Phi = || |f_ext| + |R_int| || + |
 no equilibrium: the body slides off by 1e11 mm within a few iterations), ``|u|`` and with it
 ``S`` grow without bound while the forces do not, and the floor would otherwise "converge" a
 residual of the size of the loads. So a residual above ``1e-4 Phi`` is never accepted by them.
+The one exception is a state without forces: no load, no interface traction (every point
+separated) and reactions within the round-off of the residual, ``|reactions| <= STALL_FACTOR eps
+S`` (bodies pulled apart by prescribed displacements and held, a body floating free): ``Phi`` is
+then round-off itself, nothing can run away, and the floor tests apply. Without it, a step where
+nothing changes in such a state could never converge (its residual is at the floor from the
+first evaluation on, and no relative or absolute test is met).
 
 ``S`` and ``Phi`` cost one product with ``|K|`` (a second matrix of ``K``'s size, made once) and
 one with ``K`` per Newton iteration, only where the cheaper tests did not already decide.
@@ -49,10 +64,13 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..compat import SNES_DIVERGED_NAN
+
 __all__ = [
     "EPS",
     "FLOOR_FACTOR",
     "FORCE_FRACTION",
+    "SNORM_SLACK",
     "STALL_FACTOR",
     "ScaledConvergence",
     "abs_matrix",
@@ -65,6 +83,12 @@ STALL_FACTOR = 100.0
 """Converged (stalled) when ``|F| <= STALL_FACTOR * EPS * S`` and not halved in the iteration."""
 FORCE_FRACTION = 1e-6
 """The floor and stall tests apply only where ``EPS * S <= FORCE_FRACTION * Phi`` (the forces)."""
+SNORM_SLACK = 1e4
+"""A Newton step that no longer moves ``x`` (``snes_stol``) ends a solve as converged only if the
+residual is at the floor (within :data:`STALL_FACTOR`) or within this factor of the function
+tolerance ``max(atol, rtol * |F_0|)``: stagnation at round-off. A step that stops moving with a
+large residual (a line search shrinking its steps on a load the interface cannot carry) is a
+failure, not a solution."""
 
 _REASON = PETSc.SNES.ConvergedReason
 
@@ -91,11 +115,12 @@ class ScaledConvergence:
 
     Install it with ``snes.setConvergenceTest(test)`` after ``setFromOptions``; call
     :meth:`start` before each solve. Tolerances are read from the SNES at each iteration (the
-    user's ``snes_rtol``, ``snes_atol``, ``snes_stol``, ``snes_divtol`` apply).
+    user's ``snes_rtol``, ``snes_atol``, ``snes_stol``, ``snes_divergence_tolerance`` apply).
 
     Args:
         problem: The :class:`~subfric_dolfinx.fem.problem.InterfaceProblem` (its ``K``, loads,
-            interface forces ``b_ext`` at the last residual, Dirichlet dofs).
+            interface forces ``interface_force`` at the last residual, Dirichlet dofs; with a
+            nonlinear bulk, ``K_scale`` (its tangent at rest) for ``|K|`` and ``bulk_force``).
         floor_factor: See :data:`FLOOR_FACTOR`.
         stall_factor: See :data:`STALL_FACTOR`.
     """
@@ -109,7 +134,7 @@ class ScaledConvergence:
         self.problem = problem
         self.floor_factor = float(floor_factor)
         self.stall_factor = float(stall_factor)
-        self.Kabs: PETSc.Mat | None = abs_matrix(problem.K)
+        self.Kabs: PETSc.Mat | None = abs_matrix(getattr(problem, "K_scale", problem.K))
         self._ua = problem.K.createVecRight()
         self._w = problem.K.createVecLeft()
         self._ku = problem.K.createVecLeft()
@@ -123,6 +148,7 @@ class ScaledConvergence:
         self.norms: list[float] = []
         self.scale = math.nan  # S at the last iterate where it was computed
         self.forces = math.nan  # Phi there
+        self.force_free = False  # no load, no interface traction, reactions at round-off there
         self._floor = 0.0  # eps S where the floor test applies, else 0
         self.by: str | None = None  # which test decided
 
@@ -143,11 +169,17 @@ class ScaledConvergence:
         s = self._w.array_r.copy()
         fabs = np.zeros_like(s)
         reaction = self._ku.array_r.copy()
+        bulk = getattr(p, "bulk_force", None)  # a nonlinear bulk's F_bulk(u); K: springs only
+        if bulk is not None:
+            reaction += bulk
         for c, f in p.loads:
             a = p.program.amplitude(c.amplitude, p.t)
             fabs += abs(a) * np.abs(f.array_r)
             reaction -= a * f.array_r
-        r_int = p.b_ext.array_r[: s.size]
+        r_int = p.interface_force[: s.size]
+        off = getattr(p, "interface_round_off", None)  # finite sliding: gaps from positions
+        if off is not None:
+            s += off[: s.size]
         fabs += np.abs(r_int)
         reaction = (reaction + r_int)[~self._free]
         s = (s + fabs)[self._free]
@@ -156,7 +188,9 @@ class ScaledConvergence:
             np.array([s @ s, fabs @ fabs, reaction @ reaction]), op=MPI.SUM
         )
         self.forces = math.sqrt(sums[1]) + math.sqrt(sums[2])
-        return math.sqrt(sums[0])
+        scale = math.sqrt(sums[0])
+        self.force_free = sums[1] == 0.0 and math.sqrt(sums[2]) <= self.stall_factor * EPS * scale
+        return scale
 
     def __call__(self, snes: PETSc.SNES, it: int, norms: tuple[float, float, float]) -> int:
         """The test at Newton iteration ``it`` (``norms``: solution, step and residual norms).
@@ -167,7 +201,7 @@ class ScaledConvergence:
         xnorm, ynorm, fnorm = norms
         rtol, atol, stol, _ = snes.getTolerances()
         if not math.isfinite(fnorm):
-            return _REASON.DIVERGED_FNORM_NAN
+            return SNES_DIVERGED_NAN
         if it == 0 or not self.norms:
             self.norms = [fnorm]
         else:
@@ -180,7 +214,8 @@ class ScaledConvergence:
                 return self._done("rtol", _REASON.CONVERGED_FNORM_RELATIVE)
         self.scale = self.compute_scale(snes.getSolution())
         floor = EPS * self.scale
-        if floor > FORCE_FRACTION * self.forces:  # running away: S means nothing (docstring)
+        # running away: S means nothing (docstring), unless there is no force at all
+        if floor > FORCE_FRACTION * self.forces and not self.force_free:
             floor = 0.0
         self._floor = floor
         if fnorm <= self.floor_factor * floor:
@@ -189,10 +224,16 @@ class ScaledConvergence:
             previous = self.norms[-2] if len(self.norms) > 1 else math.inf
             if fnorm <= self.stall_factor * floor and fnorm > 0.5 * previous and floor > 0:
                 return self._done("stall", _REASON.CONVERGED_FNORM_ABS)
-            if ynorm <= stol * xnorm:
-                return self._done("stol", _REASON.CONVERGED_SNORM_RELATIVE)
+            if ynorm <= stol * xnorm:  # the step no longer moves x
+                if fnorm <= self.stall_factor * floor or fnorm <= SNORM_SLACK * max(
+                    atol, rtol * f0
+                ):
+                    return self._done("stol", _REASON.CONVERGED_SNORM_RELATIVE)
+                return _REASON.DIVERGED_LOCAL_MIN  # stuck above the tolerances
             divtol = snes.getDivergenceTolerance()
-            if divtol > 0 and fnorm > divtol * f0:
+            # growing beyond it: a jump there is the overshoot of a gap closing (docstring)
+            beyond = divtol > 0 and min(fnorm, previous) > divtol * f0
+            if beyond and fnorm >= previous:
                 return _REASON.DIVERGED_DTOL
         return _REASON.ITERATING
 

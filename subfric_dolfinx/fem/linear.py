@@ -188,6 +188,15 @@ class LinearStrategy:
         )
         ksp.setConvergenceHistory(reset=True)
 
+    def new_pattern(self) -> None:
+        """The problem's matrix pattern changed: a new ``P`` on it, refreshed at the next use."""
+        if self.P is not None:
+            self.P.destroy()
+            self.P = self.problem.create_matrix()
+            if self.nullspace is not None:
+                self.P.setNearNullSpace(self.nullspace)
+        self.force = True
+
     def matrices(self, J: PETSc.Mat) -> tuple[PETSc.Mat, PETSc.Mat]:
         """The operator and the preconditioning matrix to give SNES."""
         return J, (self.P if self.P is not None else J)

@@ -25,7 +25,7 @@ from mpi4py import MPI
 
 from .interface import InterfaceError
 
-__all__ = ["InterfacePointProbe", "PointEvaluator"]
+__all__ = ["InterfacePointProbe", "PointEvaluator", "require_near"]
 
 
 def _winner(comm: MPI.Comm, keys: list[tuple | None]) -> list[int]:
@@ -107,11 +107,54 @@ class PointEvaluator:
         return self.comm.allreduce(out, op=MPI.SUM)
 
 
+def require_near(domain: Any, x: Sequence[float], body: str | None, what: str) -> None:
+    """Refuse a point farther from ``body`` (the mesh if ``None``) than its nearest cell's size.
+
+    Collective.
+
+    A point force or a held point acts at the vertex nearest to its point: a point in the body
+    or next to it (a corner given roughly) is meant; one farther away than a cell is not.
+
+    Raises:
+        InterfaceError: On every rank, naming ``what``, the point, its distance and the body.
+    """
+    mesh = domain.mesh
+    tdim = mesh.topology.dim
+    x3 = np.zeros((1, 3))
+    xa = np.asarray(x, dtype=float).ravel()
+    x3[0, : xa.size] = xa
+    n_cells = mesh.topology.index_map(tdim).size_local
+    if body is None:
+        own = np.arange(n_cells, dtype=np.int32)
+    else:
+        own = domain.cell_tags.find(domain.tags[body])
+        own = own[own < n_cells].astype(np.int32)
+    mine = None
+    if own.size:
+        tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=own)
+        mid = dolfinx.geometry.create_midpoint_tree(mesh, tdim, own)
+        c = np.asarray(dolfinx.geometry.compute_closest_entity(tree, mid, mesh, x3), np.int32)
+        d2 = dolfinx.geometry.squared_distance(mesh, tdim, c, x3)
+        mine = (float(np.sqrt(max(float(d2[0]), 0.0))), float(mesh.h(tdim, c)[0]))
+    found = [m for m in mesh.comm.allgather(mine) if m is not None]
+    if not found:
+        raise InterfaceError(f"{what}: the body {body!r} has no cells")
+    d, h = min(found)
+    if d > h:
+        where = tuple(float(v) for v in xa)
+        of = f"the body {body!r}" if body else "the mesh"
+        raise InterfaceError(
+            f"{what}: {where} is {d:.4g} away from {of}, more than its nearest cell's size "
+            f"({h:.4g}): outside it (such a point acts at its nearest vertex, meant for a "
+            "point in the body or next to it)"
+        )
+
+
 class InterfacePointProbe:
     """The interface quadrature point nearest to each of some points (collective).
 
     Args:
-        element: The :class:`~subfric_dolfinx.fem.interface.InterfaceElements`.
+        element: The interface's law points (:class:`~.interface.protocol.LawPoints`).
         points: Coordinates (n, gdim or more).
 
     Attributes:
@@ -121,7 +164,7 @@ class InterfacePointProbe:
     def __init__(self, element: Any, points: np.ndarray) -> None:
         self.el = element
         gdim = element.gdim
-        self.comm = element.pairs.submesh.comm
+        self.comm = element.comm
         x = np.atleast_2d(np.asarray(points, dtype=float))[:, :gdim]
         qp = element.points.reshape(-1, gdim)
         tol = element.coordinate_tolerance

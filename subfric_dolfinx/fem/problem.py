@@ -1,14 +1,18 @@
-"""Two linear-elastic bodies joined by a frictional zero-thickness interface.
+"""Bodies joined by frictional zero-thickness interfaces: the residual and the consistent Jacobian.
 
-The residual is ``F(u) = K u - f_ext(t) + R_int(u)`` with ``K`` the bulk stiffness assembled once
-from UFL (small strain, plane strain in 2-D; one material per body; springs ``k_i u_i v_i`` on
-their facets), ``f_ext`` the tractions, pressures, point forces and the springs' moving ends, each
-scaled by its loading channel (:mod:`.boundary`), and ``R_int`` the interface forces from the
-friction law's return map. Dirichlet rows are replaced by ``u - g(t)`` and the Jacobian rows by
-identity rows, which keeps the Jacobian exact (no symmetric elimination, no lifting).
+The residual is ``F(u) = F_bulk(u) - f_ext(t) + sum_i R_i(u)``: ``F_bulk`` the bodies' own law (a
+:mod:`.bulk` model: by default linear elasticity, whose stiffness ``K`` is assembled once, in the
+modelling mode of :mod:`.kinematics`; springs ``k_i u_i v_i`` on their facets join ``K``),
+``f_ext`` the tractions, pressures, point forces and the springs' moving ends, each scaled by its
+loading channel (:mod:`.boundary`), and ``R_i`` the forces of each interface
+(:class:`~.interface.FrictionInterface`, the friction law's return map). Dirichlet rows are
+replaced by ``u - g(t)`` and the Jacobian rows by identity rows, which keeps the Jacobian exact (no
+symmetric elimination, no lifting).
 
-The interface's return map runs in :meth:`InterfaceProblem.residual`; its consistent tangent is
-reused by :meth:`InterfaceProblem.jacobian` at the same iterate.
+The interfaces' return maps run in :meth:`InterfaceProblem.residual`; their consistent tangents
+are reused by :meth:`InterfaceProblem.jacobian` at the same iterate. A bulk model with state is
+updated there too, and committed or reverted with the interfaces (:meth:`InterfaceProblem.commit`,
+:meth:`InterfaceProblem.revert`).
 """
 
 from __future__ import annotations
@@ -25,10 +29,13 @@ from petsc4py import PETSc
 from ..compat import petsc_vector
 from ..constitutive import FrictionLaw
 from ..loading import LoadingProgram
+from .bodies import resolve_topology
 from .boundary import check_groups, dirichlet_dofs, load_vectors, spring_forms
+from .bulk import BulkContext, LinearElasticity, bulk_forms
 from .conditions import (
     Dirichlet,
     DirichletField,
+    Interface,
     Material,
     PointForce,
     Pressure,
@@ -36,46 +43,65 @@ from .conditions import (
     Traction,
     channels,
 )
-from .interface import ExtendedLayout, InterfaceElements, InterfaceError, pair_interface
-from .interface.regions import element_regions
-from .timing import TIMER_BULK, TIMER_INTERFACE, TIMER_RETURN_MAP, TIMER_SETUP, Timings
+from .interface import FrictionInterface, InterfaceError
+from .interface.friction import layout_of, stiffen_separated
+from .interface.kinds import make_interface
+from .kinematics import check_mode, weight
+from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
-__all__ = ["InterfaceProblem"]
+__all__ = ["InterfaceProblem", "stiffen_separated"]
 
 logger = logging.getLogger(__name__)
 
 class InterfaceProblem:
-    """Residual and Jacobian of two elastic bodies with a frictional interface.
+    """Residual and Jacobian of bodies joined by frictional interfaces.
 
     Args:
         domain: The bulk mesh with its tags, e.g. a :class:`~subfric_dolfinx.meshing.InterfaceMesh`
-            (anything with ``mesh``, ``cell_tags``, ``facet_tags`` and ``tags``, name -> tag);
-            its interface nodes must be duplicated.
-        law: The friction law (a :class:`~subfric_dolfinx.constitutive.FrictionLaw`).
-        materials: Body name (``master``/``slave``) -> :class:`Material`.
+            (anything with ``mesh``, ``cell_tags``, ``facet_tags`` and ``tags``, name -> tag; a
+            mesh of :mod:`subfric_dolfinx.meshing` also knows its ``bodies`` and
+            ``interfaces``); its interface nodes must be duplicated.
+        law: The friction law (a :class:`~subfric_dolfinx.constitutive.FrictionLaw`) of every
+            interface that does not give its own.
+        materials: Body or cell-group name -> :class:`Material` (the built-in linear elasticity;
+            ``master``/``slave`` name the first interface's primary and secondary bodies).
         program: Loading program whose channels the conditions refer to.
         dirichlet: Prescribed displacements (on facet, cell or node groups).
         loads: Tractions, pressures and point forces.
         springs: Elastic supports (:class:`Spring`).
         degree: Displacement degree (1 or 2).
         quadrature: Interface quadrature, ``"gauss"`` or ``"nodal"``.
-        names: Group names of ``interface``, ``master`` and ``slave`` if not these.
-        initial_gap: Initial normal gap ``g0`` of the interface (mm, > 0 open): a number or a
-            function of the coordinates ``x`` (gdim, n) (see
+        names: Group names of the classic layout's ``interface``, ``master`` and ``slave`` if not
+            these.
+        initial_gap: Initial normal gap ``g0`` of the (only) interface (mm, > 0 open): a number
+            or a function of the coordinates ``x`` (gdim, n) (see
             :class:`~.interface.InterfaceElements`).
-        regions: Interface regions: name of a subgroup of the interface (see
+        regions: Regions of the (only) interface: name of a subgroup of the interface (see
             :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`) -> its law; ``law``
-            holds elsewhere. :attr:`law` is then a
-            :class:`~subfric_dolfinx.constitutive.RegionalLaw`.
+            holds elsewhere.
+        interfaces: The interfaces one by one (:class:`Interface`: group, sides, law, initial gap,
+            regions); ``None``: those of the mesh (or of ``names``) with ``law``.
+        bulk: The bodies' law (:mod:`.bulk`: a :class:`~.bulk.BulkModel`, e.g. a
+            :class:`~.bulk.UFLBulk`); ``None``: linear elasticity with ``materials``.
+        mode: ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
+            ``"axisymmetric"`` (coordinates (r, z); every integral, the interfaces' included,
+            carries ``2 pi r``: forces are totals over the revolution).
+
+    Attributes:
+        interfaces: Interface name -> :class:`~.interface.FrictionInterface`.
+        interface: The first interface's law points (:class:`~.interface.protocol.LawPoints`: its
+            :class:`~.interface.InterfaceElements` with small sliding, the interface itself with
+            finite sliding), the only one of a two-body problem.
+        law: The first interface's law.
 
     Raises:
-        InterfaceError: A required physical group is missing (named), or the interface is unusable.
+        InterfaceError: A required physical group is missing (named), or an interface is unusable.
     """
 
     def __init__(
         self,
         domain,
-        law: FrictionLaw,
+        law: FrictionLaw | None,
         materials: Mapping[str, Material],
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),
@@ -87,25 +113,30 @@ class InterfaceProblem:
         names: Mapping[str, str] | None = None,
         initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
         regions: Mapping[str, FrictionLaw] | None = None,
+        interfaces: Sequence[Interface] | None = None,
+        bulk=None,
+        mode: str | None = None,
     ) -> None:
         self.timings = Timings()
         mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
         self.domain = domain
         self.mesh = mesh
         self.comm = mesh.comm
-        self.law = law
         self.program = program
-        self.materials = dict(materials)
         self.tags = dict(domain.tags)
-        nm = {"interface": "interface", "master": "master", "slave": "slave", **(names or {})}
-        needed = [nm["interface"], nm["master"], nm["slave"]]
-        needed += [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
+        gdim = mesh.geometry.dim
+        self.mode = check_mode(mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
+        topo = resolve_topology(
+            domain, law, names=names, interfaces=interfaces, initial_gap=initial_gap,
+            regions=regions, quadrature=quadrature,
+        )  # fmt: skip
+        self.topology = topo
+        needed = [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
         missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
         if missing:
             raise InterfaceError(
                 f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
             )
-        gdim = mesh.geometry.dim
         for c in [*dirichlet, *loads, *springs]:
             n = gdim if isinstance(c, Traction | PointForce | Spring) else 1
             for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
@@ -118,52 +149,56 @@ class InterfaceProblem:
         V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (gdim,)))
         self.V = V
         self.u = dolfinx.fem.Function(V, name="displacement")
+        self.materials = topo.materials(materials)
 
         with self.timings(TIMER_SETUP):
-            self.pairs = pair_interface(
-                V,
-                cell_tags,
-                facet_tags,
-                self.tags[nm["interface"]],
-                self.tags[nm["master"]],
-                self.tags[nm["slave"]],
-            )
-            by_region = None
-            if regions:
-                groups = getattr(domain, "interface_groups", None) or {}
-                by_region = (element_regions(self.pairs, groups, list(regions)), dict(regions))
-            self.interface = InterfaceElements(
-                self.pairs, V, law, quadrature, initial_gap=initial_gap, regions=by_region
-            )
-            self.law = self.interface.law
-            self.layout = ExtendedLayout(V, self.pairs.index_map, self.interface.nodes)
+            self.interfaces: dict[str, FrictionInterface] = {}
+            groups = getattr(domain, "interface_groups", None) or {}
+            for spec in topo.interfaces:
+                self.interfaces[spec.group] = make_interface(
+                    spec, V, cell_tags, facet_tags, self.tags[spec.group],
+                    topo.tags[spec.primary], topo.tags[spec.secondary], groups, self.mode,
+                    self.timings,
+                )  # fmt: skip
+            first = next(iter(self.interfaces.values()))
+            self.pairs = first.pairs  # None with finite sliding (no fixed pairs)
+            self.interface = first.law_points
+            self.law = first.law
+            self.layout = layout_of(V, list(self.interfaces.values()))
+            self._layout_versions = self._versions()
+            self.layout_version = 0
 
-        # Bulk stiffness from UFL, one material per body.
+        # The bodies' law: the built-in linear elasticity (assembled once) or the user's.
         du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
-
-        def eps(w):
-            return ufl.sym(ufl.grad(w))
-
-        a = 0
-        for body in ("master", "slave"):
-            if nm[body] not in materials and body not in materials:
-                raise ValueError(f"no material given for the {body} body")
-            mat = materials.get(nm[body], materials.get(body))
-            lam = mat.E * mat.nu / ((1 + mat.nu) * (1 - 2 * mat.nu))
-            mu = mat.E / (2 * (1 + mat.nu))
-            sig = 2 * mu * eps(du) + lam * ufl.tr(eps(du)) * ufl.Identity(gdim)
-            a = a + ufl.inner(sig, eps(v)) * dx(self.tags[nm[body]])
-        a_springs, spring_loads, self.spring_forces = spring_forms(V, domain, springs, ds)
-        a = a + a_springs
+        self.bulk = bulk if bulk is not None else LinearElasticity(self.materials)
+        self.bulk_context = BulkContext(
+            mesh=mesh, V=V, mode=self.mode, dx=dx, tags=dict(topo.tags), groups=topo.bodies
+        )
+        try:
+            F_bulk, J_bulk = bulk_forms(self.bulk, self.u, v, du, self.bulk_context)
+        except ValueError as e:  # e.g. a body without a material
+            raise ValueError(str(e)) from None
+        self.linear_bulk = bool(getattr(self.bulk, "linear", False))
+        w = weight(mesh, self.mode)
+        a_springs, spring_loads, self.spring_forces = spring_forms(V, domain, springs, ds, w)
         self.springs = list(springs)
+        self._a_linear = J_bulk if self.linear_bulk else None
+        if isinstance(a_springs, ufl.Form):
+            self._a_linear = a_springs if self._a_linear is None else self._a_linear + a_springs
+        if self._a_linear is not None:
+            self._a_linear = dolfinx.fem.form(self._a_linear)
+        self._F_form = self._J_form = None
+        self.bulk_force: np.ndarray | None = None  # owned F_bulk(u) at the last residual
+        if not self.linear_bulk:
+            self._F_form = dolfinx.fem.form(F_bulk)
+            self._J_form = dolfinx.fem.form(J_bulk)
+        self.K = self.K_scale = None
         with self.timings(TIMER_BULK):
-            self.K = self.layout.create_matrix()
-            dolfinx.fem.petsc.assemble_matrix(self.K, dolfinx.fem.form(a))
-            self.K.assemble()
+            self._build_matrices()
             # Load vectors, one per condition and channel (scaled by the channel at run time).
-            self.loads = load_vectors(V, domain, loads, ds) + spring_loads
+            self.loads = load_vectors(V, domain, loads, ds, w) + spring_loads
 
         # Dirichlet dofs (owned, unrolled) with their reference values.
         mesh.topology.create_connectivity(tdim - 1, tdim)
@@ -183,20 +218,57 @@ class InterfaceProblem:
         )
         rstart = V.dofmap.index_map.local_range[0] * bs
         self.bc_rows = (self.bc_dofs + rstart).astype(PETSc.IntType)
-        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
 
-        self.x_ext = self.layout.create_vector()
-        self.b_ext = self.layout.create_vector()
         self.t = program.t_start
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
+        self._bulk_work = self.create_vector() if not self.linear_bulk else None
+        self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
+        self.interface_round_off: np.ndarray | None = None  # finite sliding (convergence)
         self.reactions: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------------------
+    def _versions(self) -> tuple[int, ...]:
+        return tuple(i.layout_version for i in self.interfaces.values())
+
+    def _build_matrices(self) -> None:
+        """The bulk stiffness (and scale) on the current layout's pattern (collective)."""
+        for name in ("K", "K_scale"):
+            old = getattr(self, name, None)
+            if old is not None:
+                old.destroy()
+        self.K = self.layout.create_matrix()
+        if self._a_linear is not None:
+            dolfinx.fem.petsc.assemble_matrix(self.K, self._a_linear)
+        self.K.assemble()
+        self.K_scale = self.K  # |K_scale| |u|: the size of the bulk forces (convergence)
+        if not self.linear_bulk:
+            self.K_scale = self.layout.create_matrix()
+            self.bulk.update(self.u)  # the tangent at u (then reverted)
+            dolfinx.fem.petsc.assemble_matrix(self.K_scale, self._J_form)
+            self.K_scale.assemble()
+            self.K_scale.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.bulk.revert()
+        self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+
     def set_step(self, t: float, dt: float) -> None:
-        """Set the time at the end of the step and the step length (drives recovery)."""
+        """Set the time at the end of the step and the step length (drives recovery).
+
+        Collective. Finite-sliding interfaces search from the last converged configuration;
+        when one rebuilds its pattern, the layout and the bulk matrices are rebuilt and
+        :attr:`layout_version` grows (a solver then re-creates its matrices).
+        """
         self.t, self.dt = float(t), float(dt)
         self._x_at_update = None
+        for iface in self.interfaces.values():
+            iface.set_step(dt)
+        versions = self._versions()
+        if versions != self._layout_versions:
+            self._layout_versions = versions
+            with self.timings(TIMER_BULK):
+                self.layout = layout_of(self.V, list(self.interfaces.values()))
+                self._build_matrices()
+            self.layout_version += 1
 
     def dirichlet_values(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Owned Dirichlet dofs (local, unrolled, sorted) and their values at ``t``.
@@ -217,52 +289,91 @@ class InterfaceProblem:
         idx, val = self.dirichlet_values(self.t)
         x.array[idx] = val
 
-    def _update_interface(self, x: PETSc.Vec):
-        with self.timings(TIMER_INTERFACE):
-            xa = self.x_ext.array_w
-            xa[: self.layout.n_owned] = x.array_r
-            self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with self.timings(TIMER_RETURN_MAP):
-            with self.x_ext.localForm() as xl:
-                res = self.interface.update(xl.array_r, self.dt)
+    def _update(self, x: PETSc.Vec) -> bool:
+        """Evaluate the interfaces (and a bulk with state) at ``x``; whether all succeeded here."""
+        ok = True
+        for iface in self.interfaces.values():
+            ok = bool(iface.update(x).converged) and ok
+        if not self.linear_bulk:
+            with self.timings(TIMER_BULK):
+                n = self.layout.n_owned
+                self.u.x.array[:n] = x.array_r
+                self.u.x.scatter_forward()
+                self.bulk.update(self.u)
         self._x_at_update = x.array_r.copy()
-        return res
+        return ok
 
     def residual(self, x: PETSc.Vec, F: PETSc.Vec) -> bool:
-        """Assemble ``F(x)``; return False if the return map failed at some point."""
-        res = self._update_interface(x)
+        """Assemble ``F(x)``; return False if a return map failed at some point of this rank."""
+        ok = self._update(x)
         with self.timings(TIMER_BULK):
-            self.K.mult(x, F)
+            if self.linear_bulk:
+                self.K.mult(x, F)
+            else:
+                with F.localForm() as fl:
+                    fl.set(0.0)
+                dolfinx.fem.petsc.assemble_vector(F, self._F_form)
+                F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                self.bulk_force = F.array_r.copy()
+                self.K.multAdd(x, F, F)
             for c, f in self.loads:
                 F.axpy(-self.program.amplitude(c.amplitude, self.t), f)
-        with self.timings(TIMER_INTERFACE):
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                self.interface.add_residual(bl.array_w, res.traction)
-            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            Fa = F.array_w
-            Fa += self.b_ext.array_r[: self.layout.n_owned]
-            # reactions: forces at Dirichlet dofs before the rows are replaced
-            self.reactions = self._reactions(Fa)
-            idx, val = self.dirichlet_values(self.t)
-            Fa[idx] = x.array_r[idx] - val
-        return res.converged
+        ifaces = list(self.interfaces.values())
+        force = ifaces[0].forces()
+        if len(ifaces) > 1:
+            force = force.copy()
+            for iface in ifaces[1:]:
+                force += iface.forces()
+        offs = [i.round_off for i in ifaces if i.round_off is not None]
+        self.interface_round_off = sum(offs) if offs else None
+        self.interface_force = force
+        Fa = F.array_w
+        Fa += force
+        # reactions: forces at Dirichlet dofs before the rows are replaced
+        self.reactions = self._reactions(Fa)
+        idx, val = self.dirichlet_values(self.t)
+        Fa[idx] = x.array_r[idx] - val
+        return ok
 
-    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat) -> None:
-        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there)."""
+    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat, separated_stiffness: float = 0.0) -> None:
+        """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
+
+        ``separated_stiffness``: in this Jacobian only (not the residual), points without
+        stiffness (separated beyond the contact band, failed) get this fraction of the law's
+        contact stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
-            self._update_interface(x)
-        res = self.interface.last
+            self._update(x)
         with self.timings(TIMER_BULK):
             J.zeroEntries()
+            if not self.linear_bulk:
+                dolfinx.fem.petsc.assemble_matrix(J, self._J_form)
+                J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        with self.timings(TIMER_INTERFACE):
-            Ke = self.interface.element_matrices(res.tangent)
-            nodes = self.interface.nodes.astype(PETSc.IntType)
-            if nodes.shape[0]:
-                J.setValuesBlockedLocalRCV(nodes, nodes, Ke, addv=PETSc.InsertMode.ADD_VALUES)
-            J.assemble()
-            J.zeroRows(self.bc_rows, diag=1.0)
+        for iface in self.interfaces.values():
+            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness)
+        J.assemble()
+        J.zeroRows(self.bc_rows, diag=1.0)
+
+    def failed_points(self) -> np.ndarray:
+        """Indices of the points where the last return maps failed (all interfaces, this rank)."""
+        out, offset = [], 0
+        for iface in self.interfaces.values():
+            last = iface.last
+            if last is not None:
+                out.append(np.asarray(last.failed_indices) + offset)
+                offset += last.status.size
+        return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+    def status_counts(self) -> dict[str, int]:
+        """Return-map statuses at the last evaluation, over every interface and rank."""
+        total: dict[str, int] = {}
+        for iface in self.interfaces.values():
+            if iface.last is None:
+                return {}
+            for k, v in iface.last.counts().items():
+                total[k] = total.get(k, 0) + v
+        return {k: self.comm.allreduce(v) for k, v in total.items()}
 
     def _reactions(self, Fa: np.ndarray) -> dict[str, np.ndarray]:
         """Reaction force of every Dirichlet group (collective).
@@ -281,12 +392,30 @@ class InterfaceProblem:
 
     # ------------------------------------------------------------------------------------------
     def commit(self) -> None:
-        """Accept the interface's trial state (after a converged step)."""
-        self.interface.commit()
+        """Accept the trial state of the interfaces and of the bulk (after a converged step).
+
+        Collective.
+        """
+        for iface in self.interfaces.values():
+            iface.commit()
+        self.bulk.commit()
 
     def revert(self) -> None:
-        """Reject the interface's trial state (after a failed step)."""
-        self.interface.revert()
+        """Reject the trial state of the interfaces and of the bulk (after a failed step)."""
+        for iface in self.interfaces.values():
+            iface.revert()
+        self.bulk.revert()
+        self._x_at_update = None
+
+    def resume(self) -> None:
+        """Continue from a restored state (:attr:`u` and every interface's committed state).
+
+        Collective: a finite-sliding interface searches from it at the next step.
+        """
+        n = self.layout.n_owned
+        for iface in self.interfaces.values():
+            iface.resume(self.u.x.array[:n])
+        self._x_at_update = None
 
     def create_matrix(self) -> PETSc.Mat:
         """A Jacobian matrix with the interface couplings preallocated."""
@@ -295,3 +424,4 @@ class InterfaceProblem:
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
         return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
+

@@ -18,17 +18,19 @@ function-domain error (:mod:`._petsc`).
 Newton stops by the load-scaled test of :mod:`.convergence` (relative to the step's first
 residual, or at the round-off floor of the residual, which grows with the load and the mesh;
 a step stalled at that floor is converged): no absolute tolerance is needed, ``snes_atol`` is 0
-by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``, ``snes_divtol`` and
-``snes_max_it`` apply within it; ``-<prefix>snes_convergence_test default`` selects PETSc's own
-test instead (then give a ``snes_atol`` suited to the problem).
+by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``,
+``snes_divergence_tolerance`` and ``snes_max_it`` apply within it;
+``-<prefix>snes_convergence_test default`` selects PETSc's own test instead (then give a
+``snes_atol`` suited to the problem).
 """
 
 from __future__ import annotations
 
 import contextlib
 import itertools
+import math
 import weakref
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -36,12 +38,12 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
-from .convergence import ScaledConvergence
+from .convergence import SNORM_SLACK, ScaledConvergence
 from .linear import STRATEGY_OPTIONS, LinearStrategy
 from .problem import InterfaceProblem
 from .timing import event_times
 
-__all__ = ["DEFAULT_OPTIONS", "FrictionSolver"]
+__all__ = ["DEFAULT_OPTIONS", "FrictionSolver", "SolverOptionError"]
 
 DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
@@ -53,13 +55,6 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 }
 """Options used where neither the solver's options nor the options database give a value
 (with those of the linear strategy, :data:`~.linear.STRATEGY_OPTIONS`)."""
-
-SNORM_SLACK = 1e4
-"""A solve that PETSc ends with ``CONVERGED_SNORM_RELATIVE`` (the Newton step stopped moving
-``x``) counts as converged only if its last residual norm is within this factor of the function
-tolerance ``max(atol, rtol * |F_0|)``: stagnation at round-off. A step that stops moving with a
-large residual (a line search shrinking its steps on a load the interface cannot carry) is a
-failure, not a solution."""
 
 _LIVE_PREFIXES: set[str] = set()
 _AUTO_PREFIX = itertools.count()
@@ -83,6 +78,60 @@ def _check_prefix(prefix: str | None) -> str:
             "give each solver its own prefix (or destroy the other one first)"
         )
     return prefix
+
+
+class SolverOptionError(ValueError):
+    """PETSc refused a solver option (a value of the wrong kind, an unknown type name).
+
+    Attributes:
+        key: The option (without the prefix) found to be refused alone, or ``None``.
+    """
+
+    def __init__(self, message: str, key: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+def _refused_alone(key: str, value: Any) -> PETSc.Error | None:
+    """PETSc's error on a scratch SNES (this process only) given only ``key = value``."""
+    prefix = "subfric_optcheck_"
+    snes = PETSc.SNES().create(PETSc.COMM_SELF)
+    try:
+        snes.setOptionsPrefix(prefix)
+        with pushed_options(prefix, {key: value}):
+            snes.setFromOptions()
+    except PETSc.Error as e:
+        return e
+    finally:
+        snes.destroy()
+    return None
+
+
+def option_error(prefix: str, layers: Sequence[Mapping[str, Any]], error: Exception) -> Exception:
+    """The error to raise when ``setFromOptions`` failed under ``prefix`` (on every rank).
+
+    The first option under the prefix (the database's, then ``layers``' values) that PETSc
+    refuses alone on a scratch solver is named with its value; each rank probes on its own
+    and finds the same.
+    """
+    given: dict[str, Any] = {}
+    db = PETSc.Options()
+    for name in db.getAll():
+        if name.startswith(prefix):
+            given[name[len(prefix) :]] = db.getString(name)
+    for layer in layers:
+        given.update({k.lstrip("?"): v for k, v in layer.items()})
+    code = getattr(error, "ierr", None)
+    why = f"PETSc error code {code}" if code is not None else str(error)
+    for key, value in given.items():
+        e = _refused_alone(key, value)
+        if e is not None:
+            return SolverOptionError(
+                f"PETSc refuses the option {prefix}{key} = {value!r} ({why}: a value of the "
+                "wrong kind or an unknown name)",
+                key,
+            )
+    return SolverOptionError(f"PETSc refuses the options under {prefix!r} ({why}): {given}")
 
 
 @contextlib.contextmanager
@@ -163,6 +212,7 @@ class FrictionSolver:
             self._x0 = problem.create_vector()
             self.F = problem.create_vector()
             self.J = problem.create_matrix()
+            self._layout_version = getattr(problem, "layout_version", 0)
             self.linear = LinearStrategy(linear, problem)
             snes = PETSc.SNES().create(problem.comm)
             self.snes = snes
@@ -182,15 +232,36 @@ class FrictionSolver:
             self.destroy()
             raise
         self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
+        self.separated_stiffness = 0.0  # of the current solve (see solve)
+        self.interrupt: Callable[[], bool] | None = None
+        """Asked at every residual evaluation, on every rank: ``True`` on any rank abandons
+        the solve there (collectively, through a function-domain error; nothing is raised
+        inside PETSc): :meth:`solve` returns ``interrupted``. E.g. a second stop signal."""
+        self.interrupted = False
         # PETSc's log events are cumulative over the process: where this solver starts.
         self.event_start = event_times()
+
+    def _new_pattern(self) -> None:
+        """New Jacobian matrices on the problem's new pattern (finite sliding re-paired)."""
+        self.J.destroy()
+        self.J = self.problem.create_matrix()
+        self.linear.new_pattern()
+        ref = weakref.ref(self)
+        self.snes.setJacobian(
+            lambda s, x, J, P: ref()._jacobian(s, x, J, P), *self.linear.matrices(self.J)
+        )
+        self._layout_version = self.problem.layout_version
 
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
         db = PETSc.Options()
         given = {k for k in db.getAll() if k.startswith(self.prefix)}
         user = {k[len(self.prefix) :] for k in given} | set(self.options) | set(extra or {})
         with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
-            self.snes.setFromOptions()
+            try:
+                self.snes.setFromOptions()
+            except PETSc.Error as e:
+                layers = (self.options, extra or {})
+                raise option_error(self.prefix, layers, e) from None
             # PETSc's own test only where asked for by name (setFromOptions has set it then)
             if not db.hasName(self.prefix + "snes_convergence_test"):
                 self.snes.setConvergenceTest(self._converged)
@@ -201,23 +272,33 @@ class FrictionSolver:
         self.linear.linear_done(snes)
         ok = self.problem.residual(x, F)
         if not ok:
-            self.failed_points = self.problem.interface.last.failed_indices
+            self.failed_points = self.problem.failed_points()
+        stop = self.interrupted or (self.interrupt is not None and bool(self.interrupt()))
         # on every rank or none: SNES's line search checks the domain error on each rank alone,
         # and ranks that disagree would part ways (one leaves the solve, the other waits)
-        if not self.problem.comm.allreduce(bool(ok), op=MPI.LAND):
+        flags = self.problem.comm.allreduce(int(not ok) | 2 * int(stop), op=MPI.BOR)
+        self.interrupted = bool(flags & 2)
+        if flags:
             set_function_domain_error(snes, F)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
-        self.problem.jacobian(x, J)
+        self.problem.jacobian(x, J, self.separated_stiffness)
         self.linear.jacobian(snes, J, self.convergence.floor())
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
+        if self.interrupted:  # agreed by every rank at the residual
+            return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN
         return self.convergence(snes, it, norms)
 
     # -- solving --------------------------------------------------------------------------------
     def solve(
-        self, t: float, dt: float, *, options: Mapping[str, Any] | None = None
+        self,
+        t: float,
+        dt: float,
+        *,
+        options: Mapping[str, Any] | None = None,
+        separated_stiffness: float = 0.0,
     ) -> dict[str, Any]:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
@@ -228,6 +309,10 @@ class FrictionSolver:
             dt: Step length.
             options: Options for this solve only (e.g. ``{"snes_linesearch_type": "bt"}`` for a
                 retry); the solver's configuration is restored afterwards.
+            separated_stiffness: For this solve, the Jacobian gives points without stiffness
+                (separated) this fraction of the contact stiffness
+                (:func:`~.problem.stiffen_separated`: Newton steps exist where a body floats
+                free); 0, the default: the exact Jacobian.
 
         Returns:
             ``converged``, ``iterations``, ``reason`` (SNES reason code), ``converged_by``
@@ -235,17 +320,25 @@ class FrictionSolver:
             ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not converge or
             PETSc's own test was used), ``residuals`` (norms per iteration), ``counts``
             (return-map statuses at the last evaluation, global), ``krylov`` (Krylov iterations)
-            and ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
-            Krylov failure with a stale one; the other values are the repeat's).
+            ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
+            Krylov failure with a stale one; the other values are the repeat's) and
+            ``interrupted`` (:attr:`interrupt` asked to stop: not converged, ``x`` is that of an
+            abandoned iterate).
             ``CONVERGED_SNORM_RELATIVE`` with a residual far above the tolerances is not
-            converged (:data:`SNORM_SLACK`).
+            converged (:data:`~.convergence.SNORM_SLACK`).
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
         p = self.problem
+        if not (math.isfinite(separated_stiffness) and separated_stiffness >= 0.0):
+            raise ValueError(f"separated_stiffness = {separated_stiffness!r} must be >= 0")
+        self.separated_stiffness = float(separated_stiffness)
         p.set_step(t, dt)
+        if getattr(p, "layout_version", 0) != self._layout_version:
+            self._new_pattern()
         p.apply_dirichlet(self.x)
         self.failed_points = np.zeros(0, dtype=np.int64)
+        self.interrupted = False
         self.snes.setConvergenceHistory(length=200, reset=True)
         self.convergence.start()
         if options:
@@ -258,7 +351,8 @@ class FrictionSolver:
                 self.linear.start()
                 self.snes.solve(None, self.x)
                 krylov = self.snes.getLinearSolveIterations()
-                if self.linear.finish(self.snes, self.snes.getConvergedReason() > 0):
+                retry = self.linear.finish(self.snes, self.snes.getConvergedReason() > 0)
+                if retry and not self.interrupted:
                     # the Krylov solve failed with a stale preconditioner: once more, fresh
                     self.linear.retries += 1
                     retried = True
@@ -281,6 +375,7 @@ class FrictionSolver:
                 "residuals": [],
                 "counts": {},
                 "error": str(e),
+                "interrupted": self.interrupted,
             }
         finally:
             if options:
@@ -288,11 +383,12 @@ class FrictionSolver:
         reason = self.snes.getConvergedReason()
         hist, _ = self.snes.getConvergenceHistory()
         converged = reason > 0
-        if reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE and len(hist):
+        snorm = reason == PETSc.SNES.ConvergedReason.CONVERGED_SNORM_RELATIVE
+        if snorm and len(hist) and self.convergence.by is None:
+            # PETSc's own test (ours decides this itself, :mod:`.convergence`)
             rtol, atol, _, _ = self.snes.getTolerances()
             converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
-        last = p.interface.last
-        counts = {k: p.comm.allreduce(v) for k, v in last.counts().items()} if last else {}
+        counts = p.status_counts()
         return {
             "converged": converged,
             "iterations": self.snes.getIterationNumber(),
@@ -302,6 +398,7 @@ class FrictionSolver:
             "counts": counts,
             "krylov": int(krylov),
             "linear_retry": retried,
+            "interrupted": self.interrupted,
         }
 
     def refresh_preconditioner(self) -> None:

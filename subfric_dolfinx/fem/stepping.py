@@ -36,30 +36,29 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from mpi4py import MPI
 
 from .. import logs
-from ..constitutive import Status
+from .attempts import SLIDING_FRACTION, describe_attempt, interface_activity
 from .solver import FrictionSolver
 from .validity import ValidityWatch
 
 __all__ = [
     "LONG_SEGMENT_STEPS",
+    "MAX_STEPS",
     "RETRY_OPTIONS",
+    "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
     "LoadStepper",
     "StepFailure",
+    "StepInterrupted",
     "StepRecord",
     "describe_attempt",
     "interface_activity",
 ]
 
+
 LONG_SEGMENT_STEPS = 10
 """A segment of the program of at least this many steps gets its own log line."""
-
-SLIDING_FRACTION = 0.95
-"""A point slides when it slips plastically with a traction at this fraction of the law's strength
-or more (below it, a closed point sticks: the subloading law's micro-slip included)."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -68,6 +67,24 @@ The l2 line search (minimising the residual norm along the Newton direction) sol
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
 set (``tests/test_reliability.py``); a backtracking line search (``bt``) solves the first but not
 the second."""
+
+RETRY_SEPARATED_STIFFNESS = 1e-6
+"""In the retry of a failed step, points without stiffness keep this fraction of the contact
+stiffness in the Jacobian (:func:`~.problem.stiffen_separated`; the residual is unchanged).
+
+A body whose interface points are all separated, with no support in some direction, makes the
+Jacobian singular: the unloaded slide of the ``sec7`` block lets it tip about its one touching
+point (any such position is an equilibrium without load), and the pressure that follows then
+finds every point separated and the linear solve fails at every step size. With this fraction
+the Newton step exists and closes the gap (``tests/test_reliability.py``: every strategy, ``sec7``
+and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on a
+converged step's Newton path where the Jacobian is regular) and far enough above round-off for
+GAMG (1e-9 was measured to fail with it)."""
+
+MAX_STEPS = 1_000_000
+"""Default limit of the converged steps of a run (:class:`LoadStepper`'s ``max_steps``; scenes:
+``solver.max_steps``), like the material-point driver's ``MAX_TOTAL_STEPS``: a million FE steps
+is days of computing."""
 
 logger = logging.getLogger(__name__)
 
@@ -98,64 +115,25 @@ class StepFailure(RuntimeError):
         self.attempt = attempt or {}
 
 
-_SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
+class StepInterrupted(RuntimeError):
+    """A step abandoned because the solver's ``interrupt`` asked for it (a second stop signal).
 
+    The last converged state is in place.
 
-def describe_attempt(problem: Any) -> dict[str, Any]:
-    """What the return map saw at its last evaluation (collective; the same on every rank).
-
-    Returns:
-        ``counts`` (points per status, and ``UNSTABLE``, over all ranks), ``worst`` (the point
-        of the most severe status — FAILED, UNSTABLE, JUMP, PLASTIC, ELASTIC, SEPARATED — and,
-        among those, of the largest traction: its ``status``, coordinates ``x``, local
-        ``traction`` and ``gap``), and ``text``, a one-line summary of both.
+    Attributes:
+        t: Time the abandoned step aimed at.
+        last_t: Time of the last converged step (its state is intact).
+        last_step: Index of the last converged step.
     """
-    el = problem.interface
-    res = el.last
-    names = [s.name for s in Status] + ["UNSTABLE"]
-    local = np.zeros(len(names), dtype=np.int64)
-    candidate = None
-    if res is not None and res.status.size:
-        c = res.counts()
-        local[:] = [c.get(n, 0) for n in names]
-        st = res.status
-        sev = np.select(
-            [st == Status.FAILED, res.unstable, st == Status.JUMP, st == Status.PLASTIC,
-             st == Status.ELASTIC],
-            [5, 4, 3, 2, 1],
-            0,
-        )  # fmt: skip
-        size = np.linalg.norm(res.traction, axis=1)
-        i = int(np.lexsort((size, sev))[-1])
-        x = el.points.reshape(-1, problem.gdim)[i]
-        candidate = (
-            int(sev[i]),
-            float(size[i]),
-            tuple(float(v) for v in x),
-            tuple(float(v) for v in res.traction[i]),
-            tuple(float(v) for v in el.last_gap[i]),
-        )
-    counts_arr = np.zeros_like(local)
-    problem.comm.Allreduce(local, counts_arr)
-    counts = {n: int(v) for n, v in zip(names, counts_arr, strict=True)}
-    found = [cand for cand in problem.comm.allgather(candidate) if cand is not None]
-    out: dict[str, Any] = {"counts": counts, "worst": None}
-    total = sum(counts[s.name] for s in Status)
-    shown = ", ".join(f"{n} {counts[n]}" for n in reversed(_SEVERITY) if counts[n])
-    text = f"return map at the last iterate: {shown or 'no point'} (of {total} points)"
-    if found:
-        sev, _, x, tr, gap = max(found)
-        out["worst"] = {"status": _SEVERITY[sev], "x": x, "traction": tr, "gap": gap}
 
-        def fmt(v: tuple[float, ...]) -> str:
-            return "(" + ", ".join(f"{a:.4g}" for a in v) + ")"
+    def __init__(self, message: str, t: float, last_t: float, last_step: int) -> None:
+        super().__init__(message)
+        self.t, self.last_t, self.last_step = t, last_t, last_step
 
-        text += (
-            f"; worst point {_SEVERITY[sev]} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
-            f"MPa, gap (ubar_t, ubar_n) = {fmt(gap)} mm"
-        )
-    out["text"] = text
-    return out
+
+def _activity_text(sliding: float, open_: float) -> str:
+    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
+    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
 
 
 @dataclasses.dataclass
@@ -188,38 +166,6 @@ class StepRecord:
     def activity(self) -> str:
         """What the interface does at the end of the step, e.g. ``sliding 40 %, sticking 60 %``."""
         return _activity_text(self.sliding, self.open)
-
-
-def _activity_text(sliding: float, open_: float) -> str:
-    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
-    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
-
-
-def interface_activity(problem: Any) -> tuple[float, float]:
-    """Fractions of the interface points that slide and that are open (collective).
-
-    After a converged step (committed state): a point slides when its status is PLASTIC or JUMP
-    and its tangential traction is at least :data:`SLIDING_FRACTION` of the law's strength at its
-    normal traction; it is open when SEPARATED; the others stick.
-
-    Returns:
-        ``(sliding, open)``, the same on every rank.
-    """
-    el = problem.interface
-    res = el.last
-    local = np.zeros(3)
-    if res is not None and res.status.size:
-        nt = el.nt
-        st = res.status
-        f_t = np.linalg.norm(res.traction[:, :nt], axis=1)
-        strength = problem.law.strength(el.state.old, res.traction[:, nt], 0.0)
-        plastic = (st == Status.PLASTIC) | (st == Status.JUMP)
-        sliding = plastic & (f_t >= SLIDING_FRACTION * strength) & (strength > 0.0)
-        local[:] = np.count_nonzero(sliding), np.count_nonzero(st == Status.SEPARATED), st.size
-    total = np.zeros(3)
-    problem.comm.Allreduce(local, total, op=MPI.SUM)
-    n = max(total[2], 1.0)
-    return float(total[0] / n), float(total[1] / n)
 
 
 def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
@@ -293,6 +239,11 @@ class LoadStepper:
         hold_dt: Step in the holds of the program (segments where every channel is constant),
             instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
             untouched); ``None``: holds are stepped like the rest.
+        max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
+            :class:`StepFailure` when it has made that many and is not at its end.
+        keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (about 0.8 kB a
+            step, measured); ``False``: the last one only (a run that keeps its own history,
+            as scenes do).
     """
 
     def __init__(
@@ -311,6 +262,8 @@ class LoadStepper:
         retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
         sticky_retry: bool = True,
         hold_dt: float | None = None,
+        max_steps: int = MAX_STEPS,
+        keep_records: bool = True,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -329,6 +282,9 @@ class LoadStepper:
         self.retry_options = dict(retry_options) if retry_options else None
         self.sticky_retry = sticky_retry
         self.hold_dt = float(hold_dt) if hold_dt is not None else None
+        if not (isinstance(max_steps, int | float) and max_steps >= 1):
+            raise ValueError(f"max_steps = {max_steps!r} must be >= 1")
+        self.max_steps = max_steps
         self._hold_step: float | None = None  # the hold's step after a cut (until its end)
         self._keep_retry = False
         self.retries = 0  # steps whose first attempt failed and the retry converged (run)
@@ -336,9 +292,13 @@ class LoadStepper:
         self.t = self.program.t_start
         self.step = 0
         self.records: list[StepRecord] = []
+        self.keep_records = keep_records
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
-        self.validity = ValidityWatch(self.problem)  # penetration and slide, warned at the end
+        # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
+        # per interface, the first's here
+        self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
+        self.validity = next(iter(self.watches.values()), None)
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -373,7 +333,24 @@ class LoadStepper:
         try:
             return self._run(t_end, next_stop)
         finally:  # however the run ends: a large penetration or slide seen is said (once)
-            self.validity.warn()
+            for watch in self.watches.values():
+                watch.warn()
+
+    def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
+        """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
+
+        On every rank: the solver agreed on it.
+        """
+        if not r.get("interrupted"):
+            return
+        self._undo()
+        raise StepInterrupted(
+            f"the step to t = {target:.6g} was abandoned on request; the last converged step "
+            f"is {self.step} at t = {self.t:.6g}, whose state is kept",
+            target,
+            self.t,
+            self.step,
+        )
 
     def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
         cuts = 0
@@ -383,6 +360,12 @@ class LoadStepper:
         clock = logs.Progress()
         span = (self.t, t_end)
         while self.t < t_end - tol:
+            if self.step >= self.max_steps:
+                raise StepFailure(
+                    f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
+                    f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
+                    self.t, self.t, self.step, "max_steps",
+                )  # fmt: skip
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
             hold = self.hold_dt is not None and self.program.is_hold(self.t)
@@ -394,7 +377,9 @@ class LoadStepper:
             dt = target - self.t
             t0 = time.perf_counter()
             first = self.retry_options if self._keep_retry else None
-            r = self.solver.solve(target, dt, options=first)
+            stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+            r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
+            self._check_interrupted(r, target)
             retried = first is not None
             if not r["converged"] and not retried and self.retry_options is not None:
                 logger.debug(
@@ -402,7 +387,13 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
-                r = self.solver.solve(target, dt, options=self.retry_options)
+                r = self.solver.solve(
+                    target,
+                    dt,
+                    options=self.retry_options,
+                    separated_stiffness=RETRY_SEPARATED_STIFFNESS,
+                )
+                self._check_interrupted(r, target)
                 retried = True
                 self._keep_retry = self.sticky_retry and bool(r["converged"])
             if not r["converged"]:
@@ -442,7 +433,8 @@ class LoadStepper:
                 since.line_search += 1
                 self.retries += int(first is None)
             self.problem.commit()
-            self.validity.track(target)
+            for watch in self.watches.values():
+                watch.track(target)
             sliding, open_ = interface_activity(self.problem)
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
@@ -453,6 +445,8 @@ class LoadStepper:
                 self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"],
                 retried, sliding, open_,
             )  # fmt: skip
+            if not self.keep_records:
+                self.records.clear()
             self.records.append(rec)
             segment.add(rec)
             since.add(rec)

@@ -6,8 +6,9 @@ points of a discontinuous Lagrange space of degree ``p - 1``), not projected: de
 value per cell (DG0), exact on triangles and tetrahedra (on quadrilaterals and hexahedra the
 value at the cell's centre); degree 2 gives DG1, exact on simplices. The stress is the full 3 x 3
 tensor: in 2-D (plane strain) ``sigma_zz = lambda tr(eps)`` is not zero and enters von Mises,
-``sqrt(3/2 s:s)`` with ``s`` the deviator of the 3 x 3 tensor. Materials are the bodies'
-(``lambda``, ``mu`` piecewise constant by cell tag).
+``sqrt(3/2 s:s)`` with ``s`` the deviator of the 3 x 3 tensor. The stress is the bulk model's
+(``stress(u, ctx)`` of :mod:`.bulk`: the built-in linear elasticity in every mode, piecewise by
+cell group), or that of given materials.
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ class StressField:
 
     Args:
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem` (its displacement ``u``).
-        materials: Body name -> :class:`Material` (the problem's).
+        materials: Body name -> :class:`Material`; ``None``: the stress of the problem's bulk
+            model (its ``stress(u, ctx)``, e.g. the built-in linear elasticity in any mode).
 
     Attributes:
         sigma: DG function of the stress tensor (value shape (3, 3)), named ``sigma``.
@@ -42,25 +44,34 @@ class StressField:
         degree: Degree of the DG space (the displacement's minus one).
     """
 
-    def __init__(self, problem: Any, materials: Mapping[str, Material]) -> None:
+    def __init__(self, problem: Any, materials: Mapping[str, Material] | None = None) -> None:
         mesh = problem.mesh
         gdim = mesh.geometry.dim
         degree = problem.V.ufl_element().embedded_superdegree - 1
         self.degree = degree
-        D0 = dolfinx.fem.functionspace(mesh, ("DG", 0))
-        lam, mu = dolfinx.fem.Function(D0), dolfinx.fem.Function(D0)
-        for body, mat in materials.items():
-            if body not in problem.tags:
-                continue
-            cells = problem.domain.cell_tags.find(problem.tags[body])
-            lam.x.array[cells] = mat.E * mat.nu / ((1 + mat.nu) * (1 - 2 * mat.nu))
-            mu.x.array[cells] = mat.E / (2 * (1 + mat.nu))
-        self._lame = (lam, mu)
-        e = ufl.sym(ufl.grad(problem.u))
-        eps = ufl.as_matrix(
-            [[e[i, j] if i < gdim and j < gdim else 0 for j in range(3)] for i in range(3)]
-        )
-        sig = 2 * mu * eps + lam * ufl.tr(eps) * ufl.Identity(3)
+        bulk = getattr(problem, "bulk", None)
+        if materials is None and bulk is not None:
+            stress = getattr(bulk, "stress", None)
+            if stress is None:
+                raise ValueError(
+                    f"the bulk model {type(bulk).__name__} gives no stress (a method "
+                    "stress(u, ctx)): no stress output"
+                )
+            sig = stress(problem.u, problem.bulk_context)
+        else:
+            D0 = dolfinx.fem.functionspace(mesh, ("DG", 0))
+            lam, mu = dolfinx.fem.Function(D0), dolfinx.fem.Function(D0)
+            for body, mat in (materials or {}).items():
+                if body not in problem.tags:
+                    continue
+                cells = problem.domain.cell_tags.find(problem.tags[body])
+                lam.x.array[cells] = mat.E * mat.nu / ((1 + mat.nu) * (1 - 2 * mat.nu))
+                mu.x.array[cells] = mat.E / (2 * (1 + mat.nu))
+            e = ufl.sym(ufl.grad(problem.u))
+            eps = ufl.as_matrix(
+                [[e[i, j] if i < gdim and j < gdim else 0 for j in range(3)] for i in range(3)]
+            )
+            sig = 2 * mu * eps + lam * ufl.tr(eps) * ufl.Identity(3)
         s = ufl.dev(sig)
         vm = ufl.sqrt(1.5 * ufl.inner(s, s))
         Vs = dolfinx.fem.functionspace(mesh, ("DG", degree, (3, 3)))

@@ -25,6 +25,17 @@ a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
   idealisation (exact for a uniformly loaded flat interface, not where the contact's state
   varies over the slide, e.g. near its edges).
 
+A finite-sliding interface (:class:`~subfric_dolfinx.fem.interface.SlidingInterface`) is a
+penalty layer too, and its penetration is judged the same way (``h`` its secondary facets); its
+slide is not: its points are paired again in the current configuration as they slide, so no
+traction acts where the bodies no longer touch.
+
+A problem of several interfaces has one watch per interface (the
+:class:`~subfric_dolfinx.fem.LoadStepper` keeps them all); each uses the contact modulus of its
+own two bodies and names its interface in its warnings. A user bulk law without
+:class:`~subfric_dolfinx.fem.Material` values for an interface's bodies leaves ``E*`` unknown:
+that interface's penetration is then not judged (its slide is).
+
 The checks cost one all-reduce of two numbers per step (and a gather when a maximum grows).
 """
 
@@ -98,26 +109,36 @@ class ValidityWatch:
 
     Args:
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: The interface's name (``None``: the problem's first interface).
 
     Attributes:
+        interface: The interface's name.
         penetration: The worst penetration beyond its tolerance so far, or ``None``.
         slide: The worst slide beyond :data:`SLIDE_ELEMENTS` elements so far, or ``None``.
-        contact_modulus: ``E*`` (MPa).
+        contact_modulus: ``E*`` of the interface's two bodies (MPa), ``None`` if unknown.
         size: The interface's size ``L`` (mm).
         h_min: The smallest interface element size (mm).
     """
 
-    def __init__(self, problem: Any) -> None:
+    def __init__(self, problem: Any, interface: str | None = None) -> None:
         self.problem = problem
         self.comm = problem.comm
-        el = problem.interface
+        ifaces = problem.interfaces
+        self.interface = next(iter(ifaces)) if interface is None else interface
+        if self.interface not in ifaces:
+            raise KeyError(f"no interface {self.interface!r}; the problem has {list(ifaces)}")
+        self._named = len(ifaces) > 1
+        iface = ifaces[self.interface]
+        el = self._elements = iface.law_points
+        # the slide matters where the pairs stay; finite sliding re-pairs as the bodies move
+        self.slides_small = iface.kinematics == "small_sliding"
         self.gdim = el.gdim
-        area = el.weights.sum(axis=1)  # length (2-D), area (3-D) of each element
+        area = el.weights.reshape(-1, el.nq).sum(axis=1)  # length (2-D), area (3-D) per facet
         dim = max(self.gdim - 1, 1)
         self.h = np.repeat(area ** (1.0 / dim), el.nq)  # element size at each point
         self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)
         self.h_min = self.comm.allreduce(float(self.h.min()) if self.h.size else np.inf, MPI.MIN)
-        self.contact_modulus = contact_modulus(problem.materials)
+        self.contact_modulus = _interface_modulus(problem, self.interface)
         self.tolerance = np.maximum(self.h, PENETRATION_FRACTION * self.size)
         self.penetration: WorstPoint | None = None
         self.slide: WorstPoint | None = None
@@ -130,17 +151,18 @@ class ValidityWatch:
         linear penalty ``l`` is the same at every pressed point); slide: the point of the most
         elements.
         """
-        el = self.problem.interface
+        el = self._elements
         nt = el.nt
         res = el.last
         n = self.h.size
         gap = el.last_gap if n else np.zeros((0, nt + 1))
         f_n = res.traction[:, nt] if res is not None and n else np.zeros(n)
         un = gap[:, nt]
-        pressed = (un > 0.0) & (f_n > 0.0)
-        layer = np.where(pressed, self.contact_modulus * un / np.where(pressed, f_n, 1.0), 0.0)
+        pressed = (un > 0.0) & (f_n > 0.0) & (self.contact_modulus is not None)
+        es = self.contact_modulus or 0.0
+        layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
         pen = layer / self.tolerance
-        slide = np.linalg.norm(gap[:, :nt], axis=1)
+        slide = np.linalg.norm(gap[:, :nt], axis=1) if self.slides_small else np.zeros(n)
         checks = {  # name -> (ratio, value, what selects the worst point)
             "penetration": (pen, un, np.where(pen > 1.0, un, -np.inf)),
             "slide": (slide / (SLIDE_ELEMENTS * self.h), slide, slide / self.h),
@@ -171,14 +193,16 @@ class ValidityWatch:
     def messages(self) -> list[tuple[type[Warning], str]]:
         """The warnings of the run so far: (category, text) (the same on every rank)."""
         out: list[tuple[type[Warning], str]] = []
+        on = f"on the interface {self.interface!r}: " if self._named else ""
         p = self.penetration
-        if p is not None:
+        if p is not None and self.contact_modulus is not None:
             es = self.contact_modulus
             layer = es * p.value / p.f_n
             tol = layer / p.ratio
             out.append((logs.PenetrationWarning, (
-                f"large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, t = {p.t:.6g} "
-                f"s, f_n = {p.f_n:.4g} MPa). The interface is as compliant as l = E* ubar_n / f_n "
+                f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
+                f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa). The interface is as compliant as "
+                f"l = E* ubar_n / f_n "
                 f"= {layer:.3g} mm of the bodies (E* = {es:.4g} MPa, their contact modulus), "
                 f"{p.ratio:.3g} times the {tol:.3g} mm tolerated there, max(h, "
                 f"{PENETRATION_FRACTION:g} L) with h = {p.h:.3g} mm the interface element and L "
@@ -190,7 +214,8 @@ class ValidityWatch:
         s = self.slide
         if s is not None:
             out.append((logs.SlideWarning, (
-                f"long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, t = {s.t:.6g} s), "
+                f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
+                f"t = {s.t:.6g} s), "
                 f"{s.value / s.h:.3g} interface elements (h = {s.h:.3g} mm; warned beyond "
                 f"{SLIDE_ELEMENTS:g}). The interface is small-sliding: a slave point's traction "
                 f"still acts on the master point that faced it at the start, {s.value:.3g} mm "
@@ -210,6 +235,28 @@ class ValidityWatch:
             if category not in self._said:
                 self._said.add(category)
                 logs.warn(text, category, self.comm)
+
+
+def _interface_modulus(problem: Any, name: str) -> float | None:
+    """``E*`` of the two bodies an interface joins, from the problem's materials.
+
+    A body's material is given by its name or by one of its cell groups (the most compliant of
+    those given); the legacy ``master``/``slave`` keys are resolved by the problem. ``None`` when
+    either body has none (a user bulk law).
+    """
+    materials = getattr(problem, "materials", None) or {}
+    topo = getattr(problem, "topology", None)
+    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
+    if spec is None:  # not a problem of the model layer: its two bodies are the materials
+        return contact_modulus(materials) if materials else None
+    mats = []
+    for body in (spec.primary, spec.secondary):
+        keys = [body, *topo.bodies.get(body, ())]
+        given = [materials[k] for k in keys if k in materials]
+        if not given:
+            return None
+        mats.append(min(given, key=lambda m: m.E / (1.0 - m.nu**2)))
+    return contact_modulus({"master": mats[0], "slave": mats[1]})
 
 
 def _xy(x: tuple[float, ...]) -> str:

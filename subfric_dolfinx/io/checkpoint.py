@@ -7,7 +7,11 @@ ranks restarts on 1 or 2 (format version 2):
   ``(n_cells, n_dofs_per_cell, gdim)``;
 * ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
   ``up``, ``mu``, ``r``): the committed interface state per quadrature point, in the order of
-  :func:`~.gather.gather_interface` (points sorted by rounded coordinates);
+  :func:`~.gather.gather_interface` (points sorted by rounded coordinates); a finite-sliding
+  interface adds its points' total tangential gap ``sliding_ut`` and frame normals
+  ``sliding_normal``
+  (:meth:`~subfric_dolfinx.fem.interface.SlidingInterface.saved_state`: its points are the
+  slave facets', and the master facet each faces is found again from the displacement);
 * ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
   initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
   restarts only with the same initial gap and regions);
@@ -49,6 +53,13 @@ from .checkpoint_format import (
     check_metadata,
     first_difference,
     jsonable,
+)
+from .checkpoint_parts import (
+    compare_point_data,
+    extra_parts,
+    read_extras,
+    restore_extras,
+    write_extras,
 )
 from .collective import OutputError, collective
 from .h5 import ParallelH5
@@ -105,15 +116,15 @@ def write_checkpoint(
     cells, dofs, n_cells = _cell_dofs(problem)
     u = problem.u.x.array.reshape(-1, gdim)
     el = problem.interface
-    st = el.state.old
     rows, n_points = interface_rows(el)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
     pts = el.points.reshape(-1, gdim)
     blocks = {"x": push(comm, rows, pts, n_points)}
-    for name in st.names:
-        blocks[name] = push(comm, rows, st[name], n_points)
+    for name, a in el.saved_state().items():
+        blocks[name] = push(comm, rows, a, n_points)
     pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
+    extras = extra_parts(problem, cells, n_cells)  # more interfaces, the bulk state
     cols = list(history[0]) if history else []
     table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
         len(history), len(cols)
@@ -142,13 +153,15 @@ def write_checkpoint(
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
         g = f.create_group("interface")
         g.create_dataset("x", (n_points, gdim), **kw)
-        for name in st.names:
-            g.create_dataset(name, (n_points, *st[name].shape[1:]), **kw)
+        for name, b in blocks.items():
+            if name != "x":
+                g.create_dataset(name, (n_points, *b.shape[1:]), **kw)
         pd = f.create_group("point_data")
         for name in pblocks:
             pd.create_dataset(name, (n_points,), **kw)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
+        write_extras(f, extras, comm, create=True)
 
     def fill(f: Any) -> None:  # independent transfers: each rank its own slab
         if c1 > c0:
@@ -160,6 +173,7 @@ def write_checkpoint(
                 f["point_data"][name][p0:p1] = b
         if comm.rank == 0 and table.size:
             f["history"][...] = table
+        write_extras(f, extras, comm, create=False)
 
     try:
         collective(
@@ -167,9 +181,10 @@ def write_checkpoint(
         )
         values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * (
             sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
-        )  # fmt: skip
+        ) + extras.values()  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
-            h.reserve(8 * values + 4096 * (len(blocks) + 3))  # all the file will hold
+            n_sets = len(blocks) + 3 + len(extras.bulk) + 8 * len(extras.interfaces)
+            h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
             h.call(lambda f: f.flush(), meta=True)
@@ -211,6 +226,7 @@ class Checkpoint:
         interface: Name -> this rank's rows of every interface variable.
         point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
             empty for a checkpoint written without them.
+        extras: The further interfaces and the bulk state (:mod:`.checkpoint_parts`).
     """
 
     attrs: dict[str, Any]
@@ -221,6 +237,7 @@ class Checkpoint:
     x: np.ndarray
     interface: dict[str, np.ndarray]
     point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    extras: dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -255,7 +272,7 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
         c0, c1 = slab(int(attrs["n_cells"]), comm.size, comm.rank)
         p0, p1 = slab(int(attrs["n_points"]), comm.size, comm.rank)
 
-        def read(f: Any) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]]:
+        def read(f: Any) -> tuple[Any, ...]:
             u = f["displacement"][c0:c1]
             g = f["interface"]
             iface = {k: g[k][p0:p1] for k in g}
@@ -273,11 +290,12 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
             for k, v in pdata.items():
                 if not np.all(np.isfinite(v)):
                     raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
-            return u, iface, pdata
+            extras = read_extras(f, name, comm, int(attrs["n_cells"]))
+            return u, iface, pdata, extras
 
-        u, iface, pdata = h.call(read)
+        u, iface, pdata, extras = h.call(read)
     x = iface.pop("x")
-    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata)
+    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata, extras)
 
 
 def restore_checkpoint(
@@ -336,8 +354,8 @@ def restore_checkpoint(
                 f"checkpoint {name} was written with {label or key} = {json.dumps(theirs)}, "
                 f"this run has {json.dumps(ours)}"
             )
-    st = el.state.old
-    want = {v: (n_points, *st[v].shape[1:]) for v in st.names}
+    saved = el.saved_state()
+    want = {v: (n_points, *a.shape[1:]) for v, a in saved.items()}
     for v, shape in want.items():
         got = ck.interface.get(v)
         if got is None:
@@ -362,41 +380,12 @@ def restore_checkpoint(
             f"{bad} interface points of this run are not in the checkpoint {name} "
             "(another mesh or quadrature)"
         )
-    _compare_point_data(name, el, ck, rows, n_points, comm)
-    for v in st.names:
-        st[v][:] = pull(comm, rows, ck.interface[v], n_points)
-    el.state.revert()  # trial = committed
+    compare_point_data(name, el, ck.point_data, rows, n_points, comm)
+    el.restore_state(
+        {v: pull(comm, rows, ck.interface[v], n_points).reshape(a.shape) for v, a in saved.items()}
+    )  # trial = committed
+    restore_extras(name, problem, ck.extras, cells, n_cells)
+    problem.resume()
     dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
     stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history
-
-
-_POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}
-
-
-def _compare_point_data(
-    name: str, el: Any, ck: Checkpoint, rows: np.ndarray, n_points: int, comm: Any
-) -> None:
-    """The run's fixed point data must equal the checkpoint's (collective).
-
-    A checkpoint without point data (an older one) fits a run whose data are all zero.
-
-    Raises:
-        CheckpointError: On every rank, naming the datum, the largest difference and where.
-    """
-    pts = el.points.reshape(-1, el.gdim)
-    for key, here in el.point_data.items():
-        stored = key in ck.point_data
-        there = pull(comm, rows, ck.point_data[key], n_points) if stored else np.zeros_like(here)
-        diff = np.abs(there - here)
-        i = int(np.argmax(diff)) if diff.size else -1
-        local = (float(diff[i]), tuple(pts[i]), float(there[i]), float(here[i])) if i >= 0 else None
-        worst = max((w for w in comm.allgather(local) if w), default=None, key=lambda w: w[0])
-        scale = comm.allreduce(float(np.abs(here).max()) if here.size else 0.0, op=MPI.MAX)
-        if worst is not None and worst[0] > 1e-9 * max(1.0, scale):
-            where = ", ".join(f"{v:.6g}" for v in worst[1])
-            raise CheckpointError(
-                f"checkpoint {name} was written with another {_POINT_DATA.get(key, key)}: "
-                f"{worst[2]:.6g} there, {worst[3]:.6g} in this run at ({where})"
-                + ("" if stored else " (the checkpoint has none)")
-            )

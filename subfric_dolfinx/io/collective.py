@@ -27,6 +27,8 @@ from typing import Any, TypeVar
 
 from mpi4py import MPI
 
+from .links import refuse_links
+
 __all__ = [
     "Failure",
     "OutputError",
@@ -152,7 +154,9 @@ def collective(
 def _test_write(directory: Path) -> None:
     probe = directory / f"{PROBE_NAME}-{os.getpid()}"
     try:
-        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        if os.path.islink(probe):  # a planted link: removed, never written through (.links)
+            probe.unlink()
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
         try:
             os.write(fd, b"\0" * PROBE_BYTES)
             os.fsync(fd)
@@ -165,16 +169,24 @@ def _test_write(directory: Path) -> None:
             pass
 
 
-def probe_directory(comm: Any, directory: str | Path) -> Path:
+def probe_directory(comm: Any, directory: str | Path, link_ok: bool = True) -> Path:
     """Create ``directory`` (and its parents) and make a test write in it (rank 0; collective).
+
+    Args:
+        comm: The communicator.
+        directory: The directory.
+        link_ok: Whether ``directory`` may be a symbolic link (the output directory the user
+            gave may; a subdirectory this package makes in it may not, :mod:`.links`).
 
     Raises:
         OutputError: On every rank, naming the directory and the OS error (a path under a
-            regular file, a read-only or full file system, no permission).
+            regular file, a read-only or full file system, no permission, a link refused).
     """
     d = Path(directory)
 
     def probe() -> None:
+        if not link_ok:
+            refuse_links(d)
         if d.exists() and not d.is_dir():
             raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR))
         d.mkdir(parents=True, exist_ok=True)

@@ -15,15 +15,20 @@ Failures are collective (:mod:`.collective`): the directory is created and probe
 every write ends with the ranks agreeing on its outcome. ADIOS2 (VTX) and DOLFINx's HDF5 (XDMF)
 write collectively: a full disk stops one rank inside an MPI collective where the others wait
 for it (measured: a hang, then SIGABRT at exit). So before each write rank 0 checks that the
-file system has room for about twice what a step takes (estimated from the mesh sizes, then
-measured on the steps written) plus 1 MiB, and ends the run with an
-:class:`~.collective.OutputError` on every rank when it has not. A disk filled by another
-process between that check and the write is not covered.
+file system has room for :meth:`FieldWriter.space_needed`: four times what a step takes
+(``step_bytes``, twice the largest step: estimated from the mesh sizes, then measured on the
+steps written) plus :data:`MARGIN` (64 KiB: what closing the files adds, ``profiling.json`` of
+ADIOS2, HDF5's metadata, the end of the XDMF file), and ends the run with an
+:class:`~.collective.OutputError` on every rank when it has not. The room asked for grows with
+the step (a fixed 1 MiB refused a 100 kB step with 1 MB free): measured, ADIOS2 (BP4) writes a
+step's data and metadata at the step, and closing adds a few hundred bytes. A disk filled by
+another process between that check and the write is not covered.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,11 +39,14 @@ import numpy as np
 from ..compat import coordinate_element, geometry_dofmap
 from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
+from .gather import interface_of
+from .links import refuse_links, write_text_nofollow
 from .units import FRAME, interface_units, status_legend
 
 __all__ = ["FieldWriter"]
 
-MARGIN = 1 << 20  # bytes left free beyond the estimate of a step
+MARGIN = 64 << 10
+"""Bytes asked for beyond the steps' share (:meth:`FieldWriter.space_needed`): the files' close."""
 
 
 def _mesh_bytes(mesh: Any) -> int:
@@ -66,50 +74,73 @@ class FieldWriter:
         directory: Output directory (created).
         problem: The problem.
         fmt: ``"vtx"`` (``displacement.bp``, ``interface.bp``) or ``"xdmf"``
-            (``displacement.xdmf``, ``interface.xdmf``).
+            (``displacement.xdmf``, ``interface.xdmf``); with several interfaces one file each,
+            ``interface_<name>.bp`` (``.xdmf``).
+        extra_step_bytes: What the writes passed to :meth:`write` as ``also`` add per step
+            (an estimate, for the first step's space check; later steps are measured).
     """
 
-    def __init__(self, directory: str | Path, problem: Any, fmt: str = "vtx") -> None:
+    def __init__(
+        self, directory: str | Path, problem: Any, fmt: str = "vtx", extra_step_bytes: int = 0
+    ) -> None:
         if fmt not in ("vtx", "xdmf"):
             raise ValueError(f"output format must be 'vtx' or 'xdmf', got {fmt!r}")
         comm = problem.comm
-        self.dir = probe_directory(comm, directory)
+        self.dir = probe_directory(comm, directory, link_ok=False)
         self.problem = problem
         self.fmt = fmt
-        el = problem.interface
-        sub = el.submesh
-        gdim = el.gdim
-        D0s = dolfinx.fem.functionspace(sub, ("DG", 0))
-        D0v = dolfinx.fem.functionspace(sub, ("DG", 0, (gdim,)))
+        ifaces = getattr(problem, "interfaces", None) or {"interface": None}
         F = dolfinx.fem.Function
-        nt = el.nt
-        self.fields = {f"f_t{i + 1}": F(D0s, name=f"f_t{i + 1}") for i in range(nt)}
-        self.fields["f_n"] = F(D0s, name="f_n")
-        self.fields["traction_global"] = F(D0v, name="traction_global")
-        self.variables = [v for v in problem.law.variables if v.output]
-        for var in self.variables:
-            if var.shape == SCALAR:
-                self.fields[var.name] = F(D0s, name=var.name)
-                continue
-            self.fields[f"{var.name}_global"] = F(D0v, name=f"{var.name}_global")
-            for c in var.column_names(nt):
-                self.fields[c] = F(D0s, name=c)
-        for k in el.point_data:
-            self.fields[k] = F(D0s, name=k)
+        # one interface file per interface: interface.bp (or interface_<name>.bp with several)
+        self.parts: list[tuple[str, Any, Any, dict[str, Any]]] = []
+        for name in ifaces:
+            el, law = interface_of(problem, None if ifaces[name] is None else name)
+            sub = el.submesh
+            D0s = dolfinx.fem.functionspace(sub, ("DG", 0))
+            D0v = dolfinx.fem.functionspace(sub, ("DG", 0, (el.gdim,)))
+            nt = el.nt
+            fields = {f"f_t{i + 1}": F(D0s, name=f"f_t{i + 1}") for i in range(nt)}
+            fields["f_n"] = F(D0s, name="f_n")
+            fields["traction_global"] = F(D0v, name="traction_global")
+            for var in law.variables:
+                if not var.output:
+                    continue
+                if var.shape == SCALAR:
+                    fields[var.name] = F(D0s, name=var.name)
+                    continue
+                fields[f"{var.name}_global"] = F(D0v, name=f"{var.name}_global")
+                for c in var.column_names(nt):
+                    fields[c] = F(D0s, name=c)
+            for k in el.point_data:
+                fields[k] = F(D0s, name=k)
+            stem = "interface" if len(ifaces) == 1 else f"interface_{name}"
+            self.parts.append((stem, el, law, fields))
+        self.fields = self.parts[0][3]
         u = problem.u
         n_u = u.function_space.dofmap.index_map.size_global
-        n_sub = sub.topology.index_map(sub.topology.dim).size_global
-        self.step_bytes = 2 * (
-            _mesh_bytes(problem.mesh) + 24 * n_u + _mesh_bytes(sub) + 24 * n_sub * len(self.fields)
-        )  # fmt: skip
+        sub_bytes = 0
+        for _, el, _, fields in self.parts:
+            sub = el.submesh
+            n_sub = sub.topology.index_map(sub.topology.dim).size_global
+            sub_bytes += _mesh_bytes(sub) + 24 * n_sub * len(fields)
+        self.step_bytes = 2 * (_mesh_bytes(problem.mesh) + 24 * n_u + sub_bytes + extra_step_bytes)
         self._wu: Any = None
         self._wi: Any = None
         self._u = u
-        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("creating"))
+        ensure_space(comm, self.dir, self.space_needed(), self._what("creating"))
         collective(
             comm, lambda: self._open(fmt), self._what("creating"), root=None,
             path=self.dir / "displacement", cleanup=self.abandon,
         )  # fmt: skip
+
+    def space_needed(self) -> int:
+        """The free bytes a write asks for: ``2 step_bytes + MARGIN``.
+
+        ``step_bytes`` is twice the largest step (estimated, then measured); twice that again
+        leaves room for the close after the step and for the next step's check to see the disk
+        filling before it is full.
+        """
+        return 2 * self.step_bytes + MARGIN
 
     def _what(self, verb: str, t: float | None = None) -> str:
         at = "" if t is None else f" at t = {t:.6g}"
@@ -118,20 +149,28 @@ class FieldWriter:
     def _open(self, fmt: str) -> None:
         problem, comm = self.problem, self.problem.comm
         u = problem.u
-        gdim = problem.interface.gdim
-        sub = problem.interface.submesh
+        gdim = problem.mesh.geometry.dim
+        self._wi = []
+        names = ("displacement", *(stem for stem, _, _, _ in self.parts))
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
+        refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
         if comm.rank == 0:
             units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
-            units.update(interface_units(problem.law, gdim))
-            meta = {"files": "displacement, interface (DG0: the average of each interface "
+            for _, _, law, _ in self.parts:
+                units.update(interface_units(law, gdim))
+            stems = ", ".join(stem for stem, _, _, _ in self.parts)
+            meta = {"files": f"displacement, {stems} (DG0: the average of each interface "
                     "facet) and stress, VTX (.bp) or XDMF", "units": units, "frame": FRAME,
                     "status_legend": status_legend()}  # fmt: skip
-            (self.dir / "units.json").write_text(json.dumps(meta, indent=1) + "\n")
+            write_text_nofollow(self.dir / "units.json", json.dumps(meta, indent=1) + "\n")
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
-            self._wi = dolfinx.io.VTXWriter(
-                comm, self.dir / "interface.bp", list(self.fields.values()), engine="BP4"
-            )
+            for stem, _, _, fields in self.parts:
+                self._wi.append(
+                    dolfinx.io.VTXWriter(
+                        comm, self.dir / f"{stem}.bp", list(fields.values()), engine="BP4"
+                    )
+                )
         else:
             mesh = problem.mesh
             cdeg = coordinate_element(mesh).degree
@@ -142,11 +181,17 @@ class FieldWriter:
                 self._u = dolfinx.fem.Function(V1, name="displacement")
             self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
             self._wu.write_mesh(mesh)
-            self._wi = dolfinx.io.XDMFFile(comm, self.dir / "interface.xdmf", "w")
-            self._wi.write_mesh(sub)
+            for stem, el, _, _ in self.parts:
+                w = dolfinx.io.XDMFFile(comm, self.dir / f"{stem}.xdmf", "w")
+                self._wi.append(w)
+                w.write_mesh(el.submesh)
 
     def _update(self) -> None:
-        el = self.problem.interface
+        for _, el, law, fields in self.parts:
+            self._update_one(el, law, fields)
+
+    @staticmethod
+    def _update_one(el: Any, law: Any, fields: dict[str, Any]) -> None:
         nf, nq, nt, gdim = el.n_elements, el.nq, el.nt, el.gdim
         w = el.w_ref / el.w_ref.sum()
         st = el.state.old
@@ -161,22 +206,30 @@ class FieldWriter:
             return avg(np.einsum("cqi,cqid->cqd", a.reshape(nf, nq, k), R).reshape(-1, gdim))
 
         for i in range(nt):
-            self.fields[f"f_t{i + 1}"].x.array[:] = avg(tr[:, i])
-        self.fields["f_n"].x.array[:] = avg(tr[:, nt])
-        self.fields["traction_global"].x.array[:] = global_vector(tr).ravel()
-        for var in self.variables:
+            fields[f"f_t{i + 1}"].x.array[:] = avg(tr[:, i])
+        fields["f_n"].x.array[:] = avg(tr[:, nt])
+        fields["traction_global"].x.array[:] = global_vector(tr).ravel()
+        for var in law.variables:
+            if not var.output:
+                continue
             a = st[var.name]
             if var.shape == SCALAR:
-                self.fields[var.name].x.array[:] = avg(a)
+                fields[var.name].x.array[:] = avg(a)
                 continue
-            self.fields[f"{var.name}_global"].x.array[:] = global_vector(a).ravel()
+            fields[f"{var.name}_global"].x.array[:] = global_vector(a).ravel()
             for i, c in enumerate(var.column_names(nt)):
-                self.fields[c].x.array[:] = avg(a[:, i])
+                fields[c].x.array[:] = avg(a[:, i])
         for k, a in el.point_data.items():
-            self.fields[k].x.array[:] = avg(a)
+            fields[k].x.array[:] = avg(a)
 
-    def write(self, t: float) -> None:
+    def write(self, t: float, also: Sequence[Callable[[], None]] = ()) -> None:
         """Write the current (converged) state at time ``t`` (collective).
+
+        Args:
+            t: The time.
+            also: Other collective writes into the same directory at this step (e.g. the
+                bodies' stress), made after these fields under the same space check and
+                collective error handling, and counted in what a step takes.
 
         Raises:
             OutputError: On every rank: too little space left, or the write failed.
@@ -187,17 +240,21 @@ class FieldWriter:
         self._update()
         if self._u is not self.problem.u:
             self._u.interpolate(self.problem.u)
-        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("writing", t))
+        ensure_space(comm, self.dir, self.space_needed(), self._what("writing", t))
         before = _dir_bytes(self.dir) if comm.rank == 0 else 0
 
         def write() -> None:
             if self.fmt == "vtx":
                 self._wu.write(t)
-                self._wi.write(t)
+                for w in self._wi:
+                    w.write(t)
             else:
                 self._wu.write_function(self._u, t)
-                for f in self.fields.values():
-                    self._wi.write_function(f, t)
+                for w, (_, _, _, fields) in zip(self._wi, self.parts, strict=True):
+                    for f in fields.values():
+                        w.write_function(f, t)
+            for other in also:
+                other()
 
         collective(
             comm, write, self._what("writing", t), root=None,
@@ -208,7 +265,7 @@ class FieldWriter:
 
     def abandon(self) -> None:
         """Close the files after a failure, ignoring errors (collective)."""
-        for w in (self._wu, self._wi):
+        for w in (self._wu, *(self._wi or [])):
             if w is not None:
                 try:
                     w.close()
@@ -223,7 +280,8 @@ class FieldWriter:
 
         def close() -> None:
             self._wu.close()
-            self._wi.close()
+            for w in self._wi:
+                w.close()
 
         try:
             collective(self.problem.comm, close, self._what("closing"), root=None)

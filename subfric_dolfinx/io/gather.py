@@ -12,10 +12,35 @@ run give the same order, row by row.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
-__all__ = ["gather_interface", "interface_order"]
+__all__ = ["gather_interface", "interface_of", "interface_order"]
+
+
+def interface_of(problem: Any, interface: str | None = None) -> tuple[Any, Any]:
+    """The law's points and law of an interface.
+
+    The points: :class:`~subfric_dolfinx.fem.interface.protocol.LawPoints`.
+
+    Args:
+        problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: The interface's name (``None``: the first, e.g. the only one).
+
+    Raises:
+        KeyError: No interface of that name (the interfaces are listed).
+    """
+    ifaces = getattr(problem, "interfaces", None)
+    if not ifaces:
+        return problem.interface, problem.law
+    if interface is None:
+        iface = next(iter(ifaces.values()))
+    elif interface in ifaces:
+        iface = ifaces[interface]
+    else:
+        raise KeyError(f"no interface {interface!r}; interfaces: {sorted(ifaces)}")
+    return iface.law_points, iface.law
 
 
 def interface_order(x: np.ndarray, tol: float) -> np.ndarray:
@@ -32,7 +57,8 @@ def gather_interface(
     """Values at the interface points of all ranks, in the documented order (collective).
 
     Args:
-        element: The :class:`~subfric_dolfinx.fem.interface.InterfaceElements` of this rank.
+        element: The interface's law points on this rank
+            (:class:`~subfric_dolfinx.fem.interface.protocol.LawPoints`).
         values: Name -> array whose first axis runs over this rank's points (``n_elements * nq``).
         root: Gather on this rank only (the others get ``None``); on every rank when ``None``.
 
@@ -40,7 +66,7 @@ def gather_interface(
         ``"x"`` (the points' coordinates, (n, gdim)) and every name of ``values``, over all
         points in order.
     """
-    comm = element.pairs.submesh.comm
+    comm = element.comm
     gdim = element.gdim
     x = element.points.reshape(-1, gdim)
     n = x.shape[0]

@@ -51,6 +51,7 @@ from types import TracebackType
 from typing import Any, TypeVar
 
 from .collective import OutputError, collective, reason
+from .links import open_nofollow, refuse_links
 
 __all__ = ["MARGIN", "SPARE", "ParallelH5"]
 
@@ -80,7 +81,7 @@ def preallocate(path: Path, nbytes: int) -> None:
         OSError: ``ENOSPC`` when the file system has not that much room (other refusals of
             ``fallocate``: nothing is reserved).
     """
-    fd = os.open(path, os.O_WRONLY)
+    fd = open_nofollow(path, os.O_WRONLY)
     try:
         if _fallocate is None:
             return
@@ -106,7 +107,7 @@ def make_spare(path: Path, nbytes: int) -> None:
         OSError: ``ENOSPC`` when the file system has not that much room.
     """
     spare = spare_path(path)
-    fd = os.open(spare, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o600)
+    fd = open_nofollow(spare, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
     try:
         if _fallocate is not None and _fallocate(fd, 0, 0, int(nbytes)) != 0:
             e = ctypes.get_errno()
@@ -135,14 +136,20 @@ def trim(path: Path) -> None:
 
     A shrinking truncate frees every block past the new end: grow by one byte, shrink back.
     """
-    size = path.stat().st_size
-    os.truncate(path, size + 1)
-    os.truncate(path, size)
+    fd = open_nofollow(path, os.O_WRONLY)
+    try:
+        size = os.fstat(fd).st_size
+        os.ftruncate(fd, size + 1)
+        os.ftruncate(fd, size)
+    finally:
+        os.close(fd)
 
 
 def _open(path: Path, mode: str, comm: Any) -> Any:
     import h5py
 
+    if mode != "r":  # HDF5 cannot be told O_NOFOLLOW (.links)
+        refuse_links(path)
     if h5py.get_config().mpi:
         return h5py.File(path, mode, driver="mpio", comm=comm)
     if comm.size == 1:

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from .collective import Failure
+from .gather import interface_of
 from .h5 import ParallelH5
 from .slabs import interface_rows, push, slab
 from .units import file_attributes, interface_units
@@ -50,17 +51,25 @@ class InterfaceHistoryH5:
         path: The file.
         problem: The problem.
         restart_time: ``None`` for a new file; the checkpoint time when restarting.
+        interface: Which interface (``None``: the first, e.g. the only one).
 
     Raises:
         OutputError: On every rank: the file cannot be created, or (restart) the existing one
             cannot be continued (unreadable, another interface or law, ends before the restart).
     """
 
-    def __init__(self, path: str | Path, problem: Any, restart_time: float | None = None) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        problem: Any,
+        restart_time: float | None = None,
+        interface: str | None = None,
+    ) -> None:
         self.path = Path(path)
         self.problem = problem
         comm = problem.comm
-        el = problem.interface
+        el, self.law = interface_of(problem, interface)
+        self.el = el
         nt, gdim = el.nt, el.gdim
         self.shapes: dict[str, tuple[tuple[int, ...], Any]] = {
             "f_t": ((nt,), float),
@@ -68,7 +77,7 @@ class InterfaceHistoryH5:
             "gap": ((nt + 1,), float),
             "status": ((), np.int8),
         }
-        for var in problem.law.variables:
+        for var in self.law.variables:
             if var.output:
                 self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
         self.rows, self.p = interface_rows(el)
@@ -97,14 +106,14 @@ class InterfaceHistoryH5:
     def _create(self, x: np.ndarray) -> None:
         assert self.h is not None
         p, gdim = self.p, x.shape[1]
-        names = [v.name for v in self.problem.law.variables]
+        names = [v.name for v in self.law.variables]
 
         units = interface_units(self.problem.law, gdim)
 
         def create(f: Any) -> None:
             f.attrs["variables"] = json.dumps(names)
-            f.attrs["regions"] = json.dumps(list(self.problem.interface.region_names))
-            for k, v in file_attributes(self.problem.law, gdim).items():
+            f.attrs["regions"] = json.dumps(list(self.el.region_names))
+            for k, v in file_attributes(self.law, gdim).items():
                 f.attrs[k] = v
             f.create_dataset("x", (p, gdim), dtype=float, fill_time="never")
             for k in self.pdata:
@@ -137,7 +146,7 @@ class InterfaceHistoryH5:
         """Check the existing file and drop its steps after ``t`` (a restart)."""
         assert self.h is not None
         p, gdim = self.p, x.shape[1]
-        names = [v.name for v in self.problem.law.variables]
+        names = [v.name for v in self.law.variables]
         eps = 1e-9 * max(1.0, abs(t))
 
         def check(f: Any) -> int:
@@ -175,7 +184,7 @@ class InterfaceHistoryH5:
     def write(self, t: float) -> None:
         """Append the current converged state at time ``t`` (collective)."""
         assert self.h is not None, "the interface history is closed"
-        el = self.problem.interface
+        el = self.el
         nt = el.nt
         st, res = el.state.old, el.last
         values = {

@@ -18,25 +18,41 @@ the first step:
    (:data:`RUN_FILES`: ``history.csv`` and its units, ``interface_history.h5``,
    ``checkpoint.h5``, the ``fields`` directory, a stale ``checkpoint.h5.tmp``) into
    ``previous_run/``, replacing what was there: the directory then holds this run's files only,
-   and the last run's files are kept one generation. A restart continues the files it finds
-   (the interface history is cut back to the restart time). Other files are left alone.
+   and the last run's files are kept one generation. ``previous_run/`` is deleted only if this
+   code made it (it holds the mark :data:`PREVIOUS_MARK`, written when it was made) and it holds
+   nothing but such names, or if it is empty: one the user made (no mark: e.g. a directory
+   of the user's earlier results under that name), one that holds other files (the user's, at
+   its top or in its ``fields/``, e.g. a ParaView state saved beside the fields), or
+   a regular file by that name is never deleted, the run is refused naming it (a
+   ``previous_run/`` made by a version of this code before the mark is refused too: move it
+   or delete it). A restart continues the files it finds (the interface history is cut back to
+   the restart time). Other files are left alone.
+
+No file is ever created, truncated or written through a symbolic link (:mod:`.links`): the lock
+is opened with ``O_NOFOLLOW`` (a link there is refused, naming it), a link named like a run's
+file is moved to ``previous_run/`` as a link, a link named ``previous_run`` is removed (not what
+it points to).
 """
 
 from __future__ import annotations
 
 import fcntl
 import os
+import re
 import shutil
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from .collective import OutputError, collective, probe_directory
+from .collective import Failure, OutputError, collective, probe_directory
+from .links import open_nofollow
 
-__all__ = ["LOCK_NAME", "PREVIOUS", "RUN_FILES", "OutputDirectory"]
+__all__ = ["LOCK_NAME", "PREVIOUS", "PREVIOUS_MARK", "RUN_FILES", "OutputDirectory"]
 
 LOCK_NAME = ".subfric.lock"
 PREVIOUS = "previous_run"
+PREVIOUS_MARK = ".made-by-subfric-dolfinx"
+"""An empty file in ``previous_run/``: this code made the directory (and may replace it)."""
 RUN_FILES = (
     "history.csv",
     "history.csv-metadata.json",
@@ -46,6 +62,12 @@ RUN_FILES = (
     "fields",
 )
 """Names this code writes in an output directory (moved aside by a fresh run)."""
+
+FIELD_NAMES = re.compile(
+    r"(displacement|stress|interface(_points)?(_.+)?)\.(bp|xdmf|h5)|units\.json|\..+\.spare"
+)
+"""Names this code writes in ``fields/`` (VTX, XDMF and their HDF5 files; a killed run's spare)."""
+
 
 
 class OutputDirectory:
@@ -99,7 +121,7 @@ class OutputDirectory:
         """Take the lock (rank 0); a description of the holder when another run has it."""
         path = self.path / LOCK_NAME
         while True:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+            fd = open_nofollow(path, os.O_RDWR | os.O_CREAT, 0o644)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
@@ -131,11 +153,34 @@ class OutputDirectory:
         if not found:
             return
         prev = self.path / PREVIOUS
-        if prev.is_dir() and not prev.is_symlink():
-            shutil.rmtree(prev)
-        elif os.path.lexists(prev):
+        if prev.is_symlink():  # the link goes, never what it points to
             prev.unlink()
+        elif prev.is_dir():
+            names = set(os.listdir(prev))
+            foreign = sorted(names - set(RUN_FILES) - {PREVIOUS_MARK})
+            fields = prev / "fields"
+            if fields.is_dir() and not fields.is_symlink():  # a link is removed, not followed
+                inside = os.listdir(fields)
+                foreign += sorted(f"fields/{n}" for n in inside if not FIELD_NAMES.fullmatch(n))
+            if foreign:
+                raise Failure(
+                    f"{str(prev)!r} holds files this code did not write ({', '.join(foreign[:3])}"
+                    f"{', ...' if len(foreign) > 3 else ''}): not deleted; move or rename it, "
+                    "or give another output directory"
+                )
+            if names and PREVIOUS_MARK not in names:
+                raise Failure(
+                    f"{str(prev)!r} was not made by this code (no {PREVIOUS_MARK} in it): not "
+                    "deleted; move or rename it, or give another output directory"
+                )
+            shutil.rmtree(prev)  # never follows a link inside (the links themselves go)
+        elif os.path.lexists(prev):
+            raise Failure(
+                f"{str(prev)!r} is a file this code did not write: not deleted; move or rename "
+                "it, or give another output directory"
+            )
         prev.mkdir()
+        os.close(open_nofollow(prev / PREVIOUS_MARK, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
         for n in found:
             os.replace(self.path / n, prev / n)
         self.moved = found

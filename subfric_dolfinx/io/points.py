@@ -40,6 +40,8 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..constitutive import LOCAL, SCALAR
+from .gather import interface_of
+from .links import refuse_links, write_text_nofollow
 from .units import file_attributes, interface_units
 
 __all__ = ["InterfacePointsXDMF", "PointCloudError"]
@@ -73,19 +75,21 @@ class InterfacePointsXDMF:
     Args:
         path: The XDMF file (``.xdmf``); the HDF5 file is written beside it (``.h5``).
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
+        interface: Which interface (``None``: the first, e.g. the only one).
 
     Raises:
         PointCloudError: On every rank, if the directory or the files cannot be written.
     """
 
-    def __init__(self, path: str | Path, problem: Any) -> None:
+    def __init__(self, path: str | Path, problem: Any, interface: str | None = None) -> None:
         import h5py
 
         self.path = Path(path)
         self.h5path = self.path.with_suffix(".h5")
         self.problem = problem
         self.comm = comm = problem.comm
-        el = problem.interface
+        el, self.law = interface_of(problem, interface)
+        self.el = el
         self.gdim, self.nt = el.gdim, el.nt
         self.n_local = el.n_elements * el.nq
         sizes = comm.allgather(self.n_local)
@@ -106,6 +110,7 @@ class InterfacePointsXDMF:
             raise PointCloudError("interface point output on several ranks needs h5py with MPI")
         error = None
         try:
+            refuse_links(self.path, self.h5path)  # .links
             kw = {"driver": "mpio", "comm": comm} if comm.size > 1 else {}
             self._f = h5py.File(self.h5path, "w", **kw)
         except Exception as e:
@@ -162,7 +167,7 @@ class InterfacePointsXDMF:
 
     def _values(self) -> dict[str, np.ndarray]:
         """This rank's values, by array name (scalars (n,), the traction vector (n, 3))."""
-        el = self.problem.interface
+        el = self.el
         n, nt, gdim = self.n_local, self.nt, self.gdim
         tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))
         status = el.last.status if el.last is not None else np.zeros(n, dtype=np.int8)
@@ -178,7 +183,7 @@ class InterfacePointsXDMF:
         out["traction_global"] = global_vector(tr)
         out["status"] = np.asarray(status, dtype=np.int32)
         st = el.state.old
-        for var in self.problem.law.variables:
+        for var in self.law.variables:
             if not var.output:
                 continue
             width = int(np.prod(var.array_shape(1, nt)[1:]))
@@ -284,7 +289,9 @@ class InterfacePointsXDMF:
             lines.append("</Grid>")
         lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
         tmp = self.path.with_name(self.path.name + ".tmp")
-        tmp.write_text("\n".join(lines))
+        if tmp.is_symlink():  # our temporary name: a planted link is removed, not followed
+            tmp.unlink()
+        write_text_nofollow(tmp, "\n".join(lines))
         os.replace(tmp, self.path)
 
     def close(self) -> None:

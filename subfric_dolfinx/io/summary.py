@@ -7,11 +7,30 @@ from mpi4py import MPI
 
 from ..constitutive import SCALAR, TANGENTIAL, Status
 
-__all__ = ["interface_summary"]
+__all__ = ["element_summary", "interface_summary"]
 
 
 def interface_summary(problem) -> dict[str, float]:
-    """Area-weighted means over the interface, totals and status fractions (same on all ranks).
+    """Area-weighted means over each interface, totals and status fractions (same on all ranks).
+
+    With one interface the keys are those of :func:`element_summary`; with several, every key
+    is prefixed by the interface's name (``head.F_n``, ``joint.F_t1``, ...).
+    """
+    ifaces = getattr(problem, "interfaces", None)
+    if not ifaces:
+        return element_summary(problem.interface, problem.law, problem.comm)
+    if len(ifaces) == 1:
+        iface = next(iter(ifaces.values()))
+        return element_summary(iface.law_points, iface.law, problem.comm)
+    out: dict[str, float] = {}
+    for name, iface in ifaces.items():
+        part = element_summary(iface.law_points, iface.law, problem.comm)
+        out.update({f"{name}.{k}": v for k, v in part.items()})
+    return out
+
+
+def element_summary(el, law, comm) -> dict[str, float]:
+    """Area-weighted means over one interface, totals and status fractions (collective).
 
     Keys: ``area``; ``F_t1`` [``F_t2``], ``F_n`` (resultant forces, the traction integrals);
     ``f_t_norm`` (mean ``|f_t|``), ``f_n`` (mean); for every output variable of the law
@@ -23,7 +42,6 @@ def interface_summary(problem) -> dict[str, float]:
     ``<region>.area``, ``<region>.F_t1`` [``.F_t2``], ``<region>.F_n``, ``<region>.plastic`` and
     ``<region>.separated`` (region ``default``: the points of the default law).
     """
-    el = problem.interface
     nt = el.nt
     w = el.weights.ravel()
     st = el.state.old
@@ -31,7 +49,7 @@ def interface_summary(problem) -> dict[str, float]:
     tr = res.traction if res is not None else np.zeros((w.size, nt + 1))
     names = ["area", *(f"F_t{i + 1}" for i in range(nt)), "F_n", "f_t_norm"]
     cols = [w, *(w * tr[:, i] for i in range(nt + 1)), w * np.linalg.norm(tr[:, :nt], axis=1)]
-    for var in problem.law.variables:
+    for var in law.variables:
         if not var.output:
             continue
         a = st[var.name]
@@ -55,7 +73,7 @@ def interface_summary(problem) -> dict[str, float]:
     if len(el.region_names) > 1:
         loc = np.concatenate([loc, _by_region(el, w, tr, status)])
     tot = np.zeros_like(loc)
-    problem.comm.Allreduce(loc, tot, op=MPI.SUM)
+    comm.Allreduce(loc, tot, op=MPI.SUM)
     area = tot[0]
     # resultant forces (and the area) are totals; everything else is an area-weighted mean
     out = {

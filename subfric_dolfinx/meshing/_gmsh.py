@@ -11,12 +11,15 @@ import numpy as np
 from .groups import INTERFACE, MASTER, SLAVE
 
 __all__ = [
+    "body_nodes",
     "gmsh_module",
     "gmsh_session",
     "group_elements",
     "group_nodes",
     "interface_sides",
     "remove_new_models",
+    "side_counts",
+    "touching_bodies",
 ]
 
 
@@ -80,15 +83,43 @@ def group_elements(dim: int, tag: int) -> tuple[list[int], list[np.ndarray]]:
 
 def interface_sides(tdim: int, tags: dict[str, int]) -> dict[str, int]:
     """Count interface elements whose nodes all belong to the master, to the slave, or neither."""
-    master, slave = group_nodes(tdim, tags[MASTER]), group_nodes(tdim, tags[SLAVE])
-    counts = {MASTER: 0, SLAVE: 0, "neither": 0}
-    for conn in group_elements(tdim - 1, tags[INTERFACE])[1]:
-        in_m = np.isin(conn, master).all(axis=1)
-        in_s = np.isin(conn, slave).all(axis=1)
-        counts[MASTER] += int(np.count_nonzero(in_m & ~in_s))
-        counts[SLAVE] += int(np.count_nonzero(in_s & ~in_m))
-        counts["neither"] += int(np.count_nonzero(in_m == in_s))
-    return counts
+    n_m, n_s, n_0 = side_counts(tdim, tags[INTERFACE], (tags[MASTER],), (tags[SLAVE],))
+    return {MASTER: n_m, SLAVE: n_s, "neither": n_0}
+
+
+def body_nodes(tdim: int, tags: Sequence[int]) -> np.ndarray:
+    """The nodes of the cells of some cell groups (sorted, unique)."""
+    parts = [group_nodes(tdim, t) for t in tags]
+    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+
+def side_counts(
+    tdim: int, interface_tag: int, primary: Sequence[int], secondary: Sequence[int]
+) -> tuple[int, int, int]:
+    """Interface elements whose nodes all belong to the primary body, the secondary, neither.
+
+    ``primary``, ``secondary``: the cell-group tags of each body.
+    """
+    p, s = body_nodes(tdim, primary), body_nodes(tdim, secondary)
+    counts = [0, 0, 0]
+    for conn in group_elements(tdim - 1, interface_tag)[1]:
+        in_p = np.isin(conn, p).all(axis=1)
+        in_s = np.isin(conn, s).all(axis=1)
+        counts[0] += int(np.count_nonzero(in_p & ~in_s))
+        counts[1] += int(np.count_nonzero(in_s & ~in_p))
+        counts[2] += int(np.count_nonzero(in_p == in_s))
+    return counts[0], counts[1], counts[2]
+
+
+def touching_bodies(tdim: int, interface_tag: int, bodies: dict[str, Sequence[int]]) -> list[str]:
+    """The bodies holding every node of some element of an interface group (in body order)."""
+    conns = group_elements(tdim - 1, interface_tag)[1]
+    out = []
+    for name, tags in bodies.items():
+        nodes = body_nodes(tdim, tags)
+        if any(np.isin(c, nodes).all(axis=1).any() for c in conns):
+            out.append(name)
+    return out
 
 
 def remove_new_models(gmsh: Any, before: Sequence[str], current: str) -> None:

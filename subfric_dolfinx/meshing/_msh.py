@@ -6,7 +6,9 @@ gmsh script, whose ``SystemCall`` runs a shell command, and some names (``.gz``)
 shell. :func:`open_msh` therefore opens the file once, checks its header — ``$MeshFormat``, a
 version 2.x or 4.x, file type 0 (ASCII) or 1 (binary), data size 8 and, in a binary file, the
 endianness integer 1 — and gives gmsh the already opened file as ``/proc/self/fd/N`` (no name to
-dispatch on, and no window in which the checked file could be swapped for another).
+dispatch on, and no window in which the checked file could be swapped for another). Before
+that, every section of the file is checked (:mod:`._msh_check`): gmsh trusts the counts of a
+file, and a damaged one could crash it.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import struct
 from collections.abc import Iterator
 from pathlib import Path
 
+from ._msh_check import check_msh
 from .groups import InterfaceMeshError
 
 __all__ = ["check_msh_header", "open_msh"]
@@ -75,6 +78,21 @@ def check_msh_header(head: bytes, what: str) -> None:
         raise InterfaceMeshError(f"{refuse}: '$EndMeshFormat' does not follow the format line")
 
 
+def _read_all(fd: int, path: Path) -> bytes:
+    size = os.fstat(fd).st_size
+    chunks, pos = [], 0
+    while pos < size:
+        try:
+            chunk = os.pread(fd, min(size - pos, 1 << 26), pos)
+        except OSError as e:
+            raise InterfaceMeshError(f"{path}: cannot be read: {e.strerror}") from e
+        if not chunk:
+            break
+        chunks.append(chunk)
+        pos += len(chunk)
+    return b"".join(chunks)
+
+
 @contextlib.contextmanager
 def open_msh(path: Path) -> Iterator[str]:
     """Open an MSH file, check its header, and yield the name under which gmsh must read it.
@@ -97,6 +115,7 @@ def open_msh(path: Path) -> Iterator[str]:
         except OSError as e:
             raise InterfaceMeshError(f"{path}: cannot be read: {e.strerror}") from e
         check_msh_header(head, str(path))
+        check_msh(_read_all(fd, path), str(path))  # every section, before gmsh parses any
         proc = f"/proc/self/fd/{fd}"
         if os.path.exists(proc):
             yield proc

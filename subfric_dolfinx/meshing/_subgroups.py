@@ -8,6 +8,7 @@ groups back afterwards. Such a group must lie on the interface entirely.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -39,36 +40,42 @@ def _centroids(gdim: int, entities: list[int]) -> np.ndarray:
 
 
 def withhold_interface_subgroups(
-    gdim: int, names: dict[str, int], what: str
+    gdim: int, names: dict[str, int], what: str, interfaces: Sequence[str] = (INTERFACE,)
 ) -> tuple[dict[str, np.ndarray], list[tuple[int, int, str, list[int]]]]:
-    """Take the interface's subgroups out of the current gmsh model (rank 0).
+    """Take the interfaces' subgroups out of the current gmsh model (rank 0).
 
     Returns:
         Name -> facet centroids (n, gdim), and what to give :func:`restore_groups`.
 
     Raises:
-        InterfaceMeshError: A named facet group lies partly on the interface.
+        InterfaceMeshError: A named facet group lies partly on an interface.
     """
     gmsh = gmsh_module()
-    if INTERFACE not in names:
+    interfaces = [i for i in interfaces if i in names]
+    if not interfaces:
         return {}, []
     fdim = gdim - 1
-    iface = {int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(fdim, names[INTERFACE])}
+    owner = {
+        int(e): i
+        for i in interfaces
+        for e in gmsh.model.getEntitiesForPhysicalGroup(fdim, names[i])
+    }
     groups: dict[str, np.ndarray] = {}
     withheld: list[tuple[int, int, str, list[int]]] = []
     for d, t in gmsh.model.getPhysicalGroups(fdim):
         name = gmsh.model.getPhysicalName(d, t)
-        if not name or name == INTERFACE:
+        if not name or name in interfaces:
             continue
         ents = [int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(d, t)]
-        on = [e for e in ents if e in iface]
+        on = [e for e in ents if e in owner]
         if not on:
             continue
-        if len(on) != len(ents):
+        host = owner[on[0]]
+        if len(on) != len(ents) or any(owner[e] != host for e in on):
             raise InterfaceMeshError(
-                f"{what}: the facet group {name!r} lies partly on the {INTERFACE!r} group "
+                f"{what}: the facet group {name!r} lies partly on the {host!r} group "
                 f"({len(ents) - len(on)} of its {len(ents)} entities are not interface entities); "
-                "a group of interface facets (an interface region) must lie on the interface only"
+                "a group of interface facets (an interface region) must lie on one interface only"
             )
         groups[name] = _centroids(gdim, ents)
         withheld.append((d, t, name, ents))

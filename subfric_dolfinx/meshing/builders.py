@@ -20,6 +20,8 @@ import numpy as np
 
 from ._features import add_region_groups, check_grading, check_regions, graded_mesh
 from ._gmsh import gmsh_module, group_elements, group_nodes, interface_sides
+from ._size import check_mesh_size, estimate_cells
+from .crack import duplicate_interface_nodes
 from .groups import (
     BODIES,
     BOTTOM,
@@ -99,6 +101,14 @@ def _positive(**values: float) -> None:
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
 
 
+def _check_size(
+    boxes: Sequence, h: float, cell_type: str, grading: tuple | None, n_interface, mesh_size
+) -> None:
+    """Refuse a mesh too large for the machine, before gmsh allocates it (:mod:`._size`)."""
+    option = ("mesh_size", mesh_size) if mesh_size is not None else ("n_interface", n_interface)
+    check_mesh_size(estimate_cells(boxes, h, cell_type, grading), *option)
+
+
 def _interface_size(width: float, n_interface: int | None, mesh_size: float | None) -> float:
     if mesh_size is not None:
         _positive(mesh_size=mesh_size)
@@ -173,10 +183,16 @@ def build_block_on_base(
         )
     h = _interface_size(block_width, n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
+    master_box = ((0.0, 0.0), (base_width, base_height))
+    slave_box = ((block_x, base_height), (block_x + block_width, base_height + block_height))
+    grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
+    if grading is not None and refine_center is None:  # the interface's centre
+        grading = (far_size, growth, (block_x + 0.5 * block_width, base_height), refine_radius)
+    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=2,
-        master_box=((0.0, 0.0), (base_width, base_height)),
-        slave_box=((block_x, base_height), (block_x + block_width, base_height + block_height)),
+        master_box=master_box,
+        slave_box=slave_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,
@@ -247,10 +263,17 @@ def build_pad_on_plate(
             )
     h = _interface_size(pad[0], n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
+    master_box = ((0.0, 0.0, 0.0), plate)
+    slave_box = ((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2]))
+    grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
+    if grading is not None and refine_center is None:  # the interface's centre
+        centre = (ox + 0.5 * pad[0], oy + 0.5 * pad[1], plate[2])
+        grading = (far_size, growth, centre, refine_radius)
+    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=3,
-        master_box=((0.0, 0.0, 0.0), plate),
-        slave_box=((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2])),
+        master_box=master_box,
+        slave_box=slave_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,
@@ -392,47 +415,8 @@ def _build(
 
 def _crack(gdim: int, interface_tag: int, interface_entities: Sequence[int]) -> None:
     """Duplicate the interface nodes; the slave side (above the interface) gets the new nodes."""
-    gmsh = gmsh_module()
-    fdim = gdim - 1
-    ntags, coords, _ = gmsh.model.mesh.getNodes()
-    x = np.zeros((int(ntags.max()) + 1, 3))
-    x[ntags] = np.asarray(coords).reshape(-1, 3)
-    normal_z = 0.0
-    for entity in interface_entities:
-        _, etags, enodes = gmsh.model.mesh.getElements(fdim, entity)
-        el = x[np.asarray(enodes[0]).reshape(len(etags[0]), -1)]
-        if gdim == 2:
-            # Crack's side normal is (0, 0, NormalZ) x tangent = (0, NormalZ * t_x, 0): make it
-            # +y (the pieces of a split interface oriented like the first one).
-            tx = el[:, 1, 0] - el[:, 0, 0]
-            if not (np.all(tx > 0) or np.all(tx < 0)):
-                raise RuntimeError("interface line elements are not consistently oriented")
-            if normal_z == 0.0:
-                normal_z = 1.0 if tx[0] > 0 else -1.0
-            elif (tx[0] > 0) != (normal_z > 0):
-                gmsh.model.mesh.reverse([(fdim, entity)])
-        else:
-            # Crack's side normal is the element normal: make it +z (reverse the mesh if not).
-            normal_z = 1.0
-            nz = np.cross(el[:, 1] - el[:, 0], el[:, 2] - el[:, 0])[:, 2]
-            if not (np.all(nz > 0) or np.all(nz < 0)):
-                raise RuntimeError("interface surface elements are not consistently oriented")
-            if nz[0] < 0:
-                gmsh.model.mesh.reverse([(fdim, entity)])
-    boundary = gmsh.model.getBoundary(
-        [(fdim, e) for e in interface_entities], combined=True, oriented=False
-    )
-    open_tag = gmsh.model.addPhysicalGroup(fdim - 1, sorted({abs(t) for _, t in boundary}))
-    for option, value in (
-        ("Dimension", fdim), ("PhysicalGroup", interface_tag),
-        ("OpenBoundaryPhysicalGroup", open_tag), ("NormalX", 0.0), ("NormalY", 0.0),
-        ("NormalZ", normal_z), ("NewPhysicalGroup", 0), ("DebugView", 0),
-    ):  # fmt: skip
-        gmsh.plugin.setNumber("Crack", option, value)
-    gmsh.plugin.run("Crack")
-    gmsh.model.removePhysicalGroups([(fdim - 1, open_tag)])
-    gmsh.model.mesh.renumberNodes()
-    gmsh.model.mesh.renumberElements()
+    del interface_tag, interface_entities  # the groups are found by name
+    duplicate_interface_nodes(None, {INTERFACE: ([MASTER], [SLAVE])})
 
 
 def _model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: float) -> ModelInfo:

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._gmsh import gmsh_module
+from ._size import check_mesh_size, estimate_cells
 from .builders import ModelInfo, _crack, _model_info, _positive
 from .groups import (
     BOLT_HEAD,
@@ -105,6 +106,9 @@ def build_bolted_lap_joint(
     if n_interface is None or int(n_interface) != n_interface or n_interface < 1:
         raise ValueError(f"n_interface must be a positive integer, got {n_interface!r}")
     h = W / int(n_interface)
+    boxes = (((0.0, 0.0, 0.0), (L, W, t)), ((L - c, 0.0, t), (2 * L - c, W, 2 * t)))
+    option = ("mesh_size", mesh_size) if mesh_size is not None else ("n_interface", n_interface)
+    check_mesh_size(estimate_cells(boxes, h, "tetrahedron"), *option)  # before gmsh (._size)
 
     gmsh = gmsh_module()
     if not gmsh.isInitialized():

@@ -41,18 +41,21 @@ class NodeGroup:
             raise ValueError(f"{len(self.bodies)} bodies for {x.shape[0]} nodes")
 
 
-def node_groups(gdim: int, names: dict[str, int], bodies: dict[str, int]) -> dict[str, NodeGroup]:
+def node_groups(
+    gdim: int, names: dict[str, int], bodies: dict[str, tuple[int, ...]]
+) -> dict[str, NodeGroup]:
     """The named physical groups of points of the current gmsh model (call on one rank).
 
     Args:
         gdim: Dimension of the cells.
         names: Physical name -> tag of the model.
-        bodies: Body name -> tag of its cell group.
+        bodies: Body name -> the tags of its cell groups.
     """
-    from ._gmsh import gmsh_module, group_nodes
+    from ._gmsh import body_nodes as nodes_of
+    from ._gmsh import gmsh_module
 
     gmsh = gmsh_module()
-    body_nodes = {b: group_nodes(gdim, t) for b, t in bodies.items()}
+    body_nodes = {b: nodes_of(gdim, t) for b, t in bodies.items()}
     out: dict[str, NodeGroup] = {}
     for d, t in gmsh.model.getPhysicalGroups(0):
         name = gmsh.model.getPhysicalName(d, t)
@@ -119,7 +122,7 @@ def locate_node_group(domain: Any, name: str, group: NodeGroup | None = None) ->
     cache: dict[str | None, tuple[np.ndarray, np.ndarray]] = {}
     for i, (x, body) in enumerate(zip(group.x, group.bodies, strict=True)):
         if body not in cache:
-            cells = None if body is None else domain.cell_tags.find(domain.tags[body])
+            cells = None if body is None else _body_cells(domain, body)
             verts = body_vertices(mesh, cells)
             cache[body] = (verts, _vertex_coordinates(mesh, verts))
         verts, xv = cache[body]
@@ -137,6 +140,13 @@ def locate_node_group(domain: Any, name: str, group: NodeGroup | None = None) ->
             f"{group.x.shape[0]} nodes not found)"
         )
     return np.unique(np.concatenate(found)).astype(np.int32) if found else np.zeros(0, np.int32)
+
+
+def _body_cells(domain: Any, body: str) -> np.ndarray:
+    """The local cells of a body (or cell group) of ``domain``."""
+    if hasattr(domain, "body_cells"):
+        return domain.body_cells(body)
+    return domain.cell_tags.find(domain.tags[body])
 
 
 def nearest_vertex(

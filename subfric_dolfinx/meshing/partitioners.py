@@ -1,8 +1,8 @@
-"""Deterministic cell partitioners for tests: one body per rank, or interface pairs together."""
+"""Deterministic cell partitioners for tests: bodies on their own ranks, or pairs together."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import dolfinx
@@ -24,11 +24,14 @@ PARTITIONER_KINDS: tuple[str, ...] = ("default", "bodies", "together")
 Partitioner = Callable[[MPI.Comm, int, list, list], Any]
 
 
-def _gmsh_node_data(tdim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _gmsh_node_data(
+    tdim: int, bodies: Mapping[str, Sequence[str]], interfaces: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per-node data of the current gmsh model, indexed by node tag - 1.
 
     Returns:
-        Body (0 master, 1 slave, -1 none), coordinates, and whether the node is on the interface.
+        Body (its index in ``bodies``, -1 none), coordinates, and whether the node is on an
+        interface.
     """
     gmsh = gmsh_module()
     if not gmsh.isInitialized():
@@ -42,14 +45,18 @@ def _gmsh_node_data(tdim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ntags = np.asarray(ntags, dtype=np.int64)
     x = np.zeros((int(ntags.max()), 3))
     x[ntags - 1] = np.asarray(coords).reshape(-1, 3)
-    body = np.full(x.shape[0], -1, dtype=np.int8)
-    for i, name in enumerate(BODIES):
-        if named.get(name, (None,))[0] != tdim:
-            raise RuntimeError(f"body_partitioner: the gmsh model has no {tdim}-D group {name!r}")
-        body[group_nodes(tdim, named[name][1]) - 1] = i
+    body = np.full(x.shape[0], -1, dtype=np.int32)
+    for i, (name, groups) in enumerate(bodies.items()):
+        for g in groups:
+            if named.get(g, (None,))[0] != tdim:
+                raise RuntimeError(
+                    f"body_partitioner: the gmsh model has no {tdim}-D group {g!r} (body {name!r})"
+                )
+            body[group_nodes(tdim, named[g][1]) - 1] = i
     iface = np.zeros(x.shape[0], dtype=bool)
-    if named.get(INTERFACE, (None,))[0] == tdim - 1:
-        iface[group_nodes(tdim - 1, named[INTERFACE][1]) - 1] = True
+    for g in interfaces:
+        if named.get(g, (None,))[0] == tdim - 1:
+            iface[group_nodes(tdim - 1, named[g][1]) - 1] = True
     return body, x, iface
 
 
@@ -88,27 +95,35 @@ def _ghost_destinations(
 
 
 def body_partitioner(
-    kind: str, ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none
+    kind: str,
+    ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none,
+    *,
+    bodies: Mapping[str, Sequence[str]] | None = None,
+    interfaces: Sequence[str] | None = None,
 ) -> Partitioner:
     """Cell partitioner for ``gmshio.model_to_mesh``/``read_from_msh``/``read_interface_mesh``.
 
     Kinds:
 
     * ``"default"``: DOLFINx's graph partitioner (``create_cell_partitioner(ghost_mode)``).
-    * ``"bodies"``: all master cells on rank 0, all slave cells on rank 1 (rank 0 on one rank),
-      so on 2 ranks every interface pair is split across ranks.
-    * ``"together"``: cells are cut into slabs of equal cell count along x, a cell touching the
+    * ``"bodies"``: the cells of body ``i`` on rank ``i % size``: with two bodies on 2 ranks the
+      first (``master``) on rank 0, the second on rank 1, so every interface pair is split across
+      ranks.
+    * ``"together"``: cells are cut into slabs of equal cell count along x, a cell touching an
       interface with a facet being placed by that facet's smallest x, so that the two cells of an
       interface pair (whose facets have the same vertex coordinates) land on the same rank.
 
     The custom kinds look up each cell's body and node coordinates in the current gmsh model on
-    the ranks that hold cells (rank 0 when gmshio converts a model), by the physical names
-    ``master``/``slave``/``interface``. They ghost cells across shared facets when ``ghost_mode``
-    is ``GhostMode.shared_facet``.
+    the ranks that hold cells (rank 0 when gmshio converts a model), by the physical names of the
+    bodies' cell groups and of the interfaces. They ghost cells across shared facets when
+    ``ghost_mode`` is ``GhostMode.shared_facet``.
 
     Args:
         kind: One of :data:`PARTITIONER_KINDS`.
         ghost_mode: Ghosting of the partitioned mesh (``none`` or ``shared_facet``).
+        bodies: Body -> its cell groups, in order (default: ``master``, ``slave``);
+            :func:`~.reader.read_interface_mesh` passes the mesh's.
+        interfaces: The interface groups (default: ``interface``).
 
     Returns:
         A callable ``(comm, nparts, cell_types, cells) -> AdjacencyList_int32`` giving the
@@ -123,6 +138,8 @@ def body_partitioner(
         return default_partitioner(ghost_mode)
     if ghost_mode not in (dolfinx.mesh.GhostMode.none, dolfinx.mesh.GhostMode.shared_facet):
         raise ValueError(f"body_partitioner({kind!r}) supports GhostMode.none and shared_facet")
+    the_bodies = dict(bodies) if bodies else {b: (b,) for b in BODIES}
+    the_interfaces = list(interfaces) if interfaces is not None else [INTERFACE]
 
     def partition(comm: MPI.Comm, nparts: int, cell_types: list, cells: list):
         cell_type = cell_types[0]
@@ -135,12 +152,16 @@ def body_partitioner(
         owner = np.zeros(conn.shape[0], dtype=np.int32)
         if nparts > 1:
             tdim = dolfinx.mesh.cell_dim(cell_type)
-            body, x, iface = _gmsh_node_data(tdim)
+            body, x, iface = _gmsh_node_data(tdim, the_bodies, the_interfaces)
             if kind == "bodies":
                 cell_body = body[conn]
-                if np.any(cell_body != cell_body[:, :1]) or np.any(cell_body < 0):
-                    raise RuntimeError("body_partitioner: a cell has nodes outside its body")
-                owner[cell_body[:, 0] == 1] = 1
+                if np.any(cell_body < 0):
+                    raise RuntimeError("body_partitioner: a cell has nodes outside every body")
+                # a node shared by two bodies (tied) counts for the first: the cell's most
+                # frequent body is its own
+                nb = len(the_bodies)
+                votes = (cell_body[:, :, None] == np.arange(nb)[None, None, :]).sum(axis=1)
+                owner = (np.argmax(votes, axis=1) % nparts).astype(np.int32)
             else:
                 nfv = dolfinx.cpp.mesh.cell_num_entities(
                     dolfinx.cpp.mesh.cell_entity_type(cell_type, tdim - 1, 0), 0

@@ -1,15 +1,15 @@
-"""Reading two bodies joined by a duplicated-node interface into DOLFINx, with checks.
+"""Reading bodies joined by duplicated-node interfaces into DOLFINx, with checks.
 
 :func:`read_interface_mesh` reads a ``.msh`` file or the current gmsh model into DOLFINx,
 collectively, with checks whose failures are raised on all ranks; :func:`create_interface_mesh`
 builds with a builder of :mod:`.builders` and reads in one call. The result, an
-:class:`InterfaceMesh`, knows its groups by name and the two sides of the interface.
+:class:`InterfaceMesh`, knows its groups by name, its bodies, its interfaces and the two sides of
+each (:mod:`.topology`: the user's own group names, ``names=``, ``bodies=``, ``interfaces=``).
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -18,140 +18,28 @@ from typing import Any
 import dolfinx
 import dolfinx.mesh
 import numpy as np
-import numpy.typing as npt
 from mpi4py import MPI
 
 from ..compat import default_partitioner, model_to_mesh
 from ._gmsh import (
+    body_nodes,
     gmsh_module,
     gmsh_session,
     group_elements,
-    group_nodes,
-    interface_sides,
     remove_new_models,
+    side_counts,
+    touching_bodies,
 )
 from ._msh import open_msh
 from ._subgroups import restore_groups, withhold_interface_subgroups
 from .builders import ModelInfo
-from .groups import BODIES, INTERFACE, MASTER, REQUIRED_GROUPS, SLAVE, InterfaceMeshError
+from .groups import INTERFACE, MASTER, SLAVE, InterfaceMeshError
+from .interface_mesh import InterfaceMesh
 from .nodes import NodeGroup, node_groups
 from .partitioners import Partitioner, body_partitioner
+from .topology import InterfaceSides, default_names, mesh_topology
 
 __all__ = ["InterfaceMesh", "create_interface_mesh", "read_interface_mesh"]
-
-
-@dataclasses.dataclass
-class InterfaceMesh:
-    """A DOLFINx mesh of two bodies joined by a duplicated-node interface.
-
-    Attributes:
-        mesh: The mesh.
-        cell_tags: Cell tags (physical-group tags of the bodies).
-        facet_tags: Facet tags (physical-group tags of the facet groups).
-        tags: Physical-group name -> integer tag (the names of the file or model).
-        num_interface_facets: Global number of interface facets on each side.
-        dims: Physical-group name -> its dimension (cells: ``tdim``, facets: ``tdim - 1``).
-        interface_groups: Subgroups of the interface (named facet groups of interface facets,
-            e.g. regions with their own friction law) -> the centroids of their facets (n, gdim),
-            on every rank. A facet carries one tag in DOLFINx, so these groups are not among the
-            facet tags (nor in ``tags``): find their facets by centroid.
-        node_groups: Node groups by name: the named physical groups of points of the file or
-            model, and those added with :meth:`add_node_group`.
-    """
-
-    mesh: dolfinx.mesh.Mesh
-    cell_tags: dolfinx.mesh.MeshTags
-    facet_tags: dolfinx.mesh.MeshTags
-    tags: dict[str, int]
-    num_interface_facets: int = 0
-    dims: dict[str, int] = dataclasses.field(default_factory=dict)
-    interface_groups: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
-    node_groups: dict[str, NodeGroup] = dataclasses.field(default_factory=dict)
-    _sides: dict[str, npt.NDArray[np.int32]] = dataclasses.field(default_factory=dict, repr=False)
-
-    @property
-    def gdim(self) -> int:
-        """Geometric dimension."""
-        return self.mesh.geometry.dim
-
-    @property
-    def tdim(self) -> int:
-        """Topological dimension."""
-        return self.mesh.topology.dim
-
-    def tag(self, name: str) -> int:
-        """Integer tag of the physical group ``name``.
-
-        Raises:
-            KeyError: No group of that name (the message lists the groups present).
-        """
-        try:
-            return self.tags[name]
-        except KeyError:
-            raise KeyError(f"no physical group {name!r}; groups: {sorted(self.tags)}") from None
-
-    def add_node_group(
-        self, name: str, x: npt.ArrayLike, body: str | None = None
-    ) -> NodeGroup:
-        """Name the nodes at the points ``x`` (n, gdim) of ``body`` (any body if ``None``).
-
-        Conditions may then refer to ``name`` (a Dirichlet condition on its nodes). A point must
-        be a vertex of the mesh (within a millionth of the mesh's extent); the nodes are located
-        when a condition uses the group.
-
-        Raises:
-            ValueError: ``name`` is already a physical group or node group, or ``body`` unknown.
-        """
-        if name in self.tags or name in self.node_groups:
-            raise ValueError(f"a group named {name!r} exists already")
-        if body is not None and body not in BODIES:
-            raise ValueError(f"body must be one of {BODIES} or None, got {body!r}")
-        xa = np.atleast_2d(np.asarray(x, dtype=float))
-        x3 = np.zeros((xa.shape[0], 3))
-        x3[:, : xa.shape[1]] = xa
-        group = NodeGroup(x3, (body,) * xa.shape[0])
-        self.node_groups[name] = group
-        return group
-
-    def body_cells(self, body: str) -> npt.NDArray[np.int32]:
-        """Local indices (owned and ghost) of the cells of ``body`` ("master" or "slave")."""
-        return self.cell_tags.find(self.tag(body))
-
-    def facets(self, name: str) -> npt.NDArray[np.int32]:
-        """Local indices (owned and ghost) of the facets of the facet group ``name``."""
-        return self.facet_tags.find(self.tag(name))
-
-    def interface_facets(self, side: str, *, owned_only: bool = False) -> npt.NDArray[np.int32]:
-        """Local indices of the interface facets on ``side``'s body (``"master"`` or ``"slave"``).
-
-        The side of a facet is the body of its (unique) adjacent cell.
-
-        Args:
-            side: ``"master"`` or ``"slave"``.
-            owned_only: Only facets owned by this rank.
-        """
-        if side not in BODIES:
-            raise ValueError(f"side must be one of {BODIES}, got {side!r}")
-        f = self._sides[side]
-        if owned_only:
-            f = f[f < self.mesh.topology.index_map(self.tdim - 1).size_local]
-        return f
-
-    def interface_side_tags(self) -> dolfinx.mesh.MeshTags:
-        """Facet tags marking each local interface facet with the tag of its side's body.
-
-        Use as ``ufl.Measure("ds", domain=mesh, subdomain_data=...)`` and integrate over one side
-        with ``ds(tags["master"])`` or ``ds(tags["slave"])``.
-        """
-        f = np.concatenate([self._sides[MASTER], self._sides[SLAVE]])
-        v = np.concatenate(
-            [
-                np.full(self._sides[MASTER].size, self.tag(MASTER), dtype=np.int32),
-                np.full(self._sides[SLAVE].size, self.tag(SLAVE), dtype=np.int32),
-            ]
-        )
-        order = np.argsort(f)
-        return dolfinx.mesh.meshtags(self.mesh, self.tdim - 1, f[order], v[order])
 
 
 _ERRORS: dict[str, type[Exception]] = {
@@ -175,8 +63,20 @@ def _describe_groups(groups: dict[tuple[int, int], str]) -> str:
     return ", ".join(f"{n or '(unnamed)'!r} (dim {d}, tag {t})" for (d, t), n in groups.items())
 
 
-def _inspect_current_model(gdim: int, required: Sequence[str], what: str) -> dict[str, int]:
-    """Check the current gmsh model; return name -> tag. Raises InterfaceMeshError."""
+def _inspect_current_model(
+    gdim: int,
+    required: Sequence[str] | None,
+    what: str,
+    topology: dict[str, Any],
+) -> tuple[dict[str, int], dict[str, tuple[str, ...]], dict[str, InterfaceSides]]:
+    """Check the current gmsh model (rank 0).
+
+    Returns:
+        Name -> tag, the bodies and the interfaces (sides resolved).
+
+    Raises:
+        InterfaceMeshError: Naming what is wrong.
+    """
     gmsh = gmsh_module()
     groups = {(d, t): gmsh.model.getPhysicalName(d, t) for d, t in gmsh.model.getPhysicalGroups()}
     dims = {d for d, t in groups if any(c.size for c in group_elements(d, t)[1])}
@@ -195,59 +95,83 @@ def _inspect_current_model(gdim: int, required: Sequence[str], what: str) -> dic
             f"[{x[:, 2].min():g}, {x[:, 2].max():g}]"
         )
     names: dict[str, int] = {}
-    for (_, t), n in groups.items():
+    by_name: dict[str, tuple[int, int]] = {}
+    for (d, t), n in groups.items():
         if not n:
             continue  # unnamed groups are read by gmshio but not addressable by name
         if n in names:
             raise InterfaceMeshError(f"{what}: physical name {n!r} is used by several groups")
         names[n] = t
+        by_name[n] = (d, t)
+    nm = default_names(topology.get("names"))
+    if required is None:  # the classic layout's groups, unless the bodies/interfaces are given
+        given = topology.get("interfaces") is not None or topology.get("bodies") is not None
+        required = () if given else (MASTER, SLAVE, INTERFACE)
     for n in required:
+        n = nm.get(n, n)
         if n not in names:
             raise InterfaceMeshError(
                 f"{what}: required physical group {n!r} not found; physical groups found: "
                 f"{_describe_groups(groups)}"
             )
-    for n in (MASTER, SLAVE, INTERFACE):
-        want = gdim - 1 if n == INTERFACE else gdim
-        found = [d for (d, t), m in groups.items() if m == n]
-        if found and found[0] != want:
+    for role in (MASTER, SLAVE, INTERFACE):
+        n = nm[role]
+        want = gdim - 1 if role == INTERFACE else gdim
+        if n in by_name and by_name[n][0] != want:
             raise InterfaceMeshError(
                 f"{what}: physical group {n!r} must have dimension {want}, found dimension "
-                f"{found[0]}"
+                f"{by_name[n][0]}"
             )
     types = {t for d, tg in groups if d == gdim for t in group_elements(d, tg)[0]}
     if len(types) != 1:
         tnames = sorted(gmsh.model.mesh.getElementProperties(t)[0] for t in types)
         raise InterfaceMeshError(f"{what}: expected one cell type, found {tnames}")
-    if MASTER in names and SLAVE in names:
-        tags = {MASTER: names[MASTER], SLAVE: names[SLAVE]}
-        shared = np.intersect1d(group_nodes(gdim, tags[MASTER]), group_nodes(gdim, tags[SLAVE]))
+    try:
+        bodies, sides = mesh_topology(
+            by_name, gdim, names=topology.get("names"), bodies=topology.get("bodies"),
+            interfaces=topology.get("interfaces"),
+        )  # fmt: skip
+    except InterfaceMeshError as e:
+        raise InterfaceMeshError(f"{what}: {e}") from None
+    body_tags = {b: [names[g] for g in gs] for b, gs in bodies.items()}
+    interfaces: dict[str, InterfaceSides] = {}
+    for iface, side in sides.items():
+        if side is None:
+            touching = touching_bodies(gdim, names[iface], body_tags)
+            if len(touching) != 2:
+                raise InterfaceMeshError(
+                    f"{what}: the interface {iface!r} touches the bodies {touching}, not two: "
+                    "give its primary and secondary bodies"
+                )
+            side = InterfaceSides(*sorted(touching, key=lambda b: min(body_tags[b])))
+        interfaces[iface] = side
+        p, q = side.primary, side.secondary
+        shared = np.intersect1d(body_nodes(gdim, body_tags[p]), body_nodes(gdim, body_tags[q]))
         if shared.size:
-            p = gmsh.model.mesh.getNode(int(shared[0]))[0][:gdim]
+            pt = gmsh.model.mesh.getNode(int(shared[0]))[0][:gdim]
             raise InterfaceMeshError(
-                f"{what}: the bodies {MASTER!r} and {SLAVE!r} share {shared.size} nodes (e.g. at "
-                f"{tuple(float(v) for v in p)}); the interface nodes must be duplicated, e.g. with "
-                "gmsh's Crack plugin and OpenBoundaryPhysicalGroup"
+                f"{what}: the bodies {p!r} and {q!r} share {shared.size} nodes (e.g. at "
+                f"{tuple(float(v) for v in pt)}); the interface nodes must be duplicated, e.g. "
+                "with meshing.duplicate_interface_nodes (gmsh's Crack plugin with "
+                "OpenBoundaryPhysicalGroup)"
             )
-        if INTERFACE in names:
-            tags[INTERFACE] = names[INTERFACE]
-            sides = interface_sides(gdim, tags)
-            if sides["neither"]:
-                raise InterfaceMeshError(
-                    f"{what}: {sides['neither']} {INTERFACE!r} facets do not belong to the "
-                    f"boundary of exactly one body"
-                )
-            if sides[MASTER] != sides[SLAVE]:
-                raise InterfaceMeshError(
-                    f"{what}: the two sides of the {INTERFACE!r} group have different numbers "
-                    f"of facets: {sides[MASTER]} on the {MASTER!r} side, {sides[SLAVE]} on the "
-                    f"{SLAVE!r} side"
-                )
+        n_p, n_s, n_0 = side_counts(gdim, names[iface], body_tags[p], body_tags[q])
+        if n_0:
+            raise InterfaceMeshError(
+                f"{what}: {n_0} {iface!r} facets do not belong to the boundary of exactly one "
+                f"of the bodies {p!r} and {q!r}"
+            )
+        if n_p != n_s and side.kinematics == "small_sliding":
+            raise InterfaceMeshError(
+                f"{what}: the two sides of the {iface!r} group have different numbers "
+                f"of facets: {n_p} on the {p!r} side, {n_s} on the {q!r} side (sides meshed "
+                "independently need the interface's kinematics 'finite_sliding')"
+            )
     if ntags.size and not np.array_equal(np.sort(ntags), np.arange(1, ntags.size + 1)):
         # e.g. right after the Crack plugin: gmshio needs contiguous node tags
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()
-    return names
+    return names, bodies, interfaces
 
 
 def read_interface_mesh(
@@ -257,9 +181,12 @@ def read_interface_mesh(
     *,
     partitioner: str | Partitioner | None = None,
     ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none,
-    required: Sequence[str] = REQUIRED_GROUPS,
+    required: Sequence[str] | None = None,
+    names: dict[str, str] | None = None,
+    bodies: dict[str, str | Sequence[str]] | None = None,
+    interfaces: dict[str, Any] | Sequence[str] | None = None,
 ) -> InterfaceMesh:
-    """Read two bodies joined by a duplicated-node interface into DOLFINx (collective).
+    """Read bodies joined by duplicated-node interfaces into DOLFINx (collective).
 
     Rank 0 reads and checks the gmsh data; every failure is raised on all ranks.
 
@@ -272,10 +199,18 @@ def read_interface_mesh(
         partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
             DOLFINx's default partitioner.
         ghost_mode: Ghost mode for the default partitioner or a :func:`body_partitioner` kind.
-        required: Physical groups that must be present.
+        required: Physical groups that must be present (the roles ``master``, ``slave``,
+            ``interface`` stand for the groups ``names`` gives them); ``None``: the classic
+            layout's three groups, unless ``bodies`` or ``interfaces`` are given.
+        names: The classic layout's roles -> the user's group names, e.g. ``{"master": "base",
+            "slave": "block", "interface": "contact"}`` (:mod:`.topology`).
+        bodies: Body -> its cell group(s); default: every named cell group is a body.
+        interfaces: Interface group -> (primary, secondary) bodies (or a dict with these keys),
+            or a list of interface groups (the two bodies each touches; the primary is the one
+            whose first cell group has the smaller tag); default: the classic ``interface``.
 
     Returns:
-        The mesh, its tags, the name -> tag dictionary, and the interface sides.
+        The mesh, its tags, the name -> tag dictionary, the bodies, interfaces and their sides.
 
     Raises:
         FileNotFoundError: ``source`` does not exist.
@@ -284,21 +219,21 @@ def read_interface_mesh(
             group missing, several cell types, bodies sharing nodes, interface sides with
             different numbers of facets, interface facets that are not exterior facets of
             exactly one body, group elements that are not entities of the mesh (which gmshio
-            would drop silently).
+            would drop silently), an unknown body or group in ``names``/``bodies``/
+            ``interfaces``.
     """
     if gdim not in (2, 3):
         raise ValueError(f"gdim must be 2 or 3, got {gdim!r}")
-    if isinstance(partitioner, str):
-        partitioner = body_partitioner(partitioner, ghost_mode)
-    elif partitioner is None and comm.size > 1:
-        partitioner = default_partitioner(ghost_mode)
     what = "current gmsh model" if source is None else str(source)
     error: tuple[str, str] | None = None
-    names: dict[str, int] = {}
+    tags: dict[str, int] = {}
     counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
     dims: dict[str, int] = {}  # name -> dimension, every named group
     nodes: dict[str, NodeGroup] = {}  # physical groups of points
+    found: tuple[dict, dict] = ({}, {})  # bodies, interfaces
+    subgroups: dict[str, np.ndarray] = {}
     model = None
+    topology = {"names": names, "bodies": bodies, "interfaces": interfaces}
     with contextlib.ExitStack() as stack:
         if comm.rank == 0:
             try:
@@ -316,47 +251,57 @@ def read_interface_mesh(
                         gmsh.merge(name)
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
-                names = _inspect_current_model(gdim, required, what)
-                subgroups, withheld = withhold_interface_subgroups(gdim, names, what)
+                tags, b, i = _inspect_current_model(gdim, required, what, topology)
+                found = (b, i)
+                subgroups, withheld = withhold_interface_subgroups(gdim, tags, what, list(i))
                 stack.callback(restore_groups, withheld)
                 for name in subgroups:
-                    names.pop(name)
+                    tags.pop(name)
                 for d, t in gmsh.model.getPhysicalGroups():
                     name = gmsh.model.getPhysicalName(d, t)
                     if name:
                         dims[name] = d
                     if d >= gdim - 1 and name:
                         counts[name] = (d, sum(c.shape[0] for c in group_elements(d, t)[1]))
-                nodes = node_groups(gdim, names, {b: names[b] for b in BODIES if b in names})
+                nodes = node_groups(
+                    gdim, tags, {bd: tuple(tags[g] for g in gs) for bd, gs in b.items()}
+                )
                 model = gmsh.model
             except (FileNotFoundError, InterfaceMeshError) as e:
                 error = (type(e).__name__, str(e))
             except Exception as e:  # anything else, e.g. from gmsh: report on all ranks
                 error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
         _raise_collectively(comm, error)
-        names = comm.bcast(names, root=0)
-        subgroups = comm.bcast(subgroups if comm.rank == 0 else None, root=0)
+        tags = comm.bcast(tags, root=0)
+        subgroups = comm.bcast(subgroups, root=0)
         counts = comm.bcast(counts, root=0)
         dims = comm.bcast(dims, root=0)
         nodes = comm.bcast(nodes, root=0)
-        mesh, ct, ft = model_to_mesh(
-            model, comm, 0, gdim=gdim, partitioner=partitioner
-        )
+        found_bodies, found_ifaces = comm.bcast(found, root=0)
+        if isinstance(partitioner, str):
+            partitioner = body_partitioner(
+                partitioner, ghost_mode, bodies=found_bodies, interfaces=list(found_ifaces)
+            )
+        elif partitioner is None and comm.size > 1:
+            partitioner = default_partitioner(ghost_mode)
+        mesh, ct, ft = model_to_mesh(model, comm, 0, gdim=gdim, partitioner=partitioner)
     imesh = InterfaceMesh(
         mesh=mesh,
         cell_tags=ct,
         facet_tags=ft,
-        tags=names,
+        tags=tags,
         dims=dims,
         interface_groups=subgroups,
         node_groups=nodes,
+        bodies=found_bodies,
+        interfaces=found_ifaces,
     )
     _check_group_counts(imesh, counts, what)
-    if INTERFACE in names:
-        _find_sides(imesh, what)
-    else:
-        empty = np.empty(0, dtype=np.int32)
-        imesh._sides = {MASTER: empty, SLAVE: empty}
+    for iface in found_ifaces:
+        _find_sides(imesh, iface, what)
+    if found_ifaces:
+        first = next(iter(found_ifaces))
+        imesh.num_interface_facets = imesh._counts[first]
     return imesh
 
 
@@ -389,50 +334,55 @@ def _check_group_counts(
         )
 
 
-def _find_sides(imesh: InterfaceMesh, what: str) -> None:
-    """Split the interface facets by the body of the adjacent cell, with collective checks."""
+def _find_sides(imesh: InterfaceMesh, iface: str, what: str) -> None:
+    """Split an interface's facets by the body of the adjacent cell, with collective checks."""
     mesh, comm, tdim = imesh.mesh, imesh.mesh.comm, imesh.tdim
+    sides_of = imesh.interfaces[iface]
     mesh.topology.create_connectivity(tdim - 1, tdim)
     f2c = mesh.topology.connectivity(tdim - 1, tdim)
     imap = mesh.topology.index_map(tdim)
     cell_value = np.full(imap.size_local + imap.num_ghosts, -1, dtype=np.int32)
     cell_value[imesh.cell_tags.indices] = imesh.cell_tags.values
-    facets = imesh.facet_tags.find(imesh.tag(INTERFACE))
+    facets = imesh.facet_tags.find(imesh.tag(iface))
     exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
     cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int32)
     body = cell_value[cells] if facets.size else np.empty(0, dtype=np.int32)
     nf_owned = mesh.topology.index_map(tdim - 1).size_local
     owned = facets < nf_owned
-    sides = {b: facets[body == imesh.tags.get(b, -99)] for b in BODIES}
+    in_p = np.isin(body, imesh.body_tags(sides_of.primary))
+    in_s = np.isin(body, imesh.body_tags(sides_of.secondary))
+    sides = {"primary": facets[in_p], "secondary": facets[in_s]}
     local = np.array(
         [
             np.count_nonzero(owned),
             np.count_nonzero(owned & ~np.isin(facets, exterior)),  # exterior: owned only
-            np.count_nonzero(owned & (body == imesh.tags.get(MASTER, -99))),
-            np.count_nonzero(owned & (body == imesh.tags.get(SLAVE, -99))),
+            np.count_nonzero(owned & in_p),
+            np.count_nonzero(owned & in_s),
         ],
         dtype=np.int64,
     )
     total = np.zeros_like(local)
     comm.Allreduce(local, total, op=MPI.SUM)
-    n_owned, n_interior, n_master, n_slave = (int(v) for v in total)
+    n_owned, n_interior, n_p, n_s = (int(v) for v in total)
     if n_interior:
         raise InterfaceMeshError(
-            f"{what}: {n_interior} {INTERFACE!r} facets are interior facets (shared by two "
+            f"{what}: {n_interior} {iface!r} facets are interior facets (shared by two "
             "cells); the interface nodes must be duplicated"
         )
-    if n_master != n_slave or n_master + n_slave != n_owned:
+    matching = sides_of.kinematics == "small_sliding"
+    if (matching and n_p != n_s) or n_p + n_s != n_owned:
+        p, q = sides_of.primary, sides_of.secondary
         raise InterfaceMeshError(
-            f"{what}: the two sides of the {INTERFACE!r} group have different numbers of facets: "
-            f"{n_master} on the {MASTER!r} side, {n_slave} on the {SLAVE!r} side"
+            f"{what}: the two sides of the {iface!r} group have different numbers of facets: "
+            f"{n_p} on the {p!r} side, {n_s} on the {q!r} side"
             + (
-                f", {n_owned - n_master - n_slave} next to neither body"
-                if n_master + n_slave != n_owned
+                f", {n_owned - n_p - n_s} next to neither body"
+                if n_p + n_s != n_owned
                 else ""
             )
         )
-    imesh._sides = sides
-    imesh.num_interface_facets = n_master
+    imesh._sides[iface] = sides
+    imesh._counts[iface] = n_p
 
 
 def create_interface_mesh(
@@ -441,6 +391,9 @@ def create_interface_mesh(
     *,
     partitioner: str | Partitioner | None = None,
     ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none,
+    names: dict[str, str] | None = None,
+    bodies: dict[str, str | Sequence[str]] | None = None,
+    interfaces: dict[str, Any] | Sequence[str] | None = None,
     **kwargs: Any,
 ) -> tuple[InterfaceMesh, ModelInfo]:
     """Build a model with ``builder(**kwargs)`` on rank 0 and read it into DOLFINx (collective).
@@ -453,7 +406,10 @@ def create_interface_mesh(
         comm: Communicator of the mesh.
         partitioner: As in :func:`read_interface_mesh`.
         ghost_mode: As in :func:`read_interface_mesh`.
-        **kwargs: Passed to ``builder``.
+        names: As in :func:`read_interface_mesh`.
+        bodies: As in :func:`read_interface_mesh`.
+        interfaces: As in :func:`read_interface_mesh`.
+        **kwargs: Passed to ``builder`` (whose result has the model's ``gdim``).
 
     Returns:
         The mesh and the builder's model description (the same on all ranks).
@@ -471,6 +427,7 @@ def create_interface_mesh(
         _raise_collectively(comm, error)
         info = comm.bcast(info, root=0)
         imesh = read_interface_mesh(
-            None, comm, info.gdim, partitioner=partitioner, ghost_mode=ghost_mode
-        )
+            None, comm, info.gdim, partitioner=partitioner, ghost_mode=ghost_mode,
+            names=names, bodies=bodies, interfaces=interfaces,
+        )  # fmt: skip
     return imesh, info

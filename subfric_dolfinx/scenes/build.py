@@ -7,8 +7,21 @@ from typing import Any
 import numpy as np
 
 from .. import meshing
-from ..fem import Dirichlet, InterfaceProblem, Material, PointForce, Pressure, Spring, Traction
+from ..fem import (
+    Dirichlet,
+    Interface,
+    InterfaceProblem,
+    Material,
+    PointForce,
+    Pressure,
+    Spring,
+    Traction,
+)
+from ..fem.bodies import resolve_topology
+from ..fem.plasticity import J2Bulk, PlasticityError
+from ..fem.probes import require_near
 from .interface_spec import gap_function, parse_regions
+from .materials import scene_materials
 from .parser import build_program, parse_law
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
@@ -22,14 +35,44 @@ BUILDERS = {
 """Mesh builders a scene may name."""
 
 
-def build_mesh(spec: MeshSpec, comm: Any) -> meshing.InterfaceMesh:
-    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective)."""
-    if spec.builder is not None:
-        dom, _ = meshing.create_interface_mesh(
-            BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **spec.options
+def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshing.InterfaceMesh:
+    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective).
+
+    With the scene, its ``bodies`` and ``interfaces`` (and ``mesh.names``) say which groups the
+    reader checks as bodies and interfaces.
+    """
+    topo: dict[str, Any] = {"names": dict(spec.names) or None}
+    if scene is not None:
+        if scene.bodies:
+            topo["bodies"] = {b: ([g] if isinstance(g, str) else list(g))
+                              for b, g in scene.bodies.items()}  # fmt: skip
+        if scene.interfaces:  # sides given, or None: found from the mesh
+            topo["interfaces"] = {n: _mesh_sides(spec) for n, spec in scene.interfaces.items()}
+    try:
+        if spec.builder is not None:
+            dom, _ = meshing.create_interface_mesh(
+                BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **topo, **spec.options
+            )
+            return dom
+        return meshing.read_interface_mesh(
+            spec.file, comm, spec.gdim, partitioner=spec.partitioner, **topo
         )
-        return dom
-    return meshing.read_interface_mesh(spec.file, comm, spec.gdim, partitioner=spec.partitioner)
+    except meshing.InterfaceMeshError as e:
+        if spec.names or (scene is not None and (scene.bodies or scene.interfaces)):
+            raise SceneError(f"scene.mesh: {e}") from None
+        raise
+
+
+def _mesh_sides(spec: Any) -> Any:
+    """What the reader is told of an interface: its sides (``None``: the mesh's) and kind.
+
+    A finite-sliding interface's sides may be meshed independently: the reader is told so.
+    """
+    if spec.sides[0] is None:
+        return None
+    if spec.kinematics is None:
+        return spec.sides
+    return {"primary": spec.sides[0], "secondary": spec.sides[1], "kinematics": spec.kinematics}
 
 
 def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
@@ -59,18 +102,22 @@ def _supports(scene: FEScene, domain: meshing.InterfaceMesh) -> tuple[list, list
     """The scene's springs and point forces (collective).
 
     The scene's points named by Dirichlet conditions become node groups of ``domain`` (the vertex
-    nearest to each, in its body).
+    nearest to each, in its body); such a point, like a point force's, must lie within a cell's
+    size of its body (:class:`~subfric_dolfinx.fem.InterfaceError` naming it otherwise).
     """
     for name in dict.fromkeys(d.group for d in scene.dirichlet):
         pt = scene.points.get(name)
         if pt is None or name in domain.tags or name in domain.node_groups:
             continue
+        require_near(domain, pt.x, pt.body, f"scene.points.{name} (held by scene.dirichlet)")
         cells = None if pt.body is None else domain.body_cells(pt.body)
         x, _ = meshing.nearest_vertex(domain.mesh, pt.x, cells)
         domain.add_node_group(name, x[None, : domain.gdim], pt.body)
     springs = [Spring(s.group, s.stiffness, s.u0, s.amplitude) for s in scene.springs]
     forces = [
-        PointForce(scene.points[f.point].x, f.value, f.amplitude, scene.points[f.point].body)
+        PointForce(
+            scene.points[f.point].x, f.value, f.amplitude, scene.points[f.point].body, f.point
+        )
         for f in scene.point_forces
     ]
     return springs, forces
@@ -88,16 +135,76 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         for ld in scene.loads
     ] + point_forces
     materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}
-    return InterfaceProblem(
-        domain,
-        parse_law(scene.law),
-        materials,
-        build_program(scene.program),
-        bcs,
-        loads,
-        springs=springs,
-        degree=scene.degree,
-        quadrature=scene.quadrature,
-        initial_gap=gap_function(scene.initial_gap, gdim),
-        regions=parse_regions(scene.regions) or None,
-    )
+    interfaces = None
+    if scene.interfaces:
+        interfaces = []
+        for name, spec in scene.interfaces.items():
+            path = f"scene.interfaces.{name}"
+            primary, secondary = spec.sides
+            gap = spec.initial_gap if spec.initial_gap is not None else (
+                scene.initial_gap if len(scene.interfaces) == 1 else None
+            )
+            regions = spec.regions or (scene.regions if len(scene.interfaces) == 1 else {})
+            interfaces.append(
+                Interface(
+                    name, primary, secondary,
+                    law=parse_law(spec.law) if spec.law is not None else None,
+                    initial_gap=gap_function(gap, gdim, f"{path}.initial_gap"),
+                    regions=parse_regions(regions, f"{path}.regions") or None,
+                    quadrature=spec.quadrature, kinematics=spec.kinematics,
+                    search_radius=spec.search_radius, reach=spec.reach,
+                )
+            )  # fmt: skip
+    _check_material_names(scene, domain)
+    law = parse_law(scene.law) if scene.law is not None else None
+    bulk = _j2_bulk(scene, domain, law, interfaces)
+    try:
+        return InterfaceProblem(
+            domain,
+            law,
+            materials,
+            build_program(scene.program),
+            bcs,
+            loads,
+            springs=springs,
+            degree=scene.degree,
+            quadrature=scene.quadrature,
+            initial_gap=gap_function(scene.initial_gap, gdim) if not scene.interfaces else None,
+            regions=(parse_regions(scene.regions) or None) if not scene.interfaces else None,
+            interfaces=interfaces,
+            bulk=bulk,
+            mode=scene.mode,
+        )
+    except PlasticityError as e:
+        raise SceneError(f"scene.materials: {e}") from None
+
+
+def _j2_bulk(scene: FEScene, domain: Any, law: Any, interfaces: Any) -> J2Bulk | None:
+    """The J2 bulk of a scene with a J2 body (``None``: all elastic, the built-in fast path).
+
+    The materials keyed ``master``/``slave`` go to the first interface's primary and secondary
+    bodies, as the problem's own materials do.
+    """
+    mats = scene_materials(scene)
+    if mats is None:
+        return None
+    topo = resolve_topology(domain, law, interfaces=interfaces)  # as the problem resolves it
+    resolved = topo.materials(mats)  # type: ignore[arg-type]
+    known = set(topo.tags) | set(topo.bodies)
+    return J2Bulk({k: m for k, m in resolved.items() if k in known or k not in ("master", "slave")})
+
+
+def _check_material_names(scene: FEScene, domain: meshing.InterfaceMesh) -> None:
+    """Every material names a body or a cell group of the mesh (or master/slave).
+
+    Raises:
+        SceneError: Naming the unknown keys and the bodies there are.
+    """
+    cells = {n for n, d in domain.dims.items() if d == domain.tdim}
+    known = set(domain.bodies) | cells | {"master", "slave"}
+    extra = sorted(set(scene.materials) - known)
+    if extra:
+        raise SceneError(
+            f"scene.materials: {extra} are neither bodies nor cell groups of the mesh; bodies: "
+            f"{sorted(domain.bodies)}"
+        )

@@ -9,24 +9,28 @@ with :func:`parse_args`; its ``__main__`` block is ``sys.exit(run_main(main))``:
 * ``-v``/``-q`` set the log level (:func:`subfric_dolfinx.logs.configure`, rank 0 prints).
 * :func:`run_main` turns the way a run ends into one line on rank 0 and an exit code: 0 done,
   1 a step that could not be solved or an I/O error, 2 bad input (scene, mesh, checkpoint, law,
-  command line, any ``ValueError``), :data:`EXIT_INTERRUPTED` (75) stopped by SIGTERM, SIGUSR1
-  or SIGUSR2 (after the current step, with a checkpoint if the run writes any). Anything else is
-  a bug: its traceback.
+  command line, any ``ValueError``), :data:`EXIT_INTERRUPTED` (75) stopped by SIGTERM, SIGINT,
+  SIGUSR1 or SIGUSR2 (after the current step, with a checkpoint if the run writes any).
+  Anything else is a bug: its traceback.
 
-Stopping a run under ``mpirun``: send SIGUSR1 to ``mpirun`` (see :mod:`.signals`).
+Stopping a run under ``mpirun``: send SIGUSR1 to ``mpirun`` (see :mod:`.signals`); a single
+process also stops cleanly on SIGINT (Ctrl-C) and SIGTERM.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
+import threading
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import logs
-from .signals import STOP_SIGNALS, SceneInterrupted
+from .signals import STOP_SIGNALS, SceneInterrupted, guard_active, note_stop
 
 __all__ = [
     "EXIT_BAD_INPUT",
@@ -196,48 +200,110 @@ def _exit_code(e: BaseException) -> int | None:
     return None
 
 
-class _Interrupt(BaseException):
-    """A stop signal outside the load stepping.
+class _StopWatch:
+    """Outside an FE run's signal guard, a stop signal ends the process within a second.
 
-    Like KeyboardInterrupt, no ``except Exception`` on the way turns it into another error.
+    There is nothing to save then (the set-up builds the mesh and the problem; the output
+    directory and its files exist only under the guard, :mod:`.signals`), but the main thread
+    may be inside a long call that Python's signal handlers wait for (gmsh meshing ``--n 600``
+    for 7 minutes, a collective that another rank has left): a thread woken by the signal
+    (``signal.set_wakeup_fd``) prints the one line (rank 0) and ends the process with
+    :data:`EXIT_INTERRUPTED` (``os._exit``; under ``mpirun`` every rank gets the signal, or
+    ``mpirun`` ends the others; ranks other than 0 wait 0.5 s, so that rank 0's line is out
+    before ``mpirun`` ends the job).
     """
 
+    def __init__(self, prog: str, rank: int) -> None:
+        self.prog, self.rank = prog, rank
+        self._numbers = {int(s) for s in STOP_SIGNALS}
+        self._previous: dict[signal.Signals, Any] = {}
+        self._thread: threading.Thread | None = None
 
-def _interrupt(signum: int, frame: Any) -> None:
-    """Outside the load stepping (where :class:`~.signals.StopSignals` takes over): stop now."""
-    raise _Interrupt(
-        f"interrupted by {signal.Signals(signum).name} outside the load stepping (no checkpoint "
-        "written)"
-    )
+    def __enter__(self) -> _StopWatch:
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        self._r, self._w = os.pipe()
+        os.set_blocking(self._w, False)
+        self._old_fd = signal.set_wakeup_fd(self._w, warn_on_full_buffer=False)
+        self._previous = {s: signal.signal(s, _noted) for s in STOP_SIGNALS}
+        self._thread = threading.Thread(target=self._watch, name="subfric-stop", daemon=True)
+        self._thread.start()
+        return self
+
+    def _watch(self) -> None:
+        while True:
+            try:
+                data = os.read(self._r, 64)
+            except OSError:
+                return
+            if not data:  # closed: the run is over
+                return
+            for b in data:
+                if b in self._numbers and not guard_active():
+                    self._stop(signal.Signals(b))
+
+    def _stop(self, sig: signal.Signals) -> None:
+        if self.rank == 0:
+            line = f"{self.prog}: interrupted by {sig.name} outside the load stepping "
+            line += "(no checkpoint written)\n"
+            os.write(2, line.encode())
+        else:  # let rank 0 say why first (mpirun ends the job when a rank exits)
+            time.sleep(0.5)
+        flush = threading.Thread(target=_flush, daemon=True)  # never wait on a held stream
+        flush.start()
+        flush.join(1.0)
+        os._exit(EXIT_INTERRUPTED)
+
+    def __exit__(self, *exc: object) -> None:
+        if self._thread is None:
+            return
+        for s, h in self._previous.items():
+            signal.signal(s, h)
+        signal.set_wakeup_fd(self._old_fd)
+        os.close(self._w)  # the watcher reads the end of the pipe and returns
+        self._thread.join()
+        os.close(self._r)
+        self._thread = None
+
+
+def _noted(signum: int, frame: Any) -> None:
+    """Python's part of a stop signal outside the guard: noted, for a guard taking over.
+
+    The watcher thread acts otherwise.
+    """
+    note_stop(signum)
+
+
+def _flush() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:
+            pass
 
 
 def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> int:
     """Run a demo's ``main(argv)``; return its exit code, the way it ended in one line.
 
-    Use as ``sys.exit(run_main(main))``. SIGTERM, SIGUSR1 and SIGUSR2 stop the run: during the
-    load stepping after the current step (with a checkpoint if the run writes any), elsewhere at
-    once; either way exit code :data:`EXIT_INTERRUPTED`, one line, no traceback.
+    Use as ``sys.exit(run_main(main))``. SIGTERM, SIGINT, SIGUSR1 and SIGUSR2 stop the run:
+    during an FE run after the current step (with a checkpoint if the run writes any; a second
+    signal within the step, :mod:`.signals`), elsewhere (building the mesh and the problem,
+    drawing figures) within a second (:class:`_StopWatch`); either way exit code
+    :data:`EXIT_INTERRUPTED`, one line, no traceback.
     """
     from mpi4py import MPI
 
     rank = MPI.COMM_WORLD.rank
     prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
-    previous = {s: signal.signal(s, _interrupt) for s in STOP_SIGNALS}
-    try:
-        main(argv)
-    except _Interrupt as e:
-        if rank == 0:
-            print(f"{prog}: {e}", file=sys.stderr, flush=True)
-        return EXIT_INTERRUPTED
-    except Exception as e:
-        code = _exit_code(e)
-        if code is None:
-            raise
-        if rank == 0:
-            what = "" if code == EXIT_INTERRUPTED else "error: "
-            print(f"{prog}: {what}{e}", file=sys.stderr, flush=True)
-        return code
-    finally:
-        for s, h in previous.items():
-            signal.signal(s, h)
+    with _StopWatch(prog, rank):
+        try:
+            main(argv)
+        except Exception as e:
+            code = _exit_code(e)
+            if code is None:
+                raise
+            if rank == 0:
+                what = "" if code == EXIT_INTERRUPTED else "error: "
+                print(f"{prog}: {what}{e}", file=sys.stderr, flush=True)
+            return code
     return 0

@@ -25,8 +25,10 @@ import numpy as np
 
 from ..fem.probes import InterfacePointProbe, PointEvaluator
 from ..fem.stress import STRESS_COMPONENTS, StressField
+from ..io.collective import collective
+from ..io.links import refuse_links
 from .parse_features import frame_axes
-from .schema import FEScene
+from .schema import FEScene, SceneError
 
 __all__ = ["DerivedOutputs"]
 
@@ -50,7 +52,7 @@ class DerivedOutputs:
         self.probes = list(out.probes)
         wanted = {f for p in self.probes for f in p.fields}
         needs_stress = out.stress or bool(wanted & {"sigma", "von_mises"})
-        self.stress = StressField(problem, problem.materials) if needs_stress else None
+        self.stress = StressField(problem) if needs_stress else None
         names = list(dict.fromkeys(p.point for p in self.probes))
         pts = [scene.points[n] for n in names]
         self._index = {n: i for i, n in enumerate(names)}
@@ -58,9 +60,27 @@ class DerivedOutputs:
         self.evaluator = None
         if wanted & set(_BODY_FIELDS):
             self.evaluator = PointEvaluator(problem.domain, x, [p.body for p in pts], names)
-        self.iprobe = None
-        if wanted - set(_BODY_FIELDS):
-            self.iprobe = InterfacePointProbe(problem.interface, x)
+        # interface probes: the points at the quadrature points of each probe's interface
+        self.iprobes: dict[str, InterfacePointProbe] = {}
+        ifaces = problem.interfaces
+        self._iface_of: dict[str, str] = {}
+        for p in self.probes:
+            if not set(p.fields) - set(_BODY_FIELDS):
+                continue
+            iname = p.interface or next(iter(ifaces))
+            if iname not in ifaces:
+                raise SceneError(
+                    f"scene.outputs.probes: point {p.point!r}: no interface {iname!r}; "
+                    f"interfaces: {sorted(ifaces)}"
+                )
+            if p.interface is None and len(ifaces) > 1:
+                raise SceneError(
+                    f"scene.outputs.probes: point {p.point!r}: the scene has the interfaces "
+                    f"{sorted(ifaces)}: say which one ('interface')"
+                )
+            self._iface_of[p.point] = iname
+        for iname in dict.fromkeys(self._iface_of.values()):
+            self.iprobes[iname] = InterfacePointProbe(ifaces[iname].law_points, x)
         self.frames = [
             (f.name or f.group, f.group, np.asarray(frame_axes(f.normal, f.tangent, f.group)))
             for f in out.reaction_frames
@@ -102,8 +122,10 @@ class DerivedOutputs:
             "sigma": [f"sigma_{c}" for c in STRESS_COMPONENTS],
             "von_mises": ["von_mises"],
         }
-        if self.iprobe is not None:
-            el = p.interface
+        per_iface: dict[str, dict[str, np.ndarray]] = {}
+        for iname, iprobe in self.iprobes.items():
+            iface = p.interfaces[iname]
+            el = iface.law_points
             nt = el.nt
             n = el.n_elements * el.nq
             tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))
@@ -115,7 +137,7 @@ class DerivedOutputs:
                 "status": status,
                 **dict(el.state.old.items()),
             }
-            values.update(self.iprobe.values(arrays))
+            per_iface[iname] = iprobe.values(arrays)
             tang = [f"t{i + 1}" for i in range(nt)]
             labels.update(
                 f_t=[f"f_{t}" for t in tang],
@@ -123,18 +145,25 @@ class DerivedOutputs:
                 gap=[f"gap_{t}" for t in tang] + ["gap_n"],
                 status=["status"],
             )
-            labels.update({v.name: v.column_names(nt) for v in p.law.variables})
+            labels.update({v.name: v.column_names(nt) for v in iface.law.variables})
         row: dict[str, float] = {}
         for probe in self.probes:
             i = self._index[probe.point]
             for field in probe.fields:
-                for label, v in zip(labels[field], values[field][i], strict=True):
+                source = values if field in _BODY_FIELDS else per_iface[self._iface_of[probe.point]]
+                for label, v in zip(labels[field], source[field][i], strict=True):
                     row[f"{probe.point}.{label}"] = float(v)
         return row
 
     # -- fields ----------------------------------------------------------------------------------
     def _open(self, directory: Path) -> None:
         comm = self.problem.comm
+        names = ["stress.bp"] if self.fmt == "vtx" else ["stress.xdmf", "stress.h5"]
+        paths = [directory, *(directory / n for n in names)]
+        collective(  # before anything is written (.io.links)
+            comm, lambda: refuse_links(*paths), f"writing the stress in {str(directory)!r}",
+            path=directory,
+        )  # fmt: skip
         if comm.rank == 0:
             directory.mkdir(parents=True, exist_ok=True)
         comm.Barrier()
@@ -148,6 +177,16 @@ class DerivedOutputs:
             self.writer = dolfinx.io.XDMFFile(comm, directory / "stress.xdmf", "w")
             self.writer.write_mesh(self.problem.mesh)
         self.path = directory / ("stress.bp" if self.fmt == "vtx" else "stress.xdmf")
+
+    def field_bytes(self) -> int:
+        """What :meth:`write_fields` writes per step, about (bytes; 0 without stress files)."""
+        if self.writer is None or self.stress is None:
+            return 0
+        n = 0
+        for f in (self.stress.sigma, self.stress.von_mises):
+            im = f.function_space.dofmap.index_map
+            n += im.size_global * f.function_space.dofmap.index_map_bs
+        return 8 * n
 
     def write_fields(self, t: float) -> None:
         """Write the stress of the current state at time ``t`` (collective; with fields only)."""

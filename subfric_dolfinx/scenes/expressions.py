@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from ..driver.text import short_repr
+
 __all__ = ["COORDINATES", "FUNCTIONS", "ExpressionError", "compile_expression"]
 
 COORDINATES = ("x", "y", "z")
@@ -54,14 +56,23 @@ class ExpressionError(ValueError):
     """An expression that is not in the allowed language (the message says what is wrong)."""
 
 
+def finite_float(v: int | float) -> float | None:
+    """``v`` as a finite float, or ``None`` (infinite, NaN, or an integer beyond a float)."""
+    try:
+        f = float(v)
+    except OverflowError:  # e.g. a 401-digit integer
+        return None
+    return f if math.isfinite(f) else None
+
+
 def _compile(node: ast.AST, names: frozenset[str]) -> Node:
     if isinstance(node, ast.Constant):
         v = node.value
         if isinstance(v, bool) or not isinstance(v, int | float):
             raise ExpressionError(f"only numbers are allowed as constants, got {v!r}")
-        f = float(v)
-        if not math.isfinite(f):
-            raise ExpressionError(f"the number {v!r} is not finite")
+        f = finite_float(v)
+        if f is None:
+            raise ExpressionError(f"a number ({short_repr(v)}) is not finite (or beyond a float)")
         return lambda env: f
     if isinstance(node, ast.Name):
         name = node.id
@@ -126,9 +137,10 @@ def compile_expression(
             raise ExpressionError(
                 f"parameter name {k!r} is taken (a coordinate, constant or function)"
             )
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(float(v)):
-            raise ExpressionError(f"parameter {k!r} must be a finite number, got {v!r}")
-        params[k] = float(v)
+        f = None if isinstance(v, bool) or not isinstance(v, int | float) else finite_float(v)
+        if f is None:
+            raise ExpressionError(f"parameter {k!r} must be a finite number, got {short_repr(v)}")
+        params[k] = f
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except (SyntaxError, ValueError, RecursionError, MemoryError) as e:

@@ -25,7 +25,16 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..fem import FrictionSolver, LoadStepper, StepFailure, format_breakdown, timing_breakdown
+from ..constitutive import FrictionLaw, law_description
+from ..fem import (
+    FrictionSolver,
+    LoadStepper,
+    SolverOptionError,
+    StepFailure,
+    StepInterrupted,
+    format_breakdown,
+    timing_breakdown,
+)
 from ..io import OutputDirectory, interface_summary, restore_checkpoint
 from .build import build_mesh, build_problem
 from .derived import DerivedOutputs
@@ -39,22 +48,75 @@ __all__ = ["restart_settings", "run_fe_scene"]
 logger = logging.getLogger(__name__)
 
 
+# FEScene fields a restart does not compare here: the run's name and outputs, the solver (may
+# change), the law and program (compared by restore_checkpoint), the points (compared where a
+# condition uses them), the initial gap and regions (their point data g0 and region numbers are
+# compared at every interface point, and the region laws with the law)
+_NOT_SETTINGS = {"name", "kind", "outputs", "solver", "law", "program", "points"}
+_NOT_SETTINGS |= {"initial_gap", "regions"}
+
+
+def _plain(value: Any) -> Any:
+    """A scene value as JSON-ready data (laws described, Python functions by a fixed label)."""
+    if isinstance(value, FrictionLaw):
+        return law_description(value)
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {
+            f.name: _plain(getattr(value, f.name))
+            for f in dataclasses.fields(value)
+            if not (f.metadata.get("omit_if_none") and getattr(value, f.name) is None)
+        }
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray | np.generic):
+        return value.tolist()
+    if value is None or isinstance(value, str | int | float | bool):
+        return value
+    if callable(value):  # code in a Python scene: compared through what it produces, if at all
+        return "<a Python function>"
+    return f"<a {type(value).__name__} object>"  # e.g. a UFL expression: by its kind only
+
+
 def restart_settings(scene: FEScene) -> dict[str, Any]:
     """What a restart must match beyond the mesh, law and program (compared anyway).
 
-    The materials, the Dirichlet conditions and loads (values, components, channels), the
-    quadrature and the mesh builder's options. Solver settings and the partitioner may change.
+    Every model input of the scene: the materials, the Dirichlet conditions and loads (values,
+    components, channels), the springs, the point forces with their points' coordinates and
+    bodies, the points Dirichlet conditions hold, the degree, the quadrature, the mesh builder's
+    options (or the mesh file's name) and group names, and any other field of the scene (bodies,
+    interfaces, mode) except the solver, the outputs and the name. Solver settings and the
+    partitioner may change. The initial gap and the regions are compared point by point (``g0``,
+    region numbers and laws). A field at its default is left out, so checkpoints written before
+    it was compared still fit a run that does not use it.
     """
     mesh: dict[str, Any] = {"builder": scene.mesh.builder, "options": scene.mesh.options}
     if scene.mesh.file is not None:
         mesh = {"file": Path(scene.mesh.file).name, "gdim": scene.mesh.gdim}
-    return {
+    if scene.mesh.names:
+        mesh["names"] = scene.mesh.names
+    out: dict[str, Any] = {
         "materials": scene.materials,
         "dirichlet": [dataclasses.asdict(d) for d in scene.dirichlet],
         "loads": [dataclasses.asdict(ld) for ld in scene.loads],
         "quadrature": scene.quadrature,
         "mesh": mesh,
     }
+    for f in dataclasses.fields(scene):
+        if f.name in _NOT_SETTINGS or f.name in out:
+            continue
+        value = getattr(scene, f.name)
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        if value is default or (isinstance(value, list | dict | str | int) and value == default):
+            continue
+        if f.name == "point_forces":
+            value = [{**_plain(pf), "at": _plain(scene.points.get(pf.point))} for pf in value]
+        out[f.name] = _plain(value)
+    held = [d.group for d in scene.dirichlet if d.group in scene.points]
+    if held:
+        out["dirichlet_points"] = {name: _plain(scene.points[name]) for name in held}
+    return out
 
 
 def run_fe_scene(
@@ -69,7 +131,9 @@ def run_fe_scene(
     outdir = Path(outdir) if outdir is not None else None
     t_start = time.perf_counter()
     PETSc.Log.begin()
-    domain = build_mesh(scene.mesh, comm)
+    what = scene.mesh.builder or scene.mesh.file
+    logger.debug("[%s] building the mesh (%s) on %d rank(s)", scene.name, what, comm.size)
+    domain = build_mesh(scene.mesh, comm, scene)
     problem = build_problem(scene, domain)
     res = SceneResult(scene.name, "fe")
     tdim = domain.mesh.topology.dim
@@ -77,7 +141,9 @@ def run_fe_scene(
         "ranks": comm.size,
         "cells": domain.mesh.topology.index_map(tdim).size_global,
         "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
-        "interface points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
+        "interface points": comm.allreduce(
+            sum(i.law_points.n_elements * i.law_points.nq for i in problem.interfaces.values())
+        ),
         "gdim": domain.mesh.geometry.dim,
     }
     i = res.info
@@ -87,13 +153,20 @@ def run_fe_scene(
     )  # fmt: skip
     settings = restart_settings(scene)
     with contextlib.ExitStack() as stack:
+        # first in, last out: a stop signal is a request until every file is closed (.signals)
+        guard = stack.enter_context(StopSignals())
         if wants_files:
             stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
-        solver = stack.enter_context(
-            FrictionSolver(
-                problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
+        try:
+            solver = stack.enter_context(
+                FrictionSolver(
+                    problem, scene.solver.prefix, scene.solver.options, linear=scene.solver.linear
+                )
             )
-        )
+        except SolverOptionError as e:
+            if e.key not in scene.solver.options:  # the command line's or PETSC_OPTIONS'
+                raise
+            raise SceneError(f"scene.solver.options.{e.key}: {e}") from None
         stepper = LoadStepper(
             solver,
             scene.solver.dt,
@@ -101,6 +174,8 @@ def run_fe_scene(
             dt_min=scene.solver.dt_min,
             max_cuts=scene.solver.max_cuts,
             hold_dt=scene.solver.hold_dt,
+            max_steps=scene.solver.max_steps,
+            keep_records=False,  # the history holds what a scene reports of each step
         )
         restart_time, restart_history = None, None
         if restart is not None:
@@ -124,11 +199,12 @@ def run_fe_scene(
                 ),
             )
         )
-        guard = stack.enter_context(StopSignals())
+        solver.interrupt = lambda: guard.urgent
 
         def on_step(rec: Any) -> None:
             stop = guard.requested(comm)
-            outputs.on_step(rec, stop)  # with checkpoints: writes one, raises SceneInterrupted
+            # with checkpoints: writes one, raises SceneInterrupted
+            outputs.on_step(rec, guard.name if stop else False)
             if stop:
                 raise SceneInterrupted(
                     f"interrupted by {guard.name} after step {rec.step} at t = {rec.t:.6g}; "
@@ -139,10 +215,31 @@ def run_fe_scene(
 
         stepper.on_step = on_step
         try:
+            if guard.requested(comm):  # during the set-up of the outputs or the restart
+                raise SceneInterrupted(
+                    f"interrupted by {guard.name} before the first step (t = {stepper.t:.6g}); "
+                    "nothing written",
+                    None,
+                    None,
+                )
             stepper.run(stops=outputs.stops)
         except StepFailure:
             outputs.write_checkpoint()  # the last converged state, for a restart
             raise
+        except StepInterrupted as e:  # a second stop signal: the step abandoned, state reverted
+            guard.requested(comm)  # agree on the signal's name
+            outputs.write_checkpoint()
+            where = (
+                f"checkpoint written to {outputs.checkpoint_path}"
+                if outputs.checkpoint_path is not None
+                else "no checkpoint (the scene writes none)"
+            )
+            raise SceneInterrupted(
+                f"interrupted by {guard.name} during the step to t = {e.t:.6g} (abandoned); "
+                f"state of step {e.last_step} at t = {e.last_t:.6g}; {where}",
+                e.last_t,
+                str(outputs.checkpoint_path) if outputs.checkpoint_path is not None else None,
+            ) from None
         finally:  # the files are closed by the exit stack (a close error never hides the run's)
             res.history = outputs.history.rows
             res.snapshots = outputs.snapshots

@@ -20,14 +20,14 @@ rest of the interface.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ..constitutive import DEFAULT_REGION, FrictionLaw, LawError, build_law
-from .expressions import COORDINATES, ExpressionError, compile_expression
+from ..driver.text import short_repr
+from .expressions import COORDINATES, ExpressionError, compile_expression, finite_float
 from .schema import SceneError
 
 __all__ = ["SHAPES", "gap_function", "parse_initial_gap", "parse_regions"]
@@ -40,14 +40,18 @@ def _shape(kind: str, spec: Any, path: str) -> tuple[float, list[float]]:
         got = sorted(spec) if isinstance(spec, dict) else repr(spec)
         raise SceneError(f"{path}.{kind}: expected the keys ['R', 'center'], got {got}")
     R, c = spec["R"], spec["center"]
-    if isinstance(R, bool) or not isinstance(R, int | float) or not (math.isfinite(R) and R > 0):
-        raise SceneError(f"{path}.{kind}.R: must be a positive finite number, got {R!r}")
+    Rf = None if isinstance(R, bool) or not isinstance(R, int | float) else finite_float(R)
+    if Rf is None or not Rf > 0:
+        raise SceneError(f"{path}.{kind}.R: must be a positive finite number, got {short_repr(R)}")
     ok = isinstance(c, list) and len(c) in (2, 3)
     ok = ok and all(
-        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in c
+        isinstance(v, int | float) and not isinstance(v, bool) and finite_float(v) is not None
+        for v in c
     )
     if not ok:
-        raise SceneError(f"{path}.{kind}.center: must be 2 or 3 finite coordinates, got {c!r}")
+        raise SceneError(
+            f"{path}.{kind}.center: must be 2 or 3 finite coordinates, got {short_repr(c)}"
+        )
     return float(R), [float(v) for v in c]
 
 
@@ -60,8 +64,8 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
     if value is None or callable(value):
         return
     if isinstance(value, int | float) and not isinstance(value, bool):
-        if not math.isfinite(value):
-            raise SceneError(f"{path}: expected a finite number, got {value!r}")
+        if finite_float(value) is None:
+            raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
         return
     if not isinstance(value, dict) or len(value) == 0:
         raise SceneError(

@@ -27,6 +27,7 @@ from ..io import (
     InterfaceHistoryH5,
     InterfacePointsXDMF,
     gather_interface,
+    interface_of,
     write_checkpoint,
 )
 from .schema import OutputSpec
@@ -35,15 +36,20 @@ from .signals import SceneInterrupted
 __all__ = ["SceneOutputs", "interface_profile"]
 
 
-def interface_profile(problem: Any) -> dict[str, np.ndarray]:
-    """Interface fields at all points, gathered on every rank (collective).
+def _stem(base: str, name: str, names: list[str]) -> str:
+    """``base`` with one interface; ``base_<name>`` with several."""
+    return base if len(names) == 1 else f"{base}_{name}"
+
+
+def interface_profile(problem: Any, interface: str | None = None) -> dict[str, np.ndarray]:
+    """Interface fields at all points of an interface, gathered on every rank (collective).
 
     In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
     ``status``, every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``),
     the law's input gap ``gap`` (n, nt + 1: ``ubar_t``, ``ubar_n - g0``) and the fixed point data
-    (``g0``, and ``region`` with regions).
+    (``g0``, and ``region`` with regions). ``interface``: its name (``None``: the first).
     """
-    el = problem.interface
+    el, _ = interface_of(problem, interface)
     nt = el.nt
     tr = el.last.traction
     values = {"f_t": tr[:, :nt], "f_n": tr[:, nt], "status": el.last.status}
@@ -73,7 +79,8 @@ class SceneOutputs:
 
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
-        snapshots: Time -> :func:`interface_profile`, at the requested times.
+        snapshots: Time -> :func:`interface_profile`, at the requested times (with several
+            interfaces: time -> interface name -> profile).
         iterations: Newton iterations per step.
         files: Paths written.
     """
@@ -94,11 +101,11 @@ class SceneOutputs:
         self.settings = settings
         self.outdir = outdir
         self.files: list[str] = []
-        self.snapshots: dict[float, dict[str, np.ndarray]] = {}
+        self.snapshots: dict[float, dict[str, Any]] = {}
         self.iterations: list[int] = []
         self.fields: FieldWriter | None = None
-        self.points: InterfacePointsXDMF | None = None  # quadrature points, beside the fields
-        self.ihist: InterfaceHistoryH5 | None = None
+        self.points: list[InterfacePointsXDMF] | None = None  # quadrature points (per interface)
+        self.ihist: list[InterfaceHistoryH5] | None = None  # one file per interface
         self.derived = derived
         self.history = HistoryCSV(
             outdir / "history.csv" if spec.history else None,
@@ -107,14 +114,27 @@ class SceneOutputs:
         )
         if restart_history:
             self.history.preload(restart_history)
+        names = list(getattr(problem, "interfaces", None) or {"interface": None})
+        self.interface_names = names
         try:
             if spec.fields:
-                self.fields = FieldWriter(outdir / "fields", problem, spec.fields)
-                self.points = InterfacePointsXDMF(outdir / "fields/interface_points.xdmf", problem)
+                extra = derived.field_bytes() if derived is not None else 0
+                self.fields = FieldWriter(outdir / "fields", problem, spec.fields, extra)
+                self.points = [
+                    InterfacePointsXDMF(
+                        outdir / f"fields/{_stem('interface_points', n, names)}.xdmf", problem,
+                        n if len(names) > 1 else None,
+                    )
+                    for n in names
+                ]  # fmt: skip
             if spec.interface_history:
-                self.ihist = InterfaceHistoryH5(
-                    outdir / "interface_history.h5", problem, restart_time
-                )
+                self.ihist = [
+                    InterfaceHistoryH5(
+                        outdir / f"{_stem('interface_history', n, names)}.h5", problem,
+                        restart_time, n if len(names) > 1 else None,
+                    )
+                    for n in names
+                ]  # fmt: skip
         except BaseException:
             try:
                 self.close()
@@ -139,29 +159,34 @@ class SceneOutputs:
             )
             self.files.append(str(self.checkpoint_path))
 
-    def on_step(self, rec: Any, stopping: bool = False) -> None:
+    def on_step(self, rec: Any, stopping: bool | str = False) -> None:
         """Record a converged step (collective).
 
         Args:
             rec: The :class:`~subfric_dolfinx.fem.StepRecord`.
-            stopping: A stop was requested: write a checkpoint and raise
-                :class:`~.signals.SceneInterrupted`.
+            stopping: A stop was requested (true, or the signal's name): write a checkpoint and
+                raise :class:`~.signals.SceneInterrupted`.
         """
         self.history.write(rec)
         self.iterations.append(rec.iterations)
-        if self.ihist is not None:
-            self.ihist.write(rec.t)
+        for h in self.ihist or []:
+            h.write(rec.t)
         if self.fields is not None and (
             self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
         ):
-            self.fields.write(rec.t)
-            if self.points is not None:
-                self.points.write(rec.t)
-            if self.derived is not None:
-                self.derived.write_fields(rec.t)
+            derived = self.derived
+            stress = () if derived is None else (lambda: derived.write_fields(rec.t),)
+            self.fields.write(rec.t, also=stress)  # one space check, one collective outcome
+            for pts in self.points or []:
+                pts.write(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
-            self.snapshots[float(self._snaps[hit][0])] = interface_profile(self.problem)
+            names = self.interface_names
+            self.snapshots[float(self._snaps[hit][0])] = (
+                interface_profile(self.problem)
+                if len(names) == 1
+                else {n: interface_profile(self.problem, n) for n in names}
+            )
         if self.checkpoint_path is None:
             return
         every = self.spec.checkpoint_every
@@ -172,7 +197,8 @@ class SceneOutputs:
             self.write_checkpoint()
         if stopping:
             raise SceneInterrupted(
-                f"interrupted by a signal after step {rec.step} at t = {rec.t:.6g}; "
+                f"interrupted by {stopping if isinstance(stopping, str) else 'a signal'} after "
+                f"step {rec.step} at t = {rec.t:.6g}; "
                 f"checkpoint written to {self.checkpoint_path}",
                 rec.t,
                 str(self.checkpoint_path),
@@ -186,12 +212,13 @@ class SceneOutputs:
         """
         first: Exception | None = None
         closers = [("history", self.history.close)]
-        if self.points is not None:
-            closers.append(("fields/interface_points.xdmf", self.points.close))
+        names = self.interface_names
+        for n, pts in zip(names, self.points or [], strict=False):
+            closers.append((f"fields/{_stem('interface_points', n, names)}.xdmf", pts.close))
         if self.fields is not None:
             closers.append(("fields", self.fields.close))
-        if self.ihist is not None:
-            closers.append(("interface_history.h5", self.ihist.close))
+        for n, h in zip(names, self.ihist or [], strict=False):
+            closers.append((f"{_stem('interface_history', n, names)}.h5", h.close))
         if self.derived is not None and self.derived.writer is not None:
             closers.append((str(self.derived.path), self.derived.close))
         for name, close in closers:

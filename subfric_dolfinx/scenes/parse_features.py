@@ -100,9 +100,7 @@ def check_features(scene: FEScene, program: LoadingProgram, variables: tuple[str
                 f"{path}: a point's name is 1 to 64 letters, digits and '_', '.', '+', '-' (it "
                 f"names history columns), got {name!r}"
             )
-        _vector(f"{path}.x", pt.x, gdim, "coordinates")
-        if pt.body not in (None, "master", "slave"):
-            raise SceneError(f"{path}.body: must be 'master', 'slave' or null, got {pt.body!r}")
+        _vector(f"{path}.x", pt.x, gdim, "coordinates")  # the body: parse_bodies
     for i, pf in enumerate(scene.point_forces):
         path = f"scene.point_forces[{i}]"
         _known_point(f"{path}.point", pf.point, scene)
@@ -110,6 +108,8 @@ def check_features(scene: FEScene, program: LoadingProgram, variables: tuple[str
         _channels(f"{path}.amplitude", pf.amplitude, gdim, program)
     for i, ld in enumerate(scene.loads):
         if ld.type == "traction":
+            if gdim:
+                _vector(f"scene.loads[{i}].value", ld.value, gdim, "traction components")
             _channels(f"scene.loads[{i}].amplitude", ld.amplitude, gdim, program)
         elif isinstance(ld.amplitude, list):
             raise SceneError(

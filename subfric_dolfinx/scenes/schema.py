@@ -14,6 +14,7 @@ __all__ = [
     "DirichletSpec",
     "FEScene",
     "FrameSpec",
+    "InterfaceSpec",
     "LoadSpec",
     "MeshSpec",
     "OutputSpec",
@@ -35,6 +36,11 @@ class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
 
 
+KINEMATICS = ("small_sliding", "finite_sliding")
+"""The interface kinds of ``interfaces.<name>.kinematics`` (those of
+``subfric_dolfinx.fem.interface.kinds.KINEMATICS``, named here without importing it)."""
+
+
 BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
 """The mesh builders a scene may name, with the dimension of their meshes."""
 
@@ -50,6 +56,9 @@ class MeshSpec:
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
         partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
+        names: The classic layout's roles (``master``, ``slave``, ``interface``; or
+            ``primary``, ``secondary``) -> the file's own group names, e.g.
+            ``{"master": "base", "slave": "block", "interface": "contact"}``.
     """
 
     builder: str | None = None
@@ -57,6 +66,7 @@ class MeshSpec:
     gdim: int | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     partitioner: str | None = None
+    names: dict[str, str] = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,11 +136,12 @@ class ProbeSpec:
 
     ``fields`` among ``u`` (displacement), ``sigma`` (stress components), ``von_mises``, and the
     interface's ``f_t``, ``f_n``, ``gap``, ``status`` and the law's variables (at the nearest
-    interface quadrature point).
+    quadrature point of ``interface``: needed when the scene has several interfaces).
     """
 
     point: str
     fields: list[str] = dataclasses.field(default_factory=lambda: ["u"])
+    interface: str | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -163,6 +174,10 @@ class SolverSpec:
         options: PETSc options under the prefix, for this scene's solver only.
         linear: Linear strategy, ``"reuse"``, ``"lu"`` or ``"gamg"``
             (:mod:`subfric_dolfinx.fem.linear`).
+        max_steps: Most load steps of the run (default
+            :data:`~subfric_dolfinx.fem.stepping.MAX_STEPS`, 1e6): a program that needs more
+            even at ``dt_max`` (and ``hold_dt`` in holds) is refused before anything is built;
+            a run that reaches it (cuts) stops with a ``StepFailure``, its checkpoint written.
     """
 
     dt: float
@@ -173,6 +188,7 @@ class SolverSpec:
     hold_dt: float | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     linear: str = "reuse"
+    max_steps: int = 1_000_000
 
 
 @dataclasses.dataclass(frozen=True)
@@ -218,15 +234,73 @@ class OutputSpec:
 
 
 @dataclasses.dataclass(frozen=True)
+class InterfaceSpec:
+    """One interface of a scene (a facet group of the mesh with duplicated nodes).
+
+    Attributes:
+        primary: The body whose outward normal defines the interface frame (``master`` is
+            accepted as its other name); ``None``: the body the mesh gives.
+        secondary: The other body (``slave``).
+        master: Same as ``primary``.
+        slave: Same as ``secondary``.
+        law: Its friction law (``{"law": ..., "params": ...}``); ``None``: the scene's ``law``.
+        initial_gap: Its initial gap (as the scene's ``initial_gap``).
+        regions: Its regions (as the scene's ``regions``).
+        quadrature: ``"gauss"`` or ``"nodal"``; ``None``: the scene's.
+        kinematics: ``"small_sliding"`` (node-to-node pairs fixed at the reference geometry, the
+            sides' nodes matching) or ``"finite_sliding"`` (pairing in the current configuration:
+            the bodies slide any distance, the sides may be meshed independently); ``None``:
+            small sliding.
+        search_radius: Finite sliding only: the largest normal distance at which a point of the
+            secondary side faces the primary (mm, > 0); ``None``: twice the largest facet size.
+        reach: Finite sliding only: how far a point may slide in one step (mm, > 0); ``None``:
+            the largest facet size.
+    """
+
+    primary: str | None = None
+    secondary: str | None = None
+    master: str | None = None
+    slave: str | None = None
+    law: Any = None
+    initial_gap: Any = None
+    regions: dict[str, Any] = dataclasses.field(default_factory=dict)
+    quadrature: str | None = None
+    # left out of a restart's settings while unset (checkpoints written before they existed)
+    kinematics: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
+    search_radius: float | None = dataclasses.field(
+        default=None, metadata={"omit_if_none": True}
+    )
+    reach: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
+
+    @property
+    def sides(self) -> tuple[str | None, str | None]:
+        """(primary, secondary), from either name."""
+        return self.primary or self.master, self.secondary or self.slave
+
+
+@dataclasses.dataclass(frozen=True)
 class FEScene:
-    """A finite-element scene: two elastic bodies and a frictional interface."""
+    """A finite-element scene: bodies and frictional interfaces.
+
+    The classic scene has two bodies, ``master`` and ``slave``, and one ``interface`` with the
+    scene's ``law``, ``initial_gap`` and ``regions``. ``bodies`` names bodies made of cell groups
+    (e.g. ``{"bolt": ["head", "shank"]}``), ``interfaces`` the interfaces one by one, each with
+    its own sides and law (:class:`InterfaceSpec`); ``materials`` are keyed by body or cell group.
+    ``mode`` is ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
+    ``"axisymmetric"`` (coordinates ``(r, z)``, every integral with ``2 pi r``).
+
+    A scene's bodies are linear elastic (the built-in fast path). A bulk law of the user's (a UFL
+    residual, ``bulk=`` of :class:`~subfric_dolfinx.fem.InterfaceProblem`) and a solver loop of
+    the user's (:class:`~subfric_dolfinx.fem.FrictionInterface`) are Python API only: a scene is
+    data, and nothing in it is executed.
+    """
 
     name: str
     mesh: MeshSpec
-    law: Any  # {"law": name, "params": {...}}, or a FrictionLaw object
-    materials: dict[str, dict[str, float]]
+    materials: dict[str, dict[str, Any]]  # checked by scenes/materials.py ("model": "j2")
     program: dict[str, Any]
     solver: SolverSpec
+    law: Any = None  # {"law": name, "params": {...}}, or a FrictionLaw object
     dirichlet: list[DirichletSpec] = dataclasses.field(default_factory=list)
     loads: list[LoadSpec] = dataclasses.field(default_factory=list)
     springs: list[SpringSpec] = dataclasses.field(default_factory=list)
@@ -241,6 +315,9 @@ class FEScene:
     # (a group of interface facets -> its law)
     initial_gap: Any = None
     regions: dict[str, Any] = dataclasses.field(default_factory=dict)
+    bodies: dict[str, Any] = dataclasses.field(default_factory=dict)
+    interfaces: dict[str, InterfaceSpec] = dataclasses.field(default_factory=dict)
+    mode: str | None = None  # "3d", "plane_strain" (2-D default), "plane_stress", "axisymmetric"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -1,10 +1,24 @@
-"""The signal guard of a run: a stop request (SIGTERM, SIGUSR1, SIGUSR2) honoured after the step.
+"""The signal guard of a run: a stop signal is a request, honoured at a safe point.
+
+While the guard is active (an FE run, from the output directory's creation to its last close),
+a signal never raises anything: the handler only counts it.
+
+* The **first** stop signal requests a stop after the current step: every rank finishes the
+  step, the run writes its checkpoint (if the scene writes any) and stops with
+  :class:`SceneInterrupted`.
+* A **second** one (of any of these kinds; a third changes nothing) stops sooner: at the next
+  evaluation of the residual (within a Newton iteration), on every rank, the step is abandoned
+  and its state reverted to the last converged step; the checkpoint of that state is written
+  and the run stops with :class:`SceneInterrupted` too. Nothing is raised inside PETSc's
+  callbacks: the solver ends its solve (a function-domain error every rank agrees on), and the
+  stepper raises :class:`~subfric_dolfinx.fem.StepInterrupted` outside them.
 
 Under ``mpirun`` (Open MPI 5), send **SIGUSR1** (or SIGUSR2) to ``mpirun``: it forwards the signal
-to every rank and waits; each rank finishes its step, the run writes its checkpoint (if the scene
-writes any) and stops with :class:`SceneInterrupted`. SIGTERM sent to ``mpirun`` is forwarded too,
-but ``mpirun`` kills the ranks about 0.2 s later, usually before the step ends. A second signal of
-the same kind acts as if no guard were installed (e.g. SIGTERM ends the process at once).
+to every rank and waits. ``mpirun`` does not forward SIGINT or SIGTERM: it ends the job itself
+(SIGTERM kills the ranks about 0.2 s later; Ctrl-C at a terminal likewise), leaving the last
+checkpoint readable (it is written to a temporary file, then renamed). For a single process
+(``python3 demos/x.py``, a script calling :func:`~.runner.run_scene`), Ctrl-C is a clean stop like
+SIGUSR1.
 """
 
 from __future__ import annotations
@@ -14,10 +28,32 @@ import threading
 from types import TracebackType
 from typing import Any
 
-__all__ = ["STOP_SIGNALS", "SceneInterrupted", "StopSignals"]
+__all__ = ["STOP_SIGNALS", "SceneInterrupted", "StopSignals", "guard_active", "note_stop"]
 
-STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGTERM, signal.SIGUSR1, signal.SIGUSR2)
-"""Signals that stop a run cleanly after the current step."""
+STOP_SIGNALS: tuple[signal.Signals, ...] = (
+    signal.SIGTERM,
+    signal.SIGINT,
+    signal.SIGUSR1,
+    signal.SIGUSR2,
+)
+"""Signals that stop a run cleanly (after the current step; the second one sooner)."""
+
+_ACTIVE: list[StopSignals] = []  # guards whose handlers are installed (main thread)
+_PENDING: list[int] = []  # stop signals noted while no guard was active (see note_stop)
+
+
+def guard_active() -> bool:
+    """Whether a :class:`StopSignals` guard has its handlers installed in this process."""
+    return bool(_ACTIVE)
+
+
+def note_stop(signum: int) -> None:
+    """Note a stop signal received while no guard is active (a handler of the command line).
+
+    The next guard to become active counts it as its own: a signal that arrives just before a
+    guard takes over is not lost.
+    """
+    _PENDING.append(int(signum))
 
 
 class SceneInterrupted(RuntimeError):
@@ -37,11 +73,15 @@ class StopSignals:
     """While active, the given signals only request a stop; :meth:`requested` tells all ranks.
 
     A context manager: on entry it installs the handlers (main thread only; elsewhere it does
-    nothing), on exit it puts the previous handlers back.
+    nothing), on exit it puts the previous handlers back. The handler never raises.
 
     Args:
         signals: The signals to catch (default :data:`STOP_SIGNALS`).
         enabled: Install nothing when false.
+
+    Attributes:
+        count: Stop signals received on this rank.
+        received: The first one.
     """
 
     def __init__(
@@ -50,27 +90,32 @@ class StopSignals:
         self.signals = signals
         self.enabled = enabled
         self.event = threading.Event()
+        self.count = 0
         self.received: signal.Signals | None = None
         self.agreed: signal.Signals | None = None  # the signal all ranks agree on
         self._previous: dict[signal.Signals, Any] = {}
 
     def _handler(self, signum: int, frame: Any) -> None:
-        sig = signal.Signals(signum)
-        if self.received == sig:  # the second one: as if there were no guard
-            previous = self._previous.get(sig, signal.SIG_DFL)
-            signal.signal(sig, previous)
-            if callable(previous):
-                previous(signum, frame)
-            else:
-                signal.raise_signal(sig)
-            return
-        self.received = sig
+        self.count += 1
+        if self.received is None:
+            self.received = signal.Signals(signum)
         self.event.set()
+
+    @property
+    def urgent(self) -> bool:
+        """Whether this rank received a second stop signal (stop within the step).
+
+        Local; :class:`~subfric_dolfinx.fem.FrictionSolver` makes it collective.
+        """
+        return self.count >= 2
 
     def __enter__(self) -> StopSignals:
         if self.enabled and threading.current_thread() is threading.main_thread():
             for s in self.signals:
                 self._previous[s] = signal.signal(s, self._handler)
+            _ACTIVE.append(self)
+            while _PENDING:
+                self._handler(_PENDING.pop(0), None)
         return self
 
     def __exit__(
@@ -82,6 +127,8 @@ class StopSignals:
         for s, previous in self._previous.items():
             signal.signal(s, previous)
         self._previous.clear()
+        if self in _ACTIVE:
+            _ACTIVE.remove(self)
 
     def requested(self, comm: Any) -> bool:
         """Whether any rank received a stop signal (collective on the MPI communicator ``comm``).

@@ -93,8 +93,8 @@ def test_bad_data(tmp_path, obj, words):
 @pytest.mark.parametrize(
     "text",
     [b"\xff\xfe{\x00}", "[" * 100_000 + "]" * 100_000, json.dumps(GOOD).replace("500.0", BIG, 1),
-     '"a string"', "", json.dumps(GOOD)[:-5]],
-    ids=["utf16", "deep", "400-digits", "string", "empty", "truncated"],
+     '"a string"', "", json.dumps(GOOD)[:-5], '{"curves": [], ' + json.dumps(GOOD)[1:]],
+    ids=["utf16", "deep", "400-digits", "string", "empty", "truncated", "duplicate-key"],
 )  # fmt: skip
 def test_malformed_files(tmp_path, text):
     rejected(tmp_path, text)

@@ -158,6 +158,89 @@ def test_a_restart_with_other_settings_is_refused_naming_the_setting(good, case)
         run_scene(s, comm=comm, restart=good)
 
 
+def supported(**outputs):
+    """The scene with a spring, a point force and a point held (issue 23, item 4)."""
+    s = scene(**outputs)
+    s["springs"] = [{"group": "slave_left", "stiffness": [2.0, 0.0]}]
+    s["points"] = {"A": {"x": [1.0, 0.75]}, "P": {"x": [0.0, 0.0]}}
+    s["point_forces"] = [{"point": "A", "value": [0.0, -1.0], "amplitude": "press"}]
+    s["dirichlet"].append({"group": "P", "value": [0.0, 0.0]})
+    return s
+
+
+@pytest.fixture(scope="module")
+def good_supported(good):
+    d = good.parent.parent
+    run_scene(supported(checkpoint_times=[T_CK]), outdir=d / "supported", comm=MPI.COMM_WORLD)
+    return d / "supported" / "checkpoint.h5"
+
+
+def _stiffer(s):
+    s["springs"][0]["stiffness"] = [2e4, 0.0]
+
+
+def _force(s):
+    s["point_forces"][0]["value"] = [0.0, -500.0]
+
+
+def _moved(s):
+    s["points"]["A"]["x"] = [1.2, 0.75]
+
+
+def _held_moved(s):
+    s["points"]["P"]["x"] = [2.0, 0.0]
+
+
+MODEL_INPUTS = {
+    "spring x1e4": (_stiffer, "springs[0].stiffness[0] = 2.0, this run has 20000.0"),
+    "no spring": (lambda s: s.pop("springs"), 'springs = [{"group": "slave_left"'),
+    "force x500": (_force, "point_forces[0].value[1] = -1.0, this run has -500.0"),
+    "force moved": (_moved, "point_forces[0].at.x[0] = 1.0, this run has 1.2"),
+    "no force": (lambda s: s.pop("point_forces"), "point_forces = [{"),
+    "held point moved": (_held_moved, "dirichlet_points.P.x[0] = 0.0, this run has 2.0"),
+}
+
+
+@pytest.mark.parametrize("case", list(MODEL_INPUTS))
+def test_a_restart_with_other_springs_or_point_forces_is_refused(good_supported, case):
+    """Springs, point forces, their points and held points are model inputs: a restart that
+    changes one (the issue's probe: stiffness x1e4, force x500, a moved or removed point: all
+    accepted before) is refused naming the first difference; the same scene restarts."""
+    comm = MPI.COMM_WORLD
+    change, words = MODEL_INPUTS[case]
+    s = supported()
+    change(s)
+    ck = good_supported
+    with raised_on_every_rank(CheckpointError, repr(str(ck)), "was written with", words):
+        run_scene(s, comm=comm, restart=ck)
+
+
+def test_the_settings_leave_defaults_out_and_store_any_scene_value():
+    """A scene without springs, point forces or held points stores none of these keys (a
+    checkpoint written before they were compared still fits); values that are not JSON (code
+    of a Python scene, objects) are stored by a fixed label, so every scene can checkpoint."""
+    import dataclasses
+
+    from subfric_dolfinx.io.checkpoint_format import jsonable
+    from subfric_dolfinx.scenes import parse_scene
+    from subfric_dolfinx.scenes.fe import restart_settings
+
+    plain = restart_settings(parse_scene(scene()))
+    assert set(plain) == {"materials", "dirichlet", "loads", "quadrature", "mesh"}
+    full = restart_settings(parse_scene(supported()))
+    assert full["springs"][0]["stiffness"] == [2.0, 0.0]
+    assert full["point_forces"][0]["at"] == {"x": [1.0, 0.75], "body": None}
+    assert full["dirichlet_points"] == {"P": {"x": [0.0, 0.0], "body": None}}
+    odd = dataclasses.replace(parse_scene(supported()), springs=[lambda x: x, object()])
+    labels = ["<a Python function>", "<a object object>"]
+    assert jsonable(restart_settings(odd))["springs"] == labels
+
+
+def test_the_same_supported_scene_restarts(good_supported):
+    res = run_scene(supported(), comm=MPI.COMM_WORLD, restart=good_supported)
+    assert res.history[-1]["t"] == pytest.approx(T_END)
+
+
 def test_solver_settings_may_change_across_a_restart(good):
     """Other step sizes and PETSc options: accepted; the run goes on from the checkpoint with
     the new ones and carries the checkpoint's history."""

@@ -302,9 +302,14 @@ BIG = "1" + "0" * 399  # a 400-digit integer
         (json.dumps({**CASE, "t_samples": {"a": 1}}), ("t_samples",)),
         (json.dumps({**CASE, "law": {"subloading": 1}}), ("'law'",)),
         (json.dumps({**CASE, "path": [[0, 0, 0, 1.2], [0.3, "x", 0, 1.2]]}), ("path[1][1]",)),
+        (json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": 100, "steps_per_mm": 1'),
+         ("the key 'steps_per_mm' twice in one object", "JSON would keep the last")),
+        (json.dumps(CASE).replace('"preset": "sec7"', '"preset": "sec7", "preset": "sec7"'),
+         ("the key 'preset' twice",)),
     ],
     ids=["bom16", "latin1", "deep", "deep-field", "big-spm", "big-path", "big-nt", "big-param",
-         "5000-digits", "string", "empty", "control-list", "samples-dict", "law-dict", "row-str"],
+         "5000-digits", "string", "empty", "control-list", "samples-dict", "law-dict", "row-str",
+         "duplicate-key", "duplicate-nested"],
 )  # fmt: skip
 def test_malformed_file_gets_one_error_line(tmp_path, contents, words):
     cli_rejects(tmp_path, contents, *words)

@@ -161,6 +161,39 @@ def test_a_probe_outside_its_body_is_named():
         run_scene(s)
 
 
+def test_a_point_force_or_a_held_point_outside_its_body_is_named():
+    """Issue 23, item 4: a point force 25 mm outside the 2 mm model was applied at the nearest
+    vertex; now a point farther from its body than the nearest cell's size is refused, naming
+    the point, on every rank. So is a point a Dirichlet condition holds, and a point force in
+    the other body; the library's PointForce likewise. A point next to a corner (within a
+    cell) is still taken at the corner: tests/test_loads_constraints.py."""
+    s = scene()
+    s["solver"]["prefix"] = prefix("pf_outside")
+    s["outputs"] = {}
+    s["points"]["A"] = {"x": [26.0, 0.75]}
+    with raised_on_every_rank(
+        InterfaceError, "point force at 'A' (26.0, 0.75): (26.0, 0.75) is 24 away from the mesh"
+    ):
+        run_scene(s)
+    s["points"]["A"] = {"x": [0.2, 0.2], "body": "slave"}
+    with raised_on_every_rank(InterfaceError, "(0.2, 0.2) is 0.4243 away from the body 'slave'"):
+        run_scene(s)
+    s = scene()
+    s["solver"]["prefix"] = prefix("held_outside")
+    s["outputs"], s["point_forces"] = {}, []
+    s["points"]["P"] = {"x": [1.0, 30.0]}
+    s["dirichlet"].append({"group": "P", "value": [0.0, 0.0]})
+    with raised_on_every_rank(
+        InterfaceError, "scene.points.P (held by scene.dirichlet): (1.0, 30.0) is 29 away"
+    ):
+        run_scene(s)
+    comm = MPI.COMM_WORLD
+    dom, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=4)
+    mats = {"master": Material(2e4, 0.3), "slave": Material(2e4, 0.3)}
+    with raised_on_every_rank(InterfaceError, "point force at (-25.0, 0.5): (-25.0, 0.5) is 25 "):
+        InterfaceProblem(dom, LAW, mats, PROGRAM, [], [PointForce((-25.0, 0.5), (0.0, 1.0))])
+
+
 def test_a_node_group_not_at_a_vertex_and_a_spring_on_nodes_are_named():
     comm = MPI.COMM_WORLD
     dom, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=4)

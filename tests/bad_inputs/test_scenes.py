@@ -3,6 +3,7 @@ range (the path to it named), files requested without a directory; checkpoints t
 truncated, foreign or written for another law or mesh."""
 
 import copy
+import json
 
 import h5py
 import numpy as np
@@ -11,7 +12,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.fem import InterfaceError
 from subfric_dolfinx.io import CheckpointError, read_checkpoint
-from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
+from subfric_dolfinx.scenes import SceneError, load_scene, parse_scene, run_scene
 from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
 
 
@@ -134,6 +135,86 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         (lambda s: s["solver"].update(dt_max=0.01), r"scene.solver.dt_max: must be >= dt"),
         (lambda s: s["solver"].update(max_cuts=-1), r"scene.solver.max_cuts: must be >= 0"),
         (lambda s: s["solver"].update(hold_dt=0.0), r"scene.solver.hold_dt: must be > 0"),
+        # issue 23, item 7: before the mesh is built, each naming its key path
+        (
+            lambda s: s.update(initial_gap={"expression": "1" + "0" * 400 + " * x"}),
+            r"scene.initial_gap.expression: a number \(an integer of 401 digits\) is not finite",
+        ),
+        (
+            lambda s: s.update(initial_gap={"expression": "p * x", "parameters": {"p": 10**400}}),
+            r"scene.initial_gap.expression: parameter 'p' must be a finite number",
+        ),
+        (
+            lambda s: s.update(initial_gap={"circle": {"R": 10**400, "center": [1, 0.5]}}),
+            r"scene.initial_gap.circle.R: must be a positive finite number",
+        ),
+        (lambda s: s.update(initial_gap=10**400), r"scene.initial_gap: expected a finite number"),
+        (
+            lambda s: s["loads"].append({"type": "traction", "group": "top", "value": [1, 2, 3]}),
+            r"scene.loads\[1\].value: expected a list of 2 traction components",
+        ),
+        (
+            lambda s: s["materials"]["slave"].update(E=-1.0),
+            r"scene.materials.slave: parameter E = -1.0 is out of range; allowed: E > 0",
+        ),
+        (
+            lambda s: s["materials"]["master"].update(nu=0.6),
+            r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
+        ),
+        # issue 22: an interface's kind and the settings of finite sliding
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": "large_sliding"}}),
+            r"scene.interfaces.interface.kinematics: must be one of \['small_sliding', "
+            r"'finite_sliding'\], got 'large_sliding'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": 1}}),
+            r"scene.interfaces.interface.kinematics: expected str or null, got 1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": -0.1}}
+            ),
+            r"scene.interfaces.interface.reach: must be > 0 \(mm\), got -0.1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "search_radius": 0}}
+            ),
+            r"scene.interfaces.interface.search_radius: must be > 0 \(mm\), got 0",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": "far"}}
+            ),
+            r"scene.interfaces.interface.reach: expected float or null, got 'far'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"reach": 0.5}}),
+            r"scene.interfaces.interface.reach: a finite-sliding setting, but the interface "
+            r"slides small",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "small_sliding", "search_radius": 0.5}}
+            ),
+            r"scene.interfaces.interface.search_radius: a finite-sliding setting",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding",
+                                          "regions": {"left": s["law"]}}}
+            ),
+            r"scene.interfaces.interface.regions: interface regions are not available with "
+            r"finite sliding",
+        ),
+        (
+            lambda s: s.update(
+                mode="axisymmetric", interfaces={"interface": {"kinematics": "finite_sliding"}}
+            ),
+            r"scene.interfaces.interface.kinematics: finite sliding is not available in "
+            r"axisymmetric mode",
+        ),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")
@@ -160,6 +241,65 @@ def test_a_pointwise_scene_name_is_a_plain_file_name(tmp_path, name):
     with raised_on_every_rank(SceneError, "scene.name: must be a plain file name"):
         run_scene(scene, outdir=tmp_path / "out")
     assert not (tmp_path / "out").exists() and not (tmp_path / "escaped.json").exists()
+
+
+def test_a_petsc_option_petsc_refuses_is_named():
+    """Issue 23, item 7: ``"snes_rtol": "abc"`` ended in "error code 63" without the key. Now
+    the scene's key path and the value are named, on every rank (a type name PETSc does not
+    know too); through the library, a SolverOptionError naming the prefixed option."""
+    from subfric_dolfinx.fem import FrictionSolver, SolverOptionError
+    from tests.helpers import block_problem
+
+    for key, value, code in (("snes_rtol", "abc", 63), ("ksp_type", "nosuchksp", 86)):
+        s = small_scene()
+        s["solver"]["prefix"] = prefix("badopt")
+        s["solver"]["options"] = {"snes_max_it": 20, key: value}
+        with raised_on_every_rank(
+            SceneError, f"scene.solver.options.{key}: PETSc refuses the option",
+            f"{key} = {value!r}", f"error code {code}",
+        ):  # fmt: skip
+            run_scene(s)
+    prob = block_problem(MPI.COMM_WORLD)
+    with raised_on_every_rank(SolverOptionError, "the option badsolver_snes_max_it = 'many'"):
+        FrictionSolver(prob, "badsolver_", {"snes_max_it": "many"})
+    with FrictionSolver(prob, "badsolver_") as solver:  # the prefix was released
+        assert solver.alive
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "path"),
+    [
+        ('"dt": ', '"dt": 1.0, "dt": ', "scene.solver.dt"),
+        ('"type": "pressure"', '"type": "pressure", "type": "traction"', "scene.loads[0].type"),
+        ('"kind": "fe"', '"kind": "fe", "kind": "pointwise"', "scene.kind"),
+    ],
+    ids=["solver", "in-a-list", "top"],
+)
+def test_a_scene_file_with_a_key_twice_is_refused_naming_its_path(shared_tmp, old, new, path):
+    """Issue 23, item 7: a scene file with a key given twice (``json.load`` keeps the last one
+    silently) is refused by ``run_scene(file)``/``load_scene``, naming the key path, on every
+    rank, before anything is built; the same file without the repetition runs as the dict."""
+    comm = MPI.COMM_WORLD
+    s = small_scene()
+    s["solver"]["prefix"] = prefix("file")
+    s["program"] = {"times": [0, 0.2], "channels": {"press": [0, 0.2], "slide": [0, 0]}}
+    text = json.dumps(s)
+    good, bad = shared_tmp / "scene.json", shared_tmp / "twice.json"
+
+    def write():
+        assert text.count(old) == 1, old
+        good.write_text(text)
+        bad.write_text(text.replace(old, new))
+
+    on_root(comm, write)
+    comm.Barrier()
+    key = path.rsplit(".", 1)[1]
+    with raised_on_every_rank(
+        SceneError, repr(str(bad)), f"has the key {key!r} twice in one object: {path} (beside"
+    ):
+        run_scene(bad, comm=comm)
+    assert load_scene(good) == parse_scene(s)
+    assert run_scene(str(good), comm=comm).history[-1]["t"] == pytest.approx(0.2)
 
 
 def test_a_load_or_spring_on_a_cell_group_says_so():

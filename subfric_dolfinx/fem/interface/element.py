@@ -34,6 +34,7 @@ import numpy as np
 
 from ...compat import geometry_dofmap
 from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
+from ..kinematics import point_weight
 from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
 from .pairing import InterfaceError, InterfacePairs
 
@@ -52,13 +53,18 @@ class InterfaceElements:
             points' coordinates ``x`` (gdim, n) returning (n,) values; ``None``: 0.
         regions: ``(region, laws)``: the region of every element (0: ``law``, ``i``: the
             ``i``-th of ``laws``, name -> law), for interface regions with their own laws.
+        mode: The modelling mode (:data:`~subfric_dolfinx.fem.kinematics.MODES`); in
+            ``"axisymmetric"`` the weights carry ``2 pi r`` (forces are totals over the
+            revolution). ``None``: no weight.
 
     Attributes:
         nq: Quadrature points per element.
         Q: Local frames, rows ``(e1, [e2,] -n)``, shape (nf, nq, gdim, gdim).
         normal: Master outward normal, (nf, nq, gdim).
         points: Physical quadrature points, (nf, nq, gdim).
-        weights: Quadrature weight times surface Jacobian, (nf, nq).
+        weights: Quadrature weight times surface Jacobian (times ``2 pi r`` in axisymmetric
+            mode), (nf, nq): the integration weights of the interface forces.
+        facet_weights: The same without the axisymmetric weight (sizes of the facets).
         N: Facet basis at the quadrature points, (nq, nfd).
         state: Committed (``old``) and trial (``new``) internal variables, views of the arrays of
             the Quadrature functions ``functions[name]`` (and ``functions[name + "_old"]``).
@@ -82,10 +88,12 @@ class InterfaceElements:
         *,
         initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
         regions: tuple[np.ndarray, Mapping[str, FrictionLaw]] | None = None,
+        mode: str | None = None,
     ) -> None:
         self.pairs = pairs
         self.V = V
         sub = pairs.submesh
+        self.comm = sub.comm
         self.submesh = sub
         gdim = V.mesh.geometry.dim
         self.gdim = gdim
@@ -131,7 +139,12 @@ class InterfaceElements:
         out = np.einsum("cqd,cqd->cq", nvec, self.points - centroid[:, None, :])
         nvec *= np.where(out < 0.0, -1.0, 1.0)[..., None]
         self.normal = nvec
-        self.weights = detJ * w[None, :]
+        self.facet_weights = detJ * w[None, :]
+        self.mode = mode
+        self.weights = self.facet_weights
+        if mode is not None:
+            pw = point_weight(self.points.reshape(-1, gdim), mode).reshape(nf, self.nq)
+            self.weights = self.facet_weights * pw
         self.Q = frames(nvec)
 
         # State in Quadrature spaces on the interface submesh.
@@ -235,6 +248,17 @@ class InterfaceElements:
     def commit(self) -> None:
         """Accept the trial state."""
         self.state.commit()
+
+    def saved_state(self) -> dict[str, np.ndarray]:
+        """The committed internal variables (what a restart needs), name -> array."""
+        return dict(self.state.old.items())
+
+    def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
+        """Put the internal variables back as the committed and trial state."""
+        st = self.state.old
+        for name in st.names:
+            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
+        self.state.revert()
 
     def revert(self) -> None:
         """Reject the trial state."""

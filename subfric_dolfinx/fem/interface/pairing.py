@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import basix
 import dolfinx
@@ -58,6 +59,12 @@ class InterfacePairs:
         n_received: Number of slave facets this rank received from other ranks to pair its
             master facets (the size of the exchange: the slave facets near this rank's master
             facets that other ranks own).
+        extra_ghosts: Global (block) numbers of the nodes added to the ghosts, in the order of
+            ``index_map``'s extra ghosts.
+        extra_owners: Their owning ranks.
+
+    The master side is the interface's *primary* side (its outward normal defines the frame),
+    the slave side the *secondary* one.
     """
 
     submesh: dolfinx.mesh.Mesh
@@ -72,6 +79,8 @@ class InterfacePairs:
     n_split: int
     h_min: float
     n_received: int = 0
+    extra_ghosts: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int64))
+    extra_owners: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
 
 
 def _adjacent_cells(mesh: dolfinx.mesh.Mesh, facets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -96,10 +105,11 @@ def pair_interface(
     cell_tags: dolfinx.mesh.MeshTags,
     facet_tags: dolfinx.mesh.MeshTags,
     interface_tag: int,
-    master_tag: int,
-    slave_tag: int,
+    master_tag: int | Sequence[int],
+    slave_tag: int | Sequence[int],
     *,
     rel_tol: float = 1e-8,
+    name: str = "interface",
 ) -> InterfacePairs:
     """Pair the master and slave facets of an interface and extend the index map.
 
@@ -110,9 +120,11 @@ def pair_interface(
         cell_tags: Cell tags with the two bodies.
         facet_tags: Facet tags with the interface (both sides tagged ``interface_tag``).
         interface_tag: Tag of the interface facets.
-        master_tag: Cell tag of the master body (its outward normal defines the local frame).
-        slave_tag: Cell tag of the slave body.
+        master_tag: Cell tag(s) of the master (primary) body: its outward normal defines the local
+            frame. A body of several cell groups has several tags.
+        slave_tag: Cell tag(s) of the slave (secondary) body.
         rel_tol: Matching tolerance relative to the smallest interface facet size.
+        name: The interface's name, for messages.
 
     Raises:
         InterfaceError: On all ranks, naming the problem: no interface facets, facets adjacent to
@@ -144,26 +156,34 @@ def pair_interface(
     fail(
         None
         if n_global
-        else f"no facets tagged {interface_tag} (interface): the mesh has no interface group"
+        else f"no facets tagged {interface_tag} ({name}): the mesh has no interface group"
     )
     two = tagged[counts != 1]
     fail(
         None
         if two.size == 0
-        else f"{comm.allreduce(two.size)} interface facets have {counts[counts != 1][0]} adjacent "
+        else f"{comm.allreduce(two.size)} {name} facets have {counts[counts != 1][0]} adjacent "
         f"cells, e.g. at {_facet_midpoints(mesh, two[:1])[0].tolist()}: the interface nodes are "
         "not duplicated (each side must be an exterior facet of its own body)"
     )
-    master_cells_all = cell_tags.find(master_tag)
-    slave_cells_all = cell_tags.find(slave_tag)
+    m_tags, s_tags = _tags(master_tag), _tags(slave_tag)
+    master_cells_all = np.concatenate([cell_tags.find(t) for t in m_tags])
+    slave_cells_all = np.concatenate([cell_tags.find(t) for t in s_tags])
     is_master = np.isin(cells, master_cells_all)
     is_slave = np.isin(cells, slave_cells_all)
     neither = ~(is_master | is_slave)
+    both = np.intersect1d(m_tags, s_tags)
+    fail(
+        None
+        if both.size == 0
+        else f"{name}: the two sides share the cell tag(s) {both.tolist()}; an interface joins "
+        "two different bodies"
+    )
     fail(
         None
         if not neither.any()
-        else f"{comm.allreduce(int(neither.sum()))} interface facets touch a cell of neither body "
-        f"(tags {master_tag}, {slave_tag}), e.g. at "
+        else f"{comm.allreduce(int(neither.sum()))} {name} facets touch a cell of neither body "
+        f"(tags {_show(m_tags)}, {_show(s_tags)}), e.g. at "
         f"{_facet_midpoints(mesh, tagged[neither][:1])[0].tolist()}"
     )
     m_facets, m_cells = tagged[is_master], cells[is_master]
@@ -248,7 +268,7 @@ def pair_interface(
         examples = [e for e in comm.allgather(example) if e is not None]
         where = f", e.g. the master facet at {examples[0]}" if examples else ""
         raise InterfaceError(
-            f"the interface sides do not pair node to node: {comm.allreduce(nf)} master and "
+            f"the {name} sides do not pair node to node: {comm.allreduce(nf)} master and "
             f"{n_slave} slave facets, {n_unmatched} master facets without a slave facet at the "
             f"same place{where} (tolerance {tol:.3g})"
         )
@@ -265,7 +285,7 @@ def pair_interface(
         example = s_mid[k[0]].tolist() if k.size else None
         examples = [e for e in comm.allgather(example) if e is not None]
         raise InterfaceError(
-            f"the interface sides do not pair node to node: {n_none} slave facets have no master "
+            f"the {name} sides do not pair node to node: {n_none} slave facets have no master "
             f"partner and {n_several} have several, e.g. the slave facet at {examples[0]}"
         )
 
@@ -276,7 +296,7 @@ def pair_interface(
     fail(
         None
         if first == nf
-        else f"the interface sides do not pair node to node: the facet at "
+        else f"the {name} sides do not pair node to node: the facet at "
         f"{node_points[first].tolist()} has a partner whose nodes are elsewhere"
     )
     slave_glob = np.take_along_axis(c_glob[match], j, axis=1)
@@ -304,7 +324,17 @@ def pair_interface(
         n_split=n_split,
         h_min=float(h) if np.isfinite(h) else 1.0,
         n_received=int(np.count_nonzero(cand.source != comm.rank)),
+        extra_ghosts=extra_g.astype(np.int64),
+        extra_owners=extra_o.astype(np.int32),
     )
+
+
+def _tags(tag: int | Sequence[int]) -> np.ndarray:
+    return np.unique(np.atleast_1d(np.asarray(tag, dtype=np.int32)))
+
+
+def _show(tags: np.ndarray) -> str:
+    return str(int(tags[0])) if tags.size == 1 else str(tags.tolist())
 
 
 @dataclasses.dataclass

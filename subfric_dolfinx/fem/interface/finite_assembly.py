@@ -1,0 +1,202 @@
+"""Forces and tangent of a finite-sliding interface (a part of :class:`~.finite.SlidingInterface`).
+
+The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes ``-B t`` of the
+segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
+(slave rows) and one per point and master facet of its slave facet's segments (master rows),
+whose columns are the point's slave facet nodes and its master facet's nodes:
+``d t = Q^T D G (sum_k N_k du_k - sum_l N_l(xi) du_l)`` with ``G`` the gap's derivative
+(:func:`.sliding.gap_operator`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from petsc4py import PETSc
+
+from ...compat import petsc_vector
+from .friction import stiffen_separated
+
+__all__ = ["SlidingAssembly"]
+
+
+class SlidingAssembly:
+    """The assembly part of :class:`~.finite.SlidingInterface` (the interface's attributes)."""
+
+    def _global_tractions(self) -> np.ndarray:
+        return np.einsum("mji,mj->mi", self._Q, self.last.traction)  # Q^T f, (npts, gdim)
+
+    def forces(self) -> np.ndarray:
+        """The owned interface forces of the last iterate (collective: a reverse scatter)."""
+        from ..timing import TIMER_INTERFACE
+
+        with self._time(TIMER_INTERFACE):
+            s, nq, gdim = self.slave, self.nq, self.gdim
+            tg = self._global_tractions().reshape(s.size, nq, gdim)
+            with self.b_ext.localForm() as bl:
+                bl.set(0.0)
+                b = bl.array_w.reshape(-1, self.bs)
+                w = self.weights.reshape(s.size, nq)
+                Rs = np.einsum("fq,qk,fqd->fkd", w, self.Ns[0], tg)
+                np.add.at(b[:, :gdim], s.nodes.ravel(), Rs.reshape(-1, gdim))
+                tr = self._transfer
+                if tr.slave.size:
+                    Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.slave])
+                    np.add.at(b[:, :gdim], self.pf_nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
+            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self.force = self.b_ext.array_r[: self.n_owned].copy()
+            self.round_off = self._round_off(w)
+        return self.force
+
+    def _round_off(self, w: np.ndarray) -> np.ndarray:
+        """Per dof, the size of the forces' round-off over ``EPS`` (collective).
+
+        The gap is a difference of positions, so its round-off is ``EPS |x|``, not ``EPS |u|``:
+        the forces carry ``EPS |D| |x|`` (``D`` the law's tangent), which the convergence test's
+        floor must know (:class:`~subfric_dolfinx.fem.convergence.ScaledConvergence`).
+        """
+        s, nq, gdim = self.slave, self.nq, self.gdim
+        D = np.abs(self.last.tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
+        m = (D * (np.linalg.norm(self._xq, axis=1) + self.h)).reshape(s.size, nq)
+        with self.b_ext.localForm() as bl:
+            bl.set(0.0)
+            b = bl.array_w.reshape(-1, self.bs)
+            Rs = np.einsum("fq,qk,fq->fk", w, np.abs(self.Ns[0]), m)
+            np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), self.bs, axis=1))
+            tr = self._transfer
+            if tr.slave.size:
+                Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.slave])
+                np.add.at(
+                    b, self.pf_nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), self.bs, 1)
+                )
+        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.b_ext.array_r[: self.n_owned].copy()
+
+    def _blocks(
+        self, separated_stiffness: float = 0.0
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
+
+        ``separated_stiffness``: points without stiffness get this fraction of the law's contact
+        stiffness (:func:`~.friction.stiffen_separated`).
+        """
+        s, nq, gdim = self.slave, self.nq, self.gdim
+        found = self._found
+        tangent = stiffen_separated(self.last.tangent, self.law, separated_stiffness)
+        D = tangent.reshape(-1, gdim, gdim)
+        M = np.einsum("mai,mab,mbj->mij", self._Q, D, self._G)  # Q^T D G, (npts, gdim, gdim)
+        nfs, nfm = s.nodes.shape[1], self.pf_nodes.shape[1]
+        pts = np.flatnonzero(found)
+        f_of = pts // nq
+        q_of = pts % nq
+        cols = np.concatenate([s.nodes[f_of], self.pf_nodes[self._facet[pts]]], axis=1)
+        C = np.concatenate([self.Ns[0][q_of], -self._Nm[pts]], axis=1)  # (np, nfs + nfm)
+        w = self.weights[pts]
+        # slave rows: w N_k(q) C_j M
+        ncol = (nfs + nfm) * gdim
+        vs = np.einsum("p,pk,pj,pab->pkajb", w, self.Ns[0][q_of], C, M[pts])
+        out = [(s.nodes[f_of], cols, vs.reshape(pts.size, nfs * gdim, ncol))]
+        tr = self._transfer
+        if tr.slave.size:
+            # master rows of pair (s, f'): -B_lq C_j M for every found point q of s
+            pair, qq = np.nonzero(found.reshape(s.size, nq)[tr.slave])
+            p_idx = tr.slave[pair] * nq + qq
+            where = np.searchsorted(pts, p_idx)
+            vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[where], M[p_idx])
+            out.append(
+                (
+                    self.pf_nodes[tr.master[pair]],
+                    cols[where],
+                    vm.reshape(pair.size, nfm * gdim, ncol),
+                )
+            )
+        return out
+
+    def assemble_jacobian(
+        self,
+        A: PETSc.Mat,
+        x: PETSc.Vec | None = None,
+        *,
+        bcs: Sequence[Any] | None = None,
+        separated_stiffness: float = 0.0,
+    ) -> None:
+        """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
+
+        ``A`` must hold this interface's pattern (the problem's :meth:`create_matrix` after the
+        last :attr:`layout_version`). With ``bcs`` the rows and columns of constrained dofs are
+        left out. ``separated_stiffness``: in this Jacobian only, found points without stiffness
+        get this fraction of the law's contact stiffness (the retry of a failed step).
+        """
+        from ..timing import TIMER_INTERFACE
+
+        self._ensure(x)
+        with self._time(TIMER_INTERFACE):
+            mask = self._constrained(bcs) if bcs else None
+            gl = self.index_map.local_to_global
+            for rows, cols, vals in self._blocks(separated_stiffness):
+                if rows.shape[0] == 0:
+                    continue
+                if mask is not None:
+                    mr = mask[rows].reshape(rows.shape[0], -1)
+                    mc = mask[cols].reshape(cols.shape[0], -1)
+                    vals = vals.copy()
+                    vals[mr[:, :, None] | mc[:, None, :]] = 0.0
+                R = gl(rows.ravel().astype(np.int32)).reshape(rows.shape).astype(PETSc.IntType)
+                Cc = gl(cols.ravel().astype(np.int32)).reshape(cols.shape).astype(PETSc.IntType)
+                A.setValuesBlockedRCV(R, Cc, vals, addv=PETSc.InsertMode.ADD_VALUES)
+
+    def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
+        """Whether each local (extended) dof is constrained, per node (n, bs) (collective)."""
+        from .friction import _bc_values
+
+        dofs, _ = _bc_values(self.V, bcs, None)
+        m = petsc_vector(self.index_map, self.bs)
+        m.array_w[dofs] = 1.0
+        m.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with m.localForm() as ml:
+            out = ml.array_r.reshape(-1, self.bs) > 0.5
+        m.destroy()
+        return out
+
+    def assemble_residual(
+        self,
+        b: PETSc.Vec,
+        x: PETSc.Vec | None = None,
+        *,
+        bcs: Sequence[Any] | None = None,
+    ) -> bool:
+        """Add the interface forces at ``x`` to ``b`` (owned part; collective).
+
+        With ``bcs`` the forces go to the free rows only, plus the lifting ``K (g - x)`` of the
+        tangent's coupling to the constrained dofs (DOLFINx's Newton convention).
+        """
+        from .friction import _bc_values
+
+        self._ensure(x)
+        f = self.forces()
+        ba = b.array_w
+        if not bcs:
+            ba += f
+            return bool(self.last.converged)
+        dofs, g_minus_x = _bc_values(self.V, bcs, self._x_at_update)
+        free = np.ones(self.n_owned, dtype=bool)
+        free[dofs] = False
+        w = petsc_vector(self.index_map, self.bs)
+        w.array_w[dofs] = g_minus_x
+        w.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with w.localForm() as wl:
+            we = wl.array_r.reshape(-1, self.bs)
+            with self.b_ext.localForm() as bl:
+                bl.set(0.0)
+                acc = bl.array_w.reshape(-1, self.bs)
+                for rows, cols, vals in self._blocks():
+                    lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
+                    np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
+        w.destroy()
+        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        lift = self.b_ext.array_r[: self.n_owned]
+        ba[free] += f[free] + lift[free]
+        return bool(self.last.converged)
+

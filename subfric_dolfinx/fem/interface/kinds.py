@@ -1,0 +1,46 @@
+"""The kinds of interface a problem may have, chosen per interface by its ``kinematics``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .finite import SlidingInterface
+from .friction import FrictionInterface
+from .pairing import InterfaceError
+
+__all__ = ["KINEMATICS", "make_interface"]
+
+
+KINEMATICS = ("small_sliding", "finite_sliding")
+"""The interface kinds: node-to-node small sliding, or finite sliding on non-matching meshes."""
+
+
+def make_interface(
+    spec: Any, V: Any, cell_tags: Any, facet_tags: Any, tag: int, primary: Any, secondary: Any,
+    groups: Any, mode: str, timings: Any,
+) -> FrictionInterface | SlidingInterface:  # fmt: skip
+    """The interface object of one resolved :class:`~..conditions.Interface` (its ``kinematics``).
+
+    Raises:
+        InterfaceError: An unknown kind, or settings the kind does not have.
+    """
+    kind = spec.kinematics or "small_sliding"
+    if kind == "small_sliding":
+        return FrictionInterface(
+            V, cell_tags, facet_tags, spec.law, tag=tag, primary=primary, secondary=secondary,
+            name=spec.group, quadrature=spec.quadrature, initial_gap=spec.initial_gap,
+            regions=spec.regions, groups=groups, mode=mode, timings=timings,
+        )  # fmt: skip
+    if kind == "finite_sliding":
+        if spec.regions:
+            raise InterfaceError(
+                f"interface {spec.group!r}: regions are not available with finite sliding"
+            )
+        return SlidingInterface(
+            V, cell_tags, facet_tags, spec.law, tag=tag, primary=primary, secondary=secondary,
+            name=spec.group, quadrature=spec.quadrature, initial_gap=spec.initial_gap,
+            mode=mode, timings=timings, search_radius=spec.search_radius, reach=spec.reach,
+        )  # fmt: skip
+    raise InterfaceError(
+        f"interface {spec.group!r}: kinematics {kind!r} is not one of {list(KINEMATICS)}"
+    )

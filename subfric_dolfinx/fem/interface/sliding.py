@@ -1,0 +1,150 @@
+"""Finite-sliding kinematics of a slave point on the master surface (``docs/model.md`` §11).
+
+A slave point ``x`` projects on the master surface at ``y(xi)`` along the smooth normal:
+``x = y(xi) + gamma n~(xi)`` (:mod:`.projection`). With the unit normal ``n = n~ / |n~|`` and the
+frame ``Q = (e1, [e2,] -n)`` of :func:`.geometry.frames`:
+
+* the normal gap (penetration positive) is ``ubar_n = -gamma |n~| = -(x - y) . n``;
+* the tangential slip of a step is the convected one, ``ds = y_{n+1}(xi_{n+1}) - y_{n+1}(xi_n)``:
+  the path on the master surface in its current configuration from the material point the slave
+  point faced at the step's start to the one it faces now. A rigid motion of both bodies leaves
+  ``xi`` unchanged and gives no slip (objective), whatever the gap;
+* tangent vectors of the internal state (total tangential gap, plastic slip) are convected with
+  the master surface at the material point they were attached to (their components on its
+  tangent basis ``y_,a`` kept, the length kept), then carried to the tangent plane of the new
+  projection by the smallest rotation between the two normals (:func:`transport_matrix`): a
+  rigid motion of both bodies, spin about the normal included, leaves their local components in
+  a frame that moves with the bodies unchanged. In 2-D it is the identity on the one component
+  (``e1`` turns with ``n``).
+
+:func:`gap_operator` gives the derivative of the local gap (tangential slip and normal gap) with
+respect to the slave point and the master nodes, through the derivative of the projection, with
+the master's nodal normals held (their change is of the order of the gap times the facet's
+rotation).
+"""
+
+from __future__ import annotations
+
+import basix
+import numpy as np
+
+from .projection import facet_basis, projection_jacobian
+
+__all__ = ["gap_operator", "transport", "transport_matrix"]
+
+
+def gap_operator(
+    x: np.ndarray,
+    Y: np.ndarray,
+    Nn: np.ndarray,
+    cell: basix.CellType,
+    degree: int,
+    xi: np.ndarray,
+    gamma: np.ndarray,
+    Q: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Derivative of the local gap of each point with respect to its motion relative to the master.
+
+    ``d(gap) = G (dx - sum_l N_l(xi) dy_l)`` with ``gap = (Q_t . ds, ubar_n)``: the tangential
+    rows are the convected slip's ``Q_t y_,a dxi^a``, the normal row ``ubar_n = -gamma |n~|``'s.
+
+    Args:
+        x: Slave points, (m, gdim).
+        Y: Nodes of each point's master facet, (m, nfd, gdim).
+        Nn: Their nodal normals, (m, nfd, gdim).
+        cell: The master facets' basix cell.
+        degree: Their Lagrange degree.
+        xi: The points' projections (reference coordinates), (m, fdim).
+        gamma: Their ``gamma`` (:class:`.projection.FacetProjection`), (m,).
+        Q: The frames at the projections, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
+
+    Returns:
+        ``G`` (m, gdim, gdim) and the master basis ``N_l(xi)`` (m, nfd).
+    """
+    fdim = x.shape[1] - 1
+    Ainv, N = projection_jacobian(x, Y, Nn, cell, degree, xi, gamma)
+    B = facet_basis(cell, degree, xi, 1)
+    dy = np.einsum("amk,mkd->mda", B[1:], Y)  # y_,a
+    nt = np.einsum("mk,mkd->md", B[0], Nn)
+    dnt = np.einsum("amk,mkd->mda", B[1:], Nn)
+    size = np.linalg.norm(nt, axis=1)
+    n = nt / size[:, None]
+    G = np.empty_like(Q)
+    # tangential: e_b . y_,a dxi^a
+    G[:, :fdim, :] = np.einsum("mbd,mda,mac->mbc", Q[:, :fdim, :], dy, Ainv[:, :fdim, :])
+    # normal: -(|n~| dgamma + gamma n . n~_,a dxi^a)
+    tilt = np.einsum("md,mda->ma", n, dnt)
+    G[:, fdim, :] = -(
+        size[:, None] * Ainv[:, fdim, :]
+        + gamma[:, None] * np.einsum("ma,mac->mc", tilt, Ainv[:, :fdim, :])
+    )
+    return G, N
+
+
+def transport(v: np.ndarray, n_old: np.ndarray, n_new: np.ndarray) -> np.ndarray:
+    """Rotate vectors by the smallest rotation taking the unit normals ``n_old`` to ``n_new``.
+
+    Args:
+        v: Vectors (global components), (m, gdim).
+        n_old: Unit normals before, (m, gdim).
+        n_new: Unit normals after, (m, gdim).
+
+    Returns:
+        The rotated vectors: tangent to ``n_new`` where ``v`` was tangent to ``n_old``, with the
+        same length. Opposite normals (a half turn, no smallest rotation) leave ``v`` unchanged.
+    """
+    gdim = v.shape[1]
+    c = np.einsum("md,md->m", n_old, n_new)
+    if gdim == 2:
+        s = n_old[:, 0] * n_new[:, 1] - n_old[:, 1] * n_new[:, 0]
+        return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=1)
+    k = np.cross(n_old, n_new)  # sin(angle) times the axis
+    ok = c > -1.0 + 1e-12
+    f = np.where(ok, 1.0 / np.where(ok, 1.0 + c, 1.0), 0.0)
+    # Rodrigues: v c + k x v + k (k . v) / (1 + c)
+    out = (
+        c[:, None] * v
+        + np.cross(k, v)
+        + (f * np.einsum("md,md->m", k, v))[:, None] * k
+    )
+    return np.where(ok[:, None], out, v)
+
+
+def transport_matrix(
+    Q_old: np.ndarray,
+    Q_new: np.ndarray,
+    tangents_old: np.ndarray,
+    tangents_now: np.ndarray,
+    normal_now: np.ndarray,
+) -> np.ndarray:
+    """The map of tangential local components from the old frames to the new ones.
+
+    Args:
+        Q_old: Frames at the step's start, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
+        Q_new: Frames at the new projections, likewise.
+        tangents_old: Tangent basis ``y_,a`` of the master at the old projection, at the step's
+            start, (m, gdim, fdim).
+        tangents_now: The same material point's tangent basis now, (m, gdim, fdim).
+        normal_now: The unit normal there now, (m, gdim).
+
+    Returns:
+        ``T`` (m, nt, nt): new components ``T v`` of the vectors of old components ``v``.
+    """
+    m, gdim = Q_old.shape[:2]
+    nt = gdim - 1
+    if gdim == 2:
+        return np.ones((m, 1, 1))
+    # convected: the old frame's tangents -> components on the old basis -> the basis now,
+    # in the plane normal to the normal now
+    G = np.einsum("mda,mdb->mab", tangents_old, tangents_old)
+    dual = np.linalg.solve(G, np.swapaxes(tangents_old, 1, 2))  # (m, fdim, gdim)
+    E = np.swapaxes(Q_old[:, :nt, :], 1, 2)  # old tangents as columns (m, gdim, nt)
+    W = np.einsum("mda,mak->mdk", tangents_now, np.einsum("mad,mdk->mak", dual, E))
+    W -= normal_now[:, :, None] * np.einsum("md,mdk->mk", normal_now, W)[:, None, :]
+    # keep lengths and angles: W (W^T W)^(-1/2), the rotation part
+    lam, V = np.linalg.eigh(np.einsum("mdk,mdl->mkl", W, W))
+    W = np.einsum("mdk,mkj,mj,mlj->mdl", W, V, 1.0 / np.sqrt(lam), V)
+    # the smallest rotation from the material point's normal now to the new one
+    cols = [transport(W[:, :, k], normal_now, -Q_new[:, nt, :]) for k in range(nt)]
+    R = np.stack(cols, axis=-1)  # (m, gdim, nt)
+    return np.einsum("mbd,mdk->mbk", Q_new[:, :nt, :], R)

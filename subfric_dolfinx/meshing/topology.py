@@ -1,0 +1,200 @@
+"""Bodies and interfaces of a mesh, by the user's own group names.
+
+A mesh holds **bodies** (a body is one or several cell groups, e.g. a bolt's head and shank with
+their own materials) and **interfaces** (facet groups whose nodes are duplicated, each between two
+bodies: its *primary* body, whose outward normal defines the interface frame, and its *secondary*
+body; ``master``/``slave`` in older codes). :func:`mesh_topology` resolves them from the physical
+groups of a gmsh model and from what the user says:
+
+* nothing: the classic layout, cell groups ``master`` and ``slave`` and the facet group
+  ``interface``; ``names={"master": "base", "slave": "block", "interface": "contact"}`` gives
+  these roles the user's own group names (``primary``/``secondary`` are accepted as the roles'
+  other names);
+* ``bodies={"bolt": ["head", "shank"], "plate": "plate"}``: bodies made of cell groups (by
+  default every named cell group is a body of its own);
+* ``interfaces={"contact": ("plate", "bolt"), ...}``: interfaces with (primary, secondary) bodies
+  (or ``{"primary": ..., "secondary": ..., "kinematics": "finite_sliding"}`` for sides meshed
+  independently, whose facets need not pair);
+  a list of interface groups lets the sides be found: the two bodies whose cells the facets touch,
+  the primary being the one whose first cell group has the smaller physical tag.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from .groups import INTERFACE, MASTER, SLAVE, InterfaceMeshError
+
+__all__ = ["ROLES", "InterfaceSides", "default_names", "mesh_topology"]
+
+KINEMATICS = ("small_sliding", "finite_sliding")
+"""The interface kinds (``docs/model.md`` §11-12): sides paired node to node, or meshed apart."""
+
+ROLES = ("master", "slave", "interface", "primary", "secondary")
+"""The roles ``names=`` may map to the user's group names (primary = master, secondary = slave)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class InterfaceSides:
+    """The two bodies an interface joins.
+
+    Attributes:
+        primary: The body whose outward normal defines the interface's local frame (master).
+        secondary: The other body (slave).
+        kinematics: ``"small_sliding"`` (the sides' nodes pair one to one) or
+            ``"finite_sliding"`` (the sides are meshed independently: any numbers of facets).
+    """
+
+    primary: str
+    secondary: str
+    kinematics: str = "small_sliding"
+
+
+def default_names(names: Mapping[str, str] | None) -> dict[str, str]:
+    """The classic layout's group names with the user's ``names`` (role -> group name).
+
+    Raises:
+        InterfaceMeshError: An unknown role, or a role given twice under both its names.
+    """
+    names = dict(names or {})
+    unknown = sorted(set(names) - set(ROLES))
+    if unknown:
+        raise InterfaceMeshError(f"names: unknown role(s) {unknown}; roles: {list(ROLES)}")
+    for a, b in (("master", "primary"), ("slave", "secondary")):
+        if a in names and b in names and names[a] != names[b]:
+            raise InterfaceMeshError(f"names: {a!r} and {b!r} name the same role differently")
+        if b in names:
+            names[a] = names.pop(b)
+    for role, value in names.items():
+        if not isinstance(value, str) or not value:
+            raise InterfaceMeshError(f"names.{role}: expected a group name, got {value!r}")
+    return {MASTER: MASTER, SLAVE: SLAVE, INTERFACE: INTERFACE, **names}
+
+
+def _sides(value: Any, name: str) -> InterfaceSides | None:
+    if value is None:
+        return None
+    if isinstance(value, InterfaceSides):
+        return value
+    kinematics = "small_sliding"
+    if isinstance(value, Mapping):
+        keys = set(value)
+        pk = "primary" if "primary" in keys else "master"
+        sk = "secondary" if "secondary" in keys else "slave"
+        if keys - {"kinematics"} != {pk, sk}:
+            raise InterfaceMeshError(
+                f"interfaces.{name}: expected the keys 'primary' and 'secondary' (or 'master' "
+                f"and 'slave') and optionally 'kinematics', got {sorted(keys)}"
+            )
+        kinematics = value.get("kinematics", kinematics)
+        if kinematics not in KINEMATICS:
+            raise InterfaceMeshError(
+                f"interfaces.{name}.kinematics: expected one of {list(KINEMATICS)}, got "
+                f"{kinematics!r}"
+            )
+        value = (value[pk], value[sk])
+    if (
+        not isinstance(value, Sequence)
+        or isinstance(value, str)
+        or len(value) != 2
+        or not all(isinstance(v, str) and v for v in value)
+    ):
+        raise InterfaceMeshError(
+            f"interfaces.{name}: expected (primary, secondary) body names, got {value!r}"
+        )
+    if value[0] == value[1]:
+        raise InterfaceMeshError(f"interfaces.{name}: joins the body {value[0]!r} to itself")
+    return InterfaceSides(value[0], value[1], kinematics)
+
+
+def mesh_topology(
+    groups: Mapping[str, tuple[int, int]],
+    gdim: int,
+    *,
+    names: Mapping[str, str] | None = None,
+    bodies: Mapping[str, str | Sequence[str]] | None = None,
+    interfaces: Mapping[str, Any] | Sequence[str] | None = None,
+) -> tuple[dict[str, tuple[str, ...]], dict[str, InterfaceSides | None]]:
+    """Bodies and interfaces from the named physical groups (see the module docstring).
+
+    Args:
+        groups: Physical name -> (dimension, tag) of the model.
+        gdim: The mesh's dimension.
+        names: Roles of the classic layout -> the user's group names.
+        bodies: Body -> its cell group(s) (default: every named cell group is a body).
+        interfaces: Interface group -> (primary, secondary) bodies, or a list of interface
+            groups (sides found from the mesh: ``None`` here), or ``None``: the classic layout's
+            interface, if the model has it.
+
+    Returns:
+        The bodies (body -> cell groups) and the interfaces (group -> sides, ``None`` where they
+        are to be found from the mesh).
+
+    Raises:
+        InterfaceMeshError: A group that is missing or of the wrong dimension, a cell group in two
+            bodies, an interface naming an unknown body (every message names the group).
+    """
+    nm = default_names(names)
+    cells = [n for n, (d, _) in groups.items() if d == gdim]
+    if bodies is None:
+        out_bodies = {n: (n,) for n in sorted(cells, key=lambda n: groups[n][1])}
+    else:
+        out_bodies = {}
+        owner: dict[str, str] = {}
+        for body, gs in bodies.items():
+            gs = (gs,) if isinstance(gs, str) else tuple(gs)
+            if not gs:
+                raise InterfaceMeshError(f"bodies.{body}: no cell group")
+            for g in gs:
+                _check_group(groups, g, gdim, f"bodies.{body}")
+                if g in owner:
+                    raise InterfaceMeshError(
+                        f"bodies: the cell group {g!r} is in both {owner[g]!r} and {body!r}"
+                    )
+                owner[g] = body
+            out_bodies[body] = gs
+        stray = sorted(set(cells) - set(owner))
+        if stray:
+            raise InterfaceMeshError(
+                f"bodies: the cell group(s) {stray} belong to no body (their cells would have no "
+                "material); add them to a body"
+            )
+    if interfaces is None:
+        if nm[INTERFACE] in groups:
+            out_ifaces: dict[str, InterfaceSides | None] = {
+                nm[INTERFACE]: InterfaceSides(nm[MASTER], nm[SLAVE])
+            }
+        else:
+            out_ifaces = {}
+    elif isinstance(interfaces, Mapping):
+        out_ifaces = {g: _sides(v, g) for g, v in interfaces.items()}
+    else:
+        out_ifaces = {g: None for g in interfaces}
+    for g, sides in out_ifaces.items():
+        _check_group(groups, g, gdim - 1, f"interfaces.{g}")
+        if sides is None:
+            continue
+        for b in (sides.primary, sides.secondary):
+            if b not in out_bodies:
+                if bodies is None and b in groups:
+                    _check_group(groups, b, gdim, f"interfaces.{g}")
+                raise InterfaceMeshError(
+                    f"interfaces.{g}: the body {b!r} is not a body of the mesh; bodies: "
+                    f"{sorted(out_bodies)}"
+                )
+    return out_bodies, out_ifaces
+
+
+def _check_group(groups: Mapping[str, tuple[int, int]], name: str, dim: int, where: str) -> None:
+    if name not in groups:
+        raise InterfaceMeshError(
+            f"{where}: physical group {name!r} not found; physical groups found: "
+            f"{sorted(groups)}"
+        )
+    if groups[name][0] != dim:
+        raise InterfaceMeshError(
+            f"{where}: physical group {name!r} must have dimension {dim}, found dimension "
+            f"{groups[name][0]}"
+        )

@@ -1,0 +1,208 @@
+"""Strict checks of a scene's bodies, interfaces, materials, modelling mode and group names.
+
+Called by :func:`~.parser.parse_scene`; every error names its key path. The classic scene (a
+builder's mesh, no ``bodies``, ``interfaces`` or ``mesh.names``) has exactly the materials
+``master`` and ``slave``; otherwise materials are keyed by body or cell group, and what only the
+mesh can tell (that a group exists) is checked once it is read.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..constitutive import FrictionLaw
+from ..driver.text import short_repr
+from .interface_spec import parse_initial_gap, parse_regions
+from .materials import check_materials_fit, parse_material
+from .schema import BUILDER_GDIM, KINEMATICS, FEScene, SceneError
+
+__all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
+
+MODES = ("3d", "plane_strain", "plane_stress", "axisymmetric")
+"""The modelling modes (``subfric_dolfinx.fem.kinematics.MODES``, named here without importing
+the finite-element layer)."""
+ROLES = ("master", "slave", "interface", "primary", "secondary")
+"""The roles ``mesh.names`` may give the file's own group names."""
+
+
+def is_classic(scene: FEScene) -> bool:
+    """A two-body scene on a builder's mesh: the bodies are ``master`` and ``slave``."""
+    return (
+        scene.mesh.builder is not None
+        and not scene.bodies
+        and not scene.interfaces
+        and not scene.mesh.names
+    )
+
+
+
+
+def _gdim(scene: FEScene) -> int:
+    m = scene.mesh
+    return BUILDER_GDIM[m.builder] if m.builder is not None else int(m.gdim or 0)
+
+
+def interface_laws(scene: FEScene, parse_law: Any) -> list[FrictionLaw]:
+    """The laws of the scene's interfaces (the scene's ``law`` where one has none), validated.
+
+    Raises:
+        SceneError: A bad law, or no law for an interface (named).
+    """
+    laws = []
+    default = parse_law(scene.law) if scene.law is not None else None
+    for name, spec in scene.interfaces.items():
+        if spec.law is not None:
+            try:
+                laws.append(parse_law(spec.law))
+            except SceneError as e:
+                where = f"scene.interfaces.{name}.law"
+                raise SceneError(str(e).replace("scene.law", where)) from None
+        elif default is None:
+            raise SceneError(
+                f"scene.interfaces.{name}.law: missing, and the scene has no 'law' for it"
+            )
+    if default is not None:
+        laws.insert(0, default)
+    if not laws:
+        raise SceneError("scene: missing key 'law'")
+    return laws
+
+
+def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
+    """The interface's kind and the settings only finite sliding has.
+
+    Raises:
+        SceneError: An unknown kind, a setting that is not a positive number, a finite-sliding
+            setting on a small-sliding interface (it would be ignored), or what finite sliding
+            does not have (regions, the axisymmetric mode), each naming its key path.
+    """
+    if spec.kinematics is not None and spec.kinematics not in KINEMATICS:
+        raise SceneError(
+            f"{path}.kinematics: must be one of {list(KINEMATICS)}, got "
+            f"{short_repr(spec.kinematics)}"
+        )
+    finite = spec.kinematics == "finite_sliding"
+    for key in ("search_radius", "reach"):
+        value = getattr(spec, key)
+        if value is None:
+            continue
+        if not finite:
+            raise SceneError(
+                f"{path}.{key}: a finite-sliding setting, but the interface slides small (give "
+                f"{path}.kinematics = 'finite_sliding')"
+            )
+        if not value > 0:
+            raise SceneError(f"{path}.{key}: must be > 0 (mm), got {short_repr(value)}")
+    if not finite:
+        return
+    if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
+        where = f"{path}.regions" if spec.regions else "scene.regions"
+        raise SceneError(f"{where}: interface regions are not available with finite sliding")
+    if scene.mode == "axisymmetric":
+        raise SceneError(
+            f"{path}.kinematics: finite sliding is not available in axisymmetric mode (use "
+            "'small_sliding')"
+        )
+
+
+def check_topology(scene: FEScene) -> None:
+    """Check the mode, names, bodies, interfaces, materials and the points' bodies.
+
+    Raises:
+        SceneError: Naming the key path of the first bad value.
+    """
+    gdim = _gdim(scene)
+    if scene.mode is not None:
+        if scene.mode not in MODES:
+            raise SceneError(
+                f"scene.mode: must be one of {list(MODES)}, got {short_repr(scene.mode)}"
+            )
+        want = 3 if scene.mode == "3d" else 2
+        if gdim and gdim != want:
+            raise SceneError(
+                f"scene.mode: {scene.mode!r} needs a {want}-D mesh, this one is {gdim}-D"
+            )
+    for role, group in scene.mesh.names.items():
+        if role not in ROLES:
+            raise SceneError(f"scene.mesh.names: unknown role {role!r}; roles: {list(ROLES)}")
+        if not group:
+            raise SceneError(f"scene.mesh.names.{role}: expected a group name, got {group!r}")
+    groups: dict[str, str] = {}
+    for body, gs in scene.bodies.items():
+        gs = [gs] if isinstance(gs, str) else gs
+        if not isinstance(gs, list) or not gs or not all(isinstance(g, str) and g for g in gs):
+            raise SceneError(
+                f"scene.bodies.{body}: expected a cell group or a list of them, got "
+                f"{short_repr(gs)}"
+            )
+        for g in gs:
+            if g in groups:
+                raise SceneError(f"scene.bodies.{body}: the group {g!r} is also in {groups[g]!r}")
+            groups[g] = body
+    known = set(scene.bodies) | set(groups)
+    for name, spec in scene.interfaces.items():
+        path = f"scene.interfaces.{name}"
+        for a, b in (("primary", "master"), ("secondary", "slave")):
+            va, vb = getattr(spec, a), getattr(spec, b)
+            if va is not None and vb is not None and va != vb:
+                raise SceneError(f"{path}: '{a}' and '{b}' name the same side differently")
+        p, q = spec.sides
+        if (p is None) != (q is None):
+            raise SceneError(f"{path}: give both sides (primary and secondary) or neither")
+        if p is not None and p == q:
+            raise SceneError(f"{path}: joins the body {p!r} to itself")
+        if scene.bodies:
+            for side in (p, q):
+                if side is not None and side not in known:
+                    raise SceneError(
+                        f"{path}: {side!r} is not a body of scene.bodies {sorted(scene.bodies)}"
+                    )
+        if spec.quadrature not in (None, "gauss", "nodal"):
+            raise SceneError(
+                f"{path}.quadrature: must be 'gauss' or 'nodal', got {spec.quadrature!r}"
+            )
+        parse_initial_gap(spec.initial_gap, f"{path}.initial_gap")
+        parse_regions(spec.regions, f"{path}.regions")
+        _check_kinematics(scene, name, spec, path)
+    if len(scene.interfaces) > 1 and (scene.initial_gap is not None or scene.regions):
+        raise SceneError(
+            "scene.initial_gap/regions: the scene has several interfaces; give them per interface "
+            "(scene.interfaces.<name>.initial_gap, .regions)"
+        )
+    _check_materials(scene, known)
+    allowed = ("master", "slave") if is_classic(scene) else None
+    for name, pt in scene.points.items():
+        if pt.body is None:
+            continue
+        if allowed is not None and pt.body not in allowed:
+            raise SceneError(
+                f"scene.points.{name}.body: must be 'master', 'slave' or null, got {pt.body!r}"
+            )
+        if scene.bodies and pt.body not in known:
+            raise SceneError(
+                f"scene.points.{name}.body: {pt.body!r} is not a body of scene.bodies "
+                f"{sorted(scene.bodies)} (nor one of their groups)"
+            )
+
+
+def _check_materials(scene: FEScene, known: set[str]) -> None:
+    for name, mat in scene.materials.items():
+        parse_material(mat, f"scene.materials.{name}")
+    check_materials_fit(scene)
+    if is_classic(scene):
+        for body in ("master", "slave"):
+            if body not in scene.materials:
+                raise SceneError(f"scene.materials: missing key '{body}'")
+        extra = sorted(set(scene.materials) - {"master", "slave"})
+        if extra:
+            raise SceneError(
+                f"scene.materials: unknown key(s) {extra}; allowed: ['master', 'slave']"
+            )
+        return
+    if scene.bodies:
+        extra = sorted(set(scene.materials) - known - {"master", "slave"})
+        if extra:
+            raise SceneError(
+                f"scene.materials: {extra} are neither bodies of scene.bodies nor their cell "
+                f"groups; bodies: {sorted(scene.bodies)}"
+            )
