@@ -29,12 +29,11 @@ class SlidingAssembly:
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
             ``dB t`` (2-D only; 3-D leaves it out): then the 2-D tangent is the residual's
-            derivative (``tests/test_finite_sliding_tangent.py``). Off by default: measured on
-            ``demos/block_sliding_far.py`` (``benchmarks/finite_sliding_newton.py``), it makes
-            Newton quadratic at the end of a step (0.25 mm steps: 5.2 iterations per step
-            instead of 6.0) but at the demo's 1 mm steps (0.8 of a facet) the second iterate
-            overshoots where points open and close, a step is cut and the run needs 136 Newton
-            iterations instead of 79.
+            derivative (``tests/test_finite_sliding_tangent.py``). Newton then converges
+            quadratically at the end of a step (``demos/block_sliding_far.py``: 7.71 iterations
+            per step instead of 8.32; its first 10 mm in 0.25 mm steps 5.2 instead of 6.0, in
+            1 mm steps one step cut: ``benchmarks/finite_sliding_newton.py``). Off by default:
+            with it a restarted scene does not repeat Newton's path (docs/model.md §12).
     """
 
     transfer_in_tangent = False
