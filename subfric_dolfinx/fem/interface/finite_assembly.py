@@ -33,7 +33,8 @@ class SlidingAssembly:
             quadratically at the end of a step (``demos/block_sliding_far.py``: 7.71 iterations
             per step instead of 8.32; its first 10 mm in 0.25 mm steps 5.2 instead of 6.0, in
             1 mm steps one step cut: ``benchmarks/finite_sliding_newton.py``). Off by default:
-            with it a restarted scene does not repeat Newton's path (docs/model.md §12).
+            with it a restarted scene does not repeat Newton's path with the default
+            linear strategy (docs/model.md §12).
     """
 
     transfer_in_tangent = False
