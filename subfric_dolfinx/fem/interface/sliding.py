@@ -30,7 +30,7 @@ import numpy as np
 
 from .projection import facet_basis, projection_jacobian
 
-__all__ = ["gap_operator", "transport", "transport_matrix"]
+__all__ = ["frame_rate", "gap_operator", "transport", "transport_matrix"]
 
 
 def gap_operator(
@@ -79,6 +79,44 @@ def gap_operator(
         + gamma[:, None] * np.einsum("ma,mac->mc", tilt, Ainv[:, :fdim, :])
     )
     return G, N
+
+
+def frame_rate(
+    x: np.ndarray,
+    Y: np.ndarray,
+    Nn: np.ndarray,
+    cell: basix.CellType,
+    degree: int,
+    xi: np.ndarray,
+    gamma: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The turn of a 2-D frame ``(e1, -n)`` at a projection with the point's motion (2-D only).
+
+    The normal ``n = n~(xi) / |n~(xi)|`` turns as the projection moves along the facet (the nodal
+    normals held): ``dn = a (r . (dx - sum_l N_l(xi) dy_l))`` with ``a = dn/dxi`` and ``r`` the
+    projection's ``dxi`` row (:func:`.projection.projection_jacobian`); ``e1 = (n_y, -n_x)``
+    (:func:`.geometry.frames`) turns with it.
+
+    Args:
+        x: Slave points, (m, 2).
+        Y: Nodes of each point's master facet, (m, nfd, 2).
+        Nn: Their nodal normals, (m, nfd, 2).
+        cell: The master facets' basix cell (interval).
+        degree: Their Lagrange degree.
+        xi: The points' projections, (m, 1).
+        gamma: Their ``gamma``, (m,).
+
+    Returns:
+        ``a`` (m, 2), ``dn/dxi``, and ``r`` (m, 2).
+    """
+    Ainv, _ = projection_jacobian(x, Y, Nn, cell, degree, xi, gamma)
+    B = facet_basis(cell, degree, xi, 1)
+    nt = np.einsum("mk,mkd->md", B[0], Nn)
+    dnt = np.einsum("mk,mkd->md", B[1], Nn)
+    size = np.linalg.norm(nt, axis=1)
+    n = nt / size[:, None]
+    a = (dnt - n * np.einsum("md,md->m", n, dnt)[:, None]) / size[:, None]
+    return a, Ainv[:, 0, :]
 
 
 def transport(v: np.ndarray, n_old: np.ndarray, n_new: np.ndarray) -> np.ndarray:
