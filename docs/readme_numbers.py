@@ -112,7 +112,7 @@ def words(text: str) -> str:
     out = []
     for p in parts:
         if p == "{}":
-            out.append(r"([^\s,;()|]+?)")
+            out.append(r"([^\s,;()|]+?)(?!\.?\d)")  # "6.58." is 6.58, not 6
         elif p == "{s}":
             out.append(r"(\d+(?:\.\d+)?\s(?:s|min))")
         elif p == "{t}":

@@ -60,13 +60,13 @@ def fe_config(quick: bool) -> dict[str, Any]:
         "hold": 2.0,
         "laws": ["subloading", "coulomb"],
         "cases": {
-            "block": {"time_n": 8, "time_dts": [0.04, 0.02, 0.01], "dt_ref": 0.0025,
-                      "space_dt": 0.04, "ns": [8, 16, 32], "n_ref": 64,
-                      "joint": [[8, 0.04], [16, 0.02], [32, 0.01]],
+            "block": {"time_n": 8, "time_dts": [0.04, 0.02, 0.01, 0.005], "dt_ref": 0.00125,
+                      "space_dt": 0.04, "ns": [8, 16, 32, 64], "n_ref": 128,
+                      "joint": [[8, 0.04], [16, 0.02], [32, 0.01], [64, 0.005]],
                       "probe_dts": [0.32, 0.16, 0.08]},
-            "pad": {"time_n": 2, "time_dts": [0.1, 0.05, 0.025], "dt_ref": 0.0125,
-                    "space_dt": 0.05, "ns": [2, 3], "n_ref": 4,
-                    "joint": [[2, 0.1], [3, 0.05]], "probe_dts": []},
+            "pad": {"time_n": 2, "time_dts": [0.1, 0.05, 0.025], "dt_ref": 0.00625,
+                    "space_dt": 0.05, "ns": [2, 3, 4], "n_ref": 6,
+                    "joint": [[2, 0.1], [3, 0.05], [4, 0.025]], "probe_dts": []},
         },
     }  # fmt: skip
 

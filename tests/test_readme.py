@@ -15,6 +15,7 @@
 import json
 import re
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -66,7 +67,11 @@ def test_the_demo_results_measure_the_code_on_main():
                      "docs/readme_numbers.py.")  # fmt: skip
 
 
-PLACEHOLDER = re.compile(r"\b(?:[A-Z][A-Z0-9]*_[A-Z0-9_]*[A-Z0-9]|TODO|TBD|FIXME|XXX)\b|\{\{|\}\}")
+# an all-caps name, a to-do word, a template's {{ expression }} or {% tag (not the "}}" that
+# closes a nested dict in the README's code)
+PLACEHOLDER = re.compile(
+    r"\b(?:[A-Z][A-Z0-9]*_[A-Z0-9_]*[A-Z0-9]|TODO|TBD|FIXME|XXX)\b|\{\{[^{}\n]*\}\}|\{%"
+)
 
 
 def known_names():
@@ -77,7 +82,7 @@ def known_names():
              *ROOT.glob("tests/**/*.py"), ROOT / "run", *ROOT.glob(".ci/*"),
              *ROOT.glob("docker/*")]  # fmt: skip
     for f in files:
-        if f.is_file():
+        if f.is_file() and f != Path(__file__).resolve():  # this file names placeholders
             names |= set(re.findall(r"\b[A-Z][A-Z0-9]*_[A-Z0-9_]*[A-Z0-9]\b", f.read_text()))
     return names | {"COMM_WORLD", "PETSC_OPTIONS", "OMPI_ALLOW_RUN_AS_ROOT"}
 
@@ -96,6 +101,9 @@ def test_no_placeholder_reaches_the_pages():
     assert not found, found
     # the check sees one
     assert PLACEHOLDER.findall("| two_bodies_api | BJ_TIME |") == ["BJ_TIME"]
+    assert PLACEHOLDER.findall("took {{ bj_time }} s") == ["{{ bj_time }}"]
+    assert PLACEHOLDER.findall("{% if x %}") == ["{%"]
+    assert PLACEHOLDER.findall('{"mesh": {"options": {"n": 16}}}') == []
     assert "BJ_TIME" not in known
 
 
@@ -103,7 +111,7 @@ def test_a_changed_number_is_found_and_written_back():
     rn, _ = modules()
     text = (ROOT / "README.md").read_text()
     data = rn.Data()
-    q = next(q for q in rn.QUOTES if q.name.startswith("lap_joint"))
+    q = next(q for q in rn.QUOTES if q.name == "lap_joint: slip per cycle")
     m = rn.find(q, text)
     stale = text[: m.start(1)] + "8.97" + text[m.end(1) :]
     if m.group(1) == "8.97":

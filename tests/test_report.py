@@ -62,8 +62,8 @@ def test_the_report_template_renders_from_report_data():
     for key, f in fe.items():
         case, law = key.split("/")
         assert f"**FE, {case}, {law}**: observed order **{f['p_time']:.2f}** in time" in text
-        pays = "pay off\n  from" in text or "pay off from" in text
-        assert pays or "never pay" in text
+        pays = "are faster\n  at" in text or "are faster at" in text
+        assert pays or "are never faster" in text
     assert {k.split("/")[0] for k in fe} == {"block", "pad"}
     assert {k.split("/")[1] for k in fe} == {"subloading", "coulomb"}
     for block in [stab_tab, *fe_lines, *analysis.mp_tables(mp)]:
