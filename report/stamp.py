@@ -65,7 +65,8 @@ def make(paths: Sequence[str], root: Path = ROOT) -> dict[str, Any]:
     return {
         "commit": git("rev-parse", "HEAD", root=root),
         "trees": {p: tree("HEAD", p, root) for p in paths},
-        "dirty": sorted({ln[3:] for ln in dirty.splitlines()}),
+        # "XY path" lines; git() stripped the first one's leading space (" M path")
+        "dirty": sorted({ln[2:].strip() for ln in dirty.splitlines()}),
         "date": time.strftime("%Y-%m-%d %H:%M"),
     }
 
