@@ -148,8 +148,10 @@ def e1(x: float) -> str:
 
 
 def wall(seconds: float) -> str:
-    """A demo's wall time as the README's table gives it: seconds below 2 min, else minutes; one
-    decimal below 1 s (0.1 s, not "0 s")."""
+    """A demo's wall time as the README's table gives it: seconds below 2 min, else minutes.
+
+    Below 1 s, one decimal (0.1 s, not "0 s").
+    """
     if seconds < 0.95:
         return f"{seconds:.1f} s"
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
