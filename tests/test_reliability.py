@@ -242,3 +242,44 @@ def test_a_domain_error_on_one_rank_stops_every_rank():
         r = solver.solve(0.5, 0.5)
     outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
     assert len(set(outcomes)) == 1 and not r["converged"], outcomes
+
+
+@pytest.mark.parametrize("plain_fails_again", [False, True])
+def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again):
+    """Once a step needed the line-search retry, the next ``easy_steps`` steps of its segment
+    start with it, then the solver's own options are tried first again: kept if they converge
+    (the step can grow back, which the line search's ~6 Newton iterations never allowed: the
+    fretting demo crawled through a whole cycle at 1/64 of its step), the retry otherwise.
+
+    The plain attempt is made to fail (its result reported as not converged) at the first slide
+    step, and, in the second case, at every later plain attempt of that segment."""
+    program = {"times": [0, 1, 3], "channels": {"press": [0, 1, 1], "slide": [0, 0, 1]}}
+    prob, scene = demo_problem("sec7", program, n=8)
+    sv = scene.solver
+    attempts = []  # (t, plain) of every attempt
+    with FrictionSolver(prob, prefix("sticky"), linear="lu") as solver:
+        real = solver.solve
+
+        def solve(t, dt, *, options=None, separated_stiffness=0.0):
+            r = real(t, dt, options=options, separated_stiffness=separated_stiffness)
+            attempts.append((t, options is None))
+            slide_plain = [a for a in attempts if a[0] > 1.0 + 1e-12 and a[1]]
+            if options is None and t > 1.0 + 1e-12 and (plain_fails_again or len(slide_plain) == 1):
+                r = dict(r, converged=False)
+            return r
+
+        solver.solve = solve
+        st = LoadStepper(solver, sv.dt, dt_max=sv.dt_max, max_cuts=sv.max_cuts)
+        st.run()
+    slide = [rec for rec in st.records if rec.t > 1.0 + 1e-12]
+    assert len(slide) >= 6
+    flags = [rec.retried for rec in slide]
+    if plain_fails_again:
+        assert all(flags), flags
+        # probation attempts (plain, failed) every easy_steps steps, then the retry
+        plain = [t for t, p in attempts if p and t > 1.0 + 1e-12]
+        assert st.retries == len(plain) == 1 + (len(slide) - 1) // (st.easy_steps + 1)
+    else:
+        # the failed step and easy_steps steps on the retry's options; the rest plain
+        assert flags == [True] * (1 + st.easy_steps) + [False] * (len(slide) - 1 - st.easy_steps)
+        assert st.retries == 1 and st.line_search_steps == 1 + st.easy_steps

@@ -235,7 +235,12 @@ class LoadStepper:
         retry_options: Solver options of a second attempt at a failed step, before it is cut
             (default :data:`RETRY_OPTIONS`, a line search); ``None``: cut at once.
         sticky_retry: Once a step needed the retry, start the following steps of the same
-            segment of the program (up to the next breakpoint) with the retry options.
+            segment of the program (up to the next breakpoint) with the retry options; after
+            ``easy_steps`` such steps in a row, the next step tries the solver's own options
+            first again (the retry stays its fallback), and stays with them if they converge:
+            a line search costs Newton its quadratic rate (about 6 iterations a step, above
+            ``easy_iterations``), so a segment kept on it would never let the step grow back
+            after a cut.
         hold_dt: Step in the holds of the program (segments where every channel is constant),
             instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
             untouched); ``None``: holds are stepped like the rest.
@@ -287,6 +292,7 @@ class LoadStepper:
         self.max_steps = max_steps
         self._hold_step: float | None = None  # the hold's step after a cut (until its end)
         self._keep_retry = False
+        self._retry_run = 0  # consecutive converged steps started with the retry options
         self.retries = 0  # steps whose first attempt failed and the retry converged (run)
         self.line_search_steps = 0  # steps solved with the retry options (run)
         self.t = self.program.t_start
@@ -376,7 +382,10 @@ class LoadStepper:
                 target = nb
             dt = target - self.t
             t0 = time.perf_counter()
-            first = self.retry_options if self._keep_retry else None
+            # the solver's own options again after easy_steps steps on the retry's (see
+            # sticky_retry)
+            keep = self._keep_retry and self._retry_run < self.easy_steps
+            first = self.retry_options if keep else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
@@ -396,6 +405,7 @@ class LoadStepper:
                 self._check_interrupted(r, target)
                 retried = True
                 self._keep_retry = self.sticky_retry and bool(r["converged"])
+                self._retry_run = 0
             if not r["converged"]:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
@@ -427,6 +437,10 @@ class LoadStepper:
                         attempt,
                     )
                 continue
+            if first is not None:
+                self._retry_run += 1
+            elif not retried:  # the solver's own options converged: the segment is back on them
+                self._keep_retry = False
             if retried:
                 self.line_search_steps += 1
                 segment.line_search += 1
@@ -466,6 +480,7 @@ class LoadStepper:
                     printed = True
                 segment = _Tally(target)
                 self._keep_retry = False  # a new segment starts with the solver's own options
+                self._retry_run = 0
                 self._hold_step = None
             if printed:
                 clock.reset()
