@@ -384,7 +384,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             self._G = np.zeros((self.n_points, gdim, gdim))
             self._Nm = np.zeros((self.n_points, self.pf_nodes.shape[1]))
             if pf.size:
-                G, Nb = gap_operator(
+                G, Nb, R = gap_operator(
                     xq[pf], Ym[facet[pf]], Nm[facet[pf]], m.cell, m.degree, xi[pf], gamma[pf], Q[pf]
                 )
                 self._G[pf], self._Nm[pf] = G, Nb
@@ -394,9 +394,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             # in the slip e1 . ds and in the forces Q^T f
             self._K = np.zeros((self.n_points, gdim, gdim))
             if gdim == 2 and pf.size:
-                a, r = frame_rate(
-                    xq[pf], Ym[facet[pf]], Nm[facet[pf]], m.cell, m.degree, xi[pf], gamma[pf]
-                )
+                a, r = frame_rate(Nm[facet[pf]], m.cell, m.degree, xi[pf]), R[:, 0, :]
                 de1 = np.stack([a[:, 1], -a[:, 0]], axis=1)
                 self._G[pf, 0, :] += np.einsum("md,md->m", de1, ds[pf])[:, None] * r
                 f = res.traction[pf]
