@@ -5,7 +5,10 @@ problem's loading program: steps end on every breakpoint (a reversal or the star
 stepped over) and on requested stop times; a failed step is undone (displacement and interface
 state), tried again with a backtracking line search (:data:`RETRY_OPTIONS`: Newton with full steps
 can cycle on the switch between open and closed contact) and, if that fails too, retried with a
-smaller step; easy steps let the step grow; state is committed only after convergence. With
+smaller step; easy steps let the step grow; state is committed only after convergence. Within a
+straight stretch of the loading program, Newton starts from the last step's increment
+extrapolated to the new step (``predictor``); the retry of a failed step starts from the converged
+state. With
 ``hold_dt``, a hold of the program (a segment where no channel changes: time passes, nothing moves)
 is crossed in steps of ``hold_dt`` (the subloading return map integrates the recovery of a hold
 exactly, whatever the step: docs/model.md §6.7), and the step outside holds is kept for after it.
@@ -249,6 +252,17 @@ class LoadStepper:
         keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (about 0.8 kB a
             step, measured); ``False``: the last one only (a run that keeps its own history,
             as scenes do).
+        predictor: Start Newton at the converged displacement plus the last step's increment
+            scaled to this step (``dt / dt_last``), when the program's channels go on as they
+            went during the last step (every channel's change over the step is ``dt / dt_last``
+            times its last change, to 1e-9, and one of them changes: a reversal, a change of
+            rate, a hold (what moves there is not the program's doing) are never extrapolated
+            over; knots on a straight line are); the retry of
+            a failed step starts from the converged displacement. ``False``: every step starts
+            from the converged displacement (with the new Dirichlet values). Only Newton's path
+            changes, not the equations: the 3-D pad of
+            ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton iterations a
+            step instead of 2.99 (100 steps) and 2.33 instead of 3.08 (24 steps).
     """
 
     def __init__(
@@ -269,6 +283,7 @@ class LoadStepper:
         hold_dt: float | None = None,
         max_steps: int = MAX_STEPS,
         keep_records: bool = True,
+        predictor: bool = True,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -299,12 +314,49 @@ class LoadStepper:
         self.step = 0
         self.records: list[StepRecord] = []
         self.keep_records = keep_records
+        self.predictor = bool(predictor)
+        self._increment: Any = None  # PETSc.Vec: the last step's increment
+        self._increment_dt = 0.0
+        self._increment_load: np.ndarray | None = None  # the channels' change over that step
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
         # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
         # per interface, the first's here
         self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
         self.validity = next(iter(self.watches.values()), None)
+
+    def reset_predictor(self) -> None:
+        """Start the next step from the converged displacement (no extrapolation).
+
+        :func:`~subfric_dolfinx.io.write_checkpoint` calls it: a run restarted from the
+        checkpoint has no last increment, and the run that wrote it continues alike.
+        """
+        self._increment_dt = 0.0
+
+    def _channels(self, t: float) -> np.ndarray:
+        return np.array([self.program.amplitude(c, t) for c in sorted(self.program.channels)])
+
+    def _predicted(self, flag: bool) -> None:
+        conv = getattr(self.solver, "convergence", None)
+        if conv is not None:
+            conv.predicted = flag
+
+    def _predict(self, target: float, dt: float) -> None:
+        """The first iterate: the converged displacement plus the scaled last increment.
+
+        Only if the program goes on as it went during the last step (the same on every rank:
+        the program decides).
+        """
+        self._predicted(False)
+        if not (self.predictor and self._increment is not None and self._increment_dt > 0.0):
+            return
+        ratio = dt / self._increment_dt
+        change = self._channels(target) - self._channels(self.t)
+        last = ratio * self._increment_load
+        scale = max(float(np.abs(change).max(initial=0.0)), float(np.abs(last).max(initial=0.0)))
+        if scale > 0.0 and np.all(np.abs(change - last) <= 1e-9 * scale):
+            self.solver.x.axpy(ratio, self._increment)
+            self._predicted(True)
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -317,6 +369,7 @@ class LoadStepper:
         n = self.problem.layout.n_owned
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
+        self.reset_predictor()
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
@@ -386,6 +439,10 @@ class LoadStepper:
             # sticky_retry)
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
+            if first is None:
+                self._predict(target, dt)
+            else:
+                self._predicted(False)
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
@@ -396,6 +453,7 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
+                self._predicted(False)
                 r = self.solver.solve(
                     target,
                     dt,
@@ -450,6 +508,13 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
+            if self.predictor:  # this step's increment, for the next one's first iterate
+                if self._increment is None:
+                    self._increment = self.solver.x.duplicate()
+                self.solver.x.copy(self._increment)
+                self._increment.axpy(-1.0, self._x_converged)
+                self._increment_dt = dt
+                self._increment_load = self._channels(target) - self._channels(self.t)
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()

@@ -98,8 +98,10 @@ def write_checkpoint(
         path: Checkpoint file.
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
         stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt); its solver
-            rebuilds its preconditioner at the next iteration, as a restart will
-            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`).
+            rebuilds its preconditioner at the next iteration, and its next step starts from
+            the converged displacement, as a restart will
+            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`,
+            :meth:`~subfric_dolfinx.fem.LoadStepper.reset_predictor`).
         history: History rows so far (stored so that a restarted run continues them).
         settings: JSON-ready settings a restart must match (e.g. the scene's materials,
             boundary conditions and loads); compared by :func:`restore_checkpoint`.
@@ -208,6 +210,9 @@ def write_checkpoint(
     refresh = getattr(getattr(stepper, "solver", None), "refresh_preconditioner", None)
     if refresh is not None:  # a restart starts fresh: so does this run, from here on
         refresh()
+    reset = getattr(stepper, "reset_predictor", None)
+    if reset is not None:  # a restart has no last increment: nor has this run's next step
+        reset()
 
 
 @dataclasses.dataclass
