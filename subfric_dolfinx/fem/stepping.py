@@ -249,6 +249,18 @@ class LoadStepper:
         keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (about 0.8 kB a
             step, measured); ``False``: the last one only (a run that keeps its own history,
             as scenes do).
+        predictor: Start Newton from the last converged displacement plus the last step's
+            increment scaled to the new step (linear extrapolation, as Abaqus/Standard's
+            default), where the last step lies in the same segment of the program as the new
+            one; else (and with ``False``) from the last converged displacement. ``None`` (the
+            default): on where an interface slides finitely (``kinematics ==
+            "finite_sliding"``). There a step started from the converged state evaluates the
+            law at a zero slip increment, with its stick (elastic) tangent: the first iterate
+            shears the block instead of sliding it, its points open and close, the second
+            overshoots (a 1 mm penetration, a failed return map and a line-search retry on
+            ``demos/block_sliding_far.py``) and Newton needs 7 to 10 iterations a step, where
+            from the extrapolated start it needs 4 to 5 (``docs/model.md`` §12). The increment
+            is in the checkpoint (a restart repeats the path).
     """
 
     def __init__(
@@ -269,6 +281,7 @@ class LoadStepper:
         hold_dt: float | None = None,
         max_steps: int = MAX_STEPS,
         keep_records: bool = True,
+        predictor: bool | None = None,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -301,6 +314,15 @@ class LoadStepper:
         self.keep_records = keep_records
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
+        if predictor is None:
+            predictor = any(
+                getattr(i, "kinematics", None) == "finite_sliding"
+                for i in self.problem.interfaces.values()
+            )
+        self.predictor = bool(predictor)
+        # the last converged step's displacement increment and its length (the predictor's)
+        self.increment: np.ndarray | None = None
+        self.increment_dt = 0.0
         # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
         # per interface, the first's here
         self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
@@ -311,12 +333,43 @@ class LoadStepper:
         self.solver.x.array_w[:] = self._x_converged.array_r
         self.problem.revert()
 
-    def restore(self, t: float, step: int, dt: float, easy: int = 0) -> None:
-        """Continue from a restored state: ``problem.u`` and the interface state must hold it."""
+    def _predict(self, target: float, dt: float) -> None:
+        """Newton's start: the last converged state plus the extrapolated increment.
+
+        Only where the last step ``(t - increment_dt, t)`` and the new one ``(t, target)`` are in
+        one segment of the program (no breakpoint at ``t``): across a breakpoint the loading
+        changes its direction.
+        """
+        if not self.predictor or self.increment is None or self.increment_dt <= 0:
+            return
+        start = self.t - self.increment_dt
+        end = self.program.next_breakpoint(start)
+        if end < target - 1e-12 * max(1.0, abs(target)):
+            return
+        self.solver.x.array_w[:] = (
+            self._x_converged.array_r + (dt / self.increment_dt) * self.increment
+        )
+
+    def restore(
+        self,
+        t: float,
+        step: int,
+        dt: float,
+        easy: int = 0,
+        increment: np.ndarray | None = None,
+        increment_dt: float = 0.0,
+    ) -> None:
+        """Continue from a restored state: ``problem.u`` and the interface state must hold it.
+
+        ``increment``, ``increment_dt``: the last step's displacement increment (owned values)
+        and length, for the predictor (``None``: the first step starts from the state itself).
+        """
         self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
         n = self.problem.layout.n_owned
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
+        self.increment = None if increment is None else np.array(increment[:n], dtype=float)
+        self.increment_dt = float(increment_dt) if increment is not None else 0.0
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
@@ -387,6 +440,7 @@ class LoadStepper:
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+            self._predict(target, dt)
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
             retried = first is not None
@@ -396,6 +450,7 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
+                self._predict(target, dt)
                 r = self.solver.solve(
                     target,
                     dt,
@@ -450,6 +505,8 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
+            self.increment = self.solver.x.array_r - self._x_converged.array_r
+            self.increment_dt = dt
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()
