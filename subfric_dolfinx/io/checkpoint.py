@@ -119,8 +119,8 @@ def write_checkpoint(
     rows, n_points = interface_rows(el)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
-    # the stepper's last increment (its predictor's start; every rank has one or none)
-    inc = getattr(stepper, "increment", None)
+    # the stepper's last increment where its predictor uses it (every rank has one or none)
+    inc = getattr(stepper, "increment", None) if getattr(stepper, "predictor", False) else None
     iblock = None
     if inc is not None:
         du = np.zeros_like(problem.u.x.array)
