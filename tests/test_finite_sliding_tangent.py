@@ -10,10 +10,10 @@ interface), and the interface's own tangent with the central differences of its 
 (relative errors, whole / interface):
 
 * 2-D, with the transfer's change (``SlidingAssembly.transfer_in_tangent``, the default): the
-  residual's derivative, O(e^2) down to round-off. Measured at e = 1e-4 and 1e-5 (1 rank): Coulomb P1
-  9.8e-12 and 6.9e-12 / 8.1e-11 and 1.4e-12; Sec. 7 P1 9.5e-9 and 9.6e-11 / 4.7e-8 and 4.7e-10;
-  Coulomb P2 5.0e-11 and 1.3e-11 / 9.8e-10 and 9.5e-12. Without it the transfer's part
-  remains: 4.5e-5 / 3.7e-4, 4.2e-5 / 2.1e-4, 1.1e-4 / 2.1e-3;
+  residual's derivative, O(e^2) down to round-off. Measured at e = 1e-4 and 1e-5 (1 rank):
+  Coulomb P1 9.8e-12 and 6.9e-12 / 8.1e-11 and 1.4e-12; Sec. 7 P1 9.5e-9 and 9.6e-11 / 4.7e-8
+  and 4.7e-10; Coulomb P2 5.0e-11 and 1.3e-11 / 9.8e-10 and 9.5e-12. Without it the transfer's
+  part remains: 4.5e-5 / 3.7e-4, 4.2e-5 / 2.1e-4, 1.1e-4 / 2.1e-3;
 * 3-D, with the master-side transfer ``B`` held at its value at ``x`` (3-D leaves its change out):
   1.9e-6 / 2.0e-5 (the frame's turn within an iteration, 2-D only in the tangent); with ``B``
   live 5.7e-5 / 5.8e-4.
