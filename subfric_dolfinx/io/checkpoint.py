@@ -303,11 +303,13 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                 ):
                     raise CheckpointError(
                         f"checkpoint {name}: 'increment' has shape {d.shape} (the "
-                        f"displacement's: {f['displacement'].shape}) and dt {dt!r} (> 0 wanted)"
+                        f"displacement's: {f['displacement'].shape}) and dt {dt} (> 0 wanted)"
                     )
                 inc = (np.asarray(d[c0:c1], dtype=float), float(dt))
                 if not np.all(np.isfinite(inc[0])):
-                    raise CheckpointError(f"checkpoint {name}: 'increment' holds NaN/inf")
+                    raise CheckpointError(
+                        f"checkpoint {name}: 'increment' holds non-finite values (NaN/inf)"
+                    )
             g = f["interface"]
             iface = {k: g[k][p0:p1] for k in g}
             pdata = {}
