@@ -12,6 +12,10 @@ ranks restarts on 1 or 2 (format version 2):
   ``sliding_normal``
   (:meth:`~subfric_dolfinx.fem.interface.SlidingInterface.saved_state`: its points are the
   slave facets', and the master facet each faces is found again from the displacement);
+* ``/increment`` (where the load stepper extrapolates its steps, i.e. with a finite-sliding
+  interface: :class:`~subfric_dolfinx.fem.LoadStepper`'s ``predictor``): the last converged
+  step's displacement increment, laid out as ``/displacement``, its step length in the attribute
+  ``dt``; a restart starts its first step from it as the uninterrupted run does;
 * ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
   initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
   restarts only with the same initial gap and regions);
