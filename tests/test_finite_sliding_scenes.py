@@ -11,6 +11,7 @@
   pressure's (3000 N/mm on 10 mm); no slide warning (the pairs follow the slide).
 * Checkpoint and restart: a run restarted from the checkpoint written half way gives the rows of
   the uninterrupted run (to 1e-9 of each value: Newton's tolerance; measured identical).
+* Newton: at most 5 iterations per sliding step of the demo's scene after the slide's first.
 """
 
 import copy
