@@ -1,9 +1,9 @@
 """The load stepper's predictor (issue 25): Newton's first iterate extrapolated from the last
 step's increment where the loading program goes straight on. Fewer Newton iterations, the same
 solution (to Newton's tolerance: against a run at a 1000 times tighter tolerance), never across a
-reversal, a change of rate or a hold; a checkpoint's writer and a restart continue alike (the
-restart tests of ``test_checkpoint.py`` hold that to round-off with the predictor on). 1 and 2
-ranks."""
+reversal, a change of rate or a hold. The increment is in the checkpoint: a restart continues
+as the run that wrote it (the restart tests of ``test_checkpoint.py`` and
+``test_finite_sliding_scenes.py``, with the predictor on by default). 1 and 2 ranks."""
 
 import numpy as np
 from mpi4py import MPI

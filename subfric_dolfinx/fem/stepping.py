@@ -7,8 +7,7 @@ state), tried again with a backtracking line search (:data:`RETRY_OPTIONS`: Newt
 can cycle on the switch between open and closed contact) and, if that fails too, retried with a
 smaller step; easy steps let the step grow; state is committed only after convergence. Within a
 straight stretch of the loading program, Newton starts from the last step's increment
-extrapolated to the new step (``predictor``); the retry of a failed step starts from the converged
-state. With
+extrapolated to the new step (``predictor``; the increment is in the checkpoint). With
 ``hold_dt``, a hold of the program (a segment where no channel changes: time passes, nothing moves)
 is crossed in steps of ``hold_dt`` (the subloading return map integrates the recovery of a hold
 exactly, whatever the step: docs/model.md §6.7), and the step outside holds is kept for after it.
@@ -253,16 +252,23 @@ class LoadStepper:
             step, measured); ``False``: the last one only (a run that keeps its own history,
             as scenes do).
         predictor: Start Newton at the converged displacement plus the last step's increment
-            scaled to this step (``dt / dt_last``), when the program's channels go on as they
-            went during the last step (every channel's change over the step is ``dt / dt_last``
-            times its last change, to 1e-9, and one of them changes: a reversal, a change of
-            rate, a hold (what moves there is not the program's doing) are never extrapolated
-            over; knots on a straight line are); the retry of
-            a failed step starts from the converged displacement. ``False``: every step starts
-            from the converged displacement (with the new Dirichlet values). Only Newton's path
-            changes, not the equations: the 3-D pad of
+            scaled to this step (``dt / dt_last``; linear extrapolation, as Abaqus/Standard's
+            default), when the program's channels go on as they went during the last step
+            (every channel's change over the step is ``dt / dt_last`` times its last change, to
+            1e-9, and one of them changes: a reversal, a change of rate, a hold (what moves
+            there is not the program's doing) are never extrapolated over; knots on a straight
+            line are), in every attempt at a step (the retry with a line search too).
+            ``False``: every step starts from the converged displacement (with the new
+            Dirichlet values). Only Newton's path changes, not the equations. The 3-D pad of
             ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton iterations a
-            step instead of 2.99 (100 steps) and 2.33 instead of 3.08 (24 steps).
+            step instead of 2.99 (100 steps) and 2.33 instead of 3.08 (24 steps). With finite
+            sliding a step started from the converged state evaluates the law at a zero slip
+            increment, with its stick (elastic) tangent: the first iterate shears the block
+            instead of sliding it, its points open and close, the second overshoots (a 1 mm
+            penetration, a failed return map and a line-search retry on
+            ``demos/block_sliding_far.py``) and Newton needs 7 to 10 iterations a step, where
+            from the extrapolated start it needs 4 to 5 (``docs/model.md`` §12). The increment
+            is in the checkpoint (a restart repeats the path).
     """
 
     def __init__(
@@ -314,24 +320,16 @@ class LoadStepper:
         self.step = 0
         self.records: list[StepRecord] = []
         self.keep_records = keep_records
-        self.predictor = bool(predictor)
-        self._increment: Any = None  # PETSc.Vec: the last step's increment
-        self._increment_dt = 0.0
-        self._increment_load: np.ndarray | None = None  # the channels' change over that step
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
+        self.predictor = bool(predictor)
+        # the last converged step's displacement increment and its length (the predictor's)
+        self.increment: np.ndarray | None = None
+        self.increment_dt = 0.0
         # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
         # per interface, the first's here
         self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
         self.validity = next(iter(self.watches.values()), None)
-
-    def reset_predictor(self) -> None:
-        """Start the next step from the converged displacement (no extrapolation).
-
-        :func:`~subfric_dolfinx.io.write_checkpoint` calls it: a run restarted from the
-        checkpoint has no last increment, and the run that wrote it continues alike.
-        """
-        self._increment_dt = 0.0
 
     def _channels(self, t: float) -> np.ndarray:
         return np.array([self.program.amplitude(c, t) for c in sorted(self.program.channels)])
@@ -342,20 +340,20 @@ class LoadStepper:
             conv.predicted = flag
 
     def _predict(self, target: float, dt: float) -> None:
-        """The first iterate: the converged displacement plus the scaled last increment.
+        """Newton's start: the converged displacement plus the scaled last increment.
 
-        Only if the program goes on as it went during the last step (the same on every rank:
-        the program decides).
+        Only if the program goes on as it went during the last step ``(t - increment_dt, t)``
+        (the same on every rank: the program decides); else the converged displacement.
         """
         self._predicted(False)
-        if not (self.predictor and self._increment is not None and self._increment_dt > 0.0):
+        if not self.predictor or self.increment is None or self.increment_dt <= 0.0:
             return
-        ratio = dt / self._increment_dt
+        ratio = dt / self.increment_dt
         change = self._channels(target) - self._channels(self.t)
-        last = ratio * self._increment_load
+        last = ratio * (self._channels(self.t) - self._channels(self.t - self.increment_dt))
         scale = max(float(np.abs(change).max(initial=0.0)), float(np.abs(last).max(initial=0.0)))
         if scale > 0.0 and np.all(np.abs(change - last) <= 1e-9 * scale):
-            self.solver.x.axpy(ratio, self._increment)
+            self.solver.x.array_w[:] = self._x_converged.array_r + ratio * self.increment
             self._predicted(True)
 
     def _undo(self) -> None:
@@ -363,13 +361,26 @@ class LoadStepper:
         self.solver.x.array_w[:] = self._x_converged.array_r
         self.problem.revert()
 
-    def restore(self, t: float, step: int, dt: float, easy: int = 0) -> None:
-        """Continue from a restored state: ``problem.u`` and the interface state must hold it."""
+    def restore(
+        self,
+        t: float,
+        step: int,
+        dt: float,
+        easy: int = 0,
+        increment: np.ndarray | None = None,
+        increment_dt: float = 0.0,
+    ) -> None:
+        """Continue from a restored state: ``problem.u`` and the interface state must hold it.
+
+        ``increment``, ``increment_dt``: the last step's displacement increment (owned values)
+        and length, for the predictor (``None``: the first step starts from the state itself).
+        """
         self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
         n = self.problem.layout.n_owned
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
-        self.reset_predictor()
+        self.increment = None if increment is None else np.array(increment[:n], dtype=float)
+        self.increment_dt = float(increment_dt) if increment is not None else 0.0
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
@@ -439,11 +450,8 @@ class LoadStepper:
             # sticky_retry)
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
-            if first is None:
-                self._predict(target, dt)
-            else:
-                self._predicted(False)
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+            self._predict(target, dt)
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
             retried = first is not None
@@ -453,7 +461,7 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
-                self._predicted(False)
+                self._predict(target, dt)
                 r = self.solver.solve(
                     target,
                     dt,
@@ -508,13 +516,8 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
-            if self.predictor:  # this step's increment, for the next one's first iterate
-                if self._increment is None:
-                    self._increment = self.solver.x.duplicate()
-                self.solver.x.copy(self._increment)
-                self._increment.axpy(-1.0, self._x_converged)
-                self._increment_dt = dt
-                self._increment_load = self._channels(target) - self._channels(self.t)
+            self.increment = self.solver.x.array_r - self._x_converged.array_r
+            self.increment_dt = dt
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()
