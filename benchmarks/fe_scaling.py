@@ -140,7 +140,9 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
             "reason": reason, "error": error}  # fmt: skip
 
 
-def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> None:
+def run_one(
+    n: int, strategy: str, steps: int, time_limit: float, out: Path, predictor: bool = False
+) -> None:
     from mpi4py import MPI
     from petsc4py import PETSc
 
@@ -205,7 +207,7 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
         return r
 
     solver.solve = solve
-    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step)
+    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step, predictor=predictor)
     failure = None
     try:
         stepper.run()
@@ -244,6 +246,7 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
         "linear": solver.linear.stats,
         "wall": wall,
         "wall_per_newton": wall / newton if newton else math.nan,
+        "predictor": predictor,
         "newton_per_step": newton / len(stepper.records) if stepper.records else math.nan,
         "elastic": elastic,
         "per_newton_vs_elastic": (wall / newton) / elastic["total_s"] if newton else math.nan,
@@ -278,14 +281,14 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
 # Campaign
 
 
-def launch(n, strategy, ranks, steps, time_limit, out, force=False) -> dict | None:
+def launch(n, strategy, ranks, steps, time_limit, out, force=False, predictor=False) -> dict | None:
     path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
     cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
            "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
-           "--out", str(out)]  # fmt: skip
+           "--out", str(out)] + (["--predictor"] if predictor else [])  # fmt: skip
     from subfric_dolfinx.logs import singleton_environment
 
     proc = subprocess.run(cmd, cwd=ROOT, env=singleton_environment())
@@ -520,15 +523,22 @@ def main(argv=None) -> None:
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--strategy", help=argparse.SUPPRESS)
+    ap.add_argument(
+        "--predictor",
+        action="store_true",
+        help="LoadStepper(predictor=True): Newton starts from the extrapolated increment "
+        "(off by default on this small-sliding interface); a separate --out is advised",
+    )
     args = ap.parse_args(argv)
     if args.one:
-        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out)
+        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out, args.predictor)
         return
     if not args.table:
         for n in sorted(args.sizes):  # the largest last
             for ranks in args.ranks:
                 for strategy in args.strategies:
-                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force)
+                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force,
+                           args.predictor)  # fmt: skip
     write_tables(args.out, args.report)
 
 

@@ -1,5 +1,6 @@
-"""The load stepper's predictor (issue 25): Newton's first iterate extrapolated from the last
-step's increment where the loading program goes straight on. Fewer Newton iterations, the same
+"""The load stepper's predictor (issues 22 and 25; on by default with finite sliding, asked for
+here on a small-sliding block): Newton's first iterate extrapolated from the last step's
+increment where the loading program goes straight on. Fewer Newton iterations, the same
 solution (to Newton's tolerance: against a run at a 1000 times tighter tolerance), never across a
 reversal, a change of rate or a hold. The increment is in the checkpoint: a restart continues
 as the run that wrote it (the restart tests of ``test_checkpoint.py`` and

@@ -73,6 +73,8 @@ def _increment(shape=None, dt=1.0, nan=False):
         inc = np.zeros(shape if shape is not None else u.shape)
         if nan:
             inc[-1] = np.nan  # on the last rank's slab
+        if "increment" in f:  # the stepper's predictor wrote one
+            del f["increment"]
         f["increment"] = inc
         if dt is not None:
             f["increment"].attrs["dt"] = dt
