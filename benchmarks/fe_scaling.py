@@ -142,7 +142,7 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
 
     def solve(*a, **k):
         r = orig(*a, **k)
-        krylov.append(r.get("krylov", 0))
+        krylov.append(r.krylov)
         return r
 
     solver.solve = solve

@@ -3,6 +3,8 @@ line-search retry of a failed Newton step and what a StepFailure says (the warni
 penetration and slide: ``test_validity.py``). 1 and 2 ranks."""
 
 
+import dataclasses
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -240,8 +242,8 @@ def test_a_domain_error_on_one_rank_stops_every_rank():
     prob.residual = failing
     with FrictionSolver(prob, prefix("domain")) as solver:
         r = solver.solve(0.5, 0.5)
-    outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
-    assert len(set(outcomes)) == 1 and not r["converged"], outcomes
+    outcomes = comm.allgather((r.converged, r.reason, r.iterations))
+    assert len(set(outcomes)) == 1 and not r.converged, outcomes
 
 
 @pytest.mark.parametrize("plain_fails_again", [False, True])
@@ -265,7 +267,7 @@ def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again)
             attempts.append((t, options is None))
             slide_plain = [a for a in attempts if a[0] > 1.0 + 1e-12 and a[1]]
             if options is None and t > 1.0 + 1e-12 and (plain_fails_again or len(slide_plain) == 1):
-                r = dict(r, converged=False)
+                r = dataclasses.replace(r, converged=False)
             return r
 
         solver.solve = solve

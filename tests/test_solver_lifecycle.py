@@ -73,12 +73,12 @@ def test_late_read_options_reach_the_factorisation(problem):
     before = PETSc.Options().getAll()
     with FrictionSolver(problem, "lc3_", {"mat_mumps_icntl_14": 57}) as s:
         r = s.solve(0.1, 0.1)
-        assert r["converged"]
+        assert r.converged
         F = s.snes.getKSP().getPC().getFactorMatrix()
         assert F.getMumpsIcntl(14) == 57
         assert PETSc.Options().getAll() == before
         r = s.solve(0.2, 0.1, options={"snes_max_it": 1, "snes_atol": 1e-300, "snes_rtol": 1e-300})
-        assert not r["converged"] and r["iterations"] == 1  # options for this solve only ...
+        assert not r.converged and r.iterations == 1  # options for this solve only ...
         assert s.snes.getTolerances()[3] == DEFAULT_OPTIONS["snes_max_it"]  # ... then restored
         assert PETSc.Options().getAll() == before
 

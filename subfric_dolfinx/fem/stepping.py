@@ -39,7 +39,7 @@ import numpy as np
 
 from .. import logs
 from .attempts import SLIDING_FRACTION, describe_attempt, interface_activity
-from .solver import FrictionSolver
+from .solver import FrictionSolver, SolveResult
 from .validity import ValidityWatch
 
 __all__ = [
@@ -168,10 +168,10 @@ class StepRecord:
         return _activity_text(self.sliding, self.open)
 
 
-def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
-    why = f"SNES reason {r['reason']}"
-    if r.get("error"):
-        why += f" ({' '.join(str(r['error']).split())[:300]})"
+def _why(r: SolveResult, solver: FrictionSolver) -> str:
+    why = f"SNES reason {r.reason}"
+    if r.error:
+        why += f" ({' '.join(r.error.split())[:300]})"
     if solver.failed_points.size:
         why += f", return map failed at {solver.failed_points.size} points"
     return why
@@ -342,12 +342,12 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.warn()
 
-    def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
+    def _check_interrupted(self, r: SolveResult, target: float) -> None:
         """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
 
         On every rank: the solver agreed on it.
         """
-        if not r.get("interrupted"):
+        if not r.interrupted:
             return
         self._undo()
         raise StepInterrupted(
@@ -390,7 +390,7 @@ class LoadStepper:
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
             retried = first is not None
-            if not r["converged"] and not retried and self.retry_options is not None:
+            if not r.converged and not retried and self.retry_options is not None:
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
@@ -404,9 +404,9 @@ class LoadStepper:
                 )
                 self._check_interrupted(r, target)
                 retried = True
-                self._keep_retry = self.sticky_retry and bool(r["converged"])
+                self._keep_retry = self.sticky_retry and bool(r.converged)
                 self._retry_run = 0
-            if not r["converged"]:
+            if not r.converged:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
                 self._undo()
@@ -456,7 +456,7 @@ class LoadStepper:
             self.step += 1
             self.t = target
             rec = StepRecord(
-                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"],
+                self.step, target, dt, r.iterations, cuts, list(r.residuals), dict(r.counts),
                 retried, sliding, open_,
             )  # fmt: skip
             if not self.keep_records:
@@ -465,11 +465,11 @@ class LoadStepper:
             segment.add(rec)
             since.add(rec)
             if logger.isEnabledFor(logging.DEBUG):
-                res = r["residuals"] or [0.0]
+                res = r.residuals or (0.0,)
                 logger.debug(
                     "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  "
                     "(%.2f s)",
-                    self.step, target, dt, r["iterations"], res[0], res[-1], rec.activity,
+                    self.step, target, dt, r.iterations, res[0], res[-1], rec.activity,
                     time.perf_counter() - t0,
                 )  # fmt: skip
             printed = False
@@ -491,7 +491,7 @@ class LoadStepper:
                 since = _Tally(target)
             cuts = 0
             if not hold:  # the step outside holds grows on easy steps
-                self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
+                self.easy = self.easy + 1 if r.iterations <= self.easy_iterations else 0
                 if self.easy >= self.easy_steps:
                     self.dt = min(self.dt * self.grow, self.dt_max)
                     self.easy = 0
