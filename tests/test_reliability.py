@@ -10,6 +10,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.constitutive import UNSTABLE, Status
 from subfric_dolfinx.fem import (
     Dirichlet,
     DirichletField,
@@ -133,8 +134,8 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options(preset, linear
     assert err is None, str(err)
     assert st.t == pytest.approx(2.0)
     assert interface_summary(prob)["F_n"] == pytest.approx(300.0, rel=1e-9)
-    counts = describe_attempt(prob)["counts"]
-    assert counts["SEPARATED"] == 0 and counts["FAILED"] == 0, counts
+    counts = describe_attempt(prob).counts
+    assert counts[Status.SEPARATED.name] == 0 and counts[Status.FAILED.name] == 0, counts
 
 
 def test_an_unloaded_slide_then_a_press_without_the_retry():
@@ -211,16 +212,18 @@ def test_a_step_failure_says_what_the_return_map_saw():
         with pytest.raises(StepFailure) as e:
             LoadStepper(solver, 0.1, max_cuts=4).run()
     att = e.value.attempt
-    counts, worst = att["counts"], att["worst"]
+    counts, worst = att.counts, att.worst
     n_points = comm.allreduce(prob.interface.n_elements * prob.interface.nq)
-    assert sum(counts[k] for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED")) == n_points
-    severity = ["FAILED", "UNSTABLE", "JUMP", "PLASTIC", "ELASTIC", "SEPARATED"]
-    assert counts[worst["status"]] > 0
-    assert all(counts[k] == 0 for k in severity[: severity.index(worst["status"])])
+    assert sum(counts[s.name] for s in Status) == n_points
+    severity = [Status.FAILED.name, UNSTABLE] + [
+        s.name for s in (Status.JUMP, Status.PLASTIC, Status.ELASTIC, Status.SEPARATED)
+    ]
+    assert counts[worst.status] > 0
+    assert all(counts[k] == 0 for k in severity[: severity.index(worst.status)])
     # the worst point is one of the interface's points (gathered from every rank)
     points = np.concatenate(comm.allgather(prob.interface.points.reshape(-1, 2)))
-    assert np.min(np.linalg.norm(points - np.array(worst["x"]), axis=1)) < 1e-12
-    assert att["text"] in str(e.value) and "worst point" in str(e.value)
+    assert np.min(np.linalg.norm(points - np.array(worst.x), axis=1)) < 1e-12
+    assert att.text in str(e.value) and "worst point" in str(e.value)
     assert comm.allgather(str(e.value)) == [str(e.value)] * comm.size
 
 

@@ -46,12 +46,13 @@ from .solver import (
     SolveResult,
     SolverOptionError,
 )
-from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
+from .stepping import AttemptReport, LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
     "DEFAULT_OPTIONS",
     "PETSC_ERROR_REASON",
+    "AttemptReport",
     "BulkContext",
     "BulkModel",
     "Dirichlet",

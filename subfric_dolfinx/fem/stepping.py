@@ -38,7 +38,14 @@ from typing import Any
 import numpy as np
 
 from .. import logs
-from .attempts import SLIDING_FRACTION, describe_attempt, interface_activity
+from ..constitutive import Status
+from .attempts import (
+    SLIDING_FRACTION,
+    AttemptReport,
+    WorstPoint,
+    describe_attempt,
+    interface_activity,
+)
 from .solver import FrictionSolver, SolveResult
 from .validity import ValidityWatch
 
@@ -48,10 +55,12 @@ __all__ = [
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
+    "AttemptReport",
     "LoadStepper",
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
+    "WorstPoint",
     "describe_attempt",
     "interface_activity",
 ]
@@ -98,7 +107,8 @@ class StepFailure(RuntimeError):
         last_step: Index of the last converged step.
         reason: What failed (SNES reason, failed return-map points).
         attempt: What the return map saw at the last iterate of the failed attempt
-            (:func:`describe_attempt`: ``counts``, ``worst``, ``text``), the same on every rank.
+            (:func:`describe_attempt`), the same on every rank; ``None`` when no attempt failed
+            (``max_steps`` reached).
     """
 
     def __init__(
@@ -108,11 +118,11 @@ class StepFailure(RuntimeError):
         last_t: float,
         last_step: int,
         reason: str,
-        attempt: dict[str, Any] | None = None,
+        attempt: AttemptReport | None = None,
     ) -> None:
         super().__init__(message)
         self.t, self.last_t, self.last_step, self.reason = t, last_t, last_step, reason
-        self.attempt = attempt or {}
+        self.attempt = attempt
 
 
 class StepInterrupted(RuntimeError):
@@ -159,8 +169,8 @@ class StepRecord:
         (e.g. the whole interface while it is pressed): :attr:`sliding` says what slides.
         """
         c = self.counts
-        n = sum(c.get(k, 0) for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED"))
-        return (c.get("PLASTIC", 0) + c.get("JUMP", 0)) / n if n else 0.0
+        n = sum(c.get(s.name, 0) for s in Status)
+        return (c.get(Status.PLASTIC.name, 0) + c.get(Status.JUMP.name, 0)) / n if n else 0.0
 
     @property
     def activity(self) -> str:
@@ -415,7 +425,7 @@ class LoadStepper:
                 since.cuts += 1
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
-                    target, dt, why, attempt["text"],
+                    target, dt, why, attempt.text,
                 )  # fmt: skip
                 if hold:
                     self._hold_step = dt * self.cut
@@ -429,7 +439,7 @@ class LoadStepper:
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
                         f"{self.step} at t = {self.t:.6g}, whose state is kept; "
-                        f"{attempt['text']}",
+                        f"{attempt.text}",
                         target,
                         self.t,
                         self.step,
