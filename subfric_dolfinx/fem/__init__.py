@@ -25,6 +25,7 @@ May import: DOLFINx, PETSc, MPI, numpy, and :mod:`subfric_dolfinx.constitutive`,
 :mod:`subfric_dolfinx.loading`, :mod:`subfric_dolfinx.logs` (not io or scenes).
 """
 
+from .attempts import AttemptReport
 from .bulk import BulkContext, BulkModel, LinearElasticity, UFLBulk
 from .conditions import (
     Dirichlet,
@@ -46,7 +47,7 @@ from .solver import (
     SolveResult,
     SolverOptionError,
 )
-from .stepping import AttemptReport, LoadStepper, StepFailure, StepInterrupted, StepRecord
+from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [

@@ -39,13 +39,7 @@ import numpy as np
 
 from .. import logs
 from ..constitutive import Status
-from .attempts import (
-    SLIDING_FRACTION,
-    AttemptReport,
-    WorstPoint,
-    describe_attempt,
-    interface_activity,
-)
+from .attempts import SLIDING_FRACTION, AttemptReport, describe_attempt, interface_activity
 from .solver import FrictionSolver, SolveResult
 from .validity import ValidityWatch
 
@@ -55,12 +49,10 @@ __all__ = [
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
-    "AttemptReport",
     "LoadStepper",
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
-    "WorstPoint",
     "describe_attempt",
     "interface_activity",
 ]
@@ -107,8 +99,7 @@ class StepFailure(RuntimeError):
         last_step: Index of the last converged step.
         reason: What failed (SNES reason, failed return-map points).
         attempt: What the return map saw at the last iterate of the failed attempt
-            (:func:`describe_attempt`), the same on every rank; ``None`` when no attempt failed
-            (``max_steps`` reached).
+            (:func:`describe_attempt`), the same on every rank; ``None`` if none (``max_steps``).
     """
 
     def __init__(
@@ -406,12 +397,8 @@ class LoadStepper:
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
                 self._undo()
-                r = self.solver.solve(
-                    target,
-                    dt,
-                    options=self.retry_options,
-                    separated_stiffness=RETRY_SEPARATED_STIFFNESS,
-                )
+                opts, stiff = self.retry_options, RETRY_SEPARATED_STIFFNESS
+                r = self.solver.solve(target, dt, options=opts, separated_stiffness=stiff)
                 self._check_interrupted(r, target)
                 retried = True
                 self._keep_retry = self.sticky_retry and bool(r.converged)
