@@ -83,8 +83,8 @@ class SolveResult:
         residuals: Residual norms per iteration (empty after a PETSc error).
         counts: Return-map statuses at the last evaluation, over every interface and rank
             (:meth:`~.problem.InterfaceProblem.status_counts`; empty after a PETSc error).
-        krylov: Krylov iterations (of both solves when the linear solve was repeated; those done
-            before a PETSc error are not counted: 0).
+        krylov: Krylov iterations (of both solves when the linear solve was repeated; those of
+            a Newton solve that PETSc ended with an error are not counted).
         linear_retry: The solve was repeated with a fresh preconditioner after a Krylov failure
             with a stale one; the other values are the repeat's.
         interrupted: :attr:`FrictionSolver.interrupt` asked to stop: not converged, ``x`` is
@@ -411,6 +411,8 @@ class FrictionSolver:
                 converged=False,
                 iterations=self.snes.getIterationNumber(),
                 reason=PETSC_ERROR_REASON,
+                krylov=int(krylov),
+                linear_retry=retried,
                 interrupted=self.interrupted,
                 error=str(e),
             )
