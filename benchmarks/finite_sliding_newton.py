@@ -1,13 +1,15 @@
-"""Newton iterations of finite sliding with and without the transfer's derivative in the tangent.
+"""Newton iterations of finite sliding: the transfer's derivative in the tangent, the predictor.
 
 The largest term of the finite-sliding tangent beyond the law's and the projection's is the change
 of the master-side transfer ``B`` with the geometry, ``dB t`` (the master's nodal forces moving
-with the slave facets). In 2-D it is available (``SlidingAssembly.transfer_in_tangent``, off by
+with the slave facets). In 2-D it is available (``SlidingAssembly.transfer_in_tangent``, on by
 default): the tangent is then the residual's derivative (``tests/test_finite_sliding_tangent.py``);
-3-D leaves it out. This benchmark prints Newton's iterations per sliding step both ways:
+3-D leaves it out. The load stepper starts each step from the last one's extrapolated increment
+(``LoadStepper(predictor=...)``, on by default with finite sliding). This benchmark prints
+Newton's iterations per sliding step:
 
-* 2-D, the package's default tangent (without ``dB t``) against the exact one
-  (``SlidingAssembly.transfer_in_tangent = True``);
+* 2-D, without ``dB t`` and without the predictor (the package before both), then with the
+  predictor without ``dB t``, and with both (the default);
 * 3-D, the package's tangent (without ``dB t``) against the same plus ``dB t`` by central
   differences of the master-side forces with the tractions held (one column per interface dof:
   serial, small problems only).
@@ -85,13 +87,25 @@ def transfer_derivative(iface, eps: float = 1e-7) -> tuple[np.ndarray, np.ndarra
 
 
 @contextlib.contextmanager
-def exact_transfer_derivative() -> Iterator[None]:
-    """The tangent with the exact ``dB t`` in the block (2-D; 3-D has none)."""
-    finite_assembly.SlidingAssembly.transfer_in_tangent = True
+def without_predictor() -> Iterator[None]:
+    """Every load stepper starts Newton from the last converged state."""
+    original = LoadStepper._predict
+    LoadStepper._predict = lambda self, target, dt: None
     try:
         yield
     finally:
-        finite_assembly.SlidingAssembly.transfer_in_tangent = False
+        LoadStepper._predict = original
+
+
+@contextlib.contextmanager
+def transfer_derivative_2d(on: bool) -> Iterator[None]:
+    """The 2-D tangent with (``on``) or without the exact ``dB t`` in the block."""
+    before = finite_assembly.SlidingAssembly.transfer_in_tangent
+    finite_assembly.SlidingAssembly.transfer_in_tangent = on
+    try:
+        yield
+    finally:
+        finite_assembly.SlidingAssembly.transfer_in_tangent = before
 
 
 @contextlib.contextmanager
@@ -199,13 +213,17 @@ def main() -> None:
         print(lines[-1], flush=True)
 
     for name, run in runs:
-        attempt(f"{name}: package tangent", run)
         if name.startswith("3-D"):
+            attempt(f"{name}: package tangent", run)
             with with_transfer_derivative() as lost:
                 attempt(f"{name}: + dB t (central differences)", run)
             lines[-1] += f" (largest entry outside the pattern: {max(lost, default=0):.1e})"
         else:
-            with exact_transfer_derivative():
+            with transfer_derivative_2d(False), without_predictor():
+                attempt(f"{name}: without dB t, without predictor", run)
+            with transfer_derivative_2d(False):
+                attempt(f"{name}: without dB t", run)
+            with transfer_derivative_2d(True):
                 attempt(f"{name}: + dB t (transfer_in_tangent)", run)
     print("\n".join(lines))
 

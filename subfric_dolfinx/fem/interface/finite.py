@@ -32,7 +32,7 @@ the current configuration with the geometry of §11:
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
   respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
   slip's own master nodes, in 2-D the frame's turn with the projection
-  (:func:`.sliding.frame_rate`) and, with ``SlidingAssembly.transfer_in_tangent`` (2-D, off
+  (:func:`.sliding.frame_rate`) and, with ``SlidingAssembly.transfer_in_tangent`` (2-D, on
   by default), the transfer's change with the geometry
   (:func:`.transfer.transfer_tangent`): then the 2-D tangent is the residual's derivative. The
   nodal normals are the step's (held), so they have no derivative within it.

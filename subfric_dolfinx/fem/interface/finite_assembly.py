@@ -29,15 +29,16 @@ class SlidingAssembly:
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
             ``dB t`` (2-D only; 3-D leaves it out): then the 2-D tangent is the residual's
-            derivative (``tests/test_finite_sliding_tangent.py``). Newton then converges
-            quadratically at the end of a step (``demos/block_sliding_far.py``: 7.71 iterations
-            per step instead of 8.32; its first 10 mm in 0.25 mm steps 5.2 instead of 6.0, in
-            1 mm steps one step cut: ``benchmarks/finite_sliding_newton.py``). Off by default:
-            with it a restarted scene does not repeat Newton's path with the default
-            linear strategy (docs/model.md §12).
+            derivative (``tests/test_finite_sliding_tangent.py``) and Newton converges
+            quadratically at the end of a step (without it linearly, a factor of about 5e-3 per
+            iteration). On by default: ``demos/block_sliding_far.py``'s first 10 mm, with the
+            load stepper's predictor, 4.5 iterations per sliding step with it, 5.8 without
+            (``benchmarks/finite_sliding_newton.py``). It was off while a restarted scene did not
+            repeat Newton's path with it: that came from the steps' start at the converged state
+            (the stick tangent's overshoot amplified round-off), which the predictor removes.
     """
 
-    transfer_in_tangent = False
+    transfer_in_tangent = True
 
     def _global_tractions(self) -> np.ndarray:
         return np.einsum("mji,mj->mi", self._Q, self.last.traction)  # Q^T f, (npts, gdim)
