@@ -203,7 +203,7 @@ def run_one(
 
     def solve(*a, **k):
         r = orig(*a, **k)
-        krylov.append(r.get("krylov", 0))
+        krylov.append(r.krylov)
         return r
 
     solver.solve = solve

@@ -104,6 +104,7 @@ import numpy as np
 from mpi4py import MPI
 
 # %%
+from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.scenes import cli, run_scene
 
 # %%
@@ -422,8 +423,8 @@ def figure(result, key: dict, outdir) -> str:
     fig, ax = plt.subplots(figsize=(7.5, 4.5))
     ax.plot(xs, p0H * np.sqrt(1 - xs**2 / aH**2), "-", color="k", lw=1, label="Hertz")
     ax.plot(x, snap["f_n"], "o", ms=3, color="C0", label="FE (quadrature points)")
-    sep = snap["status"] == 2
-    ax.plot(x[sep], 0 * x[sep], "x", ms=3, color="C3", label="SEPARATED")
+    sep = snap["status"] == Status.SEPARATED
+    ax.plot(x[sep], 0 * x[sep], "x", ms=3, color="C3", label=Status.SEPARATED.name)
     ax.set_xlim(-1.6 * aH, 1.6 * aH)
     ax.set_xlabel("x from the first touch (mm)")
     ax.set_ylabel("contact pressure $f_n$ (MPa)")

@@ -77,7 +77,7 @@ def problem_3d(comm, law, degree):
 def mid_step(solver, t_stop, t, dt):
     """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``."""
     LoadStepper(solver, 0.25, dt_max=0.25).run(t_end=t_stop)
-    return bool(solver.solve(t, dt)["converged"])
+    return bool(solver.solve(t, dt).converged)
 
 
 def differences(comm, problem, x, v, eps):

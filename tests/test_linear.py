@@ -96,7 +96,7 @@ def test_strategy_equals_lu(comm, scene, linear):
     assert its == its_lu
     assert difference(ft, ft_lu) < 1e-8
     assert stats["refreshes"] < sum(its) / 2
-    assert stats["krylov"] == sum(r["krylov"] for r in results) > sum(its)
+    assert stats["krylov"] == sum(r.krylov for r in results) > sum(its)
 
 
 def stiff(alpha):
@@ -143,9 +143,9 @@ def test_stale_krylov_failure_is_retried_fresh(comm):
     with fresh factors (no cut, no line-search retry) and the run equals LU's."""
     its_lu, ft_lu, _, _ = run(block_problem(comm), "lu", dt=0.1)
     its, ft, stats, results = run(block_problem(comm), "reuse", {"ksp_max_it": 2}, dt=0.1)
-    retried = [r for r in results if r["linear_retry"]]
+    retried = [r for r in results if r.linear_retry]
     assert stats["retries"] == len(retried) > 0
-    assert all(r["converged"] for r in results)
+    assert all(r.converged for r in results)
     assert its == its_lu and difference(ft, ft_lu) < 1e-8
 
 
@@ -156,11 +156,11 @@ def test_options_override_the_strategy(comm):
     prob = block_problem(comm)
     with FrictionSolver(prob, prefix("ovr"), {"ksp_type": "preonly"}, linear="reuse") as s:
         r = s.solve(0.5, 0.5)
-        assert r["converged"] and s.linear.stats["refreshes"] == r["iterations"]
+        assert r.converged and s.linear.stats["refreshes"] == r.iterations
         assert s.snes.getKSP().getType() == "preonly"
     with FrictionSolver(prob, prefix("ovr"), {"ksp_rtol": 1e-4}, linear="reuse") as s:
         r = s.solve(0.5, 0.5)
-        assert r["converged"] and s.snes.getKSP().getTolerances()[0] == 1e-4
+        assert r.converged and s.snes.getKSP().getTolerances()[0] == 1e-4
     with FrictionSolver(prob, prefix("ovr"), linear="reuse") as s:
         s.solve(0.5, 0.5)
         assert s.snes.getKSP().getTolerances()[0] != 1e-4  # tied to Newton's residual
@@ -169,7 +169,7 @@ def test_options_override_the_strategy(comm):
     try:
         with FrictionSolver(prob, name, {"ksp_max_it": 5000}, linear="gamg") as s:
             r = s.solve(0.5, 0.5)
-            assert r["converged"] and s.snes.getKSP().getPC().getType() == "jacobi"
+            assert r.converged and s.snes.getKSP().getPC().getType() == "jacobi"
     finally:
         PETSc.Options().delValue(name + "pc_type")
 

@@ -3,11 +3,14 @@ line-search retry of a failed Newton step and what a StepFailure says (the warni
 penetration and slide: ``test_validity.py``). 1 and 2 ranks."""
 
 
+import dataclasses
+
 import numpy as np
 import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.constitutive import UNSTABLE, Status
 from subfric_dolfinx.fem import (
     Dirichlet,
     DirichletField,
@@ -131,8 +134,8 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options(preset, linear
     assert err is None, str(err)
     assert st.t == pytest.approx(2.0)
     assert interface_summary(prob)["F_n"] == pytest.approx(300.0, rel=1e-9)
-    counts = describe_attempt(prob)["counts"]
-    assert counts["SEPARATED"] == 0 and counts["FAILED"] == 0, counts
+    counts = describe_attempt(prob).counts
+    assert counts[Status.SEPARATED.name] == 0 and counts[Status.FAILED.name] == 0, counts
 
 
 def test_an_unloaded_slide_then_a_press_without_the_retry():
@@ -209,16 +212,18 @@ def test_a_step_failure_says_what_the_return_map_saw():
         with pytest.raises(StepFailure) as e:
             LoadStepper(solver, 0.1, max_cuts=4).run()
     att = e.value.attempt
-    counts, worst = att["counts"], att["worst"]
+    counts, worst = att.counts, att.worst
     n_points = comm.allreduce(prob.interface.n_elements * prob.interface.nq)
-    assert sum(counts[k] for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED")) == n_points
-    severity = ["FAILED", "UNSTABLE", "JUMP", "PLASTIC", "ELASTIC", "SEPARATED"]
-    assert counts[worst["status"]] > 0
-    assert all(counts[k] == 0 for k in severity[: severity.index(worst["status"])])
+    assert sum(counts[s.name] for s in Status) == n_points
+    severity = [Status.FAILED.name, UNSTABLE] + [
+        s.name for s in (Status.JUMP, Status.PLASTIC, Status.ELASTIC, Status.SEPARATED)
+    ]
+    assert counts[worst.status] > 0
+    assert all(counts[k] == 0 for k in severity[: severity.index(worst.status)])
     # the worst point is one of the interface's points (gathered from every rank)
     points = np.concatenate(comm.allgather(prob.interface.points.reshape(-1, 2)))
-    assert np.min(np.linalg.norm(points - np.array(worst["x"]), axis=1)) < 1e-12
-    assert att["text"] in str(e.value) and "worst point" in str(e.value)
+    assert np.min(np.linalg.norm(points - np.array(worst.x), axis=1)) < 1e-12
+    assert att.text in str(e.value) and "worst point" in str(e.value)
     assert comm.allgather(str(e.value)) == [str(e.value)] * comm.size
 
 
@@ -240,8 +245,8 @@ def test_a_domain_error_on_one_rank_stops_every_rank():
     prob.residual = failing
     with FrictionSolver(prob, prefix("domain")) as solver:
         r = solver.solve(0.5, 0.5)
-    outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
-    assert len(set(outcomes)) == 1 and not r["converged"], outcomes
+    outcomes = comm.allgather((r.converged, r.reason, r.iterations))
+    assert len(set(outcomes)) == 1 and not r.converged, outcomes
 
 
 @pytest.mark.parametrize("plain_fails_again", [False, True])
@@ -265,7 +270,7 @@ def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again)
             attempts.append((t, options is None))
             slide_plain = [a for a in attempts if a[0] > 1.0 + 1e-12 and a[1]]
             if options is None and t > 1.0 + 1e-12 and (plain_fails_again or len(slide_plain) == 1):
-                r = dict(r, converged=False)
+                r = dataclasses.replace(r, converged=False)
             return r
 
         solver.solve = solve

@@ -211,10 +211,10 @@ def test_a_converged_state_converges_at_once():
         t = 1.0 if loads else 2.0
         with FrictionSolver(prob, prefix("again")) as solver:
             first = solver.solve(t, t)
-            assert first["converged"], first
+            assert first.converged, first
             prob.commit()
             again = solver.solve(t, 0.5)
-        assert again["converged"] and again["iterations"] <= 1, again
+        assert again.converged and again.iterations <= 1, again
 
 
 # --------------------------------------------------------------------------------------------

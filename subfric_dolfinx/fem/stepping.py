@@ -40,8 +40,9 @@ from typing import Any
 import numpy as np
 
 from .. import logs
-from .attempts import SLIDING_FRACTION, describe_attempt, interface_activity
-from .solver import FrictionSolver
+from ..constitutive import Status
+from .attempts import SLIDING_FRACTION, AttemptReport, describe_attempt, interface_activity
+from .solver import FrictionSolver, SolveResult
 from .validity import ValidityWatch
 
 __all__ = [
@@ -100,7 +101,7 @@ class StepFailure(RuntimeError):
         last_step: Index of the last converged step.
         reason: What failed (SNES reason, failed return-map points).
         attempt: What the return map saw at the last iterate of the failed attempt
-            (:func:`describe_attempt`: ``counts``, ``worst``, ``text``), the same on every rank.
+            (:func:`describe_attempt`), the same on every rank; ``None`` if none (``max_steps``).
     """
 
     def __init__(
@@ -110,11 +111,11 @@ class StepFailure(RuntimeError):
         last_t: float,
         last_step: int,
         reason: str,
-        attempt: dict[str, Any] | None = None,
+        attempt: AttemptReport | None = None,
     ) -> None:
         super().__init__(message)
         self.t, self.last_t, self.last_step, self.reason = t, last_t, last_step, reason
-        self.attempt = attempt or {}
+        self.attempt = attempt
 
 
 class StepInterrupted(RuntimeError):
@@ -161,8 +162,8 @@ class StepRecord:
         (e.g. the whole interface while it is pressed): :attr:`sliding` says what slides.
         """
         c = self.counts
-        n = sum(c.get(k, 0) for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED"))
-        return (c.get("PLASTIC", 0) + c.get("JUMP", 0)) / n if n else 0.0
+        n = sum(c.get(s.name, 0) for s in Status)
+        return (c.get(Status.PLASTIC.name, 0) + c.get(Status.JUMP.name, 0)) / n if n else 0.0
 
     @property
     def activity(self) -> str:
@@ -170,10 +171,10 @@ class StepRecord:
         return _activity_text(self.sliding, self.open)
 
 
-def _why(r: dict[str, Any], solver: FrictionSolver) -> str:
-    why = f"SNES reason {r['reason']}"
-    if r.get("error"):
-        why += f" ({' '.join(str(r['error']).split())[:300]})"
+def _why(r: SolveResult, solver: FrictionSolver) -> str:
+    why = f"SNES reason {r.reason}"
+    if r.error:
+        why += f" ({' '.join(r.error.split())[:300]})"
     if solver.failed_points.size:
         why += f", return map failed at {solver.failed_points.size} points"
     return why
@@ -419,12 +420,12 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.warn()
 
-    def _check_interrupted(self, r: dict[str, Any], target: float) -> None:
+    def _check_interrupted(self, r: SolveResult, target: float) -> None:
         """If the solver's ``interrupt`` stopped the solve: undo the step, raise StepInterrupted.
 
         On every rank: the solver agreed on it.
         """
-        if not r.get("interrupted"):
+        if not r.interrupted:
             return
         self._undo()
         raise StepInterrupted(
@@ -468,7 +469,7 @@ class LoadStepper:
             r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
             self._check_interrupted(r, target)
             retried = first is not None
-            if not r["converged"] and not retried and self.retry_options is not None:
+            if not r.converged and not retried and self.retry_options is not None:
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
@@ -483,9 +484,9 @@ class LoadStepper:
                 )
                 self._check_interrupted(r, target)
                 retried = True
-                self._keep_retry = self.sticky_retry and bool(r["converged"])
+                self._keep_retry = self.sticky_retry and bool(r.converged)
                 self._retry_run = 0
-            if not r["converged"]:
+            if not r.converged:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
                 self._undo()
@@ -494,7 +495,7 @@ class LoadStepper:
                 since.cuts += 1
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
-                    target, dt, why, attempt["text"],
+                    target, dt, why, attempt.text,
                 )  # fmt: skip
                 if hold:
                     self._hold_step = dt * self.cut
@@ -508,7 +509,7 @@ class LoadStepper:
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
                         f"{self.step} at t = {self.t:.6g}, whose state is kept; "
-                        f"{attempt['text']}",
+                        f"{attempt.text}",
                         target,
                         self.t,
                         self.step,
@@ -537,7 +538,7 @@ class LoadStepper:
             self.step += 1
             self.t = target
             rec = StepRecord(
-                self.step, target, dt, r["iterations"], cuts, r["residuals"], r["counts"],
+                self.step, target, dt, r.iterations, cuts, list(r.residuals), dict(r.counts),
                 retried, sliding, open_,
             )  # fmt: skip
             if not self.keep_records:
@@ -546,11 +547,11 @@ class LoadStepper:
             segment.add(rec)
             since.add(rec)
             if logger.isEnabledFor(logging.DEBUG):
-                res = r["residuals"] or [0.0]
+                res = r.residuals or (0.0,)
                 logger.debug(
                     "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  "
                     "(%.2f s)",
-                    self.step, target, dt, r["iterations"], res[0], res[-1], rec.activity,
+                    self.step, target, dt, r.iterations, res[0], res[-1], rec.activity,
                     time.perf_counter() - t0,
                 )  # fmt: skip
             printed = False
@@ -572,7 +573,7 @@ class LoadStepper:
                 since = _Tally(target)
             cuts = 0
             if not hold:  # the step outside holds grows on easy steps
-                self.easy = self.easy + 1 if r["iterations"] <= self.easy_iterations else 0
+                self.easy = self.easy + 1 if r.iterations <= self.easy_iterations else 0
                 if self.easy >= self.easy_steps:
                     self.dt = min(self.dt * self.grow, self.dt_max)
                     self.easy = 0

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from ..result import Status
+
 EPS = float(np.finfo(float).eps)
 TINY = float(np.finfo(float).tiny)
 S_SERIES = 1e-3  # E'(s): series below, closed form above (see scan.dE)
@@ -30,8 +32,10 @@ GWI = (0.5, 0.5)
 NO, NI = len(GXO), len(GXI)  # outer points (C), inner points per outer node (J)
 GXO_A, GWO_A, GXI_A, GWI_A = (np.array(a) for a in (GXO, GWO, GXI, GWI))
 
-# Status codes (as ``Status``; plain ints in the scalar path)
-ELASTIC, PLASTIC, SEPARATED, JUMP, FAILED = 0, 1, 2, 3, 4
+# Status codes: the values of ``Status``, as plain ints (the scalar path)
+ELASTIC, PLASTIC, SEPARATED, JUMP, FAILED = (
+    int(s) for s in (Status.ELASTIC, Status.PLASTIC, Status.SEPARATED, Status.JUMP, Status.FAILED)
+)
 
 
 class Law:
