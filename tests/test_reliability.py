@@ -265,8 +265,8 @@ def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again)
     with FrictionSolver(prob, prefix("sticky"), linear="lu") as solver:
         real = solver.solve
 
-        def solve(t, dt, *, options=None, separated_stiffness=0.0):
-            r = real(t, dt, options=options, separated_stiffness=separated_stiffness)
+        def solve(t, dt, *, options=None, **kwargs):
+            r = real(t, dt, options=options, **kwargs)
             attempts.append((t, options is None))
             slide_plain = [a for a in attempts if a[0] > 1.0 + 1e-12 and a[1]]
             if options is None and t > 1.0 + 1e-12 and (plain_fails_again or len(slide_plain) == 1):

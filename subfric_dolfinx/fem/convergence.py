@@ -19,7 +19,9 @@ lowers the relative target further.
 :class:`ScaledConvergence` declares Newton's iteration ``k`` converged when, first that holds,
 
 * ``|F_k| <= atol`` (the user's ``snes_atol``, 0 by default),
-* ``|F_k| <= rtol |F_0|`` (``k >= 1``; ``snes_rtol``),
+* ``|F_k| <= rtol |F_0|`` (``k >= 1``; ``snes_rtol``; where the first iterate was
+  extrapolated, ``|F_0|`` is at least that of the step's start without the extrapolation,
+  :attr:`ScaledConvergence.reference`),
 * ``|F_k| <= FLOOR_FACTOR eps S_k`` (any ``k``, also 0: a step that needs nothing costs nothing;
   not 0 where the first iterate was extrapolated, :attr:`ScaledConvergence.predicted`),
 * ``|F_k| <= STALL_FACTOR eps S_k`` and ``|F_k| > |F_{k-1}| / 2`` (``k >= 1``): stalled at the
@@ -134,6 +136,11 @@ class ScaledConvergence:
     strategy keeps them in step (the same iterations, the same histories). Set by whoever sets
     the first iterate, before the solve; :meth:`start` keeps it."""
 
+    reference: float = 0.0
+    """Where the first iterate was extrapolated: the residual of the step's start without the
+    extrapolation; the relative tests take ``|F_0|`` as at least this (the same target as
+    without the predictor). 0: none. Set with :attr:`predicted`."""
+
     def __init__(
         self,
         problem,
@@ -215,7 +222,7 @@ class ScaledConvergence:
             self.norms = [fnorm]
         else:
             self.norms.append(fnorm)
-        f0 = self.norms[0]
+        f0 = max(self.norms[0], self.reference)
         if fnorm <= atol:
             return self._done("atol", _REASON.CONVERGED_FNORM_ABS)
         if it > 0:

@@ -333,7 +333,7 @@ class FrictionSolver:
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
         self.problem.jacobian(x, J, self.separated_stiffness)
-        self.linear.jacobian(snes, J, self.convergence.floor())
+        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
@@ -348,10 +348,12 @@ class FrictionSolver:
         *,
         options: Mapping[str, Any] | None = None,
         separated_stiffness: float = 0.0,
+        predictor: np.ndarray | None = None,
     ) -> SolveResult:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
-        The current ``x`` is the initial guess, with the Dirichlet values of ``t`` set in it.
+        The current ``x`` is the initial guess, with the Dirichlet values of ``t`` set in it
+        (plus ``predictor``, if given).
 
         Args:
             t: End time of the step.
@@ -362,6 +364,14 @@ class FrictionSolver:
                 (separated) this fraction of the contact stiffness
                 (:func:`~.problem.stiffen_separated`: Newton steps exist where a body floats
                 free); 0, the default: the exact Jacobian.
+            predictor: An increment of the owned values added to the initial guess (e.g. the
+                last step's, extrapolated: :class:`~.stepping.LoadStepper`'s ``predictor``;
+                Dirichlet values stay those of ``t``). Newton's relative tolerance is then
+                taken against the residual of the guess without it (one more residual
+                evaluation): the same target as without the predictor, however close the
+                extrapolated guess is (an exact one has a residual of round-off, against which
+                no relative target is reachable), and the first iterate is not accepted at the
+                round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`).
 
         Returns:
             A :class:`SolveResult` (its fields are the same on success, failure and a PETSc
@@ -381,6 +391,13 @@ class FrictionSolver:
         self.interrupted = False
         self.snes.setConvergenceHistory(length=200, reset=True)
         self.convergence.start()
+        self.convergence.predicted = predictor is not None
+        self.convergence.reference = 0.0
+        if predictor is not None:
+            ok = p.comm.allreduce(int(bool(p.residual(self.x, self.F))), op=MPI.MIN)
+            self.convergence.reference = self.F.norm() if ok else 0.0
+            self.x.array_w[:] += predictor
+            p.apply_dirichlet(self.x)
         if options:
             self._configure(options)
         self.x.copy(self._x0)

@@ -263,12 +263,12 @@ class LoadStepper:
             first residual is round-off, and a target relative to it may be out of reach (an
             interface closing with no force yet: ``tests/test_initial_gap.py``).
             ``False``: every step starts from the converged displacement (with the new
-            Dirichlet values). ``None`` (the default): on where an interface slides finitely
-            (``kinematics == "finite_sliding"``), off otherwise: Newton's relative tolerance is
-            taken against the first residual, which the extrapolation makes small, and in a
-            state with almost no force (an interface closing, a pressure going to zero) that
-            target is out of reach (``tests/test_initial_gap.py``, the stability case "FE f_n
-            -> 0" fail with it on). Only Newton's path changes, not the equations. The 3-D pad of
+            Dirichlet values). Newton's relative tolerance stays that of the step's start
+            without the extrapolation (:meth:`FrictionSolver.solve`'s ``predictor``; against
+            the extrapolated start's residual, round-off where the extrapolation is exact, no
+            relative target would be reachable: an interface closing with no force yet, a
+            pressure going to zero). Only Newton's path changes, not the equations. The 3-D
+            pad of
             ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton iterations a
             step instead of 2.99 (100 steps) and 2.33 instead of 3.08 (24 steps). With finite
             sliding a step started from the converged state evaluates the law at a zero slip
@@ -298,7 +298,7 @@ class LoadStepper:
         hold_dt: float | None = None,
         max_steps: int = MAX_STEPS,
         keep_records: bool = True,
-        predictor: bool | None = None,
+        predictor: bool = True,
     ) -> None:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
@@ -331,11 +331,6 @@ class LoadStepper:
         self.keep_records = keep_records
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
         self._x_converged = solver.x.copy()
-        if predictor is None:  # on where an interface slides finitely (docstring)
-            predictor = any(
-                getattr(i, "kinematics", None) == "finite_sliding"
-                for i in self.problem.interfaces.values()
-            )
         self.predictor = bool(predictor)
         # the last converged step's displacement increment and its length (the predictor's)
         self.increment: np.ndarray | None = None
@@ -348,27 +343,21 @@ class LoadStepper:
     def _channels(self, t: float) -> np.ndarray:
         return np.array([self.program.amplitude(c, t) for c in sorted(self.program.channels)])
 
-    def _predicted(self, flag: bool) -> None:
-        conv = getattr(self.solver, "convergence", None)
-        if conv is not None:
-            conv.predicted = flag
-
-    def _predict(self, target: float, dt: float) -> None:
-        """Newton's start: the converged displacement plus the scaled last increment.
+    def _predict(self, target: float, dt: float) -> np.ndarray | None:
+        """The increment added to Newton's start: the last step's, scaled to this one.
 
         Only if the program goes on as it went during the last step ``(t - increment_dt, t)``
-        (the same on every rank: the program decides); else the converged displacement.
+        (the same on every rank: the program decides); else ``None``.
         """
-        self._predicted(False)
         if not self.predictor or self.increment is None or self.increment_dt <= 0.0:
-            return
+            return None
         ratio = dt / self.increment_dt
         change = self._channels(target) - self._channels(self.t)
         last = ratio * (self._channels(self.t) - self._channels(self.t - self.increment_dt))
         scale = max(float(np.abs(change).max(initial=0.0)), float(np.abs(last).max(initial=0.0)))
         if scale > 0.0 and np.all(np.abs(change - last) <= 1e-9 * scale):
-            self.solver.x.array_w[:] = self._x_converged.array_r + ratio * self.increment
-            self._predicted(True)
+            return ratio * self.increment
+        return None
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -465,8 +454,9 @@ class LoadStepper:
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
-            self._predict(target, dt)
-            r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff)
+            predicted = self._predict(target, dt)
+            extra = {} if predicted is None else {"predictor": predicted}
+            r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff, **extra)
             self._check_interrupted(r, target)
             retried = first is not None
             if not r.converged and not retried and self.retry_options is not None:
@@ -474,8 +464,7 @@ class LoadStepper:
                     "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
                     target, dt, _why(r, self.solver), _options_text(self.retry_options),
                 )  # fmt: skip
-                self._undo()
-                self._predicted(False)  # the retry starts from the converged state
+                self._undo()  # the retry starts from the converged state
                 r = self.solver.solve(
                     target,
                     dt,
