@@ -104,7 +104,9 @@ import numpy as np
 from mpi4py import MPI
 
 # %%
+from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import Status
+from subfric_dolfinx.io import collective
 from subfric_dolfinx.scenes import cli, run_scene
 
 # %%
@@ -180,16 +182,8 @@ def write_apart_mesh(path, n: int, comm: MPI.Comm, ratio: float = 2.0 / 3.0) -> 
     """
     from pathlib import Path
 
-    error = None
-    if comm.rank == 0:
-        import gmsh
-
-        started = not gmsh.isInitialized()
-        if started:
-            gmsh.initialize()
-            gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            gmsh.model.add("hertz_apart")
+    def build() -> None:  # rank 0
+        with meshing.gmsh_session("hertz_apart") as gmsh:
             occ = gmsh.model.occ
             base = occ.addRectangle(0.0, 0.0, 0.0, 2 * L, L)
             block = occ.addRectangle(0.0, L, 0.0, 2 * L, L)
@@ -233,15 +227,8 @@ def write_apart_mesh(path, n: int, comm: MPI.Comm, ratio: float = 2.0 / 3.0) -> 
             gmsh.model.mesh.generate(2)
             Path(path).parent.mkdir(parents=True, exist_ok=True)
             gmsh.write(str(path))
-        except Exception as e:  # reported on every rank below
-            error = f"{type(e).__name__}: {e}"
-        finally:
-            gmsh.model.remove()
-            if started:
-                gmsh.finalize()
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise RuntimeError(f"building the mesh {str(path)!r} failed: {error}")
+
+    collective(comm, build, f"building the mesh {str(path)!r}", error=RuntimeError)
 
 
 # %%
