@@ -254,30 +254,25 @@ class LoadStepper:
             as scenes do).
         predictor: Start Newton at the converged displacement plus the last step's increment
             scaled to this step (``dt / dt_last``; linear extrapolation, as Abaqus/Standard's
-            default), when the program's channels go on as they went during the last step
-            (every channel's change over the step is ``dt / dt_last`` times its last change, to
-            1e-9, and one of them changes: a reversal, a change of rate, a hold (what moves
-            there is not the program's doing) are never extrapolated over; knots on a straight
-            line are); the retry of a failed attempt (with a line search) starts from the
-            converged displacement: where the extrapolation is exact (a linear stretch) Newton's
-            first residual is round-off, and a target relative to it may be out of reach (an
-            interface closing with no force yet: ``tests/test_initial_gap.py``).
-            ``False``: every step starts from the converged displacement (with the new
-            Dirichlet values). Newton's relative tolerance stays that of the step's start
-            without the extrapolation (:meth:`FrictionSolver.solve`'s ``predictor``; against
-            the extrapolated start's residual, round-off where the extrapolation is exact, no
-            relative target would be reachable: an interface closing with no force yet, a
-            pressure going to zero). Only Newton's path changes, not the equations. The 3-D
-            pad of
-            ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton iterations a
-            step instead of 2.99 (100 steps) and 2.33 instead of 3.08 (24 steps). With finite
-            sliding a step started from the converged state evaluates the law at a zero slip
-            increment, with its stick (elastic) tangent: the first iterate shears the block
-            instead of sliding it, its points open and close, the second overshoots (a 1 mm
-            penetration, a failed return map and a line-search retry on
+            default) where the program's channels go on as they went during the last step:
+            every channel's change over the step is ``dt / dt_last`` times its last change (to
+            1e-9) and one of them changes. A reversal, a change of rate or a hold (what moves
+            there is not the program's doing) is never extrapolated over; knots on a straight
+            line are. Newton's relative tolerance stays that of the start without the
+            extrapolation (:meth:`FrictionSolver.solve`'s ``predictor``: an exact
+            extrapolation has a residual of round-off, against which no relative target is
+            reachable). The retry of a failed attempt (with a line search) starts from the
+            converged displacement. The increment is in the checkpoint (a restart repeats the
+            path). ``False``: every step starts from the converged displacement (with the new
+            Dirichlet values). Only Newton's path changes, not the equations. Measured: the 3-D
+            pad of ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton
+            iterations a step instead of 2.99 (100 steps), 2.33 instead of 3.08 (24 steps).
+            With finite sliding, a step started from the converged state evaluates the law at a
+            zero slip increment, with its stick (elastic) tangent: the first iterate shears the
+            block instead of sliding it, its points open and close, the second overshoots (a
+            1 mm penetration, a failed return map and a line-search retry on
             ``demos/block_sliding_far.py``) and Newton needs 7 to 10 iterations a step, where
-            from the extrapolated start it needs 4 to 5 (``docs/model.md`` §12). The increment
-            is in the checkpoint (a restart repeats the path).
+            from the extrapolated start it needs 4 to 5 (``docs/model.md`` §12).
     """
 
     def __init__(
