@@ -141,7 +141,7 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
 
 
 def run_one(
-    n: int, strategy: str, steps: int, time_limit: float, out: Path, predictor: bool = False
+    n: int, strategy: str, steps: int, time_limit: float, out: Path, predictor: bool = True
 ) -> None:
     from mpi4py import MPI
     from petsc4py import PETSc
@@ -281,14 +281,14 @@ def run_one(
 # Campaign
 
 
-def launch(n, strategy, ranks, steps, time_limit, out, force=False, predictor=False) -> dict | None:
+def launch(n, strategy, ranks, steps, time_limit, out, force=False, predictor=True) -> dict | None:
     path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
     cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
            "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
-           "--out", str(out)] + (["--predictor"] if predictor else [])  # fmt: skip
+           "--out", str(out)] + ([] if predictor else ["--no-predictor"])  # fmt: skip
     from subfric_dolfinx.logs import singleton_environment
 
     proc = subprocess.run(cmd, cwd=ROOT, env=singleton_environment())
@@ -524,10 +524,11 @@ def main(argv=None) -> None:
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--strategy", help=argparse.SUPPRESS)
     ap.add_argument(
-        "--predictor",
-        action="store_true",
-        help="LoadStepper(predictor=True): Newton starts from the extrapolated increment "
-        "(off by default on this small-sliding interface); a separate --out is advised",
+        "--no-predictor",
+        dest="predictor",
+        action="store_false",
+        help="LoadStepper(predictor=False): every step's Newton starts from the converged "
+        "state, as before the predictor (a separate --out is advised)",
     )
     args = ap.parse_args(argv)
     if args.one:

@@ -294,6 +294,10 @@ QUOTES: list[Quote] = [
         lambda d: [*(sig(100 * abs(x)) for x in _hertz(d, "err_a_fit")),
                    *(f"{100 * x:+.3f}" for x in _hertz(d, "err_p0")),
                    *(sig(100 * x) for x in _hertz(d, "err_p_inner"))]),
+    Quote("block_sliding_far: steps and Newton", words(
+        "{} steps, Newton up to {} iterations in a step"),
+        lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
+                   str(d.demo("block_sliding_far")["numbers"]["newton_max"])]),
     Quote("cattaneo_mindlin: Q/muP, stick zone, microslip", words(
         "pushed sideways (`Q/µP` = {}, measured): Coulomb's stick zone against "
         "`c = a sqrt(1 - Q/µP)` (fit within {}, {}, {} % at `--n 4, 8, 16`)"),
