@@ -375,6 +375,42 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def default_choice(dofs: int) -> str:
+    """The strategy the solver's default (``"auto"``) takes for the (3-D) pad of ``dofs``."""
+    from subfric_dolfinx.fem.linear import AUTO_GAMG_DOFS
+
+    return "gamg" if dofs >= AUTO_GAMG_DOFS else "reuse"
+
+
+def default_against_fastest(sub: list[dict]) -> list[str]:
+    """Markdown lines: the default's wall time against the fastest, per rank count and size.
+
+    Complete runs of one program; ``"auto"`` is one of the measured strategies.
+    """
+    out = []
+    for ranks in sorted({r["ranks"] for r in sub}):
+        for dofs in sorted({r["dofs"] for r in sub if r["ranks"] == ranks}):
+            done = {
+                r["strategy"]: r["wall_s"]
+                for r in sub
+                if r["ranks"] == ranks and r["dofs"] == dofs and r["status"] == "ok"
+            }
+            pick = default_choice(dofs)
+            if len(done) < 2 or pick not in done:
+                continue
+            best = min(done, key=done.get)
+            ratio = done[pick] / done[best]
+            out.append(f"| {ranks} | {dofs:,} | {pick} | {_fmt(done[pick])} | {best} | "
+                       f"{_fmt(done[best])} | {ratio:.2f} | "
+                       f"{'yes' if ratio <= 1.1 else '**no**'} |")  # fmt: skip
+    if not out:
+        return []
+    return ["The default (`\"auto\"`: `\"gamg\"` in 3-D from `AUTO_GAMG_DOFS` dofs, else "
+            "`\"reuse\"`) against the fastest complete run of the same size (wall, s):", "",
+            "| ranks | dofs | default | wall | fastest | wall | default / fastest | "
+            "within 10 % |", "|---|---|---|---|---|---|---|---|", *out, ""]  # fmt: skip
+
+
 def write_tables(out: Path, report: Path) -> None:
     import numpy as np
 
@@ -435,6 +471,7 @@ def write_tables(out: Path, report: Path) -> None:
             lines += ["2 ranks against 1 (time per Newton iteration, s):", "",
                       "| strategy | dofs | 1 rank | 2 ranks | speed-up |",
                       "|---|---|---|---|---|", *pairs, ""]  # fmt: skip
+        lines += default_against_fastest(sub)
         for strategy in STRATEGIES:
             for ranks in (1, 2):
                 pts = [r for r in sub if r["strategy"] == strategy and r["ranks"] == ranks

@@ -24,6 +24,7 @@ from subfric_dolfinx.fem import (
     Material,
     Pressure,
 )
+from subfric_dolfinx.fem import linear as linear_module
 from subfric_dolfinx.fem.linear import STRATEGIES, rigid_modes
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
@@ -199,7 +200,7 @@ def test_scene_chooses_the_strategy(comm):
     floor test may end a step at its first residual with one strategy and after one iteration
     with another, so the histories are compared); the schema names the strategies the solver
     has; an unknown one is refused by FrictionSolver on every rank."""
-    assert LINEAR_STRATEGIES == STRATEGIES
+    assert LINEAR_STRATEGIES == ("auto", *STRATEGIES)
     scenes = {}
     for linear in ("lu", "gamg"):
         s = small_scene()
@@ -211,3 +212,23 @@ def test_scene_chooses_the_strategy(comm):
     assert ft["lu"].shape == ft["gamg"].shape and difference(ft["gamg"], ft["lu"]) < 1e-8
     with raised_on_every_rank(ValueError, "'cholesky'", "reuse"):
         FrictionSolver(block_problem(comm), prefix("bad"), linear="cholesky")
+
+
+def test_auto_takes_gamg_for_large_3d_problems_and_reuse_otherwise(comm, monkeypatch):
+    """The default strategy ("auto") is "gamg" for a 3-D problem of AUTO_GAMG_DOFS dofs or more
+    (counted over all ranks: the same choice on every rank) and "reuse" below that and in 2-D
+    at any size; the solver's strategy and PETSc options are then the chosen one's."""
+    pad, block = pad_problem(comm, n=2), block_problem(comm)
+    dofs = pad.V.dofmap.index_map.size_global * pad.V.dofmap.bs
+    with FrictionSolver(pad, prefix("auto1")) as s:
+        assert s.strategy == "reuse" and s.linear.name == "reuse"
+    monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", dofs)
+    with FrictionSolver(pad, prefix("auto2")) as s:
+        assert s.strategy == "gamg" and s.snes.getKSP().getPC().getType() == "gamg"
+    monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", dofs + 1)
+    with FrictionSolver(pad, prefix("auto3")) as s:
+        assert s.strategy == "reuse"
+    monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", 1)
+    with FrictionSolver(block, prefix("auto4")) as s:  # 2-D: a factorisation at any size
+        assert s.strategy == "reuse"
+    assert parse_scene(small_scene()).solver.linear == "auto"

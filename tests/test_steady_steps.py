@@ -105,7 +105,7 @@ def test_a_state_without_forces_keeps_the_floor():
     # an extrapolated first iterate (LoadStepper's predictor) is not accepted at iteration 0
     # (Krylov and LU strategies stay in step), but at the floor from iteration 1 on
     t = _Given(1e3, 1e-14, force_free=True)
-    t.predicted = True
+    t.reference = 0.0  # extrapolated (the start's own residual: not evaluated here)
     assert decide(t, [(0, 0.5 * e), (1, 0.5 * e)]) == [R.ITERATING, R.CONVERGED_FNORM_ABS]
 
 

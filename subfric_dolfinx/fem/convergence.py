@@ -128,18 +128,23 @@ class ScaledConvergence:
         stall_factor: See :data:`STALL_FACTOR`.
     """
 
-    predicted: bool = False
-    """The first iterate was extrapolated (:class:`~.stepping.LoadStepper`'s predictor):
-    iteration 0 is not accepted at the floor. Where the extrapolation is exact (a linear
-    stretch), the first residual is at the floor for an exact (LU) solution of the previous steps
-    and above it for a Krylov solution at Newton's tolerance: one Newton iteration in every
-    strategy keeps them in step (the same iterations, the same histories). Set by whoever sets
-    the first iterate, before the solve; :meth:`start` keeps it."""
+    reference: float | None = None
+    """Where the first iterate was extrapolated (:class:`~.stepping.LoadStepper`'s predictor):
+    the residual of the step's start without the extrapolation (0 if it could not be
+    evaluated); the relative tests take ``|F_0|`` as at least this (the same target as without
+    the predictor). ``None``: the first iterate was not extrapolated. Set by whoever sets the
+    first iterate, before the solve; :meth:`start` keeps it."""
 
-    reference: float = 0.0
-    """Where the first iterate was extrapolated: the residual of the step's start without the
-    extrapolation; the relative tests take ``|F_0|`` as at least this (the same target as
-    without the predictor). 0: none. Set with :attr:`predicted`."""
+    @property
+    def predicted(self) -> bool:
+        """The first iterate was extrapolated: iteration 0 is not accepted at the floor.
+
+        Where the extrapolation is exact (a linear stretch), the first residual is at the floor
+        for an exact (LU) solution of the previous steps and above it for a Krylov solution at
+        Newton's tolerance: one Newton iteration in every strategy keeps them in step (the same
+        iterations, the same histories).
+        """
+        return self.reference is not None
 
     def __init__(
         self,
@@ -222,7 +227,7 @@ class ScaledConvergence:
             self.norms = [fnorm]
         else:
             self.norms.append(fnorm)
-        f0 = max(self.norms[0], self.reference)
+        f0 = max(self.norms[0], self.reference or 0.0)
         if fnorm <= atol:
             return self._done("atol", _REASON.CONVERGED_FNORM_ABS)
         if it > 0:

@@ -40,7 +40,7 @@ from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
 from .convergence import SNORM_SLACK, ScaledConvergence
-from .linear import STRATEGY_OPTIONS, LinearStrategy
+from .linear import STRATEGY_OPTIONS, LinearStrategy, choose_strategy
 from .problem import InterfaceProblem
 from .timing import event_times
 
@@ -225,8 +225,10 @@ class FrictionSolver:
             ``"subfric_<n>_"`` when omitted.
         options: Options under the prefix (they override the command line's for this solver,
             without changing the database).
-        linear: The linear strategy, ``"reuse"`` (default), ``"lu"`` or ``"gamg"``
-            (:mod:`.linear`); its PETSc options are defaults that options override.
+        linear: The linear strategy, ``"auto"`` (default: ``"gamg"`` for 3-D problems of
+            100k dofs or more, ``"reuse"`` otherwise), ``"reuse"``, ``"lu"`` or ``"gamg"``
+            (:mod:`.linear`); its PETSc options are defaults that options override. The one
+            chosen is :attr:`strategy`.
 
     Raises:
         ValueError: Malformed prefix, one used by a live solver, or an unknown strategy.
@@ -238,12 +240,11 @@ class FrictionSolver:
         prefix: str | None = None,
         options: Mapping[str, Any] | None = None,
         *,
-        linear: str = "reuse",
+        linear: str = "auto",
     ) -> None:
-        if linear not in STRATEGY_OPTIONS:
-            raise ValueError(
-                f"unknown linear strategy {linear!r}; known: {list(STRATEGY_OPTIONS)}"
-            )
+        linear = choose_strategy(linear, problem)
+        self.strategy = linear
+        """The linear strategy in use (``"auto"`` resolved)."""
         self.prefix = _check_prefix(prefix)
         self.problem = problem
         self.options = dict(options or {})
@@ -333,7 +334,7 @@ class FrictionSolver:
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
         self.problem.jacobian(x, J, self.separated_stiffness)
-        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference)
+        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference or 0.0)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
@@ -391,8 +392,7 @@ class FrictionSolver:
         self.interrupted = False
         self.snes.setConvergenceHistory(length=200, reset=True)
         self.convergence.start()
-        self.convergence.predicted = predictor is not None
-        self.convergence.reference = 0.0
+        self.convergence.reference = None
         if predictor is not None:
             ok = p.comm.allreduce(int(bool(p.residual(self.x, self.F))), op=MPI.MIN)
             self.convergence.reference = self.F.norm() if ok else 0.0

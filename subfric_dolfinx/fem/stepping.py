@@ -449,9 +449,10 @@ class LoadStepper:
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
-            predicted = self._predict(target, dt)
-            extra = {} if predicted is None else {"predictor": predicted}
-            r = self.solver.solve(target, dt, options=first, separated_stiffness=stiff, **extra)
+            r = self.solver.solve(
+                target, dt, options=first, separated_stiffness=stiff,
+                predictor=self._predict(target, dt),
+            )  # fmt: skip
             self._check_interrupted(r, target)
             retried = first is not None
             if not r.converged and not retried and self.retry_options is not None:
@@ -514,8 +515,12 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
-            self.increment = self.solver.x.array_r - self._x_converged.array_r
-            self.increment_dt = dt
+            if self.predictor:  # the increment, in one array kept from step to step
+                x, x0 = self.solver.x.array_r, self._x_converged.array_r
+                if self.increment is None or self.increment.shape != x.shape:
+                    self.increment = np.empty_like(x)
+                np.subtract(x, x0, out=self.increment)
+                self.increment_dt = dt
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()

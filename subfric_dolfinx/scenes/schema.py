@@ -28,7 +28,7 @@ __all__ = [
 ]
 
 
-LINEAR_STRATEGIES = ("reuse", "lu", "gamg")
+LINEAR_STRATEGIES = ("auto", "reuse", "lu", "gamg")
 """The linear strategies of :mod:`subfric_dolfinx.fem.linear` (named here without importing it)."""
 
 
@@ -172,7 +172,8 @@ class SolverSpec:
         hold_dt: Step in the program's holds (segments where no channel changes), e.g. the
             hold's length: one step (``None``: holds are stepped like the rest).
         options: PETSc options under the prefix, for this scene's solver only.
-        linear: Linear strategy, ``"reuse"``, ``"lu"`` or ``"gamg"``
+        linear: Linear strategy, ``"auto"`` (``"gamg"`` in 3-D from 100k dofs, else
+            ``"reuse"``), ``"reuse"``, ``"lu"`` or ``"gamg"``
             (:mod:`subfric_dolfinx.fem.linear`).
         max_steps: Most load steps of the run (default
             :data:`~subfric_dolfinx.fem.stepping.MAX_STEPS`, 1e6): a program that needs more
@@ -187,7 +188,7 @@ class SolverSpec:
     max_cuts: int = 10
     hold_dt: float | None = None
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
-    linear: str = "reuse"
+    linear: str = "auto"
     max_steps: int = 1_000_000
 
 
