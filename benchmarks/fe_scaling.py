@@ -21,6 +21,17 @@ and a log-log plot of the time against the dofs with fitted exponents::
     ./run exec python3 benchmarks/fe_scaling.py --sizes 8 12 16 20 24 28 30 --ranks 1 2
     ./run exec python3 benchmarks/fe_scaling.py --table      # report/fe_scaling.md, .png, data/
 
+``--kinematics finite_sliding`` runs the same pad with a finite-sliding interface (pairing in
+the current configuration, ``docs/model.md`` §12; tag suffix ``_fs``, a separate ``--out`` is
+advised; the Sec. 7 set with ``alpha_n = 1e6`` MPa/mm) and adds the contact search (per step)
+and projection (points and segments, per Newton iteration) as seconds and as a share of the
+stepping's wall time (issue 22 item 7). Its ``reach`` (how far a point may slide in one step)
+is ``--reach``, by default 1.5 times the program's largest slide per step (or the facet size if
+larger), so that no step is cut for it::
+
+    ./run exec python3 benchmarks/fe_scaling.py --sizes 8 14 20 28 --ranks 2 --strategies gamg \
+        --kinematics finite_sliding --out benchmarks/output/fe_scaling_fs
+
 The machine is shared: run the largest sizes last and read the load column. No timing is
 asserted anywhere.
 """
@@ -29,6 +40,8 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
+import itertools
 import json
 import math
 import os
@@ -73,8 +86,25 @@ def program_points(steps: int) -> tuple[list[float], list[float], list[float]]:
     return t, press, slide
 
 
-def tag_of(n: int, strategy: str, ranks: int, steps: int) -> str:
-    return f"pad_n{n}_{strategy}_r{ranks}_s{steps}"
+KINEMATICS = ("small_sliding", "finite_sliding")
+FINITE_ALPHA_N = 1e6
+"""The normal penalty (MPa/mm) of the finite-sliding runs (as in ``demos/block_sliding_far``)."""
+
+
+def tag_of(n: int, strategy: str, ranks: int, steps: int, kinematics: str = "small_sliding") -> str:
+    suffix = "_fs" if kinematics == "finite_sliding" else ""
+    return f"pad_n{n}_{strategy}_r{ranks}_s{steps}{suffix}"
+
+
+def default_reach(n: int, steps: int) -> float:
+    """The finite-sliding reach of the benchmark: 1.5 times the largest slide per step.
+
+    The pad's top moves by the program's slide (mm) and its facets are ``1 / n`` wide; the reach
+    is at least a facet.
+    """
+    slide = program_points(steps)[2]
+    largest = max(abs(b - a) for a, b in itertools.pairwise(slide))
+    return max(1.5 * largest, 1.0 / n)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -141,7 +171,14 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
 
 
 def run_one(
-    n: int, strategy: str, steps: int, time_limit: float, out: Path, predictor: bool = True
+    n: int,
+    strategy: str,
+    steps: int,
+    time_limit: float,
+    out: Path,
+    predictor: bool = True,
+    kinematics: str = "small_sliding",
+    reach: float | None = None,
 ) -> None:
     from mpi4py import MPI
     from petsc4py import PETSc
@@ -151,12 +188,14 @@ def run_one(
     from subfric_dolfinx.fem import (
         Dirichlet,
         FrictionSolver,
+        Interface,
         InterfaceProblem,
         LoadStepper,
         Material,
         Pressure,
         timing_breakdown,
     )
+    from subfric_dolfinx.fem.timing import TIMER_PROJECTION, TIMER_SEARCH
     from subfric_dolfinx.io import interface_summary
     from subfric_dolfinx.loading import LoadingProgram
 
@@ -178,14 +217,27 @@ def run_one(
         Dirichlet("top", 0.0, component=1),
     ]
     mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    finite = kinematics == "finite_sliding"
+    if finite and reach is None:
+        reach = default_reach(n, steps)
+    interfaces = (
+        [Interface("interface", "master", "slave", kinematics=kinematics, reach=reach)]
+        if finite
+        else None
+    )
+    # the Sec. 7 set's normal penalty lets the pad sink 0.6 mm at 300 MPa (more than its
+    # facets): finite sliding pairs in the current configuration, so it gets a stiff one
+    law = dataclasses.replace(preset("sec7"), alpha_n=FINITE_ALPHA_N) if finite else preset("sec7")
     t1 = time.perf_counter()
     problem = InterfaceProblem(
-        dom, preset("sec7"), mats, prog, bcs, [Pressure("top", 300.0, "press")]
-    )
+        dom, law, mats, prog, bcs, [Pressure("top", 300.0, "press")],
+        interfaces=interfaces,
+    )  # fmt: skip
     solver = FrictionSolver(problem, "fs_", linear=strategy)
     t_problem = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
     rss_setup = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     history, krylov, stopped = [], [], [None]
+    contact0 = {k: problem.timings.seconds.get(k, 0.0) for k in (TIMER_SEARCH, TIMER_PROJECTION)}
     start = time.perf_counter()
 
     class TimeLimit(Exception):
@@ -217,6 +269,10 @@ def run_one(
         failure = f"{type(e).__name__}: {e}"
     wall = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     sections = timing_breakdown(problem, solver.event_start)
+    contact = {  # nested in the interface's sections: not in the sum of "other"
+        k: comm.allreduce(problem.timings.seconds.get(k, 0.0) - v, op=MPI.MAX)
+        for k, v in contact0.items()
+    }
     sections = {"mesh": t_mesh, "problem + solver set-up": t_problem, **sections}
     sections.pop("setup", None)  # the pairing, inside "problem + solver set-up"
     sections["other"] = wall - sum(
@@ -231,7 +287,12 @@ def run_one(
     newton = sum(r.iterations for r in stepper.records)
     elastic = elastic_solve(problem, solver, strategy)  # after the peak RSS of the run
     result = {
-        "tag": tag_of(n, strategy, comm.size, steps),
+        "tag": tag_of(n, strategy, comm.size, steps, kinematics),
+        "kinematics": kinematics,
+        "reach": reach,
+        "search_s": contact[TIMER_SEARCH],
+        "projection_s": contact[TIMER_PROJECTION],
+        "search_share": (contact[TIMER_SEARCH] + contact[TIMER_PROJECTION]) / wall,
         "n": n,
         "strategy": strategy,
         "ranks": comm.size,
@@ -271,6 +332,9 @@ def run_one(
             f"{elastic['total_s']:.2f} s (set-up {elastic['setup_s']:.2f} s, "
             f"{elastic['krylov']} Krylov), a Newton iteration costs "
             f"{result['per_newton_vs_elastic']:.2f} of it"
+            + (f"; contact search {contact[TIMER_SEARCH]:.2f} s + projection "
+               f"{contact[TIMER_PROJECTION]:.2f} s = {100 * result['search_share']:.1f} % of "
+               f"the wall time (reach {reach:.3g} mm)" if finite else "")
             + (f", FAILED: {failure}" if failure else "")
             + (f", {stopped[0]}" if stopped[0] else ""),
             flush=True,
@@ -281,14 +345,19 @@ def run_one(
 # Campaign
 
 
-def launch(n, strategy, ranks, steps, time_limit, out, force=False, predictor=True) -> dict | None:
-    path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
+def launch(
+    n, strategy, ranks, steps, time_limit, out, force=False, predictor=True,
+    kinematics="small_sliding", reach=None,
+) -> dict | None:  # fmt: skip
+    path = out / f"{tag_of(n, strategy, ranks, steps, kinematics)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
     cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
            "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
-           "--out", str(out)] + ([] if predictor else ["--no-predictor"])  # fmt: skip
+           "--out", str(out), "--kinematics", kinematics]  # fmt: skip
+    cmd += [] if predictor else ["--no-predictor"]
+    cmd += [] if reach is None else ["--reach", str(reach)]
     from subfric_dolfinx.logs import singleton_environment
 
     proc = subprocess.run(cmd, cwd=ROOT, env=singleton_environment())
@@ -327,15 +396,20 @@ COLUMNS = [
     "s_per_newton", "elastic_s", "elastic_setup_s", "per_newton_vs_elastic", "mesh_s",
     "setup_s", "bulk_s", "return_map_s", "interface_s", "pc_setup_s", "krylov_s", "other_s",
     "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "per_newton_vs_lu", "load", "status",
+    "kinematics", "search_s", "projection_s", "search_share",
 ]  # fmt: skip
 
 
 def rows_of(results: list[dict]) -> list[dict]:
-    lu = {(r["n"], r["ranks"], r["steps_program"]): r for r in results if r["strategy"] == "lu"}
+    def key(r):
+        return r["n"], r["ranks"], r["steps_program"], r.get("kinematics", "small_sliding")
+
+    lu = {key(r): r for r in results if r["strategy"] == "lu"}
     rows = []
-    for r in sorted(results, key=lambda r: (r["steps_program"], r["strategy"], r["ranks"], r["n"])):
+    for r in sorted(results, key=lambda r: (r["steps_program"], r["strategy"], r["ranks"], r["n"],
+                                            r.get("kinematics", "small_sliding"))):
         s = r["sections"]
-        ref = lu.get((r["n"], r["ranks"], r["steps_program"]))
+        ref = lu.get(key(r))
         complete = r["failure"] is None and r["stopped"] is None
         ref_ok = ref is not None and ref["failure"] is None and ref["stopped"] is None
         status = "ok" if complete else (r["stopped"] or r["failure"])[:90]
@@ -359,6 +433,10 @@ def rows_of(results: list[dict]) -> list[dict]:
             "per_newton_vs_lu": (ref["wall_per_newton"] / r["wall_per_newton"]
                                  if ref is not None else math.nan),
             "load": r["load"][0], "status": status,
+            "kinematics": r.get("kinematics", "small_sliding"),
+            "search_s": r.get("search_s", math.nan),
+            "projection_s": r.get("projection_s", math.nan),
+            "search_share": r.get("search_share", math.nan),
         })  # fmt: skip
     return rows
 
@@ -427,7 +505,8 @@ def write_tables(out: Path, report: Path) -> None:
     head = ["strategy", "ranks", "dofs", "interface_points", "steps", "newton",
             "newton_per_step", "krylov_per_newton", "refreshes", "wall_s", "s_per_newton",
             "elastic_s", "per_newton_vs_elastic", "pc_setup_s", "krylov_s",
-            "bulk_s", "return_map_s", "interface_s", "mesh_s", "rss_max_mib", "diff_vs_lu",
+            "bulk_s", "return_map_s", "interface_s", "search_s", "projection_s", "search_share",
+            "mesh_s", "rss_max_mib", "diff_vs_lu",
             "speedup_vs_lu", "per_newton_vs_lu", "load", "status"]  # fmt: skip
     lines = [
         "# FE scaling: the pad on a plate, per linear strategy (issue 13)",
@@ -560,6 +639,10 @@ def main(argv=None) -> None:
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--strategy", help=argparse.SUPPRESS)
+    ap.add_argument("--kinematics", choices=KINEMATICS, default="small_sliding",
+                    help="the interface's kinematics (finite_sliding: tag suffix _fs)")
+    ap.add_argument("--reach", type=float, default=None,
+                    help="finite sliding: the reach (mm); default 1.5 x the largest slide a step")
     ap.add_argument(
         "--no-predictor",
         dest="predictor",
@@ -569,14 +652,15 @@ def main(argv=None) -> None:
     )
     args = ap.parse_args(argv)
     if args.one:
-        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out, args.predictor)
+        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out, args.predictor,
+                args.kinematics, args.reach)  # fmt: skip
         return
     if not args.table:
         for n in sorted(args.sizes):  # the largest last
             for ranks in args.ranks:
                 for strategy in args.strategies:
                     launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force,
-                           args.predictor)  # fmt: skip
+                           args.predictor, args.kinematics, args.reach)  # fmt: skip
     write_tables(args.out, args.report)
 
 

@@ -13,7 +13,9 @@ __all__ = [
     "LINEAR_EVENTS",
     "TIMER_BULK",
     "TIMER_INTERFACE",
+    "TIMER_PROJECTION",
     "TIMER_RETURN_MAP",
+    "TIMER_SEARCH",
     "TIMER_SETUP",
     "Timings",
     "event_time",
@@ -26,6 +28,11 @@ TIMER_SETUP = "setup"
 TIMER_BULK = "bulk assembly"
 TIMER_RETURN_MAP = "return map"
 TIMER_INTERFACE = "interface assembly"
+# Finite sliding (nested in the sections above, not added to them): the per-step search
+# (normals, exchange, reach, the projections at the step's start) and the per-iteration
+# projections with the segments of the transfer.
+TIMER_SEARCH = "contact search"
+TIMER_PROJECTION = "contact projection"
 
 
 class Timings:

@@ -309,7 +309,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         """
         import time
 
-        from ..timing import TIMER_INTERFACE, TIMER_RETURN_MAP
+        from ..timing import TIMER_INTERFACE, TIMER_PROJECTION, TIMER_RETURN_MAP
 
         owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
         gdim, nt = self.gdim, self.nt
@@ -320,7 +320,8 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             xq, Ym, Xs = self._current(u)
             self._xq = xq
             Nm = self.pf_normals
-            pj = self._project(xq, Ym)
+            with self._time(TIMER_PROJECTION):
+                pj = self._project(xq, Ym)
             facet, xi, normal, gamma = pj["facet"], pj["xi"], pj["normal"], pj["gamma"]
             found = facet >= 0
             self.search_seconds["projection"] = time.perf_counter() - t0
@@ -402,20 +403,21 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
                 self._K[pf] = turn[:, :, None] * r[:, None, :]
             self._Q = Q
             # the segments and the master-side transfer
-            seg = overlap_points(
-                Xs, s.cell, s.degree, Ym, Nm, m.cell, m.degree, self.radius,
-                slave_measure_x=self.X0[s.nodes],
-            )  # fmt: skip
-            keep = seg.converged.copy()
-            if seg.size:
-                npf = max(self.pf_global.size, 1)
-                owner = np.repeat(np.arange(s.size), np.diff(self.reach_ptr))
-                keep &= np.isin(seg.slave * npf + seg.master, owner * npf + self.reach_idx)
-            seg = seg.take(keep)
-            self._segments = seg
-            self._transfer = transfer_matrices(
-                seg, self.projector, s.cell, s.degree, m.cell, m.degree
-            )
+            with self._time(TIMER_PROJECTION):
+                seg = overlap_points(
+                    Xs, s.cell, s.degree, Ym, Nm, m.cell, m.degree, self.radius,
+                    slave_measure_x=self.X0[s.nodes],
+                )  # fmt: skip
+                keep = seg.converged.copy()
+                if seg.size:
+                    npf = max(self.pf_global.size, 1)
+                    owner = np.repeat(np.arange(s.size), np.diff(self.reach_ptr))
+                    keep &= np.isin(seg.slave * npf + seg.master, owner * npf + self.reach_idx)
+                seg = seg.take(keep)
+                self._segments = seg
+                self._transfer = transfer_matrices(
+                    seg, self.projector, s.cell, s.degree, m.cell, m.degree
+                )
             self._Xs, self._Ym = Xs, Ym
             self.search_seconds["segments"] = time.perf_counter() - t1
         self._x_at_update = np.array(owned, copy=True)

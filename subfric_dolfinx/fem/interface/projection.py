@@ -46,6 +46,38 @@ __all__ = [
 _SINGULAR = 1e-14
 
 
+def _det_small(A: np.ndarray) -> np.ndarray:
+    """Determinants of a stack of 2 x 2 or 3 x 3 matrices, (m,), written out.
+
+    ``np.linalg.det`` goes through an LU factorisation per matrix: for the thousands of tiny
+    systems of a projection the written-out cofactors are several times faster.
+    """
+    if A.shape[-1] == 2:
+        return A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
+    return (
+        A[:, 0, 0] * (A[:, 1, 1] * A[:, 2, 2] - A[:, 1, 2] * A[:, 2, 1])
+        - A[:, 0, 1] * (A[:, 1, 0] * A[:, 2, 2] - A[:, 1, 2] * A[:, 2, 0])
+        + A[:, 0, 2] * (A[:, 1, 0] * A[:, 2, 1] - A[:, 1, 1] * A[:, 2, 0])
+    )
+
+
+def _solve_small(A: np.ndarray, b: np.ndarray, det: np.ndarray) -> np.ndarray:
+    """``A^-1 b`` for a stack of regular 2 x 2 or 3 x 3 matrices (Cramer's rule), (m, d).
+
+    ``det`` is :func:`_det_small` of ``A`` (non-zero).
+    """
+    if A.shape[-1] == 2:
+        x0 = b[:, 0] * A[:, 1, 1] - A[:, 0, 1] * b[:, 1]
+        x1 = A[:, 0, 0] * b[:, 1] - b[:, 0] * A[:, 1, 0]
+        return np.stack([x0, x1], axis=1) / det[:, None]
+    out = np.empty(b.shape)
+    for j in range(3):
+        Aj = A.copy()
+        Aj[:, :, j] = b
+        out[:, j] = _det_small(Aj)
+    return out / det[:, None]
+
+
 @functools.cache
 def _element(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
     return basix.create_element(
@@ -117,13 +149,18 @@ class FacetProjection:
     inside: np.ndarray
 
 
+def _derivatives(dB: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """``einsum("amk,mkd->mda", dB, Y)`` one ``a`` at a time (several times faster), (m, d, a)."""
+    return np.stack([np.einsum("mk,mkd->md", b, Y) for b in dB], axis=-1)
+
+
 def _geometry(cell, degree, Y, Nn, xi, nderiv):
     """Position, normal field and their first derivatives at ``xi`` on each pair's facet."""
     B = facet_basis(cell, degree, xi, nderiv)
     y = np.einsum("mk,mkd->md", B[0], Y)
-    dy = np.einsum("amk,mkd->mda", B[1:], Y) if nderiv else None  # (m, gdim, fdim)
+    dy = _derivatives(B[1:], Y) if nderiv else None  # (m, gdim, fdim)
     n = np.einsum("mk,mkd->md", B[0], Nn) if Nn is not None else None
-    dn = np.einsum("amk,mkd->mda", B[1:], Nn) if (nderiv and Nn is not None) else None
+    dn = _derivatives(B[1:], Nn) if (nderiv and Nn is not None) else None
     return y, dy, n, dn
 
 
@@ -185,11 +222,11 @@ def ray_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray, n: np.ndarray)
     for a in range(fdim):
         A[:, :, a] = Y[:, 1 + a] - P0
     A[:, :, fdim] = -n
-    det = np.linalg.det(A)
+    det = _det_small(A)
     good = np.abs(det) > 1e-300
     lam = np.full((m, gdim), 0.5)
     if np.any(good):
-        lam[good] = np.linalg.solve(A[good], (x - P0)[good][..., None])[..., 0]
+        lam[good] = _solve_small(A[good], (x - P0)[good], det[good])
     return lam[:, :fdim]
 
 
@@ -330,12 +367,12 @@ def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
         J = np.empty((active.size, gdim, gdim))
         J[:, :, :fdim] = dy + ga[:, None, None] * dn
         J[:, :, fdim] = n
-        det = np.linalg.det(J)
-        scale = np.prod(np.linalg.norm(J, axis=1), axis=1)
+        det = _det_small(J)
+        scale = np.prod(np.sqrt(np.einsum("mij,mij->mj", J, J)), axis=1)
         regular = np.abs(det) > _SINGULAR * np.where(scale > 0, scale, 1.0)
         dz = np.zeros((active.size, gdim))
         if np.any(regular):
-            dz[regular] = -np.linalg.solve(J[regular], F[regular][..., None])[..., 0]
+            dz[regular] = -_solve_small(J[regular], F[regular], det[regular])
         # damping: at most one reference cell per step
         big = np.abs(dz[:, :fdim]).max(axis=1)
         dz *= np.where(big > 1.0, 1.0 / np.maximum(big, 1e-300), 1.0)[:, None]

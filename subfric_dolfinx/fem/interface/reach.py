@@ -55,7 +55,16 @@ class ReachSearch:
         Returns:
             Whether the layout was rebuilt (:attr:`layout_version` grew).
         """
+        from ..timing import TIMER_SEARCH
+
         t0 = time.perf_counter()
+        with self._time(TIMER_SEARCH):
+            rebuild = self._search()
+        self.search_seconds["search"] = time.perf_counter() - t0
+        return rebuild
+
+    def _search(self) -> bool:
+        """:meth:`begin_step` without its timer."""
         xs = self._positions0(self._x_committed)
         m, s = self.master, self.slave
         normals = nodal_normals(m, xs, self.imap0)
@@ -104,7 +113,6 @@ class ReachSearch:
         hit = rows >= 0
         self.pf_normals[hit] = cn[rows[hit]]
         self._begin_kinematics()
-        self.search_seconds["search"] = time.perf_counter() - t0
         return rebuild
 
     def _build(self, pairs, cx, cn, cg, co, cf, xs) -> None:

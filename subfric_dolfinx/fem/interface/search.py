@@ -242,10 +242,13 @@ def near_pairs(
     e = float(extent.max(initial=0.0))
     inplane = a + e + 1.5 * dev * (radius + b + e) + 1e-12 * (a + radius)
     normal = radius + b + e + 1e-12 * (a + radius)
-    near = cKDTree(c).query_ball_point(points, r=float(np.hypot(inplane, normal).max()))
-    lens = np.fromiter((len(v) for v in near), dtype=np.int64, count=points.shape[0])
-    p = np.repeat(np.arange(points.shape[0]), lens)
-    f = np.fromiter((j for v in near for j in v), dtype=np.int64, count=int(lens.sum()))
+    # every (point, centre) pair within the largest bound, as arrays (no list per point), in
+    # the order of the points, then the facets
+    near = cKDTree(points).sparse_distance_matrix(
+        cKDTree(c), float(np.hypot(inplane, normal).max()), output_type="ndarray"
+    )
+    order = np.lexsort((near["j"], near["i"]))
+    p, f = near["i"][order].astype(np.int64), near["j"][order].astype(np.int64)
     d = points[p] - c[f]
     dn = np.einsum("pd,pd->p", d, nf[f])
     dt = np.linalg.norm(d - dn[:, None] * nf[f], axis=1)

@@ -187,17 +187,28 @@ def overlap_points(
     xv = master_x[mi][:, order].reshape(-1, gdim)
     nvv = master_normals[mi][:, order].reshape(-1, gdim)
     nfd_s = slave_x.shape[1]
-    Ys = np.repeat(slave_x[si], nv, axis=0)
+    # a master vertex is shared by the candidate facets around it: project each (slave facet,
+    # vertex position and normal) once (row by row, the same numbers)
+    sv = np.repeat(si, nv)
+    _, first, back = np.unique(
+        np.column_stack([sv.astype(float), xv, nvv]), axis=0, return_index=True,
+        return_inverse=True,
+    )  # fmt: skip
+    back = back.reshape(-1)
+    xu, nu, Ys = xv[first], nvv[first], slave_x[sv[first]]
     # preimages may lie far outside a slave facet much smaller than the master's: start from
     # the line's intersection with the slave vertices' line (plane), let Newton go anywhere
-    pre = normal_projection(
-        xv,
+    pre_u = normal_projection(
+        xu,
         Ys,
-        np.repeat(nvv[:, None, :], nfd_s, axis=1),
+        np.repeat(nu[:, None, :], nfd_s, axis=1),
         slave_cell,
         slave_degree,
-        xi0=ray_start(slave_cell, xv, Ys, nvv),
+        xi0=ray_start(slave_cell, xu, Ys, nu),
         margin=np.inf,
+    )
+    pre = dataclasses.replace(
+        pre_u, **{f.name: getattr(pre_u, f.name)[back] for f in dataclasses.fields(pre_u)}
     )
     ok = pre.converged.reshape(-1, nv).all(axis=1) & (
         np.abs(pre.distance.reshape(-1, nv)) <= radius + 1e-12 * rs[si, None]
