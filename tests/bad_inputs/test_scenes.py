@@ -101,7 +101,8 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         ),
         (
             lambda s: s["solver"].update(linear="cholesky"),
-            r"scene.solver.linear: must be one of \['auto', 'reuse', 'lu', 'gamg'\], got 'cholesky'",
+            r"scene.solver.linear: must be one of \['auto', 'reuse', 'lu', 'gamg'\], "
+            r"got 'cholesky'",
         ),
         # keys that would be ignored silently
         (
