@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..constitutive import FrictionLaw
-from ..driver.text import short_repr
+from ..values import short_repr
 from .interface_spec import parse_initial_gap, parse_regions
 from .materials import check_materials_fit, parse_material
 from .schema import BUILDER_GDIM, KINEMATICS, FEScene, SceneError

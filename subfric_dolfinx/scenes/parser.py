@@ -19,8 +19,8 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..driver.case import read_json
-from ..driver.text import short_repr
 from ..loading import LoadingError, LoadingProgram
+from ..values import NotAnInteger, short_repr, strict_int, typed_repr
 from .interface_spec import parse_initial_gap, parse_regions
 from .parse_bodies import check_topology, interface_laws
 from .parse_features import check_features
@@ -33,6 +33,7 @@ from .schema import (
     PointScene,
     SceneError,
     SolverSpec,
+    scene_number,
 )
 
 __all__ = [
@@ -47,23 +48,6 @@ def _type_name(tp: Any) -> str:
 
 _INT_LIMIT = 2**31
 _NUMBER_LIMIT = 2**53  # integers in free-form values (mesh options, programs, cases)
-
-
-
-
-def _typed(value: Any) -> str:
-    return f"{type(value).__name__} {short_repr(value)}"
-
-
-def _finite(value: int | float, path: str) -> float:
-    """``float(value)`` if finite; a :class:`SceneError` naming ``path`` otherwise."""
-    try:
-        x = float(value)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
-        raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
-    return x
 
 
 def check_plain(value: Any, path: str) -> None:
@@ -84,7 +68,7 @@ def check_plain(value: Any, path: str) -> None:
             )
         return
     if isinstance(value, float):
-        _finite(value, path)
+        scene_number(value, path)
         return
     if isinstance(value, list | tuple):
         for i, v in enumerate(value):
@@ -96,7 +80,7 @@ def check_plain(value: Any, path: str) -> None:
                 raise SceneError(f"{path}: keys must be strings, got {short_repr(k)}")
             check_plain(v, f"{path}.{k}")
         return
-    raise SceneError(f"{path}: expected a JSON value, got {_typed(value)}")
+    raise SceneError(f"{path}: expected a JSON value, got {typed_repr(value)}")
 
 
 def _convert(value: Any, tp: Any, path: str) -> Any:
@@ -120,12 +104,12 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
         return from_dict(tp, value, path)
     if origin is list:
         if not isinstance(value, list | tuple):
-            raise SceneError(f"{path}: expected a list, got {_typed(value)}")
+            raise SceneError(f"{path}: expected a list, got {typed_repr(value)}")
         (item,) = typing.get_args(tp)
         return [_convert(v, item, f"{path}[{i}]") for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, dict):
-            raise SceneError(f"{path}: expected an object, got {_typed(value)}")
+            raise SceneError(f"{path}: expected an object, got {typed_repr(value)}")
         _, item = typing.get_args(tp)
         return {str(k): _convert(v, item, f"{path}.{k}") for k, v in value.items()}
     if tp is bool:
@@ -133,15 +117,15 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             return value
         raise SceneError(f"{path}: expected true or false, got {short_repr(value)}")
     if tp is int:
-        if isinstance(value, int) and not isinstance(value, bool):
-            if abs(value) >= _INT_LIMIT:
-                raise SceneError(f"{path}: integer out of range (< 2**31), got {short_repr(value)}")
-            return value
-        raise SceneError(f"{path}: expected an integer, got {short_repr(value)}")
+        try:
+            n = strict_int(value)
+        except NotAnInteger:
+            raise SceneError(f"{path}: expected an integer, got {short_repr(value)}") from None
+        if abs(n) >= _INT_LIMIT:
+            raise SceneError(f"{path}: integer out of range (< 2**31), got {short_repr(value)}")
+        return n
     if tp is float:
-        if isinstance(value, int | float) and not isinstance(value, bool):
-            return _finite(value, path)
-        raise SceneError(f"{path}: expected a number, got {short_repr(value)}")
+        return scene_number(value, path)
     if tp is str:
         if isinstance(value, str):
             return value
@@ -158,7 +142,7 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
     if isinstance(obj, cls):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {short_repr(obj)}")
+        raise SceneError(f"{path}: expected an object, got {typed_repr(obj)}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(obj) - set(fields))
@@ -344,14 +328,14 @@ def _check_solver(sv: SolverSpec) -> None:
                 f"leading '-' and the prefix), got {short_repr(key)}"
             )
         if isinstance(value, float | int) and not isinstance(value, bool):
-            _finite(value, where)
+            scene_number(value, where)
         elif isinstance(value, str):
             if any(ord(c) < 32 for c in value):
                 raise SceneError(f"{where}: control characters in {short_repr(value)}")
         elif value is not None and not isinstance(value, bool):
             raise SceneError(
                 f"{where}: a PETSc option value is a string, number, true/false or null, got "
-                f"{type(value).__name__} {short_repr(value)}"
+                f"{typed_repr(value)}"
             )
 
 

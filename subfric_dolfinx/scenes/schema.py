@@ -1,4 +1,4 @@
-"""The scene schema: dataclasses of an FE scene and a pointwise scene, and the scene error.
+"""The scene schema: the dataclasses of scenes, the scene error and the scene's number check.
 
 A scene is a small JSON-like configuration; :func:`~.parser.parse_scene` turns it into these
 dataclasses, strictly (an unknown key or a wrong type is an error naming its path).
@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import dataclasses
 from typing import Any
+
+from ..values import NotANumber, NotFinite, finite_float, short_repr
 
 __all__ = [
     "LINEAR_STRATEGIES",
@@ -25,6 +27,7 @@ __all__ = [
     "SceneError",
     "SolverSpec",
     "SpringSpec",
+    "scene_number",
 ]
 
 
@@ -34,6 +37,22 @@ LINEAR_STRATEGIES = ("reuse", "lu", "gamg")
 
 class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
+
+
+def scene_number(value: Any, path: str) -> float:
+    """A number of a scene as a float: a real number (not a boolean), finite.
+
+    The scene's wording of :func:`subfric_dolfinx.values.finite_float`.
+
+    Raises:
+        SceneError: ``{path}: expected a number, got ...`` or ``expected a finite number``.
+    """
+    try:
+        return finite_float(value)
+    except NotANumber:
+        raise SceneError(f"{path}: expected a number, got {short_repr(value)}") from None
+    except NotFinite:
+        raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}") from None
 
 
 KINEMATICS = ("small_sliding", "finite_sliding")
