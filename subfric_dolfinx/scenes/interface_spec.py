@@ -98,14 +98,16 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
 def gap_function(
     value: Any, gdim: int, path: str = "scene.initial_gap"
 ) -> float | Callable[[np.ndarray], np.ndarray] | None:
-    """The initial gap of a validated spec for a ``gdim``-D mesh.
+    """The initial gap of a spec for a ``gdim``-D mesh (validated by :func:`parse_initial_gap`).
 
     Returns:
         ``None``, a number or a function of the coordinates (gdim, n).
 
     Raises:
-        SceneError: ``z`` in a 2-D scene, a centre with the wrong number of coordinates.
+        SceneError: An invalid spec, ``z`` in a 2-D scene, a centre with the wrong number of
+            coordinates.
     """
+    parse_initial_gap(value, path)
     if value is None or callable(value):
         return value
     if isinstance(value, int | float):
