@@ -1,13 +1,22 @@
 """How an input's value is quoted in an error message: one function for every parser
-(:func:`subfric_dolfinx.driver.text.short_repr`), numpy only."""
+(:func:`subfric_dolfinx.values.short_repr`), numpy only."""
 
 import ast
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from subfric_dolfinx.driver.text import short_repr
+from subfric_dolfinx.values import (
+    NotAnInteger,
+    NotANumber,
+    NotFinite,
+    finite_float,
+    short_repr,
+    strict_int,
+    typed_repr,
+)
 
 pytestmark = pytest.mark.numpy_only
 
@@ -49,6 +58,56 @@ def test_no_other_module_defines_its_own():
         for p in sorted(PKG.rglob("*.py"))
         for node in ast.walk(ast.parse(p.read_text()))
         if isinstance(node, ast.FunctionDef) and node.name in ("_short", "short_repr")
-        and p.name != "text.py"
+        and p.name != "values.py"
     ]  # fmt: skip
     assert not copies, copies
+
+
+@pytest.mark.parametrize(
+    ("value", "numpy", "out"),
+    [
+        (1, False, 1.0),
+        (-2.5, False, -2.5),
+        (10**300, False, 1e300),
+        (np.float64(2.5), False, 2.5),  # a float subclass
+        (np.int64(3), True, 3.0),
+        (np.float32(0.5), True, 0.5),
+        (True, False, NotANumber),
+        (np.bool_(True), True, NotANumber),
+        ("1.5", False, NotANumber),
+        (None, False, NotANumber),
+        ([1.0], False, NotANumber),
+        (np.int64(3), False, NotANumber),
+        (float("nan"), False, NotFinite),
+        (-float("inf"), False, NotFinite),
+        (10**400, False, NotFinite),
+        (np.float64("inf"), True, NotFinite),
+    ],
+)
+def test_finite_float(value, numpy, out):
+    """The one check of a number given by a user: not a boolean, finite, in a float's range."""
+    if isinstance(out, type):
+        with pytest.raises(out):
+            finite_float(value, numpy=numpy)
+    else:
+        got = finite_float(value, numpy=numpy)
+        assert got == out and type(got) is float
+
+
+@pytest.mark.parametrize(
+    ("value", "numpy", "ok"),
+    [(3, False, True), (np.int32(3), True, True), (np.int32(3), False, False),
+     (True, False, False), (2.0, False, False), ("2", False, False)],
+)  # fmt: skip
+def test_strict_int(value, numpy, ok):
+    if ok:
+        assert strict_int(value, numpy=numpy) == int(value)
+    else:
+        with pytest.raises(NotAnInteger):
+            strict_int(value, numpy=numpy)
+
+
+def test_numpy_scalars_are_quoted_as_python_values():
+    assert short_repr(np.float64(2.5)) == "2.5"
+    assert short_repr(np.int64(10**15)) == "an integer of 16 digits"
+    assert typed_repr([1, 2]) == "list [1, 2]"

@@ -41,7 +41,8 @@ parameters the data cannot identify (``error: ...`` on stderr, before the fit wh
 Modules: :mod:`.data` (DATA.json), :mod:`.fit` (the model, least squares, identifiability,
 statistics), :mod:`.cli` (command line, plot).
 
-May import: :mod:`subfric_dolfinx.driver`, :mod:`subfric_dolfinx.constitutive`, numpy, scipy
+May import: :mod:`subfric_dolfinx.driver`, :mod:`subfric_dolfinx.constitutive`, the layer-0
+modules (:mod:`subfric_dolfinx.values`, :mod:`subfric_dolfinx.commandline`, ...), numpy, scipy
 (matplotlib for ``--plot`` only, when asked).
 """
 

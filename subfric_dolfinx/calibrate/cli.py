@@ -16,14 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..driver.cli import (
-    _ArgumentError,
-    _error,
-    _Parser,
-    check_out,
-    program_name,
-    write_atomically,
-)
+from ..commandline import ArgumentError, ArgumentParser, error_line
+from ..driver.cli import check_out, program_name, write_atomically
 from ..logs import launcher_rank
 from .data import CalibrationData, CalibrationError, Curve, load_data
 from .fit import MAX_STEPS, STEPS_PER_MM, FitResult, fit, simulate
@@ -79,7 +73,7 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status."""
-    ap = _Parser(
+    ap = ArgumentParser(
         prog=program_name("subfric_dolfinx.calibrate"),
         description="Fit the subloading law to measured friction curves (least squares).",
     )
@@ -96,20 +90,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
     try:
         args = ap.parse_args(argv)
-    except _ArgumentError as e:
-        return _error(str(e))
+    except ArgumentError as e:
+        return error_line(str(e))
     if launcher_rank() != 0:  # under mpirun: rank 0 computes and writes, the others return
         return 0
     spm = args.steps_per_mm
     if not (math.isfinite(spm) and spm > 0):
-        return _error(f"--steps-per-mm must be finite and > 0, got {spm!r}")
+        return error_line(f"--steps-per-mm must be finite and > 0, got {spm!r}")
     if args.max_evaluations < 1:
-        return _error(f"--max-evaluations must be >= 1, got {args.max_evaluations}")
+        return error_line(f"--max-evaluations must be >= 1, got {args.max_evaluations}")
     try:
         out = check_out(args.out)
         plot = check_out(args.plot) if args.plot else None
     except OSError as e:
-        return _error(str(e))
+        return error_line(str(e))
     try:
         data = load_data(args.data)
         if plot is not None and plot.suffix.lower() != ".png":
@@ -120,18 +114,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             max_steps=args.max_steps,
         )  # fmt: skip
     except CalibrationError as e:
-        return _error(str(e))
+        return error_line(str(e))
     except (RecursionError, MemoryError, OverflowError, TypeError, ValueError) as e:
-        return _error(f"malformed data file {args.data!r}: {type(e).__name__}: {e}")
+        return error_line(f"malformed data file {args.data!r}: {type(e).__name__}: {e}")
     try:
         write_atomically(out, json.dumps(result.to_dict(), indent=1) + "\n")
     except OSError as e:
-        return _error(f"cannot write {str(out)!r}: {e.strerror or e}", 1)
+        return error_line(f"cannot write {str(out)!r}: {e.strerror or e}", 1)
     if plot is not None:
         try:
             plot_fit(data, result, plot, spm)
         except OSError as e:
-            return _error(f"cannot write {str(plot)!r}: {e.strerror or e}", 1)
+            return error_line(f"cannot write {str(plot)!r}: {e.strerror or e}", 1)
     fitted = ", ".join(
         f"{k} {result.params[k]:.6g} ± {result.stderr[k]:.2g}" for k in result.fit
     )

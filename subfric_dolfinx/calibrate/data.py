@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import SubloadingLaw
-from ..driver.case import CaseError, _number, _table_spec, read_json, read_table
-from ..driver.text import short_repr
+from ..driver.case import CaseError, field_number, read_json, read_table, table_spec
+from ..values import short_repr
 
 __all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
 
@@ -69,7 +69,7 @@ def _num(where: str, v: Any, *, allow_none: bool = False) -> float | None:
     if v is None and allow_none:
         return None
     try:
-        return _number(where, v)
+        return field_number(where, v)
     except CaseError as e:
         raise CalibrationError(str(e)) from None
 
@@ -95,7 +95,7 @@ def _curve(i: int, c: Any, base: str | Path | None) -> Curve:
                                    f"both (also {both})")  # fmt: skip
         try:
             spec = {"csv": c["csv"], **({"columns": c["columns"]} if "columns" in c else {})}
-            cols = _table_spec(spec, w, ("slip", "f_t"))
+            cols = table_spec(spec, w, ("slip", "f_t"))
             table = read_table(c["csv"], {k: (cols[k], True) for k in ("slip", "f_t")},
                                what=f"field '{w}.csv'", base=base)  # fmt: skip
         except CaseError as e:

@@ -52,7 +52,9 @@ Modules: :mod:`.case` (parsing and validation), :mod:`.path` (the plan of steps)
 step loop of one case), :mod:`.batch` (many cases through one vectorised loop), :mod:`.cli` (the
 command line: exit codes, ``--out`` checked up front and written atomically, progress).
 
-May import: :mod:`subfric_dolfinx.constitutive`, numpy and the standard library only.
+May import: :mod:`subfric_dolfinx.constitutive`, the layer-0 modules (:mod:`subfric_dolfinx.logs`,
+:mod:`subfric_dolfinx.values`, :mod:`subfric_dolfinx.commandline`), numpy and the standard
+library only.
 """
 
 from .batch import run_cases

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import FrictionLaw, LawError, build_law
-from .text import short_repr
+from ..values import NotANumber, NotFinite, finite_float, short_repr
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -25,10 +25,12 @@ __all__ = [
     "MAX_TOTAL_STEPS",
     "Case",
     "CaseError",
+    "field_number",
     "load_case",
     "parse_case",
     "read_json",
     "read_table",
+    "table_spec",
 ]
 
 DEFAULT_STEPS_PER_MM = 200.0
@@ -54,18 +56,20 @@ class Case:
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
 
 
+def field_number(where: str, v: Any) -> float:
+    """The value of the field ``where`` as a float: a real number (not a boolean), finite.
 
+    The check of every number of a case and of calibration data (:mod:`subfric_dolfinx.values`).
 
-def _number(where: str, v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise CaseError(f"field '{where}' must be a number, got {short_repr(v)}")
+    Raises:
+        CaseError: Naming the field and the value (``field 'path[1][1]' must be finite, got nan``).
+    """
     try:
-        x = float(v)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
-        raise CaseError(f"field '{where}' must be finite, got {short_repr(v)}")
-    return x
+        return finite_float(v)
+    except NotANumber:
+        raise CaseError(f"field '{where}' must be a number, got {short_repr(v)}") from None
+    except NotFinite:
+        raise CaseError(f"field '{where}' must be finite, got {short_repr(v)}") from None
 
 
 def parse_case(obj: Any, base: str | Path | None = None) -> Case:
@@ -95,7 +99,7 @@ displacement control, ``f_t`` in MPa under stress control) and ``ubar_n`` (mm)."
 def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
     """The path's rows from a list of rows or from ``{"csv": FILE, "columns": {...}}``."""
     if isinstance(raw, dict):
-        cols = _table_spec(raw, "path", PATH_COLUMNS)
+        cols = table_spec(raw, "path", PATH_COLUMNS)
         required = {k: k != "x2" or nt == 2 for k in PATH_COLUMNS}
         table = read_table(raw["csv"], {k: (cols[k], required[k]) for k in PATH_COLUMNS},
                            what="field 'path.csv'", base=base)  # fmt: skip
@@ -115,12 +119,24 @@ def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
             raise CaseError(
                 f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {short_repr(row)}"
             )
-        rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
+        rows.append([field_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
     return rows
 
 
-def _table_spec(raw: dict, where: str, names: tuple[str, ...]) -> dict[str, str]:
-    """Check ``{"csv": FILE, "columns": {name: header}}``; the header of each name."""
+def table_spec(raw: dict, where: str, names: tuple[str, ...]) -> dict[str, str]:
+    """Check a table given as ``{"csv": FILE, "columns": {name: header}}``.
+
+    Args:
+        raw: The object (a case's ``path``, a calibration curve's ``csv`` and ``columns``).
+        where: Its key path in messages (``"path"``, ``"curves[0]"``).
+        names: The names its columns may be given for.
+
+    Returns:
+        The header of each name in the file: as ``columns`` maps it, else the name itself.
+
+    Raises:
+        CaseError: An unknown key or name, no file name, ``columns`` not names to headers.
+    """
     unknown = sorted(set(raw) - {"csv", "columns"})
     if unknown:
         raise CaseError(f"field '{where}': unknown keys {unknown}; allowed: csv, columns")
@@ -253,7 +269,7 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         ts = path[:, 0].tolist()
     if not isinstance(ts, list) or not ts:
         raise CaseError("field 't_samples' must be a non-empty list of times, or \"path\"")
-    samples = np.array([_number(f"t_samples[{i}]", v) for i, v in enumerate(ts)])
+    samples = np.array([field_number(f"t_samples[{i}]", v) for i, v in enumerate(ts)])
     t0, t1 = path[0, 0], path[-1, 0]
     for i, t in enumerate(samples):
         if not t0 <= t <= t1:
@@ -263,7 +279,7 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         if i and t < samples[i - 1]:
             raise CaseError(f"field 't_samples[{i}]': sample times must not decrease")
     spm = obj.get("steps_per_mm", DEFAULT_STEPS_PER_MM)
-    spm = _number("steps_per_mm", spm)
+    spm = field_number("steps_per_mm", spm)
     if spm <= 0:
         raise CaseError(f"field 'steps_per_mm' must be > 0, got {spm!r}")
     return Case(law, control, path, samples, int(nt), spm)

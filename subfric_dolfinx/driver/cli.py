@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .. import logs
+from ..commandline import ArgumentError, ArgumentParser, error_line
 from ..logs import launcher_rank
 from .case import MAX_TOTAL_STEPS, CaseError, load_case
 from .run import RunawayError, run_case
@@ -32,15 +33,6 @@ from .run import RunawayError, run_case
 __all__ = ["PROGRESS_SECONDS", "check_out", "main", "program_name", "write_atomically"]
 
 PROGRESS_SECONDS = logs.PROGRESS_SECONDS  # at most one progress line per this many seconds
-
-
-class _ArgumentError(Exception):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # one line, exit 2 (argparse's own code for this)
-        raise _ArgumentError(message)
 
 
 def check_out(path: str | Path) -> Path:
@@ -118,14 +110,9 @@ def program_name(module: str) -> str:
     return name if name.startswith("subfric-") else f"python3 -m {module}"
 
 
-def _error(msg: str, code: int = 2) -> int:
-    print(f"error: {msg}", file=sys.stderr)
-    return code
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point; returns the exit status (see the module docstring)."""
-    ap = _Parser(
+    ap = ArgumentParser(
         prog=program_name("subfric_dolfinx.driver"),
         description="Material-point driver of the subloading-friction law.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
@@ -148,8 +135,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     try:
         args = ap.parse_args(argv)
-    except _ArgumentError as e:
-        return _error(str(e))
+    except ArgumentError as e:
+        return error_line(str(e))
     if launcher_rank() != 0:  # under mpirun: rank 0 computes and writes, the others return
         return 0
     try:
@@ -161,11 +148,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         case = load_case(args.case)
         out_path = check_out(args.out) if args.out else None
     except CaseError as e:
-        return _error(str(e))
+        return error_line(str(e))
     except OSError as e:
-        return _error(str(e) if not e.strerror else f"--out {args.out!r}: {e.strerror}")
+        return error_line(str(e) if not e.strerror else f"--out {args.out!r}: {e.strerror}")
     except (RecursionError, MemoryError, OverflowError, TypeError, ValueError) as e:
-        return _error(f"malformed case file {args.case!r}: {type(e).__name__}: {e}")
+        return error_line(f"malformed case file {args.case!r}: {type(e).__name__}: {e}")
     code = 0
     result = None
     try:
@@ -188,7 +175,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
             code = 3
     except CaseError as e:
-        return _error(str(e))
+        return error_line(str(e))
     except RunawayError as e:
         print(f"error: {e}", file=sys.stderr)
         out = e.partial.to_dict() if e.partial is not None else {}
@@ -199,7 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             write_atomically(out_path, text + "\n")
         except OSError as e:
-            return _error(f"cannot write {str(out_path)!r}: {e.strerror or e}", 1)
+            return error_line(f"cannot write {str(out_path)!r}: {e.strerror or e}", 1)
     else:
         print(text)
     if code == 0 and result is not None:

@@ -14,8 +14,8 @@
 * :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run.
 * :mod:`.h5`, :mod:`.slabs`: HDF5 files written and read in per-rank slabs (h5py's MPI driver).
 
-May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, DOLFINx, MPI, h5py
-(not scenes).
+May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, the layer-0 modules
+(:mod:`subfric_dolfinx.values`, ...), DOLFINx, MPI, h5py (not scenes).
 """
 
 from .checkpoint import (

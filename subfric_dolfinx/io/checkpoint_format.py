@@ -10,10 +10,11 @@ file and the item, never a raw ``IndexError``, ``JSONDecodeError`` or ``ValueErr
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
 import numpy as np
+
+from ..values import NotAnInteger, NotANumber, NotFinite, finite_float, short_repr, strict_int
 
 __all__ = [
     "FORMAT",
@@ -42,35 +43,37 @@ def _text(v: Any) -> Any:
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else v
 
 
-def _show(v: Any) -> str:
-    """``repr`` of a value as read, numpy scalars as Python ones (``2.5``, not ``np.float64``)."""
-    return repr(v.item() if isinstance(v, np.generic) else v)
-
-
 def _int(name: str, key: str, v: Any) -> int:
-    if isinstance(v, bool | np.bool_) or not isinstance(v, int | np.integer):
+    try:
+        n = strict_int(v, numpy=True)
+    except NotAnInteger:
         raise CheckpointError(
-            f"checkpoint {name}: attribute {key!r} is {_show(v)}, not an integer"
-        )
-    if int(v) < INTS.get(key, 0):
-        raise CheckpointError(
-            f"checkpoint {name}: attribute {key!r} = {int(v)} is below {INTS[key]}"
-        )
-    return int(v)
+            f"checkpoint {name}: attribute {key!r} is {short_repr(v)}, not an integer"
+        ) from None
+    if n < INTS.get(key, 0):
+        raise CheckpointError(f"checkpoint {name}: attribute {key!r} = {n} is below {INTS[key]}")
+    return n
 
 
 def _float(name: str, key: str, v: Any) -> float:
-    if isinstance(v, bool | np.bool_) or not isinstance(v, int | float | np.integer | np.floating):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {_show(v)}, not a number")
-    if not math.isfinite(float(v)):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} = {float(v)} is not finite")
-    return float(v)
+    try:
+        return finite_float(v, numpy=True)
+    except NotANumber:
+        raise CheckpointError(
+            f"checkpoint {name}: attribute {key!r} is {short_repr(v)}, not a number"
+        ) from None
+    except NotFinite:
+        raise CheckpointError(
+            f"checkpoint {name}: attribute {key!r} = {short_repr(v)} is not finite"
+        ) from None
 
 
 def _json(name: str, key: str, v: Any) -> str:
     v = _text(v)
     if not isinstance(v, str):
-        raise CheckpointError(f"checkpoint {name}: attribute {key!r} is {_show(v)}, not a string")
+        raise CheckpointError(
+            f"checkpoint {name}: attribute {key!r} is {short_repr(v)}, not a string"
+        )
     try:
         obj = json.loads(v)
     except ValueError as e:
@@ -107,12 +110,13 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
     fmt = _text(f.attrs.get("format"))
     if fmt != FORMAT:
         raise CheckpointError(
-            f"{name} is not a subfric-dolfinx checkpoint (format attribute {_show(fmt)})"
+            f"{name} is not a subfric-dolfinx checkpoint (format attribute {short_repr(fmt)})"
         )
     version = f.attrs.get("version")
     if not isinstance(version, int | np.integer) or int(version) != VERSION:
         raise CheckpointError(
-            f"checkpoint {name} has version {_show(version)}, this code reads version {VERSION}"
+            f"checkpoint {name} has version {short_repr(version)}, this code reads version "
+            f"{VERSION}"
         )
     missing = [k for k in (*INTS, *FLOATS, *JSONS) if k not in f.attrs]
     if missing:

@@ -20,9 +20,8 @@ from ..fem import (
 from ..fem.bodies import resolve_topology
 from ..fem.plasticity import J2Bulk, PlasticityError
 from ..fem.probes import require_near
-from .interface_spec import gap_function, parse_regions
 from .materials import scene_materials
-from .parser import build_program, parse_law
+from .parser import scene_model
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
 __all__ = ["BUILDERS", "build_mesh", "build_problem"]
@@ -135,42 +134,35 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         for ld in scene.loads
     ] + point_forces
     materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}
+    model = scene.model if scene.model is not None else scene_model(scene)
     interfaces = None
     if scene.interfaces:
-        interfaces = []
-        for name, spec in scene.interfaces.items():
-            path = f"scene.interfaces.{name}"
-            primary, secondary = spec.sides
-            gap = spec.initial_gap if spec.initial_gap is not None else (
-                scene.initial_gap if len(scene.interfaces) == 1 else None
+        interfaces = [
+            Interface(
+                name, *spec.sides,
+                law=model.interfaces[name].law,
+                initial_gap=model.interfaces[name].initial_gap,
+                regions=model.interfaces[name].regions or None,
+                quadrature=spec.quadrature, kinematics=spec.kinematics,
+                search_radius=spec.search_radius, reach=spec.reach,
             )
-            regions = spec.regions or (scene.regions if len(scene.interfaces) == 1 else {})
-            interfaces.append(
-                Interface(
-                    name, primary, secondary,
-                    law=parse_law(spec.law) if spec.law is not None else None,
-                    initial_gap=gap_function(gap, gdim, f"{path}.initial_gap"),
-                    regions=parse_regions(regions, f"{path}.regions") or None,
-                    quadrature=spec.quadrature, kinematics=spec.kinematics,
-                    search_radius=spec.search_radius, reach=spec.reach,
-                )
-            )  # fmt: skip
+            for name, spec in scene.interfaces.items()
+        ]  # fmt: skip
     _check_material_names(scene, domain)
-    law = parse_law(scene.law) if scene.law is not None else None
-    bulk = _j2_bulk(scene, domain, law, interfaces)
+    bulk = _j2_bulk(scene, domain, model.law, interfaces)
     try:
         return InterfaceProblem(
             domain,
-            law,
+            model.law,
             materials,
-            build_program(scene.program),
+            model.program,
             bcs,
             loads,
             springs=springs,
             degree=scene.degree,
             quadrature=scene.quadrature,
-            initial_gap=gap_function(scene.initial_gap, gdim) if not scene.interfaces else None,
-            regions=(parse_regions(scene.regions) or None) if not scene.interfaces else None,
+            initial_gap=model.initial_gap,
+            regions=model.regions or None,
             interfaces=interfaces,
             bulk=bulk,
             mode=scene.mode,

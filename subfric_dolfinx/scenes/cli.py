@@ -30,6 +30,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import logs
+from ..commandline import EXIT_USAGE, ArgumentError, ArgumentParser
 from .signals import STOP_SIGNALS, SceneInterrupted, guard_active, note_stop
 
 __all__ = [
@@ -44,7 +45,7 @@ __all__ = [
 ]
 
 EXIT_FAILED = 1
-EXIT_BAD_INPUT = 2
+EXIT_BAD_INPUT = EXIT_USAGE
 EXIT_INTERRUPTED = 75  # EX_TEMPFAIL of sysexits.h: stopped on request, restart later
 
 logger = logging.getLogger(__name__)
@@ -54,8 +55,8 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
     """``--help`` with every option's default, and the description as written (Markdown)."""
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse printing on rank 0 only (every rank still exits alike)."""
+class _Parser(ArgumentParser):
+    """The package's one-line-error argparse, printing on rank 0 only (every rank exits alike)."""
 
     rank = 0
 
@@ -148,24 +149,32 @@ def parse_args(
         The demo's options.
 
     Raises:
-        SystemExit: ``--help`` (0), or a usage error (2): an unknown option with two dashes
-            (PETSc options start with one), a missing or malformed value.
+        SystemExit: ``--help`` (0), or a usage error (2, one line on rank 0 naming the
+            argument): an unknown option with two dashes (PETSc options start with one), a
+            missing or malformed value.
     """
     if isinstance(parser, _Parser) and comm is not None:
         parser.rank = comm.rank
     if argv is None:  # in a Jupyter kernel (a demo opened as a notebook) argv is the kernel's
         argv = [] if "ipykernel" in sys.modules else sys.argv[1:]
     demo, petsc = split_petsc(parser, argv)
-    args, unknown = parser.parse_known_args(demo)
-    if unknown:
-        long_ = [u for u in unknown if u.startswith("--")]
-        if long_:
-            known = sorted(s for a in parser._actions for s in a.option_strings if s[:2] == "--")
-            parser.error(
-                f"unknown option {long_[0]} (the options are {', '.join(known)}; PETSc options "
-                "start with one dash, e.g. -<prefix>snes_monitor)"
-            )
-        parser.error(f"unexpected argument(s): {' '.join(unknown)}")
+    try:
+        args, unknown = parser.parse_known_args(demo)
+        if unknown:
+            long_ = [u for u in unknown if u.startswith("--")]
+            if long_:
+                known = sorted(
+                    s for a in parser._actions for s in a.option_strings if s[:2] == "--"
+                )
+                parser.error(
+                    f"unknown option {long_[0]} (the options are {', '.join(known)}; PETSc "
+                    "options start with one dash, e.g. -<prefix>snes_monitor)"
+                )
+            parser.error(f"unexpected argument(s): {' '.join(unknown)}")
+    except ArgumentError as e:  # one line on rank 0, exit code 2 on every rank
+        if comm is None or comm.rank == 0:
+            print(f"{parser.prog}: error: {e}", file=sys.stderr, flush=True)
+        raise SystemExit(EXIT_USAGE) from None
     _init_petsc(petsc)
     logs.configure(args.verbose - args.quiet, comm)
     return args

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..driver.text import short_repr
+from ..values import NotANumber, NotFinite, NumberError, finite_float, short_repr
 
 __all__ = ["COORDINATES", "FUNCTIONS", "ExpressionError", "compile_expression"]
 
@@ -56,23 +56,16 @@ class ExpressionError(ValueError):
     """An expression that is not in the allowed language (the message says what is wrong)."""
 
 
-def finite_float(v: int | float) -> float | None:
-    """``v`` as a finite float, or ``None`` (infinite, NaN, or an integer beyond a float)."""
-    try:
-        f = float(v)
-    except OverflowError:  # e.g. a 401-digit integer
-        return None
-    return f if math.isfinite(f) else None
-
-
 def _compile(node: ast.AST, names: frozenset[str]) -> Node:
     if isinstance(node, ast.Constant):
         v = node.value
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise ExpressionError(f"only numbers are allowed as constants, got {v!r}")
-        f = finite_float(v)
-        if f is None:
-            raise ExpressionError(f"a number ({short_repr(v)}) is not finite (or beyond a float)")
+        try:
+            f = finite_float(v)
+        except NotANumber:
+            raise ExpressionError(f"only numbers are allowed as constants, got {v!r}") from None
+        except NotFinite:
+            msg = f"a number ({short_repr(v)}) is not finite (or beyond a float)"
+            raise ExpressionError(msg) from None
         return lambda env: f
     if isinstance(node, ast.Name):
         name = node.id
@@ -137,10 +130,11 @@ def compile_expression(
             raise ExpressionError(
                 f"parameter name {k!r} is taken (a coordinate, constant or function)"
             )
-        f = None if isinstance(v, bool) or not isinstance(v, int | float) else finite_float(v)
-        if f is None:
-            raise ExpressionError(f"parameter {k!r} must be a finite number, got {short_repr(v)}")
-        params[k] = f
+        try:
+            params[k] = finite_float(v)
+        except NumberError:
+            msg = f"parameter {k!r} must be a finite number, got {short_repr(v)}"
+            raise ExpressionError(msg) from None
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except (SyntaxError, ValueError, RecursionError, MemoryError) as e:

@@ -51,9 +51,10 @@ logger = logging.getLogger(__name__)
 # FEScene fields a restart does not compare here: the run's name and outputs, the solver (may
 # change), the law and program (compared by restore_checkpoint), the points (compared where a
 # condition uses them), the initial gap and regions (their point data g0 and region numbers are
-# compared at every interface point, and the region laws with the law)
+# compared at every interface point, and the region laws with the law), and the parsed form of
+# these (model)
 _NOT_SETTINGS = {"name", "kind", "outputs", "solver", "law", "program", "points"}
-_NOT_SETTINGS |= {"initial_gap", "regions"}
+_NOT_SETTINGS |= {"initial_gap", "regions", "model"}
 
 
 def _plain(value: Any) -> Any:

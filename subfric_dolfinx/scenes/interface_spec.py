@@ -20,15 +20,16 @@ rest of the interface.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from ..constitutive import DEFAULT_REGION, FrictionLaw, LawError, build_law
-from ..driver.text import short_repr
-from .expressions import COORDINATES, ExpressionError, compile_expression, finite_float
-from .schema import SceneError
+from ..values import NumberError, finite_float, short_repr
+from .expressions import COORDINATES, ExpressionError, compile_expression
+from .schema import SceneError, scene_number
 
 __all__ = ["SHAPES", "gap_function", "parse_initial_gap", "parse_regions"]
 
@@ -40,19 +41,21 @@ def _shape(kind: str, spec: Any, path: str) -> tuple[float, list[float]]:
         got = sorted(spec) if isinstance(spec, dict) else repr(spec)
         raise SceneError(f"{path}.{kind}: expected the keys ['R', 'center'], got {got}")
     R, c = spec["R"], spec["center"]
-    Rf = None if isinstance(R, bool) or not isinstance(R, int | float) else finite_float(R)
-    if Rf is None or not Rf > 0:
+    try:
+        Rf = finite_float(R)
+    except NumberError:
+        Rf = math.nan
+    if not Rf > 0:
         raise SceneError(f"{path}.{kind}.R: must be a positive finite number, got {short_repr(R)}")
-    ok = isinstance(c, list) and len(c) in (2, 3)
-    ok = ok and all(
-        isinstance(v, int | float) and not isinstance(v, bool) and finite_float(v) is not None
-        for v in c
-    )
-    if not ok:
+    try:
+        if not isinstance(c, list) or len(c) not in (2, 3):
+            raise NumberError(short_repr(c))
+        center = [finite_float(v) for v in c]
+    except NumberError:
         raise SceneError(
             f"{path}.{kind}.center: must be 2 or 3 finite coordinates, got {short_repr(c)}"
-        )
-    return float(R), [float(v) for v in c]
+        ) from None
+    return Rf, center
 
 
 def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
@@ -64,8 +67,7 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
     if value is None or callable(value):
         return
     if isinstance(value, int | float) and not isinstance(value, bool):
-        if finite_float(value) is None:
-            raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
+        scene_number(value, path)
         return
     if not isinstance(value, dict) or len(value) == 0:
         raise SceneError(
@@ -96,14 +98,16 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
 def gap_function(
     value: Any, gdim: int, path: str = "scene.initial_gap"
 ) -> float | Callable[[np.ndarray], np.ndarray] | None:
-    """The initial gap of a validated spec for a ``gdim``-D mesh.
+    """The initial gap of a spec for a ``gdim``-D mesh (validated by :func:`parse_initial_gap`).
 
     Returns:
         ``None``, a number or a function of the coordinates (gdim, n).
 
     Raises:
-        SceneError: ``z`` in a 2-D scene, a centre with the wrong number of coordinates.
+        SceneError: An invalid spec, ``z`` in a 2-D scene, a centre with the wrong number of
+            coordinates.
     """
+    parse_initial_gap(value, path)
     if value is None or callable(value):
         return value
     if isinstance(value, int | float):

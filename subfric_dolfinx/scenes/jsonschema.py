@@ -17,7 +17,6 @@ message naming the key.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import re
@@ -28,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..commandline import ArgumentError, ArgumentParser, error_line
 from ..constitutive import LAWS, PRESETS
 from . import schema
 
@@ -259,10 +259,13 @@ def scene_schema() -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the schema, or write it to ``--out``."""
-    ap = argparse.ArgumentParser(prog="python3 -m subfric_dolfinx.scenes.jsonschema",
-                                 description=__doc__.split("\n")[0])  # fmt: skip
+    ap = ArgumentParser(prog="python3 -m subfric_dolfinx.scenes.jsonschema",
+                        description=__doc__.split("\n")[0])  # fmt: skip
     ap.add_argument("--out", help="write it to this file (default: print it)")
-    args = ap.parse_args(argv)
+    try:
+        args = ap.parse_args(argv)
+    except ArgumentError as e:
+        return error_line(str(e))
     text = json.dumps(scene_schema(), indent=1) + "\n"
     if args.out:
         Path(args.out).write_text(text)

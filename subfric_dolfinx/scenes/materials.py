@@ -25,9 +25,8 @@ from __future__ import annotations
 from typing import Any
 
 from ..constitutive import J2Material, LinearElastic
-from ..driver.text import short_repr
-from .expressions import finite_float
-from .schema import FEScene, SceneError
+from ..values import short_repr
+from .schema import FEScene, SceneError, scene_number
 
 __all__ = ["MATERIAL_MODELS", "check_materials_fit", "is_j2", "parse_material", "scene_materials"]
 
@@ -38,18 +37,6 @@ _KEYS = {
     "elastic": ({"E", "nu"}, {"model"}),
     "j2": ({"E", "nu", "model", "sigma_y"}, {"H_iso", "H_kin"}),
 }
-
-
-
-
-def _number(v: Any, path: str) -> float:
-    """A material parameter: a finite real number (not a boolean)."""
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise SceneError(f"{path}: expected a number, got {short_repr(v)}")
-    x = finite_float(v)
-    if x is None:
-        raise SceneError(f"{path}: expected a finite number, got {short_repr(v)}")
-    return x
 
 
 def is_j2(spec: dict[str, Any]) -> bool:
@@ -78,7 +65,7 @@ def parse_material(spec: dict[str, Any], path: str) -> LinearElastic | J2Materia
             f"{path}: keys must be {sorted(required)} (optional: {sorted(optional)}) for the "
             f"model {model!r}, got {sorted(keys)}"
         )
-    params = {k: _number(v, f"{path}.{k}") for k, v in spec.items() if k != "model"}
+    params = {k: scene_number(v, f"{path}.{k}") for k, v in spec.items() if k != "model"}
     try:
         return J2Material(**params) if model == "j2" else LinearElastic(**params)
     except (TypeError, ValueError) as e:

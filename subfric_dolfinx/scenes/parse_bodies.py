@@ -8,13 +8,13 @@ mesh can tell (that a group exists) is checked once it is read.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from ..constitutive import FrictionLaw
-from ..driver.text import short_repr
-from .interface_spec import parse_initial_gap, parse_regions
+from ..values import short_repr
 from .materials import check_materials_fit, parse_material
-from .schema import BUILDER_GDIM, KINEMATICS, FEScene, SceneError
+from .schema import KINEMATICS, FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
 
@@ -37,23 +37,21 @@ def is_classic(scene: FEScene) -> bool:
 
 
 
-def _gdim(scene: FEScene) -> int:
-    m = scene.mesh
-    return BUILDER_GDIM[m.builder] if m.builder is not None else int(m.gdim or 0)
-
-
-def interface_laws(scene: FEScene, parse_law: Any) -> list[FrictionLaw]:
-    """The laws of the scene's interfaces (the scene's ``law`` where one has none), validated.
+def interface_laws(
+    scene: FEScene, parse_law: Callable[[Any], FrictionLaw]
+) -> tuple[FrictionLaw | None, dict[str, FrictionLaw | None]]:
+    """The scene's law and each interface's own (``None``: the scene's), parsed once each.
 
     Raises:
         SceneError: A bad law, or no law for an interface (named).
     """
-    laws = []
     default = parse_law(scene.law) if scene.law is not None else None
+    own: dict[str, FrictionLaw | None] = {}
     for name, spec in scene.interfaces.items():
+        own[name] = None
         if spec.law is not None:
             try:
-                laws.append(parse_law(spec.law))
+                own[name] = parse_law(spec.law)
             except SceneError as e:
                 where = f"scene.interfaces.{name}.law"
                 raise SceneError(str(e).replace("scene.law", where)) from None
@@ -61,11 +59,9 @@ def interface_laws(scene: FEScene, parse_law: Any) -> list[FrictionLaw]:
             raise SceneError(
                 f"scene.interfaces.{name}.law: missing, and the scene has no 'law' for it"
             )
-    if default is not None:
-        laws.insert(0, default)
-    if not laws:
+    if default is None and not own:
         raise SceneError("scene: missing key 'law'")
-    return laws
+    return default, own
 
 
 def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
@@ -111,7 +107,7 @@ def check_topology(scene: FEScene) -> None:
     Raises:
         SceneError: Naming the key path of the first bad value.
     """
-    gdim = _gdim(scene)
+    gdim = scene.mesh.geometric_dim
     if scene.mode is not None:
         if scene.mode not in MODES:
             raise SceneError(
@@ -161,8 +157,6 @@ def check_topology(scene: FEScene) -> None:
             raise SceneError(
                 f"{path}.quadrature: must be 'gauss' or 'nodal', got {spec.quadrature!r}"
             )
-        parse_initial_gap(spec.initial_gap, f"{path}.initial_gap")
-        parse_regions(spec.regions, f"{path}.regions")
         _check_kinematics(scene, name, spec, path)
     if len(scene.interfaces) > 1 and (scene.initial_gap is not None or scene.regions):
         raise SceneError(

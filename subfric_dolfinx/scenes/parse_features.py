@@ -12,7 +12,7 @@ import re
 from typing import Any
 
 from ..loading import LoadingError, LoadingProgram
-from .schema import BUILDER_GDIM, FEScene, SceneError
+from .schema import FEScene, SceneError
 
 __all__ = ["PROBE_FIELDS", "check_features", "frame_axes"]
 
@@ -20,9 +20,6 @@ PROBE_FIELDS = ("u", "sigma", "von_mises", "f_t", "f_n", "gap", "status")
 """Probe fields every scene has; the law's internal variables come in addition."""
 
 _POINT_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.+-]{0,63}$")
-def _gdim(scene: FEScene) -> int:
-    m = scene.mesh
-    return BUILDER_GDIM[m.builder] if m.builder is not None else int(m.gdim or 0)
 
 
 def _vector(path: str, value: Any, n: int, what: str = "values") -> list[float]:
@@ -81,7 +78,7 @@ def check_features(scene: FEScene, program: LoadingProgram, variables: tuple[str
     Raises:
         SceneError: Naming the key path of the first bad value.
     """
-    gdim = _gdim(scene)
+    gdim = scene.mesh.geometric_dim
     for i, sp in enumerate(scene.springs):
         path = f"scene.springs[{i}]"
         k = sp.stiffness if isinstance(sp.stiffness, list) else [sp.stiffness] * gdim

@@ -2,8 +2,9 @@
 
 :func:`parse_scene` validates a JSON-like scene into the dataclasses of :mod:`.schema`, converting
 by their type annotations (:func:`from_dict`); an unknown key, a missing key or a wrong type is a
-:class:`~.schema.SceneError` naming its path (``scene.solver.dt``). The law and the loading program
-are built and validated here too, before any mesh is made.
+:class:`~.schema.SceneError` naming its path (``scene.solver.dt``). The law, the loading program,
+the initial gaps and the regions are built here too, once, before any mesh is made
+(:func:`scene_model`, kept as ``FEScene.model``): the problem is built from these objects.
 """
 
 from __future__ import annotations
@@ -19,25 +20,28 @@ from typing import Any
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
 from ..driver.case import read_json
-from ..driver.text import short_repr
 from ..loading import LoadingError, LoadingProgram
-from .interface_spec import parse_initial_gap, parse_regions
+from ..values import NotAnInteger, short_repr, strict_int, typed_repr
+from .interface_spec import gap_function, parse_initial_gap, parse_regions
 from .parse_bodies import check_topology, interface_laws
 from .parse_features import check_features
 from .schema import (
     BUILDER_GDIM,
     LINEAR_STRATEGIES,
     FEScene,
+    InterfaceModel,
     MeshSpec,
     OutputSpec,
     PointScene,
     SceneError,
+    SceneModel,
     SolverSpec,
+    scene_number,
 )
 
 __all__ = [
     "build_program", "check_name", "check_plain", "from_dict", "load_scene", "parse_law",
-    "parse_scene",
+    "parse_scene", "scene_model",
 ]
 
 
@@ -47,23 +51,6 @@ def _type_name(tp: Any) -> str:
 
 _INT_LIMIT = 2**31
 _NUMBER_LIMIT = 2**53  # integers in free-form values (mesh options, programs, cases)
-
-
-
-
-def _typed(value: Any) -> str:
-    return f"{type(value).__name__} {short_repr(value)}"
-
-
-def _finite(value: int | float, path: str) -> float:
-    """``float(value)`` if finite; a :class:`SceneError` naming ``path`` otherwise."""
-    try:
-        x = float(value)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
-        raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
-    return x
 
 
 def check_plain(value: Any, path: str) -> None:
@@ -84,7 +71,7 @@ def check_plain(value: Any, path: str) -> None:
             )
         return
     if isinstance(value, float):
-        _finite(value, path)
+        scene_number(value, path)
         return
     if isinstance(value, list | tuple):
         for i, v in enumerate(value):
@@ -96,7 +83,7 @@ def check_plain(value: Any, path: str) -> None:
                 raise SceneError(f"{path}: keys must be strings, got {short_repr(k)}")
             check_plain(v, f"{path}.{k}")
         return
-    raise SceneError(f"{path}: expected a JSON value, got {_typed(value)}")
+    raise SceneError(f"{path}: expected a JSON value, got {typed_repr(value)}")
 
 
 def _convert(value: Any, tp: Any, path: str) -> Any:
@@ -120,12 +107,12 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
         return from_dict(tp, value, path)
     if origin is list:
         if not isinstance(value, list | tuple):
-            raise SceneError(f"{path}: expected a list, got {_typed(value)}")
+            raise SceneError(f"{path}: expected a list, got {typed_repr(value)}")
         (item,) = typing.get_args(tp)
         return [_convert(v, item, f"{path}[{i}]") for i, v in enumerate(value)]
     if origin is dict:
         if not isinstance(value, dict):
-            raise SceneError(f"{path}: expected an object, got {_typed(value)}")
+            raise SceneError(f"{path}: expected an object, got {typed_repr(value)}")
         _, item = typing.get_args(tp)
         return {str(k): _convert(v, item, f"{path}.{k}") for k, v in value.items()}
     if tp is bool:
@@ -133,15 +120,15 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             return value
         raise SceneError(f"{path}: expected true or false, got {short_repr(value)}")
     if tp is int:
-        if isinstance(value, int) and not isinstance(value, bool):
-            if abs(value) >= _INT_LIMIT:
-                raise SceneError(f"{path}: integer out of range (< 2**31), got {short_repr(value)}")
-            return value
-        raise SceneError(f"{path}: expected an integer, got {short_repr(value)}")
+        try:
+            n = strict_int(value)
+        except NotAnInteger:
+            raise SceneError(f"{path}: expected an integer, got {short_repr(value)}") from None
+        if abs(n) >= _INT_LIMIT:
+            raise SceneError(f"{path}: integer out of range (< 2**31), got {short_repr(value)}")
+        return n
     if tp is float:
-        if isinstance(value, int | float) and not isinstance(value, bool):
-            return _finite(value, path)
-        raise SceneError(f"{path}: expected a number, got {short_repr(value)}")
+        return scene_number(value, path)
     if tp is str:
         if isinstance(value, str):
             return value
@@ -158,9 +145,9 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
     if isinstance(obj, cls):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {short_repr(obj)}")
+        raise SceneError(f"{path}: expected an object, got {typed_repr(obj)}")
     hints = typing.get_type_hints(cls)
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(obj) - set(fields))
     if unknown:
         raise SceneError(f"{path}: unknown key(s) {unknown}; allowed: {sorted(fields)}")
@@ -214,12 +201,14 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
         _choice("scene.on_instability", scene.on_instability, ("stop", "continue"))
         if scene.steps_per_mm is not None and not scene.steps_per_mm > 0:
             raise SceneError(f"scene.steps_per_mm: must be > 0, got {scene.steps_per_mm!r}")
+        cases = {}
         for name, case in scene.cases.items():
             check_plain(case, f"scene.cases.{name}")
             try:
-                parse_case(case)
+                cases[name] = parse_case(case)
             except CaseError as e:
                 raise SceneError(f"scene.cases.{name}: {e}") from None
+        object.__setattr__(scene, "model", cases)  # (frozen: set once, here, as it is made)
         return scene
     scene = from_dict(FEScene, obj, "scene")
     check_name(scene.name, "scene.name")
@@ -233,16 +222,57 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
         raise SceneError(f"scene.program: keys must be 'times' and 'channels', got {sorted(prog)}")
     check_plain(prog, "scene.program")
     _check_solver(scene.solver)
-    # validate the law and program now (clear errors before any mesh is built)
-    laws = interface_laws(scene, parse_law)
-    parse_initial_gap(scene.initial_gap)
-    parse_regions(scene.regions)
-    program = build_program(prog)
-    _check_steps(scene.solver, program)
-    _check_outputs(scene.outputs, program.t_start, program.t_end)
-    variables = tuple(dict.fromkeys(v.name for law in laws for v in law.variables))
-    check_features(scene, program, variables)
+    # the law, program, gaps and regions now, once (clear errors before any mesh is built)
+    model = scene_model(scene)
+    _check_steps(scene.solver, model.program)
+    _check_outputs(scene.outputs, model.program.t_start, model.program.t_end)
+    check_features(scene, model.program, model.variables)
+    object.__setattr__(scene, "model", model)  # (frozen: set once, here, as it is made)
     return scene
+
+
+def scene_model(scene: FEScene) -> SceneModel:
+    """The law, loading program, initial gaps and regions of an FE scene, as objects.
+
+    :func:`parse_scene` makes it once (:attr:`~.schema.FEScene.model`); the problem's builder
+    makes it for a scene made otherwise.
+
+    Raises:
+        SceneError: A bad law, program, initial gap or region, or an interface without a law
+            (named by its key path).
+    """
+    law, own = interface_laws(scene, parse_law)
+    gdim = scene.mesh.geometric_dim
+    one = len(scene.interfaces) == 1
+    interfaces = {}
+    for name, spec in scene.interfaces.items():
+        path = f"scene.interfaces.{name}"
+        gap, gap_path = spec.initial_gap, f"{path}.initial_gap"
+        regions, regions_path = spec.regions, f"{path}.regions"
+        if one:  # the scene's own gap and regions serve its one interface where it has none
+            if gap is None:
+                gap, gap_path = scene.initial_gap, "scene.initial_gap"
+            else:
+                parse_initial_gap(scene.initial_gap)  # not used, but checked
+            if not regions:
+                regions, regions_path = scene.regions, "scene.regions"
+            else:
+                parse_regions(scene.regions)  # not used, but checked
+        interfaces[name] = InterfaceModel(
+            own[name],
+            gap_function(gap, gdim, gap_path),
+            parse_regions(regions, regions_path),
+        )
+    classic = not scene.interfaces
+    laws = [law, *own.values()]
+    return SceneModel(
+        law=law,
+        program=build_program(scene.program),
+        initial_gap=gap_function(scene.initial_gap, gdim) if classic else None,
+        regions=parse_regions(scene.regions) if classic else {},
+        interfaces=interfaces,
+        variables=tuple(dict.fromkeys(v.name for x in laws if x for v in x.variables)),
+    )
 
 
 def check_name(name: str, path: str) -> None:
@@ -344,14 +374,14 @@ def _check_solver(sv: SolverSpec) -> None:
                 f"leading '-' and the prefix), got {short_repr(key)}"
             )
         if isinstance(value, float | int) and not isinstance(value, bool):
-            _finite(value, where)
+            scene_number(value, where)
         elif isinstance(value, str):
             if any(ord(c) < 32 for c in value):
                 raise SceneError(f"{where}: control characters in {short_repr(value)}")
         elif value is not None and not isinstance(value, bool):
             raise SceneError(
                 f"{where}: a PETSc option value is a string, number, true/false or null, got "
-                f"{type(value).__name__} {short_repr(value)}"
+                f"{typed_repr(value)}"
             )
 
 

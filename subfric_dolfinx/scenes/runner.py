@@ -80,9 +80,11 @@ def _run_pointwise(scene: PointScene, outdir: str | Path | None) -> SceneResult:
     if scene.save and outdir is None:
         raise SceneError("scene.save is true but no output directory was given")
     res = SceneResult(scene.name, "pointwise")
-    for name, case in scene.cases.items():
+    for name, case in scene.cases.items():  # the parsed case, or the dict of a scene made otherwise
         res.cases[name] = run_case(
-            case, steps_per_mm=scene.steps_per_mm, on_instability=scene.on_instability
+            scene.model[name] if scene.model is not None else case,
+            steps_per_mm=scene.steps_per_mm,
+            on_instability=scene.on_instability,
         )
     if scene.save:
         out = Path(outdir) / f"{scene.name}.json"

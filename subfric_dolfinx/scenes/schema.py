@@ -1,4 +1,4 @@
-"""The scene schema: dataclasses of an FE scene and a pointwise scene, and the scene error.
+"""The scene schema: the dataclasses of scenes, the scene error and the scene's number check.
 
 A scene is a small JSON-like configuration; :func:`~.parser.parse_scene` turns it into these
 dataclasses, strictly (an unknown key or a wrong type is an error naming its path).
@@ -7,13 +7,22 @@ dataclasses, strictly (an unknown key or a wrong type is an error naming its pat
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
+
+import numpy as np
+
+from ..constitutive import FrictionLaw
+from ..driver import Case
+from ..loading import LoadingProgram
+from ..values import NotANumber, NotFinite, finite_float, short_repr
 
 __all__ = [
     "LINEAR_STRATEGIES",
     "DirichletSpec",
     "FEScene",
     "FrameSpec",
+    "InterfaceModel",
     "InterfaceSpec",
     "LoadSpec",
     "MeshSpec",
@@ -23,8 +32,10 @@ __all__ = [
     "PointSpec",
     "ProbeSpec",
     "SceneError",
+    "SceneModel",
     "SolverSpec",
     "SpringSpec",
+    "scene_number",
 ]
 
 
@@ -34,6 +45,22 @@ LINEAR_STRATEGIES = ("auto", "reuse", "lu", "gamg")
 
 class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
+
+
+def scene_number(value: Any, path: str) -> float:
+    """A number of a scene as a float: a real number (not a boolean), finite.
+
+    The scene's wording of :func:`subfric_dolfinx.values.finite_float`.
+
+    Raises:
+        SceneError: ``{path}: expected a number, got ...`` or ``expected a finite number``.
+    """
+    try:
+        return finite_float(value)
+    except NotANumber:
+        raise SceneError(f"{path}: expected a number, got {short_repr(value)}") from None
+    except NotFinite:
+        raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}") from None
 
 
 KINEMATICS = ("small_sliding", "finite_sliding")
@@ -67,6 +94,13 @@ class MeshSpec:
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     partitioner: str | None = None
     names: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    @property
+    def geometric_dim(self) -> int:
+        """The mesh's dimension: the builder's, or ``gdim`` of a file (0: not given)."""
+        if self.builder is not None and self.builder in BUILDER_GDIM:
+            return BUILDER_GDIM[self.builder]
+        return int(self.gdim or 0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -279,6 +313,49 @@ class InterfaceSpec:
         return self.primary or self.master, self.secondary or self.slave
 
 
+Gap = float | Callable[[np.ndarray], np.ndarray] | None
+"""An initial gap as built: none, a number (mm), or a function of the coordinates (gdim, n)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class InterfaceModel:
+    """One interface's law, initial gap and regions as objects (see :class:`SceneModel`).
+
+    Attributes:
+        law: Its own law; ``None``: the scene's.
+        initial_gap: Its initial gap (the scene's, when the scene has this one interface).
+        regions: Region (a group of its facets) -> that region's law; empty: none.
+    """
+
+    law: FrictionLaw | None
+    initial_gap: Gap
+    regions: dict[str, FrictionLaw]
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneModel:
+    """An FE scene's law, loading program, initial gaps and regions, parsed once into objects.
+
+    :func:`~.parser.parse_scene` makes it while validating the scene (:attr:`FEScene.model`);
+    the problem is built from it (:func:`~.build.build_problem`), nothing is parsed again.
+
+    Attributes:
+        law: The scene's law; ``None``: every interface has its own.
+        program: The loading program.
+        initial_gap: The classic scene's initial gap (no ``interfaces``).
+        regions: The classic scene's regions (no ``interfaces``).
+        interfaces: Name -> :class:`InterfaceModel`, as ``FEScene.interfaces`` orders them.
+        variables: The internal variables of every law of the scene (probe fields), by name.
+    """
+
+    law: FrictionLaw | None
+    program: LoadingProgram
+    initial_gap: Gap
+    regions: dict[str, FrictionLaw]
+    interfaces: dict[str, InterfaceModel]
+    variables: tuple[str, ...]
+
+
 @dataclasses.dataclass(frozen=True)
 class FEScene:
     """A finite-element scene: bodies and frictional interfaces.
@@ -319,6 +396,11 @@ class FEScene:
     bodies: dict[str, Any] = dataclasses.field(default_factory=dict)
     interfaces: dict[str, InterfaceSpec] = dataclasses.field(default_factory=dict)
     mode: str | None = None  # "3d", "plane_strain" (2-D default), "plane_stress", "axisymmetric"
+    # what parse_scene made of law, program, initial_gap and regions (not a key of the scene;
+    # None in a scene made otherwise, e.g. by dataclasses.replace: the problem's builder makes it)
+    model: SceneModel | None = dataclasses.field(
+        default=None, init=False, repr=False, compare=False
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -331,3 +413,7 @@ class PointScene:
     on_instability: str = "stop"
     save: bool = False
     kind: str = "pointwise"
+    # the cases as parse_scene made them (not a key of the scene; None in a scene made otherwise)
+    model: dict[str, Case] | None = dataclasses.field(
+        default=None, init=False, repr=False, compare=False
+    )
