@@ -50,6 +50,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "benchmarks" / "output" / "fe_scaling"
@@ -170,45 +171,60 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
             "reason": reason, "error": error}  # fmt: skip
 
 
-def run_one(
+@dataclasses.dataclass
+class PadRun:
+    """The benchmark's problem, built by :func:`build_pad` (shared with ``weak_scaling.py``).
+
+    Attributes:
+        problem: The pad on a plate (:class:`~subfric_dolfinx.fem.InterfaceProblem`).
+        solver: Its :class:`~subfric_dolfinx.fem.FrictionSolver` (prefix ``fs_``).
+        t_mesh: Wall time of the mesh (s, max over ranks).
+        t_problem: Wall time of the problem and solver set-up, pairing included (s, max).
+        rss_mesh_mib: This rank's peak RSS once the mesh is built (MiB).
+    """
+
+    problem: Any
+    solver: Any
+    t_mesh: float
+    t_problem: float
+    rss_mesh_mib: float
+
+
+def build_pad(
+    comm,
     n: int,
     strategy: str,
     steps: int,
-    time_limit: float,
-    out: Path,
-    predictor: bool = True,
     kinematics: str = "small_sliding",
     reach: float | None = None,
-) -> None:
-    from mpi4py import MPI
-    from petsc4py import PETSc
+) -> PadRun:
+    """The pad on a plate with ``n`` hexahedra along the pad's side and its ``steps`` program.
 
-    from subfric_dolfinx import logs, meshing
+    ``kinematics`` of the interface (``"finite_sliding"``: a stiff normal penalty and the
+    search ``reach``, default :func:`default_reach`). Collective. The caller owns ``solver``
+    (``solver.destroy()`` when done).
+    """
+    from mpi4py import MPI
+
+    from subfric_dolfinx import meshing
     from subfric_dolfinx.constitutive import preset
     from subfric_dolfinx.fem import (
         Dirichlet,
         FrictionSolver,
         Interface,
         InterfaceProblem,
-        LoadStepper,
         Material,
         Pressure,
-        timing_breakdown,
     )
-    from subfric_dolfinx.fem.timing import TIMER_PROJECTION, TIMER_SEARCH
-    from subfric_dolfinx.io import interface_summary
     from subfric_dolfinx.loading import LoadingProgram
 
-    comm = MPI.COMM_WORLD
-    logs.configure(-1, comm)
-    PETSc.Log.begin()
-    load0 = os.getloadavg()
     t0 = time.perf_counter()
     dom, _ = meshing.create_interface_mesh(
         meshing.build_pad_on_plate, comm, n_interface=n, cell_type="hexahedron",
         plate_size=(2.0, 2.0, 0.5), pad_size=(1.0, 1.0, 0.5),
     )  # fmt: skip
     t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    rss_mesh = peak_rss_mib()
     t, press, slide = program_points(steps)
     prog = LoadingProgram(t, {"press": press, "slide": slide})
     bcs = [
@@ -235,7 +251,42 @@ def run_one(
     )  # fmt: skip
     solver = FrictionSolver(problem, "fs_", linear=strategy)
     t_problem = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
-    rss_setup = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return PadRun(problem, solver, t_mesh, t_problem, rss_mesh)
+
+
+def peak_rss_mib() -> float:
+    """This process's peak resident memory so far (MiB; Linux's ``ru_maxrss`` is in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def run_one(
+    n: int,
+    strategy: str,
+    steps: int,
+    time_limit: float,
+    out: Path,
+    predictor: bool = True,
+    kinematics: str = "small_sliding",
+    reach: float | None = None,
+) -> None:
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from subfric_dolfinx import logs
+    from subfric_dolfinx.fem import LoadStepper, timing_breakdown
+    from subfric_dolfinx.fem.timing import TIMER_PROJECTION, TIMER_SEARCH
+    from subfric_dolfinx.io import interface_summary
+
+    comm = MPI.COMM_WORLD
+    logs.configure(-1, comm)
+    PETSc.Log.begin()
+    load0 = os.getloadavg()
+    finite = kinematics == "finite_sliding"
+    if finite and reach is None:
+        reach = default_reach(n, steps)
+    pad = build_pad(comm, n, strategy, steps, kinematics, reach)
+    problem, solver, t_mesh, t_problem = pad.problem, pad.solver, pad.t_mesh, pad.t_problem
+    rss_setup = peak_rss_mib()
     history, krylov, stopped = [], [], [None]
     contact0 = {k: problem.timings.seconds.get(k, 0.0) for k in (TIMER_SEARCH, TIMER_PROJECTION)}
     start = time.perf_counter()
@@ -283,7 +334,7 @@ def run_one(
         info = PETSc.Log.Event(name).getPerfInfo()
         seconds = comm.allreduce(info["time"], op=MPI.MAX)
         events[name] = {"count": int(info["count"]), "time": seconds}
-    rss = comm.gather(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, root=0)
+    rss = comm.gather(peak_rss_mib(), root=0)
     newton = sum(r.iterations for r in stepper.records)
     elastic = elastic_solve(problem, solver, strategy)  # after the peak RSS of the run
     result = {

@@ -1,0 +1,129 @@
+"""The weak-scaling benchmark (benchmarks/weak_scaling.py, issue 25 item 4).
+
+* Its models and extrapolation: measured rows made from known per-part laws give those laws back,
+  the table at 64 and 512 ranks is what the laws give by hand, and the part named first to stop
+  scaling is the one the numbers say (rank 0's mesh when it outgrows a node's share, the
+  distributed memory when nothing grows with the whole model).
+* Its measurement, at a tiny size on the ranks the test runs on: the counts it records agree with
+  what they must be independently (the pad's dofs and interface points by formula, the owned dofs
+  summing to the total, GAMG's finest level being the Jacobian, a checkpoint holding at least the
+  displacement).
+"""
+
+import itertools
+import math
+
+import pytest
+from mpi4py import MPI
+
+from benchmarks import fe_scaling, weak_scaling
+
+A, B, E = 200.0, 0.004, 50.0  # MiB, MiB per dof of a rank, MiB more on rank 0
+START, MESH0, F = 120.0, 60.0, 3e-4  # rank 0 with the mesh: START + MESH0 + F dofs (MiB)
+K, ALPHA, BETA = 10.0, 0.7, 0.5  # set-up gathers: K dofs^ALPHA ranks^BETA bytes
+
+
+def synthetic_rows(f: float = F) -> tuple[list[dict], list[list[int]]]:
+    """Rows of a weak series that follow known laws exactly."""
+    rows, levels = [], []
+    for ranks, dofs in ((1, 10000), (1, 25000), (2, 50000), (2, 184000), (4, 100000), (8, 200000)):
+        d = dofs / ranks
+        iface = 0.5 * dofs ** (2 / 3)
+        kry = 10.0 + 2.0 * math.log10(dofs)
+        rows.append({
+            "ranks": ranks, "dofs": dofs, "dofs_per_rank": d, "interface_points": iface,
+            "rss_others_mib": A + B * d if ranks > 1 else math.nan,  # no other rank: unused
+            "rss_rank0_mib": A + B * d + E, "rss_start_mib": START,
+            "rss_mesh_rank0_mib": START + MESH0 + f * dofs,
+            "setup_gather_bytes": K * dofs**ALPHA * ranks**BETA if ranks > 1 else 0.0,
+            "jacobian_mib": 0.002 * d, "gamg_mib": 0.0005 * d,
+            "checkpoint_mib": 90.0 * dofs / 2.0**20, "checkpoint_rank0_bytes": 32.0 * iface,
+            "profile_bytes": 150.0 * iface, "gather_bytes_per_step": 1500.0 + 100.0 * ranks,
+            "petsc_bytes_per_newton": 3000.0 * d ** (2 / 3) if ranks == 8 else 1.0,
+            "krylov_per_newton": kry, "allreduce_calls_per_newton": 5.0 * kry,
+            "coarse_rows": 100 if ranks == 8 else 50,
+        })  # fmt: skip
+        levels.append([dofs, dofs // 10, dofs // 100])
+    return rows, levels
+
+
+@pytest.mark.serial  # arithmetic: the same on any number of ranks
+def test_models_give_back_the_laws_and_extrapolate_by_hand():
+    rows, levels = synthetic_rows()
+    m = weak_scaling.fit_models(rows, levels)
+    assert m.memory == pytest.approx((A, B), rel=1e-9)
+    assert m.rank0_excess == pytest.approx(E) and m.start == pytest.approx(START)
+    assert m.mesh == pytest.approx((MESH0, F), rel=1e-9)
+    assert m.setup_gather == pytest.approx((K, ALPHA, BETA), rel=1e-9)
+    assert m.jacobian == pytest.approx(0.002) and m.gamg == pytest.approx(0.0005)
+    assert m.checkpoint == pytest.approx(90.0) and m.checkpoint_rank0 == pytest.approx(32.0)
+    assert m.interface_per_dof23 == pytest.approx(0.5) and m.profile == pytest.approx(150.0)
+    assert m.gather_step == pytest.approx((1500.0, 100.0))
+    assert m.petsc_halo == pytest.approx(3000.0)  # from the run on the most ranks
+    assert m.krylov == pytest.approx((10.0, 2.0)) and m.reductions == pytest.approx(5.0)
+    assert m.coarsening == pytest.approx(10.0) and m.coarse_rows == 100
+
+    x = weak_scaling.extrapolate(m, 512, 1e8)
+    d = 1e8 / 512
+    mib = 2.0**20
+    assert x["rss_mib"] == pytest.approx(A + B * d)
+    assert x["rss_rank0_mib"] == pytest.approx(A + B * d + E)
+    assert x["mesh_rank0_mib"] == pytest.approx(START + MESH0 + F * 1e8)  # 30,180 MiB
+    assert x["setup_gather_mib"] == pytest.approx(K * 1e8**ALPHA * 512**BETA / mib)
+    assert x["interface_points"] == pytest.approx(0.5 * 1e8 ** (2 / 3))
+    assert x["profile_mib"] == pytest.approx(150.0 * 0.5 * 1e8 ** (2 / 3) / mib)
+    assert x["checkpoint_rank0_mib"] == pytest.approx(32.0 * 0.5 * 1e8 ** (2 / 3) / mib)
+    assert x["gather_step_kib"] == pytest.approx((1500.0 + 100.0 * 512) / 1024)
+    assert x["petsc_mib_per_newton"] == pytest.approx(3000.0 * d ** (2 / 3) / mib)
+    assert x["krylov_per_newton"] == pytest.approx(26.0)
+    assert x["reductions_per_newton"] == pytest.approx(130.0)
+    assert x["gamg_levels"] == pytest.approx(7.0)  # 1e8 -> 1e2 rows by tenths: 7 levels
+    assert x["checkpoint_gib"] == pytest.approx(90.0 * 1e8 / 2**30)
+
+
+@pytest.mark.serial
+def test_first_to_break_is_named_by_the_numbers():
+    rows, levels = synthetic_rows()
+    m = weak_scaling.fit_models(rows, levels)
+    table = [weak_scaling.extrapolate(m, p, n) for p, n in weak_scaling.TARGETS]
+    part, why = weak_scaling.first_to_break(table, node_gib=4.0)
+    # at 1e7 dofs every rank fits (rank 0's mesh: 120 + 60 + 3,000 = 3,180 MiB); at 1e8 on 64
+    # ranks rank 0's mesh needs 30,180 MiB, 30,060 of them the mesh (the distributed share,
+    # 200 + 0.004 * 1,562,500 = 6,450 MiB, is over too, but smaller)
+    assert part.startswith("rank 0's mesh")
+    assert why.startswith("29.5 GiB on one rank at 1e+08 dofs on 64 ranks, 29.4 GiB of it")
+    # without the mesh growing, the first over 4 GiB is that distributed share
+    rows, levels = synthetic_rows(f=0.0)
+    m = weak_scaling.fit_models(rows, levels)
+    table = [weak_scaling.extrapolate(m, p, n) for p, n in weak_scaling.TARGETS]
+    part, why = weak_scaling.first_to_break(table, node_gib=4.0)
+    assert part == "the per-rank memory of the distributed parts"
+    assert why.startswith("6.3 GiB on one rank at 1e+08 dofs on 64 ranks")
+    # with room for everything, the part that grows most from (64 ranks, 1e7) to (512, 1e8) is
+    # named: the set-up gathers, 10^0.7 * 8^0.5 = 14.2 times (a profile: 10^(2/3) = 4.6 times)
+    part, why = weak_scaling.first_to_break(table, node_gib=1e6)
+    assert part.startswith("the partitioner's gathers")
+    assert why.startswith("grows 14.2x from 1e+07 dofs on 64 ranks to 1e+08 on 512")
+
+
+def test_measurement_at_a_tiny_size(shared_tmp):
+    comm = MPI.COMM_WORLD
+    n = 4
+    r = weak_scaling.measure(comm, n, 3, shared_tmp)
+    assert r["ranks"] == comm.size
+    assert r["dofs"] == fe_scaling.dofs_of(n)
+    assert sum(p["owned_dofs"] for p in r["per_rank"]) == r["dofs"]
+    assert r["interface_points"] == 4 * n * n  # n x n quadrilaterals, 2 x 2 Gauss points
+    assert r["steps"] == 3 and r["newton"] >= r["steps"]
+    lv = r["gamg_levels"]
+    assert lv[0]["rows"] == r["dofs"]
+    assert all(a["rows"] > b["rows"] for a, b in itertools.pairwise(lv))
+    assert lv[0]["nz"] == sum(p["jacobian_nz"] for p in r["per_rank"])  # the finest is J
+    assert r["checkpoint_bytes"] > 8 * r["dofs"]  # at least the displacement
+    assert not r["mpi_counted"] and all(p["mpi"] == {} for p in r["per_rank"])
+    if comm.size == 1:
+        assert r["per_rank"][0]["pairing_received"] == 0
+    row = weak_scaling.row_of(r)
+    assert row["dofs_per_rank"] == pytest.approx(r["dofs"] / comm.size)
+    assert row["rss_max_mib"] >= row["rss_others_mib"] > 0
+    assert row["jacobian_mib"] > 0 and row["krylov_per_newton"] > 0
