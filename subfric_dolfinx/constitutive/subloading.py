@@ -275,7 +275,7 @@ def subloading_return_map(
 
 def _check_dt(dt, n: int) -> float | np.ndarray:
     """``dt`` as a float, or as a float64 array (n,); finite and >= 0."""
-    if np.ndim(dt) == 0:
+    if isinstance(dt, float | int) or np.ndim(dt) == 0:
         d = float(dt)
         if not (math.isfinite(d) and d >= 0.0):
             raise ValueError(f"dt = {d!r} must be finite and >= 0")

@@ -47,11 +47,16 @@ def E_dE(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     em = np.expm1(-s)
     E = -em / s
-    dE = (em * (1.0 + s) + s) / (s * s)
     small = s < S_SERIES
-    if np.count_nonzero(small):
-        ss = s[small]
-        dE[small] = -0.5 + ss * (1.0 / 3.0 - 0.125 * ss)
+    n_small = np.count_nonzero(small)
+    if n_small == s.size:  # (the closed form of E' not formed where the series replaces it)
+        dE = -0.5 + s * (1.0 / 3.0 - 0.125 * s)
+    else:
+        dE = (em * (1.0 + s) + s) / (s * s)
+        if n_small:
+            ss = s[small]
+            dE[small] = -0.5 + ss * (1.0 / 3.0 - 0.125 * ss)
+    if n_small and np.count_nonzero(s == 0.0):
         E[s == 0.0] = 1.0
     return E, dE
 

@@ -50,8 +50,8 @@ class Law:
     """
 
     __slots__ = (
-        "an", "at", "cn", "k", "kappa", "len_n", "mu_k", "mu_s", "sqrt2k_inv", "ut", "xi",
-        "zc_cap",
+        "_diag", "an", "at", "cn", "k", "kappa", "len_n", "mu_k", "mu_s", "sqrt2k_inv", "ut",
+        "xi", "zc_cap",
     )  # fmt: skip
 
     def __init__(self, p: Any) -> None:
@@ -64,6 +64,16 @@ class Law:
         self.zc_cap = math.sqrt(KD_CAP / self.k)
         with np.errstate(over="ignore"):
             self.len_n = float(np.float64(1.0) / (np.float64(self.cn) * self.an))
+        self._diag = {}
+
+    def elastic_tangent(self, nt: int) -> np.ndarray:
+        """The one-sided elastic tangent ``diag(alpha_t, .., alpha_n)`` (m, m), read-only."""
+        d = self._diag.get(nt)
+        if d is None:
+            d = np.diag([self.at] * nt + [self.an])
+            d.flags.writeable = False
+            self._diag[nt] = d
+        return d
 
 
 class Settings:

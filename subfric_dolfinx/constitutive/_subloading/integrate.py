@@ -30,12 +30,15 @@ def integrate(L: Law, inp: Inputs, out: Outputs, cfg: Settings, chunk: int = CHU
     """
     n = inp.up.shape[0]
     with np.errstate(all="ignore"):
+        if n <= chunk:
+            _chunk(L, inp, out, cfg)
+            return
         for a in range(0, n, chunk):
             sl = slice(a, min(a + chunk, n))
             part = Inputs(inp.gap[sl], inp.up[sl], inp.mu[sl], inp.r[sl],
                           None if inp.f0 is None else inp.f0[sl],
                           inp.dt if np.ndim(inp.dt) == 0 else inp.dt[sl])  # fmt: skip
-            _chunk(L, part, out if n <= chunk else out.rows(sl), cfg)
+            _chunk(L, part, out.rows(sl), cfg)
 
 
 def _chunk(L: Law, inp: Inputs, out: Outputs, cfg: Settings) -> None:

@@ -90,11 +90,13 @@ def _solve(br: Branch, tol_f, max_iter, dl_start, e_start):
     Wk[_Z] = z
     phi = Wk[Row.PHI]
     pos = phi > 0.0
-    Wk[_LO] = np.where(pos, z, 0.0)
-    Wk[_FLO] = np.where(pos, phi, np.inf)
-    Wk[_HI] = np.where(pos, hi, z)
-    Wk[_FHI] = np.where(pos, -np.inf, phi)
-    Wk[_DZ] = Wk[_HI] - Wk[_LO]
+    lo, f_lo, hi_, f_hi = Wk[_LO], Wk[_FLO], Wk[_HI], Wk[_FHI]
+    lo[:], f_lo[:], hi_[:], f_hi[:] = 0.0, np.inf, z, phi
+    np.putmask(lo, pos, z)
+    np.putmask(f_lo, pos, phi)
+    np.putmask(hi_, pos, hi)
+    np.putmask(f_hi, pos, -np.inf)
+    np.subtract(hi_, lo, out=Wk[_DZ])
     out = np.empty((_Z + 1 - Row.PHI, k))  # rows PHI .. SN, Z of the converged points
     it_out = np.empty(k, dtype=np.int64)
     conv = np.zeros(k, dtype=bool)
@@ -132,17 +134,18 @@ def _solve(br: Branch, tol_f, max_iter, dl_start, e_start):
         if np.count_nonzero(bad):
             geo = np.sqrt(np.maximum(la, TINY)) * np.sqrt(ha)
             mid = np.where(ha > 1e3 * la, geo, 0.5 * (la + ha))
-            zn = np.where(bad, mid, zn)
+            np.putmask(zn, bad, mid)
         np.subtract(zn, za, out=Wk[_DZ])
         Wk[_Z] = zn
         evaluate(L, Wk, zn * (2.0 * ca + zn))
         it += 1
         ph = Wk[Row.PHI]
         pos = ph > 0.0
-        Wk[_LO] = np.where(pos, zn, la)
-        Wk[_HI] = np.where(pos, ha, zn)
-        Wk[_FLO] = np.where(pos, ph, Wk[_FLO])
-        Wk[_FHI] = np.where(pos, Wk[_FHI], ph)
+        neg = ~pos
+        np.putmask(la, pos, zn)  # (la, ha: views of the rows LO, HI)
+        np.putmask(ha, neg, zn)
+        np.putmask(Wk[_FLO], pos, ph)
+        np.putmask(Wk[_FHI], neg, ph)
         tol = Wk[_TOL]
         ok = np.abs(ph) <= tol
         flat = (Wk[_FLO] - Wk[_FHI] <= 2.0 * tol) | (Wk[_HI] - Wk[_LO] <= tiny4 * Wk[_HI])

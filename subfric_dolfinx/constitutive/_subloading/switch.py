@@ -152,26 +152,34 @@ def split_point(L: Law, sg: Segment):
     s = np.zeros(k)
     kind = np.zeros(k, dtype=np.int8)
     base = (ww > 0.0) & (rho0 > 0.0)
+    sa = fw < 0.0  # |f| falls at the start
+    resolved = ww + fw > SPLIT_EPS * W * (rho0 + A)  # its minimum inside, the rest resolved
+    caseA = base & sa & resolved
+    caseB = base & ~sa
+    n_A = np.count_nonzero(caseA)
+    if not (n_A or np.count_nonzero(caseB)):
+        return s, kind  # (unloading that stays elastic through the segment's end)
     ok_h = (
         (ROT_LO < rho0) & (rho0 < ROT_HI) & (ROT_LO < W) & (W < ROT_HI) & (A < ROT_HI)
         & (sg.b < ROT_HI) & (-np.expm1(-L.cn * sg.fn0) > ROT_LO)
         & (-np.expm1(-L.cn * sg.fn) > ROT_LO)
     )  # fmt: skip
-    sa = fw < 0.0  # |f| falls at the start
-    resolved = ww + fw > SPLIT_EPS * W * (rho0 + A)  # its minimum inside, the rest resolved
-    caseA = base & sa & resolved
-    s_f = np.where(caseA, -fw / np.where(ww > 0.0, ww, 1.0), 0.0)
-    s[caseA] = s_f[caseA]
-    kind[caseA] = CUSP
-    fm = f0t + s_f[:, None] * w
-    refine = caseA & ok_h & (norm_t(fm) > CUSP_REL * (rho0 + A))
-    caseB = base & ~sa & ok_h
-    rows = (refine | caseB).nonzero()[0]
+    caseB &= ok_h
+    if n_A:
+        s_f = np.where(caseA, -fw / np.where(ww > 0.0, ww, 1.0), 0.0)
+        s[caseA] = s_f[caseA]
+        kind[caseA] = CUSP
+        fm = f0t + s_f[:, None] * w
+        refine = caseA & ok_h & (norm_t(fm) > CUSP_REL * (rho0 + A))
+        rows = (refine | caseB).nonzero()[0]
+    else:
+        refine = caseA
+        rows = caseB.nonzero()[0]
     if rows.size == 0:
         return s, kind
     sr = sg.take(rows)
     isA = refine[rows]
-    x0 = np.where(isA, s_f[rows], 0.0)
+    x0 = np.where(isA, s_f[rows], 0.0) if n_A else np.zeros(rows.size)
     hx, hpx = _h(L, sr, x0)[:2]  # B: h(0); A: h(s_f)
     if not np.count_nonzero(isA | (hx < 0.0)):
         return s, kind  # (the usual loading step: h(0) >= 0, plastic from the start)
@@ -254,21 +262,27 @@ def start_state(L: Law, t: Trial, f0) -> Start:
         st.f0t = st.fn0 = st.f_s = st.fn_s = st.g_s = st.rho_s = None
         return st
     st.f0t, st.fn0 = f0t, fn0 = f0[:, :nt], f0[:, nt]
-    st.f_s, st.fn_s = f_s, fn_s = f0t.copy(), fn0.copy()
     cand = (t.contact & (fn0 > 0.0)).nonzero()[0]
-    if cand.size:
+    if cand.size == n:
+        sg = Segment(f0t, fn0, t.ft, t.fn, t.A, t.mu, t.b)
+        st.s, st.kind = split_point(L, sg)
+    elif cand.size:
         sg = Segment(f0t[cand], fn0[cand], t.ft[cand], t.fn[cand], t.A[cand], t.mu[cand],
                      t.b[cand])  # fmt: skip
         st.s[cand], st.kind[cand] = split_point(L, sg)
     si = st.kind.nonzero()[0]
+    if si.size == 0:  # the start traction throughout (views: nothing writes into them)
+        st.f_s, st.fn_s = f0t, fn0
+        st.g_s = g_of(L, fn0)
+        st.rho_s = norm_t(f0t)
+        return st
+    st.f_s, st.fn_s = f_s, fn_s = f0t.copy(), fn0.copy()
     if si.size:
         s = st.s[si]
         f_s[si] += s[:, None] * (t.ft[si] - f0t[si])
         fn_s[si] = fn0[si] + s * (t.fn[si] - fn0[si])
     st.g_s = g_of(L, fn_s)
     st.rho_s = norm_t(f_s)
-    if si.size == 0:
-        return st
     mu_s = L.mu_s
     g_s, rho_m = st.g_s[si], st.rho_s[si]
     mu_c = t.mu[si]

@@ -22,7 +22,7 @@ class Trial:
     """The elastic trial of a chunk of n points.
 
     Attributes:
-        ok: Valid inputs.
+        ok, all_ok: Valid inputs; every input valid.
         up, mu, r: The start state, made safe (virgin where not ``ok``; ``mu``, ``r`` clipped).
         ft, A, fn, g: Trial tangential traction (n, nt), its magnitude, normal traction,
             saturation.
@@ -31,8 +31,8 @@ class Trial:
             touching); valid and not in contact; a finite trial magnitude.
     """
 
-    __slots__ = ("A", "b", "contact", "finite", "fn", "ft", "g", "mu", "mu_rec", "ok", "r",
-                 "separated", "touching", "up")  # fmt: skip
+    __slots__ = ("A", "all_ok", "b", "contact", "finite", "fn", "ft", "g", "mu", "mu_rec", "ok",
+                 "r", "separated", "touching", "up")  # fmt: skip
 
     def __init__(self, L: Law, inp: Inputs, cfg: Settings) -> None:
         gap, up, mu, r, f0, dt = inp.gap, inp.up, inp.mu, inp.r, inp.f0, inp.dt
@@ -41,9 +41,7 @@ class Trial:
         ok = (
             np.isfinite(gap).all(axis=1)
             & np.isfinite(up).all(axis=1)
-            & np.isfinite(mu)
-            & np.isfinite(r)
-            & (r >= -1e-9)
+            & (r >= -1e-9)  # (the comparisons are False for NaN and refuse inf)
             & (r <= 1.0 + 1e-9)
             & (mu >= mu_k * (1 - 1e-12))
             & (mu <= mu_s * (1 + 1e-12))
@@ -51,10 +49,15 @@ class Trial:
         if f0 is not None:
             ok &= np.isfinite(f0).all(axis=1)
         self.ok = ok
-        gap = np.where(ok[:, None], gap, 0.0)
-        self.up = up = np.where(ok[:, None], up, 0.0)
-        self.mu = mu_c = np.where(ok, np.minimum(np.maximum(mu, mu_k), mu_s), mu_s)
-        self.r = np.where(ok, np.minimum(np.maximum(r, 0.0), 1.0), 0.0)
+        self.all_ok = all_ok = np.count_nonzero(ok) == n
+        if not all_ok:  # (made safe: virgin where not ok)
+            gap = np.where(ok[:, None], gap, 0.0)
+            up = np.where(ok[:, None], up, 0.0)
+        self.up = up
+        mu_c = np.minimum(np.maximum(mu, mu_k), mu_s)
+        r_c = np.minimum(np.maximum(r, 0.0), 1.0)
+        self.mu = mu_c = mu_c if all_ok else np.where(ok, mu_c, mu_s)
+        self.r = r_c if all_ok else np.where(ok, r_c, 0.0)
         self.ft = ft = L.at * (gap[:, :nt] - up)
         self.A = A = norm_t(ft)
         un = gap[:, nt]
@@ -69,7 +72,7 @@ class Trial:
         self.finite = np.isfinite(A)
         self.separated = ok & ~contact
         self.contact = contact & self.finite  # an overflowing trial fails: last state kept
-        self.b = b = np.full(n, L.xi * dt) if np.ndim(dt) == 0 else L.xi * dt
+        self.b = b = np.full(n, L.xi * dt) if isinstance(dt, float) else L.xi * dt
         self.mu_rec = np.minimum(mu_c + (mu_s - mu_c) * (-np.expm1(-b)), mu_s)
 
     def write(self, L: Law, elastic: np.ndarray, out: Outputs) -> None:
@@ -81,16 +84,35 @@ class Trial:
         ``out.tr``, ``out.tan``, ``out.iters`` and ``out.unstable`` hold zeros on entry.
         """
         nt = self.ft.shape[1]
-        out.status[:] = FAILED
-        out.status[elastic] = ELASTIC
-        out.status[self.separated] = SEPARATED
+        n = elastic.size
+        status, sep = out.status, self.separated
+        n_el, n_sep = np.count_nonzero(elastic), np.count_nonzero(sep)
+        if n_el == n:
+            status[:] = ELASTIC
+        elif n_sep == n:
+            status[:] = SEPARATED
+        else:
+            status[:] = FAILED
+            if n_el:
+                status[elastic] = ELASTIC
+            if n_sep:
+                status[sep] = SEPARATED
         out.up[:] = self.up
-        out.mu[:] = np.where(self.ok & self.finite, self.mu_rec, self.mu)
+        fin = self.finite if self.all_ok else self.ok & self.finite
+        all_fin = np.count_nonzero(fin) == n
+        out.mu[:] = self.mu_rec if all_fin else np.where(fin, self.mu_rec, self.mu)
         A, gm = self.A, self.g * self.mu_rec
         r_el = np.where(A == 0.0, 0.0, np.where(A < gm, A / gm, 1.0))
-        out.r[:] = np.where(self.contact, r_el, np.where(self.separated, 0.0, self.r))
-        out.tr[elastic, :nt] = self.ft[elastic]
-        out.tr[elastic, nt] = self.fn[elastic]
-        diag = np.zeros(nt + 1)
-        diag[:nt], diag[nt] = L.at, L.an
-        out.tan[elastic | self.touching] = np.diag(diag)
+        out.r[:] = np.where(self.contact, r_el, np.where(sep, 0.0, self.r))
+        if n_el == n:
+            out.tr[:, :nt] = self.ft
+            out.tr[:, nt] = self.fn
+        elif n_el:
+            out.tr[elastic, :nt] = self.ft[elastic]
+            out.tr[elastic, nt] = self.fn[elastic]
+        one_sided = elastic | self.touching
+        n_os = np.count_nonzero(one_sided)
+        if n_os == n:
+            out.tan[:] = L.elastic_tangent(nt)
+        elif n_os:
+            out.tan[one_sided] = L.elastic_tangent(nt)
