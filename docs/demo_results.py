@@ -102,6 +102,8 @@ def numbers(demo: str, result: Any) -> dict[str, Any]:
         if sres is not None:
             out["subloading"] = plain(sres.info["slips"])
         return out
+    if demo == "block_sliding_far":
+        return plain(result["report"])
     if demo == "two_bodies_api":
         return {"steps": len(result["history"])}
     if isinstance(result, dict):

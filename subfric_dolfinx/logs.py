@@ -216,7 +216,14 @@ def launcher_rank() -> int:
 
 
 _LAUNCHER_PREFIXES = ("OMPI_", "PMI_", "PMIX_", "PRTE_", "HYDRA_")
-_LAUNCHER_KEEP = {"OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "OMPI_MCA_btl"}
+_LAUNCHER_KEEP = {
+    "OMPI_ALLOW_RUN_AS_ROOT",
+    "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM",
+    "OMPI_MCA_btl",
+    "PRTE_MCA_hwloc_default_binding_policy",
+    "PRTE_MCA_bindto",
+    "OMPI_MCA_mpi_yield_when_idle",
+}
 
 
 def singleton_environment() -> dict[str, str]:
@@ -224,7 +231,7 @@ def singleton_environment() -> dict[str, str]:
 
     A child started from an MPI rank would otherwise try to join the parent's job; without them
     it starts as an MPI singleton (or as its own ``mpirun``). Open MPI's settings that are not
-    about the job (running as root, the transport) are kept.
+    about the job (running as root, the transport, binding to cores, yielding when idle) are kept.
     """
     return {
         k: v

@@ -57,6 +57,9 @@ SMALL = {
         ["--n", "4", "--cycles", "1", "--steps", "4", "--no-subloading"],
         ["coulomb.csv", "fretting.png"],
     ),
+    "block_sliding_far": (
+        ["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]
+    ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],

@@ -373,3 +373,25 @@ def test_builder_mesh_size_sets_interface_count(comm):
     )
     assert im.num_interface_facets == info.num_interface_facets == 4
     assert info.h == pytest.approx(0.25)
+
+
+def test_a_mesh_is_partitioned_the_same_way_every_time(comm, monkeypatch):
+    """Debian sid's PT-Scotch partitions with threads and differs from call to call (2 ranks,
+    block mesh: rank 0 owned 162, 164 or 152 dofs' worth of cells): the package's mesh functions
+    partition with one Scotch thread unless the user chose otherwise, and restore the variable.
+    Without it this test failed in 4 of 4 runs on sid (2 ranks)."""
+    from subfric_dolfinx import compat
+
+    monkeypatch.delenv("SCOTCH_PTHREAD_NUMBER", raising=False)
+    parts = []
+    for _ in range(8):
+        im, _ = M.create_interface_mesh(M.build_block_on_base, comm, n_interface=8)
+        top = im.mesh.topology
+        n = top.index_map(im.tdim).size_local
+        parts.append(np.sort(np.asarray(top.original_cell_index)[:n]))
+        assert "SCOTCH_PTHREAD_NUMBER" not in compat.os.environ
+    same = all(np.array_equal(p, parts[0]) for p in parts)
+    assert everywhere(comm, same), [len(p) for p in parts]
+    monkeypatch.setenv("SCOTCH_PTHREAD_NUMBER", "2")
+    with compat.repeatable_partitions():
+        assert compat.os.environ["SCOTCH_PTHREAD_NUMBER"] == "2"  # the user's choice is kept

@@ -7,7 +7,7 @@ and the interface points, a checkpoint at every step), fresh or restarted. The r
 on without touching the target (a fresh run moves a link named like its files to
 ``previous_run/``, as a link; a rename replaces a link, not its target; a temporary name is
 removed first) or is refused on every rank, naming the link. ``previous_run/`` holding a
-user's files is never deleted. 1 and 2 ranks.
+user's files, or made by the user, is never deleted. 1 and 2 ranks.
 """
 
 from __future__ import annotations
@@ -166,23 +166,60 @@ def test_a_restart_never_writes_through_a_link(place, name, to, refused):
 def test_previous_run_of_the_user_is_not_deleted(place):
     """A directory previous_run/ with a file this code does not write (the user's notes): a
     fresh run that would replace it is refused on every rank, naming it; nothing is deleted.
-    One with only a run's files is replaced as before."""
+    One the user made that holds only names of a run's files (issue 23, item 7: the user's own
+    earlier results, deleted with rmtree before) is refused too: this code replaces only the
+    previous_run/ it made (marked) or an empty one."""
     out, *_ = place
     comm = MPI.COMM_WORLD
+    prev = out / "previous_run"
 
     def setup():
-        (out / "previous_run").mkdir()
-        (out / "previous_run" / "notes.txt").write_text(PRECIOUS)
+        prev.mkdir()
+        (prev / "notes.txt").write_text(PRECIOUS)
+        (prev / "history.csv").write_text(PRECIOUS)
         (out / "history.csv").write_text("an earlier run\n")
 
     on_root(comm, setup)
     with raised_on_every_rank(OutputError, "previous_run", "notes.txt", "not deleted"):
         fresh(out)
-    on_root(comm, lambda: (out / "previous_run" / "notes.txt").read_text() == PRECIOUS or 1 / 0)
-    on_root(comm, lambda: (out / "previous_run" / "notes.txt").unlink())
-    fresh(out)
-    fresh(out)  # previous_run/ holds the first run's files only: replaced
+    on_root(comm, lambda: (prev / "notes.txt").read_text() == PRECIOUS or 1 / 0)
+    on_root(comm, lambda: (prev / "notes.txt").unlink())
+    with raised_on_every_rank(
+        OutputError, repr(str(prev)), "was not made by this code", "not deleted"
+    ):
+        fresh(out)
+    on_root(comm, lambda: (prev / "history.csv").read_text() == PRECIOUS or 1 / 0)
+    on_root(comm, lambda: (prev / "history.csv").unlink())
+    fresh(out)  # an empty previous_run/ is replaced: nothing lost
+    fresh(out)  # previous_run/ holds the first run's files only, and the mark: replaced
     on_root(
         comm,
-        lambda: "checkpoint.h5" in os.listdir(out / "previous_run") or pytest.fail("not moved"),
+        lambda: (
+            {"checkpoint.h5", ".made-by-subfric-dolfinx"} <= set(os.listdir(prev))
+            or pytest.fail("not moved")
+        ),
     )
+    # a file of the user's among the fields this code moved there (a ParaView state)
+    on_root(comm, lambda: (prev / "fields" / "view.pvsm").write_text(PRECIOUS))
+    with raised_on_every_rank(OutputError, "fields/view.pvsm", "not deleted"):
+        fresh(out)
+    on_root(comm, lambda: (prev / "fields" / "view.pvsm").read_text() == PRECIOUS or 1 / 0)
+
+
+@pytest.mark.parametrize("fields", ["vtx", "xdmf"])
+def test_every_field_file_a_run_writes_is_known_as_its_own(shared_tmp, fields):
+    """``previous_run/fields/`` is replaced only if it holds names this code writes: every file
+    of a run with every field output (displacement, interfaces, their points, stress) is one."""
+    from subfric_dolfinx.io.outdir import FIELD_NAMES
+
+    out = shared_tmp / fields
+    run_scene(scene(fields=fields), outdir=out, comm=MPI.COMM_WORLD)
+
+    def names():
+        found = sorted(os.listdir(out / "fields"))
+        assert {"displacement", "interface", "interface_points", "stress"} <= {
+            n.split(".")[0] for n in found
+        }, found
+        return [n for n in found if not FIELD_NAMES.fullmatch(n)]
+
+    assert on_root(MPI.COMM_WORLD, names) == []

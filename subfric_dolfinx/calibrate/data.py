@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import SubloadingLaw
-from ..driver.case import CaseError, _number, _short, _table_spec, read_json, read_table
+from ..driver.case import CaseError, _number, _table_spec, read_json, read_table
+from ..driver.text import short_repr
 
 __all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
 
@@ -75,14 +76,14 @@ def _num(where: str, v: Any, *, allow_none: bool = False) -> float | None:
 
 def _numbers(where: str, v: Any) -> np.ndarray:
     if not isinstance(v, list):
-        raise CalibrationError(f"field '{where}' must be a list of numbers, got {_short(v)}")
+        raise CalibrationError(f"field '{where}' must be a list of numbers, got {short_repr(v)}")
     return np.array([_num(f"{where}[{i}]", x) for i, x in enumerate(v)], dtype=float)
 
 
 def _curve(i: int, c: Any, base: str | Path | None) -> Curve:
     w = f"curves[{i}]"
     if not isinstance(c, dict):
-        raise CalibrationError(f"field '{w}' must be an object, got {_short(c)}")
+        raise CalibrationError(f"field '{w}' must be an object, got {short_repr(c)}")
     unknown = sorted(set(c) - {"f_n", "velocity", "slip", "f_t", "csv", "columns"})
     if unknown:
         raise CalibrationError(f"field '{w}': unknown keys {unknown}; allowed: f_n, velocity, "
@@ -156,7 +157,7 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
     raw = obj.get("params")
     if not isinstance(raw, dict):
         raise CalibrationError(f"field 'params' must be an object with all eight parameters "
-                               f"{', '.join(NAMES)}; got {_short(raw)}")  # fmt: skip
+                               f"{', '.join(NAMES)}; got {short_repr(raw)}")  # fmt: skip
     unknown = sorted(set(raw) - set(NAMES))
     if unknown:
         raise CalibrationError(f"field 'params': unknown parameter names {unknown}; the eight "
@@ -173,7 +174,7 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
     fit = obj.get("fit")
     if not isinstance(fit, list) or not fit or not all(isinstance(k, str) for k in fit):
         raise CalibrationError(f"field 'fit' must be a non-empty list of parameter names, got "
-                               f"{_short(fit)}")  # fmt: skip
+                               f"{short_repr(fit)}")  # fmt: skip
     bad = [k for k in fit if k not in NAMES]
     if bad:
         raise CalibrationError(f"field 'fit': unknown parameter names {bad}; the eight are "
@@ -184,7 +185,7 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
     rb = obj.get("bounds", {})
     if not isinstance(rb, dict):
         raise CalibrationError(f"field 'bounds' must be an object {{name: [lo, hi]}}, got "
-                               f"{_short(rb)}")  # fmt: skip
+                               f"{short_repr(rb)}")  # fmt: skip
     bad = sorted(set(rb) - set(fit))
     if bad:
         raise CalibrationError(f"field 'bounds': {bad} not fitted (bounds only for names in "
@@ -196,7 +197,7 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
             b = rb[k]
             if not isinstance(b, list) or len(b) != 2:
                 raise CalibrationError(f"field 'bounds.{k}' must be [lo, hi] (null: no bound), "
-                                       f"got {_short(b)}")  # fmt: skip
+                                       f"got {short_repr(b)}")  # fmt: skip
             lo_, hi_ = (_num(f"bounds.{k}[{j}]", b[j], allow_none=True) for j in (0, 1))
             lo = 0.0 if lo_ is None else lo_
             hi = math.inf if hi_ is None else hi_

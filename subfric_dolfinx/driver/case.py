@@ -10,7 +10,6 @@ import dataclasses
 import io
 import json
 import math
-import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import FrictionLaw, LawError, build_law
+from .text import short_repr
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -54,24 +54,17 @@ class Case:
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
 
 
-def _short(v: Any, n: int = 60) -> str:
-    """``repr(v)`` cut to ``n`` characters (a 400-digit integer is not echoed whole)."""
-    try:
-        r = repr(v)
-    except ValueError:  # an int beyond Python's digit limit for str()
-        return f"<int of more than {sys.get_int_max_str_digits()} digits>"
-    return r if len(r) <= n else r[: n - 3] + "..."
 
 
 def _number(where: str, v: Any) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise CaseError(f"field '{where}' must be a number, got {_short(v)}")
+        raise CaseError(f"field '{where}' must be a number, got {short_repr(v)}")
     try:
         x = float(v)
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
-        raise CaseError(f"field '{where}' must be finite, got {_short(v)}")
+        raise CaseError(f"field '{where}' must be finite, got {short_repr(v)}")
     return x
 
 
@@ -120,7 +113,7 @@ def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
     for i, row in enumerate(raw):
         if not isinstance(row, list) or len(row) != 4:
             raise CaseError(
-                f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {_short(row)}"
+                f"field 'path[{i}]' must be a row [t, x1, x2, ubar_n], got {short_repr(row)}"
             )
         rows.append([_number(f"path[{i}][{j}]", v) for j, v in enumerate(row)])
     return rows
@@ -132,12 +125,13 @@ def _table_spec(raw: dict, where: str, names: tuple[str, ...]) -> dict[str, str]
     if unknown:
         raise CaseError(f"field '{where}': unknown keys {unknown}; allowed: csv, columns")
     if not isinstance(raw.get("csv"), str) or not raw["csv"]:
-        raise CaseError(f"field '{where}.csv' must be a file name, got {_short(raw.get('csv'))}")
+        got = short_repr(raw.get("csv"))
+        raise CaseError(f"field '{where}.csv' must be a file name, got {got}")
     cols = raw.get("columns", {})
     if not isinstance(cols, dict) or not all(isinstance(v, str) for v in cols.values()):
         raise CaseError(
             f"field '{where}.columns' must map names to the file's column headers, got "
-            f"{_short(cols)}"
+            f"{short_repr(cols)}"
         )
     bad = sorted(set(cols) - set(names))
     if bad:
@@ -209,7 +203,7 @@ def read_table(
             where[name] = header.index(head)
         elif required:
             raise CaseError(f"{what}: {str(p)!r} has no column {head!r}; its columns: "
-                            f"{_short(header, 200)}")  # fmt: skip
+                            f"{short_repr(header, 200)}")  # fmt: skip
     out = {name: np.empty(len(rows) - 1) for name in where}
     for k, row in enumerate(rows[1:]):
         line = lines[k + 1][0]
@@ -224,7 +218,7 @@ def read_table(
                 x = math.nan
             if not math.isfinite(x) or not cell:
                 raise CaseError(f"{what}: {str(p)!r} line {line}, column {header[j]!r}: "
-                                f"{_short(cell)} is not a finite number")  # fmt: skip
+                                f"{short_repr(cell)} is not a finite number")  # fmt: skip
             out[name][k] = x
     return out
 
@@ -240,10 +234,10 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         raise CaseError(str(e)) from None
     control = obj.get("control")
     if not isinstance(control, str) or control not in ("disp", "stress"):
-        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {_short(control)}")
+        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {short_repr(control)}")
     nt = obj.get("n_tangential", 2)
     if isinstance(nt, bool) or not isinstance(nt, int | float) or nt not in (1, 2):
-        raise CaseError(f"field 'n_tangential' must be 1 or 2, got {_short(nt)}")
+        raise CaseError(f"field 'n_tangential' must be 1 or 2, got {short_repr(nt)}")
     path = np.array(_path_rows(obj.get("path"), int(nt), base))
     for i in range(1, len(path)):
         if not path[i, 0] > path[i - 1, 0]:
@@ -275,28 +269,53 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
     return Case(law, control, path, samples, int(nt), spm)
 
 
-class _DuplicateKey(Exception):
-    def __init__(self, key: str, siblings: list[str]) -> None:
-        super().__init__(key)
-        self.key, self.siblings = key, siblings
+class _Twice(dict):
+    """A JSON object with a key given twice: the first value of each key, and which key."""
+
+    key: str
+    siblings: list[str]
 
 
-def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """A JSON object's dict, refusing a key given twice (``json.loads`` keeps the last)."""
-    out: dict[str, Any] = {}
+def _object(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object's dict; one with a key given twice is marked.
+
+    ``json.loads`` would keep the last value silently; here the object's place in the file is not
+    known yet (:func:`_find_twice` finds it once the file is parsed).
+    """
+    out = dict(pairs)
+    if len(out) == len(pairs):
+        return out
+    seen: set[str] = set()
+    key = next(k for k, _ in pairs if k in seen or seen.add(k))
+    marked = _Twice()
     for k, v in pairs:
-        if k in out:
-            raise _DuplicateKey(k, [key for key, _ in pairs if key != k])
-        out[k] = v
-    return out
+        marked.setdefault(k, v)  # the first value of each key
+    marked.key, marked.siblings = key, [k for k in out if k != key]
+    return marked
 
 
-def read_json(path: str | Path, what: str = "case file") -> Any:
+def _find_twice(obj: Any, root: str) -> tuple[str, _Twice] | None:
+    """The first object (in the file's order) with a key given twice, and its key path."""
+    stack = [(obj, root)]
+    while stack:
+        o, where = stack.pop()
+        if isinstance(o, _Twice):
+            return f"{where}.{o.key}" if where else o.key, o
+        if isinstance(o, dict):
+            stack.extend((v, f"{where}.{k}" if where else k) for k, v in reversed(o.items()))
+        elif isinstance(o, list):
+            stack.extend((v, f"{where}[{i}]") for i, v in reversed(list(enumerate(o))))
+    return None
+
+
+def read_json(path: str | Path, what: str = "case file", root: str = "") -> Any:
     """Read a JSON file defensively: every malformed file gives one :class:`CaseError`.
 
     Args:
         path: The file.
         what: How the message calls it (``"case file"``, ``"data file"``).
+        root: How a message names the top-level object in a key path (``"scene"`` makes
+            ``scene.solver.dt``; by default ``solver.dt``).
 
     Raises:
         CaseError: Unreadable, a directory, larger than ``MAX_CASE_BYTES``, not UTF-8, invalid
@@ -325,12 +344,7 @@ def read_json(path: str | Path, what: str = "case file") -> Any:
         )
 
     try:
-        obj = json.loads(text, object_pairs_hook=_unique_keys)
-    except _DuplicateKey as e:
-        raise CaseError(
-            f"{what} {str(p)!r} has the key {_short(e.key)} twice in one object (beside "
-            f"{_short(e.siblings)}): JSON would keep the last one silently"
-        ) from None
+        obj = json.loads(text, object_pairs_hook=_object)
     except json.JSONDecodeError as e:
         raise CaseError(f"{what} {str(p)!r} is not valid JSON: {e}") from None
     except RecursionError:  # Python <= 3.13's parser recurses; 3.14's does not
@@ -340,6 +354,13 @@ def read_json(path: str | Path, what: str = "case file") -> Any:
     deep = _too_deep(obj, MAX_JSON_DEPTH)
     if deep is not None:
         raise too_deep(deep)
+    twice = _find_twice(obj, root)
+    if twice is not None:
+        where, o = twice
+        raise CaseError(
+            f"{what} {str(p)!r} has the key {short_repr(o.key)} twice in one object: {where} "
+            f"(beside {short_repr(o.siblings)}): JSON would keep the last one silently"
+        )
     return obj
 
 

@@ -37,7 +37,7 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
     candidate = None
     ifaces = problem.interfaces
     for iname, iface in ifaces.items():
-        el = getattr(iface, "elements", iface)
+        el = iface.law_points
         res = el.last
         if res is None or not res.status.size:
             continue
@@ -100,7 +100,7 @@ def interface_activity(problem: Any) -> tuple[float, float]:
     """
     local = np.zeros(3)
     for iface in problem.interfaces.values():  # every interface's points together
-        el = getattr(iface, "elements", iface)  # finite sliding: the interface holds them
+        el = iface.law_points
         res = el.last
         if res is None or not res.status.size:
             continue

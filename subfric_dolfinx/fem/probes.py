@@ -154,7 +154,7 @@ class InterfacePointProbe:
     """The interface quadrature point nearest to each of some points (collective).
 
     Args:
-        element: The :class:`~subfric_dolfinx.fem.interface.InterfaceElements`.
+        element: The interface's law points (:class:`~.interface.protocol.LawPoints`).
         points: Coordinates (n, gdim or more).
 
     Attributes:
@@ -164,7 +164,7 @@ class InterfacePointProbe:
     def __init__(self, element: Any, points: np.ndarray) -> None:
         self.el = element
         gdim = element.gdim
-        self.comm = element.pairs.submesh.comm
+        self.comm = element.comm
         x = np.atleast_2d(np.asarray(points, dtype=float))[:, :gdim]
         qp = element.points.reshape(-1, gdim)
         tol = element.coordinate_tolerance

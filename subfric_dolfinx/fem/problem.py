@@ -89,8 +89,9 @@ class InterfaceProblem:
 
     Attributes:
         interfaces: Interface name -> :class:`~.interface.FrictionInterface`.
-        interface: The first interface's :class:`~.interface.InterfaceElements` (the only one of a
-            two-body problem).
+        interface: The first interface's law points (:class:`~.interface.protocol.LawPoints`: its
+            :class:`~.interface.InterfaceElements` with small sliding, the interface itself with
+            finite sliding), the only one of a two-body problem.
         law: The first interface's law.
 
     Raises:
@@ -160,8 +161,8 @@ class InterfaceProblem:
                     self.timings,
                 )  # fmt: skip
             first = next(iter(self.interfaces.values()))
-            self.pairs = getattr(first, "pairs", None)
-            self.interface = getattr(first, "elements", first)
+            self.pairs = first.pairs  # None with finite sliding (no fixed pairs)
+            self.interface = first.law_points
             self.law = first.law
             self.layout = layout_of(V, list(self.interfaces.values()))
             self._layout_versions = self._versions()
@@ -228,7 +229,7 @@ class InterfaceProblem:
 
     # ------------------------------------------------------------------------------------------
     def _versions(self) -> tuple[int, ...]:
-        return tuple(getattr(i, "layout_version", 0) for i in self.interfaces.values())
+        return tuple(i.layout_version for i in self.interfaces.values())
 
     def _build_matrices(self) -> None:
         """The bulk stiffness (and scale) on the current layout's pattern (collective)."""
@@ -323,7 +324,7 @@ class InterfaceProblem:
             force = force.copy()
             for iface in ifaces[1:]:
                 force += iface.forces()
-        offs = [i.round_off for i in ifaces if getattr(i, "round_off", None) is not None]
+        offs = [i.round_off for i in ifaces if i.round_off is not None]
         self.interface_round_off = sum(offs) if offs else None
         self.interface_force = force
         Fa = F.array_w
@@ -404,6 +405,16 @@ class InterfaceProblem:
         for iface in self.interfaces.values():
             iface.revert()
         self.bulk.revert()
+        self._x_at_update = None
+
+    def resume(self) -> None:
+        """Continue from a restored state (:attr:`u` and every interface's committed state).
+
+        Collective: a finite-sliding interface searches from it at the next step.
+        """
+        n = self.layout.n_owned
+        for iface in self.interfaces.values():
+            iface.resume(self.u.x.array[:n])
         self._x_at_update = None
 
     def create_matrix(self) -> PETSc.Mat:

@@ -25,6 +25,11 @@ a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
   idealisation (exact for a uniformly loaded flat interface, not where the contact's state
   varies over the slide, e.g. near its edges).
 
+A finite-sliding interface (:class:`~subfric_dolfinx.fem.interface.SlidingInterface`) is a
+penalty layer too, and its penetration is judged the same way (``h`` its secondary facets); its
+slide is not: its points are paired again in the current configuration as they slide, so no
+traction acts where the bodies no longer touch.
+
 A problem of several interfaces has one watch per interface (the
 :class:`~subfric_dolfinx.fem.LoadStepper` keeps them all); each uses the contact modulus of its
 own two bodies and names its interface in its warnings. A user bulk law without
@@ -123,9 +128,12 @@ class ValidityWatch:
         if self.interface not in ifaces:
             raise KeyError(f"no interface {self.interface!r}; the problem has {list(ifaces)}")
         self._named = len(ifaces) > 1
-        el = self._elements = ifaces[self.interface].elements
+        iface = ifaces[self.interface]
+        el = self._elements = iface.law_points
+        # the slide matters where the pairs stay; finite sliding re-pairs as the bodies move
+        self.slides_small = iface.kinematics == "small_sliding"
         self.gdim = el.gdim
-        area = el.weights.sum(axis=1)  # length (2-D), area (3-D) of each element
+        area = el.weights.reshape(-1, el.nq).sum(axis=1)  # length (2-D), area (3-D) per facet
         dim = max(self.gdim - 1, 1)
         self.h = np.repeat(area ** (1.0 / dim), el.nq)  # element size at each point
         self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)
@@ -154,7 +162,7 @@ class ValidityWatch:
         es = self.contact_modulus or 0.0
         layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
         pen = layer / self.tolerance
-        slide = np.linalg.norm(gap[:, :nt], axis=1)
+        slide = np.linalg.norm(gap[:, :nt], axis=1) if self.slides_small else np.zeros(n)
         checks = {  # name -> (ratio, value, what selects the worst point)
             "penetration": (pen, un, np.where(pen > 1.0, un, -np.inf)),
             "slide": (slide / (SLIDE_ELEMENTS * self.h), slide, slide / self.h),

@@ -3,7 +3,7 @@
 * :mod:`.gather`: :func:`gather_interface`, interface values of all ranks in one deterministic
   order.
 * :mod:`.summary`: :func:`interface_summary`, resultant forces and area-weighted means.
-* :mod:`.history`: :class:`HistoryCSV`, one row per converged step.
+* :mod:`.history`: :class:`HistoryCSV`, one row per converged step (:class:`HistoryRows`).
 * :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView.
 * :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
   as a point-cloud time series (XDMF/HDF5) for ParaView.
@@ -28,7 +28,7 @@ from .checkpoint import (
 from .collective import OutputError, probe_directory
 from .fields import FieldWriter
 from .gather import gather_interface, interface_of, interface_order
-from .history import HistoryCSV
+from .history import HistoryCSV, HistoryRows
 from .interface_history import InterfaceHistoryH5
 from .outdir import OutputDirectory
 from .points import InterfacePointsXDMF, PointCloudError
@@ -39,6 +39,7 @@ __all__ = [
     "CheckpointWriteError",
     "FieldWriter",
     "HistoryCSV",
+    "HistoryRows",
     "InterfaceHistoryH5",
     "InterfacePointsXDMF",
     "OutputDirectory",

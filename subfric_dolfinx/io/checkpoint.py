@@ -7,7 +7,11 @@ ranks restarts on 1 or 2 (format version 2):
   ``(n_cells, n_dofs_per_cell, gdim)``;
 * ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
   ``up``, ``mu``, ``r``): the committed interface state per quadrature point, in the order of
-  :func:`~.gather.gather_interface` (points sorted by rounded coordinates);
+  :func:`~.gather.gather_interface` (points sorted by rounded coordinates); a finite-sliding
+  interface adds its points' total tangential gap ``sliding_ut`` and frame normals
+  ``sliding_normal``
+  (:meth:`~subfric_dolfinx.fem.interface.SlidingInterface.saved_state`: its points are the
+  slave facets', and the master facet each faces is found again from the displacement);
 * ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
   initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
   restarts only with the same initial gap and regions);
@@ -112,14 +116,13 @@ def write_checkpoint(
     cells, dofs, n_cells = _cell_dofs(problem)
     u = problem.u.x.array.reshape(-1, gdim)
     el = problem.interface
-    st = el.state.old
     rows, n_points = interface_rows(el)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
     pts = el.points.reshape(-1, gdim)
     blocks = {"x": push(comm, rows, pts, n_points)}
-    for name in st.names:
-        blocks[name] = push(comm, rows, st[name], n_points)
+    for name, a in el.saved_state().items():
+        blocks[name] = push(comm, rows, a, n_points)
     pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
     extras = extra_parts(problem, cells, n_cells)  # more interfaces, the bulk state
     cols = list(history[0]) if history else []
@@ -150,8 +153,9 @@ def write_checkpoint(
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
         g = f.create_group("interface")
         g.create_dataset("x", (n_points, gdim), **kw)
-        for name in st.names:
-            g.create_dataset(name, (n_points, *st[name].shape[1:]), **kw)
+        for name, b in blocks.items():
+            if name != "x":
+                g.create_dataset(name, (n_points, *b.shape[1:]), **kw)
         pd = f.create_group("point_data")
         for name in pblocks:
             pd.create_dataset(name, (n_points,), **kw)
@@ -350,8 +354,8 @@ def restore_checkpoint(
                 f"checkpoint {name} was written with {label or key} = {json.dumps(theirs)}, "
                 f"this run has {json.dumps(ours)}"
             )
-    st = el.state.old
-    want = {v: (n_points, *st[v].shape[1:]) for v in st.names}
+    saved = el.saved_state()
+    want = {v: (n_points, *a.shape[1:]) for v, a in saved.items()}
     for v, shape in want.items():
         got = ck.interface.get(v)
         if got is None:
@@ -377,10 +381,11 @@ def restore_checkpoint(
             "(another mesh or quadrature)"
         )
     compare_point_data(name, el, ck.point_data, rows, n_points, comm)
-    for v in st.names:
-        st[v][:] = pull(comm, rows, ck.interface[v], n_points)
-    el.state.revert()  # trial = committed
+    el.restore_state(
+        {v: pull(comm, rows, ck.interface[v], n_points).reshape(a.shape) for v, a in saved.items()}
+    )  # trial = committed
     restore_extras(name, problem, ck.extras, cells, n_cells)
+    problem.resume()
     dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
     stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
     return ck.history

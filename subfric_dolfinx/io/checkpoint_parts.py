@@ -81,12 +81,11 @@ def extra_parts(problem: Any, cells: np.ndarray, n_cells: int) -> ExtraParts:
     ifaces = list(getattr(problem, "interfaces", {}).items())[1:]
     out: dict[str, tuple[int, str, dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
     for name, iface in ifaces:
-        el = iface.elements
+        el = iface.law_points
         rows, n_points = interface_rows(el)
         blocks = {"x": push(comm, rows, el.points.reshape(-1, el.gdim), n_points)}
-        st = el.state.old
-        for v in st.names:
-            blocks[v] = push(comm, rows, st[v], n_points)
+        for v, a in el.saved_state().items():
+            blocks[v] = push(comm, rows, a, n_points)
         pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
         out[name] = (n_points, json.dumps(law_description(iface.law)), blocks, pblocks)
     bulk = {k: push(comm, cells, a, n_cells) for k, a in _bulk_state(problem, cells.size).items()}
@@ -168,7 +167,7 @@ def restore_extras(
         if stored is None:
             raise CheckpointError(f"checkpoint {name} lacks the interface {iname!r}")
         n_stored, law, data, pdata = stored
-        el = iface.elements
+        el = iface.law_points
         rows, n_points = interface_rows(el)
         if n_stored != n_points:
             raise CheckpointError(
@@ -192,12 +191,12 @@ def restore_extras(
                 f"{bad} points of the interface {iname!r} are not in the checkpoint {name}"
             )
         compare_point_data(name, el, pdata, rows, n_points, comm)
-        st = el.state.old
-        for v in st.names:
+        arrays = {}
+        for v, mine in el.saved_state().items():
             if v not in data:
                 raise CheckpointError(f"checkpoint {name} lacks the variable {v!r} of {iname!r}")
-            st[v][:] = pull(comm, rows, data[v], n_points).reshape(st[v].shape)
-        el.state.revert()
+            arrays[v] = pull(comm, rows, data[v], n_points).reshape(mine.shape)
+        el.restore_state(arrays)
     state = _bulk_state(problem, cells.size)
     if set(state) != set(extras["bulk"]):
         raise CheckpointError(

@@ -15,15 +15,20 @@ Failures are collective (:mod:`.collective`): the directory is created and probe
 every write ends with the ranks agreeing on its outcome. ADIOS2 (VTX) and DOLFINx's HDF5 (XDMF)
 write collectively: a full disk stops one rank inside an MPI collective where the others wait
 for it (measured: a hang, then SIGABRT at exit). So before each write rank 0 checks that the
-file system has room for about twice what a step takes (estimated from the mesh sizes, then
-measured on the steps written) plus 1 MiB, and ends the run with an
-:class:`~.collective.OutputError` on every rank when it has not. A disk filled by another
-process between that check and the write is not covered.
+file system has room for :meth:`FieldWriter.space_needed`: four times what a step takes
+(``step_bytes``, twice the largest step: estimated from the mesh sizes, then measured on the
+steps written) plus :data:`MARGIN` (64 KiB: what closing the files adds, ``profiling.json`` of
+ADIOS2, HDF5's metadata, the end of the XDMF file), and ends the run with an
+:class:`~.collective.OutputError` on every rank when it has not. The room asked for grows with
+the step (a fixed 1 MiB refused a 100 kB step with 1 MB free): measured, ADIOS2 (BP4) writes a
+step's data and metadata at the step, and closing adds a few hundred bytes. A disk filled by
+another process between that check and the write is not covered.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +45,8 @@ from .units import FRAME, interface_units, status_legend
 
 __all__ = ["FieldWriter"]
 
-MARGIN = 1 << 20  # bytes left free beyond the estimate of a step
+MARGIN = 64 << 10
+"""Bytes asked for beyond the steps' share (:meth:`FieldWriter.space_needed`): the files' close."""
 
 
 def _mesh_bytes(mesh: Any) -> int:
@@ -70,9 +76,13 @@ class FieldWriter:
         fmt: ``"vtx"`` (``displacement.bp``, ``interface.bp``) or ``"xdmf"``
             (``displacement.xdmf``, ``interface.xdmf``); with several interfaces one file each,
             ``interface_<name>.bp`` (``.xdmf``).
+        extra_step_bytes: What the writes passed to :meth:`write` as ``also`` add per step
+            (an estimate, for the first step's space check; later steps are measured).
     """
 
-    def __init__(self, directory: str | Path, problem: Any, fmt: str = "vtx") -> None:
+    def __init__(
+        self, directory: str | Path, problem: Any, fmt: str = "vtx", extra_step_bytes: int = 0
+    ) -> None:
         if fmt not in ("vtx", "xdmf"):
             raise ValueError(f"output format must be 'vtx' or 'xdmf', got {fmt!r}")
         comm = problem.comm
@@ -113,15 +123,24 @@ class FieldWriter:
             sub = el.submesh
             n_sub = sub.topology.index_map(sub.topology.dim).size_global
             sub_bytes += _mesh_bytes(sub) + 24 * n_sub * len(fields)
-        self.step_bytes = 2 * (_mesh_bytes(problem.mesh) + 24 * n_u + sub_bytes)
+        self.step_bytes = 2 * (_mesh_bytes(problem.mesh) + 24 * n_u + sub_bytes + extra_step_bytes)
         self._wu: Any = None
         self._wi: Any = None
         self._u = u
-        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("creating"))
+        ensure_space(comm, self.dir, self.space_needed(), self._what("creating"))
         collective(
             comm, lambda: self._open(fmt), self._what("creating"), root=None,
             path=self.dir / "displacement", cleanup=self.abandon,
         )  # fmt: skip
+
+    def space_needed(self) -> int:
+        """The free bytes a write asks for: ``2 step_bytes + MARGIN``.
+
+        ``step_bytes`` is twice the largest step (estimated, then measured); twice that again
+        leaves room for the close after the step and for the next step's check to see the disk
+        filling before it is full.
+        """
+        return 2 * self.step_bytes + MARGIN
 
     def _what(self, verb: str, t: float | None = None) -> str:
         at = "" if t is None else f" at t = {t:.6g}"
@@ -203,8 +222,14 @@ class FieldWriter:
         for k, a in el.point_data.items():
             fields[k].x.array[:] = avg(a)
 
-    def write(self, t: float) -> None:
+    def write(self, t: float, also: Sequence[Callable[[], None]] = ()) -> None:
         """Write the current (converged) state at time ``t`` (collective).
+
+        Args:
+            t: The time.
+            also: Other collective writes into the same directory at this step (e.g. the
+                bodies' stress), made after these fields under the same space check and
+                collective error handling, and counted in what a step takes.
 
         Raises:
             OutputError: On every rank: too little space left, or the write failed.
@@ -215,7 +240,7 @@ class FieldWriter:
         self._update()
         if self._u is not self.problem.u:
             self._u.interpolate(self.problem.u)
-        ensure_space(comm, self.dir, self.step_bytes + MARGIN, self._what("writing", t))
+        ensure_space(comm, self.dir, self.space_needed(), self._what("writing", t))
         before = _dir_bytes(self.dir) if comm.rank == 0 else 0
 
         def write() -> None:
@@ -228,6 +253,8 @@ class FieldWriter:
                 for w, (_, _, _, fields) in zip(self._wi, self.parts, strict=True):
                     for f in fields.values():
                         w.write_function(f, t)
+            for other in also:
+                other()
 
         collective(
             comm, write, self._what("writing", t), root=None,

@@ -20,7 +20,9 @@ __all__ = ["gather_interface", "interface_of", "interface_order"]
 
 
 def interface_of(problem: Any, interface: str | None = None) -> tuple[Any, Any]:
-    """The :class:`~subfric_dolfinx.fem.interface.InterfaceElements` and law of an interface.
+    """The law's points and law of an interface.
+
+    The points: :class:`~subfric_dolfinx.fem.interface.protocol.LawPoints`.
 
     Args:
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
@@ -38,7 +40,7 @@ def interface_of(problem: Any, interface: str | None = None) -> tuple[Any, Any]:
         iface = ifaces[interface]
     else:
         raise KeyError(f"no interface {interface!r}; interfaces: {sorted(ifaces)}")
-    return iface.elements, iface.law
+    return iface.law_points, iface.law
 
 
 def interface_order(x: np.ndarray, tol: float) -> np.ndarray:
@@ -55,7 +57,8 @@ def gather_interface(
     """Values at the interface points of all ranks, in the documented order (collective).
 
     Args:
-        element: The :class:`~subfric_dolfinx.fem.interface.InterfaceElements` of this rank.
+        element: The interface's law points on this rank
+            (:class:`~subfric_dolfinx.fem.interface.protocol.LawPoints`).
         values: Name -> array whose first axis runs over this rank's points (``n_elements * nq``).
         root: Gather on this rank only (the others get ``None``); on every rank when ``None``.
 
@@ -63,7 +66,7 @@ def gather_interface(
         ``"x"`` (the points' coordinates, (n, gdim)) and every name of ``values``, over all
         points in order.
     """
-    comm = element.pairs.submesh.comm
+    comm = element.comm
     gdim = element.gdim
     x = element.points.reshape(-1, gdim)
     n = x.shape[0]

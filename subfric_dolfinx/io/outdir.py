@@ -18,10 +18,15 @@ the first step:
    (:data:`RUN_FILES`: ``history.csv`` and its units, ``interface_history.h5``,
    ``checkpoint.h5``, the ``fields`` directory, a stale ``checkpoint.h5.tmp``) into
    ``previous_run/``, replacing what was there: the directory then holds this run's files only,
-   and the last run's files are kept one generation. ``previous_run/`` is deleted only if it
-   holds nothing but such names: one that holds other files (the user's), or a regular file by
-   that name, is never deleted, the run is refused naming it. A restart continues the files it
-   finds (the interface history is cut back to the restart time). Other files are left alone.
+   and the last run's files are kept one generation. ``previous_run/`` is deleted only if this
+   code made it (it holds the mark :data:`PREVIOUS_MARK`, written when it was made) and it holds
+   nothing but such names, or if it is empty: one the user made (no mark: e.g. a directory
+   of the user's earlier results under that name), one that holds other files (the user's, at
+   its top or in its ``fields/``, e.g. a ParaView state saved beside the fields), or
+   a regular file by that name is never deleted, the run is refused naming it (a
+   ``previous_run/`` made by a version of this code before the mark is refused too: move it
+   or delete it). A restart continues the files it finds (the interface history is cut back to
+   the restart time). Other files are left alone.
 
 No file is ever created, truncated or written through a symbolic link (:mod:`.links`): the lock
 is opened with ``O_NOFOLLOW`` (a link there is refused, naming it), a link named like a run's
@@ -33,6 +38,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import re
 import shutil
 from pathlib import Path
 from types import TracebackType
@@ -41,10 +47,12 @@ from typing import Any
 from .collective import Failure, OutputError, collective, probe_directory
 from .links import open_nofollow
 
-__all__ = ["LOCK_NAME", "PREVIOUS", "RUN_FILES", "OutputDirectory"]
+__all__ = ["LOCK_NAME", "PREVIOUS", "PREVIOUS_MARK", "RUN_FILES", "OutputDirectory"]
 
 LOCK_NAME = ".subfric.lock"
 PREVIOUS = "previous_run"
+PREVIOUS_MARK = ".made-by-subfric-dolfinx"
+"""An empty file in ``previous_run/``: this code made the directory (and may replace it)."""
 RUN_FILES = (
     "history.csv",
     "history.csv-metadata.json",
@@ -54,6 +62,11 @@ RUN_FILES = (
     "fields",
 )
 """Names this code writes in an output directory (moved aside by a fresh run)."""
+
+FIELD_NAMES = re.compile(
+    r"(displacement|stress|interface(_points)?(_.+)?)\.(bp|xdmf|h5)|units\.json|\..+\.spare"
+)
+"""Names this code writes in ``fields/`` (VTX, XDMF and their HDF5 files; a killed run's spare)."""
 
 
 
@@ -143,12 +156,22 @@ class OutputDirectory:
         if prev.is_symlink():  # the link goes, never what it points to
             prev.unlink()
         elif prev.is_dir():
-            foreign = sorted(set(os.listdir(prev)) - set(RUN_FILES))
+            names = set(os.listdir(prev))
+            foreign = sorted(names - set(RUN_FILES) - {PREVIOUS_MARK})
+            fields = prev / "fields"
+            if fields.is_dir() and not fields.is_symlink():  # a link is removed, not followed
+                inside = os.listdir(fields)
+                foreign += sorted(f"fields/{n}" for n in inside if not FIELD_NAMES.fullmatch(n))
             if foreign:
                 raise Failure(
                     f"{str(prev)!r} holds files this code did not write ({', '.join(foreign[:3])}"
                     f"{', ...' if len(foreign) > 3 else ''}): not deleted; move or rename it, "
                     "or give another output directory"
+                )
+            if names and PREVIOUS_MARK not in names:
+                raise Failure(
+                    f"{str(prev)!r} was not made by this code (no {PREVIOUS_MARK} in it): not "
+                    "deleted; move or rename it, or give another output directory"
                 )
             shutil.rmtree(prev)  # never follows a link inside (the links themselves go)
         elif os.path.lexists(prev):
@@ -157,6 +180,7 @@ class OutputDirectory:
                 "it, or give another output directory"
             )
         prev.mkdir()
+        os.close(open_nofollow(prev / PREVIOUS_MARK, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
         for n in found:
             os.replace(self.path / n, prev / n)
         self.moved = found

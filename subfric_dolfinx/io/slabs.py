@@ -123,7 +123,7 @@ def interface_rows(element: Any) -> tuple[np.ndarray, int]:
     The rows are those of :func:`~.gather.gather_interface` (points sorted by rounded coordinates),
     so a file written in these rows does not depend on the partition.
     """
-    comm = element.pairs.submesh.comm
+    comm = element.comm
     gdim = element.gdim
     x = np.ascontiguousarray(element.points.reshape(-1, gdim), dtype=np.float64)
     counts = np.array(comm.allgather(x.shape[0]), dtype=np.int64)

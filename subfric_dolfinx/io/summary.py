@@ -21,10 +21,10 @@ def interface_summary(problem) -> dict[str, float]:
         return element_summary(problem.interface, problem.law, problem.comm)
     if len(ifaces) == 1:
         iface = next(iter(ifaces.values()))
-        return element_summary(getattr(iface, "elements", iface), iface.law, problem.comm)
+        return element_summary(iface.law_points, iface.law, problem.comm)
     out: dict[str, float] = {}
     for name, iface in ifaces.items():
-        part = element_summary(getattr(iface, "elements", iface), iface.law, problem.comm)
+        part = element_summary(iface.law_points, iface.law, problem.comm)
         out.update({f"{name}.{k}": v for k, v in part.items()})
     return out
 

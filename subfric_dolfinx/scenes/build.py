@@ -47,10 +47,7 @@ def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshi
             topo["bodies"] = {b: ([g] if isinstance(g, str) else list(g))
                               for b, g in scene.bodies.items()}  # fmt: skip
         if scene.interfaces:  # sides given, or None: found from the mesh
-            topo["interfaces"] = {
-                n: (spec.sides if spec.sides[0] is not None else None)
-                for n, spec in scene.interfaces.items()
-            }
+            topo["interfaces"] = {n: _mesh_sides(spec) for n, spec in scene.interfaces.items()}
     try:
         if spec.builder is not None:
             dom, _ = meshing.create_interface_mesh(
@@ -64,6 +61,18 @@ def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshi
         if spec.names or (scene is not None and (scene.bodies or scene.interfaces)):
             raise SceneError(f"scene.mesh: {e}") from None
         raise
+
+
+def _mesh_sides(spec: Any) -> Any:
+    """What the reader is told of an interface: its sides (``None``: the mesh's) and kind.
+
+    A finite-sliding interface's sides may be meshed independently: the reader is told so.
+    """
+    if spec.sides[0] is None:
+        return None
+    if spec.kinematics is None:
+        return spec.sides
+    return {"primary": spec.sides[0], "secondary": spec.sides[1], "kinematics": spec.kinematics}
 
 
 def _dirichlet(spec: DirichletSpec, gdim: int, path: str) -> Dirichlet:
@@ -142,7 +151,8 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
                     law=parse_law(spec.law) if spec.law is not None else None,
                     initial_gap=gap_function(gap, gdim, f"{path}.initial_gap"),
                     regions=parse_regions(regions, f"{path}.regions") or None,
-                    quadrature=spec.quadrature,
+                    quadrature=spec.quadrature, kinematics=spec.kinematics,
+                    search_radius=spec.search_radius, reach=spec.reach,
                 )
             )  # fmt: skip
     _check_material_names(scene, domain)

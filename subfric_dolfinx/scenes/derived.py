@@ -80,7 +80,7 @@ class DerivedOutputs:
                 )
             self._iface_of[p.point] = iname
         for iname in dict.fromkeys(self._iface_of.values()):
-            self.iprobes[iname] = InterfacePointProbe(ifaces[iname].elements, x)
+            self.iprobes[iname] = InterfacePointProbe(ifaces[iname].law_points, x)
         self.frames = [
             (f.name or f.group, f.group, np.asarray(frame_axes(f.normal, f.tangent, f.group)))
             for f in out.reaction_frames
@@ -125,7 +125,7 @@ class DerivedOutputs:
         per_iface: dict[str, dict[str, np.ndarray]] = {}
         for iname, iprobe in self.iprobes.items():
             iface = p.interfaces[iname]
-            el = iface.elements
+            el = iface.law_points
             nt = el.nt
             n = el.n_elements * el.nq
             tr = el.last.traction if el.last is not None else np.zeros((n, nt + 1))
@@ -177,6 +177,16 @@ class DerivedOutputs:
             self.writer = dolfinx.io.XDMFFile(comm, directory / "stress.xdmf", "w")
             self.writer.write_mesh(self.problem.mesh)
         self.path = directory / ("stress.bp" if self.fmt == "vtx" else "stress.xdmf")
+
+    def field_bytes(self) -> int:
+        """What :meth:`write_fields` writes per step, about (bytes; 0 without stress files)."""
+        if self.writer is None or self.stress is None:
+            return 0
+        n = 0
+        for f in (self.stress.sigma, self.stress.von_mises):
+            im = f.function_space.dofmap.index_map
+            n += im.size_global * f.function_space.dofmap.index_map_bs
+        return 8 * n
 
     def write_fields(self, t: float) -> None:
         """Write the stress of the current state at time ``t`` (collective; with fields only)."""

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..driver.case import _short
+from ..driver.text import short_repr
 
 __all__ = ["COORDINATES", "FUNCTIONS", "ExpressionError", "compile_expression"]
 
@@ -72,7 +72,7 @@ def _compile(node: ast.AST, names: frozenset[str]) -> Node:
             raise ExpressionError(f"only numbers are allowed as constants, got {v!r}")
         f = finite_float(v)
         if f is None:
-            raise ExpressionError(f"the number {_short(v)} is not finite (or beyond a float)")
+            raise ExpressionError(f"a number ({short_repr(v)}) is not finite (or beyond a float)")
         return lambda env: f
     if isinstance(node, ast.Name):
         name = node.id
@@ -139,7 +139,7 @@ def compile_expression(
             )
         f = None if isinstance(v, bool) or not isinstance(v, int | float) else finite_float(v)
         if f is None:
-            raise ExpressionError(f"parameter {k!r} must be a finite number, got {_short(v)}")
+            raise ExpressionError(f"parameter {k!r} must be a finite number, got {short_repr(v)}")
         params[k] = f
     try:
         tree = ast.parse(text.strip(), mode="eval")

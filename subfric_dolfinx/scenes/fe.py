@@ -61,7 +61,11 @@ def _plain(value: Any) -> Any:
     if isinstance(value, FrictionLaw):
         return law_description(value)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {
+            f.name: _plain(getattr(value, f.name))
+            for f in dataclasses.fields(value)
+            if not (f.metadata.get("omit_if_none") and getattr(value, f.name) is None)
+        }
     if isinstance(value, dict):
         return {str(k): _plain(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -138,7 +142,7 @@ def run_fe_scene(
         "cells": domain.mesh.topology.index_map(tdim).size_global,
         "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
         "interface points": comm.allreduce(
-            sum(i.elements.n_elements * i.elements.nq for i in problem.interfaces.values())
+            sum(i.law_points.n_elements * i.law_points.nq for i in problem.interfaces.values())
         ),
         "gdim": domain.mesh.geometry.dim,
     }
@@ -171,6 +175,7 @@ def run_fe_scene(
             max_cuts=scene.solver.max_cuts,
             hold_dt=scene.solver.hold_dt,
             max_steps=scene.solver.max_steps,
+            keep_records=False,  # the history holds what a scene reports of each step
         )
         restart_time, restart_history = None, None
         if restart is not None:

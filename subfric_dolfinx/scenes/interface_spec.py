@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import DEFAULT_REGION, FrictionLaw, LawError, build_law
-from ..driver.case import _short
+from ..driver.text import short_repr
 from .expressions import COORDINATES, ExpressionError, compile_expression, finite_float
 from .schema import SceneError
 
@@ -42,7 +42,7 @@ def _shape(kind: str, spec: Any, path: str) -> tuple[float, list[float]]:
     R, c = spec["R"], spec["center"]
     Rf = None if isinstance(R, bool) or not isinstance(R, int | float) else finite_float(R)
     if Rf is None or not Rf > 0:
-        raise SceneError(f"{path}.{kind}.R: must be a positive finite number, got {_short(R)}")
+        raise SceneError(f"{path}.{kind}.R: must be a positive finite number, got {short_repr(R)}")
     ok = isinstance(c, list) and len(c) in (2, 3)
     ok = ok and all(
         isinstance(v, int | float) and not isinstance(v, bool) and finite_float(v) is not None
@@ -50,7 +50,7 @@ def _shape(kind: str, spec: Any, path: str) -> tuple[float, list[float]]:
     )
     if not ok:
         raise SceneError(
-            f"{path}.{kind}.center: must be 2 or 3 finite coordinates, got {_short(c)}"
+            f"{path}.{kind}.center: must be 2 or 3 finite coordinates, got {short_repr(c)}"
         )
     return float(R), [float(v) for v in c]
 
@@ -65,7 +65,7 @@ def parse_initial_gap(value: Any, path: str = "scene.initial_gap") -> None:
         return
     if isinstance(value, int | float) and not isinstance(value, bool):
         if finite_float(value) is None:
-            raise SceneError(f"{path}: expected a finite number, got {_short(value)}")
+            raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
         return
     if not isinstance(value, dict) or len(value) == 0:
         raise SceneError(

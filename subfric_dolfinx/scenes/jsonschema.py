@@ -217,12 +217,19 @@ def _materials(defs: dict[str, Any]) -> dict[str, Any]:
             "description": "body (cell group) name -> its isotropic elasticity"}  # fmt: skip
 
 
+def _positive_or_null() -> dict[str, Any]:
+    return {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"type": "null"}]}
+
+
 _SPECIAL = {  # fields typed Any or plain dicts in the dataclasses: what the parser accepts there
     ("FEScene", "law"): _law,
     ("FEScene", "program"): _program,
     ("FEScene", "regions"): _regions,
     ("FEScene", "initial_gap"): _initial_gap,
     ("FEScene", "materials"): _materials,
+    ("InterfaceSpec", "kinematics"): lambda defs: {"enum": [*schema.KINEMATICS, None]},
+    ("InterfaceSpec", "search_radius"): lambda defs: _positive_or_null(),
+    ("InterfaceSpec", "reach"): lambda defs: _positive_or_null(),
 }
 
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..constitutive import J2Material, LinearElastic
+from ..driver.text import short_repr
 from .expressions import finite_float
 from .schema import FEScene, SceneError
 
@@ -39,20 +40,15 @@ _KEYS = {
 }
 
 
-def _short(v: Any) -> str:
-    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**15:
-        return f"an integer of {len(str(abs(v)))} digits"
-    text = repr(v)
-    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _number(v: Any, path: str) -> float:
     """A material parameter: a finite real number (not a boolean)."""
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise SceneError(f"{path}: expected a number, got {_short(v)}")
+        raise SceneError(f"{path}: expected a number, got {short_repr(v)}")
     x = finite_float(v)
     if x is None:
-        raise SceneError(f"{path}: expected a finite number, got {_short(v)}")
+        raise SceneError(f"{path}: expected a finite number, got {short_repr(v)}")
     return x
 
 
@@ -69,11 +65,11 @@ def parse_material(spec: dict[str, Any], path: str) -> LinearElastic | J2Materia
             and the bad value named).
     """
     if not isinstance(spec, dict):
-        raise SceneError(f"{path}: expected an object, got {_short(spec)}")
+        raise SceneError(f"{path}: expected an object, got {short_repr(spec)}")
     model = spec.get("model", "elastic")
     if model not in MATERIAL_MODELS:
         raise SceneError(
-            f"{path}.model: must be one of {list(MATERIAL_MODELS)}, got {_short(model)}"
+            f"{path}.model: must be one of {list(MATERIAL_MODELS)}, got {short_repr(model)}"
         )
     required, optional = _KEYS[model]
     keys = set(spec)

@@ -118,7 +118,8 @@ class SceneOutputs:
         self.interface_names = names
         try:
             if spec.fields:
-                self.fields = FieldWriter(outdir / "fields", problem, spec.fields)
+                extra = derived.field_bytes() if derived is not None else 0
+                self.fields = FieldWriter(outdir / "fields", problem, spec.fields, extra)
                 self.points = [
                     InterfacePointsXDMF(
                         outdir / f"fields/{_stem('interface_points', n, names)}.xdmf", problem,
@@ -173,11 +174,11 @@ class SceneOutputs:
         if self.fields is not None and (
             self._field_times.size == 0 or np.any(np.isclose(self._field_times, rec.t, atol=1e-9))
         ):
-            self.fields.write(rec.t)
+            derived = self.derived
+            stress = () if derived is None else (lambda: derived.write_fields(rec.t),)
+            self.fields.write(rec.t, also=stress)  # one space check, one collective outcome
             for pts in self.points or []:
                 pts.write(rec.t)
-            if self.derived is not None:
-                self.derived.write_fields(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             names = self.interface_names

@@ -11,9 +11,10 @@ from __future__ import annotations
 from typing import Any
 
 from ..constitutive import FrictionLaw
+from ..driver.text import short_repr
 from .interface_spec import parse_initial_gap, parse_regions
 from .materials import check_materials_fit, parse_material
-from .schema import BUILDER_GDIM, FEScene, SceneError
+from .schema import BUILDER_GDIM, KINEMATICS, FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
 
@@ -34,9 +35,6 @@ def is_classic(scene: FEScene) -> bool:
     )
 
 
-def _short(v: Any) -> str:
-    text = repr(v)
-    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _gdim(scene: FEScene) -> int:
@@ -70,6 +68,43 @@ def interface_laws(scene: FEScene, parse_law: Any) -> list[FrictionLaw]:
     return laws
 
 
+def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
+    """The interface's kind and the settings only finite sliding has.
+
+    Raises:
+        SceneError: An unknown kind, a setting that is not a positive number, a finite-sliding
+            setting on a small-sliding interface (it would be ignored), or what finite sliding
+            does not have (regions, the axisymmetric mode), each naming its key path.
+    """
+    if spec.kinematics is not None and spec.kinematics not in KINEMATICS:
+        raise SceneError(
+            f"{path}.kinematics: must be one of {list(KINEMATICS)}, got "
+            f"{short_repr(spec.kinematics)}"
+        )
+    finite = spec.kinematics == "finite_sliding"
+    for key in ("search_radius", "reach"):
+        value = getattr(spec, key)
+        if value is None:
+            continue
+        if not finite:
+            raise SceneError(
+                f"{path}.{key}: a finite-sliding setting, but the interface slides small (give "
+                f"{path}.kinematics = 'finite_sliding')"
+            )
+        if not value > 0:
+            raise SceneError(f"{path}.{key}: must be > 0 (mm), got {short_repr(value)}")
+    if not finite:
+        return
+    if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
+        where = f"{path}.regions" if spec.regions else "scene.regions"
+        raise SceneError(f"{where}: interface regions are not available with finite sliding")
+    if scene.mode == "axisymmetric":
+        raise SceneError(
+            f"{path}.kinematics: finite sliding is not available in axisymmetric mode (use "
+            "'small_sliding')"
+        )
+
+
 def check_topology(scene: FEScene) -> None:
     """Check the mode, names, bodies, interfaces, materials and the points' bodies.
 
@@ -79,7 +114,9 @@ def check_topology(scene: FEScene) -> None:
     gdim = _gdim(scene)
     if scene.mode is not None:
         if scene.mode not in MODES:
-            raise SceneError(f"scene.mode: must be one of {list(MODES)}, got {_short(scene.mode)}")
+            raise SceneError(
+                f"scene.mode: must be one of {list(MODES)}, got {short_repr(scene.mode)}"
+            )
         want = 3 if scene.mode == "3d" else 2
         if gdim and gdim != want:
             raise SceneError(
@@ -95,7 +132,8 @@ def check_topology(scene: FEScene) -> None:
         gs = [gs] if isinstance(gs, str) else gs
         if not isinstance(gs, list) or not gs or not all(isinstance(g, str) and g for g in gs):
             raise SceneError(
-                f"scene.bodies.{body}: expected a cell group or a list of them, got {_short(gs)}"
+                f"scene.bodies.{body}: expected a cell group or a list of them, got "
+                f"{short_repr(gs)}"
             )
         for g in gs:
             if g in groups:
@@ -125,6 +163,7 @@ def check_topology(scene: FEScene) -> None:
             )
         parse_initial_gap(spec.initial_gap, f"{path}.initial_gap")
         parse_regions(spec.regions, f"{path}.regions")
+        _check_kinematics(scene, name, spec, path)
     if len(scene.interfaces) > 1 and (scene.initial_gap is not None or scene.regions):
         raise SceneError(
             "scene.initial_gap/regions: the scene has several interfaces; give them per interface "

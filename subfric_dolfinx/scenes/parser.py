@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 import types
 import typing
@@ -17,6 +18,8 @@ from typing import Any
 
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..driver import CaseError, parse_case
+from ..driver.case import read_json
+from ..driver.text import short_repr
 from ..loading import LoadingError, LoadingProgram
 from .interface_spec import parse_initial_gap, parse_regions
 from .parse_bodies import check_topology, interface_laws
@@ -32,7 +35,10 @@ from .schema import (
     SolverSpec,
 )
 
-__all__ = ["build_program", "check_name", "check_plain", "from_dict", "parse_law", "parse_scene"]
+__all__ = [
+    "build_program", "check_name", "check_plain", "from_dict", "load_scene", "parse_law",
+    "parse_scene",
+]
 
 
 def _type_name(tp: Any) -> str:
@@ -43,16 +49,10 @@ _INT_LIMIT = 2**31
 _NUMBER_LIMIT = 2**53  # integers in free-form values (mesh options, programs, cases)
 
 
-def _short(value: Any) -> str:
-    """``repr(value)``, shortened (a 400-digit integer is named by its number of digits)."""
-    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**15:
-        return f"an integer of {len(str(abs(value)))} digits"
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _typed(value: Any) -> str:
-    return f"{type(value).__name__} {_short(value)}"
+    return f"{type(value).__name__} {short_repr(value)}"
 
 
 def _finite(value: int | float, path: str) -> float:
@@ -62,7 +62,7 @@ def _finite(value: int | float, path: str) -> float:
     except OverflowError:
         x = math.inf
     if not math.isfinite(x):
-        raise SceneError(f"{path}: expected a finite number, got {_short(value)}")
+        raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}")
     return x
 
 
@@ -79,7 +79,9 @@ def check_plain(value: Any, path: str) -> None:
         return
     if isinstance(value, int):
         if abs(value) >= _NUMBER_LIMIT:
-            raise SceneError(f"{path}: number out of range (|value| < 2**53), got {_short(value)}")
+            raise SceneError(
+                f"{path}: number out of range (|value| < 2**53), got {short_repr(value)}"
+            )
         return
     if isinstance(value, float):
         _finite(value, path)
@@ -91,10 +93,10 @@ def check_plain(value: Any, path: str) -> None:
     if isinstance(value, dict):
         for k, v in value.items():
             if not isinstance(k, str):
-                raise SceneError(f"{path}: keys must be strings, got {_short(k)}")
+                raise SceneError(f"{path}: keys must be strings, got {short_repr(k)}")
             check_plain(v, f"{path}.{k}")
         return
-    raise SceneError(f"{path}: expected a JSON value, got {type(value).__name__} {_short(value)}")
+    raise SceneError(f"{path}: expected a JSON value, got {_typed(value)}")
 
 
 def _convert(value: Any, tp: Any, path: str) -> Any:
@@ -109,11 +111,11 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             except SceneError as e:
                 errors.append(str(e))
         names = " or ".join(_type_name(a) for a in typing.get_args(tp))
-        raise SceneError(f"{path}: expected {names}, got {_short(value)}")
+        raise SceneError(f"{path}: expected {names}, got {short_repr(value)}")
     if tp is type(None):
         if value is None:
             return None
-        raise SceneError(f"{path}: expected null, got {_short(value)}")
+        raise SceneError(f"{path}: expected null, got {short_repr(value)}")
     if dataclasses.is_dataclass(tp):
         return from_dict(tp, value, path)
     if origin is list:
@@ -129,21 +131,21 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
     if tp is bool:
         if isinstance(value, bool):
             return value
-        raise SceneError(f"{path}: expected true or false, got {_short(value)}")
+        raise SceneError(f"{path}: expected true or false, got {short_repr(value)}")
     if tp is int:
         if isinstance(value, int) and not isinstance(value, bool):
             if abs(value) >= _INT_LIMIT:
-                raise SceneError(f"{path}: integer out of range (< 2**31), got {_short(value)}")
+                raise SceneError(f"{path}: integer out of range (< 2**31), got {short_repr(value)}")
             return value
-        raise SceneError(f"{path}: expected an integer, got {_short(value)}")
+        raise SceneError(f"{path}: expected an integer, got {short_repr(value)}")
     if tp is float:
         if isinstance(value, int | float) and not isinstance(value, bool):
             return _finite(value, path)
-        raise SceneError(f"{path}: expected a number, got {_short(value)}")
+        raise SceneError(f"{path}: expected a number, got {short_repr(value)}")
     if tp is str:
         if isinstance(value, str):
             return value
-        raise SceneError(f"{path}: expected a string, got {_short(value)}")
+        raise SceneError(f"{path}: expected a string, got {short_repr(value)}")
     raise TypeError(f"unsupported annotation {tp!r} at {path}")
 
 
@@ -156,7 +158,7 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
     if isinstance(obj, cls):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {_short(obj)}")
+        raise SceneError(f"{path}: expected an object, got {type(obj).__name__} {short_repr(obj)}")
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(obj) - set(fields))
@@ -173,7 +175,25 @@ def from_dict(cls: type, obj: Any, path: str) -> Any:
 
 def _choice(path: str, value: Any, allowed: tuple) -> None:
     if value not in allowed:
-        raise SceneError(f"{path}: must be one of {list(allowed)}, got {_short(value)}")
+        raise SceneError(f"{path}: must be one of {list(allowed)}, got {short_repr(value)}")
+
+
+def load_scene(path: str | os.PathLike[str]) -> FEScene | PointScene:
+    """Read a scene from a JSON file and validate it (:func:`parse_scene`).
+
+    The file is read strictly: a key given twice in one object (which ``json.load`` would
+    resolve silently, keeping the last value) is refused naming its key path, and so are files
+    that are not UTF-8, too large, nested too deeply or not JSON at all. File names in the scene
+    (a mesh file) are taken as given, relative to the working directory.
+
+    Raises:
+        SceneError: The file cannot be read, is malformed, or its scene is invalid.
+    """
+    try:
+        obj = read_json(path, "scene file", root="scene")
+    except CaseError as e:
+        raise SceneError(str(e)) from None
+    return parse_scene(obj)
 
 
 def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointScene:
@@ -241,7 +261,7 @@ def check_name(name: str, path: str) -> None:
     if bad:
         raise SceneError(
             f"{path}: must be a plain file name (1 to 100 characters, no '/', '\\', control "
-            f"characters, not '.' or '..'), got {_short(name)}"
+            f"characters, not '.' or '..'), got {short_repr(name)}"
         )
 
 
@@ -265,7 +285,7 @@ def _check_mesh(m: MeshSpec) -> None:
                 "file (they apply to a builder only)"
             )
         if not m.file or "\0" in m.file:
-            raise SceneError(f"scene.mesh.file: not a file name: {_short(m.file)}")
+            raise SceneError(f"scene.mesh.file: not a file name: {short_repr(m.file)}")
     _choice("scene.mesh.partitioner", m.partitioner, (None, "default", "bodies", "together"))
 
 
@@ -289,7 +309,9 @@ def _check_conditions(scene: FEScene) -> None:
         path = f"scene.loads[{i}]"
         _choice(f"{path}.type", ld.type, ("pressure", "traction"))
         if ld.type == "pressure" and isinstance(ld.value, list):
-            raise SceneError(f"{path}.value: a pressure is a number, got a list {_short(ld.value)}")
+            raise SceneError(
+                f"{path}.value: a pressure is a number, got a list {short_repr(ld.value)}"
+            )
         if ld.type == "traction" and not isinstance(ld.value, list):
             raise SceneError(
                 f"{path}.value: a traction is a list (one value per component), got {ld.value!r}"
@@ -319,17 +341,17 @@ def _check_solver(sv: SolverSpec) -> None:
         if not _OPTION_NAME.match(key):
             raise SceneError(
                 f"{where}: not a PETSc option name (letters, digits and '_', without the "
-                f"leading '-' and the prefix), got {_short(key)}"
+                f"leading '-' and the prefix), got {short_repr(key)}"
             )
         if isinstance(value, float | int) and not isinstance(value, bool):
             _finite(value, where)
         elif isinstance(value, str):
             if any(ord(c) < 32 for c in value):
-                raise SceneError(f"{where}: control characters in {_short(value)}")
+                raise SceneError(f"{where}: control characters in {short_repr(value)}")
         elif value is not None and not isinstance(value, bool):
             raise SceneError(
                 f"{where}: a PETSc option value is a string, number, true/false or null, got "
-                f"{type(value).__name__} {_short(value)}"
+                f"{type(value).__name__} {short_repr(value)}"
             )
 
 
@@ -379,7 +401,7 @@ def parse_law(obj: dict[str, Any] | FrictionLaw) -> FrictionLaw:
     if isinstance(obj, FrictionLaw):
         return obj
     if not isinstance(obj, dict):
-        raise SceneError(f"scene.law: expected an object or a law, got {_short(obj)}")
+        raise SceneError(f"scene.law: expected an object or a law, got {short_repr(obj)}")
     allowed = {"law", "params"}
     unknown = sorted(set(obj) - allowed)
     if unknown:

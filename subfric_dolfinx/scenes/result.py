@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,8 @@ class SceneResult:
         name: Scene name.
         kind: ``"fe"`` or ``"pointwise"``.
         cases: Pointwise: case name -> :class:`~subfric_dolfinx.driver.DriverResult`.
-        history: FE: one dict per converged step (see :class:`~subfric_dolfinx.io.HistoryCSV`).
+        history: FE: one dict per converged step (see :class:`~subfric_dolfinx.io.HistoryCSV`),
+            a :class:`~subfric_dolfinx.io.HistoryRows` (stored compactly, read as dicts).
         snapshots: FE: time -> interface profile (arrays over all interface points, in the order
             of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t``, ``f_n``, ``status``
             and the law's internal variables by name); with several interfaces, time -> interface
@@ -32,7 +34,7 @@ class SceneResult:
     name: str
     kind: str
     cases: dict[str, Any] = dataclasses.field(default_factory=dict)
-    history: list[dict[str, float]] = dataclasses.field(default_factory=list)
+    history: Sequence[dict[str, float]] = dataclasses.field(default_factory=list)
     snapshots: dict[float, dict[str, np.ndarray]] = dataclasses.field(default_factory=dict)
     timing: dict[str, float] = dataclasses.field(default_factory=dict)
     iterations: list[int] = dataclasses.field(default_factory=list)

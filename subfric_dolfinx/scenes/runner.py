@@ -30,12 +30,13 @@ Example (the skeleton of the main demo)::
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
 from ..driver import run_case
 from ..driver.cli import write_atomically
-from .parser import parse_scene
+from .parser import load_scene, parse_scene
 from .result import SceneResult
 from .schema import FEScene, PointScene, SceneError
 
@@ -43,7 +44,7 @@ __all__ = ["run_scene"]
 
 
 def run_scene(
-    scene: dict[str, Any] | FEScene | PointScene,
+    scene: dict[str, Any] | FEScene | PointScene | str | os.PathLike[str],
     *,
     outdir: str | Path | None = None,
     comm: Any = None,
@@ -52,7 +53,8 @@ def run_scene(
     """Run a scene, building only what it needs.
 
     Args:
-        scene: The scene (validated with :func:`parse_scene`).
+        scene: The scene (validated with :func:`parse_scene`), or the name of a JSON file
+            holding it (read with :func:`~.parser.load_scene`: a key given twice is refused).
         outdir: Directory of the files the scene asks for (required if it asks for any).
         comm: MPI communicator of an FE scene (default ``COMM_WORLD``); unused for pointwise.
         restart: A checkpoint of this scene to continue from (any number of ranks).
@@ -64,7 +66,7 @@ def run_scene(
             the last converged state is in the checkpoint).
         subfric_dolfinx.io.CheckpointError: An unusable ``restart`` file.
     """
-    scene = parse_scene(scene)
+    scene = load_scene(scene) if isinstance(scene, str | os.PathLike) else parse_scene(scene)
     if isinstance(scene, PointScene):
         if restart is not None:
             raise SceneError("a pointwise scene cannot be restarted")

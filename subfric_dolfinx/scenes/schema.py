@@ -36,6 +36,11 @@ class SceneError(ValueError):
     """An invalid scene; the message names the offending key by its path."""
 
 
+KINEMATICS = ("small_sliding", "finite_sliding")
+"""The interface kinds of ``interfaces.<name>.kinematics`` (those of
+``subfric_dolfinx.fem.interface.kinds.KINEMATICS``, named here without importing it)."""
+
+
 BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
 """The mesh builders a scene may name, with the dimension of their meshes."""
 
@@ -242,6 +247,14 @@ class InterfaceSpec:
         initial_gap: Its initial gap (as the scene's ``initial_gap``).
         regions: Its regions (as the scene's ``regions``).
         quadrature: ``"gauss"`` or ``"nodal"``; ``None``: the scene's.
+        kinematics: ``"small_sliding"`` (node-to-node pairs fixed at the reference geometry, the
+            sides' nodes matching) or ``"finite_sliding"`` (pairing in the current configuration:
+            the bodies slide any distance, the sides may be meshed independently); ``None``:
+            small sliding.
+        search_radius: Finite sliding only: the largest normal distance at which a point of the
+            secondary side faces the primary (mm, > 0); ``None``: twice the largest facet size.
+        reach: Finite sliding only: how far a point may slide in one step (mm, > 0); ``None``:
+            the largest facet size.
     """
 
     primary: str | None = None
@@ -252,6 +265,12 @@ class InterfaceSpec:
     initial_gap: Any = None
     regions: dict[str, Any] = dataclasses.field(default_factory=dict)
     quadrature: str | None = None
+    # left out of a restart's settings while unset (checkpoints written before they existed)
+    kinematics: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
+    search_radius: float | None = dataclasses.field(
+        default=None, metadata={"omit_if_none": True}
+    )
+    reach: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
 
     @property
     def sides(self) -> tuple[str | None, str | None]:

@@ -3,6 +3,7 @@ range (the path to it named), files requested without a directory; checkpoints t
 truncated, foreign or written for another law or mesh."""
 
 import copy
+import json
 
 import h5py
 import numpy as np
@@ -11,7 +12,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.fem import InterfaceError
 from subfric_dolfinx.io import CheckpointError, read_checkpoint
-from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
+from subfric_dolfinx.scenes import SceneError, load_scene, parse_scene, run_scene
 from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
 
 
@@ -137,7 +138,7 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         # issue 23, item 7: before the mesh is built, each naming its key path
         (
             lambda s: s.update(initial_gap={"expression": "1" + "0" * 400 + " * x"}),
-            r"scene.initial_gap.expression: the number 1000.* is not finite \(or beyond a float",
+            r"scene.initial_gap.expression: a number \(an integer of 401 digits\) is not finite",
         ),
         (
             lambda s: s.update(initial_gap={"expression": "p * x", "parameters": {"p": 10**400}}),
@@ -159,6 +160,60 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         (
             lambda s: s["materials"]["master"].update(nu=0.6),
             r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
+        ),
+        # issue 22: an interface's kind and the settings of finite sliding
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": "large_sliding"}}),
+            r"scene.interfaces.interface.kinematics: must be one of \['small_sliding', "
+            r"'finite_sliding'\], got 'large_sliding'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"kinematics": 1}}),
+            r"scene.interfaces.interface.kinematics: expected str or null, got 1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": -0.1}}
+            ),
+            r"scene.interfaces.interface.reach: must be > 0 \(mm\), got -0.1",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "search_radius": 0}}
+            ),
+            r"scene.interfaces.interface.search_radius: must be > 0 \(mm\), got 0",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding", "reach": "far"}}
+            ),
+            r"scene.interfaces.interface.reach: expected float or null, got 'far'",
+        ),
+        (
+            lambda s: s.update(interfaces={"interface": {"reach": 0.5}}),
+            r"scene.interfaces.interface.reach: a finite-sliding setting, but the interface "
+            r"slides small",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "small_sliding", "search_radius": 0.5}}
+            ),
+            r"scene.interfaces.interface.search_radius: a finite-sliding setting",
+        ),
+        (
+            lambda s: s.update(
+                interfaces={"interface": {"kinematics": "finite_sliding",
+                                          "regions": {"left": s["law"]}}}
+            ),
+            r"scene.interfaces.interface.regions: interface regions are not available with "
+            r"finite sliding",
+        ),
+        (
+            lambda s: s.update(
+                mode="axisymmetric", interfaces={"interface": {"kinematics": "finite_sliding"}}
+            ),
+            r"scene.interfaces.interface.kinematics: finite sliding is not available in "
+            r"axisymmetric mode",
         ),
         # a name is a plain file name
         *[
@@ -209,6 +264,42 @@ def test_a_petsc_option_petsc_refuses_is_named():
         FrictionSolver(prob, "badsolver_", {"snes_max_it": "many"})
     with FrictionSolver(prob, "badsolver_") as solver:  # the prefix was released
         assert solver.alive
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "path"),
+    [
+        ('"dt": ', '"dt": 1.0, "dt": ', "scene.solver.dt"),
+        ('"type": "pressure"', '"type": "pressure", "type": "traction"', "scene.loads[0].type"),
+        ('"kind": "fe"', '"kind": "fe", "kind": "pointwise"', "scene.kind"),
+    ],
+    ids=["solver", "in-a-list", "top"],
+)
+def test_a_scene_file_with_a_key_twice_is_refused_naming_its_path(shared_tmp, old, new, path):
+    """Issue 23, item 7: a scene file with a key given twice (``json.load`` keeps the last one
+    silently) is refused by ``run_scene(file)``/``load_scene``, naming the key path, on every
+    rank, before anything is built; the same file without the repetition runs as the dict."""
+    comm = MPI.COMM_WORLD
+    s = small_scene()
+    s["solver"]["prefix"] = prefix("file")
+    s["program"] = {"times": [0, 0.2], "channels": {"press": [0, 0.2], "slide": [0, 0]}}
+    text = json.dumps(s)
+    good, bad = shared_tmp / "scene.json", shared_tmp / "twice.json"
+
+    def write():
+        assert text.count(old) == 1, old
+        good.write_text(text)
+        bad.write_text(text.replace(old, new))
+
+    on_root(comm, write)
+    comm.Barrier()
+    key = path.rsplit(".", 1)[1]
+    with raised_on_every_rank(
+        SceneError, repr(str(bad)), f"has the key {key!r} twice in one object: {path} (beside"
+    ):
+        run_scene(bad, comm=comm)
+    assert load_scene(good) == parse_scene(s)
+    assert run_scene(str(good), comm=comm).history[-1]["t"] == pytest.approx(0.2)
 
 
 def test_a_load_or_spring_on_a_cell_group_says_so():

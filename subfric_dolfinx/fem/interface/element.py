@@ -93,6 +93,7 @@ class InterfaceElements:
         self.pairs = pairs
         self.V = V
         sub = pairs.submesh
+        self.comm = sub.comm
         self.submesh = sub
         gdim = V.mesh.geometry.dim
         self.gdim = gdim
@@ -247,6 +248,17 @@ class InterfaceElements:
     def commit(self) -> None:
         """Accept the trial state."""
         self.state.commit()
+
+    def saved_state(self) -> dict[str, np.ndarray]:
+        """The committed internal variables (what a restart needs), name -> array."""
+        return dict(self.state.old.items())
+
+    def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
+        """Put the internal variables back as the committed and trial state."""
+        st = self.state.old
+        for name in st.names:
+            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
+        self.state.revert()
 
     def revert(self) -> None:
         """Reject the trial state."""

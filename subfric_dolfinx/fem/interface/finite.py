@@ -41,19 +41,23 @@ contact kinematics is finite.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import dolfinx
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
+from ...compat import create_submesh
 from ...constitutive import FrictionLaw, InterfaceState, StatePair
 from ...constitutive.result import Status
 from ...constitutive.state import LOCAL, TANGENTIAL
 from ..kinematics import point_weight
 from .element import _initial_gap
 from .finite_assembly import SlidingAssembly
+from .finite_points import SlidingPoints
 from .geometry import frames, quadrature_rule
 from .pairing import InterfaceError
 from .projection import facet_basis, normal_projection, parametric_normal
@@ -66,7 +70,7 @@ from .transfer import l2_projector, transfer_matrices
 __all__ = ["SlidingInterface"]
 
 
-class SlidingInterface(ReachSearch, SlidingAssembly):
+class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
     """One frictional interface with finite sliding between independently meshed bodies.
 
     Args:
@@ -104,6 +108,8 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
 
     kinematics = "finite_sliding"
     region_names = ("default",)  # no interface regions (summaries read it)
+    pairs = None  # no fixed pairs: re-paired in the current configuration
+    round_off: np.ndarray | None = None  # the forces' round-off per dof, at the last forces()
 
     def __init__(
         self,
@@ -141,7 +147,16 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
         self.n_local0 = self.imap0.size_local + self.imap0.num_ghosts
         self.X0 = V.tabulate_dof_coordinates()[:, :gdim].copy()
         self.master = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(primary)))
-        self.slave = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(secondary)))
+        slave = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(secondary)))
+        # the slave facets' own mesh (cell averages in field output): the facets in its order
+        self.submesh, parents = create_submesh(mesh, mesh.topology.dim - 1, slave.facets)
+        sorter = np.argsort(slave.facets)
+        perm = sorter[np.searchsorted(slave.facets, parents, sorter=sorter)]
+        self.slave = dataclasses.replace(
+            slave, facets=slave.facets[perm], cells=slave.cells[perm], nodes=slave.nodes[perm],
+            orientation=slave.orientation[perm], global_facets=slave.global_facets[perm],
+        )  # fmt: skip
+        self.n_elements = self.slave.size
         counts = self.comm.allreduce(np.array([self.master.size, self.slave.size]))
         if counts.min() == 0:
             side = "primary" if counts[0] == 0 else "secondary"
@@ -162,6 +177,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
         s = self.slave
         degree = s.degree
         X, w = quadrature_rule(s.cell, degree, quadrature)
+        self.w_ref = w
         self.nq = X.shape[0]
         self.Ns = facet_basis(s.cell, degree, X, 1)  # (1 + fdim, nq, nfd)
         Ys0 = self.X0[s.nodes]  # (ns, nfd, gdim)
@@ -177,6 +193,11 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
         npts = s.size * self.nq
         self.n_points = npts
         self.g0 = _initial_gap(initial_gap, self.points, self.comm)
+        self.point_data = {"g0": self.g0}
+        fdim = max(gdim - 1, 1)
+        sizes = self.facet_weights.sum(axis=1) ** (1.0 / fdim) if s.size else np.zeros(0)
+        h_min = self.comm.allreduce(float(sizes.min(initial=np.inf)), op=MPI.MIN)
+        self.coordinate_tolerance = 1e-6 * h_min
         init = law.initial_state(npts, self.nt)
         self.state = StatePair(init.copy(), init.copy())
         self._variables = {v.name: v.shape for v in law.variables}
@@ -264,7 +285,9 @@ class SlidingInterface(ReachSearch, SlidingAssembly):
             "facet": np.full(self.n_points, -1, dtype=np.int64),
             "xi": np.zeros((self.n_points, nt)),
             "normal": np.zeros((self.n_points, gdim)),
-            "distance": np.full(self.n_points, -self.radius),
+            # a point facing nothing is open: beyond the radius on the outer side (a distance
+            # of -radius made it penetrate by the radius: pressed where it left the master)
+            "distance": np.full(self.n_points, self.radius),
             "gamma": np.zeros(self.n_points),
         }
         out["facet"][p] = ff[idx]

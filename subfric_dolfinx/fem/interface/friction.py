@@ -79,6 +79,7 @@ class FrictionInterface:
 
     kinematics = "small_sliding"
     layout_version = 0  # the pairs, ghosts and pattern never change
+    round_off = None  # the forces' round-off is that of the displacement (convergence)
 
     def __init__(
         self,
@@ -226,6 +227,15 @@ class FrictionInterface:
     def last(self) -> Any:
         """The return map's result at the last iterate (``None`` before the first)."""
         return self.elements.last
+
+    @property
+    def law_points(self) -> InterfaceElements:
+        """The law's points (:class:`~.protocol.LawPoints`): the interface elements."""
+        return self.elements
+
+    def resume(self, x: np.ndarray) -> None:
+        """Continue from a restored state: nothing to redo (the pairs are fixed)."""
+        self._x_at_update = None
 
     def forces(self) -> np.ndarray:
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""

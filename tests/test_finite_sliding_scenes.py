@@ -1,0 +1,112 @@
+"""Finite sliding in scenes and their outputs (issue 22: the scene key, outputs, restart).
+
+* ``interfaces.<name>.kinematics: "small_sliding"`` is today's interface: the same history as a
+  scene without the key (identical on 1 rank; within MUMPS's round-off on 2).
+* A finite-sliding scene (``demos/block_sliding_far.py``'s block, meshed apart from its base,
+  slid one width at 300 MPa) writes every output of a small-sliding one: the history's interface
+  columns (forces, means of the law's variables, status fractions), the probes at an interface
+  point, the interface profiles (snapshots), the interface history (HDF5), the interface points
+  (XDMF) and the fields (VTX). The probes, the HDF5 history and the point cloud hold the values of
+  the snapshot at the same time (each written by its own path); the normal resultant is the
+  pressure's (3000 N/mm on 10 mm); no slide warning (the pairs follow the slide).
+* Checkpoint and restart: a run restarted from the checkpoint written half way gives the rows of
+  the uninterrupted run (to 1e-9 of each value: Newton's tolerance; measured identical).
+"""
+
+import copy
+import warnings
+
+import h5py
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from demos import block_sliding_far as far
+from subfric_dolfinx import logs
+from subfric_dolfinx.scenes import run_scene
+from tests.helpers import everywhere, on_root, small_scene
+
+
+def test_the_small_sliding_key_is_todays_interface(comm):
+    plain = small_scene()
+    keyed = copy.deepcopy(plain)
+    keyed["interfaces"] = {"interface": {"kinematics": "small_sliding"}}
+    a = run_scene(plain, comm=comm).history
+    b = run_scene(keyed, comm=comm).history
+    diff = max(
+        abs(ra[k] - rb[k]) / (1.0 + abs(ra[k])) for ra, rb in zip(a, b, strict=True) for k in ra
+    )
+    assert len(a) == len(b) > 10 and list(a[0]) == list(b[0])
+    assert diff < 1e-8, diff  # 0 on 1 rank; 3e-11 on 2 (MUMPS's factors vary in the last bits)
+
+
+@pytest.fixture(scope="module")
+def sliding_runs(tmp_path_factory):
+    """The uninterrupted run (checkpoint at t = 6) and the run restarted from it."""
+    comm = MPI.COMM_WORLD
+    root = comm.bcast(str(tmp_path_factory.mktemp("fslide")) if comm.rank == 0 else None)
+    from pathlib import Path
+
+    root = Path(root)
+    mesh = root / "block.msh"
+    far.write_mesh(mesh, 4, 10.0, comm)
+    s = far.scene(mesh, 4, 10.0)
+    s["points"] = {"P": {"x": [10.0, 0.0], "body": "block"}}
+    s["outputs"] = {
+        "history": True, "fields": "vtx", "interface_history": True, "checkpoint_times": [6.0],
+        "snapshots": [11.0],
+        "probes": [{"point": "P", "fields": ["f_n", "f_t", "mu", "status", "gap"]}],
+    }  # fmt: skip
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        full = run_scene(s, outdir=root / "full", comm=comm)
+    restarted = run_scene(
+        s, outdir=root / "restart", comm=comm, restart=root / "full/checkpoint.h5"
+    )
+    slide_warned = any(issubclass(w.category, logs.SlideWarning) for w in seen)
+    return full, restarted, root, slide_warned
+
+
+def test_a_finite_sliding_scene_writes_every_output(comm, sliding_runs):
+    full, _, root, slide_warned = sliding_runs
+    last = full.history[-1]
+    snap = full.snapshots[11.0]
+    i = int(np.argmin(np.linalg.norm(snap["x"] - [10.0, 0.0], axis=1)))
+
+    def files() -> dict:
+        with h5py.File(root / "full/interface_history.h5") as f:
+            ih = {"f_n": f["f_n"][-1], "mu": f["mu"][-1], "time": f["time"][-1]}
+        with h5py.File(root / "full/fields/interface_points.h5") as f:
+            steps = sorted((k for k in f if k.startswith("step_")), key=lambda k: int(k[5:]))
+            cloud = np.sort(f[steps[-1]]["f_n"][()])
+        return {"ih": ih, "cloud": cloud, "bp": (root / "full/fields/interface.bp").is_dir()}
+
+    got = on_root(comm, files)
+    checks = {
+        "columns": {"F_t1", "F_n", "mu", "plastic", "separated", "P.f_n", "P.mu"} <= set(last),
+        "F_n": abs(last["F_n"] - 3000.0) < 1e-5 * 3000.0,
+        "sliding": last["plastic"] == 1.0 and last["separated"] == 0.0,
+        "probe": last["P.f_n"] == snap["f_n"][i] and last["P.mu"] == snap["mu"][i],
+        "history file": got["ih"]["time"] == 11.0
+        and np.array_equal(got["ih"]["f_n"], snap["f_n"])
+        and np.array_equal(got["ih"]["mu"], snap["mu"]),
+        "point cloud": np.array_equal(got["cloud"], np.sort(snap["f_n"])),
+        "fields": got["bp"],
+        "points": snap["x"].shape == (8, 2),
+        "no slide warning": not slide_warned,
+    }
+    assert everywhere(comm, all(checks.values())), checks
+
+
+def test_a_finite_sliding_scene_restarts_where_it_stopped(comm, sliding_runs):
+    full, restarted, _, _ = sliding_runs
+    rows = {r["step"]: r for r in full.history}
+    after = restarted.history
+    steps = [r["step"] for r in after]
+    worst = max(
+        abs(r[k] - rows[r["step"]][k]) / (1.0 + abs(rows[r["step"]][k]))
+        for r in after
+        for k in r
+    )
+    assert steps == sorted(rows) and restarted.history[0]["t"] < 6.0 < after[-1]["t"]
+    assert worst < 1e-9, worst
