@@ -81,7 +81,68 @@ def tag_of(n: int, strategy: str, ranks: int, steps: int) -> str:
 # One run (inside mpirun)
 
 
-def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> None:
+ELASTIC_RTOL = 1e-11
+"""Relative tolerance of the reference linear solve: the Krylov tolerance a strategy uses at a
+step's first Newton iteration (1 % of Newton's target ``snes_rtol`` = 1e-9; ``fem/linear.py``),
+with which a linear step converges in one Newton iteration."""
+
+
+def elastic_solve(problem, solver, strategy: str) -> dict:
+    """One linear solve of the same mesh with the strategy's preconditioner, built from scratch.
+
+    The limit a Newton iteration is measured against (issue 25): the bulk is linear and the
+    interface adds a local change, so a Newton iteration cannot cost much less than solving the
+    linear system once. The matrix is the run's last Jacobian (the same size and pattern; the
+    bulk's stiffness and the interface's last tangent), the right-hand side ``J x`` for the
+    run's last displacement ``x``, the tolerance :data:`ELASTIC_RTOL`; options: the strategy's
+    defaults under the run's prefix, so that options given to the run (``PETSC_OPTIONS``,
+    e.g. MUMPS's) apply to both. Times: the preconditioner's set-up (a MUMPS factorisation, an
+    AMG hierarchy) and the solve, max over ranks (collective).
+    """
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS, rigid_modes
+    from subfric_dolfinx.fem.solver import pushed_options
+
+    comm = problem.comm
+    A = solver.J.copy()
+    nullspace = rigid_modes(problem) if strategy == "gamg" else None
+    if nullspace is not None:
+        A.setNearNullSpace(nullspace)
+    b = A.createVecLeft()
+    A.mult(solver.x, b)
+    x = b.duplicate()
+    x.set(0.0)
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix(solver.prefix)
+    defaults = {"?" + k: v for k, v in STRATEGY_OPTIONS[strategy].items()}
+    try:
+        with pushed_options(solver.prefix, defaults, {"ksp_rtol": ELASTIC_RTOL, "ksp_atol": 0.0}):
+            ksp.setOperators(A)
+            ksp.setFromOptions()
+            comm.Barrier()
+            t0 = time.perf_counter()
+            ksp.setUp()
+            t1 = time.perf_counter()
+            ksp.solve(b, x)
+            t2 = time.perf_counter()
+        its, reason = ksp.getIterationNumber(), int(ksp.getConvergedReason())
+        x.axpy(-1.0, solver.x)
+        error = x.norm() / max(solver.x.norm(), 1e-300)
+    finally:
+        for obj in (ksp, A, b, x, nullspace):
+            if obj is not None:
+                obj.destroy()
+    setup = comm.allreduce(t1 - t0, op=MPI.MAX)
+    solve = comm.allreduce(t2 - t1, op=MPI.MAX)
+    return {"setup_s": setup, "solve_s": solve, "total_s": setup + solve, "krylov": its,
+            "reason": reason, "error": error}  # fmt: skip
+
+
+def run_one(
+    n: int, strategy: str, steps: int, time_limit: float, out: Path, predictor: bool = True
+) -> None:
     from mpi4py import MPI
     from petsc4py import PETSc
 
@@ -142,11 +203,11 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
 
     def solve(*a, **k):
         r = orig(*a, **k)
-        krylov.append(r.get("krylov", 0))
+        krylov.append(r.krylov)
         return r
 
     solver.solve = solve
-    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step)
+    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step, predictor=predictor)
     failure = None
     try:
         stepper.run()
@@ -168,6 +229,7 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
         events[name] = {"count": int(info["count"]), "time": seconds}
     rss = comm.gather(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, root=0)
     newton = sum(r.iterations for r in stepper.records)
+    elastic = elastic_solve(problem, solver, strategy)  # after the peak RSS of the run
     result = {
         "tag": tag_of(n, strategy, comm.size, steps),
         "n": n,
@@ -184,6 +246,10 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
         "linear": solver.linear.stats,
         "wall": wall,
         "wall_per_newton": wall / newton if newton else math.nan,
+        "predictor": predictor,
+        "newton_per_step": newton / len(stepper.records) if stepper.records else math.nan,
+        "elastic": elastic,
+        "per_newton_vs_elastic": (wall / newton) / elastic["total_s"] if newton else math.nan,
         "sections": sections,
         "events": events,
         "rss_mib": rss,
@@ -200,7 +266,11 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
         print(
             f"[{result['tag']}] dofs {result['dofs']}: {result['steps']} steps, Newton {newton}, "
             f"Krylov {result['krylov']}, refreshes {result['linear']['refreshes']}, wall "
-            f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank, load {result['load'][0]:.1f}"
+            f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank, load {result['load'][0]:.1f}; "
+            f"Newton/step {result['newton_per_step']:.2f}; one linear solve "
+            f"{elastic['total_s']:.2f} s (set-up {elastic['setup_s']:.2f} s, "
+            f"{elastic['krylov']} Krylov), a Newton iteration costs "
+            f"{result['per_newton_vs_elastic']:.2f} of it"
             + (f", FAILED: {failure}" if failure else "")
             + (f", {stopped[0]}" if stopped[0] else ""),
             flush=True,
@@ -211,14 +281,14 @@ def run_one(n: int, strategy: str, steps: int, time_limit: float, out: Path) -> 
 # Campaign
 
 
-def launch(n, strategy, ranks, steps, time_limit, out, force=False) -> dict | None:
+def launch(n, strategy, ranks, steps, time_limit, out, force=False, predictor=True) -> dict | None:
     path = out / f"{tag_of(n, strategy, ranks, steps)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
     cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
            "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
-           "--out", str(out)]  # fmt: skip
+           "--out", str(out)] + ([] if predictor else ["--no-predictor"])  # fmt: skip
     from subfric_dolfinx.logs import singleton_environment
 
     proc = subprocess.run(cmd, cwd=ROOT, env=singleton_environment())
@@ -253,7 +323,8 @@ def fit_exponent(x, y) -> float:
 
 COLUMNS = [
     "strategy", "ranks", "steps_program", "n", "dofs", "interface_points", "steps", "newton",
-    "krylov", "krylov_per_newton", "refreshes", "cuts", "wall_s", "s_per_newton", "mesh_s",
+    "newton_per_step", "krylov", "krylov_per_newton", "refreshes", "cuts", "wall_s",
+    "s_per_newton", "elastic_s", "elastic_setup_s", "per_newton_vs_elastic", "mesh_s",
     "setup_s", "bulk_s", "return_map_s", "interface_s", "pc_setup_s", "krylov_s", "other_s",
     "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "per_newton_vs_lu", "load", "status",
 ]  # fmt: skip
@@ -272,6 +343,10 @@ def rows_of(results: list[dict]) -> list[dict]:
             "strategy": r["strategy"], "ranks": r["ranks"], "steps_program": r["steps_program"],
             "n": r["n"], "dofs": r["dofs"], "interface_points": r["interface_points"],
             "steps": r["steps"], "newton": r["newton"], "krylov": r["krylov"],
+            "newton_per_step": r["newton"] / r["steps"] if r["steps"] else math.nan,
+            "elastic_s": r.get("elastic", {}).get("total_s", math.nan),
+            "elastic_setup_s": r.get("elastic", {}).get("setup_s", math.nan),
+            "per_newton_vs_elastic": r.get("per_newton_vs_elastic", math.nan),
             "krylov_per_newton": r["krylov"] / r["newton"] if r["newton"] else math.nan,
             "refreshes": r["linear"]["refreshes"], "cuts": r["cuts"], "wall_s": r["wall"],
             "s_per_newton": r["wall_per_newton"], "mesh_s": s["mesh"],
@@ -314,7 +389,8 @@ def write_tables(out: Path, report: Path) -> None:
         w.writeheader()
         w.writerows(rows)
     head = ["strategy", "ranks", "dofs", "interface_points", "steps", "newton",
-            "krylov_per_newton", "refreshes", "wall_s", "s_per_newton", "pc_setup_s", "krylov_s",
+            "newton_per_step", "krylov_per_newton", "refreshes", "wall_s", "s_per_newton",
+            "elastic_s", "per_newton_vs_elastic", "pc_setup_s", "krylov_s",
             "bulk_s", "return_map_s", "interface_s", "mesh_s", "rss_max_mib", "diff_vs_lu",
             "speedup_vs_lu", "per_newton_vs_lu", "load", "status"]  # fmt: skip
     lines = [
@@ -327,7 +403,11 @@ def write_tables(out: Path, report: Path) -> None:
         "(wall, max over ranks); `pc_setup` = PETSc's PCSetUp (factorisations or AMG set-ups), "
         "`krylov` = KSPSolve; `diff_vs_lu` = max |F_t - F_t(LU)| / peak |F_t(LU)|; "
         "`speedup_vs_lu` = LU's wall time over this one's (complete runs), `per_newton_vs_lu` "
-        "the same per Newton iteration (LU runs stopped by the time limit count too); RSS = "
+        "the same per Newton iteration (LU runs stopped by the time limit count too); "
+        "`elastic_s` = one linear solve of the same mesh with the strategy's preconditioner "
+        "built from scratch (set-up + Krylov to rtol 1e-11, the run's last Jacobian; the limit "
+        "a Newton iteration is measured against), `per_newton_vs_elastic` = `s_per_newton` / "
+        "`elastic_s`; RSS = "
         "peak resident memory of the largest rank (MiB).",
         "",
         "![Wall time and time per Newton iteration against dofs](fe_scaling.png)",
@@ -443,15 +523,23 @@ def main(argv=None) -> None:
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--strategy", help=argparse.SUPPRESS)
+    ap.add_argument(
+        "--no-predictor",
+        dest="predictor",
+        action="store_false",
+        help="LoadStepper(predictor=False): every step's Newton starts from the converged "
+        "state, as before the predictor (a separate --out is advised)",
+    )
     args = ap.parse_args(argv)
     if args.one:
-        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out)
+        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out, args.predictor)
         return
     if not args.table:
         for n in sorted(args.sizes):  # the largest last
             for ranks in args.ranks:
                 for strategy in args.strategies:
-                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force)
+                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force,
+                           args.predictor)  # fmt: skip
     write_tables(args.out, args.report)
 
 

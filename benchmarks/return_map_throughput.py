@@ -131,7 +131,7 @@ def numpy_vs_c(law, cmap, st, gap, repeats, radial=False):
            "plastic": float(np.mean(res.status == Status.PLASTIC)),
            "iters": plastic_iters(res)}  # fmt: skip
     if cmap is not None:
-        use = cres["status"] != 5
+        use = cres["status"] != c_ref.NEEDS_SCAN
         sc = np.maximum(np.abs(res.tangent).reshape(n, -1).max(axis=1), 1e-300)[use]
         d_tr = np.abs(res.traction - cres["traction"]).max(axis=1)[use] / sc
         d_tan = np.abs(res.tangent - cres["tangent"]).reshape(n, -1).max(axis=1)[use] / sc

@@ -44,6 +44,8 @@ from typing import NamedTuple
 import numpy as np
 from mpi4py import MPI
 
+from subfric_dolfinx import meshing
+from subfric_dolfinx.io import collective
 from subfric_dolfinx.scenes import cli, run_scene
 
 # %% [markdown]
@@ -73,16 +75,8 @@ def write_mesh(path: Path, n: int, slide: float, comm: MPI.Comm) -> None:
     The block has ``n`` elements along its bottom, the base elements 1.3 times larger; an error
     is raised on every rank.
     """
-    error = None
-    if comm.rank == 0:
-        import gmsh
-
-        started = not gmsh.isInitialized()
-        if started:
-            gmsh.initialize()
-            gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            gmsh.model.add("block_sliding_far")
+    def build() -> None:  # rank 0
+        with meshing.gmsh_session("block_sliding_far") as gmsh:
             occ = gmsh.model.occ
             length = base_length(slide)
             base = occ.addRectangle(0.0, -HEIGHT, 0.0, length, HEIGHT)
@@ -108,15 +102,8 @@ def write_mesh(path: Path, n: int, slide: float, comm: MPI.Comm) -> None:
             gmsh.model.mesh.generate(2)
             path.parent.mkdir(parents=True, exist_ok=True)
             gmsh.write(str(path))
-        except Exception as e:  # reported on every rank below
-            error = f"{type(e).__name__}: {e}"
-        finally:
-            gmsh.model.remove()
-            if started:
-                gmsh.finalize()
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise RuntimeError(f"building the mesh {str(path)!r} failed: {error}")
+
+    collective(comm, build, f"building the mesh {str(path)!r}", error=RuntimeError)
 
 
 # %% [markdown]

@@ -4,18 +4,23 @@
     ./run exec python3 docs/readme_numbers.py --check   # list the quotes that differ (exit 1)
 
 A :class:`Quote` finds its place in the README with a regular expression whose groups are the
-quoted numbers, and computes their text from the data: today the scaling benchmark's,
-``report/data/fe_scaling.csv`` (``benchmarks/fe_scaling.py``). Only the groups are rewritten:
-the prose around them is the README's own, so other edits of the README merge freely.
-``tests/test_readme.py`` fails when a quote is not found or differs from its data, so these
-numbers cannot go stale. (The demos' and the report's numbers are to follow the same way, from
-``docs/demo_results.json`` and ``report/data/``, once those are regenerated on main's code.)
+quoted numbers, and computes their text from the data:
+
+* the demos' runs, ``docs/demo_results.json`` (``docs/demo_results.py``: wall times, warnings and
+  what each demo measured, on 2 ranks as the README's table says);
+* the report, ``report/data/`` (``./run report``: material point, FE study, stability);
+* the scaling benchmark, ``report/data/fe_scaling.csv`` (``benchmarks/fe_scaling.py``).
+
+Only the groups are rewritten: the prose around them is the README's own, so other edits of the
+README merge freely. ``tests/test_readme.py`` fails when a quote is not found or differs from its
+data, so a number of the README cannot go stale.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import re
 import sys
@@ -26,6 +31,8 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DEMO_RESULTS = ROOT / "docs" / "demo_results.json"
+REPORT_DATA = ROOT / "report" / "data"
 
 
 class Data:
@@ -34,6 +41,30 @@ class Data:
     def __init__(self, root: Path = ROOT) -> None:
         self.root = root
         self._cache: dict[str, Any] = {}
+
+    def _json(self, rel: str) -> Any:
+        if rel not in self._cache:
+            self._cache[rel] = json.loads((self.root / rel).read_text())
+        return self._cache[rel]
+
+    @property
+    def demos(self) -> dict[str, Any]:
+        """``docs/demo_results.json``'s runs by key."""
+        return self._json("docs/demo_results.json")["demos"]
+
+    def demo(self, key: str) -> dict[str, Any]:
+        """One demo run's record (its ``numbers``, ``wall_s``, ``warnings``)."""
+        try:
+            return self.demos[key]
+        except KeyError:
+            raise KeyError(
+                f"docs/demo_results.json has no run '{key}': run "
+                f"./run exec python3 docs/demo_results.py --only {key}"
+            ) from None
+
+    def report(self, name: str) -> Any:
+        """``report/data/<name>.json``."""
+        return self._json(f"report/data/{name}.json")
 
     @property
     def scaling(self) -> list[dict[str, str]]:
@@ -73,13 +104,19 @@ class Quote:
 def words(text: str) -> str:
     """A pattern from README text: ``{}`` is a quoted number, any whitespace may be a line break.
 
-    A quoted number is one word (no space, ``,``, ``;``, ``(``, ``)`` or ``|``).
+    A quoted number is one word (no space, ``,``, ``;``, ``(`` or ``)``); ``{s}`` is a quoted
+    time with its unit (``5 s``, ``2 min``); ``{t}`` quoted words (on one line, up to the text
+    that follows it).
     """
-    parts = re.split(r"(\{\})", text)
+    parts = re.split(r"(\{\}|\{s\}|\{t\})", text)
     out = []
     for p in parts:
         if p == "{}":
-            out.append(r"([^\s,;()|]+?)")
+            out.append(r"([^\s,;()|]+?)(?!\.?\d)")  # "6.58." is 6.58, not 6
+        elif p == "{s}":
+            out.append(r"(\d+(?:\.\d+)?\s(?:s|min))")
+        elif p == "{t}":
+            out.append(r"([^;'\n]+?)")
         elif p:
             inner = r"\s+".join(re.escape(w) for w in p.split())
             out.append((r"\s+" if p[0].isspace() else "") + inner
@@ -91,6 +128,11 @@ def words(text: str) -> str:
 # Formats
 
 
+def f2(x: float) -> str:
+    """Two decimals."""
+    return f"{x:.2f}"
+
+
 def sig(x: float, n: int = 2) -> str:
     """``n`` significant digits, fixed notation (0.054, 0.008, 14.27 -> '14')."""
     if x == 0 or not math.isfinite(x):
@@ -99,13 +141,196 @@ def sig(x: float, n: int = 2) -> str:
     return f"{x:.{digits}f}"
 
 
+def e1(x: float) -> str:
+    """Scientific with two significant digits, no '+' and no leading zero: 4.1e-6."""
+    m, e = f"{x:.1e}".split("e")
+    return f"{m}e{int(e)}"
+
+
+def wall(seconds: float) -> str:
+    """A demo's wall time as the README's table gives it: seconds below 2 min, else minutes.
+
+    Below 1 s, one decimal (0.1 s, not "0 s").
+    """
+    if seconds < 0.95:
+        return f"{seconds:.1f} s"
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min"
+
+
+def pct(x: float, digits: int) -> str:
+    """A relative number as a percentage with ``digits`` decimals."""
+    return f"{100 * x:.{digits}f}"
+
+
 def gib(mib: float) -> str:
     """MiB as GiB with one decimal."""
     return f"{mib / 1024:.1f}"
 
 
+def kdofs(n: float) -> str:
+    """Thousands of dofs, as '3.5k' (below 10k) or '37k'."""
+    return f"{n / 1e3:.1f}k" if n < 1e4 else f"{n / 1e3:.0f}k"
+
+
+# --------------------------------------------------------------------------------------------
+# The demos (docs/demo_results.json)
+
+
+def _table_time(demo: str) -> Quote:
+    return Quote(f"{demo}: wall time in the demo table",
+                 rf"^\| \[`{demo}`\]\(demos/{demo}\.py\)[^\n]*\| (\d+(?:\.\d+)? (?:s|min)) \|$",
+                 lambda d: [wall(d.demo(demo)["wall_s"])])  # fmt: skip
+
+
+def _warned(d: Data) -> str:
+    names = [f"`{k}`" for k in DEMOS if d.demo(k)["warnings"]]
+    if not names:
+        return "no demo"
+    return ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
+
+
+def _pad_peaks(d: Data) -> list[str]:
+    peaks = sorted(d.demo("pad_on_plate")["numbers"]["peaks"])  # (hold, peak, before, strength)
+    return [f"{p[1]:.2f}" for p in peaks]
+
+
+def _punch(d: Data) -> dict[str, float]:
+    return d.demo("punch")["numbers"]
+
+
+def _lap(d: Data, law: str) -> dict[str, Any]:
+    return d.demo("lap_joint")["numbers"][law]
+
+
+def _bolted(d: Data) -> dict[str, Any]:
+    return d.demo("bolted_joint")["numbers"]
+
+
+def _hertz(d: Data, key: str) -> list[str]:
+    runs = ["hertz_n4", "hertz_n8", "hertz"]
+    return [d.demo(r)["numbers"]["hertz"][key] for r in runs]
+
+
+def _cm(d: Data) -> dict[str, Any]:
+    return d.demo("cattaneo_mindlin")["numbers"]
+
+
+def _cm_fit(d: Data) -> list[str]:
+    runs = ["cattaneo_mindlin_n4", "cattaneo_mindlin", "cattaneo_mindlin_n16"]
+    return [f"{100 * abs(d.demo(r)['numbers']['coulomb']['err_c_fit']):.2f}" for r in runs]
+
+
+def _mp(d: Data) -> list[str]:
+    paths = d.report("mp_study")["paths"]
+    rev, turn = paths["reversal"], paths["turn"]
+    sub = [r for r in rev["runs"] if r["law"] == "subloading"]
+    cou = max(r["error"] for r in rev["runs"] if r["law"] == "coulomb")
+    return [e1(sub[0]["error"]), str(sub[0]["steps"]), e1(sub[-1]["error"]),
+            str(sub[-1]["steps"]), f2(rev["order_subloading"]), e1(cou),
+            f2(turn["order_subloading"]), f2(turn["order_subloading_previous"]),
+            f2(turn["order_coulomb"])]  # fmt: skip
+
+
+def _fe(d: Data, key: str) -> dict[str, Any]:
+    return d.report("fe_summary")[key]
+
+
+def _fe_block(d: Data) -> list[str]:
+    f = _fe(d, "block/subloading")
+    split = f["split"]
+    big = "time" if split["time"] > split["space"] else "space"
+    ratio = max(split.values()) / min(split.values())
+    diff = max(x["max_diff12"] for x in d.report("fe_summary").values())
+    dofs = [j["dofs"] for j in f["joint"]]
+    pays = f["pays_off"]
+    if not pays:
+        faster = "at no size of the study"
+    elif pays == dofs[dofs.index(pays[0]):]:
+        faster = f"from {pays[0]} dofs on"
+    else:
+        faster = "at " + " and ".join(str(n) for n in pays) + " dofs only"
+    return [big, f"{ratio:.1f}", e1(diff), f"{f['newton_mean']:.1f}", faster,
+            f["largest"]["1"]]  # fmt: skip
+
+
+def _nan_free(d: Data) -> bool:
+    return all(c["nan_free"] for c in d.report("stability_point")) and all(
+        c["nan_free"] for n in (1, 2) for c in d.report(f"stability_fe_{n}").values())
+
+
+DEMOS = sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__")
+"""Every demo: its row of the README's table quotes its wall time."""
+
 # fmt: off
 QUOTES: list[Quote] = [
+    *(_table_time(demo) for demo in DEMOS),
+    Quote("demos whose default run warns", words(
+        "default runs of {t} end with a warning that the model's validity is at stake"),
+        lambda d: [_warned(d)]),
+    Quote("pad_on_plate: restored peaks", words("peak grows with the hold ({}, {}, {}, {} MPa for"),
+          _pad_peaks),
+    Quote("punch: peaks and saturation", words(
+        "(edge peaks about {} MPa), then shear; this law and Coulomb side by side: under the "
+        "pressure peaks the tangential stress saturates ({} MPa) where Coulomb's keeps growing "
+        "({} MPa)"),
+        lambda d: [f"{round(_punch(d)['fn_peak'], -2):.0f}", f"{abs(_punch(d)['ft_sub']):.0f}",
+                   f"{abs(_punch(d)['ft_coul']):.0f}"]),
+    Quote("lap_joint: slip per cycle", words(
+        "slip accumulates cycle by cycle ({} µm in the first, {} µm in the last, {} µm in all), "
+        "the loosening Coulomb cannot produce ({} µm, then nothing)"),
+        lambda d: [f2(_lap(d, "subloading")["slip_per_cycle_um"][0]),
+                   f2(_lap(d, "subloading")["slip_per_cycle_um"][-1]),
+                   f"{_lap(d, 'subloading')['total_um']:.0f}",
+                   f2(_lap(d, "coulomb")["slip_per_cycle_um"][0])]),
+    Quote("bolted_joint: peaks and size", words(
+        "shrink from the static peak ({} kN) to a symmetric kinetic loop ({} kN) as `mu` softens. "
+        "{} dofs by default"),
+        lambda d: [f"{1e-3 * abs(_bolted(d)['strokes'][0][1]):.2f}",
+                   f"{1e-3 * abs(_bolted(d)['strokes'][-1][1]):.2f}",
+                   kdofs(_bolted(d)["dofs"])]),
+    Quote("hertz: errors at n = 4, 8, 16", words(
+        "half-width (fit) within {}, {}, {} %; peak pressure {}, {}, {} %; largest error of "
+        "`p(x)` over `|x| <= 0.8a` {}, {}, {} % of `p0`"),
+        lambda d: [*(sig(100 * abs(x)) for x in _hertz(d, "err_a_fit")),
+                   *(f"{100 * x:+.3f}" for x in _hertz(d, "err_p0")),
+                   *(sig(100 * x) for x in _hertz(d, "err_p_inner"))]),
+    Quote("block_sliding_far: steps and Newton", words(
+        "{} steps, Newton up to {} iterations in a step"),
+        lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
+                   str(d.demo("block_sliding_far")["numbers"]["newton_max"])]),
+    Quote("cattaneo_mindlin: Q/muP, stick zone, microslip", words(
+        "pushed sideways (`Q/µP` = {}, measured): Coulomb's stick zone against "
+        "`c = a sqrt(1 - Q/µP)` (fit within {}, {}, {} % at `--n 4, 8, 16`)"),
+        lambda d: [f2(_cm(d)["coulomb"]["ratio"]), *_cm_fit(d)]),
+    Quote("cattaneo_mindlin: microslip at the centre", words(
+        "microslip all over the stick zone ({} µm at the centre)"),
+        lambda d: [f"{1e3 * _cm(d)['subloading']['slip_centre']:.3f}"]),
+    Quote("report: material point", words(
+        "error {} of the peak at {} steps down to {} at {}, observed order {} on a 1-D path "
+        "(Coulomb's largest error there: {}); order {} where the sliding direction turns (the "
+        "previous return map: {}; Coulomb: {})."),
+        _mp),
+    Quote("report: FE orders", words(
+        "2-D block {} / {} / {} with this law, {} / {} / {} with Coulomb; 3-D pad {} / {} / {} "
+        "and {} / {} / {}."),
+        lambda d: [f2(_fe(d, k)[o]) for k in ("block/subloading", "block/coulomb",
+                   "pad/subloading", "pad/coulomb") for o in ("p_time", "p_space", "p_joint")]),
+    Quote("report: FE block with this law", words(
+        "block with this law the {} error is {} times the other; 1 and 2 ranks agree within {} "
+        "of the peak; {} Newton iterations per step on average; 2 ranks are faster than 1 {t}; "
+        "the largest part of the finest run's time is '{t}' (1 rank)."),
+        _fe_block),
+    Quote("report: stability", words(
+        "Stability: {} of {} material-point and {} of {} FE cases"),
+        lambda d: [str(sum(c["passed"] for c in d.report("stability_point"))),
+                   str(len(d.report("stability_point"))),
+                   str(min(sum(c["passed"] for c in d.report(f"stability_fe_{n}").values())
+                           for n in (1, 2))),
+                   str(len(d.report("stability_fe_1")))]),
+    Quote("report: stability on 1 and 2 ranks, NaN", words(
+        "(converged, flagged unstable, or a clear error) on 1 and 2 ranks, {t}; each is also a "
+        "test."),
+        lambda d: ["with no NaN" if _nan_free(d) else "but NaN or inf seen (see the report)"]),
     *(Quote(f"scale ({where})", pattern, values) for where, pattern, values in [
         ("report headlines", words(
             "37k dofs {} s with the reused factor against {} s with LU at every iteration; 225k "

@@ -38,9 +38,8 @@ def mp_figures(res: dict[str, Any]) -> None:
         a.grid(True, which="both", alpha=0.3)
         a.legend()
     fig.suptitle("Material point, Sec. 7 set at 300 MPa: error against wall time")
-    fig.tight_layout()
-    fig.savefig(HERE / "mp_error_vs_time.png", dpi=110)
-    plt.close(fig)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    stamped(fig, "mp_error_vs_time.png")
 
     path = mp_study.PATHS["reversal"][0]
     ts = np.union1d(np.linspace(0.0, 25.0, 2001), path[:, 0])
@@ -63,83 +62,110 @@ def mp_figures(res: dict[str, Any]) -> None:
         a.grid(True, alpha=0.3)
         a.legend(fontsize=8)
     fig.suptitle("The 'reversal' path: forward 1 mm, back to -1 mm, hold 20 s, reload")
-    fig.tight_layout()
-    fig.savefig(HERE / "mp_reversal_path.png", dpi=110)
-    plt.close(fig)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    stamped(fig, "mp_reversal_path.png")
 
 
 def fe_figures(fe: dict[str, Any], curves: dict[str, Any], cfg: dict[str, Any]) -> None:
-    """Error against wall time of the grid; convergence in time and space; the histories."""
-    grid = fe["grid"]
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    for i, n in enumerate(cfg["ns"]):
-        g = [x for x in grid if x["n"] == n]
-        ax.loglog([x["wall1"] for x in g], [x["err1"] for x in g], "-o", color=f"C{i}",
-                  label=f"n = {n}, 1 rank")  # fmt: skip
-        ax.loglog([x["wall2"] for x in g], [x["err2"] for x in g], "--^", color=f"C{i}",
-                  label=f"n = {n}, 2 ranks")  # fmt: skip
-        for x in g:
-            ax.annotate(f"{x['dt']:g}", (x["wall1"], x["err1"]), fontsize=6, alpha=0.7)
-    ax.set_xlabel("wall time of the run (s; n <= 16 best of 2)")
-    ax.set_ylabel(r"max$_t$ |$F_{t1}/A - $ ref| / peak")
-    ax.set_title(
-        "Block on base: error of the mean tangential traction history\n"
-        "(labels: dt in s; reference: fine in time and space)",
-        fontsize=10,
-    )
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(HERE / "fe_error_vs_time.png", dpi=110)
-    plt.close(fig)
+    """Error against wall time, convergence in time and in space, the reference histories.
 
-    time_n, dt_ref, space_dt, n_ref = cfg["time_n"], cfg["dt_ref"], cfg["space_dt"], cfg["n_ref"]
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    d = [x for x, _ in fe["time_rows"]]
-    e = [y for _, y in fe["time_rows"]]
-    detail = fe["time_detail"]
-    ax[0].loglog(d, e, "o-", label=f"max over time, n = {time_n} vs dt = {dt_ref:g}")
-    ax[0].loglog(d, [e[-1] * (x / d[-1]) ** 2 for x in d], "k:", label="slope 2")
-    ax[0].loglog(d, [e[-1] * (x / d[-1]) for x in d], "k--", label="slope 1")
-    ax[0].set_xlabel("dt (s) = slide per step (mm)")
-    ax[0].set_ylabel("error / peak")
-    ax[0].loglog(d, [x["rms"] for x in detail], "o--", color="C1", ms=4, label="rms over time")
-    ax[0].loglog(d, [x["forward"] for x in detail], "v--", color="C4", ms=4,
-                 label="max over the forward slide")  # fmt: skip
-    ax[0].set_title(
-        f"time: observed order {fe['p_time']:.2f} (max), {fe['p_time_cols']['rms']:.2f} (rms)",
-        fontsize=10,
-    )
-    h = [1.0 / n for n, _ in fe["space_rows"]]
-    es = [y for _, y in fe["space_rows"]]
-    ax[1].loglog(h, es, "s-", color="C2", label=f"dt = {space_dt:g} vs n = {n_ref}")
-    ax[1].loglog(h, [es[-1] * (x / h[-1]) ** 2 for x in h], "k:", label="slope 2")
-    ax[1].loglog(h, [es[-1] * (x / h[-1]) for x in h], "k--", label="slope 1")
-    ax[1].set_xlabel("h = 1 / n_interface (mm)")
-    ax[1].set_title(f"space: observed order {fe['p_space']:.2f}", fontsize=10)
-    for a in ax:
+    Error against wall time: the joint sequences, 1 and 2 ranks, both laws, 2-D and 3-D.
+    """
+    cases = list(cfg["cases"])
+    styles = {"subloading": ("C0", "o"), "coulomb": ("C3", "s")}
+    fig, ax = plt.subplots(1, len(cases), figsize=(5.6 * len(cases), 4.6), squeeze=False)
+    for a, case in zip(ax[0], cases, strict=True):
+        for law in cfg["laws"]:
+            s = fe[f"{case}/{law}"]
+            c, m = styles[law]
+            j = s["joint"]
+            a.loglog([x["wall1"] for x in j], [max(x["err1"], 1e-16) for x in j], "-" + m,
+                     color=c, label=f"{law}, 1 rank")  # fmt: skip
+            a.loglog([x["wall2"] for x in j], [max(x["err2"], 1e-16) for x in j], "--" + m,
+                     color=c, mfc="none", label=f"{law}, 2 ranks")  # fmt: skip
+            for x in j:
+                a.annotate(f"{x['dofs']} dofs, dt {x['dt']:g}", (x["wall1"], max(x["err1"], 1e-16)),
+                           fontsize=6, alpha=0.7)  # fmt: skip
+        a.set_xlabel("wall time of the run (s)")
+        a.set_ylabel(r"max$_t$ |$F_{t1}/A$ - ref| / peak")
+        a.set_title(f"{case}: time and space refined together", fontsize=10)
         a.grid(True, which="both", alpha=0.3)
-        a.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(HERE / "fe_convergence.png", dpi=110)
-    plt.close(fig)
+        a.legend(fontsize=7)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    stamped(fig, "fe_error_vs_time.png")
 
-    tc = curves["tc"]
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    ax[0].plot(tc, curves["ref"], "k-", lw=1.2, label="reference")
-    for dt, r in curves["histories"]:
-        ax[0].plot(r["t"], r["ft"], "--", lw=0.9, label=f"n = {time_n}, dt = {dt:g}")
-    ax[0].set_xlabel("t (s)")
-    ax[0].set_ylabel("$F_{t1}$ / area (MPa)")
-    ax[0].set_title(f"block_on_base, 300 MPa, hold {cfg['hold']:g} s", fontsize=10)
-    for dt, err in curves["err_curves"]:
-        ax[1].semilogy(tc, np.maximum(err, 1e-14), lw=0.8, label=f"dt = {dt:g}")
-    ax[1].set_xlabel("t (s)")
-    ax[1].set_ylabel(f"|error| / peak (n = {time_n})")
-    ax[1].set_ylim(1e-12, 1e-1)
-    for a in ax:
+    fig, ax = plt.subplots(2, len(cases), figsize=(5.6 * len(cases), 8), squeeze=False)
+    for k, case in enumerate(cases):
+        for law in cfg["laws"]:
+            s = fe[f"{case}/{law}"]
+            c, m = styles[law]
+            d = [x for x, _ in s["time_rows"]]
+            e = [max(y, 1e-16) for _, y in s["time_rows"]]
+            ax[0, k].loglog(d, e, "-" + m, color=c,
+                            label=f"{law}: order {s['p_time']:.2f}")  # fmt: skip
+            h = [1.0 / n for n, _ in s["space_rows"]]
+            es = [max(y, 1e-16) for _, y in s["space_rows"]]
+            ax[1, k].loglog(h, es, "-" + m, color=c,
+                            label=f"{law}: order {s['p_space']:.2f}")  # fmt: skip
+        ax[0, k].set_xlabel("dt (s)")
+        ax[0, k].set_title(f"{case}: time (n = {cfg['cases'][case]['time_n']})", fontsize=10)
+        ax[1, k].set_xlabel("h = 1 / n")
+        ax[1, k].set_title(f"{case}: space (dt = {cfg['cases'][case]['space_dt']:g} s)",
+                           fontsize=10)  # fmt: skip
+        for a in ax[:, k]:
+            a.set_ylabel("max error / peak")
+            a.grid(True, which="both", alpha=0.3)
+            a.legend(fontsize=7)
+    fig.tight_layout(rect=(0, 0.02, 1, 1))
+    stamped(fig, "fe_convergence.png")
+
+    fig, ax = plt.subplots(1, len(cases), figsize=(5.6 * len(cases), 4.2), squeeze=False)
+    for a, case in zip(ax[0], cases, strict=True):
+        for law in cfg["laws"]:
+            cv = curves[f"{case}/{law}"]
+            a.plot(cv["tc"], cv["ref"], "-", color=styles[law][0], lw=1.0, label=law)
+        a.set_xlabel("t (s)")
+        a.set_ylabel("$F_{t1}$ / A (MPa), reference")
+        a.set_title(f"{case}, 300 MPa, hold {cfg['hold']:g} s", fontsize=10)
         a.grid(True, alpha=0.3)
         a.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(HERE / "fe_history.png", dpi=110)
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    stamped(fig, "fe_history.png")
+
+
+STAMP: dict[str, Any] = {}
+"""The stamp of this run (report/stamp.py), set by generate.py: printed on every figure."""
+
+
+def stamped(fig: Any, name: str) -> None:
+    """Write a figure with the commit that produced it in its lower left corner."""
+    import stamp as stamps
+
+    text = f"subfric-dolfinx {stamps.label(STAMP)}" if STAMP else "subfric-dolfinx (no stamp)"
+    fig.text(0.005, 0.005, text, fontsize=6, color="0.4", ha="left", va="bottom")
+    fig.savefig(HERE / name, dpi=110, metadata={"Comment": text, **png_stamp(STAMP)})
+    plt.close(fig)
+
+
+def png_stamp(stamp: dict[str, Any]) -> dict[str, str]:
+    """The PNG text entry that records the commit (``tests/test_report.py`` reads it)."""
+    return {"subfric-dolfinx-commit": stamp.get("commit", "")} if stamp else {}
+
+
+def stamp_existing(png: Path, stamp: dict[str, Any], what: str) -> None:
+    """Stamp a figure another program drew (once): its commit in a corner and in its metadata."""
+    from PIL import Image
+
+    with Image.open(png) as im:
+        if im.text.get("subfric-dolfinx-commit") == stamp["commit"]:
+            return
+    import stamp as stamps
+
+    img = plt.imread(png)
+    h, w = img.shape[:2]
+    fig = plt.figure(figsize=(w / 100, h / 100), dpi=100)
+    fig.figimage(img, 0, 0)
+    text = f"{what} {stamps.label(stamp)}"
+    fig.text(0.005, 0.005, text, fontsize=6, color="0.4", ha="left", va="bottom")
+    fig.savefig(png, dpi=100, metadata={"Comment": text, **png_stamp(stamp)})
     plt.close(fig)

@@ -7,8 +7,13 @@
 Three stages: :mod:`running` runs the studies one at a time and writes the raw results to
 ``report/data/*.json``; :mod:`analysis` and :mod:`fe_analysis` turn them into orders, errors,
 tables and numbers, :mod:`figures` into the PNGs; the prose is the Jinja2 template
-``templates/README.md.j2``, rendered with those numbers. Old outputs (``README.md``, ``*.png``,
-and ``data/`` unless ``--reuse``) are deleted first.
+``templates/README.md.j2``, rendered with those numbers (its sentences choose their words from
+the numbers: nothing in it can be contradicted by a rerun). Old outputs (``README.md``, ``*.png``
+but the scaling benchmark's, and ``data/`` unless ``--reuse``) are deleted first.
+
+Stamp (``report/stamp.py``): the commit and the git trees of ``constitutive/`` and ``fem/`` the
+run measured, in ``data/stamp.json``, printed on every figure and in the README;
+``tests/test_report.py`` fails when the measured code is no longer what the stamp says.
 """
 
 from __future__ import annotations
@@ -29,9 +34,13 @@ sys.path.insert(0, str(ROOT))
 
 import analysis  # noqa: E402
 import figures  # noqa: E402
+import mp_study  # noqa: E402
 import running  # noqa: E402
+import stamp as stamps  # noqa: E402
 from fe_analysis import fe_analysis  # noqa: E402
 from running import say  # noqa: E402
+
+SCALING = "fe_scaling"  # benchmarks/fe_scaling.py's table and figure (hours to rerun: kept)
 
 
 def scale_section(path: Path) -> str:
@@ -45,6 +54,16 @@ def scale_section(path: Path) -> str:
     if lines and lines[0].startswith("# "):
         lines = lines[1:]
     return "\n".join("#" + ln if ln.startswith("## ") else ln for ln in lines).strip()
+
+
+def scaling_stamp() -> dict[str, Any] | None:
+    """The commit that committed the scaling benchmark's data (it is not rerun here)."""
+    try:
+        commit = stamps.git("log", "-1", "--format=%H", "--", f"report/data/{SCALING}.csv")
+        date = stamps.git("log", "-1", "--format=%cs", "--", f"report/data/{SCALING}.csv")
+    except stamps.NoHistory:
+        return None
+    return {"commit": commit, "date": date, "dirty": []} if commit else None
 
 
 def render(context: dict[str, Any]) -> str:
@@ -81,16 +100,26 @@ def main() -> int:
     )
     args = ap.parse_args()
     data = HERE / "data"
-    kept = "mp_old_new"  # report/mp_study.py's figure, not regenerated here
-    for f in [HERE / "README.md", *(p for p in HERE.glob("*.png") if not p.name.startswith(kept))]:
+    old = [p for p in HERE.glob("*.png") if not p.name.startswith(SCALING)]
+    for f in [HERE / "README.md", *old]:
         f.unlink(missing_ok=True)
-    if not args.reuse:
+    if args.reuse:
+        stamp = json.loads((data / "stamp.json").read_text())
+    else:
+        kept = {p.name: p.read_bytes() for p in data.glob(f"{SCALING}*")}
         shutil.rmtree(data, ignore_errors=True)
         data.mkdir()
+        for name, content in kept.items():
+            (data / name).write_bytes(content)
+        stamp = stamps.make(stamps.REPORT_MEASURES)
+        (data / "stamp.json").write_text(json.dumps(stamp, indent=1) + "\n")
+    figures.STAMP.update(stamp)
     cfg = running.fe_config(args.quick)
     say("material-point convergence study")
     mp = running.material_point(data, args.quick, args.reuse)
     figures.mp_figures(mp)
+    mp_study.figure(mp, HERE / "mp_old_new_error_vs_time.png", save=figures.stamped)
+    (data / "mp_section.md").write_text(mp_study.section(mp))
     mp_lines = analysis.mp_tables(mp)
     say("stability cases")
     point, fe_stab = running.stability(data, args.reuse)
@@ -108,6 +137,15 @@ def main() -> int:
     section = data / "mp_section.md"  # written by report/mp_study.py (previous and current map)
     context["mp_section"] = section.read_text() if section.exists() else ""
     context["scale_section"] = scale_section(HERE / "fe_scaling.md")
+    context["stamp"] = stamp
+    context["stamp_label"] = stamps.label(stamp)
+    scaling = scaling_stamp()
+    context["scaling_commit"] = scaling["commit"][:10] if scaling else None
+    context["scaling_changed"] = bool(scaling) and bool(stamps.git(
+        "diff", "--name-only", scaling["commit"], stamp["commit"], "--", *stamps.REPORT_MEASURES
+    ))  # fmt: skip
+    if scaling and (HERE / f"{SCALING}.png").exists():
+        figures.stamp_existing(HERE / f"{SCALING}.png", scaling, "benchmarks/fe_scaling.py,")
     (HERE / "README.md").write_text(render(context))
     say(f"wrote {HERE / 'README.md'} and {len(list(HERE.glob('*.png')))} PNGs in {elapsed:.0f} s")
     if any(stab_sum[k][0] < stab_sum[k][1] for k in ("point", "fe1", "fe2")):

@@ -38,6 +38,7 @@ import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -231,8 +232,11 @@ def run(repeats: int = 3, log=print, laws: tuple[str, ...] = LAWS) -> dict:
     return out
 
 
-def figure(res: dict, where: Path) -> None:
-    """Error against wall time, the three laws on both paths."""
+def figure(res: dict, where: Path, save: Any = None) -> None:
+    """Error against wall time, the three laws on both paths.
+
+    ``save(fig, name)`` writes it (the report's stamped writer); default: ``fig.savefig``.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -260,7 +264,10 @@ def figure(res: dict, where: Path) -> None:
         a.legend(fontsize=8)
     fig.suptitle("Material point, Sec. 7 set at 300 MPa: error against run time, "
                  "current and previous return map")  # fmt: skip
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    if save is not None:
+        save(fig, where.name)
+        return
     fig.savefig(where, dpi=110)
     plt.close(fig)
 

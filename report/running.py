@@ -8,7 +8,8 @@ template do): the report can always be rebuilt from ``report/data/`` alone
 2. the material-point stability cases (``tests/stability``, in this process);
 3. the FE stability cases under ``mpirun -n 1`` and ``mpirun -n 2`` (``report/fe_stability.py``);
 4. the FE convergence and timing study under ``mpirun -n 1`` and ``mpirun -n 2``
-   (``report/fe_study.py``), the OMPI/PETSc environment passed through.
+   (``report/fe_study.py``: 2-D and 3-D, this law and Coulomb), the OMPI/PETSc environment
+   passed through.
 """
 
 from __future__ import annotations
@@ -36,46 +37,63 @@ def say(msg: str) -> None:
 
 
 def fe_config(quick: bool) -> dict[str, Any]:
-    """Runs of the FE study; see the README section for the reasoning."""
+    """Runs of the FE study (the README's section 2 gives the reasoning).
+
+    Per case (``block`` 2-D, ``pad`` 3-D) and law (this one and Coulomb): a study in time (``n``
+    fixed), one in space (``dt`` fixed), both against fine references, and a **joint** sequence
+    refining time and space together (the trade-off a user makes), run on 1 and 2 ranks; and a
+    probe of the coarsest step that converges without a cut (``max_cuts = 0``).
+    """
     if quick:
         return {
             "hold": 2.0,
-            "ns": [8, 16],
-            "dts": [0.04, 0.02],
-            "time_n": 8,
-            "time_dts": [0.04, 0.02, 0.01],
-            "dt_ref": 0.005,
-            "space_dt": 0.04,
-            "n_ref": 32,
-            "rep": (16, 0.02),
-        }
+            "laws": ["subloading", "coulomb"],
+            "cases": {
+                "block": {"time_n": 8, "time_dts": [0.04, 0.02], "dt_ref": 0.01,
+                          "space_dt": 0.04, "ns": [8, 16], "n_ref": 32,
+                          "joint": [[8, 0.04], [16, 0.02]], "probe_dts": [0.16, 0.08]},
+                "pad": {"time_n": 2, "time_dts": [0.1, 0.05], "dt_ref": 0.025, "space_dt": 0.05,
+                        "ns": [2], "n_ref": 3, "joint": [[2, 0.1], [2, 0.05]], "probe_dts": []},
+            },
+        }  # fmt: skip
     return {
         "hold": 2.0,
-        "ns": [8, 16, 32],
-        "dts": [0.04, 0.02, 0.01, 0.005],
-        "time_n": 8,
-        "time_dts": [0.04, 0.02, 0.01, 0.005, 0.0025],
-        "dt_ref": 0.000625,
-        "space_dt": 0.04,
-        "n_ref": 64,
-        "rep": (32, 0.01),
-    }
+        "laws": ["subloading", "coulomb"],
+        "cases": {
+            "block": {"time_n": 8, "time_dts": [0.04, 0.02, 0.01, 0.005], "dt_ref": 0.00125,
+                      "space_dt": 0.04, "ns": [8, 16, 32, 64], "n_ref": 128,
+                      "joint": [[8, 0.04], [16, 0.02], [32, 0.01], [64, 0.005]],
+                      "probe_dts": [0.32, 0.16, 0.08]},
+            "pad": {"time_n": 2, "time_dts": [0.1, 0.05, 0.025], "dt_ref": 0.00625,
+                    "space_dt": 0.05, "ns": [2, 3, 4], "n_ref": 6,
+                    "joint": [[2, 0.1], [3, 0.05], [4, 0.025]], "probe_dts": []},
+        },
+    }  # fmt: skip
 
 
 def fe_runs(cfg: dict[str, Any], ranks: int) -> list[dict[str, Any]]:
     """The run list of one rank count (repeats: best-of for timings)."""
-    runs = []
-    rep_n, rep_dt = cfg["rep"]
-    for n in cfg["ns"]:
-        for dt in cfg["dts"]:
-            repeats = 3 if (n, dt) == (rep_n, rep_dt) else (2 if n <= 16 else 1)
-            runs.append({"n": n, "dt": dt, "repeats": repeats})
-    if ranks == 1:
-        for dt in cfg["time_dts"]:
-            if dt not in cfg["dts"]:
-                runs.append({"n": cfg["time_n"], "dt": dt, "repeats": 1})
-        runs.append({"n": cfg["time_n"], "dt": cfg["dt_ref"], "repeats": 1, "ref": "time"})
-        runs.append({"n": cfg["n_ref"], "dt": cfg["space_dt"], "repeats": 1, "ref": "space"})
+    runs: list[dict[str, Any]] = []
+
+    def add(case: str, law: str, n: int, dt: float, **extra: Any) -> None:
+        if not any(r["case"] == case and r["law"] == law and r["n"] == n and r["dt"] == dt
+                   and r.get("max_cuts") == extra.get("max_cuts") for r in runs):  # fmt: skip
+            runs.append({"case": case, "law": law, "n": n, "dt": dt, **extra})
+
+    for case, c in cfg["cases"].items():
+        for law in cfg["laws"]:
+            for n, dt in c["joint"]:
+                add(case, law, n, dt, repeats=2 if n * (3 if case == "pad" else 1) <= 16 else 1)
+            if ranks > 1:
+                continue
+            for dt in c["time_dts"]:
+                add(case, law, c["time_n"], dt)
+            add(case, law, c["time_n"], c["dt_ref"])
+            for n in c["ns"]:
+                add(case, law, n, c["space_dt"])
+            add(case, law, c["n_ref"], c["space_dt"])
+            for dt in c["probe_dts"]:
+                add(case, law, c["time_n"], dt, max_cuts=0)
     return runs
 
 

@@ -31,8 +31,10 @@ testing the version itself. Each difference was read in the installed sources of
 - The graph partitioner: both stacks' DOLFINx call PT-Scotch with a fixed seed, but sid's Scotch
   (7.0.16) partitions with threads and gives a different partition from call to call (a 2-rank
   block mesh: 162 or 164 owned dofs on rank 0, 152 once; trixie's 7.0.7 always 162). One thread
-  (``SCOTCH_PTHREAD_NUMBER=1``, read at each call) makes it repeatable: the mesh functions below
-  set it around their call unless the user has set it (:func:`repeatable_partitions`).
+  (``SCOTCH_PTHREAD_NUMBER=1``, read at each call) makes it repeatable:
+  :func:`repeatable_partitions`, for whoever needs two meshes partitioned alike (the test suite
+  sets the variable). It is not the default: the one-thread partition can be worse for the
+  solver (see the function).
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 - DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
@@ -115,9 +117,12 @@ def repeatable_partitions() -> Iterator[None]:
 
     A threaded Scotch (Debian sid's) gives a different partition of the same mesh from one call to
     the next, so that two runs of a script, or two problems built in one process, number and place
-    their dofs differently; one thread makes it repeatable, at no measurable cost (a 228k-cell
-    block mesh on 2 ranks: 9.4-9.5 s to build either way). The variable is set only
-    if the user has not set it, and restored afterwards.
+    their dofs differently; one thread makes it repeatable. Building the mesh costs the same (a
+    228k-cell block mesh on 2 ranks: 9.4-9.5 s either way), but the partition differs, and the
+    solver may pay for it: the 3-D pad at 184,050 dofs, 24 steps, 2 ranks, trixie, "reuse":
+    109 s and 4.55 GiB on one rank with the one-thread partition, 88 s and 2.9 GiB with two
+    threads (one run each; MUMPS's factor is larger). Hence opt-in, not the package's default.
+    The variable is set only if the user has not set it, and restored afterwards.
     """
     if _SCOTCH_THREADS in os.environ:
         yield
@@ -141,8 +146,7 @@ def model_to_mesh(
     ``dolfinx.io.gmshio.model_to_mesh`` (0.9) or ``dolfinx.io.gmsh.model_to_mesh`` (0.11, whose
     ``MeshData`` also holds ridge and peak tags, not used here).
     """
-    with repeatable_partitions():
-        out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
     if _NEW:
         return out.mesh, out.cell_tags, out.facet_tags
     return out
@@ -155,8 +159,7 @@ def read_from_msh(
 
     ``io.gmshio.read_from_msh`` (0.9) or ``io.gmsh.read_from_msh`` (0.11, a ``MeshData``).
     """
-    with repeatable_partitions():
-        out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
+    out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
     if _NEW:
         return out.mesh, out.cell_tags, out.facet_tags
     return out
@@ -208,10 +211,9 @@ def create_mesh(
 
     ``dolfinx.mesh.create_mesh``, whose coordinates and element swapped places in 0.11.
     """
-    with repeatable_partitions():
-        if _NEW:
-            return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
-        return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
+    if _NEW:
+        return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
+    return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
 
 
 def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):

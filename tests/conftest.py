@@ -8,15 +8,31 @@
   map, driver, fuzzing, ...) gives the same answer on every rank; on more than one rank its tests
   are deselected (pytest reports them as "deselected"), since the 1-rank run has already run them.
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
+* Repeatable partitions: ``SCOTCH_PTHREAD_NUMBER=1`` unless set (see below).
+* A broken pipe is an exception again: PETSc's initialisation installs its signal handler for
+  SIGPIPE (and SIGHUP), which ends the process with PETSc's error code 59 and no message; Python
+  ignores SIGPIPE so that writing to a pipe whose reader has gone raises ``BrokenPipeError``. A test
+  that writes to a child job which has ended (``test_stop_signals``) took the whole suite down
+  with exit code 59 instead of failing with the job's output (sid, 1 rank, under load).
 """
 
 import gc
+import os
 import pathlib
+import signal
 import sys
 import tempfile
 
 import pytest
 from mpi4py import MPI
+from petsc4py import PETSc  # noqa: F401  (initialises PETSc here: its handlers are installed now)
+
+signal.signal(signal.SIGPIPE, signal.SIG_IGN)  # Python's own setting, which PETSc replaced
+
+# Two meshes built alike are partitioned alike (tests compare two problems row by row): sid's
+# threaded PT-Scotch gives a different partition at every call (compat.repeatable_partitions);
+# the tests' child jobs (mpirun) inherit the variable.
+os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
 
 # The `tests` and `demos` packages live at the repository root. It is appended to sys.path, not
 # prepended: `subfric_dolfinx` must come from wherever the environment provides it (the package

@@ -43,6 +43,19 @@ class _Started(logging.Handler):
             print(f"STARTED {self.run}", flush=True)
 
 
+def last_history_time(path: Path) -> float | str | None:
+    """The time of the last row of ``history.csv``; ``None`` without a row (a run stopped before
+    its first step writes nothing); the error's text if it cannot be read."""
+    try:
+        with open(path) as f:
+            rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
+        return float(rows[-1][rows[0].index("t")]) if len(rows) > 1 else None
+    except FileNotFoundError:
+        return None
+    except Exception as e:
+        return f"{type(e).__name__}: {e}"
+
+
 def main(out: Path, runs: int) -> None:
     comm = MPI.COMM_WORLD
     for s in (signal.SIGUSR1, signal.SIGUSR2):  # outside a run: nothing
@@ -69,17 +82,19 @@ def main(out: Path, runs: int) -> None:
         except Exception as e:  # reported, the test fails on it
             result.update(outcome="error", message=f"{type(e).__name__}: {e}")
         ck = outdir / "checkpoint.h5"
-        try:
-            c = read_checkpoint(ck, comm)
-            result.update(checkpoint_t=float(c.attrs["time"]), checkpoint_step=int(c.attrs["step"]))
-        except Exception as e:
-            result["checkpoint_error"] = f"{type(e).__name__}: {e}"
+        result["checkpoint_exists"] = ck.exists()
+        if ck.exists():
+            try:
+                c = read_checkpoint(ck, comm)
+                result.update(
+                    checkpoint_t=float(c.attrs["time"]), checkpoint_step=int(c.attrs["step"])
+                )
+            except Exception as e:
+                result["checkpoint_error"] = f"{type(e).__name__}: {e}"
         agreed = comm.allgather(json.dumps(result, sort_keys=True))
-        if comm.rank == 0:
+        if comm.rank == 0:  # nothing here may raise: rank 1 waits at the barrier below
             result["same_on_every_rank"] = len(set(agreed)) == 1
-            with open(outdir / "history.csv") as f:
-                rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
-            result["history_t"] = float(rows[-1][rows[0].index("t")])
+            result["history_t"] = last_history_time(outdir / "history.csv")
             print("RESULT " + json.dumps(result), flush=True)
         comm.Barrier()
         faulthandler.cancel_dump_traceback_later()

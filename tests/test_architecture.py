@@ -15,6 +15,7 @@ Function-level imports count like module-level ones: a lazy import is still an i
 import ast
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -39,7 +40,10 @@ LAYERS = {
 }
 NUMPY_ONLY = [f"{NAME}.constitutive", f"{NAME}.loading", f"{NAME}.logs", f"{NAME}.driver"]
 HEAVY = {"dolfinx", "petsc4py", "mpi4py", "gmsh", "basix", "ufl", "ffcx", "h5py", "adios2"}
-MAX_LINES = 500
+MAX_LINES = 1000
+"""Modules longer than this fail (size modules by concept: issue 26 relaxed the former 500)."""
+LONG_LINES = 500
+"""Modules longer than this are named in a warning: a sign to look for a second concept."""
 
 
 def module_name(path: Path) -> str:
@@ -210,8 +214,12 @@ def test_every_subpackage_says_what_it_is_and_may_import():
 
 
 def test_no_module_is_too_long():
-    long = {m: n for m, p in MODULES.items() if (n := len(p.read_text().splitlines())) > MAX_LINES}
-    assert not long, f"modules over {MAX_LINES} lines: {long}"
+    sizes = {m: len(p.read_text().splitlines()) for m, p in MODULES.items()}
+    too_long = {m: n for m, n in sizes.items() if n > MAX_LINES}
+    assert not too_long, f"modules over {MAX_LINES} lines: {too_long}"
+    long = {m: n for m, n in sizes.items() if n > LONG_LINES}
+    if long:
+        warnings.warn(f"modules over {LONG_LINES} lines: {long}", stacklevel=1)
 
 
 def test_the_walker_sees_what_it_must():

@@ -51,7 +51,7 @@ def test_c_reference_equals_the_package_map(cmap, name, nt, dt):
         st = InterfaceState({"up": up, "mu": mu, "r": r, **({"f": f} if with_f else {})}, nt)
         res = P.return_map(gap, st, dt)
         c = cmap(P, gap, up, mu, r, f if with_f else None, dt)
-        use = c["status"] != 5  # (the C reference has no branch-and-bound scan)
+        use = c["status"] != c_map.NEEDS_SCAN  # (the C reference has no branch-and-bound scan)
         assert use.sum() > (900 if name.endswith("literal") else 2900)
         np.testing.assert_array_equal(c["status"][use], res.status[use])
         sc = np.abs(res.tangent).reshape(len(gap), -1).max(axis=1)[:, None]

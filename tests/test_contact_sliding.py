@@ -57,7 +57,7 @@ def test_gap_operator_against_central_differences(cell, degree):
     pr = normal_projection(x, Y, N, cell, degree)
     assert pr.converged.all()
     Q = frames(pr.normal)
-    G, Nl = gap_operator(x, Y, N, cell, degree, pr.xi, pr.gamma, Q)
+    G, Nl, _ = gap_operator(x, Y, N, cell, degree, pr.xi, pr.gamma, Q)
     rng = np.random.default_rng(10)
     dx, dY = rng.normal(size=x.shape), rng.normal(size=Y.shape)
     h = 1e-6

@@ -61,7 +61,7 @@ def test_floor_above_old_tolerances_and_the_step_converges(comm):
     prob = pressed_block(comm, 64)
     with FrictionSolver(prob, prefix("floor")) as solver:
         r = solver.solve(1.0, 1.0)
-        assert r["converged"]
+        assert r.converged
         prob.commit()
         x1 = solver.x.copy()
 
@@ -74,11 +74,11 @@ def test_floor_above_old_tolerances_and_the_step_converges(comm):
         old = attempt({**OLD, "snes_stol": 0.0, "snes_max_it": 8})
         deep = attempt({"snes_convergence_test": "skip", "snes_max_it": 6})
         S = solver.convergence.compute_scale(solver.x)
-    f0 = deep["residuals"][0]
-    floor = min(deep["residuals"][1:])
-    assert new["converged"] and new["converged_by"] in ("floor", "stall"), new
-    assert new["iterations"] <= 2
-    assert not old["converged"] and old["iterations"] == 8, old
+    f0 = deep.residuals[0]
+    floor = min(deep.residuals[1:])
+    assert new.converged and new.converged_by in ("floor", "stall"), new
+    assert new.iterations <= 2
+    assert not old.converged and old.iterations == 8, old
     assert floor > OLD["snes_atol"] and floor > OLD["snes_rtol"] * f0, (floor, f0)
     assert 0.05 * EPS * S < floor <= FLOOR_FACTOR * EPS * S, (floor, EPS * S)
 
@@ -96,9 +96,9 @@ def test_no_false_convergence(comm):
             rows, by = [], []
             for t in np.arange(0.25, 5.01, 0.25):
                 r = solver.solve(t, 0.25)
-                assert r["converged"]
+                assert r.converged
                 prob.commit()
-                by.append((r["converged_by"], r["iterations"]))
+                by.append((r.converged_by, r.iterations))
                 rows.append(solver.x.array_r.copy())
             runs.append((np.array(rows), by))
     (u, by), (ref, _) = runs
@@ -119,6 +119,6 @@ def test_options_decide(comm):
     prob = block_problem(comm)
     with FrictionSolver(prob, prefix("opt")) as solver:
         default = solver.solve(0.5, 0.5)
-    assert loose["converged_by"] == "rtol" and loose["iterations"] < default["iterations"]
-    assert petsc["converged"] and petsc["converged_by"] is None
-    assert default["converged_by"] in ("rtol", "floor")
+    assert loose.converged_by == "rtol" and loose.iterations < default.iterations
+    assert petsc.converged and petsc.converged_by is None
+    assert default.converged_by in ("rtol", "floor")

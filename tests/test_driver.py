@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from subfric_dolfinx.constitutive import preset
+from subfric_dolfinx.constitutive import UNSTABLE, Status, preset
 from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
 from tests.helpers import driver_cli as cli
 from tests.helpers import python_env, singleton_env
@@ -19,7 +19,10 @@ pytestmark = pytest.mark.numpy_only
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 FIELDS = fields(preset("sec7"))
-STATUS_KEYS = {"ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED", "UNSTABLE"}
+ELASTIC, PLASTIC, SEPARATED, JUMP = (
+    s.name for s in (Status.ELASTIC, Status.PLASTIC, Status.SEPARATED, Status.JUMP)
+)
+STATUS_KEYS = {s.name for s in Status} | {UNSTABLE}
 
 
 def write(tmp_path, obj, name="case.json"):
@@ -49,7 +52,7 @@ def test_cli_and_library_give_the_same_output_fields_at_the_sample_times(tmp_pat
     out = tmp_path / "out.json"
     proc = cli(case_file, "--out", out)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stderr.startswith("ok:") and "PLASTIC" in proc.stderr
+    assert proc.stderr.startswith("ok:") and PLASTIC in proc.stderr
     data = json.loads(out.read_text())
     assert set(data) >= {
         "samples",
@@ -78,10 +81,10 @@ def test_cli_and_library_give_the_same_output_fields_at_the_sample_times(tmp_pat
     g = -math.expm1(-p.c_n * p.alpha_n * UN)
     np.testing.assert_allclose(np.hypot(*ft), g * np.array(s["r"]) * s["mu"], rtol=1e-9, atol=1e-12)
     assert s["f_t2"][-1] > 0.0  # the turn to e2 shows
-    assert data["sample_status"] == ["ELASTIC", "PLASTIC", "PLASTIC", "PLASTIC", "PLASTIC"]
+    assert data["sample_status"] == [ELASTIC, PLASTIC, PLASTIC, PLASTIC, PLASTIC]
     counts = data["status_counts"]
     assert set(counts) == STATUS_KEYS
-    assert sum(v for k, v in counts.items() if k != "UNSTABLE") == data["n_steps"]
+    assert sum(v for k, v in counts.items() if k != UNSTABLE) == data["n_steps"]
     # 1 initial step + ceil(400 * length) per interval between knots {0, .1, .3, .45, .5}
     assert data["n_steps"] == 1 + 40 + 80 + 60 + 20
     # the library gives the same numbers
@@ -152,12 +155,12 @@ def test_status_counts_with_separation_and_the_coulomb_law(tmp_path):
     s = data["samples"]
     np.testing.assert_allclose(s["f_t1"][0], 0.3 * 100.0)  # sliding: mu_c f_n
     assert s["f_t1"][1] == 0.0 and s["f_n"][1] == 0.0  # open
-    assert data["sample_status"] == ["PLASTIC", "SEPARATED", "PLASTIC"]
+    assert data["sample_status"] == [PLASTIC, SEPARATED, PLASTIC]
     c = data["status_counts"]
     # the normal gap moves 0.205 mm on [1, 2] and on [2, 3]: 21 steps each, the last 11 open on
     # [1, 2] (ubar_n = 0.1 - 0.205 k / 21 <= 0 from k = 11) and the first 10 on [2, 3]
-    assert c["SEPARATED"] == 21 and c["PLASTIC"] + c["ELASTIC"] == 1 + 20 + 10 + 11
-    assert sum(v for k, v in c.items() if k != "UNSTABLE") == data["n_steps"] == 1 + 20 + 21 + 21
+    assert c[SEPARATED] == 21 and c[PLASTIC] + c[ELASTIC] == 1 + 20 + 10 + 11
+    assert sum(v for k, v in c.items() if k != UNSTABLE) == data["n_steps"] == 1 + 20 + 21 + 21
 
 
 # -------------------------------------------------------------------------------------------
@@ -196,7 +199,7 @@ def test_sample_times_end_steps_and_holds_take_one_step():
     assert res.n_steps == 5
     np.testing.assert_array_equal(res.samples["ubar_t1"], [0.37, 1.0, 1.0, 1.0])
     np.testing.assert_array_equal(res.samples["t"], case["t_samples"])
-    assert res.sample_status[2:] == ["ELASTIC", "ELASTIC"]
+    assert res.sample_status[2:] == [ELASTIC, ELASTIC]
     # the hold recovers mu exactly in one step: the same as in many smaller ones
     many = run_case({**case, "t_samples": [0.37, *np.linspace(1, 101, 51)]}, steps_per_mm=1)
     assert many.samples["mu"][-1] == pytest.approx(res.samples["mu"][-1], rel=1e-13)
@@ -230,14 +233,14 @@ def test_literal_sec6_set_is_flagged_unstable_and_the_normalised_one_is_not(tmp_
     assert 0.0 < lost["t"] < 2.0 and 0.03 < lost["r"] < 0.08  # early: r ~ 0.05 (docs/model.md §8)
     assert data["complete"] is False
     assert len(data["samples"]["t"]) < 7  # no complete curve
-    assert data["status_counts"]["UNSTABLE"] >= 1
+    assert data["status_counts"][UNSTABLE] >= 1
 
     proc = cli(write(tmp_path, sec6_monotonic("sec6-mus10000"), "norm.json"))
     assert proc.returncode == 0, proc.stderr
     data = json.loads(proc.stdout)
     assert data["stable"] and data["complete"] and data["stability_lost"] is None
     assert len(data["samples"]["t"]) == 7
-    assert data["status_counts"]["UNSTABLE"] == 0 and data["status_counts"]["JUMP"] == 0
+    assert data["status_counts"][UNSTABLE] == 0 and data["status_counts"][JUMP] == 0
     ft = np.array(data["samples"]["f_t1"])
     assert ft.argmax() not in (0, len(ft) - 1)  # a peak, then softening
 
@@ -250,7 +253,7 @@ def test_literal_sec6_loss_of_stability_is_step_independent():
     assert abs(lost[0]["r"] - lost[1]["r"]) < 1e-3 and abs(lost[0]["t"] - lost[1]["t"]) < 0.05
     go_on = run_case(case, steps_per_mm=200, on_instability="continue")
     assert go_on.complete and go_on.stability_lost is not None
-    assert go_on.status_counts["UNSTABLE"] > 10
+    assert go_on.status_counts[UNSTABLE] > 10
 
 
 # -------------------------------------------------------------------------------------------
@@ -297,7 +300,7 @@ def test_stress_control_between_the_kinetic_strength_and_the_peak_is_sustained()
     up, mu = res.samples["up_t1"], res.samples["mu"]
     assert up[1] > 0.0 and up[2] == up[1]  # slid while loading, not while held
     assert mu[2] > mu[1] and mu[2] == pytest.approx(p.mu_s, rel=1e-6)
-    assert res.sample_status[-1] == "ELASTIC"
+    assert res.sample_status[-1] == ELASTIC
 
 
 def test_stress_control_beyond_the_strength_runs_away_at_a_converging_time(tmp_path):

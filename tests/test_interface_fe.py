@@ -147,7 +147,7 @@ def test_jacobian_matches_finite_differences_and_newton_is_quadratic():
     stepper.run(t_end=1.5)
     # a plastic step with a non-uniform state
     counts = stepper.records[-1].counts
-    assert counts["PLASTIC"] > 0
+    assert counts[Status.PLASTIC.name] > 0
     res = stepper.records[-1].residuals
     # quadratic convergence: an observed order near 2 before round-off takes over
     orders = [
@@ -262,8 +262,8 @@ def test_partial_separation_and_recontact():
         assert everywhere(comm, np.all(tr[:, -1] >= 0.0))  # no tension
         assert everywhere(comm, np.all(tr[sep] == 0.0) and np.all(st.r[sep] == 0.0))
         seen[round(rec.t, 6)] = (
-            rec.counts["SEPARATED"],
-            sum(rec.counts[k] for k in ("ELASTIC", "PLASTIC", "JUMP")),
+            rec.counts[Status.SEPARATED.name],
+            sum(rec.counts[s.name] for s in (Status.ELASTIC, Status.PLASTIC, Status.JUMP)),
         )
 
     LoadStepper(solver, 0.25, on_step=on_step).run()

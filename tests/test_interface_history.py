@@ -44,7 +44,8 @@ def test_the_gap_in_the_interface_history_is_the_gap_the_law_saw(shared_tmp):
             assert units == {"x": "mm", "time": "s", "g0": "mm", "f_t": "MPa", "f_n": "MPa",
                              "gap": "mm", "status": "1", "up": "mm", "mu": "MPa", "r": "1"}
             assert json.loads(f.attrs["units"])["gap_n"] == "mm" and "f" not in f
-            assert json.loads(f.attrs["status_legend"])["2"].startswith("SEPARATED")
+            legend = json.loads(f.attrs["status_legend"])
+            assert legend[str(int(Status.SEPARATED))].startswith(Status.SEPARATED.name)
         n, p = f_n.shape
         assert n == len(res.history) and gap.shape == (n, p, 2) and up.shape == (n, p, 1)
         contact = status != Status.SEPARATED

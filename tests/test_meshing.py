@@ -377,15 +377,17 @@ def test_builder_mesh_size_sets_interface_count(comm):
 
 def test_a_mesh_is_partitioned_the_same_way_every_time(comm, monkeypatch):
     """Debian sid's PT-Scotch partitions with threads and differs from call to call (2 ranks,
-    block mesh: rank 0 owned 162, 164 or 152 dofs' worth of cells): the package's mesh functions
-    partition with one Scotch thread unless the user chose otherwise, and restore the variable.
-    Without it this test failed in 4 of 4 runs on sid (2 ranks)."""
+    block mesh: rank 0 owned 162, 164 or 152 dofs' worth of cells): within
+    compat.repeatable_partitions() it partitions with one Scotch thread unless the user chose
+    otherwise, and the variable is restored. Without it this test failed in 4 of 4 runs on sid
+    (2 ranks)."""
     from subfric_dolfinx import compat
 
     monkeypatch.delenv("SCOTCH_PTHREAD_NUMBER", raising=False)
     parts = []
     for _ in range(8):
-        im, _ = M.create_interface_mesh(M.build_block_on_base, comm, n_interface=8)
+        with compat.repeatable_partitions():
+            im, _ = M.create_interface_mesh(M.build_block_on_base, comm, n_interface=8)
         top = im.mesh.topology
         n = top.index_map(im.tdim).size_local
         parts.append(np.sort(np.asarray(top.original_cell_index)[:n]))

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepFailure
 from subfric_dolfinx.io import (
     FieldWriter,
@@ -130,7 +131,8 @@ def test_history_and_fields(shared_tmp, fmt):
         assert units["t"] == "s" and units["F_t1"] == "N/mm" and units["f_n"] == "MPa"
         assert units["area"] == "mm" and units["up_t1"] == "mm" and units["mu"] == "MPa"
         assert units["R_top_x"] == "N/mm" and units["plastic"] == "1"
-        assert meta["url"] == "history.csv" and "PLASTIC" in meta["status_legend"]["1"]
+        plastic = meta["status_legend"][str(int(Status.PLASTIC))]
+        assert meta["url"] == "history.csv" and Status.PLASTIC.name in plastic
         assert not {"f", "f_t", "f_t1"} & set(units)  # no law variable repeats the traction
         if fmt == "vtx":
             check_vtx(shared_tmp / "fields", by_rank, prob.gdim)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import on_root, prefix, small_scene
 
@@ -101,7 +102,7 @@ def test_probes_of_an_affine_field_and_its_stress(degree):
     assert row["Cs.gap_n"] == pytest.approx(-D[1], rel=1e-9)
     assert row["Cs.f_n"] == pytest.approx(1e4 * -D[1], rel=1e-9)
     assert row["Cs.f_t1"] == pytest.approx(0.3 * 1e4 * -D[1], rel=1e-9)
-    assert row["Cs.status"] == 1.0  # PLASTIC
+    assert row["Cs.status"] == Status.PLASTIC
 
 
 def uniaxial_scene(degree=1, fields=None):

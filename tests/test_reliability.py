@@ -3,11 +3,14 @@ line-search retry of a failed Newton step and what a StepFailure says (the warni
 penetration and slide: ``test_validity.py``). 1 and 2 ranks."""
 
 
+import dataclasses
+
 import numpy as np
 import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.constitutive import UNSTABLE, Status
 from subfric_dolfinx.fem import (
     Dirichlet,
     DirichletField,
@@ -131,8 +134,8 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options(preset, linear
     assert err is None, str(err)
     assert st.t == pytest.approx(2.0)
     assert interface_summary(prob)["F_n"] == pytest.approx(300.0, rel=1e-9)
-    counts = describe_attempt(prob)["counts"]
-    assert counts["SEPARATED"] == 0 and counts["FAILED"] == 0, counts
+    counts = describe_attempt(prob).counts
+    assert counts[Status.SEPARATED.name] == 0 and counts[Status.FAILED.name] == 0, counts
 
 
 def test_an_unloaded_slide_then_a_press_without_the_retry():
@@ -209,16 +212,18 @@ def test_a_step_failure_says_what_the_return_map_saw():
         with pytest.raises(StepFailure) as e:
             LoadStepper(solver, 0.1, max_cuts=4).run()
     att = e.value.attempt
-    counts, worst = att["counts"], att["worst"]
+    counts, worst = att.counts, att.worst
     n_points = comm.allreduce(prob.interface.n_elements * prob.interface.nq)
-    assert sum(counts[k] for k in ("ELASTIC", "PLASTIC", "SEPARATED", "JUMP", "FAILED")) == n_points
-    severity = ["FAILED", "UNSTABLE", "JUMP", "PLASTIC", "ELASTIC", "SEPARATED"]
-    assert counts[worst["status"]] > 0
-    assert all(counts[k] == 0 for k in severity[: severity.index(worst["status"])])
+    assert sum(counts[s.name] for s in Status) == n_points
+    severity = [Status.FAILED.name, UNSTABLE] + [
+        s.name for s in (Status.JUMP, Status.PLASTIC, Status.ELASTIC, Status.SEPARATED)
+    ]
+    assert counts[worst.status] > 0
+    assert all(counts[k] == 0 for k in severity[: severity.index(worst.status)])
     # the worst point is one of the interface's points (gathered from every rank)
     points = np.concatenate(comm.allgather(prob.interface.points.reshape(-1, 2)))
-    assert np.min(np.linalg.norm(points - np.array(worst["x"]), axis=1)) < 1e-12
-    assert att["text"] in str(e.value) and "worst point" in str(e.value)
+    assert np.min(np.linalg.norm(points - np.array(worst.x), axis=1)) < 1e-12
+    assert att.text in str(e.value) and "worst point" in str(e.value)
     assert comm.allgather(str(e.value)) == [str(e.value)] * comm.size
 
 
@@ -240,5 +245,46 @@ def test_a_domain_error_on_one_rank_stops_every_rank():
     prob.residual = failing
     with FrictionSolver(prob, prefix("domain")) as solver:
         r = solver.solve(0.5, 0.5)
-    outcomes = comm.allgather((r["converged"], r["reason"], r["iterations"]))
-    assert len(set(outcomes)) == 1 and not r["converged"], outcomes
+    outcomes = comm.allgather((r.converged, r.reason, r.iterations))
+    assert len(set(outcomes)) == 1 and not r.converged, outcomes
+
+
+@pytest.mark.parametrize("plain_fails_again", [False, True])
+def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again):
+    """Once a step needed the line-search retry, the next ``easy_steps`` steps of its segment
+    start with it, then the solver's own options are tried first again: kept if they converge
+    (the step can grow back, which the line search's ~6 Newton iterations never allowed: the
+    fretting demo crawled through a whole cycle at 1/64 of its step), the retry otherwise.
+
+    The plain attempt is made to fail (its result reported as not converged) at the first slide
+    step, and, in the second case, at every later plain attempt of that segment."""
+    program = {"times": [0, 1, 3], "channels": {"press": [0, 1, 1], "slide": [0, 0, 1]}}
+    prob, scene = demo_problem("sec7", program, n=8)
+    sv = scene.solver
+    attempts = []  # (t, plain) of every attempt
+    with FrictionSolver(prob, prefix("sticky"), linear="lu") as solver:
+        real = solver.solve
+
+        def solve(t, dt, *, options=None, **kwargs):
+            r = real(t, dt, options=options, **kwargs)
+            attempts.append((t, options is None))
+            slide_plain = [a for a in attempts if a[0] > 1.0 + 1e-12 and a[1]]
+            if options is None and t > 1.0 + 1e-12 and (plain_fails_again or len(slide_plain) == 1):
+                r = dataclasses.replace(r, converged=False)
+            return r
+
+        solver.solve = solve
+        st = LoadStepper(solver, sv.dt, dt_max=sv.dt_max, max_cuts=sv.max_cuts)
+        st.run()
+    slide = [rec for rec in st.records if rec.t > 1.0 + 1e-12]
+    assert len(slide) >= 6
+    flags = [rec.retried for rec in slide]
+    if plain_fails_again:
+        assert all(flags), flags
+        # probation attempts (plain, failed) every easy_steps steps, then the retry
+        plain = [t for t, p in attempts if p and t > 1.0 + 1e-12]
+        assert st.retries == len(plain) == 1 + (len(slide) - 1) // (st.easy_steps + 1)
+    else:
+        # the failed step and easy_steps steps on the retry's options; the rest plain
+        assert flags == [True] * (1 + st.easy_steps) + [False] * (len(slide) - 1 - st.easy_steps)
+        assert st.retries == 1 and st.line_search_steps == 1 + st.easy_steps

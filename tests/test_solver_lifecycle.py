@@ -5,6 +5,7 @@ deleted (or the database's earlier values restored); the scene runner guards eve
 solver's creation on. Reproduces the leaks of the first version and shows them fixed.
 """
 
+import dataclasses
 import gc
 
 import numpy as np
@@ -13,7 +14,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from demos import block_on_base
-from subfric_dolfinx.fem import DEFAULT_OPTIONS, FrictionSolver
+from subfric_dolfinx.fem import DEFAULT_OPTIONS, PETSC_ERROR_REASON, FrictionSolver, SolveResult
 from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS
 from subfric_dolfinx.fem.solver import _LIVE_PREFIXES
 from subfric_dolfinx.io import CheckpointError
@@ -73,14 +74,37 @@ def test_late_read_options_reach_the_factorisation(problem):
     before = PETSc.Options().getAll()
     with FrictionSolver(problem, "lc3_", {"mat_mumps_icntl_14": 57}) as s:
         r = s.solve(0.1, 0.1)
-        assert r["converged"]
+        assert r.converged
         F = s.snes.getKSP().getPC().getFactorMatrix()
         assert F.getMumpsIcntl(14) == 57
         assert PETSc.Options().getAll() == before
         r = s.solve(0.2, 0.1, options={"snes_max_it": 1, "snes_atol": 1e-300, "snes_rtol": 1e-300})
-        assert not r["converged"] and r["iterations"] == 1  # options for this solve only ...
+        assert not r.converged and r.iterations == 1  # options for this solve only ...
         assert s.snes.getTolerances()[3] == DEFAULT_OPTIONS["snes_max_it"]  # ... then restored
         assert PETSc.Options().getAll() == before
+
+
+def test_a_petsc_error_gives_a_result_of_the_same_fields(monkeypatch):
+    """An error raised inside a callback (here the Jacobian's, on every rank) ends the solve with
+    a SolveResult like a converged one: not converged, reason PETSC_ERROR_REASON, PETSc's message
+    in ``error`` (``None`` after a converged solve); the result is frozen."""
+    scene = parse_scene(small_scene("lc6_"))
+    prob = build_problem(scene, build_mesh(scene.mesh, MPI.COMM_WORLD))
+    with FrictionSolver(prob, "lc6_") as s:
+        ok = s.solve(0.1, 0.1)
+
+        def broken(*args, **kwargs):
+            raise RuntimeError("the Jacobian fails on purpose")
+
+        monkeypatch.setattr(prob, "jacobian", broken)
+        bad = s.solve(0.2, 0.1)
+    assert type(ok) is SolveResult and type(bad) is SolveResult
+    assert ok.converged and ok.reason > 0 and ok.error is None and not ok.interrupted
+    assert ok.iterations >= 1 and len(ok.residuals) == ok.iterations + 1
+    assert not bad.converged and bad.reason == PETSC_ERROR_REASON and bad.error
+    assert bad.converged_by is None and bad.residuals == () and not bad.interrupted
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ok.converged = False  # type: ignore[misc]
 
 
 def test_destroy_is_safe_and_releases_the_prefix(problem):

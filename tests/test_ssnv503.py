@@ -35,6 +35,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import prefix
 
@@ -127,7 +128,7 @@ def test_sticking_at_099_mu(result):
     for p in "AMB":
         assert 0.0 < row[f"{p}.u_x"] < 0.02
     snap = result.snapshots[2.0]
-    stick = snap["status"] == 0  # ELASTIC: no slip in the step
+    stick = snap["status"] == Status.ELASTIC  # no slip in the step
     assert np.any(stick) and np.all(snap["x"][stick, 0] > 30.0), snap["x"][stick, 0]
     assert row["B.f_t1"] < MU * row["B.f_n"] * (1 - 1e-3)  # B sticks
 
@@ -143,7 +144,7 @@ def test_sliding_at_101_mu(result):
     for p in "AMB":
         assert row[f"{p}.u_x"] == pytest.approx(9.0, rel=1e-3)
         assert row[f"{p}.f_t1"] == pytest.approx(MU * row[f"{p}.f_n"], rel=1e-9)
-    assert np.all(result.snapshots[3.0]["status"] == 1)  # PLASTIC: all of AB slides
+    assert np.all(result.snapshots[3.0]["status"] == Status.PLASTIC)  # all of AB slides
 
 
 def test_it_ran_with_default_options(result):

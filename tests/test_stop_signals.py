@@ -142,7 +142,9 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
     at a random moment after its first step, two SIGUSR1 to mpirun 50 ms apart (three in every
     fifth run). Every run ends interrupted on both ranks, the same way (no hang, no other
     error); the checkpoint reads back on both ranks at the run's last converged step, and the
-    history ends there too. The time from the last signal to the run's report is printed."""
+    history ends there too; or, where a signal of the run before reached this one in its set-up
+    (mpirun forwards signals late under load), the run stopped before its first step and wrote
+    nothing. The time from the last signal to the run's report is printed."""
     rng = random.Random(23)
     runs = 20
     p = subprocess.Popen(
@@ -176,6 +178,10 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
             elif line.startswith("RESULT"):
                 results.append(json.loads(line.split(" ", 1)[1]))
                 latencies.append(time.perf_counter() - sent if sent else float("nan"))
+        if len(results) < runs:  # the job ended early: its output says why
+            p.wait(timeout=120)
+            pytest.fail(f"the job ended (exit code {p.returncode}) after {len(results)} of "
+                        f"{runs} runs:\n" + "".join(text))  # fmt: skip
         p.stdin.write("done\n")  # every signal sent: the job may end (tests/signal_job.py)
         p.stdin.close()
         p.wait(timeout=120)
@@ -188,11 +194,22 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
           f"{len(results)} stopped within a step (the others after it)")  # fmt: skip
     assert p.returncode == 0, "".join(text)
     assert len(results) == runs, "".join(text)
+    early = 0
     for r in results:
         assert r["outcome"] == "interrupted" and r["same_on_every_rank"], r
         assert "checkpoint_error" not in r, r
-        assert r["checkpoint_t"] == pytest.approx(r["t"], abs=1e-12), r
-        assert r["history_t"] == pytest.approx(r["t"], abs=1e-12), r
+        if r["t"] is None:
+            # A signal of the run before, forwarded by a loaded mpirun after that run had ended,
+            # stopped this one in its set-up (seen 1 run in 6 jobs, sid under load): a clean
+            # stop before the first step writes nothing.
+            early += 1
+            assert "before the first step" in r["message"], r
+            assert not r["checkpoint_exists"] and r["history_t"] is None, r
+        else:
+            assert r["checkpoint_exists"], r
+            assert r["checkpoint_t"] == pytest.approx(r["t"], abs=1e-12), r
+            assert r["history_t"] == pytest.approx(r["t"], abs=1e-12), r
+    assert early <= runs // 2, f"{early} of {runs} runs stopped before their first step"
 
 
 def _until(p, word, timeout=300):

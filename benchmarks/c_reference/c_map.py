@@ -4,9 +4,9 @@
 (traction, tangent, up, mu, r, status, unstable, iterations, n_scan), or ``None`` with a reason
 when no compiler is available (``reason()``). The C file is the package's subloading map
 (``subfric_dolfinx/constitutive/_subloading``, as its scalar form was when transliterated; the
-scalar form now lives in ``tests/reference_map``), without the
-branch-and-bound scan (points needing it get status 5 and are counted in ``n_scan``). It lives
-here, not in the package: it is a yardstick for the numpy map, not a part of it.
+scalar form now lives in ``tests/reference_map``), without the branch-and-bound scan (points
+needing it get status :data:`NEEDS_SCAN` and are counted in ``n_scan``). It lives here, not in
+the package: it is a yardstick for the numpy map, not a part of it.
 """
 
 from __future__ import annotations
@@ -23,6 +23,10 @@ SRC = Path(__file__).with_name("return_map.c")
 CFLAGS = ["-O2"]
 _LIB = None
 _REASON = ""
+
+NEEDS_SCAN = 5
+"""The C reference's status of a point that needs the branch-and-bound scan it lacks (its other
+codes are :class:`~subfric_dolfinx.constitutive.Status`'s)."""
 
 
 def reason() -> str:

@@ -24,7 +24,7 @@ from .laws import LAWS, build_law, law_description, register_law
 from .presets import PRESETS, Preset, normalised_to_absolute, preset
 from .protocol import LOCAL, SCALAR, TANGENTIAL, FrictionLaw, LawBase, LawError, Variable
 from .regions import DEFAULT_REGION, RegionalLaw
-from .result import ReturnMapResult, Status
+from .result import UNSTABLE, ReturnMapResult, Status
 from .state import InterfaceState, StatePair
 from .subloading import SubloadingLaw, subloading_return_map
 from .tolerances import CONTACT_TOL, LOAD_TOL
@@ -38,6 +38,7 @@ __all__ = [
     "PRESETS",
     "SCALAR",
     "TANGENTIAL",
+    "UNSTABLE",
     "CoulombLaw",
     "FrictionLaw",
     "InterfaceState",

@@ -9,7 +9,7 @@ import numpy as np
 
 from .state import InterfaceState
 
-__all__ = ["ReturnMapResult", "Status"]
+__all__ = ["UNSTABLE", "ReturnMapResult", "Status"]
 
 
 class Status(enum.IntEnum):
@@ -48,6 +48,10 @@ STATUS_MEANING = {
     "FAILED": "could not be integrated: zero traction, last converged state kept",
 }
 """What each :class:`Status` code means, for the legend written in output files."""
+
+UNSTABLE = "UNSTABLE"
+"""Key of the count of unstable points (:attr:`ReturnMapResult.unstable`, a flag beside the
+status, not a status) in :meth:`ReturnMapResult.counts` and the counts built on it."""
 
 
 @dataclasses.dataclass
@@ -90,5 +94,5 @@ class ReturnMapResult:
         """Number of points per status, plus ``UNSTABLE``."""
         c = np.bincount(self.status.astype(np.intp), minlength=len(Status))
         out = {s.name: int(c[s]) for s in Status}
-        out["UNSTABLE"] = int(np.count_nonzero(self.unstable))
+        out[UNSTABLE] = int(np.count_nonzero(self.unstable))
         return out

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..constitutive import InterfaceState, Status
+from ..constitutive import UNSTABLE, InterfaceState, Status
 from .case import MAX_TOTAL_STEPS, Case, CaseError, parse_case
 from .path import end_steps, plan_steps, step_arrays
 from .run import DriverResult, _own_columns, fields
@@ -157,7 +157,7 @@ class _CaseLog:
     def result(self, wall: float) -> DriverResult:
         arr = np.array(self.rows).reshape(-1, len(self.fields))
         counts = {name: int(self.counts[i]) for i, name in enumerate(_NAMES)}
-        counts["UNSTABLE"] = int(self.counts[-1])
+        counts[UNSTABLE] = int(self.counts[-1])
         return DriverResult(
             {k: arr[:, i] for i, k in enumerate(self.fields)},
             self.row_status,

@@ -10,7 +10,15 @@ from typing import Any
 
 import numpy as np
 
-from ..constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, ReturnMapResult, Status
+from ..constitutive import (
+    LOCAL,
+    SCALAR,
+    UNSTABLE,
+    FrictionLaw,
+    InterfaceState,
+    ReturnMapResult,
+    Status,
+)
 from .case import MAX_TOTAL_STEPS, Case, CaseError, parse_case
 from .path import plan_steps
 
@@ -291,7 +299,7 @@ class _Runner:
 
     def result(self, complete: bool, wall: float) -> DriverResult:
         arr = np.array(self.rows).reshape(-1, len(self.fields))
-        counts = {s.name: self.counts[s] for s in Status} | {"UNSTABLE": self.counts[-1]}
+        counts = {s.name: self.counts[s] for s in Status} | {UNSTABLE: self.counts[-1]}
         return DriverResult(
             {k: arr[:, i] for i, k in enumerate(self.fields)},
             self.row_status,

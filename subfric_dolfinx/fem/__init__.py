@@ -11,7 +11,8 @@
   built-in :class:`LinearElasticity` (the fast path); :mod:`.plasticity`: :class:`J2Bulk`, J2
   plasticity with its state at the quadrature points (a bulk model).
 * :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
-* :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle;
+* :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle, and
+  :class:`SolveResult`, what one solve did;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
 * :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program;
   :mod:`.validity`: the warnings when a run's penetration or slide goes beyond what the
@@ -24,6 +25,7 @@ May import: DOLFINx, PETSc, MPI, numpy, and :mod:`subfric_dolfinx.constitutive`,
 :mod:`subfric_dolfinx.loading`, :mod:`subfric_dolfinx.logs` (not io or scenes).
 """
 
+from .attempts import AttemptReport
 from .bulk import BulkContext, BulkModel, LinearElasticity, UFLBulk
 from .conditions import (
     Dirichlet,
@@ -38,12 +40,20 @@ from .conditions import (
 from .interface import FrictionInterface, InterfaceError, create_matrix
 from .plasticity import J2Bulk, PlasticityError
 from .problem import InterfaceProblem
-from .solver import DEFAULT_OPTIONS, FrictionSolver, SolverOptionError
+from .solver import (
+    DEFAULT_OPTIONS,
+    PETSC_ERROR_REASON,
+    FrictionSolver,
+    SolveResult,
+    SolverOptionError,
+)
 from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
     "DEFAULT_OPTIONS",
+    "PETSC_ERROR_REASON",
+    "AttemptReport",
     "BulkContext",
     "BulkModel",
     "Dirichlet",
@@ -60,6 +70,7 @@ __all__ = [
     "PlasticityError",
     "PointForce",
     "Pressure",
+    "SolveResult",
     "SolverOptionError",
     "Spring",
     "StepFailure",

@@ -7,32 +7,79 @@ progress lines) of :class:`~.stepping.LoadStepper`, over every interface of the 
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from mpi4py import MPI
 
-from ..constitutive import Status
+from ..constitutive import UNSTABLE, Status
 
-__all__ = ["SLIDING_FRACTION", "describe_attempt", "interface_activity"]
+__all__ = [
+    "SLIDING_FRACTION",
+    "AttemptReport",
+    "WorstPoint",
+    "describe_attempt",
+    "interface_activity",
+]
 
 SLIDING_FRACTION = 0.95
 """A point slides when it slips plastically with a traction at this fraction of the law's strength
 or more (below it, a closed point sticks: the subloading law's micro-slip included)."""
 
-_SEVERITY = ("SEPARATED", "ELASTIC", "PLASTIC", "JUMP", "UNSTABLE", "FAILED")
+_SEVERITY = (
+    Status.SEPARATED.name,
+    Status.ELASTIC.name,
+    Status.PLASTIC.name,
+    Status.JUMP.name,
+    UNSTABLE,
+    Status.FAILED.name,
+)
 
 
-def describe_attempt(problem: Any) -> dict[str, Any]:
+@dataclasses.dataclass(frozen=True)
+class WorstPoint:
+    """The point of the most severe status at an attempt (:func:`describe_attempt`).
+
+    Attributes:
+        status: Its status name (a :class:`~subfric_dolfinx.constitutive.Status` name or
+            :data:`~subfric_dolfinx.constitutive.UNSTABLE`).
+        x: Its coordinates.
+        traction: Its local traction ``(f_t, [f_t2,] f_n)`` (MPa).
+        gap: Its local gap ``(ubar_t, [ubar_t2,] ubar_n)`` (mm).
+    """
+
+    status: str
+    x: tuple[float, ...]
+    traction: tuple[float, ...]
+    gap: tuple[float, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class AttemptReport:
+    """What the return map saw at the last evaluation of an attempt (:func:`describe_attempt`).
+
+    Attributes:
+        counts: Points per status name, and :data:`~subfric_dolfinx.constitutive.UNSTABLE`,
+            over all ranks.
+        worst: The point of the most severe status (FAILED, UNSTABLE, JUMP, PLASTIC, ELASTIC,
+            SEPARATED) and, among those, of the largest traction; ``None`` without points.
+        text: A one-line summary of both.
+    """
+
+    counts: Mapping[str, int]
+    worst: WorstPoint | None
+    text: str
+
+
+def describe_attempt(problem: Any) -> AttemptReport:
     """What the return map saw at its last evaluation (collective; the same on every rank).
 
     Returns:
-        ``counts`` (points per status, and ``UNSTABLE``, over all ranks), ``worst`` (the point
-        of the most severe status — FAILED, UNSTABLE, JUMP, PLASTIC, ELASTIC, SEPARATED — and,
-        among those, of the largest traction: its ``status``, coordinates ``x``, local
-        ``traction`` and ``gap``), and ``text``, a one-line summary of both.
+        The counts per status, the worst point and their summary.
     """
-    names = [s.name for s in Status] + ["UNSTABLE"]
+    names = [s.name for s in Status] + [UNSTABLE]
     local = np.zeros(len(names), dtype=np.int64)
     candidate = None
     ifaces = problem.interfaces
@@ -66,13 +113,13 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
     problem.comm.Allreduce(local, counts_arr)
     counts = {n: int(v) for n, v in zip(names, counts_arr, strict=True)}
     found = [cand for cand in problem.comm.allgather(candidate) if cand is not None]
-    out: dict[str, Any] = {"counts": counts, "worst": None}
+    worst = None
     total = sum(counts[s.name] for s in Status)
     shown = ", ".join(f"{n} {counts[n]}" for n in reversed(_SEVERITY) if counts[n])
     text = f"return map at the last iterate: {shown or 'no point'} (of {total} points)"
     if found:
         sev, _, x, tr, gap, iname = max(found)
-        out["worst"] = {"status": _SEVERITY[sev], "x": x, "traction": tr, "gap": gap}
+        worst = WorstPoint(_SEVERITY[sev], x, tr, gap)
 
         def fmt(v: tuple[float, ...]) -> str:
             return "(" + ", ".join(f"{a:.4g}" for a in v) + ")"
@@ -82,8 +129,7 @@ def describe_attempt(problem: Any) -> dict[str, Any]:
             f"; worst point {_SEVERITY[sev]}{on} at x = {fmt(x)}: traction (f_t, f_n) = {fmt(tr)} "
             f"MPa, gap (ubar_t, ubar_n) = {fmt(gap)} mm"
         )
-    out["text"] = text
-    return out
+    return AttemptReport(counts, worst, text)
 
 
 def interface_activity(problem: Any) -> tuple[float, float]:

@@ -19,8 +19,11 @@ lowers the relative target further.
 :class:`ScaledConvergence` declares Newton's iteration ``k`` converged when, first that holds,
 
 * ``|F_k| <= atol`` (the user's ``snes_atol``, 0 by default),
-* ``|F_k| <= rtol |F_0|`` (``k >= 1``; ``snes_rtol``),
-* ``|F_k| <= FLOOR_FACTOR eps S_k`` (any ``k``, also 0: a step that needs nothing costs nothing),
+* ``|F_k| <= rtol |F_0|`` (``k >= 1``; ``snes_rtol``; where the first iterate was
+  extrapolated, ``|F_0|`` is at least that of the step's start without the extrapolation,
+  :attr:`ScaledConvergence.reference`),
+* ``|F_k| <= FLOOR_FACTOR eps S_k`` (any ``k``, also 0: a step that needs nothing costs nothing;
+  not 0 where the first iterate was extrapolated, :attr:`ScaledConvergence.predicted`),
 * ``|F_k| <= STALL_FACTOR eps S_k`` and ``|F_k| > |F_{k-1}| / 2`` (``k >= 1``): stalled at the
   floor, no longer decreasing; a converged step, not a reason to cut it,
 * ``|du_k| <= stol |u_k|`` (``k >= 1``; ``snes_stol``, as PETSc's own test: the Newton step no
@@ -125,6 +128,19 @@ class ScaledConvergence:
         stall_factor: See :data:`STALL_FACTOR`.
     """
 
+    predicted: bool = False
+    """The first iterate was extrapolated (:class:`~.stepping.LoadStepper`'s predictor):
+    iteration 0 is not accepted at the floor. Where the extrapolation is exact (a linear
+    stretch), the first residual is at the floor for an exact (LU) solution of the previous steps
+    and above it for a Krylov solution at Newton's tolerance: one Newton iteration in every
+    strategy keeps them in step (the same iterations, the same histories). Set by whoever sets
+    the first iterate, before the solve; :meth:`start` keeps it."""
+
+    reference: float = 0.0
+    """Where the first iterate was extrapolated: the residual of the step's start without the
+    extrapolation; the relative tests take ``|F_0|`` as at least this (the same target as
+    without the predictor). 0: none. Set with :attr:`predicted`."""
+
     def __init__(
         self,
         problem,
@@ -206,7 +222,7 @@ class ScaledConvergence:
             self.norms = [fnorm]
         else:
             self.norms.append(fnorm)
-        f0 = self.norms[0]
+        f0 = max(self.norms[0], self.reference)
         if fnorm <= atol:
             return self._done("atol", _REASON.CONVERGED_FNORM_ABS)
         if it > 0:
@@ -218,7 +234,7 @@ class ScaledConvergence:
         if floor > FORCE_FRACTION * self.forces and not self.force_free:
             floor = 0.0
         self._floor = floor
-        if fnorm <= self.floor_factor * floor:
+        if fnorm <= self.floor_factor * floor and (it > 0 or not self.predicted):
             return self._done("floor", _REASON.CONVERGED_FNORM_ABS)
         if it > 0:
             previous = self.norms[-2] if len(self.norms) > 1 else math.inf

@@ -208,11 +208,15 @@ class LinearStrategy:
         self._pending = None
         self._stale_failure = False
 
-    def jacobian(self, snes: PETSc.SNES, J: PETSc.Mat, floor: float) -> None:
+    def jacobian(
+        self, snes: PETSc.SNES, J: PETSc.Mat, floor: float, reference: float = 0.0
+    ) -> None:
         """After ``J`` is assembled: refresh ``P`` if wanted, set the Krylov tolerance.
 
         ``floor``: the residual the convergence test accepts at the round-off floor (0 if
-        none); Newton's target is the largest of it, ``snes_atol`` and ``snes_rtol |F_0|``.
+        none); Newton's target is the largest of it, ``snes_atol`` and ``snes_rtol |F_0|``,
+        where ``|F_0|`` is at least ``reference`` (the residual of the step's start without
+        the predictor's extrapolation, 0 without one).
         """
         self.linear_done(snes)
         if self.P is None:  # "lu": P is J, factorised at every iteration
@@ -221,7 +225,7 @@ class LinearStrategy:
         k = snes.getIterationNumber()
         fnorm = snes.getFunctionNorm()
         if k == 0:
-            self._f0 = fnorm
+            self._f0 = max(fnorm, reference)
         refresh = self.force or self.exact or self._fresh_each
         if refresh:
             J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)

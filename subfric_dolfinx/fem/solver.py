@@ -27,6 +27,7 @@ by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``,
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import math
 import weakref
@@ -43,7 +44,13 @@ from .linear import STRATEGY_OPTIONS, LinearStrategy
 from .problem import InterfaceProblem
 from .timing import event_times
 
-__all__ = ["DEFAULT_OPTIONS", "FrictionSolver", "SolverOptionError"]
+__all__ = [
+    "DEFAULT_OPTIONS",
+    "PETSC_ERROR_REASON",
+    "FrictionSolver",
+    "SolveResult",
+    "SolverOptionError",
+]
 
 DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
@@ -55,6 +62,48 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 }
 """Options used where neither the solver's options nor the options database give a value
 (with those of the linear strategy, :data:`~.linear.STRATEGY_OPTIONS`)."""
+
+PETSC_ERROR_REASON = -100
+""":attr:`SolveResult.reason` of a solve that PETSc ended with an error (raised inside a callback
+or the linear solver: :attr:`SolveResult.error` says what); not an SNES reason code."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SolveResult:
+    """What one :meth:`FrictionSolver.solve` did: the same fields whatever the outcome.
+
+    Attributes:
+        converged: Newton converged (``CONVERGED_SNORM_RELATIVE`` with a residual far above the
+            tolerances is not converged: :data:`~.convergence.SNORM_SLACK`).
+        iterations: Newton iterations.
+        reason: SNES converged reason code; :data:`PETSC_ERROR_REASON` if PETSc raised an error.
+        converged_by: Which test of :class:`~.convergence.ScaledConvergence` stopped Newton:
+            ``"rtol"``, ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not
+            converge or PETSc's own test was used.
+        residuals: Residual norms per iteration (empty after a PETSc error).
+        counts: Return-map statuses at the last evaluation, over every interface and rank
+            (:meth:`~.problem.InterfaceProblem.status_counts`; empty after a PETSc error).
+        krylov: Krylov iterations (of both solves when the linear solve was repeated; those of
+            a Newton solve that PETSc ended with an error are not counted).
+        linear_retry: The solve was repeated with a fresh preconditioner after a Krylov failure
+            with a stale one; the other values are the repeat's.
+        interrupted: :attr:`FrictionSolver.interrupt` asked to stop: not converged, ``x`` is
+            that of an abandoned iterate.
+        error: PETSc's error message when PETSc raised one (``reason`` is then
+            :data:`PETSC_ERROR_REASON`), else ``None``.
+    """
+
+    converged: bool
+    iterations: int
+    reason: int
+    converged_by: str | None = None
+    residuals: tuple[float, ...] = ()
+    counts: Mapping[str, int] = dataclasses.field(default_factory=dict)
+    krylov: int = 0
+    linear_retry: bool = False
+    interrupted: bool = False
+    error: str | None = None
+
 
 _LIVE_PREFIXES: set[str] = set()
 _AUTO_PREFIX = itertools.count()
@@ -284,7 +333,7 @@ class FrictionSolver:
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
         self.problem.jacobian(x, J, self.separated_stiffness)
-        self.linear.jacobian(snes, J, self.convergence.floor())
+        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
@@ -299,10 +348,12 @@ class FrictionSolver:
         *,
         options: Mapping[str, Any] | None = None,
         separated_stiffness: float = 0.0,
-    ) -> dict[str, Any]:
+        predictor: np.ndarray | None = None,
+    ) -> SolveResult:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
-        The current ``x`` is the initial guess, with the Dirichlet values of ``t`` set in it.
+        The current ``x`` is the initial guess, with the Dirichlet values of ``t`` set in it
+        (plus ``predictor``, if given).
 
         Args:
             t: End time of the step.
@@ -313,19 +364,18 @@ class FrictionSolver:
                 (separated) this fraction of the contact stiffness
                 (:func:`~.problem.stiffen_separated`: Newton steps exist where a body floats
                 free); 0, the default: the exact Jacobian.
+            predictor: An increment of the owned values added to the initial guess (e.g. the
+                last step's, extrapolated: :class:`~.stepping.LoadStepper`'s ``predictor``;
+                Dirichlet values stay those of ``t``). Newton's relative tolerance is then
+                taken against the residual of the guess without it (one more residual
+                evaluation): the same target as without the predictor, however close the
+                extrapolated guess is (an exact one has a residual of round-off, against which
+                no relative target is reachable), and the first iterate is not accepted at the
+                round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`).
 
         Returns:
-            ``converged``, ``iterations``, ``reason`` (SNES reason code), ``converged_by``
-            (which test of :class:`~.convergence.ScaledConvergence` stopped Newton: ``"rtol"``,
-            ``"atol"``, ``"floor"``, ``"stall"``, ``"stol"``; ``None`` if it did not converge or
-            PETSc's own test was used), ``residuals`` (norms per iteration), ``counts``
-            (return-map statuses at the last evaluation, global), ``krylov`` (Krylov iterations)
-            ``linear_retry`` (the solve was repeated with a fresh preconditioner after a
-            Krylov failure with a stale one; the other values are the repeat's) and
-            ``interrupted`` (:attr:`interrupt` asked to stop: not converged, ``x`` is that of an
-            abandoned iterate).
-            ``CONVERGED_SNORM_RELATIVE`` with a residual far above the tolerances is not
-            converged (:data:`~.convergence.SNORM_SLACK`).
+            A :class:`SolveResult` (its fields are the same on success, failure and a PETSc
+            error).
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
@@ -341,6 +391,13 @@ class FrictionSolver:
         self.interrupted = False
         self.snes.setConvergenceHistory(length=200, reset=True)
         self.convergence.start()
+        self.convergence.predicted = predictor is not None
+        self.convergence.reference = 0.0
+        if predictor is not None:
+            ok = p.comm.allreduce(int(bool(p.residual(self.x, self.F))), op=MPI.MIN)
+            self.convergence.reference = self.F.norm() if ok else 0.0
+            self.x.array_w[:] += predictor
+            p.apply_dirichlet(self.x)
         if options:
             self._configure(options)
         self.x.copy(self._x0)
@@ -367,16 +424,15 @@ class FrictionSolver:
                     self.linear.finish(self.snes, self.snes.getConvergedReason() > 0)
         except PETSc.Error as e:  # an error inside a callback or the linear solver
             self.linear.force = True
-            return {
-                "converged": False,
-                "iterations": self.snes.getIterationNumber(),
-                "reason": -100,
-                "converged_by": None,
-                "residuals": [],
-                "counts": {},
-                "error": str(e),
-                "interrupted": self.interrupted,
-            }
+            return SolveResult(
+                converged=False,
+                iterations=self.snes.getIterationNumber(),
+                reason=PETSC_ERROR_REASON,
+                krylov=int(krylov),
+                linear_retry=retried,
+                interrupted=self.interrupted,
+                error=str(e),
+            )
         finally:
             if options:
                 self._configure()
@@ -389,17 +445,17 @@ class FrictionSolver:
             rtol, atol, _, _ = self.snes.getTolerances()
             converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
         counts = p.status_counts()
-        return {
-            "converged": converged,
-            "iterations": self.snes.getIterationNumber(),
-            "reason": int(reason),
-            "converged_by": self.convergence.by if reason > 0 else None,
-            "residuals": [float(r) for r in hist],
-            "counts": counts,
-            "krylov": int(krylov),
-            "linear_retry": retried,
-            "interrupted": self.interrupted,
-        }
+        return SolveResult(
+            converged=bool(converged),
+            iterations=self.snes.getIterationNumber(),
+            reason=int(reason),
+            converged_by=self.convergence.by if reason > 0 else None,
+            residuals=tuple(float(r) for r in hist),
+            counts=counts,
+            krylov=int(krylov),
+            linear_retry=retried,
+            interrupted=bool(self.interrupted),
+        )
 
     def refresh_preconditioner(self) -> None:
         """Rebuild the preconditioner at the next Newton iteration (strategies that reuse one).

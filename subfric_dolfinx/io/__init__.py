@@ -25,7 +25,7 @@ from .checkpoint import (
     restore_checkpoint,
     write_checkpoint,
 )
-from .collective import OutputError, probe_directory
+from .collective import OutputError, collective, probe_directory
 from .fields import FieldWriter
 from .gather import gather_interface, interface_of, interface_order
 from .history import HistoryCSV, HistoryRows
@@ -45,6 +45,7 @@ __all__ = [
     "OutputDirectory",
     "OutputError",
     "PointCloudError",
+    "collective",
     "element_summary",
     "gather_interface",
     "interface_of",

@@ -12,6 +12,10 @@ ranks restarts on 1 or 2 (format version 2):
   ``sliding_normal``
   (:meth:`~subfric_dolfinx.fem.interface.SlidingInterface.saved_state`: its points are the
   slave facets', and the master facet each faces is found again from the displacement);
+* ``/increment`` (where the load stepper extrapolates its steps:
+  :class:`~subfric_dolfinx.fem.LoadStepper`'s ``predictor``, on by default): the last converged
+  step's displacement increment, laid out as ``/displacement``, its step length in the attribute
+  ``dt``; a restart starts its first step from it as the uninterrupted run does;
 * ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
   initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
   restarts only with the same initial gap and regions);
@@ -99,7 +103,8 @@ def write_checkpoint(
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
         stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt); its solver
             rebuilds its preconditioner at the next iteration, as a restart will
-            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`).
+            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`); its last
+            increment (the predictor's) is written.
         history: History rows so far (stored so that a restarted run continues them).
         settings: JSON-ready settings a restart must match (e.g. the scene's materials,
             boundary conditions and loads); compared by :func:`restore_checkpoint`.
@@ -119,6 +124,16 @@ def write_checkpoint(
     rows, n_points = interface_rows(el)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
+    # the stepper's last increment where its predictor uses it (every rank has one or none)
+    inc = getattr(stepper, "increment", None) if getattr(stepper, "predictor", False) else None
+    iblock = None
+    if inc is not None:
+        du = np.zeros_like(problem.u.x.array)
+        du[: inc.size] = inc
+        v = problem.u.copy()
+        v.x.array[:] = du
+        v.x.scatter_forward()
+        iblock = push(comm, cells, v.x.array.reshape(-1, gdim)[dofs], n_cells)
     pts = el.points.reshape(-1, gdim)
     blocks = {"x": push(comm, rows, pts, n_points)}
     for name, a in el.saved_state().items():
@@ -151,6 +166,9 @@ def write_checkpoint(
         f.attrs.update(attrs)
         kw = {"dtype": float, "fill_time": "never"}
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
+        if iblock is not None:
+            d = f.create_dataset("increment", (n_cells, *iblock.shape[1:]), **kw)
+            d.attrs["dt"] = float(stepper.increment_dt)
         g = f.create_group("interface")
         g.create_dataset("x", (n_points, gdim), **kw)
         for name, b in blocks.items():
@@ -166,6 +184,8 @@ def write_checkpoint(
     def fill(f: Any) -> None:  # independent transfers: each rank its own slab
         if c1 > c0:
             f["displacement"][c0:c1] = ublock
+            if iblock is not None:
+                f["increment"][c0:c1] = iblock
         if p1 > p0:
             for name, b in blocks.items():
                 f["interface"][name][p0:p1] = b
@@ -179,11 +199,13 @@ def write_checkpoint(
         collective(
             comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
         )
-        values = n_cells * int(np.prod(ublock.shape[1:])) + table.size + n_points * (
+        values = (1 + (iblock is not None)) * n_cells * int(np.prod(ublock.shape[1:])) + (
+            table.size
+        ) + n_points * (
             sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
         ) + extras.values()  # fmt: skip
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
-            n_sets = len(blocks) + 3 + len(extras.bulk) + 8 * len(extras.interfaces)
+            n_sets = len(blocks) + 4 + len(extras.bulk) + 8 * len(extras.interfaces)
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
@@ -227,6 +249,8 @@ class Checkpoint:
         point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
             empty for a checkpoint written without them.
         extras: The further interfaces and the bulk state (:mod:`.checkpoint_parts`).
+        increment: This rank's rows of the last step's displacement increment and its length
+            (the load stepper's predictor), ``None`` in a checkpoint without it.
     """
 
     attrs: dict[str, Any]
@@ -238,6 +262,7 @@ class Checkpoint:
     interface: dict[str, np.ndarray]
     point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     extras: dict[str, Any] = dataclasses.field(default_factory=dict)
+    increment: tuple[np.ndarray, float] | None = None
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -274,6 +299,22 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
 
         def read(f: Any) -> tuple[Any, ...]:
             u = f["displacement"][c0:c1]
+            inc = None
+            if "increment" in f:
+                d = f["increment"]
+                dt = d.attrs.get("dt")
+                if d.shape != f["displacement"].shape or not (
+                    isinstance(dt, float | np.floating) and np.isfinite(dt) and dt > 0
+                ):
+                    raise CheckpointError(
+                        f"checkpoint {name}: 'increment' has shape {d.shape} (the "
+                        f"displacement's: {f['displacement'].shape}) and dt {dt} (> 0 wanted)"
+                    )
+                inc = (np.asarray(d[c0:c1], dtype=float), float(dt))
+                if not np.all(np.isfinite(inc[0])):
+                    raise CheckpointError(
+                        f"checkpoint {name}: 'increment' holds non-finite values (NaN/inf)"
+                    )
             g = f["interface"]
             iface = {k: g[k][p0:p1] for k in g}
             pdata = {}
@@ -291,11 +332,11 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                 if not np.all(np.isfinite(v)):
                     raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
             extras = read_extras(f, name, comm, int(attrs["n_cells"]))
-            return u, iface, pdata, extras
+            return u, iface, pdata, extras, inc
 
-        u, iface, pdata, extras = h.call(read)
+        u, iface, pdata, extras, inc = h.call(read)
     x = iface.pop("x")
-    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata, extras)
+    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata, extras, inc)
 
 
 def restore_checkpoint(
@@ -387,5 +428,14 @@ def restore_checkpoint(
     restore_extras(name, problem, ck.extras, cells, n_cells)
     problem.resume()
     dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
-    stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]))
+    # every rank read the same file: all have the increment or none
+    increment, increment_dt = None, 0.0
+    if ck.increment is not None:
+        v = problem.u.copy()
+        v.x.array.reshape(-1, gdim)[dofs] = pull(comm, cells, ck.increment[0], n_cells)
+        v.x.scatter_forward()
+        increment, increment_dt = v.x.array.copy(), ck.increment[1]
+    stepper.restore(
+        float(a["time"]), int(a["step"]), dt, int(a["easy"]), increment, increment_dt
+    )
     return ck.history

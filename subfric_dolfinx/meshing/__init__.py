@@ -4,6 +4,8 @@
 * :mod:`.topology`: bodies and interfaces by the user's own group names (:class:`InterfaceSides`).
 * :mod:`.crack`: :func:`duplicate_interface_nodes`, the node duplication of interface groups of
   a gmsh model or ``.msh`` file (readable by DOLFINx's own gmsh reader too).
+* :func:`gmsh_session`: a gmsh session and a fresh model for a builder of your own (removed,
+  and gmsh finalised if started, on exit).
 * :mod:`.builders`: gmsh builders (2-D block on a base, 3-D pad on a plate) with the Crack step.
 * :mod:`.joints`: gmsh builder of a 3-D bolted lap joint (two plates, a bolt hole, head and nut
   annuli).
@@ -15,6 +17,7 @@
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
 """
 
+from ._gmsh import gmsh_session
 from .builders import ModelInfo, build_block_on_base, build_pad_on_plate
 from .crack import CrackedInterface, duplicate_interface_nodes
 from .groups import (
@@ -91,6 +94,7 @@ __all__ = [
     "build_pad_on_plate",
     "create_interface_mesh",
     "duplicate_interface_nodes",
+    "gmsh_session",
     "locate_node_group",
     "mesh_topology",
     "nearest_vertex",

@@ -65,6 +65,23 @@ def _columns(f):
     f["history"].attrs["columns"] = json.dumps(["t"])
 
 
+def _increment(shape=None, dt=1.0, nan=False):
+    """An ``increment`` dataset (the load stepper's predictor) added, damaged."""
+
+    def mutate(f):
+        u = f["displacement"][()]
+        inc = np.zeros(shape if shape is not None else u.shape)
+        if nan:
+            inc[-1] = np.nan  # on the last rank's slab
+        if "increment" in f:  # the stepper's predictor wrote one
+            del f["increment"]
+        f["increment"] = inc
+        if dt is not None:
+            f["increment"].attrs["dt"] = dt
+
+    return mutate
+
+
 def _set(key, value):
     def mutate(f):
         f.attrs[key] = value
@@ -100,6 +117,10 @@ DAMAGED = {
     "more points claimed": (_set("n_points", 17), "'interface/x' has shape (16, 2), expected"),
     "old version": (_set("version", 1), "has version 1, this code reads version 2"),
     "history columns": (_columns, "1 history columns for"),
+    "increment of another shape": (_increment(shape=(3, 2)), "'increment' has shape (3, 2)"),
+    "increment without dt": (_increment(dt=None), "and dt None (> 0 wanted)"),
+    "increment with dt 0": (_increment(dt=0.0), "and dt 0.0 (> 0 wanted)"),
+    "NaN in the increment": (_increment(nan=True), "'increment' holds non-finite values"),
 }
 
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from subfric_dolfinx.constitutive import InterfaceState, Status, SubloadingLaw, preset
+from subfric_dolfinx.constitutive import UNSTABLE, InterfaceState, Status, SubloadingLaw, preset
 from subfric_dolfinx.driver import RunawayError, run_case
 
 # --------------------------------------------------------------------------------------------
@@ -163,8 +163,8 @@ def drive(
         mu_min=float(res.samples["mu"].min()) if res.samples["mu"].size else float("nan"),
         complete=res.complete,
         n_steps=res.n_steps,
-        unstable_steps=res.status_counts["UNSTABLE"],
-        jump_steps=res.status_counts["JUMP"],
+        unstable_steps=res.status_counts[UNSTABLE],
+        jump_steps=res.status_counts[Status.JUMP.name],
     )
     return out, res
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from subfric_dolfinx.constitutive import Status, preset
+from subfric_dolfinx.constitutive import UNSTABLE, Status, preset
 
 from .core import SEC7, Outcome, iteration_stats, require
 
@@ -94,9 +94,9 @@ def _fe_run(
         tr, st, res = el.last.traction, el.state.old, el.last
         ok = all(np.all(np.isfinite(a)) for a in (tr, st.up, st.mu, st.r, prob.u.x.array))
         rec["finite"] &= bool(comm.allreduce(ok, op=MPI.LAND))
-        rec["unstable_steps"] += int(r.counts.get("UNSTABLE", 0) > 0)
-        rec["jump_steps"] += int(r.counts.get("JUMP", 0) > 0)
-        rec["sep"].append(int(r.counts.get("SEPARATED", 0)))
+        rec["unstable_steps"] += int(r.counts.get(UNSTABLE, 0) > 0)
+        rec["jump_steps"] += int(r.counts.get(Status.JUMP.name, 0) > 0)
+        rec["sep"].append(int(r.counts.get(Status.SEPARATED.name, 0)))
         rec["cuts"] += r.cuts
         sep = res.status == Status.SEPARATED
         rec["tension"] |= bool(comm.allreduce(bool(np.any(tr[:, -1] < 0.0)), op=MPI.LOR))

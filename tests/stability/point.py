@@ -203,7 +203,8 @@ def mp_fn_to_zero(comm: Any = None) -> Outcome:
 def check_fn0(o: Outcome) -> None:
     require(o.data["excess"] <= 1e-300, f"|f_t| above g mu: {o.data}")
     require(o.data["max_ft"] < 1e-3, f"traction not vanishing with f_n: {o.data}")
-    require(o.data["statuses"][-2:] == ["SEPARATED", "SEPARATED"], f"{o.data['statuses']}")
+    sep2 = [Status.SEPARATED.name] * 2
+    require(o.data["statuses"][-2:] == sep2, f"{o.data['statuses']}")
     require(o.data["r_max"] <= 1.0, "r above 1")
 
 
@@ -222,7 +223,7 @@ def mp_separation(comm: Any = None) -> Outcome:
     out, res = drive(SEC7, rows, samples, spm=400)
     if out.outcome == "converged":
         s = res.samples
-        sep = [i for i, st in enumerate(res.sample_status) if st == "SEPARATED"]
+        sep = [i for i, st in enumerate(res.sample_status) if st == Status.SEPARATED.name]
         mu1, mu2 = float(s["mu"][1]), float(s["mu"][3])
         exact = SEC7.mu_s - (SEC7.mu_s - mu1) * math.exp(-SEC7.xi * 20.0)
         out.data.update(
@@ -282,7 +283,8 @@ def check_reversal(o: Outcome) -> None:
     ft = o.data["ft"]
     require(ft[1] > 0.0 > ft[2], f"no reversal: {ft}")
     a, b = o.data["one_step"]
-    require(a > 0.0 > b and o.data["one_status"] == "PLASTIC", f"one-step reversal: {o.data}")
+    one = o.data["one_status"]
+    require(a > 0.0 > b and one == Status.PLASTIC.name, f"one-step reversal: {o.data}")
 
 
 def mp_sec6_literal(comm: Any = None) -> Outcome:
@@ -386,7 +388,7 @@ def check_stress_hold(o: Outcome) -> None:
     up, mu = o.data["up"], o.data["mu"]
     require(up[1] > 0.0 and up[2] == up[1], f"slip during the hold: {up}")
     require(mu[2] > mu[1] and abs(mu[2] - SEC7.mu_s) < 1e-6 * SEC7.mu_s, f"mu: {mu}")
-    require(o.data["last"] == "ELASTIC", "hold should be elastic")
+    require(o.data["last"] == Status.ELASTIC.name, "hold should be elastic")
 
 
 def mp_stress_ramp(comm: Any = None) -> Outcome:

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from ..result import Status
+
 EPS = float(np.finfo(float).eps)
 TINY = float(np.finfo(float).tiny)
 S_SERIES = 1e-3  # E'(s): series below, closed form above (see branch.E_dE)
@@ -31,8 +33,10 @@ GXI = np.array([0.2113248654051871, 0.7886751345948129])
 GWI = np.array([0.5, 0.5])
 NO, NI = GXO.size, GXI.size  # outer points (C), inner points per outer node (J)
 
-# Status codes (the values of ``Status``)
-ELASTIC, PLASTIC, SEPARATED, JUMP, FAILED = 0, 1, 2, 3, 4
+# Status codes: the values of ``Status``, as plain ints
+ELASTIC, PLASTIC, SEPARATED, JUMP, FAILED = (
+    int(s) for s in (Status.ELASTIC, Status.PLASTIC, Status.SEPARATED, Status.JUMP, Status.FAILED)
+)
 
 
 class Law:

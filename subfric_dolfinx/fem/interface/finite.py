@@ -30,9 +30,12 @@ the current configuration with the geometry of §11:
   transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
   exactly.
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
-  respect to the slave point and the master nodes (:func:`.sliding.gap_operator`); the frame's
-  rotation, the nodal normals' change and the transfer's change with the geometry are left out
-  (terms of the order of the traction times the rotation of the facets within an iteration).
+  respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
+  slip's own master nodes, in 2-D the frame's turn with the projection
+  (:func:`.sliding.frame_rate`) and, with ``SlidingAssembly.transfer_in_tangent`` (2-D, on
+  by default), the transfer's change with the geometry
+  (:func:`.transfer.transfer_tangent`): then the 2-D tangent is the residual's derivative. The
+  nodal normals are the step's (held), so they have no derivative within it.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
@@ -62,8 +65,8 @@ from .geometry import frames, quadrature_rule
 from .pairing import InterfaceError
 from .projection import facet_basis, normal_projection, parametric_normal
 from .reach import ReachSearch, _near, surface_size
-from .segments import Segments, overlap_points
-from .sliding import gap_operator, transport_matrix
+from .segments import overlap_points
+from .sliding import frame_rate, gap_operator, transport_matrix
 from .surface import contact_surface
 from .transfer import l2_projector, transfer_matrices
 
@@ -337,11 +340,14 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             # convected slip and transported tangential state
             old = self.pf_old
             moving = found & (old >= 0)
+            self._old_facet = np.where(moving, old, -1)
+            self._N_old = np.zeros((self.n_points, self.pf_nodes.shape[1]))
             ds = np.zeros((self.n_points, gdim))
             T = np.broadcast_to(np.eye(nt), (self.n_points, nt, nt)).copy()
             if np.any(moving):
                 pm = np.flatnonzero(moving)
                 B_old = facet_basis(m.cell, m.degree, self.xi_old[pm], 1)
+                self._N_old[pm] = B_old[0]
                 Yo = Ym[old[pm]]
                 y_old_now = np.einsum("mk,mkd->md", B_old[0], Yo)
                 B_new = facet_basis(m.cell, m.degree, xi[pm], 0)
@@ -378,12 +384,22 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             self._G = np.zeros((self.n_points, gdim, gdim))
             self._Nm = np.zeros((self.n_points, self.pf_nodes.shape[1]))
             if pf.size:
-                G, Nb = gap_operator(
+                G, Nb, R = gap_operator(
                     xq[pf], Ym[facet[pf]], Nm[facet[pf]], m.cell, m.degree, xi[pf], gamma[pf], Q[pf]
                 )
                 self._G[pf], self._Nm[pf] = G, Nb
                 # no slip measured where the point faced nothing at the step's start
                 self._G[~moving, :nt, :] = 0.0
+            # 2-D: the frame turns with the projection (d e1 = (a_y, -a_x) dxi, d(-n) = -a dxi):
+            # in the slip e1 . ds and in the forces Q^T f
+            self._K = np.zeros((self.n_points, gdim, gdim))
+            if gdim == 2 and pf.size:
+                a, r = frame_rate(Nm[facet[pf]], m.cell, m.degree, xi[pf]), R[:, 0, :]
+                de1 = np.stack([a[:, 1], -a[:, 0]], axis=1)
+                self._G[pf, 0, :] += np.einsum("md,md->m", de1, ds[pf])[:, None] * r
+                f = res.traction[pf]
+                turn = de1 * f[:, :1] - a * f[:, 1:]
+                self._K[pf] = turn[:, :, None] * r[:, None, :]
             self._Q = Q
             # the segments and the master-side transfer
             seg = overlap_points(
@@ -395,13 +411,12 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
                 npf = max(self.pf_global.size, 1)
                 owner = np.repeat(np.arange(s.size), np.diff(self.reach_ptr))
                 keep &= np.isin(seg.slave * npf + seg.master, owner * npf + self.reach_idx)
-            seg = Segments(
-                seg.slave[keep], seg.master[keep], seg.xi_slave[keep], seg.xi_master[keep],
-                seg.weight[keep], seg.converged[keep],
-            )  # fmt: skip
+            seg = seg.take(keep)
+            self._segments = seg
             self._transfer = transfer_matrices(
                 seg, self.projector, s.cell, s.degree, m.cell, m.degree
             )
+            self._Xs, self._Ym = Xs, Ym
             self.search_seconds["segments"] = time.perf_counter() - t1
         self._x_at_update = np.array(owned, copy=True)
         return res

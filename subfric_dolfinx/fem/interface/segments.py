@@ -49,6 +49,11 @@ class Segments:
         weight: Quadrature weight times the slave facet's surface Jacobian (the points integrate
             over the slave surface, current or reference, see :func:`overlap_points`), (np,).
         converged: Whether the projection on the master facet was found.
+        bounds: 2-D only (else ``None``): the ends ``(lo, hi)`` of the point's piece of its slave
+            facet (reference coordinate), (np, 2); the point is at ``lo + unit (hi - lo)``.
+        bound_vertex: 2-D only: the master facet's vertex (0 or 1) whose preimage makes each
+            end, or -1 where the slave facet's own end does, (np, 2).
+        unit: 2-D only: the point's coordinate on its piece, in [0, 1], (np,).
     """
 
     slave: np.ndarray
@@ -57,11 +62,18 @@ class Segments:
     xi_master: np.ndarray
     weight: np.ndarray
     converged: np.ndarray
+    bounds: np.ndarray | None = None
+    bound_vertex: np.ndarray | None = None
+    unit: np.ndarray | None = None
 
     @property
     def size(self) -> int:
         """Number of points."""
         return int(self.slave.size)
+
+    def take(self, keep: np.ndarray) -> Segments:
+        """The points ``keep`` (a mask or indices) only."""
+        return Segments(*(None if v is None else v[keep] for v in dataclasses.astuple(self)))
 
 
 def _polygon_order(cell: basix.CellType) -> list[int]:
@@ -192,14 +204,31 @@ def overlap_points(
     ).any(axis=1)
     si, mi = si[ok], mi[ok]
     poly = pre.xi.reshape(-1, nv, fdim)[ok]
+    extra: dict[str, np.ndarray] = {}
     if fdim == 1:
-        lo = np.clip(poly.min(axis=1)[:, 0], 0.0, 1.0)
-        hi = np.clip(poly.max(axis=1)[:, 0], 0.0, 1.0)
+        ends = poly[:, :, 0]  # the two vertices' preimages
+        v_lo, v_hi = np.argmin(ends, axis=1), np.argmax(ends, axis=1)
+        rows = np.arange(ends.shape[0])
+        lo = np.clip(ends[rows, v_lo], 0.0, 1.0)
+        hi = np.clip(ends[rows, v_hi], 0.0, 1.0)
+        vertex = np.stack(
+            [
+                np.where(ends[rows, v_lo] > 0.0, v_lo, -1),
+                np.where(ends[rows, v_hi] < 1.0, v_hi, -1),
+            ],
+            axis=1,
+        )
         keep = hi - lo > 1e-12
-        si, mi, lo, hi = si[keep], mi[keep], lo[keep], hi[keep]
+        si, mi, lo, hi, vertex = si[keep], mi[keep], lo[keep], hi[keep], vertex[keep]
         X, w = basix.make_quadrature(basix.CellType.interval, degree)
         xs = (lo[:, None] + (hi - lo)[:, None] * X[None, :, 0])[..., None]  # (npair, nq, 1)
         ws = (hi - lo)[:, None] * w[None, :]
+        nq1 = X.shape[0]
+        extra = {
+            "bounds": np.repeat(np.stack([lo, hi], axis=1), nq1, axis=0),
+            "bound_vertex": np.repeat(vertex, nq1, axis=0),
+            "unit": np.tile(X[:, 0], lo.size),
+        }
     else:
         clipped, cnt = clip_to_reference(poly, np.full(poly.shape[0], nv), slave_cell)
         X, w = basix.make_quadrature(basix.CellType.triangle, degree)
@@ -243,4 +272,5 @@ def overlap_points(
         xi_master=proj.xi,
         weight=ws.reshape(-1) * jac,
         converged=proj.converged,
+        **extra,
     )

@@ -30,7 +30,7 @@ import numpy as np
 
 from .projection import facet_basis, projection_jacobian
 
-__all__ = ["gap_operator", "transport", "transport_matrix"]
+__all__ = ["frame_rate", "gap_operator", "transport", "transport_matrix"]
 
 
 def gap_operator(
@@ -59,7 +59,9 @@ def gap_operator(
         Q: The frames at the projections, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
 
     Returns:
-        ``G`` (m, gdim, gdim) and the master basis ``N_l(xi)`` (m, nfd).
+        ``G`` (m, gdim, gdim), the master basis ``N_l(xi)`` (m, nfd) and the projection's
+        ``dxi`` rows ``R`` (m, fdim, gdim): ``dxi = R (dx - sum_l N_l(xi) dy_l)``
+        (:func:`.projection.projection_jacobian`, the nodal normals held).
     """
     fdim = x.shape[1] - 1
     Ainv, N = projection_jacobian(x, Y, Nn, cell, degree, xi, gamma)
@@ -78,7 +80,34 @@ def gap_operator(
         size[:, None] * Ainv[:, fdim, :]
         + gamma[:, None] * np.einsum("ma,mac->mc", tilt, Ainv[:, :fdim, :])
     )
-    return G, N
+    return G, N, Ainv[:, :fdim, :]
+
+
+def frame_rate(
+    Nn: np.ndarray, cell: basix.CellType, degree: int, xi: np.ndarray
+) -> np.ndarray:
+    """How a 2-D frame ``(e1, -n)`` turns as the projection moves along the facet (2-D only).
+
+    The normal ``n = n~(xi) / |n~(xi)|`` turns with the projection (the nodal normals held):
+    ``dn = a dxi`` with ``a = dn/dxi``, and ``dxi = r . (dx - sum_l N_l(xi) dy_l)`` with ``r``
+    the projection's ``dxi`` row (the third result of :func:`gap_operator`); ``e1 = (n_y, -n_x)``
+    (:func:`.geometry.frames`) turns with it.
+
+    Args:
+        Nn: Nodal normals of each point's master facet, (m, nfd, 2).
+        cell: The master facets' basix cell (interval).
+        degree: Their Lagrange degree.
+        xi: The points' projections, (m, 1).
+
+    Returns:
+        ``a`` (m, 2), ``dn/dxi``.
+    """
+    B = facet_basis(cell, degree, xi, 1)
+    nt = np.einsum("mk,mkd->md", B[0], Nn)
+    dnt = np.einsum("mk,mkd->md", B[1], Nn)
+    size = np.linalg.norm(nt, axis=1)
+    n = nt / size[:, None]
+    return (dnt - n * np.einsum("md,md->m", n, dnt)[:, None]) / size[:, None]
 
 
 def transport(v: np.ndarray, n_old: np.ndarray, n_new: np.ndarray) -> np.ndarray:

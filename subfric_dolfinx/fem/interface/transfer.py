@@ -29,7 +29,7 @@ import numpy as np
 from .projection import _element, facet_basis
 from .segments import Segments
 
-__all__ = ["Transfer", "l2_projector", "transfer_matrices"]
+__all__ = ["Transfer", "l2_projector", "transfer_matrices", "transfer_tangent"]
 
 
 def l2_projector(N: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -108,3 +108,116 @@ def transfer_matrices(
     first = np.zeros(pairs.size, dtype=np.int64)
     first[pair_of.reshape(-1)[::-1]] = np.arange(segments.size)[::-1]
     return Transfer(segments.slave[first], segments.master[first], B)
+
+
+def transfer_tangent(
+    segments: Segments,
+    projector: np.ndarray,
+    tractions: np.ndarray,
+    slave_x: np.ndarray,
+    slave_ref_x: np.ndarray,
+    slave_degree: int,
+    master_x: np.ndarray,
+    master_normals: np.ndarray,
+    master_degree: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The change of the master nodal forces ``-B t`` with the geometry, the tractions held (2-D).
+
+    ``B`` (:func:`transfer_matrices`) moves with the nodes through the segments
+    (:func:`.segments.overlap_points`): the ends of each piece (the preimages of the master
+    vertices on the slave facet, along the vertices' fixed nodal normals), its points on the slave
+    facet and their projections on the master facet (along the master's smooth normal), and the
+    pieces' lengths. Each is differentiated through :func:`.projection.projection_jacobian`
+    (the nodal normals are those of the step: held); an end where the slave facet's own end cuts
+    the piece does not move.
+
+    Args:
+        segments: The segment points, with their 2-D ``bounds``, ``bound_vertex`` and ``unit``.
+        projector: ``P`` of :func:`l2_projector`, (ns, nfd_s, nq).
+        tractions: The tractions at the slave facets' points, global components (ns, nq, gdim).
+        slave_x: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
+        slave_ref_x: Their positions that weigh the points (``slave_measure_x``), likewise.
+        slave_degree: The slave facets' Lagrange degree (intervals).
+        master_x: Current positions of the master facets' nodes, (nm, nfd_m, gdim).
+        master_normals: Their nodal normals, (nm, nfd_m, gdim).
+        master_degree: The master facets' Lagrange degree (intervals).
+
+    Returns:
+        Slave facet and master facet of each pair (the order of :func:`transfer_matrices`), and
+        the blocks ``d(-B t)/dX`` (npair, nfd_m * gdim, (nfd_s + nfd_m) * gdim): rows the master
+        facet's nodes, columns the slave facet's nodes then the master facet's (node-major).
+    """
+    from .projection import projection_jacobian
+
+    cell = basix.CellType.interval
+    gdim = slave_x.shape[2]
+    nfs, nfm = slave_x.shape[1], master_x.shape[1]
+    ncol = nfs + nfm
+    if segments.size == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return z, z.copy(), np.zeros((0, nfm * gdim, ncol * gdim))
+    sl, ma = segments.slave, segments.master
+    Xs, Ym, Nm = slave_x[sl], master_x[ma], master_normals[ma]
+    npt = sl.size
+    # the pieces' ends: d(end) = c . dX over the columns (npt, 2, ncol, gdim)
+    dend = np.zeros((npt, 2, ncol, gdim))
+    for e in (0, 1):
+        vert = segments.bound_vertex[:, e]
+        moving = np.flatnonzero(vert >= 0)
+        if moving.size == 0:
+            continue
+        v = vert[moving]
+        xv = Ym[moving, v]
+        nv = np.repeat(Nm[moving, v][:, None, :], nfs, axis=1)
+        xi = segments.bounds[moving, e][:, None]
+        Ns = facet_basis(cell, slave_degree, xi)[0]
+        gam = np.einsum("md,md->m", xv - np.einsum("mk,mkd->md", Ns, Xs[moving]), nv[:, 0])
+        Ainv, Ns = projection_jacobian(xv, Xs[moving], nv, cell, slave_degree, xi, gam)
+        D = Ainv[:, 0, :]  # d xi = D . (dx_v - sum_k N_k dX_k)
+        dend[moving, e, :nfs, :] = -Ns[:, :, None] * D[:, None, :]
+        dend[moving, e, nfs + v, :] += D
+    unit = segments.unit
+    dxs = (1.0 - unit)[:, None, None] * dend[:, 0] + unit[:, None, None] * dend[:, 1]
+    span = segments.bounds[:, 1] - segments.bounds[:, 0]
+    # the point's weight: span * w * |X_ref,xi|(xi_s)
+    Bs = facet_basis(cell, slave_degree, segments.xi_slave, 2)  # values, d/dxi, d2/dxi2
+    t = np.einsum("mk,mkd->md", Bs[1], slave_ref_x[sl])
+    t2 = np.einsum("mk,mkd->md", Bs[2], slave_ref_x[sl])
+    jac_rate = np.einsum("md,md->m", t, t2) / np.einsum("md,md->m", t, t)  # d ln|t| / dxi
+    w = segments.weight
+    dw = w[:, None, None] * (
+        (dend[:, 1] - dend[:, 0]) / span[:, None, None] + jac_rate[:, None, None] * dxs
+    )
+    # the point's projection on the master facet
+    y = np.einsum("mk,mkd->md", Bs[0], Xs)
+    dy_xi = np.einsum("mk,mkd->md", Bs[1], Xs)
+    xim = segments.xi_master
+    Bm = facet_basis(cell, master_degree, xim, 1)
+    nt = np.einsum("mk,mkd->md", Bm[0], Nm)
+    gam = np.einsum("md,md->m", y - np.einsum("mk,mkd->md", Bm[0], Ym), nt) / np.einsum(
+        "md,md->m", nt, nt
+    )
+    Ainv, _ = projection_jacobian(y, Ym, Nm, cell, master_degree, xim, gam)
+    Dm = Ainv[:, 0, :]
+    dxm = np.zeros((npt, ncol, gdim))
+    dxm[:, :nfs, :] = Bs[0][:, :, None] * Dm[:, None, :]
+    dxm[:, nfs:, :] = -Bm[0][:, :, None] * Dm[:, None, :]
+    dxm += np.einsum("md,md->m", Dm, dy_xi)[:, None, None] * dxs
+    # the traction field at the point and its rate along the slave facet
+    P = projector[sl]  # (npt, nfs, nq)
+    tq = tractions[sl]  # (npt, nq, gdim)
+    lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
+    dlam = np.einsum("mk,mkq,mqd->md", Bs[1], P, tq)
+    # d(-w N_l lam) = -(dw N_l lam + w N_l' dxi_m lam + w N_l lam' dxi_s)
+    blocks = -(
+        np.einsum("ml,md,mce->mldce", Bm[0], lam, dw)
+        + np.einsum("m,ml,md,mce->mldce", w, Bm[1], lam, dxm)
+        + np.einsum("m,ml,md,mce->mldce", w, Bm[0], dlam, dxs)
+    )
+    key = sl.astype(np.int64) * (int(ma.max()) + 1) + ma
+    pairs, pair_of = np.unique(key, return_inverse=True)
+    out = np.zeros((pairs.size, nfm, gdim, ncol, gdim))
+    np.add.at(out, pair_of.reshape(-1), blocks)
+    first = np.zeros(pairs.size, dtype=np.int64)
+    first[pair_of.reshape(-1)[::-1]] = np.arange(npt)[::-1]
+    return sl[first], ma[first], out.reshape(pairs.size, nfm * gdim, ncol * gdim)
