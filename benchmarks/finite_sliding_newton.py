@@ -40,17 +40,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from subfric_dolfinx.constitutive import preset
-from subfric_dolfinx.fem import (
-    Dirichlet,
-    FrictionSolver,
-    Interface,
-    InterfaceProblem,
-    LoadStepper,
-    Material,
-    Pressure,
-)
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper
 from subfric_dolfinx.fem.interface import finite_assembly
-from subfric_dolfinx.loading import LoadingProgram
 
 OUT = Path(__file__).resolve().parents[1] / "scratch" / "finite_sliding_newton"
 
@@ -162,20 +153,10 @@ def far(slide: float, dt: float | None) -> tuple[list[int], list[int]]:
 
 def diagonal_3d() -> tuple[list[int], list[int]]:
     """The 3-D diagonal slide: Newton iterations and cuts of the sliding steps."""
-    from tests.contact_meshes import tagged_boxes
+    from tests.contact_meshes import diagonal_slide_3d
 
-    comm = MPI.COMM_WORLD
-    dom = tagged_boxes(comm, n_base=(6, 6, 1), n_block=(2, 2, 1), base_size=3.0, block_at=0.5)
     law = dataclasses.replace(preset("sec7"), alpha_n=1e6)
-    program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    problem = InterfaceProblem(
-        dom, law, {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)}, program,
-        [Dirichlet("bottom", (0.0, 0.0, 0.0)), Dirichlet("top", 0.5, 0, amplitude="slide"),
-         Dirichlet("top", 0.25, 1, amplitude="slide")],
-        [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=0.5)],
-    )  # fmt: skip
+    problem = diagonal_slide_3d(MPI.COMM_WORLD, law, 2.0)
     with FrictionSolver(problem, linear="lu") as solver:
         records = LoadStepper(solver, 0.0625, dt_max=0.0625).run()
     rows = [r for r in records if r.t > 1.0 + 1e-9]

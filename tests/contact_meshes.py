@@ -355,3 +355,31 @@ def tagged_boxes(
     return TaggedBodies(
         mesh, bodies.cell_tags, facet_tags, tags, {"base": ("base",), "block": ("block",)}, {}
     )
+
+
+def diagonal_slide_3d(
+    comm: MPI.Comm, law, slide_end: float, *, split_x: float | None = None, degree: int = 1
+):
+    """The 3-D diagonal slide: an aluminium block (2 x 2 facets, :func:`tagged_boxes` at 0.5)
+    pressed at 300 MPa on a steel plate (6 x 6 facets, 3 mm) from t = 0 to 1, then its top moved
+    by (0.5, 0.25) mm until ``slide_end``; one finite-sliding interface (search radius 0.5 mm).
+
+    The problem of ``tests/test_finite_sliding_tangent.py`` (``split_x`` 1.5: across the
+    partition boundary) and of ``benchmarks/finite_sliding_newton.py``'s 3-D case.
+    """
+    from subfric_dolfinx.fem import Dirichlet, Interface, InterfaceProblem, Material, Pressure
+    from subfric_dolfinx.loading import LoadingProgram
+
+    dom = tagged_boxes(
+        comm, n_base=(6, 6, 1), n_block=(2, 2, 1), base_size=3.0, block_at=0.5, split_x=split_x
+    )
+    program = LoadingProgram([0.0, 1.0, slide_end], {"press": [0, 1, 1], "slide": [0, 0, 1]})
+    return InterfaceProblem(
+        dom, law, {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)}, program,
+        [Dirichlet("bottom", (0.0, 0.0, 0.0)), Dirichlet("top", 0.5, 0, amplitude="slide"),
+         Dirichlet("top", 0.25, 1, amplitude="slide")],
+        [Pressure("top", 300.0, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
+                              search_radius=0.5)],
+        degree=degree,
+    )  # fmt: skip

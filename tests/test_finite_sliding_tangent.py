@@ -39,7 +39,7 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.fem.interface import finite
 from subfric_dolfinx.fem.interface.finite_assembly import SlidingAssembly
 from subfric_dolfinx.loading import LoadingProgram
-from tests.contact_meshes import tagged_blocks, tagged_boxes
+from tests.contact_meshes import diagonal_slide_3d, tagged_blocks
 from tests.helpers import everywhere
 
 
@@ -54,22 +54,6 @@ def problem_2d(comm, law, degree):
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")],
         [Pressure("top", 300.0, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
-        degree=degree,
-    )  # fmt: skip
-
-
-def problem_3d(comm, law, degree):
-    dom = tagged_boxes(
-        comm, n_base=(6, 6, 1), n_block=(2, 2, 1), base_size=3.0, block_at=0.5, split_x=1.5
-    )
-    program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    return InterfaceProblem(
-        dom, law, {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)}, program,
-        [Dirichlet("bottom", (0.0, 0.0, 0.0)), Dirichlet("top", 0.5, 0, amplitude="slide"),
-         Dirichlet("top", 0.25, 1, amplitude="slide")],
-        [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=0.5)],
         degree=degree,
     )  # fmt: skip
 
@@ -162,7 +146,7 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
 
 
 def test_3d_tangent_is_the_residual_derivative_with_the_transfer_held(comm, monkeypatch):
-    problem = problem_3d(comm, law_of("sec7"), 1)
+    problem = diagonal_slide_3d(comm, law_of("sec7"), 3.0, split_x=1.5)
     with FrictionSolver(problem, linear="lu") as solver:
         converged = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
