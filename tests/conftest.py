@@ -7,7 +7,8 @@
 * ``pytestmark = pytest.mark.numpy_only``: a module that touches neither MPI nor DOLFINx (return
   map, driver, fuzzing, ...) gives the same answer on every rank; on more than one rank its tests
   are deselected (pytest reports them as "deselected"), since the 1-rank run has already run them.
-* ``pytestmark = pytest.mark.three_ranks``: an FE module of the 3-rank leg of ``./run test``
+* ``pytestmark = pytest.mark.three_ranks`` (or the mark on a test): an FE module (test) of the
+  3-rank leg of ``./run test``
   (``./run test3``: parallel code paths on an odd partition, oversubscribed on these 2-core
   machines, correctness only). The suite is written for 1 and 2 ranks: on more, the tests of the
   other modules are deselected (reported as such). ``@pytest.mark.max_ranks(2, reason=...)``: a

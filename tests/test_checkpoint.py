@@ -26,7 +26,7 @@ from tests.helpers import (
 )
 from tests.test_output import SUBPROCESSES, disk_full_runs
 
-pytestmark = [hang_fails(), pytest.mark.three_ranks]  # a hang fails (see tests/test_output.py)
+pytestmark = hang_fails()  # a hang fails (see tests/test_output.py)
 
 T_CK = 2.5  # checkpoint time: in the middle of the reverse stroke
 
@@ -45,6 +45,7 @@ def columns(hist, after):
 
 
 @pytest.mark.parametrize("linear", ["lu", "reuse"])
+@pytest.mark.three_ranks  # the distributed write and read (N -> N, N -> 1) on 3 ranks too
 def test_restart_gives_the_same_history(shared_tmp, linear):
     """1 -> 1 on one rank; N -> N and N -> 1 on N ranks (2, and 3 in the 3-rank leg). To
     round-off with LU, and with the reused factor on one rank (a checkpoint refreshes it, as a
