@@ -2,7 +2,7 @@
 
 Prints (thread CPU time, ``time.thread_time``, best of 5: the machine is shared):
 
-1. one call of ``return_map`` for one point (Sec. 7 preset, f_n = 300 MPa; the scalar path),
+1. one call of ``return_map`` for one point (Sec. 7 preset, f_n = 300 MPa),
    the previous map (``benchmarks/old_map``) beside the current one: elastic, plastic 1-D,
    plastic 2-D along the start traction, 2-D at 90 degrees to it, a 1-D reversal;
 2. the driver's cost per step (``run_case``) on the report's paths (``report/mp_study.py``: 41
@@ -13,9 +13,9 @@ Prints (thread CPU time, ``time.thread_time``, best of 5: the machine is shared)
    whole path at every step (27 ms per step at 10^6 rows);
 4. the batch driver (``run_cases``): the six curves of Fig. 10 (20 mm at 100..600 MPa) one by
    one and together, and N = 30, 100, 1000 cases;
-5. one call of the map on N points by its scalar path and by its numpy path (elastic, 1-D
-   plastic, 2-D plastic with a turn): where the numpy path's fixed cost is paid back (the map's
-   ``SMALL_N``).
+5. one call of the map (one numpy implementation for any number of points) on N points, from
+   1 to 10^5 (elastic, 1-D plastic, 2-D plastic with a turn): its fixed cost per call and its
+   cost per point.
 
 Usage: ``./run exec python3 benchmarks/driver_steps.py [--quick]`` (``--quick``: no 10^6 rows,
 no 1000 cases). No timing is asserted anywhere.
@@ -34,7 +34,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import subfric_dolfinx.constitutive.subloading as _sub
 from benchmarks.old_map import old
 from subfric_dolfinx.constitutive import InterfaceState, SubloadingLaw, preset
 from subfric_dolfinx.driver import Case, run_case, run_cases
@@ -171,11 +170,11 @@ def main() -> None:
         bat = timed(lambda cs=cs: run_cases(cs))
         print(f"   {n:5d} cases of {run_case(cs[0]).n_steps} steps: one by one {per * n:.2f} s "
               f"(from {k}), together {bat:.2f} s, speed-up {per * n / bat:.1f}")  # fmt: skip
-    crossover()
+    per_point()
 
 
-def path_costs(n: int, nt: int, delta: float) -> tuple[float, float]:
-    """Seconds per call on ``n`` points by the scalar and by the numpy path."""
+def path_costs(n: int, nt: int, delta: float) -> float:
+    """Seconds per call of the map on ``n`` points (start tractions given)."""
     rng = np.random.default_rng(0)
     fn = rng.uniform(100.0, 600.0, n)
     g = -np.expm1(-P.c_n * fn)
@@ -190,28 +189,19 @@ def path_costs(n: int, nt: int, delta: float) -> tuple[float, float]:
     if nt == 2:
         gap[:, 1] = 0.0005
     st = InterfaceState({"up": up, "mu": mu, "r": r, "f": f}, nt)
-    keep = _sub.SMALL_N
-    try:
-        _sub.SMALL_N = 10**9
-        a = best_call(lambda: P.return_map(gap, st, 0.0025))
-        _sub.SMALL_N = 0
-        b = best_call(lambda: P.return_map(gap, st, 0.0025))
-    finally:
-        _sub.SMALL_N = keep
-    return a, b
+    return best_call(lambda: P.return_map(gap, st, 0.0025), repeats=3 if n > 10**4 else 5)
 
 
-def crossover() -> None:
-    print(f"\n5. one call on N points, scalar path / numpy path (us; the map uses the scalar path "
-          f"up to SMALL_N = {_sub.SMALL_N}):")  # fmt: skip
-    sizes = (1, 8, 16, 32, 64, 128)
-    print("   " + f"{'':22s}" + "".join(f"{n:>15d}" for n in sizes))
+def per_point() -> None:
+    sizes = (1, 8, 64, 512, 4096, 100_000)
+    print("\n5. one call on N points (us per call / us per point, thread CPU time):")
+    print("   " + f"{'':22s}" + "".join(f"{n:>17d}" for n in sizes))
     for name, nt, delta in (("elastic", 1, -0.0005), ("plastic 1-D", 1, 0.002),
                             ("plastic 2-D turn", 2, 0.002)):  # fmt: skip
         cells = []
         for n in sizes:
-            a, b = path_costs(n, nt, delta)
-            cells.append(f"{1e6 * a:7.0f}/{1e6 * b:<7.0f}")
+            a = path_costs(n, nt, delta)
+            cells.append(f"{1e6 * a:9.0f}/{1e6 * a / n:<7.2f}")
         print(f"   {name:22s}" + "".join(cells))
 
 

@@ -25,7 +25,7 @@ machine is shared, so compare within one run):
 
    ``--radial`` adds the numpy/C pair on the same states without the start traction (the radial
    return with the new root finder: no split, no rotation).
-2. **One call on a handful of points** (the scalar path): elastic, one plastic point (1-D, 2-D
+2. **One call on a handful of points**: elastic, one plastic point (1-D, 2-D
    along the start traction, 2-D turn, 1-D reversal), previous and current map, and the C
    reference's per-call cost through ctypes for scale.
 3. **Driver, per step** (``run_case``) on the report's paths: previous map, current map, and a
@@ -198,7 +198,7 @@ def throughput(args, sub, cmap) -> None:
 
 
 def per_call(cmap) -> None:
-    print("\n2. one call, one point (us, thread CPU time, best of 5; the scalar path):")
+    print("\n2. one call, one point (us, thread CPU time, best of 5):")
     print(f"   {'case':20s} {'previous':>9s} {'current':>8s} {'C (ctypes)':>10s}  "
           "current status/evaluations")  # fmt: skip
     P = driver_steps.P

@@ -7,6 +7,12 @@
 * ``pytestmark = pytest.mark.numpy_only``: a module that touches neither MPI nor DOLFINx (return
   map, driver, fuzzing, ...) gives the same answer on every rank; on more than one rank its tests
   are deselected (pytest reports them as "deselected"), since the 1-rank run has already run them.
+* ``pytestmark = pytest.mark.three_ranks`` (or the mark on a test): an FE module (test) of the
+  3-rank leg of ``./run test``
+  (``./run test3``: parallel code paths on an odd partition, oversubscribed on these 2-core
+  machines, correctness only). The suite is written for 1 and 2 ranks: on more, the tests of the
+  other modules are deselected (reported as such). ``@pytest.mark.max_ranks(2, reason=...)``: a
+  test of such a module that cannot run on more ranks is skipped there, with that reason.
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
 * Repeatable partitions: ``SCOTCH_PTHREAD_NUMBER=1`` unless set (see below).
 * A broken pipe is an exception again: PETSc's initialisation installs its signal handler for
@@ -42,7 +48,7 @@ if _ROOT not in sys.path:
     sys.path.append(_ROOT)
 
 
-_NUMPY_ONLY_DESELECTED = pytest.StashKey[int]()
+_DESELECTED = pytest.StashKey[int]()
 
 
 def pytest_addoption(parser):
@@ -51,12 +57,18 @@ def pytest_addoption(parser):
 
 def pytest_collection_modifyitems(config, items):
     size = MPI.COMM_WORLD.size
+
+    def off(item) -> bool:
+        return (size > 1 and "numpy_only" in item.keywords) or (
+            size > 2 and "three_ranks" not in item.keywords
+        )
+
     if size > 1:
-        numpy_only = [item for item in items if "numpy_only" in item.keywords]
-        if numpy_only:
-            config.hook.pytest_deselected(items=numpy_only)
-            config.stash[_NUMPY_ONLY_DESELECTED] = len(numpy_only)
-            items[:] = [item for item in items if "numpy_only" not in item.keywords]
+        dropped = [item for item in items if off(item)]
+        if dropped:
+            config.hook.pytest_deselected(items=dropped)
+            config.stash[_DESELECTED] = len(dropped)
+            items[:] = [item for item in items if not off(item)]
     skip_serial = pytest.mark.skip(reason=f"serial-only test, running on {size} ranks")
     skip_slow = pytest.mark.skip(reason="slow test: give --run-slow to run it")
     for item in items:
@@ -64,13 +76,20 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip_serial)
         if "slow" in item.keywords and not config.getoption("--run-slow"):
             item.add_marker(skip_slow)
+        most = item.get_closest_marker("max_ranks")
+        if most is not None and size > most.args[0]:
+            why = most.kwargs.get("reason")
+            if not why:
+                raise pytest.UsageError(f"{item.nodeid}: max_ranks needs a reason=")
+            item.add_marker(pytest.mark.skip(reason=f"at most {most.args[0]} ranks: {why}"))
 
 
 def pytest_sessionfinish(session, exitstatus):
     """A selection made only of numpy-only tests (``./run test tests/test_return_map.py``) runs
-    nothing on 2 ranks: that is expected, not pytest's "no tests collected" failure."""
+    nothing on 2 ranks, one without a 3-rank module nothing on 3: that is expected, not pytest's
+    "no tests collected" failure."""
     if exitstatus == pytest.ExitCode.NO_TESTS_COLLECTED and session.config.stash.get(
-        _NUMPY_ONLY_DESELECTED, 0
+        _DESELECTED, 0
     ):
         session.exitstatus = pytest.ExitCode.OK
 

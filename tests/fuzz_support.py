@@ -34,7 +34,7 @@ from subfric_dolfinx.constitutive import (
     SubloadingLaw,
     preset,
 )
-from subfric_dolfinx.constitutive._subloading.switch import vsplit_point
+from subfric_dolfinx.constitutive._subloading import switch
 
 EPS = float(np.finfo(float).eps)
 TINY = float(np.finfo(float).smallest_subnormal)
@@ -336,8 +336,9 @@ def split_phi0(b, A):
     mu = np.clip(b.state.mu, law.mu_k, law.mu_s)
     bb = law.xi * b.dt
     cand = np.flatnonzero((fn0 > 0) & (fn1 > 0) & np.isfinite(A))
-    s, kind = vsplit_point(law._consts, f0[cand], fn0[cand], tr0[cand], fn1[cand], A[cand],
-                           mu[cand], bb)  # fmt: skip
+    seg = switch.Segment(f0[cand], fn0[cand], tr0[cand], fn1[cand], A[cand], mu[cand],
+                         np.full(cand.size, bb))  # fmt: skip
+    s, kind = switch.split_point(law._consts, seg)
     sp = cand[kind > 0]
     s = s[kind > 0]
     if sp.size == 0:

@@ -45,12 +45,14 @@ def columns(hist, after):
 
 
 @pytest.mark.parametrize("linear", ["lu", "reuse"])
+@pytest.mark.three_ranks  # the distributed write and read (N -> N, N -> 1) on 3 ranks too
 def test_restart_gives_the_same_history(shared_tmp, linear):
-    """1 -> 1 on one rank; 2 -> 2 and 2 -> 1 on two ranks. To round-off with LU, and with the
-    reused factor on one rank (a checkpoint refreshes it, as a restart does); on two ranks
-    MUMPS's factors differ from run to run in the last bits, which GMRES's inexact solves turn
-    into differences of the order of Newton's tolerance (measured 5e-9 to 1e-8 of the peak
-    between two identical runs): 1e-7 of each column's largest value there."""
+    """1 -> 1 on one rank; N -> N and N -> 1 on N ranks (2, and 3 in the 3-rank leg). To
+    round-off with LU, and with the reused factor on one rank (a checkpoint refreshes it, as a
+    restart does); on more ranks MUMPS's factors differ from run to run in the last bits, which
+    GMRES's inexact solves turn into differences of the order of Newton's tolerance (measured
+    5e-9 to 1e-8 of the peak between two identical runs on 2): 1e-7 of each column's largest
+    value there."""
     comm = MPI.COMM_WORLD
 
     def scene_(**outputs):

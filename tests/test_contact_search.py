@@ -21,6 +21,8 @@ from subfric_dolfinx.fem.interface.surface import contact_surface, nodal_normals
 from tests.contact_meshes import CONTACT, MASTER, SLAVE, annuli, block_on_base, block_on_plate
 from tests.helpers import everywhere
 
+pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
+
 COMM = MPI.COMM_WORLD
 
 

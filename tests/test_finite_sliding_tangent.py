@@ -42,6 +42,8 @@ from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import diagonal_slide_3d, tagged_blocks
 from tests.helpers import everywhere
 
+pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
+
 
 def problem_2d(comm, law, degree):
     dom = tagged_blocks(

@@ -101,6 +101,50 @@ def test_fuzz_invariants_and_frame_invariance(law, start):
     assert c["exact symmetry"] > 0.1 * half and c["rotated"] > 0.02 * half
 
 
+def concat(parts):
+    """One result's arrays from the results of consecutive pieces of a batch."""
+    fields = ("traction", "tangent", "status", "unstable", "iterations")
+    out = {f: np.concatenate([getattr(p, f) for p in parts]) for f in fields}
+    for k in parts[0].state.names:
+        out[k] = np.concatenate([p.state[k] for p in parts])
+    return out
+
+
+@pytest.mark.parametrize(("law", "start"), VARIANTS)
+def test_fuzz_at_batch_sizes_1_2_7_and_1e5(law, start):
+    """One map whatever the number of points (a driver's one point, a rank holding a few
+    interface points, a large mesh): fuzzed points taken 1, 2 and 7 at a time give exactly what
+    they give all at once, and so have the properties; then one batch of 10^5 points."""
+    volume = Volume()
+    laws = subloading_laws() if law == "subloading" else coulomb_laws
+    n = 280
+
+    @fuzz_settings(4)
+    @given(law=laws, nt=st.sampled_from([1, 2]), dt=time_steps, seed=seeds, ctol=contact_tols)
+    def run(law, nt, dt, seed, ctol):
+        b = make_batch(law, nt, dt, seed, n, start=start, contact_tol=ctol)
+        whole = b.run()
+        volume.add(n, check_invariants(b, whole))
+        ref = concat([whole])
+        for size in (1, 2, 7):
+            pieces = [
+                Batch(b.law, b.gap[i : i + size], b.state.take(np.arange(i, min(i + size, n))),
+                      b.dt, b.contact_tol).run()
+                for i in range(0, n, size)
+            ]  # fmt: skip
+            got = concat(pieces)
+            for k, v in ref.items():
+                np.testing.assert_array_equal(got[k], v, err_msg=f"{k} at batch size {size}")
+
+    run()
+    p = preset("sec7") if law == "subloading" else CoulombLaw(1e3, 1e3, 0.3)
+    big = make_batch(p, 2, 0.01, 26, 100_000, start=start)
+    volume.add(100_000, check_invariants(big, big.run()))
+    print(f"{law} (start tractions: {start}): {volume.points} points, {volume.counts}")
+    assert volume.points >= 100_000 + 4 * n
+    assert volume.counts["plastic"] > 0.05 * volume.points
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("law", "start"), VARIANTS)
 def test_fuzz_invariants_long(law, start):

@@ -211,3 +211,24 @@ def test_consistent_tangent_matches_central_differences(law, start):
     assert counter["candidates"] >= 300
     assert counter["used"] >= 0.8 * counter["candidates"], counter
 
+
+
+@pytest.mark.parametrize("start", [False, True])
+def test_the_tangent_at_batch_sizes_1_2_7_and_1e5(start):
+    """The consistent tangent of a batch of 10^5 points equals, point by point, the tangent of
+    the same points taken 1, 2 and 7 at a time, and central differences (a batch of their
+    perturbed gaps) at a sample of elastic and plastic points of each kind."""
+    law = preset("sec7")
+    counter = {"candidates": 0, "used": 0}
+    for nt, dt, seed in ((1, 0.01, 3), (2, 1.0, 4)):
+        b = fd_candidates(law, nt, dt, seed, n=100_000, start=start)
+        big = b.run()
+        idx = np.random.default_rng(seed).choice(b.gap.shape[0], 70, replace=False)
+        for size in (1, 2, 7):
+            D = np.concatenate([
+                Batch(law, b.gap[i], b.state.take(i), b.dt).run().tangent
+                for i in np.split(idx, range(size, idx.size, size))
+            ])  # fmt: skip
+            np.testing.assert_array_equal(D, big.tangent[idx], err_msg=f"batch size {size}")
+        check_tangent(b, seed, counter, n_sample=40)
+    assert counter["used"] >= 0.8 * counter["candidates"] >= 0.8 * 100, counter

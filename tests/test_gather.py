@@ -2,6 +2,7 @@
 
 import dolfinx
 import numpy as np
+import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
@@ -9,6 +10,8 @@ from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem.interface import InterfaceElements, pair_interface
 from subfric_dolfinx.io import gather_interface, interface_order
 from tests.helpers import everywhere, on_root
+
+pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
 def interface(comm, partitioner=None):

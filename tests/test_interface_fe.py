@@ -21,6 +21,8 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.loading import LoadingProgram
 from tests.helpers import LAW, PROGRAM, block_problem, everywhere, global_spread, on_root, prefix
 
+pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
+
 E, P, H = 2.0e4, 300.0, 0.5
 
 

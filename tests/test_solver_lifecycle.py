@@ -22,6 +22,8 @@ from subfric_dolfinx.scenes import parse_scene, run_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
 from tests.helpers import everywhere
 
+pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
+
 
 def small_scene(prefix):
     s = block_on_base.scene(n=4, hold=1.0, dt=0.1)

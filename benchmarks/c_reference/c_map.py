@@ -3,10 +3,10 @@
 ``load()`` returns a function ``c_map(params, gap, up, mu, r, f, dt)`` -> dict of arrays
 (traction, tangent, up, mu, r, status, unstable, iterations, n_scan), or ``None`` with a reason
 when no compiler is available (``reason()``). The C file is the package's subloading map
-(``subfric_dolfinx/constitutive/_subloading``, scalar path) transliterated, without the
-branch-and-bound scan (points needing it get status :data:`NEEDS_SCAN` and are counted in
-``n_scan``). It lives here, not in the package: it is a yardstick for the numpy map, not a part
-of it.
+(``subfric_dolfinx/constitutive/_subloading``, as its scalar form was when transliterated; the
+scalar form now lives in ``tests/reference_map``), without the branch-and-bound scan (points
+needing it get status :data:`NEEDS_SCAN` and are counted in ``n_scan``). It lives here, not in
+the package: it is a yardstick for the numpy map, not a part of it.
 """
 
 from __future__ import annotations

@@ -46,10 +46,10 @@ gap ``(ubar_t, ubar_n)``:
    (exact for what is computed, so that FE Newton converges quadratically).
 
 The start traction is the internal variable ``f`` (:data:`SubloadingLaw.variables`); a state
-without it gives the radial return of steps 1, 3, 4 (no split, no rotation). Small batches (at
-most ``SMALL_N`` = 32 points) go through a scalar path in plain floats (``_subloading.point``,
-the readable specification), larger ones through numpy in chunks of 8192 points
-(``_subloading.batch``); both give the same numbers to round-off.
+without it gives the radial return of steps 1, 3, 4 (no split, no rotation). One implementation
+in numpy, one module per step (``_subloading``: ``trial``, ``switch``, ``branch``, ``root`` with
+``scan``, ``rotation``, ``tangent``; ``integrate`` runs them over chunks of 8192 points), for
+any number of points: the results do not depend on the batch size.
 
 The result is never NaN or inf; a point that cannot be integrated (non-finite input, or no
 converged root) gets status ``FAILED``, zero traction and its last converged state.
@@ -64,9 +64,8 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
-from ._subloading.batch import batch
-from ._subloading.common import SMALL_N, Law
-from ._subloading.point import point
+from ._subloading.common import Inputs, Law, Outputs, Settings
+from ._subloading.integrate import integrate
 from ._validate import non_negative, positive, real, validate_fields
 from .protocol import LawBase
 from .result import ReturnMapResult
@@ -256,18 +255,27 @@ def subloading_return_map(
     if out is not None:
         if out.n_points != n or out["up"].shape != up.shape:
             raise ValueError(f"out has {out.n_points} points of {out['up'].shape}, expected {n}")
-    if n <= SMALL_N:
-        return _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol)
-    if out is None:
-        names = ("up", "mu", "r", "f") if has_f else ("up", "mu", "r")
-        out = InterfaceState.zeros([v for v in params.variables if v.name in names], n, nt)
-    tr, tan, status, unstable, iters = batch(L, gap, state, dt, out, tol, max_iter, contact_tol)
+    if out is None:  # (every entry is written)
+        arrays = {"up": np.empty((n, nt)), "mu": np.empty(n), "r": np.empty(n)}
+        if has_f:
+            arrays["f"] = np.empty((n, m))
+        out = InterfaceState.wrap(arrays, n, nt)
+    tr = np.zeros((n, m))
+    tan = np.zeros((n, m, m))
+    status = np.empty(n, dtype=np.int8)
+    unstable = np.zeros(n, dtype=bool)
+    iters = np.zeros(n, dtype=np.int64)
+    inp = Inputs(gap, up, state["mu"], state["r"], state["f"] if has_f else None, dt)
+    res = Outputs(tr, tan, out["up"], out["mu"], out["r"], status, unstable, iters)
+    integrate(L, inp, res, Settings(tol, max_iter, contact_tol))
+    if "f" in out:
+        np.copyto(out["f"], tr)
     return ReturnMapResult(tr, tan, out, status, unstable, iters)
 
 
 def _check_dt(dt, n: int) -> float | np.ndarray:
     """``dt`` as a float, or as a float64 array (n,); finite and >= 0."""
-    if np.ndim(dt) == 0:
+    if isinstance(dt, float | int) or np.ndim(dt) == 0:
         d = float(dt)
         if not (math.isfinite(d) and d >= 0.0):
             raise ValueError(f"dt = {d!r} must be finite and >= 0")
@@ -279,63 +287,3 @@ def _check_dt(dt, n: int) -> float | np.ndarray:
         i = int(np.flatnonzero(~(np.isfinite(a) & (a >= 0.0)))[0])
         raise ValueError(f"dt[{i}] = {a[i]!r} must be finite and >= 0")
     return a
-
-
-def _small(L, gap, state, has_f, dt, out, tol, max_iter, contact_tol) -> ReturnMapResult:
-    """The scalar path: :func:`~._subloading.point.point` per point, outputs from one list.
-
-    All float outputs are contiguous slices of one array (one ``np.array`` call), laid out
-    component-major: traction, tangent, up, mu, r (and ``f`` = the traction, copied).
-    """
-    up_a = state["up"]
-    n, nt = up_a.shape
-    m = nt + 1
-    f_a = state["f"].tolist() if has_f else [None] * n
-    mu_a, r_a = state["mu"].tolist(), state["r"].tolist()
-    if isinstance(dt, float):
-        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, strict=True)
-        res = [point(L, g, u, mu, r, f, dt, tol, max_iter, contact_tol) for g, u, mu, r, f in rows]
-    else:
-        rows = zip(gap.tolist(), up_a.tolist(), mu_a, r_a, f_a, dt.tolist(), strict=True)
-        res = [point(L, g, u, mu, r, f, d, tol, max_iter, contact_tol)
-               for g, u, mu, r, f, d in rows]  # fmt: skip
-    if n == 1:
-        t, D, up1, mu1, r1, st, un, it = res[0]
-        flat = t + [x for row in D for x in row] + up1
-        flat.append(mu1)
-        flat.append(r1)
-        status, unstable, iters = [st], [un], [it]
-    else:
-        flat = [x for q in res for x in q[0]]
-        flat += [x for q in res for row in q[1] for x in row]
-        flat += [x for q in res for x in q[2]]
-        flat += [q[3] for q in res]
-        flat += [q[4] for q in res]
-        status = [q[5] for q in res]
-        unstable = [q[6] for q in res]
-        iters = [q[7] for q in res]
-    buf = np.array(flat)
-    a = n * m
-    b = a + n * m * m
-    c = b + n * nt
-    tr = buf[:a].reshape(n, m)
-    tan = buf[a:b].reshape(n, m, m)
-    if out is None:
-        arrays = {"up": buf[b:c].reshape(n, nt), "mu": buf[c : c + n], "r": buf[c + n :]}
-        if has_f:
-            arrays["f"] = tr.copy()
-        out = InterfaceState.wrap(arrays, n, nt)
-    else:
-        out["up"][...] = buf[b:c].reshape(n, nt)
-        out["mu"][...] = buf[c : c + n]
-        out["r"][...] = buf[c + n :]
-        if "f" in out:
-            out["f"][...] = tr
-    return ReturnMapResult(
-        tr,
-        tan,
-        out,
-        np.array(status, dtype=np.int8),
-        np.array(unstable, dtype=bool),
-        np.array(iters, dtype=np.int64),
-    )

@@ -4,13 +4,13 @@
 sets, several paths) side by side: at every iteration each unfinished case takes its next step,
 and the cases sharing a law go through ONE call of the batched return map (each case one point,
 with its own time increment). The steps of a case are exactly those :func:`~.run.run_case` takes
-(same plan, same arithmetic), so each result equals the one-by-one run to round-off (the map's
-scalar path for at most 32 points, its numpy path above, agree to 1e-12).
+(same plan, same arithmetic), so each result equals the one-by-one run (the one numpy map gives
+the same numbers for a point whatever the batch size).
 
 Cost: one step of N cases costs one map call on N points plus a fixed loop overhead, instead of
-N calls and N loop overheads. With few cases the map's per-point cost dominates (the scalar path,
-10-40 us per point); from some tens of cases on the numpy path takes over (2-3 us per point at
-10^3). ``benchmarks/driver_steps.py`` measures it.
+N calls and N loop overheads. With few cases the map's fixed cost per call dominates (some
+hundred us); from some hundreds of cases on its cost per point does (1-5 us per point).
+``benchmarks/driver_steps.py`` measures it.
 """
 
 from __future__ import annotations

@@ -1,89 +1,46 @@
-"""Certified smallest root by branch and bound: ``_Branch``, ``_rtsafe`` and ``_scan``.
+"""Step 4, certification: the smallest root by branch and bound, and folds (``JUMP``).
 
-Copied from ``subfric_dolfinx/constitutive/subloading.py`` (main at e941b1c) with one change:
-``E'(s)`` uses a three-term series below ``s = 1e-3`` and the closed form above, instead of a
-ten-term series and the closed form evaluated for all points (see ``dE``). The logic of the scan
-(value and slope bounds, fold detection -> JUMP) is unchanged; the prototype calls it only for
-points whose Newton root is not certified by the slope bound (strong softening).
+Only for the roots of :mod:`.root` that the slope bound does not certify (strong softening:
+``g kappa (mu - mu_k)`` comparable with ``alpha_t``). On an interval ``[x, y]`` the monotonicity
+of the closed forms (``r`` increasing and concave, ``mu`` decreasing, ``|mu'|`` non-increasing)
+bounds the value, ``phi >= A - alpha_t y - g r(y) mu(x)``, and the slope,
+``-C <= phi' <= -B`` with ``B = alpha_t + g r'(y) mu(y) - g r(y) |mu'(x)|``,
+``C = alpha_t + g r'(x) mu(x) - g r(x) |mu'(y)|``. The scan refines ``[0, dl*]`` on a grid until
+an interval holds a sign change on which ``phi`` is strictly decreasing (solved there by
+:func:`rtsafe`); if ``phi`` falls and then rises before it, the continuous branch ended in a fold
+inside the step (``JUMP``). ``docs/model.md`` §6.3.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-_ALL = slice(None)
-_EPS = float(np.finfo(float).eps)
-_TINY = float(np.finfo(float).tiny)
+from .branch import Branch
+from .common import EPS, TINY
+
+__all__ = ["rtsafe", "scan"]
+
 _SCAN_POINTS = 16
 _SCAN_LEVELS = 80
-S_SERIES = 1e-3  # below: E'(s) = -1/2 + s/3 - s^2/8 (error < s^3/30 < 4e-11, times D = O(s))
 
 
-def E(s: np.ndarray) -> np.ndarray:
-    """``(1 - exp(-s)) / s`` for ``s >= 0`` with ``E(0) = 1``."""
-    ss = np.where(s > 0.0, s, 1.0)
-    return np.where(s > 0.0, -np.expm1(-ss) / ss, 1.0)
+def _phi_dphi(br: Branch, x, idx):
+    """``phi``, ``phi'`` and the branch at slips ``x`` of points ``idx``."""
+    e = br.ev(x, idx)
+    g = br.g[idx] if x.ndim == 1 else br.g[idx][:, None]
+    with np.errstate(invalid="ignore"):
+        dphi = -br.L.at - g * (e.U * e.mu + e.r * e.dmu)
+    return e.phi, dphi, e
 
 
-def dE(s: np.ndarray) -> np.ndarray:
-    """``E'(s) = (expm1(-s) (1 + s) + s) / s^2``; series below ``S_SERIES``.
+def rtsafe(br: Branch, idx, lo, hi, x, tol_f, max_iter):
+    """Safeguarded Newton for ``phi = 0`` on points ``idx`` with ``phi(lo) > 0 >= phi(hi)``.
 
-    The closed form loses ``eps / s`` absolutely to cancellation; ``E'`` only enters ``mu'``
-    multiplied by ``D = a (mu_n - mu_k) + b (mu_n - mu_s) = O(s)``, so the loss in ``mu'`` is
-    ``O(eps)`` relative. No ten-term polynomial, no evaluation of both branches' costly parts.
+    Returns ``(x, converged, evaluations)``.
     """
-    small = s < S_SERIES
-    ss = np.where(small, 1.0, s)
-    direct = (np.expm1(-ss) * (1.0 + ss) + ss) / (ss * ss)
-    return np.where(small, -0.5 + s * (1.0 / 3.0 - 0.125 * s), direct)
-
-
-class Branch:
-    """Closed-form ``r(dl)``, ``mu(dl)`` and ``phi(dl)`` of plastic points (one per row)."""
-
-    def __init__(self, p, A, g, r_n, mu_n, b) -> None:
-        self.p = p
-        self.A, self.g, self.mu_n = A, g, mu_n
-        self.b = b  # scalar or per row
-        self.k = 0.5 * np.pi * p.u_tilde
-        quarter = 0.25 * np.pi * r_n
-        self.c0 = np.cos(2.0 * quarter)
-        self.s0 = np.sin(quarter) ** 2
-        self.d_k = mu_n - p.mu_k
-        self.d_s = mu_n - p.mu_s
-
-    def eval(self, dl, idx=_ALL):
-        """Return ``phi, dphi, r, dr, mu, dmu`` at slips ``dl`` (rows ``idx``; (n,) or (n, K))."""
-        col = (lambda a: a[idx]) if dl.ndim == 1 else (lambda a: a[idx][:, None])
-        colb = (lambda a: a) if np.ndim(self.b) == 0 else col
-        p = self.p
-        c0 = col(self.c0)
-        em = np.expm1(-self.k * dl)
-        w = c0 * (1.0 + em)
-        q = np.clip(col(self.s0) - 0.5 * c0 * em, 0.0, 1.0)
-        r = (4.0 / np.pi) * np.arcsin(np.sqrt(q))
-        sin_th = 2.0 * np.sqrt(q * (1.0 - q))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dr = np.where(w > 0.0, p.u_tilde * w / sin_th, 0.0)
-        a = p.kappa * dl
-        b = colb(self.b)
-        s = a + b
-        Es = E(s)
-        D = a * col(self.d_k) + b * col(self.d_s)
-        mu = np.clip(col(self.mu_n) - D * Es, p.mu_k, p.mu_s)
-        dmu = p.kappa * (-col(self.d_k) * Es - D * dE(s))
-        g = col(self.g)
-        phi = col(self.A) - p.alpha_t * dl - g * r * mu
-        with np.errstate(invalid="ignore"):
-            dphi = -p.alpha_t - g * (dr * mu + r * dmu)
-        return phi, dphi, r, dr, mu, dmu
-
-
-def rtsafe(br, idx, lo, hi, x, tol_f, max_iter):
-    """Safeguarded Newton for ``phi = 0`` on rows ``idx`` with ``phi(lo) > 0 >= phi(hi)``."""
     lo, hi, x = lo.copy(), hi.copy(), x.copy()
     n = x.size
-    f, df = br.eval(x, idx)[:2]
+    f, df, _ = _phi_dphi(br, x, idx)
     f_lo = np.full(n, np.inf)
     f_hi = np.full(n, -np.inf)
     pos = f > 0.0
@@ -95,7 +52,7 @@ def rtsafe(br, idx, lo, hi, x, tol_f, max_iter):
     iters = np.zeros(n, dtype=np.int64)
     dx_old = hi - lo
     dx = dx_old.copy()
-    act = np.flatnonzero(~conv)
+    act = (~conv).nonzero()[0]
     for _ in range(max_iter):
         if act.size == 0:
             break
@@ -107,11 +64,11 @@ def rtsafe(br, idx, lo, hi, x, tol_f, max_iter):
             | ~((newton > la) & (newton < ha))
             | (np.abs(2.0 * fa) > np.abs(dx_old[act] * dfa))
         )
-        mid = np.where(ha > 1e3 * la, np.sqrt(np.maximum(la, _TINY)) * np.sqrt(ha), 0.5 * (la + ha))
+        mid = np.where(ha > 1e3 * la, np.sqrt(np.maximum(la, TINY)) * np.sqrt(ha), 0.5 * (la + ha))
         xn = np.where(bisect, mid, newton)
         dx_old[act] = dx[act]
         dx[act] = xn - xa
-        fn, dfn = br.eval(xn, idx[act])[:2]
+        fn, dfn, _ = _phi_dphi(br, xn, idx[act])
         pos = fn > 0.0
         lo[act] = np.where(pos, xn, la)
         hi[act] = np.where(pos, ha, xn)
@@ -121,7 +78,7 @@ def rtsafe(br, idx, lo, hi, x, tol_f, max_iter):
         iters[act] += 1
         ok = np.abs(fn) <= tol_f[act]
         flat = f_lo[act] - f_hi[act] <= 2.0 * tol_f[act]
-        tight = hi[act] - lo[act] <= 4.0 * _EPS * hi[act]
+        tight = hi[act] - lo[act] <= 4.0 * EPS * hi[act]
         a = act[(flat | tight) & ~ok]
         x[a] = np.where(f_lo[a] < -f_hi[a], lo[a], hi[a])
         done = ok | flat | tight
@@ -130,11 +87,14 @@ def rtsafe(br, idx, lo, hi, x, tol_f, max_iter):
     return x, conv, iters
 
 
-def scan(br, idx, hi, tol_f, max_iter):
-    """Certified smallest root on ``[0, hi]`` by branch and bound (unchanged from main)."""
-    n = idx.size
+def scan(br: Branch, hi, tol_f, max_iter):
+    """Certified smallest root of every point of ``br`` on ``[0, hi]`` by branch and bound.
+
+    Returns ``(root, converged, evaluations, jump)``.
+    """
+    n = hi.size
     K = _SCAN_POINTS
-    p = br.p
+    at = br.L.at
     lo = np.zeros(n)
     hi = hi.copy()
     end = hi.copy()
@@ -149,20 +109,18 @@ def scan(br, idx, hi, tol_f, max_iter):
     for _ in range(_SCAN_LEVELS):
         if act.size == 0:
             break
-        rows = idx[act]
         la, ea, tf = lo[act], end[act], tol_f[act][:, None]
         xs = la[:, None] + (ea - la)[:, None] * t[None, :]
         xs[:, -1] = ea
-        phi, _, r, dr, mu, dmu = br.eval(xs, rows)
+        phi, _, e = _phi_dphi(br, xs, act)
+        r, dr, mu, dmu = e.r, e.U, e.mu, e.dmu
         iters[act] += K
-        g = br.g[rows][:, None]
-        C = p.alpha_t + g * dr[:, :-1] * mu[:, :-1] - g * r[:, :-1] * np.abs(dmu[:, 1:])
-        free = (br.A[rows][:, None] - p.alpha_t * xs[:, 1:] - g * r[:, 1:] * mu[:, :-1] > 0.0) | (
+        g = br.g[act][:, None]
+        C = at + g * dr[:, :-1] * mu[:, :-1] - g * r[:, :-1] * np.abs(dmu[:, 1:])
+        free = (br.A[act][:, None] - at * xs[:, 1:] - g * r[:, 1:] * mu[:, :-1] > 0.0) | (
             phi[:, :-1] - np.maximum(C, 0.0) * np.diff(xs, axis=1) > 0.0
         )
-        decreasing = (
-            p.alpha_t + g * dr[:, 1:] * mu[:, 1:] - g * r[:, 1:] * np.abs(dmu[:, :-1]) > 0.0
-        )
+        decreasing = at + g * dr[:, 1:] * mu[:, 1:] - g * r[:, 1:] * np.abs(dmu[:, :-1]) > 0.0
         neg = phi[:, 1:] <= tf
         stop = neg | ~(free | decreasing)
         any_stop = stop.any(axis=1)
@@ -192,15 +150,14 @@ def scan(br, idx, hi, tol_f, max_iter):
         root[act[at_lo]] = la[at_lo]
         conv[act[at_lo]] = True
         solve &= ~at_lo
-        if np.any(solve):
+        if np.count_nonzero(solve):
             s = act[solve]
-            x, ok, it = rtsafe(
-                br, idx[s], x_left[solve], x_right[solve], x_right[solve], tol_f[s], max_iter
-            )
+            x, ok, it = rtsafe(br, s, x_left[solve], x_right[solve], x_right[solve], tol_f[s],
+                               max_iter)  # fmt: skip
             root[s], conv[s] = x, ok
             iters[s] += it
             finished[solve] = True
-        ulps = 4.0 * _EPS * end[act] + _TINY
+        ulps = 4.0 * EPS * end[act] + TINY
         tiny = ~finished & (end[act] - lo[act] <= ulps)
         at_root = tiny & (neg0 | (hi[act] - lo[act] <= ulps))
         root[act[at_root]] = np.where(neg0[at_root], x_right[at_root], hi[act[at_root]])

@@ -1,10 +1,11 @@
-"""One point, one step of the subloading return map, in plain floats (the small-batch path).
+"""One point, one step of the subloading return map, in plain floats (the reference).
 
-:func:`point` is the readable specification of the algorithm; the batched numpy version
-(:mod:`.batch`) follows it statement by statement. Steps (see :mod:`..subloading`):
+:func:`point` is the readable specification of the algorithm; the package's numpy map
+(``subfric_dolfinx/constitutive/_subloading``) computes the same. Steps (see
+``subfric_dolfinx/constitutive/subloading.py``):
 validation; trial; contact band; reversal split; loading test; the predictor's certified root;
 then a fixed direction (main's closed-form tangent), or :func:`.general.general` (split and/or
-rotation with forward derivatives), or the unrolled fast paths of :mod:`.fast`.
+rotation with forward derivatives).
 """
 
 from __future__ import annotations
@@ -12,7 +13,6 @@ from __future__ import annotations
 import math
 
 from .common import ELASTIC, EPS, FAILED, ROT_HI, ROT_LO, SEPARATED, Law
-from .fast import collinear, rotate_fixed
 from .general import general
 from .root import Br, certified_root, finish, g_of
 from .switch import ROOT, split_point, unstable_start
@@ -157,10 +157,5 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
         tan[nt][nt] = an
         up1 = [up[i] + dl * tstar[i] for i in range(nt)]
         return finish(L, [rho1 * t for t in tstar] + [fn], tan, up1, e, g, jump, iters)
-    if not split:  # rotation from a fixed start: the unrolled fast path
-        if f_s[0] * (ft[1] - f_s[1]) == f_s[1] * (ft[0] - f_s[0]):  # start exactly along f*
-            return collinear(L, up, ft, A, tstar, fn, g, f0, br, dl, e, iters, jump)
-        return rotate_fixed(L, up, ft, A, tstar, fn, g, f0, mu_c, tol_f, max_iter, br, dl, e, iters)
     return general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter,
                    br, dl, e, iters, jump, rotate)  # fmt: skip
-

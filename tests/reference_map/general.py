@@ -1,8 +1,8 @@
 """Split and/or rotation of the flow direction for one point, with the exact tangent.
 
 Forward derivatives over the gap components through the split, the predictor's root, the
-rotation (:func:`.rotation.rotation`) and the corrector's root (plain floats; the batched twin
-is :mod:`.vgeneral`).
+rotation (:func:`.rotation.rotation`) and the corrector's root (plain floats; the package's
+numpy map: ``subfric_dolfinx/constitutive/_subloading``).
 """
 
 from __future__ import annotations
