@@ -11,8 +11,7 @@
   3-rank leg of ``./run test``
   (``./run test3``: parallel code paths on an odd partition, oversubscribed on these 2-core
   machines, correctness only). The suite is written for 1 and 2 ranks: on more, the tests of the
-  other modules are deselected (reported as such). ``@pytest.mark.max_ranks(2, reason=...)``: a
-  test of such a module that cannot run on more ranks is skipped there, with that reason.
+  other modules are deselected (reported as such).
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
 * Repeatable partitions: ``SCOTCH_PTHREAD_NUMBER=1`` unless set (see below).
 * A broken pipe is an exception again: PETSc's initialisation installs its signal handler for
@@ -76,12 +75,6 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip_serial)
         if "slow" in item.keywords and not config.getoption("--run-slow"):
             item.add_marker(skip_slow)
-        most = item.get_closest_marker("max_ranks")
-        if most is not None and size > most.args[0]:
-            why = most.kwargs.get("reason")
-            if not why:
-                raise pytest.UsageError(f"{item.nodeid}: max_ranks needs a reason=")
-            item.add_marker(pytest.mark.skip(reason=f"at most {most.args[0]} ranks: {why}"))
 
 
 def pytest_sessionfinish(session, exitstatus):
