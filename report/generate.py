@@ -9,7 +9,8 @@ Three stages: :mod:`running` runs the studies one at a time and writes the raw r
 tables and numbers, :mod:`figures` into the PNGs; the prose is the Jinja2 template
 ``templates/README.md.j2``, rendered with those numbers (its sentences choose their words from
 the numbers: nothing in it can be contradicted by a rerun). Old outputs (``README.md``, ``*.png``
-but the scaling benchmark's, and ``data/`` unless ``--reuse``) are deleted first.
+but the scaling benchmark's, and ``data/`` but the scaling benchmarks' data unless ``--reuse``) are
+deleted first.
 
 Stamp (``report/stamp.py``): the commit and the git trees of ``constitutive/`` and ``fem/`` the
 run measured, in ``data/stamp.json``, printed on every figure and in the README;
@@ -41,6 +42,7 @@ from fe_analysis import fe_analysis  # noqa: E402
 from running import say  # noqa: E402
 
 SCALING = "fe_scaling"  # benchmarks/fe_scaling.py's table and figure (hours to rerun: kept)
+KEPT = (SCALING, "weak_scaling")  # data of the benchmarks this script does not run
 
 
 def scale_section(path: Path) -> str:
@@ -106,7 +108,7 @@ def main() -> int:
     if args.reuse:
         stamp = json.loads((data / "stamp.json").read_text())
     else:
-        kept = {p.name: p.read_bytes() for p in data.glob(f"{SCALING}*")}
+        kept = {p.name: p.read_bytes() for k in KEPT for p in data.glob(f"{k}*")}
         shutil.rmtree(data, ignore_errors=True)
         data.mkdir()
         for name, content in kept.items():
