@@ -345,7 +345,7 @@ QUOTES: list[Quote] = [
                     gib(d.scale("gamg", 2, 998556, 100, "rss_max_mib"))]),
         ("linear strategies", words(
             "(3-D pad, 24 steps, 2 ranks: {} s at 37k dofs where LU takes {} s for {} of the 24 "
-            "steps; {} s at 70k), and robust with stiff interfaces, but its factor grows faster "
+            "steps; {} s at 70k) and robust with stiff interfaces, but its factor grows faster "
             "than the model ({} GiB per rank at 225k dofs in 3-D on 1 rank)"),
          lambda d: [sig(d.scale("reuse", 2, 37206, 24, "wall_s"), 3),
                     sig(d.scale("lu", 2, 37206, 24, "wall_s"), 3),
