@@ -496,18 +496,13 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def default_choice(dofs: int) -> str:
-    """The strategy the solver's default (``"auto"``) takes for the (3-D) pad of ``dofs``."""
-    from subfric_dolfinx.fem.linear import AUTO_GAMG_DOFS
-
-    return "gamg" if dofs >= AUTO_GAMG_DOFS else "reuse"
-
-
 def default_against_fastest(sub: list[dict]) -> list[str]:
     """Markdown lines: the default's wall time against the fastest, per rank count and size.
 
     Complete runs of one program; ``"auto"`` is one of the measured strategies.
     """
+    from subfric_dolfinx.fem.linear import auto_choice
+
     out = []
     for ranks in sorted({r["ranks"] for r in sub}):
         for dofs in sorted({r["dofs"] for r in sub if r["ranks"] == ranks}):
@@ -516,7 +511,7 @@ def default_against_fastest(sub: list[dict]) -> list[str]:
                 for r in sub
                 if r["ranks"] == ranks and r["dofs"] == dofs and r["status"] == "ok"
             }
-            pick = default_choice(dofs)
+            pick = auto_choice(3, dofs, ranks)
             if len(done) < 2 or pick not in done:
                 continue
             best = min(done, key=done.get)
@@ -526,8 +521,9 @@ def default_against_fastest(sub: list[dict]) -> list[str]:
                        f"{'yes' if ratio <= 1.1 else '**no**'} |")  # fmt: skip
     if not out:
         return []
-    return ["The default (`\"auto\"`: `\"gamg\"` in 3-D from `AUTO_GAMG_DOFS` dofs, else "
-            "`\"reuse\"`) against the fastest complete run of the same size (wall, s):", "",
+    return ["The default (`\"auto\"`, `fem.linear.auto_choice`: in 3-D `\"reuse\"` from "
+            "`AUTO_REUSE_DOFS_PER_RANK` dofs per rank below `AUTO_GAMG_DOFS` dofs in all, else "
+            "`\"gamg\"`) against the fastest complete run of the same size (wall, s):", "",
             "| ranks | dofs | default | wall | fastest | wall | default / fastest | "
             "within 10 % |", "|---|---|---|---|---|---|---|---|", *out, ""]  # fmt: skip
 

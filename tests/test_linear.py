@@ -214,21 +214,43 @@ def test_scene_chooses_the_strategy(comm):
         FrictionSolver(block_problem(comm), prefix("bad"), linear="cholesky")
 
 
-def test_auto_takes_gamg_for_large_3d_problems_and_reuse_otherwise(comm, monkeypatch):
-    """The default strategy ("auto") is "gamg" for a 3-D problem of AUTO_GAMG_DOFS dofs or more
-    (counted over all ranks: the same choice on every rank) and "reuse" below that and in 2-D
-    at any size; the solver's strategy and PETSc options are then the chosen one's."""
+def test_auto_choice_by_size_and_dofs_per_rank():
+    """"auto" in 3-D: "gamg" below AUTO_REUSE_DOFS_PER_RANK dofs per rank and from
+    AUTO_GAMG_DOFS dofs in all, "reuse" between; 2-D: "reuse" at every size and rank count."""
+    per_rank, large = linear_module.AUTO_REUSE_DOFS_PER_RANK, linear_module.AUTO_GAMG_DOFS
+    assert 2 * per_rank < large  # a window where "reuse" is taken on 1 and on 2 ranks
+    for ranks in (1, 2, 3):
+        assert linear_module.auto_choice(3, per_rank * ranks - 1, ranks) == "gamg"
+        if per_rank * ranks < large:
+            assert linear_module.auto_choice(3, per_rank * ranks, ranks) == "reuse"
+            assert linear_module.auto_choice(3, large - 1, ranks) == "reuse"
+        assert linear_module.auto_choice(3, large, ranks) == "gamg"
+        for dofs in (10, per_rank * ranks, large, 10 * large):
+            assert linear_module.auto_choice(2, dofs, ranks) == "reuse"
+    assert linear_module.auto_choice(3, 37_206, 1) == "reuse"  # the campaign's sizes
+    assert linear_module.auto_choice(3, 37_206, 2) == "gamg"
+    assert linear_module.auto_choice(3, 70_026, 2) == "reuse"
+
+
+def test_auto_takes_the_choice_of_the_problem_size_and_communicator(comm, monkeypatch):
+    """The solver's "auto" takes auto_choice of the problem's global dofs and rank count (the
+    same choice on every rank); its strategy and PETSc options are then the chosen one's."""
     pad, block = pad_problem(comm, n=2), block_problem(comm)
     dofs = pad.V.dofmap.index_map.size_global * pad.V.dofmap.bs
-    with FrictionSolver(pad, prefix("auto1")) as s:
+    per_rank = -(-dofs // comm.size)  # at least dofs / ranks
+    with FrictionSolver(pad, prefix("auto1")) as s:  # few dofs per rank
+        assert s.strategy == "gamg" and s.snes.getKSP().getPC().getType() == "gamg"
+    monkeypatch.setattr(linear_module, "AUTO_REUSE_DOFS_PER_RANK", per_rank // 2)
+    with FrictionSolver(pad, prefix("auto2")) as s:
         assert s.strategy == "reuse" and s.linear.name == "reuse"
     monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", dofs)
-    with FrictionSolver(pad, prefix("auto2")) as s:
-        assert s.strategy == "gamg" and s.snes.getKSP().getPC().getType() == "gamg"
-    monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", dofs + 1)
     with FrictionSolver(pad, prefix("auto3")) as s:
+        assert s.strategy == "gamg"
+    monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", dofs + 1)
+    with FrictionSolver(pad, prefix("auto4")) as s:
         assert s.strategy == "reuse"
     monkeypatch.setattr(linear_module, "AUTO_GAMG_DOFS", 1)
-    with FrictionSolver(block, prefix("auto4")) as s:  # 2-D: a factorisation at any size
+    monkeypatch.setattr(linear_module, "AUTO_REUSE_DOFS_PER_RANK", 10**9)
+    with FrictionSolver(block, prefix("auto5")) as s:  # 2-D: a factorisation at any size
         assert s.strategy == "reuse"
     assert parse_scene(small_scene()).solver.linear == "auto"

@@ -146,6 +146,11 @@ class ScaledConvergence:
         """
         return self.reference is not None
 
+    @property
+    def reference_norm(self) -> float:
+        """:attr:`reference`, 0 where the first iterate was not extrapolated."""
+        return self.reference or 0.0
+
     def __init__(
         self,
         problem,
@@ -227,7 +232,7 @@ class ScaledConvergence:
             self.norms = [fnorm]
         else:
             self.norms.append(fnorm)
-        f0 = max(self.norms[0], self.reference or 0.0)
+        f0 = max(self.norms[0], self.reference_norm)
         if fnorm <= atol:
             return self._done("atol", _REASON.CONVERGED_FNORM_ABS)
         if it > 0:

@@ -5,13 +5,22 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
 ``report/fe_scaling.md`` (written by ``benchmarks/fe_scaling.py``).
 
 ``"auto"`` (the default)
-    ``"gamg"`` for a 3-D problem of at least :data:`AUTO_GAMG_DOFS` dofs, ``"reuse"`` otherwise
-    (:func:`choose_strategy`): measured on the 3-D pad, 2 ranks, with the load stepper's
-    predictor (``report/fe_scaling.md``), ``"reuse"`` is the faster up to about 70k dofs and
-    ``"gamg"`` from about 100k on (118k dofs, 24 steps: 24.3 s against 32.5 s; 184k dofs, 100
+    In 3-D, ``"reuse"`` for a problem of :data:`AUTO_REUSE_DOFS_PER_RANK` dofs per rank or more
+    and fewer than :data:`AUTO_GAMG_DOFS` dofs in all, ``"gamg"`` otherwise (smaller per rank
+    or larger in all); in 2-D ``"reuse"`` at every size (:func:`auto_choice`). Measured on the
+    3-D pad, 1 and 2 ranks, with the load stepper's predictor (``report/fe_scaling.md``, 24
+    steps): below ~20k dofs per rank MUMPS's fixed costs (analysis, and on several ranks its
+    communicating triangular solves) outweigh GAMG's cheap set-up (2 ranks: 5.5k, 16.7k, 37k
+    dofs: GAMG 1.37, 1.32, 1.20 times faster; 1 rank: 1.23 and 1.05 at 5.5k and 16.7k); from
+    ~25k dofs per rank the reused factor's 1-2 GMRES iterations a Newton win (1 rank 37k, 70k:
+    1.29, 1.10 times faster; 2 ranks 70k: 1.11); from ~100k dofs in all the factor's fill and
+    set-up grow faster than GAMG's (118k dofs, 2 ranks: GAMG 1.44 times faster; 184k dofs, 100
     steps: 117 s against 176 s, 0.8 GiB per rank against 4.5), and only ``"gamg"`` reaches 1M
     dofs in this machine's memory. In 2-D a factorisation grows nearly linearly with the size
-    (nested dissection fill ``N log N``): ``"reuse"`` at every size.
+    (nested dissection fill ``N log N``): ``"reuse"`` at every size. A 3-D problem between
+    ``AUTO_REUSE_DOFS_PER_RANK`` and twice that may so take ``"reuse"`` on 1 rank and
+    ``"gamg"`` on 2: both are Newton on the same Jacobian, their results agree to Newton's
+    tolerance (not to round-off); name the strategy to have the same one everywhere.
 
 ``"reuse"``
     GMRES (right preconditioning, so its residual is the true one) on ``J``, preconditioned by
@@ -68,9 +77,11 @@ from petsc4py import PETSc
 
 __all__ = [
     "AUTO_GAMG_DOFS",
+    "AUTO_REUSE_DOFS_PER_RANK",
     "STRATEGIES",
     "STRATEGY_OPTIONS",
     "LinearStrategy",
+    "auto_choice",
     "choose_strategy",
     "make_strategy",
     "rigid_modes",
@@ -99,23 +110,41 @@ STRATEGIES = tuple(STRATEGY_OPTIONS)
 """The strategies; ``"auto"`` (:func:`choose_strategy`) stands for one of them."""
 AUTO_GAMG_DOFS = 100_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of at least this many dofs (module docstring)."""
+AUTO_REUSE_DOFS_PER_RANK = 25_000
+"""``"auto"`` picks ``"gamg"`` for 3-D problems of fewer dofs than this per rank (docstring)."""
+
+
+def auto_choice(gdim: int, dofs: int, ranks: int) -> str:
+    """The strategy ``"auto"`` takes for a problem of ``gdim`` dimensions, ``dofs`` over ``ranks``.
+
+    In 3-D ``"reuse"`` from :data:`AUTO_REUSE_DOFS_PER_RANK` dofs per rank up to (not including)
+    :data:`AUTO_GAMG_DOFS` dofs in all, ``"gamg"`` outside; in 2-D ``"reuse"`` (the module
+    docstring gives the measurements behind it).
+    """
+    if gdim != 3:
+        return "reuse"
+    if dofs >= AUTO_GAMG_DOFS or dofs < AUTO_REUSE_DOFS_PER_RANK * ranks:
+        return "gamg"
+    return "reuse"
 
 
 def choose_strategy(name: str, problem) -> str:
-    """The strategy ``name`` stands for: ``"auto"`` chosen by the problem's size, else itself.
+    """The strategy ``name`` stands for: ``"auto"`` chosen by :func:`auto_choice`, else itself.
 
-    ``"auto"``: ``"gamg"`` where the problem is 3-D with at least :data:`AUTO_GAMG_DOFS` dofs
-    (over all ranks; the same choice on every rank), ``"reuse"`` otherwise.
+    ``"auto"`` counts the dofs over all ranks and the ranks of the problem's communicator: the
+    same choice on every rank.
 
     Raises:
         ValueError: An unknown name (the known ones listed).
     """
     if name == "auto":
         dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
-        return "gamg" if problem.gdim == 3 and dofs >= AUTO_GAMG_DOFS else "reuse"
+        return auto_choice(problem.gdim, dofs, problem.comm.size)
     if name not in STRATEGY_OPTIONS:
         raise ValueError(f"unknown linear strategy {name!r}; known: {['auto', *STRATEGIES]}")
     return name
+
+
 _REFRESH = {  # refresh policy and forcing term: cost factor, rho_stag, forcing c
     "reuse": {"cost": 1.0, "rho_stag": 0.5, "c": 1e-2},
     "gamg": {"cost": 1.0, "rho_stag": 0.9, "c": 1e-3},

@@ -334,7 +334,7 @@ class FrictionSolver:
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
         self.problem.jacobian(x, J, self.separated_stiffness)
-        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference or 0.0)
+        self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference_norm)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
