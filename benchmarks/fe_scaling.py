@@ -24,9 +24,9 @@ and a log-log plot of the time against the dofs with fitted exponents::
 ``--kinematics finite_sliding`` runs the same pad with a finite-sliding interface (pairing in
 the current configuration, ``docs/model.md`` §12; tag suffix ``_fs``, a separate ``--out`` is
 advised; the Sec. 7 set with ``alpha_n = 1e6`` MPa/mm) on the same two boxes meshed apart
-(:func:`pad_apart`: the same nodes and dofs, but the master surface is the plate's whole top, so
-the pad slides onto plate facets it did not touch at the start) and adds the contact search (per step)
-and projection (points and segments, per Newton iteration) as seconds and as a share of the
+(:func:`pad_apart`: the same nodes and dofs, but the master surface is the plate's whole top,
+so the pad slides onto plate facets it did not touch at the start) and adds the contact search
+(per step) and projection (points and segments, per Newton iteration) as seconds and as a share of the
 stepping's wall time (issue 22 item 7). Its ``reach`` (how far a point may slide in one step)
 is ``--reach``, by default 1.5 times the program's largest slide per step (or the facet size if
 larger), so that no step is cut for it::
@@ -263,7 +263,7 @@ def build_pad(
 
 
 def pad_apart(n: int) -> Any:
-    """gmsh builder (rank 0) of the pad and the plate meshed apart, for finite sliding.
+    """The gmsh builder (rank 0) of the pad and the plate meshed apart, for finite sliding.
 
     The boxes of ``meshing.build_pad_on_plate`` (plate 2 x 2 x 0.5 mm, the pad 1 x 1 x 0.5 mm
     centred on it), each meshed on its own (structured hexahedra, ``n`` along the pad's side,
