@@ -26,10 +26,10 @@ the current configuration, ``docs/model.md`` §12; tag suffix ``_fs``, a separat
 advised; the Sec. 7 set with ``alpha_n = 1e6`` MPa/mm) on the same two boxes meshed apart
 (:func:`pad_apart`: the same nodes and dofs, but the master surface is the plate's whole top,
 so the pad slides onto plate facets it did not touch at the start) and adds the contact search
-(per step) and projection (points and segments, per Newton iteration) as seconds and as a share of the
-stepping's wall time (issue 22 item 7). Its ``reach`` (how far a point may slide in one step)
-is ``--reach``, by default 1.5 times the program's largest slide per step (or the facet size if
-larger), so that no step is cut for it::
+(per step) and projection (points and segments, per Newton iteration) as seconds and as a
+share of the stepping's wall time (issue 22 item 7). Its ``reach`` (how far a point may slide
+in one step) is ``--reach``, by default 1.5 times the program's largest slide per step (or the
+facet size if larger), so that no step is cut for it::
 
     ./run exec python3 benchmarks/fe_scaling.py --sizes 8 14 20 28 --ranks 2 --strategies gamg \
         --kinematics finite_sliding --out benchmarks/output/fe_scaling_fs
