@@ -199,11 +199,14 @@ def build_pad(
     steps: int,
     kinematics: str = "small_sliding",
     reach: float | None = None,
+    alpha_n: float | None = None,
 ) -> PadRun:
     """The pad on a plate with ``n`` hexahedra along the pad's side and its ``steps`` program.
 
-    ``kinematics`` of the interface (``"finite_sliding"``: a stiff normal penalty and the
-    search ``reach``, default :func:`default_reach`). Collective. The caller owns ``solver``
+    ``kinematics`` of the interface (``"finite_sliding"``: the bodies meshed apart,
+    :func:`pad_apart`, a stiff normal penalty and the search ``reach``, default
+    :func:`default_reach`); ``alpha_n`` the normal penalty (default: :data:`FINITE_ALPHA_N` for
+    finite sliding, the Sec. 7 set's otherwise). Collective. The caller owns ``solver``
     (``solver.destroy()`` when done).
     """
     from mpi4py import MPI
@@ -251,7 +254,11 @@ def build_pad(
     )
     # the Sec. 7 set's normal penalty lets the pad sink 0.6 mm at 300 MPa (more than its
     # facets): finite sliding pairs in the current configuration, so it gets a stiff one
-    law = dataclasses.replace(preset("sec7"), alpha_n=FINITE_ALPHA_N) if finite else preset("sec7")
+    if alpha_n is None and finite:
+        alpha_n = FINITE_ALPHA_N
+    law = preset("sec7")
+    if alpha_n is not None:
+        law = dataclasses.replace(law, alpha_n=alpha_n)
     t1 = time.perf_counter()
     problem = InterfaceProblem(
         dom, law, mats, prog, bcs, [Pressure("top", 300.0, "press")],
