@@ -29,15 +29,27 @@ import numpy as np
 from .projection import _element, facet_basis
 from .segments import Segments
 
-__all__ = ["Transfer", "l2_projector", "transfer_matrices", "transfer_tangent"]
+__all__ = ["Transfer", "facet_mass", "l2_projector", "transfer_matrices", "transfer_tangent"]
 
 
-def l2_projector(N: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The facet-wise discrete L2 projection on the facet's Lagrange space.
+def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
+    """The facet-wise L2 projection of the points' values on the facet's Lagrange space.
+
+    ``lambda_h = sum_j c_j N_j`` with ``int N_k lambda_h = sum_q w_q N_k(q) t_q`` for every
+    ``N_k``: the field whose moments are the slave nodal forces of the points' values. With the
+    facet's exact mass matrix ``M = int N N^T`` (``mass``) this holds for the exact integral, so
+    the master nodes receive by the segments what the slave nodes receive by the rule; with a
+    lumped (nodal) rule ``L_q = sum_kj N_k (M^-1)_kj w_q N_j(q)`` are then the dual basis
+    functions of mortar methods (``int L_q N_j = w_q delta_qj``, ``sum_q L_q = 1``). Without
+    ``mass`` the rule's own ``sum_q w_q N(q) N(q)^T`` is used, the same for a rule exact for
+    ``N N`` (Gauss of degree ``2 p`` on flat facets), but for a nodal rule the lumped mass, which
+    makes ``lambda_h`` the interpolant of the point values and the master forces those of the
+    consistent mass: not the slave's.
 
     Args:
         N: The facet basis at the quadrature points, (nq, nfd).
         w: Quadrature weights times surface Jacobian of each facet, (nf, nq).
+        mass: The facets' exact mass matrices (:func:`facet_mass`), (nf, nfd, nfd).
 
     Returns:
         ``P`` (nf, nfd, nq): the coefficients of ``lambda_h`` in the basis are ``P t`` for point
@@ -50,12 +62,34 @@ def l2_projector(N: np.ndarray, w: np.ndarray) -> np.ndarray:
     nq, nfd = N.shape
     if nq < nfd:
         raise ValueError(f"{nq} quadrature points cannot determine a field of {nfd} nodes")
-    M = np.einsum("fq,qk,qj->fkj", w, N, N)
+    M = np.einsum("fq,qk,qj->fkj", w, N, N) if mass is None else mass
     rhs = np.einsum("fq,qj->fjq", w, N)
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as e:
         raise ValueError("the facet mass matrix of the quadrature rule is singular") from e
+
+
+def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
+    """The exact mass matrices ``int N N^T dA`` of facets with node positions ``X``.
+
+    By a Gauss rule of degree ``2 p + 2`` (exact on flat facets, whose surface Jacobian is
+    constant; a P2 facet's curvature makes the Jacobian a non-polynomial of small variation).
+
+    Args:
+        cell: The facets' basix cell.
+        degree: Their Lagrange degree.
+        X: Their node positions, (nf, nfd, gdim).
+
+    Returns:
+        (nf, nfd, nfd).
+    """
+    from .projection import parametric_normal
+
+    Xg, wg = basix.make_quadrature(cell, 2 * degree + 2)
+    B = facet_basis(cell, degree, Xg, 1)
+    jac = np.linalg.norm(parametric_normal(np.einsum("aqk,fkd->fqda", B[1:], X)), axis=-1)
+    return np.einsum("fq,qk,qj->fkj", jac * wg[None, :], B[0], B[0])
 
 
 @dataclasses.dataclass
