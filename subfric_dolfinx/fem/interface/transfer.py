@@ -4,19 +4,26 @@ The friction law runs at the slave facets' quadrature points (the internal varia
 these material points). The slave nodes receive ``int N_s t dA`` by the facet's own rule, as
 for a matching interface. The master nodes must receive ``-int (N_m o pi) t dA`` of the same
 traction field, and that integral is exact only on the segments of :mod:`.segments`, whose points
-are not the law's points. The traction field is therefore the facet-wise discrete L2 projection
-``lambda_h`` of the points' tractions on the facet's Lagrange space ``P_p``
-(``sum_q w_q (lambda_h(q) - t_q) N_k(q) = 0`` for every ``N_k``): it leaves the slave forces
-unchanged (``N_k`` is in ``P_p``), reproduces every traction field of ``P_p`` (a uniform pressure,
-a linear one), and is integrated exactly over the segments against the master's shape functions
-(``docs/model.md`` §11). So the master nodal forces are ``-B t`` with, per slave facet ``s`` and
-master facet ``m``,
+are not the law's points. The traction field is therefore the field ``lambda_h`` of the facet's
+Lagrange space ``P_p`` whose moments are the slave nodal forces,
+``int N_k lambda_h dA = sum_q w_q N_k(q) t_q`` for every ``N_k`` (the integral exact: the
+facet's mass matrix, :func:`facet_mass`), integrated exactly over the segments against the
+master's shape functions (``docs/model.md`` §11). So the master nodal forces are ``-B t`` with,
+per slave facet ``s`` and master facet ``m``,
 
     B_lq = sum_{segment points of (s, m)} w N_m,l(xi_m) L_q(xi_s),
-    L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = sum_q w_q N(q) N(q)^T.
+    L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = int N N^T dA.
 
-A uniform traction is then transmitted exactly (the non-matching patch test); on a matching
-interface ``B_lq = w_q N_l(q)``, today's element.
+A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``
+because the rules' weights are the integrals of the basis) and so is every traction of ``P_p``
+that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
+on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. With a nodal
+rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
+delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
+Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
+the interpolant of the point values and the master got the consistent-mass forces, not the
+slave's (``demos/hertz.py --meshed-apart``: 0.85 % of ``p0`` off the small-sliding pressures on
+coinciding nodes).
 """
 
 from __future__ import annotations
