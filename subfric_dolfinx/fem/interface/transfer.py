@@ -6,16 +6,16 @@ for a matching interface. The master nodes must receive ``-int (N_m o pi) t dA``
 traction field, and that integral is exact only on the segments of :mod:`.segments`, whose points
 are not the law's points. The traction field is therefore the field ``lambda_h`` of the facet's
 Lagrange space ``P_p`` whose moments are the slave nodal forces,
-``int N_k lambda_h dA = sum_q w_q N_k(q) t_q`` for every ``N_k`` (the integral exact: the
-facet's mass matrix, :func:`facet_mass`), integrated exactly over the segments against the
+``int N_k lambda_h dA = sum_q w_q N_k(q) t_q`` for every ``N_k`` (the integral by the facet's
+mass matrix, :func:`facet_mass`), integrated exactly over the segments against the
 master's shape functions (``docs/model.md`` §11). So the master nodal forces are ``-B t`` with,
 per slave facet ``s`` and master facet ``m``,
 
     B_lq = sum_{segment points of (s, m)} w N_m,l(xi_m) L_q(xi_s),
     L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = int N N^T dA.
 
-A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``
-because the rules' weights are the integrals of the basis) and so is every traction of ``P_p``
+A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``:
+the mass matrix's rows sum to the rule's integrals of the basis) and so is every traction of ``P_p``
 that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
 on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. With a nodal
 rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
@@ -40,23 +40,20 @@ __all__ = ["Transfer", "facet_mass", "l2_projector", "transfer_matrices", "trans
 
 
 def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
-    """The facet-wise L2 projection of the points' values on the facet's Lagrange space.
+    """The facet-wise projection of the points' values on the facet's Lagrange space.
 
     ``lambda_h = sum_j c_j N_j`` with ``int N_k lambda_h = sum_q w_q N_k(q) t_q`` for every
-    ``N_k``: the field whose moments are the slave nodal forces of the points' values. With the
-    facet's exact mass matrix ``M = int N N^T`` (``mass``) this holds for the exact integral, so
-    the master nodes receive by the segments what the slave nodes receive by the rule; with a
-    lumped (nodal) rule ``L_q = sum_kj N_k (M^-1)_kj w_q N_j(q)`` are then the dual basis
-    functions of mortar methods (``int L_q N_j = w_q delta_qj``, ``sum_q L_q = 1``). Without
-    ``mass`` the rule's own ``sum_q w_q N(q) N(q)^T`` is used, the same for a rule exact for
-    ``N N`` (Gauss of degree ``2 p`` on flat facets), but for a nodal rule the lumped mass, which
-    makes ``lambda_h`` the interpolant of the point values and the master forces those of the
-    consistent mass: not the slave's.
+    ``N_k``: the field whose moments are the slave nodal forces of the points' values, with the
+    facets' mass matrices ``M = int N N^T`` (``mass``; the module's account). Each row of ``M``
+    is made to sum to the rule's ``sum_q w_q N_k(q)`` by its diagonal, so that a uniform field
+    is reproduced exactly also on curved facets, where neither integral is exact (on flat ones
+    they agree). Without ``mass``: the rule's own ``sum_q w_q N(q) N(q)^T``, the same for a
+    Gauss rule of degree ``2 p``, but for a nodal rule the lumped mass (the interpolant).
 
     Args:
         N: The facet basis at the quadrature points, (nq, nfd).
         w: Quadrature weights times surface Jacobian of each facet, (nf, nq).
-        mass: The facets' exact mass matrices (:func:`facet_mass`), (nf, nfd, nfd).
+        mass: The facets' mass matrices (:func:`facet_mass`), (nf, nfd, nfd).
 
     Returns:
         ``P`` (nf, nfd, nq): the coefficients of ``lambda_h`` in the basis are ``P t`` for point
@@ -69,8 +66,13 @@ def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -
     nq, nfd = N.shape
     if nq < nfd:
         raise ValueError(f"{nq} quadrature points cannot determine a field of {nfd} nodes")
-    M = np.einsum("fq,qk,qj->fkj", w, N, N) if mass is None else mass
     rhs = np.einsum("fq,qj->fjq", w, N)
+    if mass is None:
+        M = np.einsum("fq,qk,qj->fkj", w, N, N)
+    else:
+        M = mass.copy()
+        idx = np.arange(nfd)
+        M[:, idx, idx] += rhs.sum(axis=2) - M.sum(axis=2)
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as e:
@@ -78,10 +80,10 @@ def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -
 
 
 def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
-    """The exact mass matrices ``int N N^T dA`` of facets with node positions ``X``.
+    """The mass matrices ``int N N^T dA`` of facets with node positions ``X``.
 
-    By a Gauss rule of degree ``2 p + 2`` (exact on flat facets, whose surface Jacobian is
-    constant; a P2 facet's curvature makes the Jacobian a non-polynomial of small variation).
+    By the Gauss rule of degree ``2 p`` (the interface's ``"gauss"`` rule: exact on flat facets,
+    whose surface Jacobian is constant).
 
     Args:
         cell: The facets' basix cell.
@@ -93,7 +95,7 @@ def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
     """
     from .projection import parametric_normal
 
-    Xg, wg = basix.make_quadrature(cell, 2 * degree + 2)
+    Xg, wg = basix.make_quadrature(cell, 2 * degree)
     B = facet_basis(cell, degree, Xg, 1)
     jac = np.linalg.norm(parametric_normal(np.einsum("aqk,fkd->fqda", B[1:], X)), axis=-1)
     return np.einsum("fq,qk,qj->fkj", jac * wg[None, :], B[0], B[0])
