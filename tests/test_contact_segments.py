@@ -9,6 +9,8 @@
   slave facet's area, per master facet to its area, and the points reproduce the integrals of
   quadratic polynomials and of the master shape functions (linear reproduction).
 * Matching facets give the facet's own Gauss rule.
+* The transfer with a nodal rule (the exact facet mass: the dual basis) is the lumped element on
+  matching facets and gives the master the slave's forces on non-matching ones.
 * Clipping: areas of polygons cut by the reference triangle and square.
 """
 
@@ -277,6 +279,66 @@ def test_transfer_on_matching_facets_is_the_matching_element(cell, degree):
     tr = transfer_matrices(seg, l2_projector(Nq, wq), cell, degree, cell, degree)
     assert np.array_equal(tr.slave, tr.master) and tr.slave.size == M.shape[0]
     np.testing.assert_allclose(tr.B, np.einsum("fq,ql->flq", wq[tr.slave], Nq), atol=1e-15)
+
+
+def nodal_rule(S, cell, degree):
+    """The slave facets' nodal (lumped) rule: basis at the nodes, weights x Jacobian, points."""
+    from subfric_dolfinx.fem.interface.geometry import quadrature_rule
+
+    X, w = quadrature_rule(cell, degree, "nodal")
+    B = facet_basis(cell, degree, X, 1)
+    dy = np.einsum("aqk,fkd->fqda", B[1:], S)
+    if S.shape[2] == 2:
+        jac = np.linalg.norm(dy[..., 0], axis=-1)
+    else:
+        jac = np.linalg.norm(np.cross(dy[..., 0], dy[..., 1]), axis=-1)
+    return B[0], jac * w, np.einsum("qk,fkd->fqd", B[0], S)
+
+
+@pytest.mark.parametrize(("cell", "degree"), [(INTERVAL, 1), (INTERVAL, 2), (TRIANGLE, 1)])
+def test_nodal_rule_transfer_is_the_lumped_element_and_the_slaves_forces(cell, degree):
+    """With a nodal rule the master nodes get what the slave nodes get (the dual basis).
+
+    The rule's own (lumped) mass made the transfer the consistent mass ``int N_q N_l``: on a
+    matching interface not the lumped element of the slave side, and on a non-matching one a
+    field the slave does not carry (the contact's edge of ``demos/hertz.py --meshed-apart``).
+    """
+    from subfric_dolfinx.fem.interface.transfer import facet_mass, l2_projector, transfer_matrices
+
+    if cell == INTERVAL:
+        M = line_facets(np.linspace(0, 1, 5), 0.0, degree)
+    else:
+        M = grid_facets((0, 0), (1, 1), (3, 2), cell, 0.0, jitter=0.2)
+    N = np.zeros_like(M)
+    N[..., -1] = 1.0
+    Nq, wq, _ = nodal_rule(M, cell, degree)
+    P = l2_projector(Nq, wq, facet_mass(cell, degree, M))
+    seg = overlap_points(M.copy(), cell, degree, M, N, cell, degree, 0.1)
+    tr = transfer_matrices(seg, P, cell, degree, cell, degree)
+    assert np.array_equal(tr.slave, tr.master) and tr.slave.size == M.shape[0]
+    # matching: B_lq = w_q delta_lq (the nodes are the points)
+    np.testing.assert_allclose(
+        tr.B, np.einsum("fq,ql->flq", wq[tr.slave], np.eye(Nq.shape[0])), atol=1e-14
+    )
+    if cell != INTERVAL:
+        return
+    # non-matching 3 : 2: the master gets exactly int N_m t of a uniform traction, and of any
+    # point values the moments the slave gets: int lambda_h N_s,k = sum_q w_q N_k(q) t_q
+    S = line_facets(np.linspace(0, 1, 4), 0.0, degree)
+    Nq, wq, _ = nodal_rule(S, cell, degree)
+    P = l2_projector(Nq, wq, facet_mass(cell, degree, S))
+    seg = overlap_points(S, INTERVAL, degree, M, N, INTERVAL, degree, 0.1)
+    tr = transfer_matrices(seg, P, INTERVAL, degree, INTERVAL, degree)
+    ref = reference_mortar_1d(np.linspace(0, 1, 4), np.linspace(0, 1, 5), degree)
+    F = master_forces(tr, np.ones(wq.shape), M.shape[:2])
+    np.testing.assert_allclose(F, ref.sum(axis=(0, 1)), atol=1e-14)
+    t = np.random.default_rng(3).normal(size=wq.shape)
+    lam = np.einsum("fkq,fq->fk", P, t)  # lambda_h's coefficients
+    np.testing.assert_allclose(
+        np.einsum("fj,fjk->fk", lam, facet_mass(cell, degree, S)),
+        np.einsum("fq,qk,fq->fk", wq, Nq, t),
+        atol=1e-14,
+    )
 
 
 def test_transfer_of_a_uniform_pressure_in_3d():

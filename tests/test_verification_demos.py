@@ -8,11 +8,13 @@
   with the gap they were given.
 * hertz with the bodies meshed apart (``--meshed-apart``: the flat's elements 2/3 of the
   cylinder's, a finite-sliding interface), at 4 elements per half-width: the matched meshes'
-  bounds above hold (measured: fitted half-width -0.11 %, peak -0.24 %, fitted p0 -0.16 %, interior
-  error 0.52 %, edge 0.046 mm from Hertz's; matched: +0.054 %, -0.32 %, -0.14 %, 0.48 %,
-  0.061 mm). Not the same accuracy everywhere: at the contact's edge the last points carry up to
-  3-6 % of p0 too much (the matched mesh: 0.5 %), and at 6 and 8 elements the fitted half-width
-  is 1.5 % and 0.74 % off (the demo's docstring has the table).
+  bounds above hold (measured: fitted half-width +0.16 %, peak +0.05 %, fitted p0 +0.03 %, interior
+  error 0.68 %, RMS 1.0 %, edge 0.046 mm from Hertz's). The largest error, 2.5 % of p0 at the
+  contact's edge, is that of a matched mesh with the cylinder's interface nodes (2.9 %: the edge
+  falls next to a node; the demo's docstring has the table).
+* the same boxes meshed apart with equal sizes (their interface nodes coincide): the
+  finite-sliding interface gives the small-sliding one's pressures (measured 9e-5 of p0; 0.85 %
+  while the segment transfer of a nodal rule was the consistent mass, not the slave's lumped one).
 * cattaneo_mindlin (Coulomb part): the stick zone's half-width within 1 % of a sqrt(1 - Q/mu P)
   for the measured Q/mu P (fit) and within a point spacing (edge), the sticking and slipping
   points where the closed form puts them, the tangential traction's RMS error below 3 % of mu p0.
@@ -26,6 +28,7 @@ from mpi4py import MPI
 
 from demos import cattaneo_mindlin, hertz
 from subfric_dolfinx.constitutive import Status
+from subfric_dolfinx.scenes import run_scene
 
 
 def run_hertz(n, outdir):
@@ -62,10 +65,34 @@ def test_hertz_with_the_bodies_meshed_apart(shared_tmp):
     key = hertz.main(argv, MPI.COMM_WORLD).info["hertz"]
     # equilibrium; F_n is along the flat's normals, which the load tilts (measured 1.6e-5)
     assert key["P"] == pytest.approx(key["F_n"], rel=1e-4)
-    assert abs(key["err_a_fit"]) < 5e-3, key
-    assert abs(key["err_p0"]) < 5e-3 and abs(key["err_p0_fit"]) < 5e-3, key
+    assert abs(key["err_a_fit"]) < 3e-3, key
+    assert abs(key["err_p0"]) < 2e-3 and abs(key["err_p0_fit"]) < 2e-3, key
     assert key["err_p_inner"] < 1e-2, key
+    assert key["err_p_rms"] < 1.5e-2 and key["err_p_all"] < 4e-2, key
     assert abs(key["a_edge"] - key["a_H"]) < 0.5 * hertz.A_TARGET / n, key
+
+
+def test_hertz_finite_sliding_on_coinciding_nodes_gives_small_sliding(shared_tmp):
+    """The boxes meshed apart with equal sizes: both interfaces pair the same nodes."""
+    n = 4
+    mesh = shared_tmp / "coinciding.msh"
+    hertz.write_apart_mesh(mesh, n, MPI.COMM_WORLD, ratio=1.0)
+    snaps = {}
+    for kinematics in ("finite_sliding", "small_sliding"):
+        sc = hertz.scene(n, apart=mesh)
+        contact = sc["interfaces"]["contact"]
+        if kinematics == "small_sliding":
+            sc["interfaces"]["contact"] = {
+                k: v for k, v in contact.items() if k not in ("reach", "search_radius")
+            } | {"kinematics": kinematics}
+        res = run_scene(sc, outdir=shared_tmp / kinematics, comm=MPI.COMM_WORLD)
+        snap = res.snapshots[1.0]
+        order = np.lexsort((snap["f_n"], snap["x"][:, 0]))
+        snaps[kinematics] = (snap["x"][order], snap["f_n"][order])
+        key = hertz.measure(res)
+    (xf, pf), (xs, ps) = snaps["finite_sliding"], snaps["small_sliding"]
+    np.testing.assert_allclose(xf, xs, atol=1e-9)
+    assert np.max(np.abs(pf - ps)) < 1e-3 * key["p0_H"]
 
 
 def test_cattaneo_mindlin_stick_zone_against_the_closed_form(shared_tmp):

@@ -68,7 +68,7 @@ from .reach import ReachSearch, _near, surface_size
 from .segments import overlap_points
 from .sliding import frame_rate, gap_operator, transport_matrix
 from .surface import contact_surface
-from .transfer import l2_projector, transfer_matrices
+from .transfer import facet_mass, l2_projector, transfer_matrices
 
 __all__ = ["SlidingInterface"]
 
@@ -192,7 +192,11 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.weights = (
             self.facet_weights * point_weight(self.points, mode or "3d").reshape(jac.shape)
         ).reshape(-1)
-        self.projector = l2_projector(self.Ns[0], self.facet_weights)
+        # the master forces by the segments are those the slave nodes get by the rule: the exact
+        # mass (with a nodal rule the dual basis; the rule's lumped one gave the consistent mass)
+        self.projector = l2_projector(
+            self.Ns[0], self.facet_weights, facet_mass(s.cell, degree, Ys0)
+        )
         npts = s.size * self.nq
         self.n_points = npts
         self.g0 = _initial_gap(initial_gap, self.points, self.comm)

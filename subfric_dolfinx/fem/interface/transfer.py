@@ -4,19 +4,26 @@ The friction law runs at the slave facets' quadrature points (the internal varia
 these material points). The slave nodes receive ``int N_s t dA`` by the facet's own rule, as
 for a matching interface. The master nodes must receive ``-int (N_m o pi) t dA`` of the same
 traction field, and that integral is exact only on the segments of :mod:`.segments`, whose points
-are not the law's points. The traction field is therefore the facet-wise discrete L2 projection
-``lambda_h`` of the points' tractions on the facet's Lagrange space ``P_p``
-(``sum_q w_q (lambda_h(q) - t_q) N_k(q) = 0`` for every ``N_k``): it leaves the slave forces
-unchanged (``N_k`` is in ``P_p``), reproduces every traction field of ``P_p`` (a uniform pressure,
-a linear one), and is integrated exactly over the segments against the master's shape functions
-(``docs/model.md`` §11). So the master nodal forces are ``-B t`` with, per slave facet ``s`` and
-master facet ``m``,
+are not the law's points. The traction field is therefore the field ``lambda_h`` of the facet's
+Lagrange space ``P_p`` whose moments are the slave nodal forces,
+``int N_k lambda_h dA = sum_q w_q N_k(q) t_q`` for every ``N_k`` (the integral by the facet's
+mass matrix, :func:`facet_mass`), integrated exactly over the segments against the
+master's shape functions (``docs/model.md`` §11). So the master nodal forces are ``-B t`` with,
+per slave facet ``s`` and master facet ``m``,
 
     B_lq = sum_{segment points of (s, m)} w N_m,l(xi_m) L_q(xi_s),
-    L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = sum_q w_q N(q) N(q)^T.
+    L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = int N N^T dA.
 
-A uniform traction is then transmitted exactly (the non-matching patch test); on a matching
-interface ``B_lq = w_q N_l(q)``, today's element.
+A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``:
+the mass matrix's rows sum to the rule's integrals of the basis) and so is every traction of ``P_p``
+that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
+on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. With a nodal
+rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
+delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
+Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
+the interpolant of the point values and the master got the consistent-mass forces, not the
+slave's (``demos/hertz.py --meshed-apart``: 0.85 % of ``p0`` off the small-sliding pressures on
+coinciding nodes).
 """
 
 from __future__ import annotations
@@ -29,15 +36,24 @@ import numpy as np
 from .projection import _element, facet_basis
 from .segments import Segments
 
-__all__ = ["Transfer", "l2_projector", "transfer_matrices", "transfer_tangent"]
+__all__ = ["Transfer", "facet_mass", "l2_projector", "transfer_matrices", "transfer_tangent"]
 
 
-def l2_projector(N: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The facet-wise discrete L2 projection on the facet's Lagrange space.
+def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
+    """The facet-wise projection of the points' values on the facet's Lagrange space.
+
+    ``lambda_h = sum_j c_j N_j`` with ``int N_k lambda_h = sum_q w_q N_k(q) t_q`` for every
+    ``N_k``: the field whose moments are the slave nodal forces of the points' values, with the
+    facets' mass matrices ``M = int N N^T`` (``mass``; the module's account). Each row of ``M``
+    is made to sum to the rule's ``sum_q w_q N_k(q)`` by its diagonal, so that a uniform field
+    is reproduced exactly also on curved facets, where neither integral is exact (on flat ones
+    they agree). Without ``mass``: the rule's own ``sum_q w_q N(q) N(q)^T``, the same for a
+    Gauss rule of degree ``2 p``, but for a nodal rule the lumped mass (the interpolant).
 
     Args:
         N: The facet basis at the quadrature points, (nq, nfd).
         w: Quadrature weights times surface Jacobian of each facet, (nf, nq).
+        mass: The facets' mass matrices (:func:`facet_mass`), (nf, nfd, nfd).
 
     Returns:
         ``P`` (nf, nfd, nq): the coefficients of ``lambda_h`` in the basis are ``P t`` for point
@@ -50,12 +66,39 @@ def l2_projector(N: np.ndarray, w: np.ndarray) -> np.ndarray:
     nq, nfd = N.shape
     if nq < nfd:
         raise ValueError(f"{nq} quadrature points cannot determine a field of {nfd} nodes")
-    M = np.einsum("fq,qk,qj->fkj", w, N, N)
     rhs = np.einsum("fq,qj->fjq", w, N)
+    if mass is None:
+        M = np.einsum("fq,qk,qj->fkj", w, N, N)
+    else:
+        M = mass.copy()
+        idx = np.arange(nfd)
+        M[:, idx, idx] += rhs.sum(axis=2) - M.sum(axis=2)
     try:
         return np.linalg.solve(M, rhs)
     except np.linalg.LinAlgError as e:
         raise ValueError("the facet mass matrix of the quadrature rule is singular") from e
+
+
+def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
+    """The mass matrices ``int N N^T dA`` of facets with node positions ``X``.
+
+    By the Gauss rule of degree ``2 p`` (the interface's ``"gauss"`` rule: exact on flat facets,
+    whose surface Jacobian is constant).
+
+    Args:
+        cell: The facets' basix cell.
+        degree: Their Lagrange degree.
+        X: Their node positions, (nf, nfd, gdim).
+
+    Returns:
+        (nf, nfd, nfd).
+    """
+    from .projection import parametric_normal
+
+    Xg, wg = basix.make_quadrature(cell, 2 * degree)
+    B = facet_basis(cell, degree, Xg, 1)
+    jac = np.linalg.norm(parametric_normal(np.einsum("aqk,fkd->fqda", B[1:], X)), axis=-1)
+    return np.einsum("fq,qk,qj->fkj", jac * wg[None, :], B[0], B[0])
 
 
 @dataclasses.dataclass
