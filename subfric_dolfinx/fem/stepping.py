@@ -354,6 +354,19 @@ class LoadStepper:
             return ratio * self.increment
         return None
 
+    def _turns(self, target: float) -> bool:
+        """Whether the step to ``target`` starts a new direction of the program (finite sliding).
+
+        A finite-sliding problem, a last step whose increment is known (``predictor``) and a
+        channel that changes in this step: where :meth:`_predict` has nothing to extrapolate,
+        Newton's first iteration is frictionless (:meth:`FrictionSolver.solve`'s
+        ``frictionless_start``). The same on every rank: the program decides.
+        """
+        if not (self.predictor and self.problem.finite_sliding) or self.increment is None:
+            return False
+        change = self._channels(target) - self._channels(self.t)
+        return bool(np.abs(change).max(initial=0.0) > 0.0)
+
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
         self.solver.x.array_w[:] = self._x_converged.array_r
@@ -449,9 +462,10 @@ class LoadStepper:
             keep = self._keep_retry and self._retry_run < self.easy_steps
             first = self.retry_options if keep else None
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+            predicted = self._predict(target, dt)
             r = self.solver.solve(
-                target, dt, options=first, separated_stiffness=stiff,
-                predictor=self._predict(target, dt),
+                target, dt, options=first, separated_stiffness=stiff, predictor=predicted,
+                frictionless_start=predicted is None and self._turns(target),
             )  # fmt: skip
             self._check_interrupted(r, target)
             retried = first is not None

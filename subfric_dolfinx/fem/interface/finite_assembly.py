@@ -90,17 +90,20 @@ class SlidingAssembly:
         return self.b_ext.array_r[: self.n_owned].copy()
 
     def _blocks(
-        self, separated_stiffness: float = 0.0
+        self, separated_stiffness: float = 0.0, frictionless: bool = False
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`~.friction.stiffen_separated`).
+        stiffness (:func:`~.friction.stiffen_separated`). ``frictionless``: the law's tangent
+        keeps only the normal traction's change with the normal gap (:func:`_frictionless`).
         """
         s, nq, gdim = self.slave, self.nq, self.gdim
         found = self._found
         tangent = stiffen_separated(self.last.tangent, self.law, separated_stiffness)
         D = tangent.reshape(-1, gdim, gdim)
+        if frictionless:
+            D = _frictionless(D, self.nt)
         # Q^T D G + the frame's turn (2-D), (npts, gdim, gdim)
         M = np.einsum("mai,mab,mbj->mij", self._Q, D, self._G) + self._K
         pts = np.flatnonzero(found)
@@ -164,6 +167,7 @@ class SlidingAssembly:
         *,
         bcs: Sequence[Any] | None = None,
         separated_stiffness: float = 0.0,
+        frictionless: bool = False,
     ) -> None:
         """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
@@ -171,6 +175,10 @@ class SlidingAssembly:
         last :attr:`layout_version`). With ``bcs`` the rows and columns of constrained dofs are
         left out. ``separated_stiffness``: in this Jacobian only, found points without stiffness
         get this fraction of the law's contact stiffness (the retry of a failed step).
+        ``frictionless``: in this Jacobian only, the law's tangent without its tangential
+        stiffness (the first iteration of a step where the loading program turns:
+        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric
+        terms are kept.
         """
         from ..timing import TIMER_INTERFACE
 
@@ -178,7 +186,7 @@ class SlidingAssembly:
         with self._time(TIMER_INTERFACE):
             mask = self._constrained(bcs) if bcs else None
             gl = self.index_map.local_to_global
-            for rows, cols, vals in self._blocks(separated_stiffness):
+            for rows, cols, vals in self._blocks(separated_stiffness, frictionless):
                 if rows.shape[0] == 0:
                     continue
                 if mask is not None:
@@ -243,3 +251,14 @@ class SlidingAssembly:
         ba[free] += f[free] + lift[free]
         return bool(self.last.converged)
 
+
+
+def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:
+    """The law's tangents ``D`` (npts, gdim, gdim) with only ``d f_n / d g_n`` left.
+
+    The tangent of a frictionless contact: a Newton step on it lets the interface slide freely
+    and keeps its points closed where they are pressed.
+    """
+    out = np.zeros_like(D)
+    out[:, nt, nt] = D[:, nt, nt]
+    return out
