@@ -341,6 +341,7 @@ class InterfaceProblem:
         J: PETSc.Mat,
         separated_stiffness: float = 0.0,
         frictionless: bool = False,
+        keep_contact: bool = False,
     ) -> None:
         """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
 
@@ -350,7 +351,8 @@ class InterfaceProblem:
         ``frictionless``: in this Jacobian only, the finite-sliding interfaces' law tangent keeps
         its normal stiffness alone (the first iteration of a step where the program turns:
         :class:`~.stepping.LoadStepper`'s ``predictor``); small-sliding interfaces are
-        unchanged.
+        unchanged. ``keep_contact``: in this Jacobian only, the finite-sliding interfaces' points
+        open here that were in contact at the step's start keep their normal stiffness there.
         """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update(x)
@@ -361,8 +363,9 @@ class InterfaceProblem:
                 J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            finite = iface.kinematics == "finite_sliding"
-            extra = {"frictionless": True} if frictionless and finite else {}
+            extra = {}
+            if iface.kinematics == "finite_sliding":
+                extra = {"frictionless": frictionless, "keep_contact": keep_contact}
             iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, **extra)
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)

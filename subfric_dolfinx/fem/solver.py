@@ -283,7 +283,7 @@ class FrictionSolver:
             raise
         self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
         self.separated_stiffness = 0.0  # of the current solve (see solve)
-        self._frictionless_next = False  # the next Jacobian frictionless (see solve)
+        self._start_next = (False, False)  # the next Jacobian's frictionless, keep_contact
         self.interrupt: Callable[[], bool] | None = None
         """Asked at every residual evaluation, on every rank: ``True`` on any rank abandons
         the solve there (collectively, through a function-domain error; nothing is raised
@@ -334,8 +334,8 @@ class FrictionSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
-        frictionless, self._frictionless_next = self._frictionless_next, False
-        self.problem.jacobian(x, J, self.separated_stiffness, frictionless)
+        (frictionless, keep), self._start_next = self._start_next, (False, False)
+        self.problem.jacobian(x, J, self.separated_stiffness, frictionless, keep)
         self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference or 0.0)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
@@ -353,6 +353,7 @@ class FrictionSolver:
         separated_stiffness: float = 0.0,
         predictor: np.ndarray | None = None,
         frictionless_start: bool = False,
+        keep_contact: bool = False,
     ) -> SolveResult:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
@@ -383,6 +384,11 @@ class FrictionSolver:
                 stick tangent of a zero slip increment. The later iterations, the residual and
                 the solution are unchanged. :class:`~.stepping.LoadStepper` asks for it where
                 the loading program turns.
+            keep_contact: In the first Newton iteration's Jacobian, the finite-sliding
+                interfaces' points open at the start that were in contact at the step's start
+                (the converged configuration with the new Dirichlet values) keep their normal
+                stiffness there (a contact-Newton safeguard: the first step does not let go of
+                points an extrapolated start opened by a hair). Only the Jacobian changes.
 
         Returns:
             A :class:`SolveResult` (its fields are the same on success, failure and a PETSc
@@ -411,7 +417,8 @@ class FrictionSolver:
         if options:
             self._configure(options)
         self.x.copy(self._x0)
-        self._frictionless_next = bool(frictionless_start)
+        start = (bool(frictionless_start), bool(keep_contact))
+        self._start_next = start
         krylov = 0
         retried = False
         try:
@@ -429,7 +436,7 @@ class FrictionSolver:
                     self.failed_points = np.zeros(0, dtype=np.int64)
                     self.snes.setConvergenceHistory(length=200, reset=True)
                     self.convergence.start()
-                    self._frictionless_next = bool(frictionless_start)
+                    self._start_next = start
                     self.linear.start(fresh=True)
                     self.snes.solve(None, self.x)
                     krylov += self.snes.getLinearSolveIterations()
@@ -446,7 +453,7 @@ class FrictionSolver:
                 error=str(e),
             )
         finally:
-            self._frictionless_next = False
+            self._start_next = (False, False)
             if options:
                 self._configure()
         reason = self.snes.getConvergedReason()

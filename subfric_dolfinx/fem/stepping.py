@@ -466,6 +466,7 @@ class LoadStepper:
             r = self.solver.solve(
                 target, dt, options=first, separated_stiffness=stiff, predictor=predicted,
                 frictionless_start=predicted is None and self._turns(target),
+                keep_contact=self.predictor,
             )  # fmt: skip
             self._check_interrupted(r, target)
             retried = first is not None
