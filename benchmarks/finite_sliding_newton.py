@@ -47,14 +47,17 @@ OUT = Path(__file__).resolve().parents[1] / "scratch" / "finite_sliding_newton"
 
 @contextlib.contextmanager
 def without_predictor() -> Iterator[None]:
-    """Every load stepper starts Newton from the last converged state, on the law's tangent."""
-    original = LoadStepper._predict, LoadStepper._turns
-    LoadStepper._predict = lambda self, target, dt: None
-    LoadStepper._turns = lambda self, target: False
+    """Every load stepper made with ``predictor=False`` (the steps start on the law's tangent)."""
+    original = LoadStepper.__init__
+
+    def init(self, *args, **kwargs):
+        original(self, *args, **{**kwargs, "predictor": False})
+
+    LoadStepper.__init__ = init
     try:
         yield
     finally:
-        LoadStepper._predict, LoadStepper._turns = original
+        LoadStepper.__init__ = original
 
 
 @contextlib.contextmanager

@@ -131,18 +131,20 @@ def test_newton_takes_at_most_5_iterations_per_sliding_step(comm, tmp_path_facto
     s = far.scene(mesh, 8, 6.0)
     s.pop("points")
     s["outputs"] = {"history": True}
-    attempts = []  # (t, converged) of every solve: a failed first attempt is not in the history
+    attempts = []  # (t, converged, frictionless start) of every solve (a failed attempt too)
     solve = FrictionSolver.solve
 
     def counted(self, t, dt, **kwargs):
         r = solve(self, t, dt, **kwargs)
-        attempts.append((t, r.converged))
+        attempts.append((t, r.converged, bool(kwargs.get("frictionless_start"))))
         return r
 
     monkeypatch.setattr(FrictionSolver, "solve", counted)
     history = run_scene(s, outdir=root / "out", comm=comm).history
     sliding = [(r["t"], int(r["newton"]), int(r["cuts"])) for r in history if r["t"] > 1.0 + 1e-9]
-    failed = [t for t, converged in attempts if t > 1.0 + 1e-9 and not converged]
+    failed = [t for t, converged, _ in attempts if t > 1.0 + 1e-9 and not converged]
+    turns = [t for t, _, frictionless in attempts if frictionless]
     assert len(sliding) >= 6 and sliding[-1][0] == 7.0, sliding
     assert max(n for _, n, _ in sliding) <= 5, sliding
     assert sum(c for _, _, c in sliding) == 0 and not failed, (sliding, failed)
+    assert turns == [sliding[0][0]], turns  # the slide's first step starts frictionless

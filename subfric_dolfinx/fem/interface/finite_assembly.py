@@ -33,8 +33,8 @@ class SlidingAssembly:
             ``tests/test_finite_sliding_tangent.py``), and Newton converges quadratically at the
             end of a step (without it linearly, a factor of about 5e-3 per iteration). On by
             default: ``demos/block_sliding_far.py``'s first 10 mm, with the load stepper's
-            predictor, 4.5 iterations per sliding step with it, 5.8 without; the 3-D diagonal
-            slide 2 per step after the first instead of 3
+            predictor, 4.0 iterations per sliding step with it (max 5), 4.6 without (max 6);
+            the 3-D diagonal slide 2 per step after the first instead of 3
             (``benchmarks/finite_sliding_newton.py``). It was off while a restarted scene did not
             repeat Newton's path with it: that came from the steps' start at the converged state
             (the stick tangent's overshoot amplified round-off), which the predictor removes.
