@@ -84,3 +84,29 @@ def test_the_predictor_is_used_only_where_the_program_goes_straight_on():
     assert not at(2.3)  # the reversal
     assert at(2.4) and at(3.0)
     assert not any(at(t) for t in (3.1, 3.2, 3.3, 3.4))  # a hold: nothing the program moves
+
+
+def test_small_sliding_keeps_the_law_tangent_at_the_first_iteration():
+    """The finite-sliding start (a frictionless first iteration where the program turns, the
+    points in contact at the step's start kept so in the first Jacobian) leaves small sliding
+    alone: the stepper does not ask for the first, and the Jacobian with both is the same."""
+    problem = block_problem(MPI.COMM_WORLD, program=PROGRAM)
+    asked = []
+    with FrictionSolver(problem, prefix("predj"), linear="lu") as solver:
+        real = solver.solve
+
+        def solve(*a, **k):
+            asked.append(bool(k.get("frictionless_start")))
+            return real(*a, **k)
+
+        solver.solve = solve
+        LoadStepper(solver, 0.1, dt_max=0.1).run(t_end=1.4)
+        J, Js = problem.create_matrix(), problem.create_matrix()
+        problem.jacobian(solver.x, J)
+        problem.jacobian(solver.x, Js, 0.0, True, True)
+        Js.axpy(-1.0, J)
+        diff, size = Js.norm(), J.norm()
+        J.destroy()
+        Js.destroy()
+    assert not problem.finite_sliding and len(asked) > 10 and not any(asked), asked
+    assert diff == 0.0 and size > 0.0, (diff, size)

@@ -335,12 +335,24 @@ class InterfaceProblem:
         Fa[idx] = x.array_r[idx] - val
         return ok
 
-    def jacobian(self, x: PETSc.Vec, J: PETSc.Mat, separated_stiffness: float = 0.0) -> None:
+    def jacobian(
+        self,
+        x: PETSc.Vec,
+        J: PETSc.Mat,
+        separated_stiffness: float = 0.0,
+        frictionless: bool = False,
+        keep_contact: bool = False,
+    ) -> None:
         """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
 
         ``separated_stiffness``: in this Jacobian only (not the residual), points without
         stiffness (separated beyond the contact band, failed) get this fraction of the law's
         contact stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        ``frictionless``: in this Jacobian only, the finite-sliding interfaces' law tangent keeps
+        its normal stiffness alone (the first iteration of a step where the program turns:
+        :class:`~.stepping.LoadStepper`'s ``predictor``); small-sliding interfaces are
+        unchanged. ``keep_contact``: in this Jacobian only, the finite-sliding interfaces' points
+        open here that were in contact at the step's start keep their normal stiffness there.
         """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update(x)
@@ -351,9 +363,17 @@ class InterfaceProblem:
                 J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness)
+            extra = {}
+            if iface.kinematics == "finite_sliding":
+                extra = {"frictionless": frictionless, "keep_contact": keep_contact}
+            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, **extra)
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)
+
+    @property
+    def finite_sliding(self) -> bool:
+        """Whether one of the interfaces is finite-sliding."""
+        return any(i.kinematics == "finite_sliding" for i in self.interfaces.values())
 
     def failed_points(self) -> np.ndarray:
         """Indices of the points where the last return maps failed (all interfaces, this rank)."""

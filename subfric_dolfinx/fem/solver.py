@@ -283,6 +283,7 @@ class FrictionSolver:
             raise
         self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
         self.separated_stiffness = 0.0  # of the current solve (see solve)
+        self._start_next = (False, False)  # the next Jacobian's frictionless, keep_contact
         self.interrupt: Callable[[], bool] | None = None
         """Asked at every residual evaluation, on every rank: ``True`` on any rank abandons
         the solve there (collectively, through a function-domain error; nothing is raised
@@ -333,7 +334,8 @@ class FrictionSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
-        self.problem.jacobian(x, J, self.separated_stiffness)
+        (frictionless, keep), self._start_next = self._start_next, (False, False)
+        self.problem.jacobian(x, J, self.separated_stiffness, frictionless, keep)
         self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference_norm)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
@@ -350,6 +352,8 @@ class FrictionSolver:
         options: Mapping[str, Any] | None = None,
         separated_stiffness: float = 0.0,
         predictor: np.ndarray | None = None,
+        frictionless_start: bool = False,
+        keep_contact: bool = False,
     ) -> SolveResult:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
@@ -373,6 +377,18 @@ class FrictionSolver:
                 extrapolated guess is (an exact one has a residual of round-off, against which
                 no relative target is reachable), and the first iterate is not accepted at the
                 round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`).
+            frictionless_start: The first Newton iteration's Jacobian leaves out the
+                finite-sliding interfaces' tangential stiffness (the law's tangent keeps
+                ``d f_n / d g_n`` alone; :meth:`~.problem.InterfaceProblem.jacobian`): the
+                first iterate lets the interface slide instead of shearing the bodies on the
+                stick tangent of a zero slip increment. The later iterations, the residual and
+                the solution are unchanged. :class:`~.stepping.LoadStepper` asks for it where
+                the loading program turns.
+            keep_contact: In the first Newton iteration's Jacobian, the finite-sliding
+                interfaces' points open at the start that were in contact at the step's start
+                (the converged configuration with the new Dirichlet values) keep their normal
+                stiffness there (a contact-Newton safeguard: the first step does not let go of
+                points an extrapolated start opened by a hair). Only the Jacobian changes.
 
         Returns:
             A :class:`SolveResult` (its fields are the same on success, failure and a PETSc
@@ -401,6 +417,8 @@ class FrictionSolver:
         if options:
             self._configure(options)
         self.x.copy(self._x0)
+        start = (bool(frictionless_start), bool(keep_contact))
+        self._start_next = start
         krylov = 0
         retried = False
         try:
@@ -418,6 +436,7 @@ class FrictionSolver:
                     self.failed_points = np.zeros(0, dtype=np.int64)
                     self.snes.setConvergenceHistory(length=200, reset=True)
                     self.convergence.start()
+                    self._start_next = start
                     self.linear.start(fresh=True)
                     self.snes.solve(None, self.x)
                     krylov += self.snes.getLinearSolveIterations()
@@ -434,6 +453,7 @@ class FrictionSolver:
                 error=str(e),
             )
         finally:
+            self._start_next = (False, False)
             if options:
                 self._configure()
         reason = self.snes.getConvergedReason()

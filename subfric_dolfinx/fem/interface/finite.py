@@ -32,9 +32,9 @@ the current configuration with the geometry of §11:
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
   respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
   slip's own master nodes, in 2-D the frame's turn with the projection
-  (:func:`.sliding.frame_rate`) and, with ``SlidingAssembly.transfer_in_tangent`` (2-D, on
-  by default), the transfer's change with the geometry
-  (:func:`.transfer.transfer_tangent`): then the 2-D tangent is the residual's derivative. The
+  (:func:`.sliding.frame_rate`) and, with ``SlidingAssembly.transfer_in_tangent`` (on by
+  default), the transfer's change with the geometry (:func:`.transfer.transfer_tangent`): then
+  the 2-D tangent is the residual's derivative, the 3-D one but for the frame's turn. The
   nodal normals are the step's (held), so they have no derivative within it.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
@@ -220,6 +220,9 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.projection_found = np.zeros(npts, dtype=bool)
         self.dt = 0.0
         self.last = None
+        # d f_n / d g_n of every point at the step's first evaluation (its start: the last
+        # converged configuration with the step's Dirichlet values), for ``keep_contact``
+        self.start_normal: np.ndarray | None = None
         self.last_gap = np.zeros((npts, gdim))
         self.layout_version = 0
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}
@@ -254,6 +257,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         """
         self.dt = float(dt)
         self._x_at_update = None
+        self.start_normal = None
         self.begin_step()
 
     def _local_displacement(self, owned: np.ndarray) -> np.ndarray:
@@ -379,6 +383,8 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         with self._time(TIMER_INTERFACE):
             if np.any(slip_too_far):
                 res.status[slip_too_far] = Status.FAILED  # slid beyond the reach: cut the step
+            if self.start_normal is None:  # the step's first evaluation: its start
+                self.start_normal = res.tangent.reshape(-1, gdim, gdim)[:, nt, nt].copy()
             self.last = res
             self.projection_found = found
             self._found = found
@@ -410,7 +416,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             with self._time(TIMER_PROJECTION):
                 seg = overlap_points(
                     Xs, s.cell, s.degree, Ym, Nm, m.cell, m.degree, self.radius,
-                    slave_measure_x=self.X0[s.nodes],
+                    slave_measure_x=self.X0[s.nodes], rates=self.transfer_in_tangent,
                 )  # fmt: skip
                 keep = seg.converged.copy()
                 if seg.size:

@@ -28,11 +28,13 @@ class SlidingAssembly:
 
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
-            ``dB t`` (2-D only; 3-D leaves it out): then the 2-D tangent is the residual's
-            derivative (``tests/test_finite_sliding_tangent.py``) and Newton converges
-            quadratically at the end of a step (without it linearly, a factor of about 5e-3 per
-            iteration). On by default: ``demos/block_sliding_far.py``'s first 10 mm, with the
-            load stepper's predictor, 4.5 iterations per sliding step with it, 5.8 without
+            ``dB t`` (2-D and 3-D): then the 2-D tangent is the residual's derivative, the 3-D
+            one but for the frame's turn within an iteration (2e-5 of the interface's ``J v``;
+            ``tests/test_finite_sliding_tangent.py``), and Newton converges quadratically at the
+            end of a step (without it linearly, a factor of about 5e-3 per iteration). On by
+            default: ``demos/block_sliding_far.py``'s first 10 mm, with the load stepper's
+            predictor, 4.0 iterations per sliding step with it (max 5), 4.6 without (max 6);
+            the 3-D diagonal slide 2 per step after the first instead of 3
             (``benchmarks/finite_sliding_newton.py``). It was off while a restarted scene did not
             repeat Newton's path with it: that came from the steps' start at the converged state
             (the stick tangent's overshoot amplified round-off), which the predictor removes.
@@ -90,17 +92,27 @@ class SlidingAssembly:
         return self.b_ext.array_r[: self.n_owned].copy()
 
     def _blocks(
-        self, separated_stiffness: float = 0.0
+        self,
+        separated_stiffness: float = 0.0,
+        frictionless: bool = False,
+        keep_contact: bool = False,
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`~.friction.stiffen_separated`).
+        stiffness (:func:`~.friction.stiffen_separated`). ``frictionless``: the law's tangent
+        keeps only the normal traction's change with the normal gap (:func:`_frictionless`).
+        ``keep_contact``: points without stiffness that were in contact at the step's start get
+        their normal stiffness there (:attr:`start_normal`).
         """
         s, nq, gdim = self.slave, self.nq, self.gdim
         found = self._found
         tangent = stiffen_separated(self.last.tangent, self.law, separated_stiffness)
         D = tangent.reshape(-1, gdim, gdim)
+        if frictionless:
+            D = _frictionless(D, self.nt)
+        if keep_contact and self.start_normal is not None:
+            D = _kept_in_contact(D, self.start_normal, self.nt)
         # Q^T D G + the frame's turn (2-D), (npts, gdim, gdim)
         M = np.einsum("mai,mab,mbj->mij", self._Q, D, self._G) + self._K
         pts = np.flatnonzero(found)
@@ -117,11 +129,12 @@ class SlidingAssembly:
             Mt = np.einsum("mai,mab,mbj->mij", self._Q[mv], D[mv], E)
             out += self._point_blocks(mv, self.pf_nodes[self._facet[mv]], self._Nm[mv], Mt)
             out += self._point_blocks(mv, self.pf_nodes[self._old_facet[mv]], -self._N_old[mv], Mt)
-        if gdim == 2 and self.transfer_in_tangent:  # the transfer's change with the geometry (2-D)
+        if self.transfer_in_tangent:  # the transfer's change with the geometry
             ps, pm, vb = transfer_tangent(
                 self._segments, self.projector,
                 self._global_tractions().reshape(s.size, nq, gdim), self._Xs,
                 self.X0[s.nodes], s.degree, self._Ym, self.pf_normals, self.master.degree,
+                s.cell, self.master.cell,
             )  # fmt: skip
             if ps.size:
                 out.append(
@@ -164,6 +177,8 @@ class SlidingAssembly:
         *,
         bcs: Sequence[Any] | None = None,
         separated_stiffness: float = 0.0,
+        frictionless: bool = False,
+        keep_contact: bool = False,
     ) -> None:
         """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
@@ -171,6 +186,13 @@ class SlidingAssembly:
         last :attr:`layout_version`). With ``bcs`` the rows and columns of constrained dofs are
         left out. ``separated_stiffness``: in this Jacobian only, found points without stiffness
         get this fraction of the law's contact stiffness (the retry of a failed step).
+        ``frictionless``: in this Jacobian only, the law's tangent without its tangential
+        stiffness (the first iteration of a step where the loading program turns:
+        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric
+        terms are kept. ``keep_contact``: in this Jacobian only, points separated here that were
+        in contact at the step's start keep their normal stiffness of the start (the first
+        iteration of every step: an extrapolated start that opens a few points by a round-off of
+        the base's moving indentation would otherwise let them go in the first Newton step).
         """
         from ..timing import TIMER_INTERFACE
 
@@ -178,7 +200,7 @@ class SlidingAssembly:
         with self._time(TIMER_INTERFACE):
             mask = self._constrained(bcs) if bcs else None
             gl = self.index_map.local_to_global
-            for rows, cols, vals in self._blocks(separated_stiffness):
+            for rows, cols, vals in self._blocks(separated_stiffness, frictionless, keep_contact):
                 if rows.shape[0] == 0:
                     continue
                 if mask is not None:
@@ -243,3 +265,24 @@ class SlidingAssembly:
         ba[free] += f[free] + lift[free]
         return bool(self.last.converged)
 
+
+
+def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:
+    """The law's tangents ``D`` (npts, gdim, gdim) with only ``d f_n / d g_n`` left.
+
+    The tangent of a frictionless contact: a Newton step on it lets the interface slide freely
+    and keeps its points closed where they are pressed.
+    """
+    out = np.zeros_like(D)
+    out[:, nt, nt] = D[:, nt, nt]
+    return out
+
+
+def _kept_in_contact(D: np.ndarray, start_normal: np.ndarray, nt: int) -> np.ndarray:
+    """``D`` with ``start_normal`` as ``d f_n / d g_n`` where a point has no stiffness (open)."""
+    reopened = ~D.any(axis=(1, 2)) & (start_normal > 0.0)
+    if not reopened.any():
+        return D
+    out = D.copy()
+    out[reopened, nt, nt] = start_normal[reopened]
+    return out

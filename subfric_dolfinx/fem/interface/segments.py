@@ -54,6 +54,11 @@ class Segments:
         bound_vertex: 2-D only: the master facet's vertex (0 or 1) whose preimage makes each
             end, or -1 where the slave facet's own end does, (np, 2).
         unit: 2-D only: the point's coordinate on its piece, in [0, 1], (np,).
+        xi_rate: 3-D with ``rates`` only (else ``None``): the derivative of ``xi_slave`` with
+            respect to the slave facet's nodes then the master facet's (node-major, ``gdim``
+            components each), the measure's nodes held, (np, fdim, (nfd_s + nfd_m) gdim).
+        weight_rate: 3-D with ``rates`` only: the derivative of ``weight``, likewise,
+            (np, (nfd_s + nfd_m) gdim).
     """
 
     slave: np.ndarray
@@ -65,6 +70,8 @@ class Segments:
     bounds: np.ndarray | None = None
     bound_vertex: np.ndarray | None = None
     unit: np.ndarray | None = None
+    xi_rate: np.ndarray | None = None
+    weight_rate: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -82,8 +89,11 @@ def _polygon_order(cell: basix.CellType) -> list[int]:
 
 
 def clip_to_reference(
-    poly: np.ndarray, count: np.ndarray, cell: basix.CellType
-) -> tuple[np.ndarray, np.ndarray]:
+    poly: np.ndarray,
+    count: np.ndarray,
+    cell: basix.CellType,
+    rates: np.ndarray | None = None,
+) -> tuple[np.ndarray, ...]:
     """Clip polygons by a reference triangle or square (Sutherland-Hodgman, all at once).
 
     Args:
@@ -91,10 +101,13 @@ def clip_to_reference(
             ignored).
         count: Vertices of each polygon, (n,).
         cell: ``triangle`` or ``quadrilateral``.
+        rates: Derivatives of the vertices with respect to ``m`` parameters, (n, kmax, 2, m):
+            carried through the clipping (a vertex cut on an edge moves along it and with its
+            ends; the cell's corners do not move).
 
     Returns:
         The clipped polygons (n, kmax + number of half-planes, 2) and their vertex counts (fewer
-        than 3: empty).
+        than 3: empty); with ``rates``, their derivatives too (n, kmax + half-planes, 2, m).
     """
     planes = [(np.array([1.0, 0.0]), 0.0), (np.array([0.0, 1.0]), 0.0)]
     if cell == basix.CellType.triangle:
@@ -105,28 +118,45 @@ def clip_to_reference(
     size = kmax + len(planes)
     cur = np.zeros((n, size, 2))
     cur[:, :kmax] = poly
+    cur_r = None
+    if rates is not None:
+        cur_r = np.zeros((n, size, 2, rates.shape[-1]))
+        cur_r[:, :kmax] = rates
     cnt = count.astype(np.int64).copy()
     rows = np.arange(n)
     for a, b in planes:  # keep a . x >= b
         out = np.zeros_like(cur)
+        out_r = None if cur_r is None else np.zeros_like(cur_r)
         oc = np.zeros(n, dtype=np.int64)
         for i in range(size):
             live = i < cnt
             if not np.any(live):
                 break
+            nxt = (i + 1) % np.maximum(cnt, 1)
             p = cur[:, i]
-            q = cur[rows, (i + 1) % np.maximum(cnt, 1)]
+            q = cur[rows, nxt]
             dp, dq = p @ a - b, q @ a - b
             keep_p = live & (dp >= 0)
             out[rows[keep_p], oc[keep_p]] = p[keep_p]
+            if out_r is not None:
+                out_r[rows[keep_p], oc[keep_p]] = cur_r[keep_p, i]
             oc += keep_p
             cross = live & ((dp >= 0) != (dq >= 0))
-            t = np.where(cross, dp / np.where(cross, dp - dq, 1.0), 0.0)
+            den = np.where(cross, dp - dq, 1.0)
+            t = np.where(cross, dp / den, 0.0)
             x = p + t[:, None] * (q - p)
             out[rows[cross], oc[cross]] = x[cross]
+            if out_r is not None and np.any(cross):
+                c = np.flatnonzero(cross)
+                rp, rq = cur_r[c, i], cur_r[c, nxt[c]]  # (nc, 2, m)
+                ddp, ddq = np.einsum("a,nam->nm", a, rp), np.einsum("a,nam->nm", a, rq)
+                dt = (dp[c, None] * ddq - dq[c, None] * ddp) / den[c, None] ** 2
+                out_r[c, oc[c]] = (
+                    rp + t[c, None, None] * (rq - rp) + (q[c] - p[c])[:, :, None] * dt[:, None]
+                )
             oc += cross
-        cur, cnt = out, oc
-    return cur, cnt
+        cur, cnt, cur_r = out, oc, out_r
+    return (cur, cnt) if cur_r is None else (cur, cnt, cur_r)
 
 
 def overlap_points(
@@ -141,6 +171,7 @@ def overlap_points(
     *,
     degree: int | None = None,
     slave_measure_x: np.ndarray | None = None,
+    rates: bool = False,
 ) -> Segments:
     """Integration points of every slave facet's overlap with the master facets (not collective).
 
@@ -159,9 +190,16 @@ def overlap_points(
         slave_measure_x: Node positions whose surface Jacobian weighs the points, e.g. the
             reference ones, so that the pieces of a slave facet sum to the measure its own
             quadrature uses (geometrically linear bodies); default ``slave_x``.
+        rates: 3-D: also the points' ``xi_rate`` and ``weight_rate`` (their change with the
+            slave and master nodes, through the preimages, the clipping and the fan triangles;
+            the nodal normals and ``slave_measure_x``, which must be given, held). 2-D
+            segments carry their ``bounds`` instead (:func:`.transfer.transfer_tangent`).
     """
     ns, _, gdim = slave_x.shape
     fdim = gdim - 1
+    rates = bool(rates) and fdim == 2
+    if rates and slave_measure_x is None:
+        raise ValueError("overlap_points: rates need slave_measure_x (the measure's nodes held)")
     p = max(slave_degree, master_degree)
     if degree is None:
         degree = 4 * p if slave_cell == basix.CellType.quadrilateral else 2 * p
@@ -241,21 +279,38 @@ def overlap_points(
             "unit": np.tile(X[:, 0], lo.size),
         }
     else:
-        clipped, cnt = clip_to_reference(poly, np.full(poly.shape[0], nv), slave_cell)
+        count = np.full(poly.shape[0], nv)
+        if rates:
+            poly_r = _preimage_rates(pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order,
+                                     master_x.shape[1])  # fmt: skip
+            clipped, cnt, clipped_r = clip_to_reference(poly, count, slave_cell, poly_r)
+        else:
+            clipped, cnt = clip_to_reference(poly, count, slave_cell)
         X, w = basix.make_quadrature(basix.CellType.triangle, degree)
-        xs_l, ws_l, pair_l = [], [], []
+        xs_l, ws_l, pair_l, xr_l, wr_l = [], [], [], [], []
         for k in range(1, clipped.shape[1] - 1):  # fan triangle (0, k, k + 1)
             has = cnt >= k + 2
             if not np.any(has):
                 break
             v0, v1, v2 = clipped[has, 0], clipped[has, k], clipped[has, k + 1]
             J = np.stack([v1 - v0, v2 - v0], axis=-1)  # (n, 2, 2)
-            area = np.abs(np.linalg.det(J))
+            det = np.linalg.det(J)
+            area = np.abs(det)
             big = area > 1e-14
             idx = np.flatnonzero(has)[big]
             xs_l.append(v0[big, None, :] + np.einsum("nab,qb->nqa", J[big], X))
             ws_l.append(area[big, None] * w[None, :])
             pair_l.append(idx)
+            if rates:
+                r0, r1, r2 = (clipped_r[idx, j] for j in (0, k, k + 1))  # (n, 2, m)
+                dJ = np.stack([r1 - r0, r2 - r0], axis=2)  # (n, 2, 2, m)
+                Jb = J[big]
+                ddet = (
+                    dJ[:, 0, 0] * Jb[:, 1, 1, None] + Jb[:, 0, 0, None] * dJ[:, 1, 1]
+                    - dJ[:, 0, 1] * Jb[:, 1, 0, None] - Jb[:, 0, 1, None] * dJ[:, 1, 0]
+                )  # fmt: skip
+                xr_l.append(r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X))
+                wr_l.append(np.sign(det[big])[:, None, None] * ddet[:, None, :] * w[None, :, None])
         if not pair_l:
             return empty
         pair = np.concatenate(pair_l)
@@ -271,6 +326,16 @@ def overlap_points(
     y = np.einsum("mk,mkd->md", B[0], Ys)
     Yj = Ys if slave_measure_x is None else slave_measure_x[si_q]
     jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
+    if rates:
+        m = xr_l[0].shape[-1]
+        xi_rate = np.concatenate(xr_l).reshape(-1, fdim, m)
+        ws_rate = np.concatenate(wr_l).reshape(-1, m)
+        grad = _measure_rate(slave_cell, slave_degree, xi_s, Yj)  # d jac / d xi, (np, fdim)
+        extra = {
+            "xi_rate": xi_rate,
+            "weight_rate": ws_rate * jac[:, None]
+            + ws.reshape(-1, 1) * np.einsum("ma,mac->mc", grad, xi_rate),
+        }
     # start from the ray along the master facet's mean normal through its vertex plane (exact
     # on flat facets)
     Ym, Nm = master_x[mi_q], master_normals[mi_q]
@@ -285,3 +350,44 @@ def overlap_points(
         converged=proj.converged,
         **extra,
     )
+
+
+def _preimage_rates(
+    pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order, nfd_m
+) -> np.ndarray:
+    """Derivatives of the master vertices' preimages on the slave facets (3-D).
+
+    ``d xi = A^-1 (dx_v - sum_k N_k dX_k)`` (:func:`.projection.projection_jacobian`, the
+    vertex's normal held) for the projections ``pre_u`` (unique rows; ``back`` maps the
+    (pair, vertex) rows to them, ``ok`` keeps the pairs). Returns (npair, nv, fdim, m), ``m``
+    the slave facet's nodes then the master facet's (``nfd_m``), ``gdim`` components each.
+    """
+    from .projection import projection_jacobian
+
+    nfd_s, gdim = Ys.shape[1], Ys.shape[2]
+    fdim, nv = gdim - 1, len(order)
+    Ainv, N = projection_jacobian(
+        xu, Ys, np.repeat(nu[:, None, :], nfd_s, axis=1), slave_cell, slave_degree,
+        pre_u.xi, pre_u.gamma,
+    )  # fmt: skip
+    D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
+    Nk = N[back].reshape(-1, nv, nfd_s)[ok]
+    R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m, gdim))
+    R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
+    for j, v in enumerate(order):
+        R[:, j, :, nfd_s + v, :] += D[:, j]
+    return R.reshape(D.shape[0], nv, fdim, -1)
+
+
+def _measure_rate(cell: basix.CellType, degree: int, xi: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """``d |X_,1 x X_,2| / d xi`` of surface facets with nodes ``Y`` (m, nfd, 3), (m, 2)."""
+    B = facet_basis(cell, degree, xi, 2)  # values, d1, d2, d11, d12, d22
+    T = np.einsum("amk,mkd->mad", B[1:3], Y)  # (m, 2, 3)
+    H = np.einsum("amk,mkd->mad", B[3:6], Y)  # d11, d12, d22
+    n = np.cross(T[:, 0], T[:, 1])
+    jac = np.linalg.norm(n, axis=1)
+    out = np.zeros((xi.shape[0], 2))
+    for a, (h1, h2) in enumerate(((0, 1), (1, 2))):  # d T_1 / d xi_a, d T_2 / d xi_a
+        dn = np.cross(H[:, h1], T[:, 1]) + np.cross(T[:, 0], H[:, h2])
+        out[:, a] = np.einsum("md,md->m", n, dn) / jac
+    return out

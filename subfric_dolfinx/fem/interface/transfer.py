@@ -163,27 +163,35 @@ def transfer_tangent(
     master_x: np.ndarray,
     master_normals: np.ndarray,
     master_degree: int,
+    slave_cell: basix.CellType = basix.CellType.interval,
+    master_cell: basix.CellType = basix.CellType.interval,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The change of the master nodal forces ``-B t`` with the geometry, the tractions held (2-D).
+    """The change of the master nodal forces ``-B t`` with the geometry, the tractions held.
 
     ``B`` (:func:`transfer_matrices`) moves with the nodes through the segments
-    (:func:`.segments.overlap_points`): the ends of each piece (the preimages of the master
-    vertices on the slave facet, along the vertices' fixed nodal normals), its points on the slave
-    facet and their projections on the master facet (along the master's smooth normal), and the
-    pieces' lengths. Each is differentiated through :func:`.projection.projection_jacobian`
-    (the nodal normals are those of the step: held); an end where the slave facet's own end cuts
-    the piece does not move.
+    (:func:`.segments.overlap_points`): the pieces of the slave facet (2-D: the preimages of the
+    master vertices on the slave facet, along the vertices' fixed nodal normals; 3-D: the
+    polygons of those preimages clipped by the slave facet, cut into fan triangles), their points
+    on the slave facet and their projections on the master facet (along the master's smooth
+    normal), and their weights. Each is differentiated through
+    :func:`.projection.projection_jacobian` (the nodal normals are those of the step: held); an
+    end where the slave facet's own end cuts the piece does not move. 2-D reads the pieces'
+    ``bounds``; 3-D the segments' ``xi_rate`` and ``weight_rate`` (``overlap_points(...,
+    rates=True)``).
 
     Args:
-        segments: The segment points, with their 2-D ``bounds``, ``bound_vertex`` and ``unit``.
+        segments: The segment points, with their 2-D ``bounds``, ``bound_vertex`` and ``unit``,
+            or their 3-D ``xi_rate`` and ``weight_rate``.
         projector: ``P`` of :func:`l2_projector`, (ns, nfd_s, nq).
         tractions: The tractions at the slave facets' points, global components (ns, nq, gdim).
         slave_x: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
         slave_ref_x: Their positions that weigh the points (``slave_measure_x``), likewise.
-        slave_degree: The slave facets' Lagrange degree (intervals).
+        slave_degree: The slave facets' Lagrange degree.
         master_x: Current positions of the master facets' nodes, (nm, nfd_m, gdim).
         master_normals: Their nodal normals, (nm, nfd_m, gdim).
-        master_degree: The master facets' Lagrange degree (intervals).
+        master_degree: The master facets' Lagrange degree.
+        slave_cell: The slave facets' basix cell (3-D: triangle or quadrilateral).
+        master_cell: The master facets' basix cell.
 
     Returns:
         Slave facet and master facet of each pair (the order of :func:`transfer_matrices`), and
@@ -192,8 +200,8 @@ def transfer_tangent(
     """
     from .projection import projection_jacobian
 
-    cell = basix.CellType.interval
     gdim = slave_x.shape[2]
+    fdim = gdim - 1
     nfs, nfm = slave_x.shape[1], master_x.shape[1]
     ncol = nfs + nfm
     if segments.size == 0:
@@ -202,6 +210,69 @@ def transfer_tangent(
     sl, ma = segments.slave, segments.master
     Xs, Ym, Nm = slave_x[sl], master_x[ma], master_normals[ma]
     npt = sl.size
+    if fdim == 1:
+        dxs, dw = _piece_rates_2d(segments, Xs, Ym, Nm, slave_ref_x, slave_degree, ncol)
+    else:
+        if segments.xi_rate is None:
+            raise ValueError("transfer_tangent: 3-D segments need their rates (rates=True)")
+        dxs = segments.xi_rate.reshape(npt, fdim, ncol, gdim)
+        dw = segments.weight_rate.reshape(npt, ncol, gdim)
+    w = segments.weight
+    # the point's projection on the master facet
+    Bs = facet_basis(slave_cell, slave_degree, segments.xi_slave, 1)  # values, d/dxi_a
+    y = np.einsum("mk,mkd->md", Bs[0], Xs)
+    dy_xi = np.einsum("amk,mkd->mda", Bs[1:], Xs)  # (npt, gdim, fdim)
+    xim = segments.xi_master
+    Bm = facet_basis(master_cell, master_degree, xim, 1)
+    nt = np.einsum("mk,mkd->md", Bm[0], Nm)
+    gam = np.einsum("md,md->m", y - np.einsum("mk,mkd->md", Bm[0], Ym), nt) / np.einsum(
+        "md,md->m", nt, nt
+    )
+    Ainv, _ = projection_jacobian(y, Ym, Nm, master_cell, master_degree, xim, gam)
+    Dm = Ainv[:, :fdim, :]  # (npt, fdim, gdim)
+    dxm = np.zeros((npt, fdim, ncol, gdim))
+    dxm[:, :, :nfs, :] = Bs[0][:, None, :, None] * Dm[:, :, None, :]
+    dxm[:, :, nfs:, :] = -Bm[0][:, None, :, None] * Dm[:, :, None, :]
+    dxm += np.einsum("mad,mdb,mbce->mace", Dm, dy_xi, dxs)
+    # the traction field at the point and its rate along the slave facet
+    P = projector[sl]  # (npt, nfs, nq)
+    tq = tractions[sl]  # (npt, nq, gdim)
+    lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
+    dlam = np.einsum("amk,mkq,mqd->mad", Bs[1:], P, tq)
+    # d(-w N_l lam) = -(dw N_l lam + w N_l,a dxi_m,a lam + w N_l lam,a dxi_s,a)
+    blocks = -(
+        np.einsum("ml,md,mce->mldce", Bm[0], lam, dw)
+        + np.einsum("m,aml,md,mace->mldce", w, Bm[1:], lam, dxm)
+        + np.einsum("m,ml,mad,mace->mldce", w, Bm[0], dlam, dxs)
+    )
+    key = sl.astype(np.int64) * (int(ma.max()) + 1) + ma
+    pairs, pair_of = np.unique(key, return_inverse=True)
+    out = np.zeros((pairs.size, nfm, gdim, ncol, gdim))
+    np.add.at(out, pair_of.reshape(-1), blocks)
+    first = np.zeros(pairs.size, dtype=np.int64)
+    first[pair_of.reshape(-1)[::-1]] = np.arange(npt)[::-1]
+    return sl[first], ma[first], out.reshape(pairs.size, nfm * gdim, ncol * gdim)
+
+
+def _piece_rates_2d(
+    segments: Segments,
+    Xs: np.ndarray,
+    Ym: np.ndarray,
+    Nm: np.ndarray,
+    slave_ref_x: np.ndarray,
+    slave_degree: int,
+    ncol: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """2-D: the points' ``d xi_s`` (npt, 1, ncol, gdim) and ``d w`` (npt, ncol, gdim).
+
+    From the pieces' ends: the preimages of the master vertices (``bound_vertex``), fixed where
+    the slave facet's own end cuts the piece.
+    """
+    from .projection import projection_jacobian
+
+    cell = basix.CellType.interval
+    npt, nfs, gdim = Xs.shape
+    sl = segments.slave
     # the pieces' ends: d(end) = c . dX over the columns (npt, 2, ncol, gdim)
     dend = np.zeros((npt, 2, ncol, gdim))
     for e in (0, 1):
@@ -227,40 +298,7 @@ def transfer_tangent(
     t = np.einsum("mk,mkd->md", Bs[1], slave_ref_x[sl])
     t2 = np.einsum("mk,mkd->md", Bs[2], slave_ref_x[sl])
     jac_rate = np.einsum("md,md->m", t, t2) / np.einsum("md,md->m", t, t)  # d ln|t| / dxi
-    w = segments.weight
-    dw = w[:, None, None] * (
+    dw = segments.weight[:, None, None] * (
         (dend[:, 1] - dend[:, 0]) / span[:, None, None] + jac_rate[:, None, None] * dxs
     )
-    # the point's projection on the master facet
-    y = np.einsum("mk,mkd->md", Bs[0], Xs)
-    dy_xi = np.einsum("mk,mkd->md", Bs[1], Xs)
-    xim = segments.xi_master
-    Bm = facet_basis(cell, master_degree, xim, 1)
-    nt = np.einsum("mk,mkd->md", Bm[0], Nm)
-    gam = np.einsum("md,md->m", y - np.einsum("mk,mkd->md", Bm[0], Ym), nt) / np.einsum(
-        "md,md->m", nt, nt
-    )
-    Ainv, _ = projection_jacobian(y, Ym, Nm, cell, master_degree, xim, gam)
-    Dm = Ainv[:, 0, :]
-    dxm = np.zeros((npt, ncol, gdim))
-    dxm[:, :nfs, :] = Bs[0][:, :, None] * Dm[:, None, :]
-    dxm[:, nfs:, :] = -Bm[0][:, :, None] * Dm[:, None, :]
-    dxm += np.einsum("md,md->m", Dm, dy_xi)[:, None, None] * dxs
-    # the traction field at the point and its rate along the slave facet
-    P = projector[sl]  # (npt, nfs, nq)
-    tq = tractions[sl]  # (npt, nq, gdim)
-    lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
-    dlam = np.einsum("mk,mkq,mqd->md", Bs[1], P, tq)
-    # d(-w N_l lam) = -(dw N_l lam + w N_l' dxi_m lam + w N_l lam' dxi_s)
-    blocks = -(
-        np.einsum("ml,md,mce->mldce", Bm[0], lam, dw)
-        + np.einsum("m,ml,md,mce->mldce", w, Bm[1], lam, dxm)
-        + np.einsum("m,ml,md,mce->mldce", w, Bm[0], dlam, dxs)
-    )
-    key = sl.astype(np.int64) * (int(ma.max()) + 1) + ma
-    pairs, pair_of = np.unique(key, return_inverse=True)
-    out = np.zeros((pairs.size, nfm, gdim, ncol, gdim))
-    np.add.at(out, pair_of.reshape(-1), blocks)
-    first = np.zeros(pairs.size, dtype=np.int64)
-    first[pair_of.reshape(-1)[::-1]] = np.arange(npt)[::-1]
-    return sl[first], ma[first], out.reshape(pairs.size, nfm * gdim, ncol * gdim)
+    return dxs[:, None], dw
