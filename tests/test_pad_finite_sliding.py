@@ -54,7 +54,10 @@ def test_the_pad_slides_onto_the_plate_beyond_its_footprint(comm):
     # the pressure's force, in the finite frames that follow the plate's deformed surface
     np.testing.assert_allclose(finite[:, 2], small[:, 2], rtol=1e-4)
     assert np.abs(finite[:, 1] - small[:, 1]).max() < 0.01 * peak, (finite[:, 1], small[:, 1])
-    # Newton: <= 5 a step but at the reversal (step 7: the direction turns, nothing to
-    # extrapolate; 6 there today: issue 22 item 3, the first step after a breakpoint)
+    # Newton: where the program turns (the slide's first step, 3, and the reversal, 7: nothing to
+    # extrapolate) at most 6 (measured 6 and 5: over issue 22 item 3's 5 at the slide's first
+    # step on this pad); elsewhere the extrapolated start and the full 3-D tangent (dB t)
+    # converge in 2-3
     newton = finite[:, 4]
-    assert np.delete(newton, 6).max() <= 5 and newton[6] <= 8, newton
+    turns = [2, 6]
+    assert newton[turns].max() <= 6 and np.delete(newton, turns).max() <= 4, newton
