@@ -3,10 +3,10 @@
 The largest term of the finite-sliding tangent beyond the law's and the projection's is the change
 of the master-side transfer ``B`` with the geometry, ``dB t`` (the master's nodal forces moving
 with the slave facets). In 2-D it is available (``SlidingAssembly.transfer_in_tangent``, on by
-default): the tangent is then the residual's derivative (``tests/test_finite_sliding_tangent.py``);
-3-D leaves it out. The load stepper starts each step from the last one's extrapolated increment
-(``LoadStepper(predictor=...)``, on by default with finite sliding). This benchmark prints
-Newton's iterations per sliding step:
+default): the tangent is then the residual's derivative
+(``tests/fem/interface/test_finite_sliding_tangent.py``); 3-D leaves it out. The load stepper starts
+each step from the last one's extrapolated increment (``LoadStepper(predictor=...)``, on by default
+with finite sliding). This benchmark prints Newton's iterations per sliding step:
 
 * 2-D, without ``dB t`` and without the predictor (the package before both), then with the
   predictor without ``dB t``, and with both (the default);

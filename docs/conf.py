@@ -46,7 +46,8 @@ exclude_patterns = ["_build", "_mathjax", "conf.py", "demo_results.py", "readme_
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
 myst_heading_anchors = 3
 nb_custom_formats = {".py": ["jupytext.reads", {"fmt": "py:percent"}]}
-nb_execution_mode = "off"  # the demos run in the test suite (tests/test_demos_run.py), not here
+# the demos run in the test suite (tests/demos/test_demos_run.py), not here
+nb_execution_mode = "off"
 source_suffix = {".md": "myst-nb", ".py": "myst-nb"}
 
 # -- autodoc with Google-style docstrings: each parameter once (its text from the docstring's

@@ -9,8 +9,8 @@ times it, and writes on rank 0 what the demo measured (:func:`numbers`), the war
 and its wall time. This script then copies the figures of the default runs into
 ``docs/figures/<demo>/`` (the demo pages show them) and writes ``docs/demo_results.json``,
 stamped with the code it measured (``report/stamp.py``: ``constitutive/``, ``fem/``, ``demos/``).
-``tests/test_readme.py`` checks every number the README quotes from it, and that the stamp still
-describes the code.
+``tests/demos/test_readme.py`` checks every number the README quotes from it, and that the stamp
+still describes the code.
 """
 
 from __future__ import annotations

@@ -148,7 +148,7 @@ def stamped(fig: Any, name: str) -> None:
 
 
 def png_stamp(stamp: dict[str, Any]) -> dict[str, str]:
-    """The PNG text entry that records the commit (``tests/test_report.py`` reads it)."""
+    """The PNG text entry that records the commit (``tests/demos/test_report.py`` reads it)."""
     return {"subfric-dolfinx-commit": stamp.get("commit", "")} if stamp else {}
 
 

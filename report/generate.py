@@ -14,7 +14,7 @@ deleted first.
 
 Stamp (``report/stamp.py``): the commit and the git trees of ``constitutive/`` and ``fem/`` the
 run measured, in ``data/stamp.json``, printed on every figure and in the README;
-``tests/test_report.py`` fails when the measured code is no longer what the stamp says.
+``tests/demos/test_report.py`` fails when the measured code is no longer what the stamp says.
 """
 
 from __future__ import annotations

@@ -26,9 +26,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import ROOT
+
 pytestmark = pytest.mark.numpy_only
 
-ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "subfric_dolfinx"
 NAME = "subfric_dolfinx"
 

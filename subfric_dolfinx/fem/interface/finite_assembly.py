@@ -29,7 +29,7 @@ class SlidingAssembly:
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
             ``dB t`` (2-D only; 3-D leaves it out): then the 2-D tangent is the residual's
-            derivative (``tests/test_finite_sliding_tangent.py``) and Newton converges
+            derivative (``tests/fem/interface/test_finite_sliding_tangent.py``) and Newton converges
             quadratically at the end of a step (without it linearly, a factor of about 5e-3 per
             iteration). On by default: ``demos/block_sliding_far.py``'s first 10 mm, with the
             load stepper's predictor, 4.5 iterations per sliding step with it, 5.8 without
