@@ -33,8 +33,9 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 RESULTS = HERE / "demo_results.json"
 FIGURES = HERE / "figures"
-sys.path.insert(0, str(ROOT / "report"))
-import stamp as stamps  # noqa: E402  (report/stamp.py)
+if not __package__:  # run as a script, not imported as docs.demo_results: the repository's packages
+    sys.path.insert(0, str(ROOT))
+from report import stamp as stamps  # noqa: E402
 
 # key -> (demo, options, MPI ranks, figures of this run go to the docs)
 RUNS: dict[str, tuple[str, list[str], int, bool]] = {
