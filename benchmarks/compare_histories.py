@@ -27,7 +27,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-# demo -> its small command line (the suite's sizes, tests/test_demos_run.py)
+# demo -> its small command line (the suite's sizes, tests/demos/test_demos_run.py)
 DEMOS: dict[str, list[str]] = {
     "block_on_base": ["--n", "4", "--hold", "1", "--dt", "0.1"],
     "pad_on_plate": ["--n", "2", "--holds", "0", "5", "--dt", "0.1"],

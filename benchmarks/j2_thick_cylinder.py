@@ -1,6 +1,6 @@
 """The J2 bulk law on Hill's thick cylinder, finer than the test, and the return map's speed.
 
-1. **Hill's tube** (``tests/test_j2_fe.py``'s set-up: a = 1, b = 2, plane strain ``u_z = 0`` in
+1. **Hill's tube** (``tests/fem/test_j2_fe.py``'s set-up: a = 1, b = 2, plane strain ``u_z = 0`` in
    axisymmetric mode, P2 triangles, perfectly plastic, the inner radius displaced): for
    ``nu`` in 0.49, 0.499, 0.4999 and 20 to 160 elements through the wall, the pressure against
    Hill's closed form (for ``nu = 1/2``) at u_a = 1.5, 2, 3 u_y (partly plastic) and 6 u_y (the
@@ -30,7 +30,7 @@ from mpi4py import MPI
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from subfric_dolfinx.constitutive import J2Material, J2State
-from tests.test_j2_fe import (
+from tests.fem.test_j2_fe import (
     P_LIMIT,
     cylinder,
     first_yield,

@@ -73,8 +73,8 @@ from subfric_dolfinx.scenes import cli, run_scene
 # default 16 elements: the block sinks 0.37 µm, $\ell = 0.06$ mm, a tenth of an element.
 # The mean friction hardly notices (measured at the default size: the forward and reload peaks
 # of the 500 MPa/mm run are 0.3 and 0.5 % higher, its reverse peak 5 %; $10^5$ and $10^6$ agree
-# within 0.02 %, `tests/test_fe_demos.py`), but the profiles of $f_n$ along the interface now show
-# the pressure the bodies carry (peaks at the block's edges), not the penalty's.
+# within 0.02 %, `tests/demos/test_fe_demos.py`), but the profiles of $f_n$ along the interface now
+# show the pressure the bodies carry (peaks at the block's edges), not the penalty's.
 #
 # The run stays **small-sliding**: the interface pairs and frames are fixed at the reference
 # geometry, so the slide must stay short against the interface elements. The block slides 1 mm,

@@ -35,7 +35,7 @@ is moved back and forth along the joint (y held, z free), the lower plate's far 
 joint sticks, slips around the hole's low-pressure rim, then slides; the head and nut are dragged
 with the plates and the bolt bends in its clearance.
 
-**Force balance, at every step** (the demo checks it; `tests/test_bolt_clamped_joint.py` too):
+**Force balance, at every step** (the demo checks it; `tests/demos/test_model_demos.py` too):
 the bolt's axial force, measured in the shank as
 $N = \frac{1}{\ell}\int_{\text{shank}} \sigma_{zz}\,dV$ (exact for a free-sided segment of length
 $\ell$ in equilibrium), equals the normal resultant of the head face, of the nut face and of the

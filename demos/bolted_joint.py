@@ -53,7 +53,7 @@ Loading program:
 
 The upper plate's end is guided (x prescribed, y held) but free in z, so the bolt load is
 carried by the interface alone: the interface's normal resultant equals the bolt load at every
-step (a check in `tests/test_bolted_joint.py`). With the Sec. 7 set ($c_n = 2\cdot10^{-4}$
+step (a check in `tests/demos/test_bolted_joint.py`). With the Sec. 7 set ($c_n = 2\cdot10^{-4}$
 1/MPa, $\mu_s = 500$, $\mu_k = 63$ MPa) the shear strength of a point is $g(f_n)\,\mu$ with
 $g = 1 - e^{-c_n f_n}$, concave in $f_n$: whatever the pressure distribution, the joint's
 shear force stays below $\mu_s\,A\,g(F_b/A)$ for a bolt load $F_b$ over the interface area

@@ -29,7 +29,7 @@ mpirun -n 2 python3 demos/elastic_smoke.py --n 8 --out demos/output/elastic_smok
 
 and prints, on rank 0 only, the mean displacement of the loaded (right) edge ("tip
 displacement") and the total strain energy. Both are independent of the number of ranks up to
-round-off, which is what `tests/test_elastic_smoke.py` checks, together with a closed-form
+round-off, which is what `tests/fem/test_elastic_smoke.py` checks, together with a closed-form
 solution.
 
 The problem: a plane-stress rectangle $\Omega = (0, L) \times (0, H)$, clamped on its left edge

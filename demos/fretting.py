@@ -96,7 +96,7 @@ $p_0$ = 1204 MPa; $|Q|/\mu P$ = 0.698 at every extreme):
   10.48 $\times 10^{-4}$ mm² (-21 %), the peak nearer the contact edge ($|x|$ = 0.90-1.03 mm).
 
 The run takes about 5 min on the 2 cores shared with other test suites (1 rank). The test
-`tests/test_fretting.py` runs it at `--n 4` with 4 steps a leg and one cycle.
+`tests/demos/test_fretting.py` runs it at `--n 4` with 4 steps a leg and one cycle.
 
     mpirun -n 2 python3 demos/fretting.py [--n 8] [--cycles 3] [--out DIR]
 

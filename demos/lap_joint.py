@@ -59,7 +59,7 @@ surface, so there is no rigid-body mode to suppress).
   this law's static strength (though above its kinetic strength: once slipping, the joint
   would not stop; the ratcheting softens $\mu$ towards that point cycle by cycle).
 * 20 cycles of 2 s (`--cycles`); the slip per cycle is checked against the material-point
-  driver in `tests/test_fe_demos.py`.
+  driver in `tests/demos/test_fe_demos.py`.
 
 | time (s)            | what happens                                           |
 |---------------------|--------------------------------------------------------|

@@ -34,7 +34,7 @@ in as one object, `FrictionInterface`, with four calls:
 The run: a block pressed on a base at 300 MPa, then slid forward and back (the main demo's first
 two segments). The same run through the library's own solver (`InterfaceProblem`,
 `FrictionSolver`, `LoadStepper`) gives the same history to round-off; the demo prints the
-difference (`tests/test_user_loop.py` checks it on 1 and 2 ranks).
+difference (`tests/demos/test_user_loop.py` checks it on 1 and 2 ranks).
 
     mpirun -n 2 python3 demos/user_loop.py [--n 16] [--out DIR]
 """

@@ -10,14 +10,13 @@ not kept in git.
 
 Offline: equations are rendered by the MathJax of Debian's ``libjs-mathjax`` (the part it needs
 is copied into the site: no CDN), and intersphinx reads only inventories installed on this
-machine (:data:`INVENTORIES`: PETSc's in both stacks), never the network.
+machine (``INVENTORIES`` in ``pages.py``: PETSc's in both stacks), never the network.
 """
 
 from __future__ import annotations
 
 import importlib
 import json
-import pkgutil
 import re
 import shutil
 import sys
@@ -26,6 +25,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
+
+from docs.pages import local_inventories, public_modules  # noqa: E402
 
 project = "subfric-dolfinx"
 author = "the subfric-dolfinx developers"
@@ -39,14 +40,16 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
 ]
-exclude_patterns = ["_build", "_mathjax", "conf.py", "demo_results.py", "readme_numbers.py",
+exclude_patterns = ["_build", "_mathjax", "__init__.py", "conf.py", "pages.py", "demo_results.py",
+                    "readme_numbers.py",
                     "figures", "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
 
 # -- MyST and MyST-NB: Markdown pages, demos as notebooks from their jupytext (percent) source
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
 myst_heading_anchors = 3
 nb_custom_formats = {".py": ["jupytext.reads", {"fmt": "py:percent"}]}
-nb_execution_mode = "off"  # the demos run in the test suite (tests/test_demos_run.py), not here
+# the demos run in the test suite (tests/demos/test_demos_run.py), not here
+nb_execution_mode = "off"
 source_suffix = {".md": "myst-nb", ".py": "myst-nb"}
 
 # -- autodoc with Google-style docstrings: each parameter once (its text from the docstring's
@@ -88,39 +91,11 @@ mathjax2_config = {
                 "ignoreClass": "tex2jax_ignore|mathjax_ignore"},
 }  # fmt: skip
 
-# -- intersphinx: only inventories installed here (the build never reads the network); links
-# point to the projects' sites
-INVENTORIES = {
-    "petsc4py": ("https://petsc.org/release/petsc4py/",
-                 ["/usr/share/doc/python-petsc4py-doc/html/objects.inv"]),
-    "mpi4py": ("https://mpi4py.readthedocs.io/en/stable/",
-               ["/usr/share/doc/python-mpi4py-doc/html/objects.inv"]),
-    "python": ("https://docs.python.org/3/", ["/usr/share/doc/python3/html/objects.inv",
-                                              f"/usr/share/doc/python3.{sys.version_info[1]}"
-                                              "/html/objects.inv"]),
-    "numpy": ("https://numpy.org/doc/stable/", ["/usr/share/doc/python-numpy-doc/html/objects.inv",
-                                                "/usr/share/doc/python-numpy/html/objects.inv"]),
-}  # fmt: skip
-intersphinx_mapping = {
-    name: (url, path)
-    for name, (url, paths) in INVENTORIES.items()
-    for path in paths[:1] + [q for q in paths[1:] if not Path(paths[0]).exists()]
-    if Path(path).exists()
-}
+# -- intersphinx: only inventories installed here (docs/pages.py)
+intersphinx_mapping = local_inventories()
 intersphinx_timeout = 1
 
 DEMOS = ROOT / "demos"
-PACKAGE = "subfric_dolfinx"
-
-
-def public_modules() -> list[str]:
-    """Every importable module of the package whose dotted name has no part starting with '_'."""
-    pkg = importlib.import_module(PACKAGE)
-    names = [PACKAGE]
-    for info in pkgutil.walk_packages(pkg.__path__, prefix=PACKAGE + "."):
-        if not any(part.startswith("_") for part in info.name.split(".")):
-            names.append(info.name)
-    return sorted(names)
 
 
 def write_api_pages() -> list[str]:

@@ -9,8 +9,8 @@ times it, and writes on rank 0 what the demo measured (:func:`numbers`), the war
 and its wall time. This script then copies the figures of the default runs into
 ``docs/figures/<demo>/`` (the demo pages show them) and writes ``docs/demo_results.json``,
 stamped with the code it measured (``report/stamp.py``: ``constitutive/``, ``fem/``, ``demos/``).
-``tests/test_readme.py`` checks every number the README quotes from it, and that the stamp still
-describes the code.
+``tests/demos/test_readme.py`` checks every number the README quotes from it, and that the stamp
+still describes the code.
 """
 
 from __future__ import annotations
@@ -33,8 +33,9 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 RESULTS = HERE / "demo_results.json"
 FIGURES = HERE / "figures"
-sys.path.insert(0, str(ROOT / "report"))
-import stamp as stamps  # noqa: E402  (report/stamp.py)
+if not __package__:  # run as a script, not imported as docs.demo_results: the repository's packages
+    sys.path.insert(0, str(ROOT))
+from report import stamp as stamps  # noqa: E402
 
 # key -> (demo, options, MPI ranks, figures of this run go to the docs)
 RUNS: dict[str, tuple[str, list[str], int, bool]] = {

@@ -12,8 +12,8 @@ quoted numbers, and computes their text from the data:
 * the scaling benchmark, ``report/data/fe_scaling.csv`` (``benchmarks/fe_scaling.py``).
 
 Only the groups are rewritten: the prose around them is the README's own, so other edits of the
-README merge freely. ``tests/test_readme.py`` fails when a quote is not found or differs from its
-data, so a number of the README cannot go stale.
+README merge freely. ``tests/demos/test_readme.py`` fails when a quote is not found or differs from
+its data, so a number of the README cannot go stale.
 """
 
 from __future__ import annotations

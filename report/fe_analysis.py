@@ -22,7 +22,8 @@ import math
 from typing import Any
 
 import numpy as np
-from analysis import fmt, key_t, lsq_order, pair_order, table
+
+from report.analysis import fmt, key_t, lsq_order, pair_order, table
 
 TIMING_ORDER = [
     "mesh generation",

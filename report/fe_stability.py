@@ -2,8 +2,8 @@
 
     mpirun -n R python3 report/fe_stability.py OUT.json    (the repository root on PYTHONPATH)
 
-The same cases are asserted by ``tests/test_stability.py``; here their outcomes are recorded
-(rank 0 writes), with the wall time of each case (max over ranks).
+The same cases are asserted by ``tests/verification/test_stability.py``; here their outcomes are
+recorded (rank 0 writes), with the wall time of each case (max over ranks).
 """
 
 import json

@@ -34,7 +34,8 @@ from mpi4py import MPI  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+if not __package__:  # run as a script, not imported as report.fe_study: the repository's packages
+    sys.path.insert(0, str(ROOT))
 from demos import block_on_base, pad_on_plate  # noqa: E402
 from subfric_dolfinx import meshing  # noqa: E402
 from subfric_dolfinx.constitutive import build_law  # noqa: E402

@@ -20,7 +20,7 @@ HERE = Path(__file__).resolve().parent
 
 def mp_figures(res: dict[str, Any]) -> None:
     """Error against wall time on both paths; the reversal path itself."""
-    import mp_study
+    from report import mp_study
 
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
     styles = {"subloading": ("C0", "o"), "coulomb": ("C3", "s")}
@@ -139,7 +139,7 @@ STAMP: dict[str, Any] = {}
 
 def stamped(fig: Any, name: str) -> None:
     """Write a figure with the commit that produced it in its lower left corner."""
-    import stamp as stamps
+    from report import stamp as stamps
 
     text = f"subfric-dolfinx {stamps.label(STAMP)}" if STAMP else "subfric-dolfinx (no stamp)"
     fig.text(0.005, 0.005, text, fontsize=6, color="0.4", ha="left", va="bottom")
@@ -148,7 +148,7 @@ def stamped(fig: Any, name: str) -> None:
 
 
 def png_stamp(stamp: dict[str, Any]) -> dict[str, str]:
-    """The PNG text entry that records the commit (``tests/test_report.py`` reads it)."""
+    """The PNG text entry that records the commit (``tests/demos/test_report.py`` reads it)."""
     return {"subfric-dolfinx-commit": stamp.get("commit", "")} if stamp else {}
 
 
@@ -159,7 +159,7 @@ def stamp_existing(png: Path, stamp: dict[str, Any], what: str) -> None:
     with Image.open(png) as im:
         if im.text.get("subfric-dolfinx-commit") == stamp["commit"]:
             return
-    import stamp as stamps
+    from report import stamp as stamps
 
     img = plt.imread(png)
     h, w = img.shape[:2]

@@ -14,7 +14,7 @@ deleted first.
 
 Stamp (``report/stamp.py``): the commit and the git trees of ``constitutive/`` and ``fem/`` the
 run measured, in ``data/stamp.json``, printed on every figure and in the README;
-``tests/test_report.py`` fails when the measured code is no longer what the stamp says.
+``tests/demos/test_report.py`` fails when the measured code is no longer what the stamp says.
 """
 
 from __future__ import annotations
@@ -30,16 +30,13 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(ROOT))
+if not __package__:  # run as a script, not imported as report.generate: the repository's packages
+    sys.path.insert(0, str(ROOT))
 
-import analysis  # noqa: E402
-import figures  # noqa: E402
-import mp_study  # noqa: E402
-import running  # noqa: E402
-import stamp as stamps  # noqa: E402
-from fe_analysis import fe_analysis  # noqa: E402
-from running import say  # noqa: E402
+from report import analysis, figures, mp_study, running  # noqa: E402
+from report import stamp as stamps  # noqa: E402
+from report.fe_analysis import fe_analysis  # noqa: E402
+from report.running import say  # noqa: E402
 
 SCALING = "fe_scaling"  # benchmarks/fe_scaling.py's table and figure (hours to rerun: kept)
 KEPT = (SCALING, "weak_scaling")  # data of the benchmarks this script does not run

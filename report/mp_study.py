@@ -43,7 +43,8 @@ from typing import Any
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+if not __package__:  # run as a script, not imported as report.mp_study: the repository's packages
+    sys.path.insert(0, str(ROOT))
 
 from benchmarks.old_map import old  # noqa: E402
 from subfric_dolfinx.constitutive import CoulombLaw, preset  # noqa: E402

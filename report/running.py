@@ -124,7 +124,7 @@ def mpirun(n: int, script: str, *args: str) -> None:
 
 def material_point(data: Path, quick: bool, reuse: bool = False) -> dict[str, Any]:
     """The material-point convergence study (``mp_study.run``), ``mp_study.json``."""
-    import mp_study
+    from report import mp_study
 
     if quick:
         mp_study.PATHS["reversal"] = (*mp_study.PATHS["reversal"][:2], [25.0, 50.0, 100.0])

@@ -78,9 +78,9 @@ def pytest_collection_modifyitems(config, items):
 
 
 def pytest_sessionfinish(session, exitstatus):
-    """A selection made only of numpy-only tests (``./run test tests/test_return_map.py``) runs
-    nothing on 2 ranks, one without a 3-rank module nothing on 3: that is expected, not pytest's
-    "no tests collected" failure."""
+    """A selection made only of numpy-only tests (``./run test
+    tests/constitutive/test_return_map.py``) runs nothing on 2 ranks, one without a 3-rank module
+    nothing on 3: that is expected, not pytest's "no tests collected" failure."""
     if exitstatus == pytest.ExitCode.NO_TESTS_COLLECTED and session.config.stash.get(
         _DESELECTED, 0
     ):

@@ -244,7 +244,8 @@ PROGRAM = LoadingProgram(
 def column(mode: str, comm):
     """Two bodies of one size on top of each other, the interface across the whole width, held
     against rigid motions only (``bottom`` fixed normally, a pinned and a rolling node): the
-    uniaxial column of tests/test_bulk.py and tests/test_j2_problem.py. Returns (domain, bcs)."""
+    uniaxial column of tests/fem/test_bulk.py and tests/fem/test_j2_problem.py. Returns (domain,
+    bcs)."""
     from subfric_dolfinx import meshing
     from subfric_dolfinx.fem import Dirichlet
 

@@ -3,8 +3,8 @@
 A verbatim copy of ``subfric_dolfinx/fem/interface/pairing.py`` and of ``match_points`` at
 commit 4ba6b8b: every rank all-gathers the slave facets of the whole interface (midpoints, node
 numbers, owners and coordinates) and matches them with a grid hash and Python loops. The package's
-pairing exchanges only what each rank needs; ``tests/test_pairing.py`` checks that it gives the same
-pairs, in the same order, and ``benchmarks/pairing_scaling.py`` measures both.
+pairing exchanges only what each rank needs; ``tests/fem/interface/test_pairing.py`` checks that it
+gives the same pairs, in the same order, and ``benchmarks/pairing_scaling.py`` measures both.
 """
 
 

@@ -1,4 +1,4 @@
-"""An MPI job for ``tests/test_stop_signals.py``: the same tiny run, again and again, each
+"""An MPI job for ``tests/scenes/test_stop_signals.py``: the same tiny run, again and again, each
 stopped by signals that the test sends to ``mpirun`` at random moments.
 
 Usage: ``mpirun -n 2 python3 tests/signal_job.py OUTDIR RUNS``. Rank 0 prints ``STARTED k`` at

@@ -3,7 +3,6 @@
 
 import ast
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,10 +16,11 @@ from subfric_dolfinx.values import (
     strict_int,
     typed_repr,
 )
+from tests.helpers import ROOT
 
 pytestmark = pytest.mark.numpy_only
 
-PKG = Path(__file__).resolve().parents[1] / "subfric_dolfinx"
+PKG = ROOT / "subfric_dolfinx"
 
 
 @pytest.mark.parametrize(

@@ -45,7 +45,7 @@ import numpy as np
 import numpy.typing as npt
 
 from subfric_dolfinx.constitutive import InterfaceState, ReturnMapResult, Status
-from subfric_dolfinx.constitutive._norm import tangential_norm
+from subfric_dolfinx.constitutive.tolerances import tangential_norm
 
 from .smallest_root_v1 import Branch, rtsafe, scan
 

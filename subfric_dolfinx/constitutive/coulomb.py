@@ -20,12 +20,10 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
-from ._norm import tangential_norm
-from ._validate import positive, validate_fields
-from .protocol import LawBase
+from .protocol import LawBase, positive, validate_fields
 from .result import ReturnMapResult, Status
 from .state import TANGENTIAL, InterfaceState, Variable
-from .tolerances import CONTACT_TOL, LOAD_TOL, contact_band
+from .tolerances import CONTACT_TOL, LOAD_TOL, contact_band, tangential_norm
 
 __all__ = ["CoulombLaw", "coulomb_return_map"]
 

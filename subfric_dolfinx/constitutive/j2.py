@@ -41,7 +41,7 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
-from ._validate import non_negative, positive, validate_fields
+from .protocol import non_negative, positive, validate_fields
 
 __all__ = [
     "J2Material",

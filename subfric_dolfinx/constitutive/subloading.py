@@ -66,8 +66,7 @@ import numpy.typing as npt
 
 from ._subloading.common import Inputs, Law, Outputs, Settings
 from ._subloading.integrate import integrate
-from ._validate import non_negative, positive, real, validate_fields
-from .protocol import LawBase
+from .protocol import LawBase, non_negative, positive, real, validate_fields
 from .result import ReturnMapResult
 from .state import LOCAL, SCALAR, TANGENTIAL, InterfaceState, Variable
 from .tolerances import CONTACT_TOL, LOAD_TOL

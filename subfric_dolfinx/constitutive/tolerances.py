@@ -32,15 +32,17 @@ the recovery of the step; after a reversal split, the surface at the split point
 
 Both are module constants; the maps take them as keyword arguments (``contact_tol=``;
 ``tol=`` for the subloading loading test) for callers that need other values.
+
+**Norms** of tangential vectors (the band's ``|ubar_t|`` and ``|up|``, Coulomb's trial
+``|f_t*|``): :func:`tangential_norm`, safe from overflow and underflow over the whole double
+range.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._norm import tangential_norm
-
-__all__ = ["CONTACT_TOL", "LOAD_TOL", "contact_band"]
+__all__ = ["CONTACT_TOL", "LOAD_TOL", "contact_band", "tangential_norm"]
 
 CONTACT_TOL = 1e-12
 """Relative width of the contact band (see the module docstring)."""
@@ -62,3 +64,14 @@ def contact_band(gap: np.ndarray, up: np.ndarray, length: float, contact_tol: fl
     nt = up.shape[1]
     scale = np.maximum(tangential_norm(gap[:, :nt]), tangential_norm(up))
     return contact_tol * np.maximum(scale, length)
+
+
+def tangential_norm(v: np.ndarray) -> np.ndarray:
+    """Row norms of ``v`` (N, 1) or (N, 2) without squaring.
+
+    ``sqrt(x**2 + y**2)`` overflows above about 1.3e154 and loses everything below about 1.5e-154;
+    ``hypot`` scales internally and is exact to an ulp over the whole double range.
+    """
+    if v.shape[1] == 1:
+        return np.abs(v[:, 0])
+    return np.hypot(v[:, 0], v[:, 1])

@@ -68,8 +68,8 @@ RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 
 The l2 line search (minimising the residual norm along the Newton direction) solves the cases
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
-set (``tests/test_reliability.py``); a backtracking line search (``bt``) solves the first but not
-the second."""
+set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
+not the second."""
 
 RETRY_SEPARATED_STIFFNESS = 1e-6
 """In the retry of a failed step, points without stiffness keep this fraction of the contact
@@ -79,9 +79,9 @@ A body whose interface points are all separated, with no support in some directi
 Jacobian singular: the unloaded slide of the ``sec7`` block lets it tip about its one touching
 point (any such position is an equilibrium without load), and the pressure that follows then
 finds every point separated and the linear solve fails at every step size. With this fraction
-the Newton step exists and closes the gap (``tests/test_reliability.py``: every strategy, ``sec7``
-and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on a
-converged step's Newton path where the Jacobian is regular) and far enough above round-off for
+the Newton step exists and closes the gap (``tests/fem/test_reliability.py``: every strategy,
+``sec7`` and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on
+a converged step's Newton path where the Jacobian is regular) and far enough above round-off for
 GAMG (1e-9 was measured to fail with it)."""
 
 MAX_STEPS = 1_000_000

@@ -8,8 +8,7 @@
 * :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
   as a point-cloud time series (XDMF/HDF5) for ParaView.
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
-* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file (:mod:`.checkpoint_format`: its
-  validation).
+* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file, validated on read.
 * :mod:`.collective`: collective errors (:class:`OutputError`), the directory probe.
 * :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run.
 * :mod:`.h5`, :mod:`.slabs`: HDF5 files written and read in per-rank slabs (h5py's MPI driver).

@@ -17,7 +17,6 @@
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
 """
 
-from ._gmsh import gmsh_session
 from .builders import ModelInfo, build_block_on_base, build_pad_on_plate
 from .crack import CrackedInterface, duplicate_interface_nodes
 from .groups import (
@@ -47,6 +46,7 @@ from .groups import (
     TAGS,
     TOP,
     InterfaceMeshError,
+    gmsh_session,
 )
 from .joints import build_bolted_lap_joint
 from .nodes import NodeGroup, locate_node_group, nearest_vertex

@@ -1,4 +1,4 @@
-"""The low-level readers of :mod:`._msh_check`.
+"""The low-level readers of the MSH checks of :mod:`._msh`.
 
 Sections, numbers (ASCII and binary) with their bounds checked before anything is allocated,
 ``$PhysicalNames`` and ``$Entities``, the element types, their sizes and orientations.
@@ -250,7 +250,7 @@ def _measure(
 
 
 class _Sections:
-    """The sections ``$PhysicalNames`` and ``$Entities`` of :class:`._msh_check._Mesh`."""
+    """The sections ``$PhysicalNames`` and ``$Entities`` of :class:`._msh._Mesh`."""
 
     what: str
     version: int

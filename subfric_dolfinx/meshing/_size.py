@@ -50,7 +50,7 @@ def estimate_cells(
         h: Element size.
         cell_type: DOLFINx cell type.
         grading: ``(far_size, growth, center, radius)``: the size is ``min(far_size, h + growth
-            max(0, |x - center| - radius))`` (:func:`~._features.graded_mesh`), integrated over
+            max(0, |x - center| - radius))`` (:func:`~.builders.graded_mesh`), integrated over
             each box on a grid of 32 points per side.
     """
     d = len(boxes[0][0])

@@ -33,9 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from ._gmsh import gmsh_module, gmsh_session, group_elements
 from ._msh import open_msh
-from .groups import InterfaceMeshError
+from .groups import InterfaceMeshError, gmsh_module, gmsh_session, group_elements
 
 __all__ = ["CrackedInterface", "duplicate_interface_nodes"]
 

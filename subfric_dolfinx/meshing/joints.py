@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._gmsh import gmsh_module
 from ._size import check_mesh_size, estimate_cells
 from .builders import ModelInfo, _crack, _model_info, _positive
 from .groups import (
@@ -33,6 +32,7 @@ from .groups import (
     SLAVE,
     SLAVE_XMAX,
     TAGS,
+    gmsh_module,
 )
 
 __all__ = ["build_bolted_lap_joint"]

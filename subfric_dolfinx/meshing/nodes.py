@@ -51,8 +51,8 @@ def node_groups(
         names: Physical name -> tag of the model.
         bodies: Body name -> the tags of its cell groups.
     """
-    from ._gmsh import body_nodes as nodes_of
-    from ._gmsh import gmsh_module
+    from .groups import body_nodes as nodes_of
+    from .groups import gmsh_module
 
     gmsh = gmsh_module()
     body_nodes = {b: nodes_of(gdim, t) for b, t in bodies.items()}

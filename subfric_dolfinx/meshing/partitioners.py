@@ -13,8 +13,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..compat import adjacency_list, default_partitioner
-from ._gmsh import gmsh_module, group_nodes
-from .groups import BODIES, INTERFACE
+from .groups import BODIES, INTERFACE, gmsh_module, group_nodes
 
 __all__ = ["PARTITIONER_KINDS", "Partitioner", "body_partitioner"]
 

@@ -2,8 +2,8 @@
 
 Generated from the dataclasses of :mod:`.schema` (each field's type, default and docstring) and
 from the laws' parameter dataclasses (names, units in their descriptions, presets), so it follows
-them; the published copy is ``docs/scene.schema.json`` (``tests/test_scene_schema.py`` fails when
-it is behind the code; regenerate it with ``python3 -m subfric_dolfinx.scenes.jsonschema --out
+them; the published copy is ``docs/scene.schema.json`` (``tests/scenes/test_scene_schema.py`` fails
+when it is behind the code; regenerate it with ``python3 -m subfric_dolfinx.scenes.jsonschema --out
 docs/scene.schema.json``). Draft 2020-12. In VS Code, for example::
 
     "json.schemas": [{"fileMatch": ["*.scene.json"], "url": "./docs/scene.schema.json"}]

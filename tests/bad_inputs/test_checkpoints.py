@@ -242,7 +242,7 @@ def test_the_settings_leave_defaults_out_and_store_any_scene_value():
     of a Python scene, objects) are stored by a fixed label, so every scene can checkpoint."""
     import dataclasses
 
-    from subfric_dolfinx.io.checkpoint_format import jsonable
+    from subfric_dolfinx.io.checkpoint import jsonable
     from subfric_dolfinx.scenes import parse_scene
     from subfric_dolfinx.scenes.fe import restart_settings
 

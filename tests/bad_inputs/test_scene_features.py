@@ -166,7 +166,7 @@ def test_a_point_force_or_a_held_point_outside_its_body_is_named():
     vertex; now a point farther from its body than the nearest cell's size is refused, naming
     the point, on every rank. So is a point a Dirichlet condition holds, and a point force in
     the other body; the library's PointForce likewise. A point next to a corner (within a
-    cell) is still taken at the corner: tests/test_loads_constraints.py."""
+    cell) is still taken at the corner: tests/fem/test_loads_constraints.py."""
     s = scene()
     s["solver"]["prefix"] = prefix("pf_outside")
     s["outputs"] = {}

@@ -306,7 +306,7 @@ def test_a_scene_file_with_a_key_twice_is_refused_naming_its_path(shared_tmp, ol
 def test_a_load_or_spring_on_a_cell_group_says_so():
     """A load or a spring on a group of cells, not facets, is named as such instead of failing
     later as a step that does not converge (a Dirichlet condition on a cell group is a feature:
-    every dof of the body is held, ``tests/test_loads_constraints.py``)."""
+    every dof of the body is held, ``tests/fem/test_loads_constraints.py``)."""
     for key, entry in (
         ("loads", {"type": "pressure", "group": "master", "value": 1.0}),
         ("springs", {"group": "slave", "stiffness": 1.0}),

@@ -1,7 +1,7 @@
 """An independent reference of the subloading return map: the same algorithm in plain Python
 floats, one point at a time (the package's scalar path before issue 26, where it ran batches of
 at most 32 points; kept here only to test the package's one numpy map against a second
-implementation: ``tests/test_return_map_paths.py``).
+implementation: ``tests/constitutive/test_return_map_paths.py``).
 
 :func:`return_map` takes the arguments of ``SubloadingLaw.return_map`` and returns the arrays
 of its result. :mod:`.point` is the readable specification of one step; :mod:`.root` (branch and

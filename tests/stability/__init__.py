@@ -1,7 +1,8 @@
 """Stability cases on stiff and extreme settings: ONE definition for the report and the tests.
 
-``report/generate.py`` runs every case and tabulates the outcome; ``tests/test_stability.py`` runs
-the same cases (on 1 and on 2 MPI ranks) and asserts what must hold. Each :class:`Case` has
+``report/generate.py`` runs every case and tabulates the outcome;
+``tests/verification/test_stability.py`` runs the same cases (on 1 and on 2 MPI ranks) and asserts
+what must hold. Each :class:`Case` has
 
 * ``run(comm)`` returning an :class:`Outcome`: ``"converged"``, ``"flagged"`` (the code says there
   is no stable quasi-static solution: a rate-form denominator ``den <= 0``, a ``JUMP`` at a fold)

@@ -24,8 +24,8 @@ from mpi4py import MPI
 from subfric_dolfinx.constitutive import J2Material, LinearElastic
 from subfric_dolfinx.fem.plasticity import J2Bulk, PlasticityError
 from tests.bulk_newton import Newton, component_dofs, context, tag_all_cells
+from tests.constitutive.test_j2_material import uniaxial_closed_form
 from tests.helpers import raised_on_every_rank
-from tests.test_j2_material import uniaxial_closed_form
 
 E, NU, SY = 200e3, 0.3, 250.0
 EY = SY / E

@@ -24,9 +24,9 @@ from tests.helpers import (
     singleton_env,
     small_scene,
 )
-from tests.test_output import SUBPROCESSES, disk_full_runs
+from tests.io.test_output import SUBPROCESSES, disk_full_runs
 
-pytestmark = hang_fails()  # a hang fails (see tests/test_output.py)
+pytestmark = hang_fails()  # a hang fails (see tests/io/test_output.py)
 
 T_CK = 2.5  # checkpoint time: in the middle of the reverse stroke
 

@@ -4,17 +4,17 @@ rate equations (``tests/reference_ode.py``): convergence in the step size on fiv
 sliding direction in 3-D; sliding under a varying normal stress) for the normalised Sec. 7 and
 Sec. 6 presets.
 
-What was measured (``python3 tests/test_constitutive_reference.py`` prints the table): the max
-error of ``f_t`` over the samples, relative to the peak, falls with the SQUARE of the step on all
-five paths (observed orders 2.0-2.9), the turn included: the return map splits each step at its
-elastic-to-plastic switch (the zero crossing of ``f_t`` after a reversal, the loading switch after
-a turn, where ``r`` has its minimum along the elastic trial) and rotates the flow direction over
-the step (``subfric_dolfinx.constitutive.subloading``). Before that, the radial return kept the
-direction of the trial stress through the step (first order at the turn, 1.00), and the step
-holding the zero crossing or the loading switch left a one-off error set by where the switch fell
-in the step (erratic ratios; a plateau after the turn at r ~ 1, where the dip of r during the
-elastic part is the whole error). ``test_reversal_error_envelope`` checks that the error no
-longer depends on where the crossing falls in its step.
+What was measured (``python3 tests/verification/test_constitutive_reference.py`` prints the table):
+the max error of ``f_t`` over the samples, relative to the peak, falls with the SQUARE of the step
+on all five paths (observed orders 2.0-2.9), the turn included: the return map splits each step at
+its elastic-to-plastic switch (the zero crossing of ``f_t`` after a reversal, the loading switch
+after a turn, where ``r`` has its minimum along the elastic trial) and rotates the flow direction
+over the step (``subfric_dolfinx.constitutive.subloading``). Before that, the radial return kept the
+direction of the trial stress through the step (first order at the turn, 1.00), and the step holding
+the zero crossing or the loading switch left a one-off error set by where the switch fell in the
+step (erratic ratios; a plateau after the turn at r ~ 1, where the dip of r during the elastic part
+is the whole error). ``test_reversal_error_envelope`` checks that the error no longer depends on
+where the crossing falls in its step.
 
 The levels are chosen in the asymptotic range, a step well below the elastic range
 ``g mu / alpha_t`` (0.36 mm for the Sec. 6 set at 1000 MPa, ~0.1 mm for Sec. 7 at 600 MPa; Sec. 7

@@ -14,7 +14,6 @@
 
 import json
 import re
-import sys
 from pathlib import Path
 
 import pytest
@@ -25,14 +24,9 @@ pytestmark = pytest.mark.serial  # reads files and git: the same on any number o
 
 
 def modules():
-    sys.path.insert(0, str(ROOT / "docs"))
-    sys.path.insert(0, str(ROOT / "report"))
-    try:
-        import readme_numbers
-        import stamp
-    finally:
-        sys.path.remove(str(ROOT / "docs"))
-        sys.path.remove(str(ROOT / "report"))
+    from docs import readme_numbers
+    from report import stamp
+
     return readme_numbers, stamp
 
 

@@ -16,9 +16,9 @@ Paths:
 * ``early``: 0.01 mm along e1 (r ~ 0.2), then 0.1 mm along e2: each step as long as the elastic
   stretch.
 
-Measured (``python3 tests/test_accuracy_paths.py`` prints the table): second order at every level
-on every path (the map before this change: 0.21 of the peak at 25 steps/mm on the reversal, erratic
-below; first order at the turns, 3.5e-2 at 100 steps/mm on the turn).
+Measured (``python3 tests/verification/test_accuracy_paths.py`` prints the table): second order at
+every level on every path (the map before this change: 0.21 of the peak at 25 steps/mm on the
+reversal, erratic below; first order at the turns, 3.5e-2 at 100 steps/mm on the turn).
 """
 
 from __future__ import annotations

@@ -222,9 +222,9 @@ def test_a_converged_state_converges_at_once():
 
 
 def ssnv503_b(pt):
-    """The SSNV503 skate (tests/test_ssnv503.py) 2 mm above its frame on 0.01 N/mm springs (two
-    lateral, one vertical), the pressure and the side load ramped together from 0."""
-    from tests import test_ssnv503 as ref
+    """The SSNV503 skate (tests/verification/test_ssnv503.py) 2 mm above its frame on 0.01 N/mm
+    springs (two lateral, one vertical), the pressure and the side load ramped together from 0."""
+    from tests.verification import test_ssnv503 as ref
 
     s = ref.scene()
     k = 0.01

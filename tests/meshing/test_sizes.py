@@ -10,7 +10,7 @@
 * The calibration refuses a fit whose driver steps would exceed its ``max_steps`` (a slip to
   1e6 mm ran until killed), before any run.
 
-SIGTERM/SIGINT during the set-up: ``tests/test_stop_signals.py`` (gmsh meshing for minutes
+SIGTERM/SIGINT during the set-up: ``tests/scenes/test_stop_signals.py`` (gmsh meshing for minutes
 stops within a second).
 """
 
@@ -81,7 +81,7 @@ def test_the_memory_check_compares_with_the_machine(monkeypatch):
 @pytest.mark.serial
 def test_the_demo_refuses_n_1e8_with_exit_2(tmp_path):
     """The command line of the issue's probe: exit 2 at once, one line naming the option."""
-    from tests.test_cli import run
+    from tests.scenes.test_cli import run
 
     cmd = [sys.executable, "demos/block_on_base.py", "--n", "100000000", "--out", str(tmp_path)]
     rc, text = run(cmd, timeout=120)

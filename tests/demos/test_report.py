@@ -14,7 +14,6 @@
 
 import json
 import subprocess
-import sys
 
 import pytest
 
@@ -25,15 +24,10 @@ pytestmark = pytest.mark.serial  # reads files and git: the same on any number o
 
 
 def report_modules():
-    sys.path.insert(0, str(REPORT))
-    try:
-        import analysis
-        import generate
-        import running
-        import stamp
-        from fe_analysis import fe_analysis
-    finally:
-        sys.path.remove(str(REPORT))
+    """The report's modules, imported when a test needs them (matplotlib and the study's code)."""
+    from report import analysis, generate, running, stamp
+    from report.fe_analysis import fe_analysis
+
     return analysis, generate, running, stamp, fe_analysis
 
 

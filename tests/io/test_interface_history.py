@@ -24,7 +24,7 @@ from subfric_dolfinx.io import OutputError
 from subfric_dolfinx.io.slabs import slab
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import hang_fails, on_root, raised_on_every_rank
-from tests.test_output import short_scene
+from tests.io.test_output import short_scene
 
 pytestmark = hang_fails()
 

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
+from tests.fem.test_multibody import P_LID, W_CAP, renamed_block, stack_builder
 from tests.helpers import everywhere, on_root, raised_on_every_rank
-from tests.test_multibody import P_LID, W_CAP, renamed_block, stack_builder
 
 COULOMB = {"law": "coulomb", "params": {"alpha_t": 1e5, "alpha_n": 1e5, "mu_c": 0.5}}
 

@@ -3,7 +3,6 @@ stress control and import isolation (bad cases are in the catalogue, tests/bad_i
 
 import json
 import math
-import pathlib
 import subprocess
 import sys
 
@@ -12,12 +11,11 @@ import pytest
 
 from subfric_dolfinx.constitutive import UNSTABLE, Status, preset
 from subfric_dolfinx.driver import RunawayError, fields, load_case, run_case
+from tests.helpers import ROOT, python_env, singleton_env
 from tests.helpers import driver_cli as cli
-from tests.helpers import python_env, singleton_env
 
 pytestmark = pytest.mark.numpy_only
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
 FIELDS = fields(preset("sec7"))
 ELASTIC, PLASTIC, SEPARATED, JUMP = (
     s.name for s in (Status.ELASTIC, Status.PLASTIC, Status.SEPARATED, Status.JUMP)
@@ -113,7 +111,7 @@ def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
     env = python_env(singleton_env())
     cmd = ["mpirun", "-n", "2", sys.executable, "-m", "subfric_dolfinx.driver", str(case_file)]
     cmd += ["--out", str(out)]
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (proc.stdout + proc.stderr).count("ok:") == 1, proc.stdout + proc.stderr
     serial = json.loads(cli(case_file).stdout)
@@ -342,7 +340,7 @@ def test_core_and_driver_import_no_fe_or_mpi_stack():
     )
     env = python_env()
     proc = subprocess.run(
-        [sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True, text=True, timeout=60
+        [sys.executable, "-c", code], cwd=ROOT, env=env, capture_output=True, text=True, timeout=60
     )
     assert proc.returncode == 0, proc.stderr
     assert "LOADED []" in proc.stdout

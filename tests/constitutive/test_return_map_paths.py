@@ -309,7 +309,7 @@ def test_no_split_where_the_plastic_part_would_start_unstable():
     than the elastic unloading), so the smallest root lies 0.018 mm away and the traction would
     drop from 17.3 to 8.3 MPa within a 1.6-ms step: no continuous branch. The split is not
     taken; the whole step's loading test decides (elastic here), alone and among 40 points; C
-    agrees too (tests/test_c_reference.py)."""
+    agrees too (tests/verification/test_c_reference.py)."""
     lit = preset("sec7-literal")
     L = lit._consts
     gap = np.array([[0.04377685, 1.1105782]])

@@ -538,7 +538,7 @@ RUN = """
 import faulthandler
 faulthandler.dump_traceback_later(100, exit=True)  # where a hang is, then exit
 from subfric_dolfinx.scenes import run_scene
-from tests.test_output import short_scene
+from tests.io.test_output import short_scene
 run_scene(short_scene(**{outputs!r}), outdir={out!r})
 print("FINISHED", flush=True)
 """
@@ -613,7 +613,7 @@ ONE_RANK_METADATA_FAULT = """
 import errno, h5py
 from mpi4py import MPI
 from subfric_dolfinx.scenes import run_scene
-from tests.test_output import short_scene
+from tests.io.test_output import short_scene
 real = h5py.Group.create_dataset
 def flaky(self, *a, **k):
     if MPI.COMM_WORLD.rank == 1:
@@ -643,7 +643,7 @@ def test_a_demo_ends_an_output_error_with_one_line_and_exit_1(shared_tmp):
     """The main demo on 2 ranks (mpirun, with a timeout): its output directory under a regular
     file, then a directory another run holds. Exit 1 (a failed output, not bad input), one
     ``error:`` line naming the directory and the reason, no traceback."""
-    from tests.test_cli import demo_cmd, run
+    from tests.scenes.test_cli import demo_cmd, run
 
     (shared_tmp / "file").write_text("not a directory")
     rc, text = run(demo_cmd("--out", shared_tmp / "file" / "run", ranks=2), timeout=150)

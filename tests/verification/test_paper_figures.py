@@ -4,7 +4,6 @@ paper describes, checked on the written CSV data."""
 import collections
 import csv
 import math
-import pathlib
 import subprocess
 import sys
 
@@ -14,12 +13,11 @@ import pytest
 from demos import paper_figures
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.logs import singleton_environment
-from tests.helpers import python_env
+from tests.helpers import ROOT, python_env
 
 pytestmark = pytest.mark.numpy_only
 
-REPO = pathlib.Path(__file__).resolve().parents[1]
-DEMO = REPO / "demos" / "paper_figures.py"
+DEMO = ROOT / "demos" / "paper_figures.py"
 FIGS = ("fig5", "fig6", "fig7", "fig8", "fig9", "fig10", "fig11")
 
 
@@ -185,13 +183,13 @@ def test_demo_command_line(tmp_path):
     env = python_env(singleton_environment())
     env["MPLBACKEND"] = "Agg"
     cmd = [sys.executable, str(DEMO), "--quick", "--only", "fig5", "--out", str(tmp_path)]
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "fig5.png").exists() and (tmp_path / "fig5.csv").exists()
     assert not (tmp_path / "fig6.png").exists()
     proc = subprocess.run(
         [sys.executable, str(DEMO), "--only", "fig12", "--out", str(tmp_path)],
-        cwd=REPO,
+        cwd=ROOT,
         env=env,
         capture_output=True,
         text=True,

@@ -1,0 +1,1 @@
+"""Tests of :mod:`subfric_dolfinx.calibrate`: calibration from measured curves."""

@@ -1,0 +1,4 @@
+"""Tests of :mod:`subfric_dolfinx.fem.interface`.
+
+Contact search, projection, segments, pairing and finite sliding.
+"""

@@ -1,0 +1,1 @@
+"""Tests of :mod:`subfric_dolfinx.io`: output files, histories, checkpoints, gathering."""
