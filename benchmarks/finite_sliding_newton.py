@@ -5,7 +5,8 @@ of the master-side transfer ``B`` with the geometry, ``dB t`` (the master's noda
 with the slave facets; ``SlidingAssembly.transfer_in_tangent``, on by default, 2-D and 3-D): the
 2-D tangent is then the residual's derivative, the 3-D one but for the frame's turn
 (``tests/fem/interface/test_finite_sliding_tangent.py``). The load stepper starts each step
-from the last one's extrapolated increment, and where the program turns (nothing to extrapolate) makes the step's
+from the last one's extrapolated increment, and where the program turns (nothing to extrapolate)
+makes the step's
 first Newton iteration frictionless (``LoadStepper(predictor=...)``, on by default). This
 benchmark prints Newton's iterations per sliding step (the slide's first step included):
 

@@ -31,7 +31,8 @@ class SlidingAssembly:
             ``dB t`` (2-D and 3-D): then the 2-D tangent is the residual's derivative, the 3-D
             one but for the frame's turn within an iteration (2e-5 of the interface's ``J v``;
             ``tests/fem/interface/test_finite_sliding_tangent.py``), and Newton converges
-            quadratically at the end of a step (without it linearly, a factor of about 5e-3 per iteration). On by
+            quadratically at the end of a step (without it linearly, a factor of about 5e-3 per
+            iteration). On by
             default: ``demos/block_sliding_far.py``'s first 10 mm, with the load stepper's
             predictor, 4.0 iterations per sliding step with it (max 5), 4.6 without (max 6);
             the 3-D diagonal slide 2 per step after the first instead of 3
