@@ -390,6 +390,7 @@ def run_one(
         events[name] = {"count": int(info["count"]), "time": seconds}
     rss = comm.gather(peak_rss_mib(), root=0)
     newton = sum(r.iterations for r in stepper.records)
+    nnz = int(solver.J.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])  # the Jacobian's
     elastic = elastic_solve(problem, solver, strategy)  # after the peak RSS of the run
     result = {
         "tag": tag_of(n, strategy, comm.size, steps, kinematics),
@@ -419,6 +420,7 @@ def run_one(
         "sections": sections,
         "events": events,
         "rss_mib": rss,
+        "nnz": nnz,
         "rss_setup_mib": comm.allreduce(rss_setup, op=MPI.MAX),
         "load": [load0[0], os.getloadavg()[0]],
         "failure": failure,
@@ -432,7 +434,8 @@ def run_one(
         print(
             f"[{result['tag']}] dofs {result['dofs']}: {result['steps']} steps, Newton {newton}, "
             f"Krylov {result['krylov']}, refreshes {result['linear']['refreshes']}, wall "
-            f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank, load {result['load'][0]:.1f}; "
+            f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank (rank 0 {rss[0]:.0f}), "
+            f"nnz {nnz}, load {result['load'][0]:.1f}; "
             f"Newton/step {result['newton_per_step']:.2f}; one linear solve "
             f"{elastic['total_s']:.2f} s (set-up {elastic['setup_s']:.2f} s, "
             f"{elastic['krylov']} Krylov), a Newton iteration costs "

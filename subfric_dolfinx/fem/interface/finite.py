@@ -62,6 +62,7 @@ from .element import _initial_gap
 from .finite_assembly import SlidingAssembly
 from .finite_points import SlidingPoints
 from .geometry import frames, quadrature_rule
+from .layout import Couplings
 from .pairing import InterfaceError
 from .projection import facet_basis, normal_projection, parametric_normal
 from .reach import ReachSearch, _near, surface_size
@@ -428,6 +429,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
                 self._transfer = transfer_matrices(
                     seg, self.projector, s.cell, s.degree, m.cell, m.degree
                 )
+                self._pattern_check(slip_too_far)
             self._Xs, self._Ym = Xs, Ym
             self.search_seconds["segments"] = time.perf_counter() - t1
         self._x_at_update = np.array(owned, copy=True)
@@ -471,9 +473,9 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.state.revert()
         self._x_at_update = None
 
-    def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, np.ndarray]:
-        """Extra ghosts, their owners, the extended index map and the pattern's element nodes."""
-        return self.extra_ghosts, self.extra_owners, self.index_map, self.element_nodes
+    def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
+        """Extra ghosts, their owners, the extended index map and the pattern's couplings."""
+        return self.extra_ghosts, self.extra_owners, self.index_map, self.couplings
 
     def destroy(self) -> None:
         """Free the PETSc vectors (safe to call more than once)."""

@@ -42,6 +42,46 @@ class SlidingAssembly:
     """
 
     transfer_in_tangent = True
+    #: Master facet pairs the tangent needed beyond the pattern (:meth:`_pattern_check`), run total
+    pattern_misses = 0
+
+    def _pattern_check(self, slid_too_far: np.ndarray) -> None:
+        """Record the master facet pairs this iterate's tangent needs beyond the pattern.
+
+        The master rows of a segment facet ``a`` of a slave facet take the columns of the
+        projection facets of its points (now and at the step's start) and of its other segment
+        facets; the pattern holds the pairs of one reach that are near each other
+        (:meth:`~.reach.ReachSearch._couple`). A pair beyond it is left out of the tangent
+        (:meth:`_point_blocks`: never a write outside the pattern), counted in
+        :attr:`pattern_misses`, and the next :meth:`begin_step` rebuilds the layout with it
+        (unless its point slid farther than the reach: that step is cut anyway).
+        """
+        from scipy import sparse
+
+        tr, nq = self._transfer, self.nq
+        if tr.slave.size == 0:
+            return
+        p = (tr.slave[:, None] * nq + np.arange(nq)[None, :]).ravel()
+        a = np.repeat(tr.master, nq)
+        live = self._found[p] & ~slid_too_far[p]
+        a_all, b_all = [a[live]], [self._facet[p][live]]
+        moved = live & (self._old_facet[p] >= 0)
+        a_all.append(a[moved])
+        b_all.append(self._old_facet[p][moved])
+        npf = max(self.pf_global.size, 1)
+        T = sparse.csr_matrix(
+            (np.ones(tr.slave.size), (tr.slave, tr.master)), shape=(self.slave.size, npf)
+        )
+        TT = (T.T @ T).tocoo()  # segment facets of one slave facet with each other
+        a_all.append(TT.row.astype(np.int64))
+        b_all.append(TT.col.astype(np.int64))
+        a, b = np.concatenate(a_all), np.concatenate(b_all)
+        bad = ~self._holds(a, b)
+        if np.any(bad):
+            g = self.pf_global
+            new = set(zip(g[a[bad]].tolist(), g[b[bad]].tolist(), strict=True)) - self._missed
+            self.pattern_misses += len(new)
+            self._missed |= new
 
     def _global_tractions(self) -> np.ndarray:
         return np.einsum("mji,mj->mi", self._Q, self.last.traction)  # Q^T f, (npts, gdim)
@@ -120,7 +160,7 @@ class SlidingAssembly:
         f_of, q_of = pts // nq, pts % nq
         cols = np.concatenate([s.nodes[f_of], self.pf_nodes[self._facet[pts]]], axis=1)
         C = np.concatenate([self.Ns[0][q_of], -self._Nm[pts]], axis=1)  # (np, nfs + nfm)
-        out = self._point_blocks(pts, cols, C, M[pts])
+        out = self._point_blocks(pts, cols, C, M[pts], self._facet[pts])
         # the convected slip's own master nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
         # besides the projection's move (in G): the master stretched between the two points
         mv = np.flatnonzero(found & (self._old_facet >= 0))
@@ -128,8 +168,9 @@ class SlidingAssembly:
             E = self._Q[mv].copy()
             E[:, self.nt, :] = 0.0
             Mt = np.einsum("mai,mab,mbj->mij", self._Q[mv], D[mv], E)
-            out += self._point_blocks(mv, self.pf_nodes[self._facet[mv]], self._Nm[mv], Mt)
-            out += self._point_blocks(mv, self.pf_nodes[self._old_facet[mv]], -self._N_old[mv], Mt)
+            fm, fo = self._facet[mv], self._old_facet[mv]
+            out += self._point_blocks(mv, self.pf_nodes[fm], self._Nm[mv], Mt, fm)
+            out += self._point_blocks(mv, self.pf_nodes[fo], -self._N_old[mv], Mt, fo)
         if self.transfer_in_tangent:  # the transfer's change with the geometry
             ps, pm, vb = transfer_tangent(
                 self._segments, self.projector,
@@ -144,13 +185,15 @@ class SlidingAssembly:
         return out
 
     def _point_blocks(
-        self, pts: np.ndarray, cols: np.ndarray, C: np.ndarray, M: np.ndarray
+        self, pts: np.ndarray, cols: np.ndarray, C: np.ndarray, M: np.ndarray, facet: np.ndarray
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Blocks of ``d t_p = M_p sum_j C_pj dX_j`` (global traction of the points ``pts``).
 
         Rows: the slave facet's nodes (``w N_k(q)``) and the master nodes of its segment pairs
-        (``-B_lq``); columns ``cols`` (np, nc) with coefficients ``C`` (np, nc); ``M`` (np, gdim,
-        gdim).
+        (``-B_lq``); columns ``cols`` (np, nc) with coefficients ``C`` (np, nc), which hold the
+        nodes of the master facet ``facet`` (np,) (and maybe the slave facet's); ``M`` (np, gdim,
+        gdim). A segment pair's master rows whose facet the pattern does not couple with
+        ``facet`` are left out (:meth:`_pattern_check`).
         """
         s, nq, gdim = self.slave, self.nq, self.gdim
         nfs, nfm = s.nodes.shape[1], self.pf_nodes.shape[1]
@@ -165,6 +208,8 @@ class SlidingAssembly:
             where[pts] = np.arange(pts.size)
             pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
             at = where[tr.slave[pair] * nq + qq]
+            held = self._holds(tr.master[pair], facet[at])
+            pair, qq, at = pair[held], qq[held], at[held]
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
             out.append(
                 (self.pf_nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol))

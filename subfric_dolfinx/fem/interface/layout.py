@@ -4,11 +4,15 @@ The displacement index map is extended with the other side's nodes as extra ghos
 :func:`~.pairing.pair_interface`): owned ranges and global numbers are unchanged, so vectors and
 matrices built on it are compatible with DOLFINx's own assembly (local indices of the original
 dofs are a prefix of the extended local indices). The sparsity pattern holds every bulk cell's
-block and every interface element's master-slave block, so that assembling the Jacobian never
+block and every interface's couplings (:class:`Couplings`: each element's nodes with each other,
+or a finite-sliding interface's rows and columns), so that assembling the Jacobian never
 allocates (checked with PETSc's malloc count in the tests).
 """
 
 from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
 
 import dolfinx
 import numpy as np
@@ -17,25 +21,68 @@ from petsc4py import PETSc
 
 from ...compat import ghosted_index_map, petsc_vector
 
-__all__ = ["ExtendedLayout", "combined_index_map"]
+__all__ = ["Couplings", "ExtendedLayout", "combined_index_map"]
+
+#: Explicit zeros set per call of :meth:`ExtendedLayout.create_matrix` (bounds its memory: 16 MiB)
+ZERO_ENTRIES = 1 << 21
+
+
+@dataclasses.dataclass(frozen=True)
+class Couplings:
+    """Node couplings of an interface in the matrix pattern (local node indices).
+
+    Attributes:
+        blocks: ``(rows, cols)`` pairs, (k, nr) and (k, nc): for every ``i`` each node of
+            ``rows[i]`` is coupled with each node of ``cols[i]`` (a node may repeat in a row).
+    """
+
+    blocks: tuple[tuple[np.ndarray, np.ndarray], ...]
+
+    @classmethod
+    def of(cls, nodes: np.ndarray | Couplings) -> Couplings:
+        """``nodes`` itself, or element nodes (nf, n): each element's nodes with each other."""
+        if isinstance(nodes, Couplings):
+            return nodes
+        nodes = np.asarray(nodes)
+        return cls(((nodes, nodes),))
+
+    @classmethod
+    def rows(cls, indptr: np.ndarray, indices: np.ndarray) -> Couplings:
+        """Row ``r`` coupled with ``indices[indptr[r]:indptr[r + 1]]`` (CSR), grouped by width."""
+        width = np.diff(indptr)
+        blocks = []
+        for w in np.unique(width[width > 0]).tolist():
+            r = np.flatnonzero(width == w)
+            cols = indices[indptr[r][:, None] + np.arange(w)[None, :]]
+            blocks.append((r[:, None].astype(np.int32), cols.astype(np.int32)))
+        return cls(tuple(blocks))
+
+    def map(self, f: Callable[[np.ndarray], np.ndarray]) -> Couplings:
+        """The same couplings with every node array mapped by ``f``."""
+        return Couplings(tuple((f(r), f(c)) for r, c in self.blocks))
+
+    @property
+    def entries(self) -> int:
+        """Node pairs of all blocks (with repetitions)."""
+        return int(sum(r.size * c.shape[1] for r, c in self.blocks))
 
 
 def combined_index_map(
     V: dolfinx.fem.FunctionSpace,
     extras: list[tuple[np.ndarray, np.ndarray]],
-    nodes: list[tuple[dolfinx.common.IndexMap, np.ndarray]],
-) -> tuple[dolfinx.common.IndexMap, list[np.ndarray]]:
-    """One index map for several interfaces, and their element nodes in its local numbering.
+    nodes: Sequence[tuple[dolfinx.common.IndexMap, np.ndarray | Couplings]],
+) -> tuple[dolfinx.common.IndexMap, list[Couplings]]:
+    """One index map for several interfaces, and their couplings in its local numbering.
 
     Args:
         V: The displacement space.
         extras: For each interface, its extra ghosts (global numbers) and their owners.
-        nodes: For each interface, its own extended index map and its element nodes (local in it).
+        nodes: For each interface, its own extended index map and its element nodes or
+            :class:`Couplings` (local in it).
 
     Returns:
         ``V``'s index map extended with the union of the extra ghosts (first appearance order),
-        and each interface's element nodes, local in it (one array per interface: widths may
-        differ between interfaces).
+        and each interface's :class:`Couplings`, local in it.
     """
     imap0 = V.dofmap.index_map
     n0 = imap0.size_local + imap0.num_ghosts
@@ -51,15 +98,17 @@ def combined_index_map(
         np.concatenate([imap0.owners, extra_o]),
     )
     sorter = np.argsort(extra_g)
-    out = []
-    for m, nd in nodes:
+
+    def remap(m: dolfinx.common.IndexMap, nd: np.ndarray) -> np.ndarray:
         nd = np.asarray(nd, dtype=np.int64)
         local = nd.copy()
         far = nd >= n0
         if np.any(far):
             g = m.local_to_global(nd[far].astype(np.int32))
             local[far] = n0 + sorter[np.searchsorted(extra_g, g, sorter=sorter)]
-        out.append(local.astype(np.int32))
+        return local.astype(np.int32)
+
+    out = [Couplings.of(nd).map(lambda a, m=m: remap(m, a)) for m, nd in nodes]
     return imap, out
 
 
@@ -69,15 +118,16 @@ class ExtendedLayout:
     Args:
         V: The displacement space.
         index_map: Its index map extended with the interface's extra ghosts.
-        element_nodes: Local (extended) node indices of each interface element, (nf, n), or one
-            such array per interface (each element's nodes are coupled with each other).
+        element_nodes: An interface's couplings, local (extended) node indices: its element nodes
+            (nf, n) (each element's nodes are coupled with each other) or :class:`Couplings`;
+            or a list of those, one per interface.
     """
 
     def __init__(
         self,
         V: dolfinx.fem.FunctionSpace,
         index_map: dolfinx.common.IndexMap,
-        element_nodes: np.ndarray | list[np.ndarray],
+        element_nodes: np.ndarray | Couplings | Sequence[np.ndarray | Couplings],
     ) -> None:
         self.V = V
         self.index_map = index_map
@@ -86,24 +136,25 @@ class ExtendedLayout:
         imap0 = V.dofmap.index_map
         self.n_owned = imap0.size_local * self.bs
         self.n_local0 = (imap0.size_local + imap0.num_ghosts) * self.bs
-        if isinstance(element_nodes, np.ndarray):
+        if isinstance(element_nodes, (np.ndarray, Couplings)):
             element_nodes = [element_nodes]
-        self.element_nodes = list(element_nodes)
+        self.couplings = [Couplings.of(nd) for nd in element_nodes]
+
+    def _blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Every ``(rows, cols)`` block of the pattern: the bulk cells' and the interfaces'."""
+        cells = np.asarray(self.V.dofmap.list)
+        return [(cells, cells)] + [b for c in self.couplings for b in c.blocks]
 
     def create_vector(self) -> PETSc.Vec:
         """A ghosted vector whose ghosts include the interface's extra ghosts."""
         return petsc_vector(self.index_map, self.bs)
 
     def sparsity(self) -> SparsityPattern:
-        """Bulk cell blocks plus interface master-slave blocks, finalised."""
+        """Bulk cell blocks plus the interfaces' couplings, finalised."""
         sp = SparsityPattern(self.comm, [self.index_map, self.index_map], [self.bs, self.bs])
-        cells = self.V.dofmap.list
-        for c in range(cells.shape[0]):
-            row = cells[c]
-            sp.insert(row, row)
-        for nodes in self.element_nodes:
-            for row in nodes:
-                sp.insert(row, row)
+        for rows, cols in self._blocks():
+            for r, c in zip(rows, cols, strict=True):
+                sp.insert(r, c)
         sp.finalize()
         return sp
 
@@ -112,17 +163,22 @@ class ExtendedLayout:
 
         The zeros fix the structure: later assemblies add into existing entries (no mallocs), and
         matrices made here share one structure (``SAME_NONZERO_PATTERN`` operations are valid).
+        They are set in chunks of at most :data:`ZERO_ENTRIES` entries.
         """
         A = dolfinx.cpp.la.petsc.create_matrix(self.comm, self.sparsity())
         A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
         bs = self.bs
-        for blocks in (self.V.dofmap.list, *self.element_nodes):
-            blocks = np.ascontiguousarray(blocks, dtype=PETSc.IntType)
-            n = blocks.shape[1] * bs if blocks.size else 0
-            for start in range(0, blocks.shape[0], 4096):
-                chunk = blocks[start : start + 4096]
-                zeros = np.zeros((chunk.shape[0], n, n), dtype=PETSc.ScalarType)
-                A.setValuesBlockedLocalRCV(chunk, chunk, zeros, addv=PETSc.InsertMode.ADD_VALUES)
+        for rows, cols in self._blocks():
+            if rows.size == 0 or cols.size == 0:
+                continue
+            rows = np.ascontiguousarray(rows, dtype=PETSc.IntType)
+            cols = np.ascontiguousarray(cols, dtype=PETSc.IntType)
+            nr, nc = rows.shape[1] * bs, cols.shape[1] * bs
+            step = max(1, ZERO_ENTRIES // (nr * nc))
+            for start in range(0, rows.shape[0], step):
+                r, c = rows[start : start + step], cols[start : start + step]
+                zeros = np.zeros((r.shape[0], nr, nc), dtype=PETSc.ScalarType)
+                A.setValuesBlockedLocalRCV(r, c, zeros, addv=PETSc.InsertMode.ADD_VALUES)
         A.assemble()
         return A

@@ -6,9 +6,11 @@ search (:func:`.search.exchange_facets`) and finds, for every slave facet, the m
 may face during the step: the candidates within the slave facet's size plus ``reach``. The
 master facets of the reach travel with their nodes' global numbers and owners, which become
 extra ghosts of the displacement's index map; the matrix pattern couples every slave facet's
-nodes with those of its reach. Both are rebuilt only when a slave facet needs a master facet
-outside its current reach (then with three times the reach, so that a sliding body rebuilds
-every couple of facets, not every step); :attr:`layout_version` counts the rebuilds.
+nodes with those of its reach, and the master facets of a reach near enough to each other to
+meet in one row of the tangent (:meth:`ReachSearch._couple`). Both are rebuilt only when a
+slave facet needs a master facet outside its current reach (then with three times the reach, so
+that a sliding body rebuilds every couple of facets, not every step); :attr:`layout_version`
+counts the rebuilds.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from petsc4py import PETSc
 
 from ...compat import ghosted_index_map, petsc_vector
 from .geometry import frames
+from .layout import Couplings
 from .projection import facet_basis
 from .search import exchange_facets, near_pairs
 from .surface import facet_measures, nodal_normals
@@ -96,7 +99,7 @@ class ReachSearch:
         need = set(zip(si.tolist(), cf[fi].tolist(), strict=True))
         need |= {(p // self.nq, f) for p, f in enumerate(self.facet_old.tolist()) if f >= 0}
         have = getattr(self, "_pattern_pairs", None)
-        rebuild = have is None or not need <= have
+        rebuild = have is None or not need <= have or bool(getattr(self, "_missed", None))
         rebuild = bool(self.comm.allreduce(rebuild, op=MPI.LOR))
         if rebuild:
             si, fi = _near(cs, rs + 3.0 * self.reach, cx, cn, self.radius)
@@ -168,18 +171,7 @@ class ReachSearch:
         self.reach_ptr = np.concatenate([[0], np.cumsum([len(b) for b in by_s])]).astype(np.int64)
         self.reach_idx = np.array([i for b in by_s for i in b], dtype=np.int64)
         self._pattern_pairs = set(pairs)
-        elems = [
-            np.unique(np.concatenate([self.slave.nodes[sf], self.pf_nodes[b].ravel()]))
-            if b
-            else self.slave.nodes[sf].astype(np.int64)
-            for sf, b in enumerate(by_s)
-        ]
-        width = max((e.size for e in elems), default=self.slave.nodes.shape[1])
-        padded = np.zeros((ns, width), dtype=np.int32)
-        for i, e in enumerate(elems):
-            padded[i, : e.size] = e
-            padded[i, e.size :] = e[0]
-        self.element_nodes = padded
+        self._couple(xs, cx[rows])
         gl = self.index_map.local_to_global
         self._global_slave = (
             gl(self.slave.nodes.ravel().astype(np.int32))
@@ -190,6 +182,76 @@ class ReachSearch:
             gl(self.pf_nodes.ravel()).reshape(self.pf_nodes.shape).astype(PETSc.IntType)
         )
         self.layout_version += 1
+
+    def _couple(self, xs: np.ndarray, Ym: np.ndarray) -> None:
+        """The pattern's node couplings (:attr:`couplings`) and master facet pairs (:meth:`_holds`).
+
+        What the tangent can write (:mod:`.finite_assembly`) while the layout stands: slave
+        rows of a facet ``s`` x its own nodes and those of the master facets its points project
+        on, now and at the step's start (both in ``s``'s reach); master rows of the facets ``a``
+        of ``s``'s segments (in the reach) x ``s``'s nodes, and x the nodes of a master facet
+        ``b`` of the reach: a projection facet of a point of ``s`` (now or at the step's start)
+        or another segment facet of ``s`` (the transfer's change with the geometry). ``a`` and
+        ``b`` then hold projections of points of ``s`` at most ``s``'s diameter apart, plus the
+        point's slip in the step (at most ``reach``, else the step fails). So the pattern couples
+        every slave facet's nodes with each other and with its reach's nodes (both ways), and
+        the nodes of the master facets ``a``, ``b`` of one reach whose bounding boxes (at the
+        rebuild) are at most ``reach + diam(s) + h`` apart (``h`` the largest facet size: the
+        deformation until the next rebuild and the turn of the normals). Not all pairs of the
+        reach (it is 3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D).
+        A pair the tangent needs beyond this (:meth:`_pattern_check`) is left out of it for
+        the step and forces a rebuild at the next step with the pair.
+        """
+        from scipy import sparse
+
+        s = self.slave
+        ns, npf = s.size, self.pf_global.size
+        n_nodes = self.index_map.size_local + self.index_map.num_ghosts
+        R = sparse.csr_matrix(
+            (np.ones(self.reach_idx.size), self.reach_idx, self.reach_ptr), shape=(ns, npf)
+        )
+        nfs, nfm = s.nodes.shape[1], self.pf_nodes.shape[1]
+        S = sparse.csr_matrix(
+            (np.ones(ns * nfs), s.nodes.ravel(), np.arange(ns + 1) * nfs), shape=(ns, n_nodes)
+        )
+        P = sparse.csr_matrix(
+            (np.ones(npf * nfm), self.pf_nodes.ravel(), np.arange(npf + 1) * nfm),
+            shape=(npf, n_nodes),
+        )
+        # master facet pairs sharing a reach, within reach + diam(s) + h (bounding boxes)
+        C = (R.T @ R).tocoo()
+        a, b = C.row.astype(np.int64), C.col.astype(np.int64)
+        lo, hi = Ym.min(axis=1), Ym.max(axis=1)
+        gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a])), axis=1)
+        cs = xs[s.nodes].mean(axis=1)
+        rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
+        diam = 2.0 * float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
+        near = gap <= self.reach + diam + self.h
+        a, b = a[near], b[near]
+        # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
+        missed = getattr(self, "_missed", set())
+        if missed:
+            fpos = {g: i for i, g in enumerate(self.pf_global.tolist())}
+            extra = [(fpos[x], fpos[y]) for x, y in missed if x in fpos and y in fpos]
+            if extra:
+                ea, eb = np.array(extra, dtype=np.int64).T
+                a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
+        self._missed = set()
+        self._pattern_keys = np.unique(a * max(npf, 1) + b)
+        A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
+        SR = S + R @ P  # each slave facet's nodes and its reach's
+        G = (S.T @ SR + (P.T @ A) @ P).tocsr()
+        G = (G + G.T).tocsr()
+        G.sum_duplicates()
+        G.sort_indices()
+        self.couplings = Couplings.rows(G.indptr, G.indices)
+
+    def _holds(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Whether the pattern couples the nodes of master facets ``a`` and ``b`` (pf indices)."""
+        keys = np.asarray(a, dtype=np.int64) * max(self.pf_global.size, 1) + b
+        k = self._pattern_keys
+        pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
+        return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
 
     def _begin_kinematics(self) -> None:
         """Each point's projection at the step's start (the last converged configuration).
