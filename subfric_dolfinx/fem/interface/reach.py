@@ -47,7 +47,14 @@ def _near(points, extent, X, Nn, radius) -> tuple[np.ndarray, np.ndarray]:
 
 
 class ReachSearch:
-    """The search part of :class:`~.finite.SlidingInterface` (the interface's attributes)."""
+    """The search part of :class:`~.finite.SlidingInterface` (the interface's attributes).
+
+    Attributes:
+        pattern_margin: The margin of the master facet pairs the pattern couples, in largest
+            facet sizes ``h`` (:meth:`_couple`).
+    """
+
+    pattern_margin = 1.0
 
     def begin_step(self) -> bool:
         """Search the master facets near the slave points at the last converged configuration.
@@ -226,7 +233,7 @@ class ReachSearch:
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
         diam = 2.0 * float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
-        near = gap <= self.reach + diam + self.h
+        near = gap <= self.reach + diam + self.pattern_margin * self.h
         a, b = a[near], b[near]
         # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
         missed = getattr(self, "_missed", set())
