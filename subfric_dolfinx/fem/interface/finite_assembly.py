@@ -178,6 +178,8 @@ class SlidingAssembly:
                 self.X0[s.nodes], s.degree, self._Ym, self.pf_normals, self.master.degree,
                 s.cell, self.master.cell,
             )  # fmt: skip
+            held = self._holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
+            ps, pm, vb = ps[held], pm[held], vb[held]
             if ps.size:
                 out.append(
                     (self.pf_nodes[pm], np.concatenate([s.nodes[ps], self.pf_nodes[pm]], 1), vb)
