@@ -421,6 +421,9 @@ def run_one(
         "events": events,
         "rss_mib": rss,
         "nnz": nnz,
+        "pattern_misses": (
+            comm.allreduce(problem.interface.pattern_misses) if finite else 0
+        ),  # tangent entries beyond the finite-sliding pattern (left out, then rebuilt)
         "rss_setup_mib": comm.allreduce(rss_setup, op=MPI.MAX),
         "load": [load0[0], os.getloadavg()[0]],
         "failure": failure,
@@ -435,7 +438,7 @@ def run_one(
             f"[{result['tag']}] dofs {result['dofs']}: {result['steps']} steps, Newton {newton}, "
             f"Krylov {result['krylov']}, refreshes {result['linear']['refreshes']}, wall "
             f"{wall:.1f} s, RSS {max(rss):.0f} MiB/rank (rank 0 {rss[0]:.0f}), "
-            f"nnz {nnz}, load {result['load'][0]:.1f}; "
+            f"nnz {nnz}, pattern misses {result['pattern_misses']}, load {result['load'][0]:.1f}; "
             f"Newton/step {result['newton_per_step']:.2f}; one linear solve "
             f"{elastic['total_s']:.2f} s (set-up {elastic['setup_s']:.2f} s, "
             f"{elastic['krylov']} Krylov), a Newton iteration costs "
