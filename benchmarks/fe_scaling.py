@@ -62,8 +62,13 @@ STRATEGIES = ("reuse", "lu", "gamg")
 
 def dofs_of(n: int) -> int:
     """Dofs of the pad on a plate with ``n`` hexahedra along the pad's side."""
-    nz = max(1, round(0.5 * n))
+    nz = layers(n)
     return 3 * ((2 * n + 1) ** 2 * (nz + 1) + (n + 1) ** 2 * (nz + 1))
+
+
+def layers(n: int) -> int:
+    """Hexahedra across the plate's and the pad's thickness (0.5 mm) for ``n`` along the pad."""
+    return max(1, round(0.5 * n))
 
 
 def program_points(steps: int) -> tuple[list[float], list[float], list[float]]:
@@ -89,6 +94,10 @@ def program_points(steps: int) -> tuple[list[float], list[float], list[float]]:
     return t, press, slide
 
 
+PLATE_SIZE = (2.0, 2.0, 0.5)
+"""The plate's extents (mm), ``meshing.build_pad_on_plate``'s and :func:`pad_apart`'s."""
+PAD_SIZE = (1.0, 1.0, 0.5)
+"""The pad's extents (mm), centred on the plate."""
 KINEMATICS = ("small_sliding", "finite_sliding")
 FINITE_ALPHA_N = 1e6
 """The normal penalty (MPa/mm) of the finite-sliding runs (as in ``demos/block_sliding_far``)."""
@@ -233,7 +242,7 @@ def build_pad(
     else:
         dom, _ = meshing.create_interface_mesh(
             meshing.build_pad_on_plate, comm, n_interface=n, cell_type="hexahedron",
-            plate_size=(2.0, 2.0, 0.5), pad_size=(1.0, 1.0, 0.5),
+            plate_size=PLATE_SIZE, pad_size=PAD_SIZE,
         )  # fmt: skip
     t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     rss_mesh = peak_rss_mib()
@@ -285,11 +294,12 @@ def pad_apart(n: int) -> Any:
 
     gmsh.model.add("pad_apart")
     occ = gmsh.model.occ
-    plate = occ.addBox(0.0, 0.0, 0.0, 2.0, 2.0, 0.5)
-    pad = occ.addBox(0.5, 0.5, 0.5, 1.0, 1.0, 0.5)
+    plate = occ.addBox(0.0, 0.0, 0.0, *PLATE_SIZE)
+    corner = [0.5 * (p - q) for p, q in zip(PLATE_SIZE[:2], PAD_SIZE[:2], strict=True)]
+    pad = occ.addBox(*corner, PLATE_SIZE[2], *PAD_SIZE)
     occ.synchronize()
-    h = 1.0 / n
-    nz = max(1, round(0.5 * n))
+    h = PAD_SIZE[0] / n
+    nz = layers(n)
     for _, t in gmsh.model.getEntities(1):
         x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(1, t)
         along_z = z1 - z0 > 1e-6
@@ -306,7 +316,8 @@ def pad_apart(n: int) -> Any:
         if z1 - z0 > 1e-6:  # (gmsh's boxes are padded by ~1e-7)
             continue
         z = 0.5 * (z0 + z1)
-        key = "bottom" if z < 1e-6 else "top" if z > 1.0 - 1e-6 else "interface"
+        top = PLATE_SIZE[2] + PAD_SIZE[2]
+        key = "bottom" if z < 1e-6 else "top" if z > top - 1e-6 else "interface"
         faces[key].append(t)
     gmsh.model.addPhysicalGroup(3, [plate], name="master")
     gmsh.model.addPhysicalGroup(3, [pad], name="slave")
