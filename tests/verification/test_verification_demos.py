@@ -7,11 +7,11 @@
   smaller too, the contact edge within a point spacing of Hertz's, the points beyond it SEPARATED
   with the gap they were given.
 * hertz with the bodies meshed apart (``--meshed-apart``: the flat's elements 2/3 of the
-  cylinder's, a finite-sliding interface), at 4 elements per half-width: the matched meshes'
-  bounds above hold (measured: fitted half-width +0.16 %, peak +0.05 %, fitted p0 +0.03 %, interior
-  error 0.68 %, RMS 1.0 %, edge 0.046 mm from Hertz's). The largest error, 2.5 % of p0 at the
-  contact's edge, is that of a matched mesh with the cylinder's interface nodes (2.9 %: the edge
-  falls next to a node; the demo's docstring has the table).
+  cylinder's, a finite-sliding interface), at 4 elements per half-width: the same accuracy as the
+  matched mesh of the same ``n``: the matched meshes' bounds above hold, and the largest error
+  over the contact and the RMS are within 1.5 times the matched mesh's (measured: 0.65 against
+  0.48 %, 0.32 against 0.29 % of p0; interior 0.57 %, fitted half-width +0.21 %, peak +0.014 %);
+  Newton at most 5 iterations a step.
 * the same boxes meshed apart with equal sizes (their interface nodes coincide): the
   finite-sliding interface gives the small-sliding one's pressures (measured 9e-5 of p0; 0.85 %
   while the segment transfer of a nodal rule was the consistent mass, not the slave's lumped one).
@@ -62,14 +62,18 @@ def test_hertz_contact_against_the_closed_form(shared_tmp):
 def test_hertz_with_the_bodies_meshed_apart(shared_tmp):
     n = 4
     argv = ["--n", str(n), "--meshed-apart", "--out", str(shared_tmp), "--no-figures", "-q"]
-    key = hertz.main(argv, MPI.COMM_WORLD).info["hertz"]
+    res = hertz.main(argv, MPI.COMM_WORLD)
+    key = res.info["hertz"]
+    _, matched = run_hertz(n, shared_tmp / "matched")
     # equilibrium; F_n is along the flat's normals, which the load tilts (measured 1.6e-5)
     assert key["P"] == pytest.approx(key["F_n"], rel=1e-4)
-    assert abs(key["err_a_fit"]) < 3e-3, key
-    assert abs(key["err_p0"]) < 2e-3 and abs(key["err_p0_fit"]) < 2e-3, key
+    assert abs(key["err_a_fit"]) < 5e-3, key
+    assert abs(key["err_p0"]) < 5e-3 and abs(key["err_p0_fit"]) < 5e-3, key
     assert key["err_p_inner"] < 1e-2, key
-    assert key["err_p_rms"] < 1.5e-2 and key["err_p_all"] < 4e-2, key
     assert abs(key["a_edge"] - key["a_H"]) < 0.5 * hertz.A_TARGET / n, key
+    for err in ("err_p_all", "err_p_rms"):
+        assert key[err] < 1.5 * matched[err], (err, key, matched)
+    assert max(r["newton"] for r in res.history) <= 5, [r["newton"] for r in res.history]
 
 
 def test_hertz_finite_sliding_on_coinciding_nodes_gives_small_sliding(shared_tmp):
