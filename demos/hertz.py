@@ -171,11 +171,10 @@ point nearest the contact's edge, set by where the edge falls between the cylind
 from the contact were capped at the flat's size, which moved its nodes near the edge: the largest
 error was then 2.5, 4.6, 5.1 % at `--n` 4, 6, 8, from the nodes alone.) The segment transfer
 gives the flat the forces the cylinder's nodes get by their nodal rule (the dual basis of mortar
-methods): with equal element sizes, whose interface nodes coincide, the finite-sliding interface gives the
-small-sliding one's pressures within 1e-4 of $p_0$
+methods): with equal element sizes, whose interface nodes coincide, the finite-sliding
+interface gives the small-sliding one's pressures within 1e-4 of $p_0$
 (`tests/verification/test_verification_demos.py`). With the flat coarser instead (`ratio` 1.5:
-the cylinder's points the finer side) the pressure
-oscillates by about 1 % of $p_0$ between neighbouring points (`--n 4`: $e_{0.8}$ = 1.1 %,
+the cylinder's points the finer side) the pressure oscillates by about 1 % of $p_0$ between neighbouring points (`--n 4`: $e_{0.8}$ = 1.1 %,
 $e_{max}$ = 2.4 %, $a$ fit +0.74 %; `--n 6`: 1.3 %, 4.0 %, +1.5 %): stiff penalty points finer
 than the master surface they are pressed on. Both converge (`--n 6` stopped at the edge while
 the transfer was the consistent mass).
