@@ -133,7 +133,8 @@ class ValidityWatch:
         # the slide matters where the pairs stay; finite sliding re-pairs as the bodies move
         self.slides_small = iface.kinematics == "small_sliding"
         self.gdim = el.gdim
-        area = el.weights.reshape(-1, el.nq).sum(axis=1)  # length (2-D), area (3-D) per facet
+        # length (2-D), area (3-D) per facet; not the axisymmetric weights' 2 pi r
+        area = el.facet_weights.reshape(-1, el.nq).sum(axis=1)
         dim = max(self.gdim - 1, 1)
         self.h = np.repeat(area ** (1.0 / dim), el.nq)  # element size at each point
         self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)

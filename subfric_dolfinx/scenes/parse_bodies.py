@@ -94,11 +94,6 @@ def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
     if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
         where = f"{path}.regions" if spec.regions else "scene.regions"
         raise SceneError(f"{where}: interface regions are not available with finite sliding")
-    if scene.mode == "axisymmetric":
-        raise SceneError(
-            f"{path}.kinematics: finite sliding is not available in axisymmetric mode (use "
-            "'small_sliding')"
-        )
 
 
 def check_topology(scene: FEScene) -> None:

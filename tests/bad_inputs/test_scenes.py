@@ -209,13 +209,6 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
             r"scene.interfaces.interface.regions: interface regions are not available with "
             r"finite sliding",
         ),
-        (
-            lambda s: s.update(
-                mode="axisymmetric", interfaces={"interface": {"kinematics": "finite_sliding"}}
-            ),
-            r"scene.interfaces.interface.kinematics: finite sliding is not available in "
-            r"axisymmetric mode",
-        ),
         # a name is a plain file name
         *[
             (lambda s, n=n: s.update(name=n), r"scene.name: must be a plain file name")

@@ -91,7 +91,9 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         quadrature: ``"gauss"`` or ``"nodal"`` on the secondary facets.
         initial_gap: An extra initial normal gap ``g0`` (mm, > 0 open), a number or a function
             of the reference coordinates of the points; the geometric gap is measured anyway.
-        mode: The modelling mode; ``"axisymmetric"`` is not supported with finite sliding.
+        mode: The modelling mode; ``"axisymmetric"``: the slave weights carry ``2 pi r`` and
+            the transfer projects the traction times ``2 pi r`` (forces are totals over the
+            circumference).
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings`.
         search_radius: The largest normal distance at which a point faces the master (mm);
             farther points are open (also where they penetrate farther: give more than the
@@ -138,11 +140,6 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.comm = V.mesh.comm
         self.timings = timings
         self.law = law
-        if mode == "axisymmetric":
-            raise InterfaceError(
-                f"interface {name!r}: finite sliding is not available in axisymmetric mode "
-                "(use 'small_sliding')"
-            )
         mesh = V.mesh
         gdim = mesh.geometry.dim
         self.gdim, self.nt, self.bs = gdim, gdim - 1, V.dofmap.bs
@@ -190,13 +187,15 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             parametric_normal(np.einsum("aqk,fkd->fqda", self.Ns[1:], Ys0)), axis=-1
         )
         self.facet_weights = jac * w[None, :]  # (ns, nq)
-        self.weights = (
-            self.facet_weights * point_weight(self.points, mode or "3d").reshape(jac.shape)
-        ).reshape(-1)
+        pw = point_weight(self.points, mode or "3d").reshape(jac.shape)  # 2 pi r, or 1
+        self.weights = (self.facet_weights * pw).reshape(-1)
         # the master forces by the segments are those the slave nodes get by the rule: the exact
-        # mass (with a nodal rule the dual basis; the rule's lumped one gave the consistent mass)
-        self.projector = l2_projector(
-            self.Ns[0], self.facet_weights, facet_mass(s.cell, degree, Ys0)
+        # mass (with a nodal rule the dual basis; the rule's lumped one gave the consistent mass).
+        # Axisymmetric: the field projected is the traction times 2 pi r at the points (the
+        # reference r, as the slave weights), whose segment integrals are the master's forces
+        self.projector = (
+            l2_projector(self.Ns[0], self.facet_weights, facet_mass(s.cell, degree, Ys0))
+            * pw[:, None, :]
         )
         npts = s.size * self.nq
         self.n_points = npts

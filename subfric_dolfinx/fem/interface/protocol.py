@@ -35,7 +35,10 @@ class LawPoints(Protocol):
         nq: Points per facet.
         n_elements: Facets (``n_elements * nq`` points).
         points: Reference coordinates of the points, reshapeable to (n, gdim).
-        weights: Integration weights, reshapeable to (n_elements, nq).
+        weights: Integration weights, reshapeable to (n_elements, nq) (times ``2 pi r`` in
+            axisymmetric mode).
+        facet_weights: The same without the axisymmetric weight: the facets' sizes, (n_elements,
+            nq).
         w_ref: The reference rule's weights, (nq,).
         state: Committed (``old``) and trial (``new``) internal variables.
         last: The return map's result at the last iterate (``None`` before the first).
@@ -54,6 +57,7 @@ class LawPoints(Protocol):
     n_elements: int
     points: np.ndarray
     weights: np.ndarray
+    facet_weights: np.ndarray
     w_ref: np.ndarray
     state: Any
     last: Any
