@@ -105,8 +105,8 @@ class ReachSearch:
         si, fi = _near(cs, rs + self.reach, cx, cn, self.radius)
         need = set(zip(si.tolist(), cf[fi].tolist(), strict=True))
         need |= {(p // self.nq, f) for p, f in enumerate(self.facet_old.tolist()) if f >= 0}
-        have = getattr(self, "_pattern_pairs", None)
-        rebuild = have is None or not need <= have or bool(getattr(self, "_missed", None))
+        have = self._pattern_pairs
+        rebuild = have is None or not need <= have or bool(self._missed)
         rebuild = bool(self.comm.allreduce(rebuild, op=MPI.LOR))
         if rebuild:
             si, fi = _near(cs, rs + 3.0 * self.reach, cx, cn, self.radius)
@@ -236,7 +236,7 @@ class ReachSearch:
         near = gap <= self.reach + diam + self.pattern_margin * self.h
         a, b = a[near], b[near]
         # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
-        missed = getattr(self, "_missed", set())
+        missed = self._missed
         if missed:
             fpos = {g: i for i, g in enumerate(self.pf_global.tolist())}
             extra = [(fpos[x], fpos[y]) for x, y in missed if x in fpos and y in fpos]
