@@ -81,11 +81,8 @@ class ReachSearch:
         Ym = xs[m.nodes]
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
-        pad = (
-            self.radius
-            + 3.0 * self.reach
-            + float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
-        )
+        rs_max = float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))  # over every rank
+        pad = self.radius + 3.0 * self.reach + rs_max
         cand = exchange_facets(
             self.comm,
             cs,
@@ -116,7 +113,7 @@ class ReachSearch:
                 for p in set(zip(si.tolist(), cf[fi].tolist(), strict=True)) | need
                 if p[1] in known
             }
-            self._build(pairs, cx, cn, cg, co, cf, xs)
+            self._build(pairs, cx, cn, cg, co, cf, 2.0 * rs_max)
         # the nodal normals of this step (held during it) on the reach's facets
         pos = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([pos.get(g, -1) for g in self.pf_global.tolist()], dtype=np.int64)
@@ -125,8 +122,12 @@ class ReachSearch:
         self._begin_kinematics()
         return rebuild
 
-    def _build(self, pairs, cx, cn, cg, co, cf, xs) -> None:
-        """Pattern, master facets of the reach and the extended ghosts (collective)."""
+    def _build(self, pairs, cx, cn, cg, co, cf, diam: float) -> None:
+        """Pattern, master facets of the reach and the extended ghosts (collective).
+
+        ``diam``: the largest slave facet diameter over every rank (twice its largest distance
+        from a node to the facet's centre) in the configuration of the search.
+        """
         ns = self.slave.size
         pf_global = np.array(sorted({f for _, f in pairs}), dtype=np.int64)
         row = {g: i for i, g in enumerate(cf.tolist())}
@@ -178,7 +179,7 @@ class ReachSearch:
         self.reach_ptr = np.concatenate([[0], np.cumsum([len(b) for b in by_s])]).astype(np.int64)
         self.reach_idx = np.array([i for b in by_s for i in b], dtype=np.int64)
         self._pattern_pairs = set(pairs)
-        self._couple(xs, cx[rows])
+        self._couple(cx[rows], diam)
         gl = self.index_map.local_to_global
         self._global_slave = (
             gl(self.slave.nodes.ravel().astype(np.int32))
@@ -190,7 +191,7 @@ class ReachSearch:
         )
         self.layout_version += 1
 
-    def _couple(self, xs: np.ndarray, Ym: np.ndarray) -> None:
+    def _couple(self, Ym: np.ndarray, diam: float) -> None:
         """The pattern's node couplings (:attr:`couplings`) and master facet pairs (:meth:`_holds`).
 
         What the tangent can write (:mod:`.finite_assembly`) while the layout stands: slave
@@ -208,6 +209,9 @@ class ReachSearch:
         reach (it is 3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D).
         A pair the tangent needs beyond this (:meth:`_pattern_check`) is left out of it for
         the step and forces a rebuild at the next step with the pair.
+
+        ``Ym``: the nodes' positions of the reach's master facets, (npf, nfd_m, gdim); ``diam``:
+        the largest slave facet diameter over every rank (:meth:`_search` reduced it already).
         """
         from scipy import sparse
 
@@ -230,9 +234,6 @@ class ReachSearch:
         a, b = C.row.astype(np.int64), C.col.astype(np.int64)
         lo, hi = Ym.min(axis=1), Ym.max(axis=1)
         gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a])), axis=1)
-        cs = xs[s.nodes].mean(axis=1)
-        rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
-        diam = 2.0 * float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
         near = gap <= self.reach + diam + self.pattern_margin * self.h
         a, b = a[near], b[near]
         # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
