@@ -189,7 +189,7 @@ class SlidingAssembly:
                 self.X0[s.nodes], s.degree, self._Ym, self.pf_normals, self.master.degree,
                 s.cell, self.master.cell,
             )  # fmt: skip
-            held = self._holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
+            held = self._self_held[pm]  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
             if ps.size:
                 out.append(

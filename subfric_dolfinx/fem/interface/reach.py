@@ -246,6 +246,8 @@ class ReachSearch:
                 a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
         self._missed = set()
         self._pattern_keys = np.unique(a * max(npf, 1) + b)
+        # each master facet with itself (the transfer's change): all unless pattern_margin < 0
+        self._self_held = self._holds(np.arange(npf), np.arange(npf))
         A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
         SR = S + R @ P  # each slave facet's nodes and its reach's
         G = (S.T @ SR + (P.T @ A) @ P).tocsr()
