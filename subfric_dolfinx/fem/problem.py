@@ -363,10 +363,12 @@ class InterfaceProblem:
                 J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            extra = {}
-            if iface.kinematics == "finite_sliding":
-                extra = {"frictionless": frictionless, "keep_contact": keep_contact}
-            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, **extra)
+            iface.assemble_jacobian(
+                J,
+                separated_stiffness=separated_stiffness,
+                frictionless=frictionless,
+                keep_contact=keep_contact,
+            )
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)
 
