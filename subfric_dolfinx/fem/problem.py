@@ -373,6 +373,11 @@ class InterfaceProblem:
         J.zeroRows(self.bc_rows, diag=1.0)
 
     @property
+    def global_dofs(self) -> int:
+        """The number of displacement dofs over all ranks (not collective: the index map's)."""
+        return self.V.dofmap.index_map.size_global * self.V.dofmap.bs
+
+    @property
     def finite_sliding(self) -> bool:
         """Whether one of the interfaces is finite-sliding."""
         return any(i.kinematics == "finite_sliding" for i in self.interfaces.values())
