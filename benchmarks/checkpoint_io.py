@@ -83,7 +83,7 @@ def main() -> None:
 
     mw, mr = peak(write), peak(restore)
     grow = rss_mib() - rss0
-    dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.index_map_bs
+    dofs = problem.global_dofs
     npts = comm.allreduce(p.shape[0])
     size = path.stat().st_size / 2**20 if comm.rank == 0 else 0.0
     rows = comm.gather((mw, mr, grow, rss_mib()), root=0)

@@ -414,7 +414,7 @@ def run_one(
         "strategy": strategy,
         "ranks": comm.size,
         "steps_program": steps,
-        "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
+        "dofs": problem.global_dofs,
         "interface_points": comm.allreduce(problem.interface.n_elements * problem.interface.nq),
         "steps": len(stepper.records),
         "newton": newton,

@@ -59,7 +59,7 @@ def main() -> None:
     )  # fmt: skip
     setup = time.perf_counter() - t0
     iface = problem.interfaces["contact"]
-    dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
+    dofs = problem.global_dofs
     rows = []
     last = [time.perf_counter()]
 

@@ -242,7 +242,7 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
             "ranks": comm.size,
             "n": n,
             "steps_program": steps,
-            "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
+            "dofs": problem.global_dofs,
             "interface_points": comm.allreduce(el.n_elements * el.nq),
             "steps": len(stepper.records),
             "newton": newton,

@@ -218,7 +218,7 @@ def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
     p = problem(domain, cycles)
     N = bolt_force(p)
     rows = []
-    dofs = p.V.dofmap.index_map.size_global * p.V.dofmap.bs
+    dofs = p.global_dofs
 
     def on_step(rec):
         s = interface_summary(p)

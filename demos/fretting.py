@@ -221,7 +221,7 @@ def run(sc: dict, comm: MPI.Comm, options: dict | None = None) -> dict:
 
     with FrictionSolver(problem, spec.solver.prefix, options or {}, linear="lu") as solver:
         LoadStepper(solver, spec.solver.dt, on_step=on_step).run()
-    dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
+    dofs = problem.global_dofs
     return {"history": rows, "snapshots": snaps, "plastic": plastic, "dofs": dofs}
 
 

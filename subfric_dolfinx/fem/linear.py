@@ -138,7 +138,7 @@ def choose_strategy(name: str, problem) -> str:
         ValueError: An unknown name (the known ones listed).
     """
     if name == "auto":
-        dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
+        dofs = problem.global_dofs
         return auto_choice(problem.gdim, dofs, problem.comm.size)
     if name not in STRATEGY_OPTIONS:
         raise ValueError(f"unknown linear strategy {name!r}; known: {['auto', *STRATEGIES]}")
@@ -220,7 +220,7 @@ class LinearStrategy:
             self.nullspace = rigid_modes(problem)
             self.P.setNearNullSpace(self.nullspace)
         if self.policy is not None:
-            dofs = problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs
+            dofs = problem.global_dofs
             self.policy["price"] = refresh_price(name, dofs)
         # counts over the solver's life
         self.refreshes = 0

@@ -363,12 +363,19 @@ class InterfaceProblem:
                 J.assemble()
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            extra = {}
-            if iface.kinematics == "finite_sliding":
-                extra = {"frictionless": frictionless, "keep_contact": keep_contact}
-            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, **extra)
+            iface.assemble_jacobian(
+                J,
+                separated_stiffness=separated_stiffness,
+                frictionless=frictionless,
+                keep_contact=keep_contact,
+            )
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)
+
+    @property
+    def global_dofs(self) -> int:
+        """The number of displacement dofs over all ranks (not collective: the index map's)."""
+        return self.V.dofmap.index_map.size_global * self.V.dofmap.bs
 
     @property
     def finite_sliding(self) -> bool:

@@ -141,7 +141,7 @@ def run_fe_scene(
     res.info = {
         "ranks": comm.size,
         "cells": domain.mesh.topology.index_map(tdim).size_global,
-        "dofs": problem.V.dofmap.index_map.size_global * problem.V.dofmap.bs,
+        "dofs": problem.global_dofs,
         "interface points": comm.allreduce(
             sum(i.law_points.n_elements * i.law_points.nq for i in problem.interfaces.values())
         ),

@@ -236,7 +236,7 @@ def test_auto_takes_the_choice_of_the_problem_size_and_communicator(comm, monkey
     """The solver's "auto" takes auto_choice of the problem's global dofs and rank count (the
     same choice on every rank); its strategy and PETSc options are then the chosen one's."""
     pad, block = pad_problem(comm, n=2), block_problem(comm)
-    dofs = pad.V.dofmap.index_map.size_global * pad.V.dofmap.bs
+    dofs = pad.global_dofs
     per_rank = -(-dofs // comm.size)  # at least dofs / ranks
     with FrictionSolver(pad, prefix("auto1")) as s:  # few dofs per rank
         assert s.strategy == "gamg" and s.snes.getKSP().getPC().getType() == "gamg"

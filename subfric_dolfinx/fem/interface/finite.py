@@ -235,6 +235,11 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             [np.full(self.imap0.size_local, self.comm.rank, np.int32), self.imap0.owners]
         )
         self._global0 = self.imap0.local_to_global(np.arange(self.n_local0, dtype=np.int32))
+        # the reach's (slave facet, master facet global number) pairs of the layout (None: no
+        # layout yet) and the master facet pairs (global numbers) a tangent needed beyond the
+        # pattern since it was built (:meth:`_pattern_check`): both read by :meth:`begin_step`
+        self._pattern_pairs: set[tuple[int, int]] | None = None
+        self._missed: set[tuple[int, int]] = set()
         self._stepped = False
         self.begin_step()
 

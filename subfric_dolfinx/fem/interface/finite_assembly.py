@@ -46,7 +46,7 @@ class SlidingAssembly:
     pattern_misses = 0
 
     def _pattern_check(self, slid_too_far: np.ndarray) -> None:
-        """Record the master facet pairs this iterate's tangent needs beyond the pattern.
+        """The pattern's hold on this iterate's segment pairs; record the pairs beyond it.
 
         The master rows of a segment facet ``a`` of a slave facet take the columns of the
         projection facets of its points (now and at the step's start) and of its other segment
@@ -55,28 +55,37 @@ class SlidingAssembly:
         (:meth:`_point_blocks`: never a write outside the pattern), counted in
         :attr:`pattern_misses`, and the next :meth:`begin_step` rebuilds the layout with it
         (unless its point slid farther than the reach: that step is cut anyway).
+
+        The membership is evaluated here once per iterate (:meth:`update`) and kept for the
+        tangent: ``_held_now`` and ``_held_old`` (nseg, nq), for every segment pair of
+        ``_transfer`` and point ``q`` of its slave facet, whether the pattern couples the pair's
+        master facet with the facet the point faces now (``_facet``) and faced at the step's
+        start (``_old_facet``), False where it faces none; :meth:`_blocks` passes them to
+        :meth:`_point_blocks`.
         """
         from scipy import sparse
 
         tr, nq = self._transfer, self.nq
-        if tr.slave.size == 0:
+        nseg = tr.slave.size
+        if nseg == 0:
+            self._held_now = self._held_old = np.zeros((0, nq), dtype=bool)
             return
         p = (tr.slave[:, None] * nq + np.arange(nq)[None, :]).ravel()
         a = np.repeat(tr.master, nq)
+        now, old = self._facet[p], self._old_facet[p]
+        held_now, held_old = np.zeros(p.size, dtype=bool), np.zeros(p.size, dtype=bool)
+        held_now[now >= 0] = self._holds(a[now >= 0], now[now >= 0])
+        held_old[old >= 0] = self._holds(a[old >= 0], old[old >= 0])
+        self._held_now, self._held_old = held_now.reshape(nseg, nq), held_old.reshape(nseg, nq)
         live = self._found[p] & ~slid_too_far[p]
-        a_all, b_all = [a[live]], [self._facet[p][live]]
-        moved = live & (self._old_facet[p] >= 0)
-        a_all.append(a[moved])
-        b_all.append(self._old_facet[p][moved])
+        moved = live & (old >= 0)
         npf = max(self.pf_global.size, 1)
-        T = sparse.csr_matrix(
-            (np.ones(tr.slave.size), (tr.slave, tr.master)), shape=(self.slave.size, npf)
-        )
+        T = sparse.csr_matrix((np.ones(nseg), (tr.slave, tr.master)), shape=(self.slave.size, npf))
         TT = (T.T @ T).tocoo()  # segment facets of one slave facet with each other
-        a_all.append(TT.row.astype(np.int64))
-        b_all.append(TT.col.astype(np.int64))
-        a, b = np.concatenate(a_all), np.concatenate(b_all)
-        bad = ~self._holds(a, b)
+        ta, tb = TT.row.astype(np.int64), TT.col.astype(np.int64)
+        a = np.concatenate([a[live], a[moved], ta])
+        b = np.concatenate([now[live], old[moved], tb])
+        bad = ~np.concatenate([held_now[live], held_old[moved], self._holds(ta, tb)])
         if np.any(bad):
             g = self.pf_global
             new = set(zip(g[a[bad]].tolist(), g[b[bad]].tolist(), strict=True)) - self._missed
@@ -160,7 +169,7 @@ class SlidingAssembly:
         f_of, q_of = pts // nq, pts % nq
         cols = np.concatenate([s.nodes[f_of], self.pf_nodes[self._facet[pts]]], axis=1)
         C = np.concatenate([self.Ns[0][q_of], -self._Nm[pts]], axis=1)  # (np, nfs + nfm)
-        out = self._point_blocks(pts, cols, C, M[pts], self._facet[pts])
+        out = self._point_blocks(pts, cols, C, M[pts], self._held_now)
         # the convected slip's own master nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
         # besides the projection's move (in G): the master stretched between the two points
         mv = np.flatnonzero(found & (self._old_facet >= 0))
@@ -169,8 +178,10 @@ class SlidingAssembly:
             E[:, self.nt, :] = 0.0
             Mt = np.einsum("mai,mab,mbj->mij", self._Q[mv], D[mv], E)
             fm, fo = self._facet[mv], self._old_facet[mv]
-            out += self._point_blocks(mv, self.pf_nodes[fm], self._Nm[mv], Mt, fm)
-            out += self._point_blocks(mv, self.pf_nodes[fo], -self._N_old[mv], Mt, fo)
+            out += self._point_blocks(mv, self.pf_nodes[fm], self._Nm[mv], Mt, self._held_now)
+            out += self._point_blocks(
+                mv, self.pf_nodes[fo], -self._N_old[mv], Mt, self._held_old
+            )
         if self.transfer_in_tangent:  # the transfer's change with the geometry
             ps, pm, vb = transfer_tangent(
                 self._segments, self.projector,
@@ -178,7 +189,7 @@ class SlidingAssembly:
                 self.X0[s.nodes], s.degree, self._Ym, self.pf_normals, self.master.degree,
                 s.cell, self.master.cell,
             )  # fmt: skip
-            held = self._holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
+            held = self._self_held[pm]  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
             if ps.size:
                 out.append(
@@ -187,15 +198,17 @@ class SlidingAssembly:
         return out
 
     def _point_blocks(
-        self, pts: np.ndarray, cols: np.ndarray, C: np.ndarray, M: np.ndarray, facet: np.ndarray
+        self, pts: np.ndarray, cols: np.ndarray, C: np.ndarray, M: np.ndarray, held: np.ndarray
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """Blocks of ``d t_p = M_p sum_j C_pj dX_j`` (global traction of the points ``pts``).
 
         Rows: the slave facet's nodes (``w N_k(q)``) and the master nodes of its segment pairs
         (``-B_lq``); columns ``cols`` (np, nc) with coefficients ``C`` (np, nc), which hold the
-        nodes of the master facet ``facet`` (np,) (and maybe the slave facet's); ``M`` (np, gdim,
-        gdim). A segment pair's master rows whose facet the pattern does not couple with
-        ``facet`` are left out (:meth:`_pattern_check`).
+        nodes of one master facet per point (and maybe the slave facet's); ``M`` (np, gdim,
+        gdim). ``held`` (nseg, nq): whether the pattern couples each segment pair's master facet
+        with the master facet of point ``q``'s columns (``_held_now`` for the facet it faces,
+        ``_held_old`` for the one it faced at the step's start: :meth:`_pattern_check`); a
+        segment pair's master rows where it does not are left out.
         """
         s, nq, gdim = self.slave, self.nq, self.gdim
         nfs, nfm = s.nodes.shape[1], self.pf_nodes.shape[1]
@@ -210,8 +223,8 @@ class SlidingAssembly:
             where[pts] = np.arange(pts.size)
             pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
             at = where[tr.slave[pair] * nq + qq]
-            held = self._holds(tr.master[pair], facet[at])
-            pair, qq, at = pair[held], qq[held], at[held]
+            keep = held[pair, qq]
+            pair, qq, at = pair[keep], qq[keep], at[keep]
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
             out.append(
                 (self.pf_nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol))

@@ -316,6 +316,8 @@ class FrictionInterface:
         *,
         bcs: Sequence[Any] | None = None,
         separated_stiffness: float = 0.0,
+        frictionless: bool = False,
+        keep_contact: bool = False,
     ) -> None:
         """Add the consistent tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
@@ -323,7 +325,11 @@ class FrictionInterface:
         columns of constrained dofs are left out (their diagonal is the bulk assembly's).
         ``separated_stiffness``: in this Jacobian only, points without stiffness (separated beyond
         the contact band, failed) get this fraction of the law's contact stiffness
-        (:func:`stiffen_separated`); 0: the exact tangent.
+        (:func:`stiffen_separated`); 0: the exact tangent. ``frictionless`` and
+        ``keep_contact`` are ignored: the finite-sliding interface's first-iteration tangents
+        (:meth:`~.finite.SlidingInterface.assemble_jacobian`), taken here so that every kind of
+        interface is called the same way (:class:`~.protocol.InterfaceKind`); a small-sliding
+        interface's tangent is the same with them.
         """
         from ..timing import TIMER_INTERFACE
 

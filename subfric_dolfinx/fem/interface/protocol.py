@@ -10,16 +10,19 @@ kind:
   :class:`~.element.InterfaceElements` (the master facets' points); a finite-sliding
   :class:`~.finite.SlidingInterface` gives itself (the slave facets' points, its facets in the
   order of the cells of its :attr:`~LawPoints.submesh`).
-* :class:`InterfaceKind`: the interface itself, with :attr:`~InterfaceKind.law_points` and
-  :meth:`~InterfaceKind.resume` (after a restart put back the displacement and the state).
+* :class:`InterfaceKind`: the interface itself, with :attr:`~InterfaceKind.law_points`,
+  :meth:`~InterfaceKind.resume` (after a restart put back the displacement and the state) and
+  :meth:`~InterfaceKind.assemble_jacobian`, which
+  :meth:`~subfric_dolfinx.fem.InterfaceProblem.jacobian` calls the same way for every kind.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
+from petsc4py import PETSc
 
 __all__ = ["InterfaceKind", "LawPoints"]
 
@@ -103,4 +106,33 @@ class InterfaceKind(Protocol):
 
     def resume(self, x: np.ndarray) -> None:
         """Continue from the owned displacement ``x`` with the committed state in place."""
+        ...
+
+    def assemble_jacobian(
+        self,
+        A: PETSc.Mat,
+        x: PETSc.Vec | None = None,
+        *,
+        bcs: Sequence[Any] | None = None,
+        separated_stiffness: float = 0.0,
+        frictionless: bool = False,
+        keep_contact: bool = False,
+    ) -> None:
+        """Add the interface's tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
+
+        Every kind takes every keyword; a kind that has no use for one ignores it.
+
+        Args:
+            A: A matrix with the interface's couplings in its pattern.
+            x: The displacement (owned values); ``None``: the last iterate's.
+            bcs: DOLFINx Dirichlet conditions: the rows and columns of their dofs are left out.
+            separated_stiffness: In this Jacobian only, points without stiffness (separated,
+                failed) get this fraction of the law's contact stiffness; 0: the exact tangent.
+            frictionless: In this Jacobian only, the law's tangent keeps its normal stiffness
+                alone (finite sliding, the first iteration where the loading program turns);
+                small sliding ignores it.
+            keep_contact: In this Jacobian only, points open here that were in contact at the
+                step's start keep their normal stiffness there (finite sliding, the first
+                iteration of a step); small sliding ignores it.
+        """
         ...

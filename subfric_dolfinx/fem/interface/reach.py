@@ -81,11 +81,8 @@ class ReachSearch:
         Ym = xs[m.nodes]
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
-        pad = (
-            self.radius
-            + 3.0 * self.reach
-            + float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
-        )
+        rs_max = float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))  # over every rank
+        pad = self.radius + 3.0 * self.reach + rs_max
         cand = exchange_facets(
             self.comm,
             cs,
@@ -105,8 +102,8 @@ class ReachSearch:
         si, fi = _near(cs, rs + self.reach, cx, cn, self.radius)
         need = set(zip(si.tolist(), cf[fi].tolist(), strict=True))
         need |= {(p // self.nq, f) for p, f in enumerate(self.facet_old.tolist()) if f >= 0}
-        have = getattr(self, "_pattern_pairs", None)
-        rebuild = have is None or not need <= have or bool(getattr(self, "_missed", None))
+        have = self._pattern_pairs
+        rebuild = have is None or not need <= have or bool(self._missed)
         rebuild = bool(self.comm.allreduce(rebuild, op=MPI.LOR))
         if rebuild:
             si, fi = _near(cs, rs + 3.0 * self.reach, cx, cn, self.radius)
@@ -116,7 +113,7 @@ class ReachSearch:
                 for p in set(zip(si.tolist(), cf[fi].tolist(), strict=True)) | need
                 if p[1] in known
             }
-            self._build(pairs, cx, cn, cg, co, cf, xs)
+            self._build(pairs, cx, cn, cg, co, cf, 2.0 * rs_max)
         # the nodal normals of this step (held during it) on the reach's facets
         pos = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([pos.get(g, -1) for g in self.pf_global.tolist()], dtype=np.int64)
@@ -125,8 +122,12 @@ class ReachSearch:
         self._begin_kinematics()
         return rebuild
 
-    def _build(self, pairs, cx, cn, cg, co, cf, xs) -> None:
-        """Pattern, master facets of the reach and the extended ghosts (collective)."""
+    def _build(self, pairs, cx, cn, cg, co, cf, diam: float) -> None:
+        """Pattern, master facets of the reach and the extended ghosts (collective).
+
+        ``diam``: the largest slave facet diameter over every rank (twice its largest distance
+        from a node to the facet's centre) in the configuration of the search.
+        """
         ns = self.slave.size
         pf_global = np.array(sorted({f for _, f in pairs}), dtype=np.int64)
         row = {g: i for i, g in enumerate(cf.tolist())}
@@ -178,7 +179,7 @@ class ReachSearch:
         self.reach_ptr = np.concatenate([[0], np.cumsum([len(b) for b in by_s])]).astype(np.int64)
         self.reach_idx = np.array([i for b in by_s for i in b], dtype=np.int64)
         self._pattern_pairs = set(pairs)
-        self._couple(xs, cx[rows])
+        self._couple(cx[rows], diam)
         gl = self.index_map.local_to_global
         self._global_slave = (
             gl(self.slave.nodes.ravel().astype(np.int32))
@@ -190,7 +191,7 @@ class ReachSearch:
         )
         self.layout_version += 1
 
-    def _couple(self, xs: np.ndarray, Ym: np.ndarray) -> None:
+    def _couple(self, Ym: np.ndarray, diam: float) -> None:
         """The pattern's node couplings (:attr:`couplings`) and master facet pairs (:meth:`_holds`).
 
         What the tangent can write (:mod:`.finite_assembly`) while the layout stands: slave
@@ -208,6 +209,9 @@ class ReachSearch:
         reach (it is 3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D).
         A pair the tangent needs beyond this (:meth:`_pattern_check`) is left out of it for
         the step and forces a rebuild at the next step with the pair.
+
+        ``Ym``: the nodes' positions of the reach's master facets, (npf, nfd_m, gdim); ``diam``:
+        the largest slave facet diameter over every rank (:meth:`_search` reduced it already).
         """
         from scipy import sparse
 
@@ -230,13 +234,10 @@ class ReachSearch:
         a, b = C.row.astype(np.int64), C.col.astype(np.int64)
         lo, hi = Ym.min(axis=1), Ym.max(axis=1)
         gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a])), axis=1)
-        cs = xs[s.nodes].mean(axis=1)
-        rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
-        diam = 2.0 * float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))
         near = gap <= self.reach + diam + self.pattern_margin * self.h
         a, b = a[near], b[near]
         # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
-        missed = getattr(self, "_missed", set())
+        missed = self._missed
         if missed:
             fpos = {g: i for i, g in enumerate(self.pf_global.tolist())}
             extra = [(fpos[x], fpos[y]) for x, y in missed if x in fpos and y in fpos]
@@ -245,6 +246,8 @@ class ReachSearch:
                 a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
         self._missed = set()
         self._pattern_keys = np.unique(a * max(npf, 1) + b)
+        # each master facet with itself (the transfer's change): all unless pattern_margin < 0
+        self._self_held = self._holds(np.arange(npf), np.arange(npf))
         A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
         SR = S + R @ P  # each slave facet's nodes and its reach's
         G = (S.T @ SR + (P.T @ A) @ P).tocsr()
