@@ -8,19 +8,25 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
     In 3-D, ``"reuse"`` for a problem of :data:`AUTO_REUSE_DOFS_PER_RANK` dofs per rank or more
     and fewer than :data:`AUTO_GAMG_DOFS` dofs in all, ``"gamg"`` otherwise (smaller per rank
     or larger in all); in 2-D ``"reuse"`` at every size (:func:`auto_choice`). Measured on the
-    3-D pad, 1 and 2 ranks, with the load stepper's predictor (``report/fe_scaling.md``, 24
-    steps): below ~20k dofs per rank MUMPS's fixed costs (analysis, and on several ranks its
-    communicating triangular solves) outweigh GAMG's cheap set-up (2 ranks: 5.5k, 16.7k, 37k
-    dofs: GAMG 1.37, 1.32, 1.20 times faster; 1 rank: 1.23 and 1.05 at 5.5k and 16.7k); from
-    ~25k dofs per rank the reused factor's 1-2 GMRES iterations a Newton win (1 rank 37k, 70k:
-    1.29, 1.10 times faster; 2 ranks 70k: 1.11); from ~100k dofs in all the factor's fill and
-    set-up grow faster than GAMG's (118k dofs, 2 ranks: GAMG 1.44 times faster; 184k dofs, 100
-    steps: 117 s against 176 s, 0.8 GiB per rank against 4.5), and only ``"gamg"`` reaches 1M
-    dofs in this machine's memory. In 2-D a factorisation grows nearly linearly with the size
-    (nested dissection fill ``N log N``): ``"reuse"`` at every size. A 3-D problem between
-    ``AUTO_REUSE_DOFS_PER_RANK`` and twice that may so take ``"reuse"`` on 1 rank and
-    ``"gamg"`` on 2: both are Newton on the same Jacobian, their results agree to Newton's
-    tolerance (not to round-off); name the strategy to have the same one everywhere.
+    3-D pad, 1 and 2 ranks, with the load stepper's predictor, 24 steps, on a quiet machine
+    (``benchmarks/fe_scaling.py --sizes 10 12 14 16 18 20 22 --strategies reuse gamg --out DIR
+    --report DIR``; the campaign of ``report/fe_scaling.md`` ran at a load of 6-9
+    on 2 cores, where a rule drawn from it, ``"reuse"`` from 25k dofs per rank to 100k, was
+    1.21, 1.22 and 1.48 times slower than GAMG at 52k dofs on 2 ranks and 92k on 1 and 2 when
+    checked quietly at sizes it had not seen): below ~30k dofs per rank MUMPS's fixed costs
+    (analysis, and on several ranks its communicating triangular solves) outweigh GAMG's cheap
+    set-up (1 rank 10k, 16.7k, 25.6k dofs: GAMG 1.09, 1.05, 1.08 times faster; 2 ranks 10k to
+    52k: 1.10 to 1.25); at 30k-35k dofs per rank the reused factor's 1-2 GMRES iterations a
+    Newton win or tie (1 rank 37k: 1.16 times faster, 52k and 70k: 1.00 and 0.98 times as fast;
+    2 ranks 70k: 0.98); from ~75k dofs in all the factor's fill and set-up grow faster than
+    GAMG's (92k: GAMG 1.22 and 1.48 times faster on 1 and 2 ranks; 184k dofs, 100 steps: 117 s
+    against 176 s, 0.8 GiB per rank against 4.5), and only ``"gamg"`` reaches 1M dofs in this
+    machine's memory.
+    In 2-D a factorisation grows nearly linearly with the size (nested dissection fill
+    ``N log N``): ``"reuse"`` at every size. A 3-D problem between ``AUTO_REUSE_DOFS_PER_RANK``
+    and twice that takes ``"reuse"`` on 1 rank and ``"gamg"`` on 2: both are Newton on the same
+    Jacobian, their results agree to Newton's tolerance (not to round-off); name the strategy to
+    have the same one everywhere.
 
 ``"reuse"``
     GMRES (right preconditioning, so its residual is the true one) on ``J``, preconditioned by
@@ -108,9 +114,9 @@ STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
 """PETSc options of each strategy (defaults: the database and the solver's options win)."""
 STRATEGIES = tuple(STRATEGY_OPTIONS)
 """The strategies; ``"auto"`` (:func:`choose_strategy`) stands for one of them."""
-AUTO_GAMG_DOFS = 100_000
+AUTO_GAMG_DOFS = 75_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of at least this many dofs (module docstring)."""
-AUTO_REUSE_DOFS_PER_RANK = 25_000
+AUTO_REUSE_DOFS_PER_RANK = 30_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of fewer dofs than this per rank (docstring)."""
 
 

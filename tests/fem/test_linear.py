@@ -227,9 +227,12 @@ def test_auto_choice_by_size_and_dofs_per_rank():
         assert linear_module.auto_choice(3, large, ranks) == "gamg"
         for dofs in (10, per_rank * ranks, large, 10 * large):
             assert linear_module.auto_choice(2, dofs, ranks) == "reuse"
-    assert linear_module.auto_choice(3, 37_206, 1) == "reuse"  # the campaign's sizes
+    assert linear_module.auto_choice(3, 37_206, 1) == "reuse"  # the campaigns' sizes
     assert linear_module.auto_choice(3, 37_206, 2) == "gamg"
+    assert linear_module.auto_choice(3, 51_900, 2) == "gamg"
     assert linear_module.auto_choice(3, 70_026, 2) == "reuse"
+    assert linear_module.auto_choice(3, 25_584, 1) == "gamg"
+    assert linear_module.auto_choice(3, 91_944, 1) == "gamg"
 
 
 def test_auto_takes_the_choice_of_the_problem_size_and_communicator(comm, monkeypatch):
