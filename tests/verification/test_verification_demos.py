@@ -11,7 +11,7 @@
   matched mesh of the same ``n``: the matched meshes' bounds above hold, and the largest error
   over the contact and the RMS are within 1.5 times the matched mesh's (measured: 0.65 against
   0.48 %, 0.32 against 0.29 % of p0; interior 0.57 %, fitted half-width +0.21 %, peak +0.014 %);
-  Newton at most 5 iterations a step.
+  Newton at most 5 iterations a step after the first (the first touch: 5 or 7 by the stack).
 * the same boxes meshed apart with equal sizes (their interface nodes coincide): the
   finite-sliding interface gives the small-sliding one's pressures (measured 9e-5 of p0; 0.85 %
   while the segment transfer of a nodal rule was the consistent mass, not the slave's lumped one).
@@ -73,7 +73,11 @@ def test_hertz_with_the_bodies_meshed_apart(shared_tmp):
     assert abs(key["a_edge"] - key["a_H"]) < 0.5 * hertz.A_TARGET / n, key
     for err in ("err_p_all", "err_p_rms"):
         assert key[err] < 1.5 * matched[err], (err, key, matched)
-    assert max(r["newton"] for r in res.history) <= 5, [r["newton"] for r in res.history]
+    # Newton: at most 5 a step, but the first, where the contact closes from nothing (no
+    # increment to extrapolate): 5 with trixie's stack, 7 with sid's (the same mesh; 7 whatever
+    # the step, 10, 16 or 20 steps; the matched mesh at --n 8 takes 7 there too)
+    newton = [r["newton"] for r in res.history]
+    assert newton[0] <= 7 and max(newton[1:]) <= 5, newton
 
 
 def test_hertz_finite_sliding_on_coinciding_nodes_gives_small_sliding(shared_tmp):
