@@ -56,6 +56,24 @@ def gather(comm, a):
     return np.concatenate(comm.allgather(np.asarray(a)))
 
 
+def pressed_patch(comm, cell, degree, n_base, n_block, p, mode=None):
+    """The base and the block meshed apart (``n_base`` : ``n_block``), a finite-sliding interface,
+    pressed by ``p`` on top in two steps; the problem, the step records, the gathered tractions."""
+    dom = tagged_blocks(comm, n_base=n_base, n_block=n_block, cell=cell, split_x=0.5)
+    problem = InterfaceProblem(
+        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("bottom", 0.0, 1), Dirichlet("base_left", 0.0, 0),
+         Dirichlet("block_left", 0.0, 0)],
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
+        degree=degree, mode=mode,
+    )  # fmt: skip
+    with FrictionSolver(problem, linear="lu") as solver:
+        records = LoadStepper(solver, 0.5).run()
+    return problem, records, gather(comm, problem.interfaces["contact"].last.traction)
+
+
 @pytest.mark.parametrize(
     "cell, degree, n_base, n_block",
     [
@@ -67,22 +85,10 @@ def gather(comm, a):
     ],
 )
 def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree, n_base, n_block):
-    dom = tagged_blocks(comm, n_base=n_base, n_block=n_block, cell=cell, split_x=0.5)
     p = 100.0
-    problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
-        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
-        [Dirichlet("bottom", 0.0, 1), Dirichlet("base_left", 0.0, 0),
-         Dirichlet("block_left", 0.0, 0)],
-        [Pressure("top", p, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
-        degree=degree,
-    )  # fmt: skip
+    problem, records, tr = pressed_patch(comm, cell, degree, n_base, n_block, p)
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)
-    with FrictionSolver(problem, linear="lu") as solver:
-        records = LoadStepper(solver, 0.5).run()
-    tr = gather(comm, iface.last.traction)
     assert tr.shape[0] == n_block[0] * iface.nq  # every slave point, once over the ranks
     checks = {
         "f_n": np.abs(tr[:, 1] / p - 1.0).max() < 1e-6,
@@ -104,21 +110,8 @@ def test_axisymmetric_nonmatching_patch_test(comm, cell, degree, n_base, n_block
     exactly where the traction times ``2 pi r`` is projected (the slave's weights): the pressure
     uniform to 1e-6 although ``r`` varies along the interface, the bottom's reaction
     ``p pi R^2``."""
-    dom = tagged_blocks(comm, n_base=n_base, n_block=n_block, cell=cell, split_x=0.5)
     p = 100.0
-    problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
-        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
-        [Dirichlet("bottom", 0.0, 1), Dirichlet("base_left", 0.0, 0),
-         Dirichlet("block_left", 0.0, 0)],
-        [Pressure("top", p, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
-        degree=degree, mode="axisymmetric",
-    )  # fmt: skip
-    iface = problem.interfaces["contact"]
-    with FrictionSolver(problem, linear="lu") as solver:
-        records = LoadStepper(solver, 0.5).run()
-    tr = gather(comm, iface.last.traction)
+    problem, records, tr = pressed_patch(comm, cell, degree, n_base, n_block, p, "axisymmetric")
     watch = ValidityWatch(problem)  # the element sizes are the facets', not times 2 pi r
     checks = {
         "f_n": np.abs(tr[:, 1] / p - 1.0).max() < 1e-6,
