@@ -131,9 +131,11 @@ def compare(old: Path, new: Path, tol: float) -> int:
         worst = max(cols, key=lambda c: c[1], default=("-", 0.0, 0.0))
         own = max(cols, key=lambda c: c[2], default=("-", 0.0, 0.0))
         over = [f"{c} {d:.1e}" for c, d, _ in cols if d > tol]
-        print(f"{rel}: {len(cols)} columns; largest difference {worst[1]:.1e} of its quantity's "
-              f"peak ({worst[0]}), {own[2]:.1e} of its own ({own[0]})"
-              + (f"; above {tol:g}: {', '.join(over)}" if over else ""))  # fmt: skip
+        print(
+            f"{rel}: {len(cols)} columns; largest difference {worst[1]:.1e} of its quantity's "
+            f"peak ({worst[0]}), {own[2]:.1e} of its own ({own[0]})"
+            + (f"; above {tol:g}: {', '.join(over)}" if over else "")
+        )
         bad += bool(over)
     return int(bad > 0)
 

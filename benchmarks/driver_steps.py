@@ -135,8 +135,10 @@ def main() -> None:
         a = best_call(lambda g=gap, s=radial, d=dt: OLD.return_map(g, s, d))
         b = best_call(lambda g=gap, s=full, d=dt: P.return_map(g, s, d))
         r = P.return_map(gap, full, dt)
-        print(f"   {name:20s} {1e6 * a:9.1f} {1e6 * b:8.1f}  "
-              f"{int(r.status[0])}/{int(r.iterations[0])}")  # fmt: skip
+        print(
+            f"   {name:20s} {1e6 * a:9.1f} {1e6 * b:8.1f}  "
+            f"{int(r.status[0])}/{int(r.iterations[0])}"
+        )
 
     print("\n2. driver, us per step (thread CPU time, best of 5):")
     for key, (rows, nt, spm) in PATHS.items():
@@ -160,16 +162,20 @@ def main() -> None:
     one = timed(lambda: run_case(cases[0]))
     seq = timed(lambda: [run_case(c) for c in cases])
     bat = timed(lambda: run_cases(cases))
-    print(f"   Fig. 10, six curves of {run_case(cases[0]).n_steps} steps: one curve {one:.3f} s, "
-          f"six one by one {seq:.3f} s, six together {bat:.3f} s "
-          f"(speed-up {seq / bat:.2f}; {bat / one:.2f} times one curve)")  # fmt: skip
+    print(
+        f"   Fig. 10, six curves of {run_case(cases[0]).n_steps} steps: one curve {one:.3f} s, "
+        f"six one by one {seq:.3f} s, six together {bat:.3f} s "
+        f"(speed-up {seq / bat:.2f}; {bat / one:.2f} times one curve)"
+    )
     for n in (30, 100) + (() if args.quick else (1000,)):
         cs = [fig10(fn, 10.0) for fn in np.linspace(50.0, 700.0, n)]
         k = min(n, 30)
         per = timed(lambda cs=cs, k=k: [run_case(c) for c in cs[:k]]) / k
         bat = timed(lambda cs=cs: run_cases(cs))
-        print(f"   {n:5d} cases of {run_case(cs[0]).n_steps} steps: one by one {per * n:.2f} s "
-              f"(from {k}), together {bat:.2f} s, speed-up {per * n / bat:.1f}")  # fmt: skip
+        print(
+            f"   {n:5d} cases of {run_case(cs[0]).n_steps} steps: one by one {per * n:.2f} s "
+            f"(from {k}), together {bat:.2f} s, speed-up {per * n / bat:.1f}"
+        )
     per_point()
 
 
@@ -196,8 +202,11 @@ def per_point() -> None:
     sizes = (1, 8, 64, 512, 4096, 100_000)
     print("\n5. one call on N points (us per call / us per point, thread CPU time):")
     print("   " + f"{'':22s}" + "".join(f"{n:>17d}" for n in sizes))
-    for name, nt, delta in (("elastic", 1, -0.0005), ("plastic 1-D", 1, 0.002),
-                            ("plastic 2-D turn", 2, 0.002)):  # fmt: skip
+    for name, nt, delta in (
+        ("elastic", 1, -0.0005),
+        ("plastic 1-D", 1, 0.002),
+        ("plastic 2-D turn", 2, 0.002),
+    ):
         cells = []
         for n in sizes:
             a = path_costs(n, nt, delta)

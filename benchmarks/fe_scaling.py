@@ -178,8 +178,14 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
                 obj.destroy()
     setup = comm.allreduce(t1 - t0, op=MPI.MAX)
     solve = comm.allreduce(t2 - t1, op=MPI.MAX)
-    return {"setup_s": setup, "solve_s": solve, "total_s": setup + solve, "krylov": its,
-            "reason": reason, "error": error}  # fmt: skip
+    return {
+        "setup_s": setup,
+        "solve_s": solve,
+        "total_s": setup + solve,
+        "krylov": its,
+        "reason": reason,
+        "error": error,
+    }
 
 
 @dataclasses.dataclass
@@ -241,9 +247,13 @@ def build_pad(
         )
     else:
         dom, _ = meshing.create_interface_mesh(
-            meshing.build_pad_on_plate, comm, n_interface=n, cell_type="hexahedron",
-            plate_size=PLATE_SIZE, pad_size=PAD_SIZE,
-        )  # fmt: skip
+            meshing.build_pad_on_plate,
+            comm,
+            n_interface=n,
+            cell_type="hexahedron",
+            plate_size=PLATE_SIZE,
+            pad_size=PAD_SIZE,
+        )
     t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     rss_mesh = peak_rss_mib()
     t, press, slide = program_points(steps)
@@ -270,9 +280,14 @@ def build_pad(
         law = dataclasses.replace(law, alpha_n=alpha_n)
     t1 = time.perf_counter()
     problem = InterfaceProblem(
-        dom, law, mats, prog, bcs, [Pressure("top", 300.0, "press")],
+        dom,
+        law,
+        mats,
+        prog,
+        bcs,
+        [Pressure("top", 300.0, "press")],
         interfaces=interfaces,
-    )  # fmt: skip
+    )
     solver = FrictionSolver(problem, "fs_", linear=strategy)
     t_problem = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
     return PadRun(problem, solver, t_mesh, t_problem, rss_mesh)
@@ -454,9 +469,13 @@ def run_one(
             f"{elastic['total_s']:.2f} s (set-up {elastic['setup_s']:.2f} s, "
             f"{elastic['krylov']} Krylov), a Newton iteration costs "
             f"{result['per_newton_vs_elastic']:.2f} of it"
-            + (f"; contact search {contact[TIMER_SEARCH]:.2f} s + projection "
-               f"{contact[TIMER_PROJECTION]:.2f} s = {100 * result['search_share']:.1f} % of "
-               f"the wall time (reach {reach:.3g} mm)" if finite else "")
+            + (
+                f"; contact search {contact[TIMER_SEARCH]:.2f} s + projection "
+                f"{contact[TIMER_PROJECTION]:.2f} s = {100 * result['search_share']:.1f} % of "
+                f"the wall time (reach {reach:.3g} mm)"
+                if finite
+                else ""
+            )
             + (f", FAILED: {failure}" if failure else "")
             + (f", {stopped[0]}" if stopped[0] else ""),
             flush=True,
@@ -468,16 +487,41 @@ def run_one(
 
 
 def launch(
-    n, strategy, ranks, steps, time_limit, out, force=False, predictor=True,
-    kinematics="small_sliding", reach=None,
-) -> dict | None:  # fmt: skip
+    n,
+    strategy,
+    ranks,
+    steps,
+    time_limit,
+    out,
+    force=False,
+    predictor=True,
+    kinematics="small_sliding",
+    reach=None,
+) -> dict | None:
     path = out / f"{tag_of(n, strategy, ranks, steps, kinematics)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
-    cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--n", str(n),
-           "--strategy", strategy, "--steps", str(steps), "--time-limit", str(time_limit),
-           "--out", str(out), "--kinematics", kinematics]  # fmt: skip
+    cmd = [
+        "mpirun",
+        "-n",
+        str(ranks),
+        sys.executable,
+        __file__,
+        "--one",
+        "--n",
+        str(n),
+        "--strategy",
+        strategy,
+        "--steps",
+        str(steps),
+        "--time-limit",
+        str(time_limit),
+        "--out",
+        str(out),
+        "--kinematics",
+        kinematics,
+    ]
     cmd += [] if predictor else ["--no-predictor"]
     cmd += [] if reach is None else ["--reach", str(reach)]
     from subfric_dolfinx.logs import singleton_environment
@@ -513,13 +557,43 @@ def fit_exponent(x, y) -> float:
 
 
 COLUMNS = [
-    "strategy", "ranks", "steps_program", "n", "dofs", "interface_points", "steps", "newton",
-    "newton_per_step", "krylov", "krylov_per_newton", "refreshes", "cuts", "wall_s",
-    "s_per_newton", "elastic_s", "elastic_setup_s", "per_newton_vs_elastic", "mesh_s",
-    "setup_s", "bulk_s", "return_map_s", "interface_s", "pc_setup_s", "krylov_s", "other_s",
-    "rss_max_mib", "diff_vs_lu", "speedup_vs_lu", "per_newton_vs_lu", "load", "status",
-    "kinematics", "search_s", "projection_s", "search_share",
-]  # fmt: skip
+    "strategy",
+    "ranks",
+    "steps_program",
+    "n",
+    "dofs",
+    "interface_points",
+    "steps",
+    "newton",
+    "newton_per_step",
+    "krylov",
+    "krylov_per_newton",
+    "refreshes",
+    "cuts",
+    "wall_s",
+    "s_per_newton",
+    "elastic_s",
+    "elastic_setup_s",
+    "per_newton_vs_elastic",
+    "mesh_s",
+    "setup_s",
+    "bulk_s",
+    "return_map_s",
+    "interface_s",
+    "pc_setup_s",
+    "krylov_s",
+    "other_s",
+    "rss_max_mib",
+    "diff_vs_lu",
+    "speedup_vs_lu",
+    "per_newton_vs_lu",
+    "load",
+    "status",
+    "kinematics",
+    "search_s",
+    "projection_s",
+    "search_share",
+]
 
 
 def rows_of(results: list[dict]) -> list[dict]:
@@ -528,38 +602,63 @@ def rows_of(results: list[dict]) -> list[dict]:
 
     lu = {key(r): r for r in results if r["strategy"] == "lu"}
     rows = []
-    for r in sorted(results, key=lambda r: (r["steps_program"], r["strategy"], r["ranks"], r["n"],
-                                            r.get("kinematics", "small_sliding"))):
+    for r in sorted(
+        results,
+        key=lambda r: (
+            r["steps_program"],
+            r["strategy"],
+            r["ranks"],
+            r["n"],
+            r.get("kinematics", "small_sliding"),
+        ),
+    ):
         s = r["sections"]
         ref = lu.get(key(r))
         complete = r["failure"] is None and r["stopped"] is None
         ref_ok = ref is not None and ref["failure"] is None and ref["stopped"] is None
         status = "ok" if complete else (r["stopped"] or r["failure"])[:90]
-        rows.append({
-            "strategy": r["strategy"], "ranks": r["ranks"], "steps_program": r["steps_program"],
-            "n": r["n"], "dofs": r["dofs"], "interface_points": r["interface_points"],
-            "steps": r["steps"], "newton": r["newton"], "krylov": r["krylov"],
-            "newton_per_step": r["newton"] / r["steps"] if r["steps"] else math.nan,
-            "elastic_s": r.get("elastic", {}).get("total_s", math.nan),
-            "elastic_setup_s": r.get("elastic", {}).get("setup_s", math.nan),
-            "per_newton_vs_elastic": r.get("per_newton_vs_elastic", math.nan),
-            "krylov_per_newton": r["krylov"] / r["newton"] if r["newton"] else math.nan,
-            "refreshes": r["linear"]["refreshes"], "cuts": r["cuts"], "wall_s": r["wall"],
-            "s_per_newton": r["wall_per_newton"], "mesh_s": s["mesh"],
-            "setup_s": s["problem + solver set-up"], "bulk_s": s["bulk assembly"],
-            "return_map_s": s["return map"], "interface_s": s["interface assembly"],
-            "pc_setup_s": s["factorisation"], "krylov_s": s["linear solve"], "other_s": s["other"],
-            "rss_max_mib": max(r["rss_mib"]),
-            "diff_vs_lu": history_difference(r, ref) if ref is not None else math.nan,
-            "speedup_vs_lu": ref["wall"] / r["wall"] if (ref_ok and complete) else math.nan,
-            "per_newton_vs_lu": (ref["wall_per_newton"] / r["wall_per_newton"]
-                                 if ref is not None else math.nan),
-            "load": r["load"][0], "status": status,
-            "kinematics": r.get("kinematics", "small_sliding"),
-            "search_s": r.get("search_s", math.nan),
-            "projection_s": r.get("projection_s", math.nan),
-            "search_share": r.get("search_share", math.nan),
-        })  # fmt: skip
+        rows.append(
+            {
+                "strategy": r["strategy"],
+                "ranks": r["ranks"],
+                "steps_program": r["steps_program"],
+                "n": r["n"],
+                "dofs": r["dofs"],
+                "interface_points": r["interface_points"],
+                "steps": r["steps"],
+                "newton": r["newton"],
+                "krylov": r["krylov"],
+                "newton_per_step": r["newton"] / r["steps"] if r["steps"] else math.nan,
+                "elastic_s": r.get("elastic", {}).get("total_s", math.nan),
+                "elastic_setup_s": r.get("elastic", {}).get("setup_s", math.nan),
+                "per_newton_vs_elastic": r.get("per_newton_vs_elastic", math.nan),
+                "krylov_per_newton": r["krylov"] / r["newton"] if r["newton"] else math.nan,
+                "refreshes": r["linear"]["refreshes"],
+                "cuts": r["cuts"],
+                "wall_s": r["wall"],
+                "s_per_newton": r["wall_per_newton"],
+                "mesh_s": s["mesh"],
+                "setup_s": s["problem + solver set-up"],
+                "bulk_s": s["bulk assembly"],
+                "return_map_s": s["return map"],
+                "interface_s": s["interface assembly"],
+                "pc_setup_s": s["factorisation"],
+                "krylov_s": s["linear solve"],
+                "other_s": s["other"],
+                "rss_max_mib": max(r["rss_mib"]),
+                "diff_vs_lu": history_difference(r, ref) if ref is not None else math.nan,
+                "speedup_vs_lu": ref["wall"] / r["wall"] if (ref_ok and complete) else math.nan,
+                "per_newton_vs_lu": (
+                    ref["wall_per_newton"] / r["wall_per_newton"] if ref is not None else math.nan
+                ),
+                "load": r["load"][0],
+                "status": status,
+                "kinematics": r.get("kinematics", "small_sliding"),
+                "search_s": r.get("search_s", math.nan),
+                "projection_s": r.get("projection_s", math.nan),
+                "search_share": r.get("search_share", math.nan),
+            }
+        )
     return rows
 
 
@@ -595,16 +694,23 @@ def default_against_fastest(sub: list[dict]) -> list[str]:
                 continue
             best = min(done, key=done.get)
             ratio = done[pick] / done[best]
-            out.append(f"| {ranks} | {dofs:,} | {pick} | {_fmt(done[pick])} | {best} | "
-                       f"{_fmt(done[best])} | {ratio:.2f} | "
-                       f"{'yes' if ratio <= 1.1 else '**no**'} |")  # fmt: skip
+            out.append(
+                f"| {ranks} | {dofs:,} | {pick} | {_fmt(done[pick])} | {best} | "
+                f"{_fmt(done[best])} | {ratio:.2f} | "
+                f"{'yes' if ratio <= 1.1 else '**no**'} |"
+            )
     if not out:
         return []
-    return ["The default (`\"auto\"`, `fem.linear.auto_choice`: in 3-D `\"reuse\"` from "
-            "`AUTO_REUSE_DOFS_PER_RANK` dofs per rank below `AUTO_GAMG_DOFS` dofs in all, else "
-            "`\"gamg\"`) against the fastest complete run of the same size (wall, s):", "",
-            "| ranks | dofs | default | wall | fastest | wall | default / fastest | "
-            "within 10 % |", "|---|---|---|---|---|---|---|---|", *out, ""]  # fmt: skip
+    return [
+        'The default (`"auto"`, `fem.linear.auto_choice`: in 3-D `"reuse"` from '
+        "`AUTO_REUSE_DOFS_PER_RANK` dofs per rank below `AUTO_GAMG_DOFS` dofs in all, else "
+        '`"gamg"`) against the fastest complete run of the same size (wall, s):',
+        "",
+        "| ranks | dofs | default | wall | fastest | wall | default / fastest | within 10 % |",
+        "|---|---|---|---|---|---|---|---|",
+        *out,
+        "",
+    ]
 
 
 def write_tables(out: Path, report: Path) -> None:
@@ -620,12 +726,36 @@ def write_tables(out: Path, report: Path) -> None:
         w = csv.DictWriter(f, fieldnames=COLUMNS)
         w.writeheader()
         w.writerows(rows)
-    head = ["strategy", "ranks", "dofs", "interface_points", "steps", "newton",
-            "newton_per_step", "krylov_per_newton", "refreshes", "wall_s", "s_per_newton",
-            "elastic_s", "per_newton_vs_elastic", "pc_setup_s", "krylov_s",
-            "bulk_s", "return_map_s", "interface_s", "search_s", "projection_s", "search_share",
-            "mesh_s", "rss_max_mib", "diff_vs_lu",
-            "speedup_vs_lu", "per_newton_vs_lu", "load", "status"]  # fmt: skip
+    head = [
+        "strategy",
+        "ranks",
+        "dofs",
+        "interface_points",
+        "steps",
+        "newton",
+        "newton_per_step",
+        "krylov_per_newton",
+        "refreshes",
+        "wall_s",
+        "s_per_newton",
+        "elastic_s",
+        "per_newton_vs_elastic",
+        "pc_setup_s",
+        "krylov_s",
+        "bulk_s",
+        "return_map_s",
+        "interface_s",
+        "search_s",
+        "projection_s",
+        "search_share",
+        "mesh_s",
+        "rss_max_mib",
+        "diff_vs_lu",
+        "speedup_vs_lu",
+        "per_newton_vs_lu",
+        "load",
+        "status",
+    ]
     lines = [
         "# FE scaling: the pad on a plate, per linear strategy (issue 13)",
         "",
@@ -661,31 +791,45 @@ def write_tables(out: Path, report: Path) -> None:
             for r in sub:
                 if r["strategy"] == strategy and r["ranks"] == 2 and r["dofs"] in one:
                     o = one[r["dofs"]]
-                    pairs.append(f"| {strategy} | {r['dofs']:,} | {_fmt(o['s_per_newton'])} | "
-                                 f"{_fmt(r['s_per_newton'])} | "
-                                 f"{_fmt(o['s_per_newton'] / r['s_per_newton'])} |")  # fmt: skip
+                    pairs.append(
+                        f"| {strategy} | {r['dofs']:,} | {_fmt(o['s_per_newton'])} | "
+                        f"{_fmt(r['s_per_newton'])} | "
+                        f"{_fmt(o['s_per_newton'] / r['s_per_newton'])} |"
+                    )
         if pairs:
-            lines += ["2 ranks against 1 (time per Newton iteration, s):", "",
-                      "| strategy | dofs | 1 rank | 2 ranks | speed-up |",
-                      "|---|---|---|---|---|", *pairs, ""]  # fmt: skip
+            lines += [
+                "2 ranks against 1 (time per Newton iteration, s):",
+                "",
+                "| strategy | dofs | 1 rank | 2 ranks | speed-up |",
+                "|---|---|---|---|---|",
+                *pairs,
+                "",
+            ]
         lines += default_against_fastest(sub)
         for strategy in STRATEGIES:
             for ranks in (1, 2):
-                pts = [r for r in sub if r["strategy"] == strategy and r["ranks"] == ranks
-                       and r["status"] == "ok"]  # fmt: skip
+                pts = [
+                    r
+                    for r in sub
+                    if r["strategy"] == strategy and r["ranks"] == ranks and r["status"] == "ok"
+                ]
                 if len(pts) < 2:
                     continue
                 d = [p["dofs"] for p in pts]
                 big = [p for p in pts if 20000 <= p["dofs"] <= 250000]
-                exps.append({
-                    "steps": steps, "strategy": strategy, "ranks": ranks,
-                    "time": fit_exponent(d, [p["wall_s"] for p in pts]),
-                    "per_newton_20k_200k": fit_exponent(
-                        [p["dofs"] for p in big], [p["s_per_newton"] for p in big]
-                    ),
-                    "rss": fit_exponent(d, [p["rss_max_mib"] for p in pts]),
-                    "range": f"{min(d):,}–{max(d):,}",
-                })  # fmt: skip
+                exps.append(
+                    {
+                        "steps": steps,
+                        "strategy": strategy,
+                        "ranks": ranks,
+                        "time": fit_exponent(d, [p["wall_s"] for p in pts]),
+                        "per_newton_20k_200k": fit_exponent(
+                            [p["dofs"] for p in big], [p["s_per_newton"] for p in big]
+                        ),
+                        "rss": fit_exponent(d, [p["rss_max_mib"] for p in pts]),
+                        "range": f"{min(d):,}–{max(d):,}",
+                    }
+                )
     if exps:
         lines += [
             "## Fitted exponents (time ∝ dofs^p, least squares in log-log, completed runs)",
@@ -714,17 +858,29 @@ def write_tables(out: Path, report: Path) -> None:
             continue
         for strategy in STRATEGIES:
             for ranks, style in ((1, "-"), (2, "--")):
-                pts = [r for r in rows if r["strategy"] == strategy and r["ranks"] == ranks
-                       and r["steps_program"] == steps and r["status"] == "ok"]  # fmt: skip
+                pts = [
+                    r
+                    for r in rows
+                    if r["strategy"] == strategy
+                    and r["ranks"] == ranks
+                    and r["steps_program"] == steps
+                    and r["status"] == "ok"
+                ]
                 if not pts:
                     continue
                 d = np.array([p["dofs"] for p in pts])
                 p_exp = fit_exponent(d, [p["wall_s"] for p in pts])
                 label = f"{strategy}, {ranks} rank{'s' if ranks > 1 else ''} (p = {p_exp:.2f})"
-                axes[0].loglog(d, [p["wall_s"] for p in pts], style, marker=markers[strategy],
-                               label=label)  # fmt: skip
-                axes[1].loglog(d, [p["s_per_newton"] for p in pts], style,
-                               marker=markers[strategy], label=f"{strategy}, {ranks}")  # fmt: skip
+                axes[0].loglog(
+                    d, [p["wall_s"] for p in pts], style, marker=markers[strategy], label=label
+                )
+                axes[1].loglog(
+                    d,
+                    [p["s_per_newton"] for p in pts],
+                    style,
+                    marker=markers[strategy],
+                    label=f"{strategy}, {ranks}",
+                )
     axes[0].set_xlabel("dofs")
     axes[0].set_ylabel("wall time of the program (s)")
     axes[0].set_title("Pad on a plate, 24-step program")
@@ -736,8 +892,10 @@ def write_tables(out: Path, report: Path) -> None:
         a.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(report / "fe_scaling.png", dpi=120)
-    print(f"wrote {report / 'fe_scaling.md'}, {report / 'fe_scaling.png'}, "
-          f"{report / 'data' / 'fe_scaling.csv'}")  # fmt: skip
+    print(
+        f"wrote {report / 'fe_scaling.md'}, {report / 'fe_scaling.png'}, "
+        f"{report / 'data' / 'fe_scaling.csv'}"
+    )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -757,10 +915,18 @@ def main(argv=None) -> None:
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--strategy", help=argparse.SUPPRESS)
-    ap.add_argument("--kinematics", choices=KINEMATICS, default="small_sliding",
-                    help="the interface's kinematics (finite_sliding: tag suffix _fs)")
-    ap.add_argument("--reach", type=float, default=None,
-                    help="finite sliding: the reach (mm); default 1.5 x the largest slide a step")
+    ap.add_argument(
+        "--kinematics",
+        choices=KINEMATICS,
+        default="small_sliding",
+        help="the interface's kinematics (finite_sliding: tag suffix _fs)",
+    )
+    ap.add_argument(
+        "--reach",
+        type=float,
+        default=None,
+        help="finite sliding: the reach (mm); default 1.5 x the largest slide a step",
+    )
     ap.add_argument(
         "--no-predictor",
         dest="predictor",
@@ -770,15 +936,33 @@ def main(argv=None) -> None:
     )
     args = ap.parse_args(argv)
     if args.one:
-        run_one(args.n, args.strategy, args.steps, args.time_limit, args.out, args.predictor,
-                args.kinematics, args.reach)  # fmt: skip
+        run_one(
+            args.n,
+            args.strategy,
+            args.steps,
+            args.time_limit,
+            args.out,
+            args.predictor,
+            args.kinematics,
+            args.reach,
+        )
         return
     if not args.table:
         for n in sorted(args.sizes):  # the largest last
             for ranks in args.ranks:
                 for strategy in args.strategies:
-                    launch(n, strategy, ranks, args.steps, args.time_limit, args.out, args.force,
-                           args.predictor, args.kinematics, args.reach)  # fmt: skip
+                    launch(
+                        n,
+                        strategy,
+                        ranks,
+                        args.steps,
+                        args.time_limit,
+                        args.out,
+                        args.force,
+                        args.predictor,
+                        args.kinematics,
+                        args.reach,
+                    )
     write_tables(args.out, args.report)
 
 

@@ -41,22 +41,33 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     nb = max(2 * a.n // 3 // 3, 1)  # the block is a third of the plate, meshed 3 : 2
     dom = tagged_boxes(
-        comm, n_base=(a.n, a.n, 2), n_block=(nb, nb, 2), base_size=3.0, block_at=0.5,
+        comm,
+        n_base=(a.n, a.n, 2),
+        n_block=(nb, nb, 2),
+        base_size=3.0,
+        block_at=0.5,
         split_x=1.5,
-    )  # fmt: skip
+    )
     law = preset("sec7")
     program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
     steel = Material(2.1e5, 0.3)
     t0 = time.perf_counter()
     problem = InterfaceProblem(
-        dom, law, {"base": steel, "block": steel}, program,
-        [Dirichlet("bottom", (0.0, 0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide"),
-         Dirichlet("top", 0.0, 1)],
+        dom,
+        law,
+        {"base": steel, "block": steel},
+        program,
+        [
+            Dirichlet("bottom", (0.0, 0.0, 0.0)),
+            Dirichlet("top", 1.0, 0, amplitude="slide"),
+            Dirichlet("top", 0.0, 1),
+        ],
         [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=1.5)],
+        interfaces=[
+            Interface("contact", "base", "block", kinematics="finite_sliding", search_radius=1.5)
+        ],
         degree=a.degree,
-    )  # fmt: skip
+    )
     setup = time.perf_counter() - t0
     iface = problem.interfaces["contact"]
     dofs = problem.global_dofs
@@ -66,8 +77,17 @@ def main() -> None:
     def on_step(rec):
         now = time.perf_counter()
         s = iface.search_seconds
-        rows.append((rec.t, rec.iterations, now - last[0], s["search"], s["projection"],
-                     s["segments"], iface.layout_version))  # fmt: skip
+        rows.append(
+            (
+                rec.t,
+                rec.iterations,
+                now - last[0],
+                s["search"],
+                s["projection"],
+                s["segments"],
+                iface.layout_version,
+            )
+        )
         last[0] = now
 
     with FrictionSolver(problem, linear="lu") as solver:
@@ -77,8 +97,10 @@ def main() -> None:
         print("   t   newton  step s  search s  proj s/it  segm s/it  search+proj share  layout")
         for t, it, step, se, pr, sg, lv in rows:
             share = (se + max(it, 1) * (pr + sg)) / step
-            print(f"{t:5.2f} {it:6d} {step:8.3f} {se:9.4f} {pr:10.4f} {sg:10.4f} "
-                  f"{100 * share:12.1f} %  {lv:6d}")  # fmt: skip
+            print(
+                f"{t:5.2f} {it:6d} {step:8.3f} {se:9.4f} {pr:10.4f} {sg:10.4f} "
+                f"{100 * share:12.1f} %  {lv:6d}"
+            )
         print("per-step max over the run:", np.array(rows)[:, 3:6].max(axis=0))
 
 

@@ -127,17 +127,22 @@ def numpy_vs_c(law, cmap, st, gap, repeats, radial=False):
                 lambda o=cres: cmap(law, gap, st["up"], st["mu"], st["r"], f, DT, out=o)
             )
             best["C"] = [min(best["C"][0], w), min(best["C"][1], c)]
-    row = {"numpy": best["numpy"], "C": best["C"] if cmap is not None else None,
-           "plastic": float(np.mean(res.status == Status.PLASTIC)),
-           "iters": plastic_iters(res)}  # fmt: skip
+    row = {
+        "numpy": best["numpy"],
+        "C": best["C"] if cmap is not None else None,
+        "plastic": float(np.mean(res.status == Status.PLASTIC)),
+        "iters": plastic_iters(res),
+    }
     if cmap is not None:
         use = cres["status"] != c_ref.NEEDS_SCAN
         sc = np.maximum(np.abs(res.tangent).reshape(n, -1).max(axis=1), 1e-300)[use]
         d_tr = np.abs(res.traction - cres["traction"]).max(axis=1)[use] / sc
         d_tan = np.abs(res.tangent - cres["tangent"]).reshape(n, -1).max(axis=1)[use] / sc
         row["agree"] = (float(d_tr.max(initial=0.0)), float(d_tan.max(initial=0.0)))
-        row["differ"] = (int(np.sum(res.status[use] != cres["status"][use])),
-                         int(np.sum(res.iterations[use] != cres["iterations"][use])))  # fmt: skip
+        row["differ"] = (
+            int(np.sum(res.status[use] != cres["status"][use])),
+            int(np.sum(res.iterations[use] != cres["iterations"][use])),
+        )
         row["n_scan"] = int(cres["n_scan"])
     return row
 
@@ -156,15 +161,19 @@ def own_states(law, gaps, scale, seed, repeats):
 def throughput(args, sub, cmap) -> None:
     coul = CoulombLaw(alpha_t=sub.alpha_t, alpha_n=sub.alpha_n, mu_c=args.mu_c)
     prev = old(sub)
-    print(f"1. throughput, 3-D contact (nt = 2), preset {args.preset}, best of {args.repeats} "
-          "(wall / thread CPU, s)")  # fmt: skip
+    print(
+        f"1. throughput, 3-D contact (nt = 2), preset {args.preset}, best of {args.repeats} "
+        "(wall / thread CPU, s)"
+    )
     if cmap is None:
         print(f"   C reference: {c_ref.reason()}")
     else:
         print(f"   C reference built with: {cmap.command}")
-    head = (f"   {'points':>8s} {'numpy':>15s} {'C':>15s} {'ratio':>11s} {'previous':>15s} "
-            f"{'coulomb':>15s}  {'plastic':>7s} {'it/pl':>5s} {'it/pl prev':>10s} "
-            f"{'scan':>4s} {'agree tr/D':>15s} {'st !=':>5s} {'it !=':>5s}")  # fmt: skip
+    head = (
+        f"   {'points':>8s} {'numpy':>15s} {'C':>15s} {'ratio':>11s} {'previous':>15s} "
+        f"{'coulomb':>15s}  {'plastic':>7s} {'it/pl':>5s} {'it/pl prev':>10s} "
+        f"{'scan':>4s} {'agree tr/D':>15s} {'st !=':>5s} {'it !=':>5s}"
+    )
     print(head)
     radial_rows = []
     for n in args.sizes:
@@ -178,29 +187,40 @@ def throughput(args, sub, cmap) -> None:
         if r["C"] is not None:
             xw, xc = r["C"]
             c_cells = f"{xw:7.4f}/{xc:7.4f} {nw / xw:5.2f}/{nc / xc:5.2f}"
-            tail = (f"{r['n_scan']:4d} {r['agree'][0]:7.1e}/{r['agree'][1]:7.1e} "
-                    f"{r['differ'][0]:5d} {r['differ'][1]:5d}")  # fmt: skip
+            tail = (
+                f"{r['n_scan']:4d} {r['agree'][0]:7.1e}/{r['agree'][1]:7.1e} "
+                f"{r['differ'][0]:5d} {r['differ'][1]:5d}"
+            )
         else:
             c_cells, tail = f"{'-':>15s} {'-':>11s}", ""
-        print(f"   {n:8d} {nw:7.4f}/{nc:7.4f} {c_cells} {pw:7.4f}/{pc:7.4f} "
-              f"{cw:7.4f}/{cc:7.4f}  {r['plastic']:7.1%} {r['iters']:5.2f} "
-              f"{plastic_iters(pres):10.2f} {tail}")  # fmt: skip
+        print(
+            f"   {n:8d} {nw:7.4f}/{nc:7.4f} {c_cells} {pw:7.4f}/{pc:7.4f} "
+            f"{cw:7.4f}/{cc:7.4f}  {r['plastic']:7.1%} {r['iters']:5.2f} "
+            f"{plastic_iters(pres):10.2f} {tail}"
+        )
         if args.radial:
             radial_rows.append((n, numpy_vs_c(sub, cmap, st, gap, args.repeats, radial=True)))
     if radial_rows:
         print("   the same states without the start traction (radial return, new root finder):")
         for n, r in radial_rows:
             nw, nc = r["numpy"]
-            cells = "" if r["C"] is None else (
-                f" C {r['C'][0]:7.4f}/{r['C'][1]:7.4f}, ratio {nw / r['C'][0]:.2f}/"
-                f"{nc / r['C'][1]:.2f}, agree {r['agree'][0]:.1e}/{r['agree'][1]:.1e}")  # fmt: skip
+            cells = (
+                ""
+                if r["C"] is None
+                else (
+                    f" C {r['C'][0]:7.4f}/{r['C'][1]:7.4f}, ratio {nw / r['C'][0]:.2f}/"
+                    f"{nc / r['C'][1]:.2f}, agree {r['agree'][0]:.1e}/{r['agree'][1]:.1e}"
+                )
+            )
             print(f"   {n:8d} numpy {nw:7.4f}/{nc:7.4f}{cells}, it/pl {r['iters']:.2f}")
 
 
 def per_call(cmap) -> None:
     print("\n2. one call, one point (us, thread CPU time, best of 5):")
-    print(f"   {'case':20s} {'previous':>9s} {'current':>8s} {'C (ctypes)':>10s}  "
-          "current status/evaluations")  # fmt: skip
+    print(
+        f"   {'case':20s} {'previous':>9s} {'current':>8s} {'C (ctypes)':>10s}  "
+        "current status/evaluations"
+    )
     P = driver_steps.P
     prev = driver_steps.OLD
     for name, gap, radial, full, dt in driver_steps.call_cases():
@@ -211,8 +231,10 @@ def per_call(cmap) -> None:
             args = (P, gap, full["up"], full["mu"], full["r"], full["f"], dt)
             c = driver_steps.best_call(lambda a=args: cmap(*a))
         r = P.return_map(gap, full, dt)
-        print(f"   {name:20s} {1e6 * a:9.1f} {1e6 * b:8.1f} {1e6 * c:10.1f}  "
-              f"{int(r.status[0])}/{int(r.iterations[0])}")  # fmt: skip
+        print(
+            f"   {name:20s} {1e6 * a:9.1f} {1e6 * b:8.1f} {1e6 * c:10.1f}  "
+            f"{int(r.status[0])}/{int(r.iterations[0])}"
+        )
 
 
 def driver(repeats: int) -> None:
@@ -221,8 +243,11 @@ def driver(repeats: int) -> None:
         path = np.array(rows, dtype=float)
         ts = np.union1d(np.linspace(path[0, 0], path[-1, 0], 41), path[:, 0])
         cells = []
-        for name, law in (("previous map", driver_steps.OLD), ("current map", driver_steps.P),
-                          ("null map", driver_steps.null_law(nt))):  # fmt: skip
+        for name, law in (
+            ("previous map", driver_steps.OLD),
+            ("current map", driver_steps.P),
+            ("null map", driver_steps.null_law(nt)),
+        ):
             c, n = driver_steps.per_step(law, path, ts, nt, spm, repeats)
             cells.append(f"{name} {1e6 * c:.1f}")
         print(f"   {key} at {spm:g} steps/mm ({n} steps): " + ", ".join(cells))

@@ -141,8 +141,12 @@ def gamg_hierarchy(pc) -> dict:
         A = pc.getMGSmoother(lev).getOperators()[0]
         glob = A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)
         loc = _mat_info(A)
-        row = {"rows": A.getSize()[0], "nz": float(glob["nz_used"]),
-               "local_rows": A.getLocalSize()[0], "memory": loc["memory"]}  # fmt: skip
+        row = {
+            "rows": A.getSize()[0],
+            "nz": float(glob["nz_used"]),
+            "local_rows": A.getLocalSize()[0],
+            "memory": loc["memory"],
+        }
         if lev > 0:
             P = pc.getMGInterpolation(lev)
             row["interp_memory"] = _mat_info(P)["memory"]
@@ -212,8 +216,10 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
         events = {}
         for name in EVENTS:
             info = PETSc.Log.Event(name).getPerfInfo(stages["steps"])
-            events[name] = {k: float(info[k]) for k in
-                            ("count", "numMessages", "messageLength", "numReductions")}  # fmt: skip
+            events[name] = {
+                k: float(info[k])
+                for k in ("count", "numMessages", "messageLength", "numReductions")
+            }
         pc = solver.snes.getKSP().getPC()
         hierarchy = gamg_hierarchy(pc)
         jac = _mat_info(solver.J)
@@ -247,8 +253,9 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
             "steps": len(stepper.records),
             "newton": newton,
             "krylov": int(solver.linear.krylov),  # every Krylov solve of the run
-            "gamg_levels": [{k: v for k, v in lev.items() if k in ("rows", "nz")}
-                            for lev in hierarchy["levels"]],
+            "gamg_levels": [
+                {k: v for k, v in lev.items() if k in ("rows", "nz")} for lev in hierarchy["levels"]
+            ],
             "coarse_pc": hierarchy["coarse_pc"],
             "checkpoint_bytes": comm.bcast(ckpt_bytes, root=0),
             "mpi_counted": counts is not None,
@@ -275,11 +282,13 @@ def run_one(n: int, steps: int, out: Path) -> None:
     if comm.rank == 0:
         (out / f"{tag_of(comm.size, n, steps)}.json").write_text(json.dumps(r, indent=1))
         row = row_of(r)
-        print(f"[{tag_of(comm.size, n, steps)}] {r['dofs']:,} dofs, {row['dofs_per_rank']:.0f} "
-              f"per rank: Newton {r['newton']}, Krylov/Newton {row['krylov_per_newton']:.1f}, "
-              f"peak RSS {row['rss_max_mib']:.0f} MiB (rank 0: {row['rss_rank0_mib']:.0f}), "
-              f"GAMG levels {len(r['gamg_levels'])} (coarse {row['coarse_rows']} rows)",
-              flush=True)  # fmt: skip
+        print(
+            f"[{tag_of(comm.size, n, steps)}] {r['dofs']:,} dofs, {row['dofs_per_rank']:.0f} "
+            f"per rank: Newton {r['newton']}, Krylov/Newton {row['krylov_per_newton']:.1f}, "
+            f"peak RSS {row['rss_max_mib']:.0f} MiB (rank 0: {row['rss_rank0_mib']:.0f}), "
+            f"GAMG levels {len(r['gamg_levels'])} (coarse {row['coarse_rows']} rows)",
+            flush=True,
+        )
 
 
 def tag_of(ranks: int, n: int, steps: int) -> str:
@@ -292,9 +301,24 @@ def launch(ranks: int, n: int, steps: int, out: Path, force: bool) -> dict | Non
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
     shim = build_shim(out)
-    cmd = ["mpirun", "-n", str(ranks), "--map-by", ":OVERSUBSCRIBE", "-x", f"LD_PRELOAD={shim}",
-           sys.executable, __file__, "--one", "--n", str(n), "--steps", str(steps),
-           "--out", str(out)]  # fmt: skip
+    cmd = [
+        "mpirun",
+        "-n",
+        str(ranks),
+        "--map-by",
+        ":OVERSUBSCRIBE",
+        "-x",
+        f"LD_PRELOAD={shim}",
+        sys.executable,
+        __file__,
+        "--one",
+        "--n",
+        str(n),
+        "--steps",
+        str(steps),
+        "--out",
+        str(out),
+    ]
     from subfric_dolfinx.logs import singleton_environment
 
     env = singleton_environment()
@@ -376,14 +400,37 @@ def row_of(r: dict) -> dict:
 
 
 COLUMNS = [
-    "ranks", "n", "dofs", "dofs_per_rank", "interface_points", "steps", "newton",
-    "krylov_per_newton", "rss_max_mib", "rss_rank0_mib", "rss_others_mib", "rss_start_mib",
-    "rss_mesh_rank0_mib", "jacobian_mib", "gamg_mib", "gamg_levels", "coarse_rows", "coarse_nz",
-    "checkpoint_mib", "pairing_received", "petsc_bytes_per_newton", "petsc_messages_per_newton",
-    "petsc_reductions_per_newton", "allreduce_calls_per_newton", "gather_bytes_per_step",
-    "gather_calls_per_step", "setup_gather_bytes", "profile_bytes", "checkpoint_rank0_bytes",
+    "ranks",
+    "n",
+    "dofs",
+    "dofs_per_rank",
+    "interface_points",
+    "steps",
+    "newton",
+    "krylov_per_newton",
+    "rss_max_mib",
+    "rss_rank0_mib",
+    "rss_others_mib",
+    "rss_start_mib",
+    "rss_mesh_rank0_mib",
+    "jacobian_mib",
+    "gamg_mib",
+    "gamg_levels",
+    "coarse_rows",
+    "coarse_nz",
+    "checkpoint_mib",
+    "pairing_received",
+    "petsc_bytes_per_newton",
+    "petsc_messages_per_newton",
+    "petsc_reductions_per_newton",
+    "allreduce_calls_per_newton",
+    "gather_bytes_per_step",
+    "gather_calls_per_step",
+    "setup_gather_bytes",
+    "profile_bytes",
+    "checkpoint_rank0_bytes",
     "load",
-]  # fmt: skip
+]
 
 
 def fit_line(x, y) -> tuple[float, float]:
@@ -492,32 +539,43 @@ def fit_models(rows: list[dict], levels: list[list[int]]) -> Models:
         memory=fit_line(d, own),
         rank0_excess=excess,
         start=_median([r["rss_start_mib"] for r in rows]),
-        mesh=fit_line([r["dofs"] for r in rows],
-                      [r["rss_mesh_rank0_mib"] - r["rss_start_mib"] for r in rows]),
-        setup_gather=fit_power([r["dofs"] for r in gathered], [r["ranks"] for r in gathered],
-                               [r["setup_gather_bytes"] for r in gathered])
-        if gathered else (0.0, 0.0, 0.0),
-        checkpoint_rank0=fit_proportional([r["interface_points"] for r in rows],
-                                          [r["checkpoint_rank0_bytes"] for r in rows]),
+        mesh=fit_line(
+            [r["dofs"] for r in rows], [r["rss_mesh_rank0_mib"] - r["rss_start_mib"] for r in rows]
+        ),
+        setup_gather=fit_power(
+            [r["dofs"] for r in gathered],
+            [r["ranks"] for r in gathered],
+            [r["setup_gather_bytes"] for r in gathered],
+        )
+        if gathered
+        else (0.0, 0.0, 0.0),
+        checkpoint_rank0=fit_proportional(
+            [r["interface_points"] for r in rows], [r["checkpoint_rank0_bytes"] for r in rows]
+        ),
         jacobian=fit_proportional(d, [r["jacobian_mib"] for r in rows]),
         gamg=fit_proportional(d, [r["gamg_mib"] for r in rows]),
-        checkpoint=fit_proportional([r["dofs"] for r in rows],
-                                    [r["checkpoint_mib"] * 2.0**20 for r in rows]),
-        interface_per_dof23=fit_proportional([r["dofs"] ** (2 / 3) for r in rows],
-                                             [r["interface_points"] for r in rows]),
-        profile=fit_proportional([r["interface_points"] for r in rows],
-                                 [r["profile_bytes"] for r in rows]),
+        checkpoint=fit_proportional(
+            [r["dofs"] for r in rows], [r["checkpoint_mib"] * 2.0**20 for r in rows]
+        ),
+        interface_per_dof23=fit_proportional(
+            [r["dofs"] ** (2 / 3) for r in rows], [r["interface_points"] for r in rows]
+        ),
+        profile=fit_proportional(
+            [r["interface_points"] for r in rows], [r["profile_bytes"] for r in rows]
+        ),
         gather_step=fit_line(
             [r["ranks"] for r in rows], [r["gather_bytes_per_step"] for r in rows]
         ),
         petsc_halo=widest["petsc_bytes_per_newton"] / widest["dofs_per_rank"] ** (2 / 3),
-        krylov=fit_line([math.log10(r["dofs"]) for r in rows],
-                        [r["krylov_per_newton"] for r in rows]),
-        reductions=fit_proportional([r["krylov_per_newton"] for r in rows],
-                                    [r["allreduce_calls_per_newton"] for r in rows]),
+        krylov=fit_line(
+            [math.log10(r["dofs"]) for r in rows], [r["krylov_per_newton"] for r in rows]
+        ),
+        reductions=fit_proportional(
+            [r["krylov_per_newton"] for r in rows], [r["allreduce_calls_per_newton"] for r in rows]
+        ),
         coarsening=float(np.exp(np.mean(np.log(ratios)))) if ratios else math.nan,
         coarse_rows=int(max(r["coarse_rows"] for r in rows)),
-    )  # fmt: skip
+    )
 
 
 def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
@@ -527,8 +585,11 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
     rss = m.memory[0] + m.memory[1] * d
     iface = m.interface_per_dof23 * dofs ** (2 / 3)
     krylov = m.krylov[0] + m.krylov[1] * math.log10(dofs)
-    levels = (1 + math.log(dofs / m.coarse_rows) / math.log(m.coarsening)
-              if m.coarsening > 1 else math.nan)  # fmt: skip
+    levels = (
+        1 + math.log(dofs / m.coarse_rows) / math.log(m.coarsening)
+        if m.coarsening > 1
+        else math.nan
+    )
     k, alpha, beta = m.setup_gather
     return {
         "ranks": ranks,
@@ -579,32 +640,44 @@ def first_to_break(table: list[dict], node_gib: float = NODE_MEMORY_GIB) -> tupl
         return {
             "the per-rank memory of the distributed parts": (rss, rss),
             "rank 0's mesh (gmsh builds and distributes the whole mesh from rank 0)": (
-                mesh - m_start(row), mesh),
+                mesh - m_start(row),
+                mesh,
+            ),
             "the partitioner's gathers in the set-up (DOLFINx's PT-Scotch partitioning)": (
-                row["setup_gather_mib"], m_start(row) + row["setup_gather_mib"]),
+                row["setup_gather_mib"],
+                m_start(row) + row["setup_gather_mib"],
+            ),
             "an interface profile gathered on every rank": (
-                row["profile_mib"], rss + row["profile_mib"]),
+                row["profile_mib"],
+                rss + row["profile_mib"],
+            ),
             "the checkpoint's interface rows (coordinates gathered and sorted on rank 0)": (
-                row["checkpoint_rank0_mib"], rank0 + row["checkpoint_rank0_mib"]),
-        }  # fmt: skip
+                row["checkpoint_rank0_mib"],
+                rank0 + row["checkpoint_rank0_mib"],
+            ),
+        }
 
     for row in sorted(table, key=lambda r: (r["dofs"], r["ranks"])):
         over = {p: v for p, v in parts(row).items() if v[1] > limit}
         if over:
             part = max(over, key=lambda p: over[p][0])
             size, total = over[part]
-            return part, (f"{total / 1024.0:.1f} GiB on one rank at {row['dofs']:.0e} dofs on "
-                          f"{row['ranks']} ranks, {size / 1024.0:.1f} GiB of it this part "
-                          f"(a node's share: {node_gib:g} GiB per rank)")  # fmt: skip
+            return part, (
+                f"{total / 1024.0:.1f} GiB on one rank at {row['dofs']:.0e} dofs on "
+                f"{row['ranks']} ranks, {size / 1024.0:.1f} GiB of it this part "
+                f"(a node's share: {node_gib:g} GiB per rank)"
+            )
     lo = min(table, key=lambda r: (r["dofs"], r["ranks"]))
     hi = max(table, key=lambda r: (r["dofs"], r["ranks"]))
     a, b = parts(lo), parts(hi)
     growth = {p: b[p][0] / a[p][0] for p in a if a[p][0] > 0 and b[p][0] >= 1.0}  # MiB
     part = max(growth, key=growth.get)
-    return part, (f"grows {growth[part]:.1f}x from {lo['dofs']:.0e} dofs on {lo['ranks']} ranks "
-                  f"to {hi['dofs']:.0e} on {hi['ranks']} (dofs per rank "
-                  f"{hi['dofs_per_rank'] / lo['dofs_per_rank']:.2f}x), within {node_gib:g} GiB "
-                  "per rank")
+    return part, (
+        f"grows {growth[part]:.1f}x from {lo['dofs']:.0e} dofs on {lo['ranks']} ranks "
+        f"to {hi['dofs']:.0e} on {hi['ranks']} (dofs per rank "
+        f"{hi['dofs_per_rank'] / lo['dofs_per_rank']:.2f}x), within {node_gib:g} GiB "
+        "per rank"
+    )
 
 
 # ------------------------------------------------------------------------------------------------
@@ -616,19 +689,52 @@ def _fmt(v) -> str:
 
 
 MEASURED_HEAD = [
-    "ranks", "dofs", "dofs_per_rank", "interface_points", "newton", "krylov_per_newton",
-    "rss_others_mib", "rss_rank0_mib", "rss_mesh_rank0_mib", "jacobian_mib", "gamg_mib",
-    "gamg_levels", "coarse_rows", "checkpoint_mib", "pairing_received", "petsc_bytes_per_newton",
-    "petsc_reductions_per_newton", "allreduce_calls_per_newton", "gather_bytes_per_step",
-    "setup_gather_bytes", "profile_bytes", "checkpoint_rank0_bytes", "load",
-]  # fmt: skip
+    "ranks",
+    "dofs",
+    "dofs_per_rank",
+    "interface_points",
+    "newton",
+    "krylov_per_newton",
+    "rss_others_mib",
+    "rss_rank0_mib",
+    "rss_mesh_rank0_mib",
+    "jacobian_mib",
+    "gamg_mib",
+    "gamg_levels",
+    "coarse_rows",
+    "checkpoint_mib",
+    "pairing_received",
+    "petsc_bytes_per_newton",
+    "petsc_reductions_per_newton",
+    "allreduce_calls_per_newton",
+    "gather_bytes_per_step",
+    "setup_gather_bytes",
+    "profile_bytes",
+    "checkpoint_rank0_bytes",
+    "load",
+]
 EXTRA_HEAD = [
-    "ranks", "dofs", "dofs_per_rank", "rss_mib", "rss_rank0_mib", "mesh_rank0_mib",
-    "setup_gather_mib", "jacobian_mib", "gamg_mib",
-    "interface_points", "profile_mib", "checkpoint_rank0_mib", "gather_step_kib",
-    "petsc_mib_per_newton", "krylov_per_newton", "reductions_per_newton", "gamg_levels",
-    "coarse_rows", "checkpoint_gib", "checkpoint_mib_per_rank",
-]  # fmt: skip
+    "ranks",
+    "dofs",
+    "dofs_per_rank",
+    "rss_mib",
+    "rss_rank0_mib",
+    "mesh_rank0_mib",
+    "setup_gather_mib",
+    "jacobian_mib",
+    "gamg_mib",
+    "interface_points",
+    "profile_mib",
+    "checkpoint_rank0_mib",
+    "gather_step_kib",
+    "petsc_mib_per_newton",
+    "krylov_per_newton",
+    "reductions_per_newton",
+    "gamg_levels",
+    "coarse_rows",
+    "checkpoint_gib",
+    "checkpoint_mib_per_rank",
+]
 
 
 def _table(head: list[str], rows: list[dict]) -> list[str]:
@@ -645,10 +751,14 @@ def mpi_breakdown(results: list[dict]) -> list[str]:
     pr = r["per_rank"]
     funcs = sorted({f for p in pr for ph in PHASES for f in p["mpi"].get(ph, {})})
     head = ["phase", *funcs]
-    out = [f"MPI collectives of the run on {r['ranks']} ranks ({r['dofs']:,} dofs), per phase: "
-           f"calls / KiB a rank contributes or receives, max over ranks (the steps: all "
-           f"{r['steps']} steps, {r['newton']} Newton iterations):", "",
-           "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]  # fmt: skip
+    out = [
+        f"MPI collectives of the run on {r['ranks']} ranks ({r['dofs']:,} dofs), per phase: "
+        f"calls / KiB a rank contributes or receives, max over ranks (the steps: all "
+        f"{r['steps']} steps, {r['newton']} Newton iterations):",
+        "",
+        "| " + " | ".join(head) + " |",
+        "|" + "---|" * len(head),
+    ]
     for ph in PHASES:
         cells = []
         for f in funcs:
@@ -707,9 +817,11 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         *_table(MEASURED_HEAD, rows),
         "",
         "GAMG levels (global rows, finest first): "
-        + "; ".join(f"{r['ranks']} rank(s), n {r['n']}: "
-                    + " → ".join(f"{lv['rows']:,}" for lv in r["gamg_levels"])
-                    for r in results)
+        + "; ".join(
+            f"{r['ranks']} rank(s), n {r['n']}: "
+            + " → ".join(f"{lv['rows']:,}" for lv in r["gamg_levels"])
+            for r in results
+        )
         + f". Coarse solver: `{results[-1]['coarse_pc']}`.",
         "",
         *mpi_breakdown(results),
@@ -762,7 +874,7 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "",
     ]
     (report / "weak_scaling.md").write_text("\n".join(lines))
-    print("\n".join(lines[lines.index("## Measured"):]))
+    print("\n".join(lines[lines.index("## Measured") :]))
     print(f"wrote {report / 'weak_scaling.md'}, {report / 'data' / 'weak_scaling.csv'}")
     return lines
 
@@ -773,8 +885,12 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=6, help="steps of the program")
-    ap.add_argument("--series", nargs="+", default=[f"{r}:{n}" for r, n in SERIES],
-                    help="runs as ranks:n (n hexahedra along the pad's side)")  # fmt: skip
+    ap.add_argument(
+        "--series",
+        nargs="+",
+        default=[f"{r}:{n}" for r, n in SERIES],
+        help="runs as ranks:n (n hexahedra along the pad's side)",
+    )
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--report", type=Path, default=REPORT)
     ap.add_argument("--force", action="store_true", help="redo runs whose result exists")

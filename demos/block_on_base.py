@@ -48,7 +48,6 @@ sliding, sticking, open), the timing breakdown, and writes the CSV history and t
 the output directory. PETSc options apply under the prefix `block_`, e.g. `-block_snes_monitor`.
 """
 
-
 # %%
 import argparse
 import sys

@@ -75,6 +75,7 @@ def write_mesh(path: Path, n: int, slide: float, comm: MPI.Comm) -> None:
     The block has ``n`` elements along its bottom, the base elements 1.3 times larger; an error
     is raised on every rank.
     """
+
     def build() -> None:  # rank 0
         with meshing.gmsh_session("block_sliding_far") as gmsh:
             occ = gmsh.model.occ

@@ -85,10 +85,8 @@ DELTA = 0.01  # mm, the nut's interference (pretension)
 SHEAR = 0.05  # mm, amplitude of the upper plate's end
 ALPHA = 1e5  # MPa/mm, the interfaces' penalties
 STEEL = Material(2.1e5, 0.3)
-BODIES = {"bolt": ["head", "shank", "tail"], "nut": ["nut"], "lower": ["lower"],
-          "upper": ["upper"]}  # fmt: skip
-SIDES = {"head_face": ("upper", "bolt"), "joint": ("lower", "upper"),
-         "nut_face": ("lower", "nut")}  # fmt: skip
+BODIES = {"bolt": ["head", "shank", "tail"], "nut": ["nut"], "lower": ["lower"], "upper": ["upper"]}
+SIDES = {"head_face": ("upper", "bolt"), "joint": ("lower", "upper"), "nut_face": ("lower", "nut")}
 
 
 # %% [markdown]
@@ -114,8 +112,9 @@ def build(h: float):
     occ.cut([(3, nut)], [(3, occ.addCylinder(XC, YC, -T_NUT, 0, 0, T_NUT, R_SHANK))])
     occ.fragment(occ.getEntities(3), [])
     occ.synchronize()
-    groups: dict[str, list[int]] = {k: [] for k in ("lower", "upper", "head", "shank", "tail",
-                                                    "nut")}  # fmt: skip
+    groups: dict[str, list[int]] = {
+        k: [] for k in ("lower", "upper", "head", "shank", "tail", "nut")
+    }
     del lower, upper, head, shank, tail, nut
     for _, t in gmsh.model.getEntities(3):
         x0, _, z0, x1, _, z1 = gmsh.model.getBoundingBox(3, t)
@@ -129,10 +128,19 @@ def build(h: float):
         else:
             groups["tail" if wide < 2 * R_SHANK + 1e-3 else "nut"].append(t)
     tag_of = {t: name for name, ts in groups.items() for t in ts}
-    faces: dict[str, list[int]] = {"head_face": [], "joint": [], "nut_face": [],
-                                   "lower_end": [], "upper_end": [], "head_top": []}  # fmt: skip
-    pairs = {frozenset(("upper", "head")): "head_face", frozenset(("lower", "upper")): "joint",
-             frozenset(("lower", "nut")): "nut_face"}  # fmt: skip
+    faces: dict[str, list[int]] = {
+        "head_face": [],
+        "joint": [],
+        "nut_face": [],
+        "lower_end": [],
+        "upper_end": [],
+        "head_top": [],
+    }
+    pairs = {
+        frozenset(("upper", "head")): "head_face",
+        frozenset(("lower", "upper")): "joint",
+        frozenset(("lower", "nut")): "nut_face",
+    }
     for _, s in gmsh.model.getEntities(2):
         up, _ = gmsh.model.getAdjacencies(2, s)
         owners = frozenset(tag_of[v] for v in up)
@@ -189,16 +197,22 @@ def program(cycles: int) -> LoadingProgram:
 def problem(domain, cycles: int) -> InterfaceProblem:
     law = preset("sec7").replace(alpha_t=ALPHA, alpha_n=ALPHA)
     return InterfaceProblem(
-        domain, law, {b: STEEL for b in BODIES}, program(cycles),
+        domain,
+        law,
+        {b: STEEL for b in BODIES},
+        program(cycles),
         [
             Dirichlet("lower_end", [0.0, 0.0, 0.0]),
             Dirichlet("upper_end", SHEAR, component=0, amplitude="shear"),
             Dirichlet("upper_end", 0.0, component=1),
         ],
         springs=[Spring("head_top", [1e-2, 1e-2, 0.0])],
-        interfaces=[Interface("head_face"), Interface("joint"),
-                    Interface("nut_face", initial_gap=-DELTA)],
-    )  # fmt: skip
+        interfaces=[
+            Interface("head_face"),
+            Interface("joint"),
+            Interface("nut_face", initial_gap=-DELTA),
+        ],
+    )
 
 
 def bolt_force(problem: InterfaceProblem):
@@ -222,13 +236,20 @@ def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
 
     def on_step(rec):
         s = interface_summary(p)
-        rows.append({
-            "t": rec.t, "shear": SHEAR * p.program.amplitude("shear", rec.t),
-            "force": p.reactions["upper_end"][0], "bolt": N(),
-            "head": s["head_face.F_n"], "joint": s["joint.F_n"], "nut": s["nut_face.F_n"],
-            "joint_slip": s["joint.up_norm"], "joint_plastic": s["joint.plastic"],
-            "residual_bound": math.sqrt(dofs) * rec.residuals[-1],
-        })  # fmt: skip
+        rows.append(
+            {
+                "t": rec.t,
+                "shear": SHEAR * p.program.amplitude("shear", rec.t),
+                "force": p.reactions["upper_end"][0],
+                "bolt": N(),
+                "head": s["head_face.F_n"],
+                "joint": s["joint.F_n"],
+                "nut": s["nut_face.F_n"],
+                "joint_slip": s["joint.up_norm"],
+                "joint_plastic": s["joint.plastic"],
+                "residual_bound": math.sqrt(dofs) * rec.residuals[-1],
+            }
+        )
 
     with FrictionSolver(p, "bolt_", linear="lu") as solver:
         LoadStepper(solver, dt, hold_dt=1.0, on_step=on_step).run()
@@ -277,12 +298,16 @@ def report(rows: list[dict[str, float]], comm: MPI.Comm) -> dict:
         "steps": len(rows),
     }
     if comm.rank == 0:
-        print(f"pretension {pre:.1f} N (interference {DELTA} mm on the nut face); at every one "
-              f"of {len(rows)} steps the bolt's axial force equals the head's, the joint's and "
-              f"the nut's normal resultants within {out['balance']:.1e} of it")
-        print(f"under the shear: the bolt force varies down to {100 * out['min_pretension']:+.2f} "
-              f"% and ends {100 * out['pretension_change']:+.2f} % off the pretension; shear "
-              f"force {out['shear_min']:.1f} to {out['shear_max']:.1f} N")  # fmt: skip
+        print(
+            f"pretension {pre:.1f} N (interference {DELTA} mm on the nut face); at every one "
+            f"of {len(rows)} steps the bolt's axial force equals the head's, the joint's and "
+            f"the nut's normal resultants within {out['balance']:.1e} of it"
+        )
+        print(
+            f"under the shear: the bolt force varies down to {100 * out['min_pretension']:+.2f} "
+            f"% and ends {100 * out['pretension_change']:+.2f} % off the pretension; shear "
+            f"force {out['shear_min']:.1f} to {out['shear_max']:.1f} N"
+        )
     return out
 
 

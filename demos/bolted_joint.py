@@ -266,9 +266,14 @@ def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
         a.grid(True, alpha=0.3)
     ax[0].set_ylabel("shear force (kN)")
     ax[1].text(
-        0.02, 0.95, r"dashed: $\mu_s A\, g(F_b/A)$", transform=ax[1].transAxes, fontsize=8,
-        color="C3", va="top",
-    )  # fmt: skip
+        0.02,
+        0.95,
+        r"dashed: $\mu_s A\, g(F_b/A)$",
+        transform=ax[1].transAxes,
+        fontsize=8,
+        color="C3",
+        va="top",
+    )
     fig.suptitle(
         f"Bolted lap joint, {preload:g} kN preload: shear force against slip, {cycles} cycles"
     )

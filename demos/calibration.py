@@ -133,8 +133,9 @@ optimum.
 
 
 # %%
-def run_demo(out: str | pathlib.Path, quick: bool = False, noise: float = 0.2,
-             verbose: bool = True) -> dict:  # fmt: skip
+def run_demo(
+    out: str | pathlib.Path, quick: bool = False, noise: float = 0.2, verbose: bool = True
+) -> dict:
     """Write DATA.json, FIT.json and calibration.png into ``out``; return FIT.json's content."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -154,10 +155,14 @@ def run_demo(out: str | pathlib.Path, quick: bool = False, noise: float = 0.2,
     say(f"\n{'':8s} " + " ".join(f"{h:>10s}" for h in head))
     for k in fitted:
         off = (res.params[k] - TRUE[k]) / res.stderr[k]
-        say(f"{k:8s} {TRUE[k]:10.4g} {START[k]:10.4g} {res.params[k]:10.4g} "
-            f"{res.stderr[k]:10.2g} {off:10.2f}")  # fmt: skip
-    say(f"rms {res.rms:.3f} MPa (noise {noise} MPa), {res.evaluations} driver runs, "
-        f"{res.seconds:.1f} s; correlation:")  # fmt: skip
+        say(
+            f"{k:8s} {TRUE[k]:10.4g} {START[k]:10.4g} {res.params[k]:10.4g} "
+            f"{res.stderr[k]:10.2g} {off:10.2f}"
+        )
+    say(
+        f"rms {res.rms:.3f} MPa (noise {noise} MPa), {res.evaluations} driver runs, "
+        f"{res.seconds:.1f} s; correlation:"
+    )
     for k, row in zip(fitted, res.correlation, strict=True):
         say(f"  {k:8s} " + " ".join(f"{c:+.3f}" for c in row))
     return fit_json

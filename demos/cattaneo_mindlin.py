@@ -152,10 +152,16 @@ def subloading_law(mu_s: float, c_n: float = C_N, u_tilde: float = U_TILDE) -> d
     return {
         "law": "subloading",
         "params": {
-            "alpha_t": hertz.ALPHA, "alpha_n": hertz.ALPHA, "mu_s": mu_s, "mu_k": mu_s,
-            "kappa": 0.0, "xi": 0.0, "u_tilde": u_tilde, "c_n": c_n,
+            "alpha_t": hertz.ALPHA,
+            "alpha_n": hertz.ALPHA,
+            "mu_s": mu_s,
+            "mu_k": mu_s,
+            "kappa": 0.0,
+            "xi": 0.0,
+            "u_tilde": u_tilde,
+            "c_n": c_n,
         },
-    }  # fmt: skip
+    }
 
 
 # %%
@@ -261,7 +267,9 @@ def report(cou: dict, slips: dict, mu_s: float, u_tilde: float = U_TILDE) -> str
         + (
             f"\n[cm] subloading: mu_s = {mu_s:.2f} MPa, c_n = {C_N:g} 1/MPa, "
             f"u_tilde = {u_tilde:g} 1/mm; the same top displacement\n"
-            + line("Coulomb", co) + "\n" + line("subloading", su)
+            + line("Coulomb", co)
+            + "\n"
+            + line("subloading", su)
             if su
             else ""
         )
@@ -281,15 +289,34 @@ def figure(cres, sres, cou: dict, mu_s: float, outdir) -> str:
     a, p0 = cou["a_H"], cou["p0_H"]
     xx = np.linspace(-a, a, 801)
     fig, ax = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True)
-    ax[0].plot(xx, hertz.MU * p0 * np.sqrt(1 - xx**2 / a**2), ":", color="C3", lw=1,
-               label=r"Coulomb's strength $\mu p$")  # fmt: skip
-    ax[0].plot(xx, cattaneo_mindlin(xx, a, p0, hertz.MU, cou["ratio"]), "-", color="k", lw=1,
-               label="Cattaneo-Mindlin")  # fmt: skip
+    ax[0].plot(
+        xx,
+        hertz.MU * p0 * np.sqrt(1 - xx**2 / a**2),
+        ":",
+        color="C3",
+        lw=1,
+        label=r"Coulomb's strength $\mu p$",
+    )
+    ax[0].plot(
+        xx,
+        cattaneo_mindlin(xx, a, p0, hertz.MU, cou["ratio"]),
+        "-",
+        color="k",
+        lw=1,
+        label="Cattaneo-Mindlin",
+    )
     ax[0].plot(xc, np.abs(c["f_t"][:, 0]), "o", ms=3, color="C3", label="Coulomb (FE)")
-    ax[0].plot(xs, (1 - np.exp(-C_N * s["f_n"])) * s["mu"], "--", color="C0", lw=1,
-               label=r"subloading's strength $g(f_n)\,\mu$")  # fmt: skip
-    ax[0].plot(xs, np.abs(s["f_t"][:, 0]), "s", ms=3, mfc="none", color="C0",
-               label="subloading (FE)")  # fmt: skip
+    ax[0].plot(
+        xs,
+        (1 - np.exp(-C_N * s["f_n"])) * s["mu"],
+        "--",
+        color="C0",
+        lw=1,
+        label=r"subloading's strength $g(f_n)\,\mu$",
+    )
+    ax[0].plot(
+        xs, np.abs(s["f_t"][:, 0]), "s", ms=3, mfc="none", color="C0", label="subloading (FE)"
+    )
     for sign in (-1, 1):
         ax[0].axvline(sign * cou["c"], color="k", lw=0.5, alpha=0.5)
     ax[0].set_ylabel("tangential traction $|f_t|$ (MPa)")
@@ -297,10 +324,18 @@ def figure(cres, sres, cou: dict, mu_s: float, outdir) -> str:
         f"Q/µP = {cou['ratio']:.3f}: stick zone |x| < c = {cou['c']:.3f} mm", fontsize=9
     )
     ax[0].legend(fontsize=7)
-    ax[1].semilogy(xc, np.maximum(np.abs(c["up"][:, 0]), 1e-9) * 1e3, "o", ms=3, color="C3",
-                   label="Coulomb")  # fmt: skip
-    ax[1].semilogy(xs, np.maximum(np.abs(s["up"][:, 0]), 1e-9) * 1e3, "s", ms=3, mfc="none",
-                   color="C0", label="subloading")  # fmt: skip
+    ax[1].semilogy(
+        xc, np.maximum(np.abs(c["up"][:, 0]), 1e-9) * 1e3, "o", ms=3, color="C3", label="Coulomb"
+    )
+    ax[1].semilogy(
+        xs,
+        np.maximum(np.abs(s["up"][:, 0]), 1e-9) * 1e3,
+        "s",
+        ms=3,
+        mfc="none",
+        color="C0",
+        label="subloading",
+    )
     ax[1].set_ylabel("plastic slip $|u^p|$ (µm; floor 1e-6)")
     ax[1].set_xlabel("x from the centre of the contact (mm)")
     ax[1].set_xlim(-1.3 * a, 1.3 * a)

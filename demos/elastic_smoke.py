@@ -62,7 +62,6 @@ The modules used: gmsh for the geometry and mesh, DOLFINx/UFL for the discretisa
 petsc4py for the linear solve.
 """
 
-
 # %%
 """Linear-elastic smoke demo: a gmsh rectangle, clamped on the left, traction on the right."""
 

@@ -154,14 +154,24 @@ def program(cycles: int) -> dict:
 
 # %%
 def scene(
-    n: int, cycles: int, *, law: dict, name: str, sigma_y: float = SIGMA_Y,
-    slide: float = SLIDE, steps: int = 4,
-) -> dict:  # fmt: skip
+    n: int,
+    cycles: int,
+    *,
+    law: dict,
+    name: str,
+    sigma_y: float = SIGMA_Y,
+    slide: float = SLIDE,
+    steps: int = 4,
+) -> dict:
     """Hertz's scene (``n`` elements per half-width), the flat J2, the top moved cyclically."""
     sc = hertz.scene(n, law=law, name=name, slide=slide, steps=steps)
     sc["materials"]["master"] = {
-        "model": "j2", "E": hertz.E, "nu": hertz.NU, "sigma_y": sigma_y, "H_kin": H_KIN,
-    }  # fmt: skip
+        "model": "j2",
+        "E": hertz.E,
+        "nu": hertz.NU,
+        "sigma_y": sigma_y,
+        "H_kin": H_KIN,
+    }
     sc["program"] = program(cycles)
     sc["outputs"] = {}
     return sc
@@ -170,8 +180,10 @@ def scene(
 # %%
 def laws(P: float) -> dict:
     """Coulomb (``MU``) and the subloading law calibrated to the same sliding force at ``P``."""
-    coulomb = {"law": "coulomb", "params": {"alpha_t": hertz.ALPHA, "alpha_n": hertz.ALPHA,
-                                            "mu_c": MU}}  # fmt: skip
+    coulomb = {
+        "law": "coulomb",
+        "params": {"alpha_t": hertz.ALPHA, "alpha_n": hertz.ALPHA, "mu_c": MU},
+    }
     mu_s = cattaneo_mindlin.calibrated_mu_s(P, mu=MU)
     return {"coulomb": coulomb, "subloading": cattaneo_mindlin.subloading_law(mu_s)}
 
@@ -206,12 +218,21 @@ def run(sc: dict, comm: MPI.Comm, options: dict | None = None) -> dict:
         s = interface_summary(problem)
         r = problem.reactions
         amp = float(np.interp(rec.t, prog["times"], prog["channels"]["slide"]))
-        rows.append({
-            "t": rec.t, "s": slide * amp, "Q": r["top"][0], "P": r["top"][1],
-            "R_bottom_x": r["bottom"][0], "R_bottom_y": r["bottom"][1],
-            "F_t": s["F_t1"], "F_n": s["F_n"], "plastic_points": bulk.plastic_points,
-            "iterations": rec.iterations, "residual": rec.residuals[-1],
-        })  # fmt: skip
+        rows.append(
+            {
+                "t": rec.t,
+                "s": slide * amp,
+                "Q": r["top"][0],
+                "P": r["top"][1],
+                "R_bottom_x": r["bottom"][0],
+                "R_bottom_y": r["bottom"][1],
+                "F_t": s["F_t1"],
+                "F_n": s["F_n"],
+                "plastic_points": bulk.plastic_points,
+                "iterations": rec.iterations,
+                "residual": rec.residuals[-1],
+            }
+        )
         if any(abs(rec.t - e) < 1e-9 for e in ends):
             snaps[round(rec.t, 9)] = interface_profile(problem)
             plastic[round(rec.t, 9)] = {
@@ -253,8 +274,15 @@ def stick_zone(snap: dict, Q: float, P: float) -> dict:
     elastic = (snap["status"] == Status.ELASTIC) & (fn > 0)
     lo = hi = int(np.argmin(np.abs(x)))
     if not elastic[lo]:
-        return {"ratio": ratio, "c": c, "c_edge": 0.0, "c_fit": 0.0, "a": a, "p0": p0,
-                "stick": False}  # fmt: skip
+        return {
+            "ratio": ratio,
+            "c": c,
+            "c_edge": 0.0,
+            "c_fit": 0.0,
+            "a": a,
+            "p0": p0,
+            "stick": False,
+        }
     while lo > 0 and elastic[lo - 1]:
         lo -= 1
     while hi < x.size - 1 and elastic[hi + 1]:
@@ -267,10 +295,17 @@ def stick_zone(snap: dict, Q: float, P: float) -> dict:
     q = cattaneo_mindlin.cattaneo_mindlin(x, a, p0, MU, min(ratio, 1.0))
     inside = np.abs(x) <= a
     return {
-        "ratio": ratio, "c": c, "c_edge": c_edge, "c_fit": c_fit, "a": a, "p0": p0,
-        "stick": True, "err_c_fit": c_fit / c - 1.0, "err_c_edge": c_edge / c - 1.0,
+        "ratio": ratio,
+        "c": c,
+        "c_edge": c_edge,
+        "c_fit": c_fit,
+        "a": a,
+        "p0": p0,
+        "stick": True,
+        "err_c_fit": c_fit / c - 1.0,
+        "err_c_edge": c_edge / c - 1.0,
         "err_q_rms": float(np.sqrt(np.mean((ft - q)[inside] ** 2)) / (MU * p0)),
-    }  # fmt: skip
+    }
 
 
 # %%
@@ -316,11 +351,18 @@ def measure(res: dict, cycles: int, coulomb: bool) -> dict:
     """Stick zones (Coulomb), plastic strain, loops and force balance of one run."""
     rows = res["history"]
     scale = max(abs(r["P"]) for r in rows)
-    balance = max(
-        max(abs(r["Q"] + r["R_bottom_x"]), abs(abs(r["Q"]) - abs(r["F_t"])),
-            abs(r["P"] + r["R_bottom_y"]), abs(abs(r["P"]) - r["F_n"]))
-        for r in rows
-    ) / scale  # fmt: skip
+    balance = (
+        max(
+            max(
+                abs(r["Q"] + r["R_bottom_x"]),
+                abs(abs(r["Q"]) - abs(r["F_t"])),
+                abs(r["P"] + r["R_bottom_y"]),
+                abs(abs(r["P"]) - r["F_n"]),
+            )
+            for r in rows
+        )
+        / scale
+    )
     # what Newton's stop allows: each difference is a sum of free dofs' residual entries, at most
     # sqrt(dofs) |F| (Cauchy-Schwarz) with |F| the step's last residual norm
     newton = math.sqrt(res["dofs"]) * max(r["residual"] for r in rows) / scale
@@ -409,8 +451,14 @@ def figure(results: dict, cycles: int, outdir: Path) -> str:
     t_end = extremes(cycles)[-1]
     for k, name in enumerate(names):
         rows = [r for r in results[name]["history"] if r["t"] >= 1.0]
-        ax[0].plot([1e3 * r["s"] for r in rows], [r["Q"] for r in rows], "-", ms=2,
-                   color=f"C{k}", label=name)  # fmt: skip
+        ax[0].plot(
+            [1e3 * r["s"] for r in rows],
+            [r["Q"] for r in rows],
+            "-",
+            ms=2,
+            color=f"C{k}",
+            label=name,
+        )
         pl = results[name]["plastic"][round(t_end, 9)]
         x, y = pl["x"][:, 0] - hertz.L, pl["x"][:, 1] - hertz.L
         near = (np.abs(x) < 1.6) & (y > -0.8)
@@ -471,8 +519,15 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         chosen.pop("subloading")
     results, measures = {}, {}
     for name, law in chosen.items():
-        sc = scene(args.n, args.cycles, law=law, name=f"fretting_{name}", sigma_y=sigma_y,
-                   slide=args.slide, steps=args.steps)  # fmt: skip
+        sc = scene(
+            args.n,
+            args.cycles,
+            law=law,
+            name=f"fretting_{name}",
+            sigma_y=sigma_y,
+            slide=args.slide,
+            steps=args.steps,
+        )
         options = SUBLOADING_SNES if name == "subloading" else None
         results[name] = run(sc, comm, options)
         measures[name] = measure(results[name], args.cycles, coulomb=name == "coulomb")

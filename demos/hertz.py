@@ -220,9 +220,11 @@ def write_apart_mesh(path, n: int, comm: MPI.Comm, ratio: float = 2.0 / 3.0) -> 
             f.setNumbers(both, "FieldsList", restricted)
             f.setAsBackgroundMesh(both)
             for option, value in (
-                ("Mesh.MeshSizeMax", max(1.0, ratio) * far), ("Mesh.MeshSizeExtendFromBoundary", 0),
-                ("Mesh.MeshSizeFromPoints", 0), ("Mesh.MeshSizeFromCurvature", 0),
-            ):  # fmt: skip
+                ("Mesh.MeshSizeMax", max(1.0, ratio) * far),
+                ("Mesh.MeshSizeExtendFromBoundary", 0),
+                ("Mesh.MeshSizeFromPoints", 0),
+                ("Mesh.MeshSizeFromCurvature", 0),
+            ):
                 gmsh.option.setNumber(option, value)
             groups: dict[str, list[int]] = {"contact": [], "bottom": [], "top": []}
             for _, t in gmsh.model.getEntities(1):

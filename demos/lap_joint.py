@@ -77,7 +77,6 @@ figures into the output directory. PETSc options apply under the prefixes `lap_s
 `lap_coul_`.
 """
 
-
 # %%
 import argparse
 import math

@@ -73,7 +73,6 @@ end of the pressing, of every stroke and of every hold) into the output director
 apply under the prefix `pad_`, e.g. `-pad_snes_monitor`.
 """
 
-
 # %%
 import argparse
 import math

@@ -74,7 +74,6 @@ recovers it: $\dot\mu = -\kappa(\mu - \mu_k)|\dot u^p| + \xi(\mu_s - \mu)$.
 ## Implementation
 """
 
-
 # %%
 from __future__ import annotations
 

@@ -96,7 +96,6 @@ history (`subloading/history.csv`, `coulomb/history.csv`) and three figures into
 directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
 """
 
-
 # %%
 import argparse
 import sys

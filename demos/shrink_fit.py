@@ -132,14 +132,19 @@ def problem(domain, law, push: float) -> InterfaceProblem:
     program = LoadingProgram([0.0, 1.0, 2.0], {"push": [0.0, 0.0, 1.0]})
     steel = Material(E, NU)
     return InterfaceProblem(
-        domain, law, {"shaft": steel, "hub": steel}, program,
+        domain,
+        law,
+        {"shaft": steel, "hub": steel},
+        program,
         [
             Dirichlet("axis", 0.0, component=0),
             Dirichlet("hub_ends", 0.0, component=1),
             Dirichlet("shaft", push, component=1, amplitude="push"),
         ],
-        degree=2, initial_gap=-DELTA, mode="axisymmetric",
-    )  # fmt: skip
+        degree=2,
+        initial_gap=-DELTA,
+        mode="axisymmetric",
+    )
 
 
 def run(domain, law, steps: int, push: float) -> dict:
@@ -149,8 +154,14 @@ def run(domain, law, steps: int, push: float) -> dict:
 
     def on_step(rec):
         s = interface_summary(p)
-        rows.append({"t": rec.t, "push": push * max(rec.t - 1.0, 0.0),
-                     "force": p.reactions["shaft"][1], **s})  # fmt: skip
+        rows.append(
+            {
+                "t": rec.t,
+                "push": push * max(rec.t - 1.0, 0.0),
+                "force": p.reactions["shaft"][1],
+                **s,
+            }
+        )
         if abs(rec.t - 1.0) < 1e-12:
             el = p.interface
             fit.update(gather_interface(el, {"f_n": el.last.traction[:, el.nt]}))
@@ -199,14 +210,20 @@ def report(results: dict, comm: MPI.Comm) -> dict:
         "subloading_final": float(force_s[-1]),
     }
     if comm.rank == 0:
-        print(f"Lame (plane strain, penalty included): p = {p0:.4f} MPa; the fit's pressure: "
-              f"mean {100 * out['p_mean_error']:+.3f} %, largest deviation "
-              f"{100 * out['p_max_error']:.3f} % ({fn.size} interface points)")
-        print(f"Coulomb (mu = {MU}): slides at {out['coulomb_max']:.1f} N against "
-              f"2 pi b L mu p = {onset:.1f} N ({100 * out['coulomb_onset_error']:+.2f} %)")
-        print(f"subloading law: peak {out['subloading_peak']:.1f} N (saturation bound "
-              f"2 pi b L g(p) mu_s = {out['subloading_bound']:.1f} N), "
-              f"{out['subloading_final']:.1f} N after {PUSH['subloading']} mm")  # fmt: skip
+        print(
+            f"Lame (plane strain, penalty included): p = {p0:.4f} MPa; the fit's pressure: "
+            f"mean {100 * out['p_mean_error']:+.3f} %, largest deviation "
+            f"{100 * out['p_max_error']:.3f} % ({fn.size} interface points)"
+        )
+        print(
+            f"Coulomb (mu = {MU}): slides at {out['coulomb_max']:.1f} N against "
+            f"2 pi b L mu p = {onset:.1f} N ({100 * out['coulomb_onset_error']:+.2f} %)"
+        )
+        print(
+            f"subloading law: peak {out['subloading_peak']:.1f} N (saturation bound "
+            f"2 pi b L g(p) mu_s = {out['subloading_bound']:.1f} N), "
+            f"{out['subloading_final']:.1f} N after {PUSH['subloading']} mm"
+        )
     return out
 
 
@@ -217,8 +234,9 @@ def figure(results: dict, outdir: Path) -> None:
     for name, res in results.items():
         h = res["history"]
         ax[0].plot([1e3 * r["push"] for r in h], [1e-3 * r["force"] for r in h], label=name)
-    ax[0].axhline(1e-3 * MU * 2 * np.pi * B * L * lame_pressure(), ls=":", c="k",
-                  label=r"$2\pi b L \mu p$")  # fmt: skip
+    ax[0].axhline(
+        1e-3 * MU * 2 * np.pi * B * L * lame_pressure(), ls=":", c="k", label=r"$2\pi b L \mu p$"
+    )
     ax[0].set_xlabel("push (µm)")
     ax[0].set_ylabel("push force (kN)")
     ax[0].legend()

@@ -158,9 +158,7 @@ def build_problem(domain: meshing.InterfaceMesh) -> InterfaceProblem:
         Dirichlet("slave_left", PUSH, component=0, amplitude="push"),
     ]
     loads = [Pressure("top", PRESSURE, amplitude="press")]
-    return InterfaceProblem(
-        domain, friction_law(), materials, loading_program(), dirichlet, loads
-    )
+    return InterfaceProblem(domain, friction_law(), materials, loading_program(), dirichlet, loads)
 
 
 # %% [markdown]
@@ -215,9 +213,7 @@ def run(problem: InterfaceProblem, outdir: Path, dt: float, fields: str) -> dict
 
     try:
         with FrictionSolver(problem, "api_") as solver:
-            stepper = LoadStepper(
-                solver, dt, dt_max=2.5 * dt, hold_dt=5.0, on_step=on_step
-            )
+            stepper = LoadStepper(solver, dt, dt_max=2.5 * dt, hold_dt=5.0, on_step=on_step)
             stepper.run(stops=FIELD_TIMES)
             timing = timing_breakdown(problem, solver.event_start)
     finally:
@@ -249,12 +245,16 @@ def report(result: dict) -> None:
     ft = np.array([r["F_t1"] / r["area"] for r in h])
     first, second = ft[(t > 1) & (t <= 2)].max(), ft[t > TIMES[3]].max()
     held = ft[np.isclose(t, TIMES[3])][0]
-    print(f"{result['steps']} steps; mean f_t: first peak {first:.3f} MPa, after the hold "
-          f"{held:.3f} MPa, second peak {second:.3f} MPa")  # fmt: skip
+    print(
+        f"{result['steps']} steps; mean f_t: first peak {first:.3f} MPa, after the hold "
+        f"{held:.3f} MPa, second peak {second:.3f} MPa"
+    )
     for time_, p in sorted(result["profiles"].items()):
         fn, mu = p["f_n"], p["mu"]
-        print(f"t = {time_:g} s: f_n at the trailing edge {fn[0]:.1f} MPa, at the leading edge "
-              f"{fn[-1]:.1f} MPa; mu from {mu.min():.1f} to {mu.max():.1f} MPa")  # fmt: skip
+        print(
+            f"t = {time_:g} s: f_n at the trailing edge {fn[0]:.1f} MPa, at the leading edge "
+            f"{fn[-1]:.1f} MPa; mu from {mu.min():.1f} to {mu.max():.1f} MPa"
+        )
 
 
 # %% [markdown]

@@ -139,14 +139,21 @@ def run(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict[str, 
     iface = FrictionInterface.from_mesh(V, domain, law())
     A = create_matrix(V, [iface])
     solver = compat.dolfinx_newton(
-        F, u, bcs, J, A,
+        F,
+        u,
+        bcs,
+        J,
+        A,
         add_residual=lambda x, b: iface.assemble_residual(b, x, bcs=bcs),
         add_jacobian=lambda x, mat: iface.assemble_jacobian(mat, x, bcs=bcs),
-        prefix="user_loop_", rtol=RTOL, atol=ATOL,
-    )  # fmt: skip
+        prefix="user_loop_",
+        rtol=RTOL,
+        atol=ATOL,
+    )
     steps = np.round(np.diff(TIMES) / dt).astype(int)
-    times = np.concatenate([np.linspace(a, b, k + 1)[1:] for a, b, k in
-                            zip(TIMES[:-1], TIMES[1:], steps, strict=True)])  # fmt: skip
+    times = np.concatenate(
+        [np.linspace(a, b, k + 1)[1:] for a, b, k in zip(TIMES[:-1], TIMES[1:], steps, strict=True)]
+    )
     history, t0 = [], TIMES[0]
     try:
         for t in times:
@@ -194,12 +201,13 @@ def reference(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict
         {"press": [0.0, 1.0, 1.0, 1.0], "slide": [0.0, 0.0, SLIDE, -SLIDE]},
     )
     problem = InterfaceProblem(
-        domain, law(),
+        domain,
+        law(),
         {"master": Material(E_BASE, NU_BASE), "slave": Material(E_BLOCK, NU_BLOCK)},
         program,
         [Dirichlet("bottom", [0.0, 0.0]), Dirichlet(push, 1.0, 0, amplitude="slide")],
         [Pressure("top", PRESSURE, amplitude="press")],
-    )  # fmt: skip
+    )
     rows = []
 
     def on_step(rec):
@@ -244,14 +252,20 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         with open(out / "history.csv", "w") as f:
             f.write("t,F_t1,F_n,newton,F_t1_reference\n")
             for r, q in zip(mine, ref, strict=True):
-                f.write(f"{r['t']:.17g},{r['F_t1']:.17g},{r['F_n']:.17g},{r['newton']},"
-                        f"{q['F_t1']:.17g}\n")  # fmt: skip
+                f.write(
+                    f"{r['t']:.17g},{r['F_t1']:.17g},{r['F_n']:.17g},{r['newton']},"
+                    f"{q['F_t1']:.17g}\n"
+                )
         peak = max(abs(r["F_t1"]) for r in mine)
-        print(f"{len(mine)} steps; peak tangential force {peak:.6g} N/mm; Newton iterations "
-              f"{sum(r['newton'] for r in mine)} (DOLFINx) against "
-              f"{sum(r['newton'] for r in ref)} (FrictionSolver)")  # fmt: skip
-        print(f"largest difference to FrictionSolver + LoadStepper, relative to the peak: "
-              f"F_t1 {diff['F_t1']:.2e}, F_n {diff['F_n']:.2e}")  # fmt: skip
+        print(
+            f"{len(mine)} steps; peak tangential force {peak:.6g} N/mm; Newton iterations "
+            f"{sum(r['newton'] for r in mine)} (DOLFINx) against "
+            f"{sum(r['newton'] for r in ref)} (FrictionSolver)"
+        )
+        print(
+            f"largest difference to FrictionSolver + LoadStepper, relative to the peak: "
+            f"F_t1 {diff['F_t1']:.2e}, F_n {diff['F_n']:.2e}"
+        )
     return {"history": mine, "reference": ref, "difference": diff}
 
 

@@ -40,9 +40,19 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
 ]
-exclude_patterns = ["_build", "_mathjax", "__init__.py", "conf.py", "pages.py", "demo_results.py",
-                    "readme_numbers.py",
-                    "figures", "**/.ipynb_checkpoints", "Thumbs.db", ".DS_Store"]
+exclude_patterns = [
+    "_build",
+    "_mathjax",
+    "__init__.py",
+    "conf.py",
+    "pages.py",
+    "demo_results.py",
+    "readme_numbers.py",
+    "figures",
+    "**/.ipynb_checkpoints",
+    "Thumbs.db",
+    ".DS_Store",
+]
 
 # -- MyST and MyST-NB: Markdown pages, demos as notebooks from their jupytext (percent) source
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence"]
@@ -87,9 +97,11 @@ mathjax_path = "mathjax/MathJax.js?config=TeX-AMS_CHTML"
 # MathJax 2 skips what lies inside class tex2jax_ignore (the page body, set by MyST-NB) unless the
 # element's class matches processClass: Sphinx's math elements have class "math"
 mathjax2_config = {
-    "tex2jax": {"processClass": "tex2jax_process|mathjax_process|math|output_area",
-                "ignoreClass": "tex2jax_ignore|mathjax_ignore"},
-}  # fmt: skip
+    "tex2jax": {
+        "processClass": "tex2jax_process|mathjax_process|math|output_area",
+        "ignoreClass": "tex2jax_ignore|mathjax_ignore",
+    },
+}
 
 # -- intersphinx: only inventories installed here (docs/pages.py)
 intersphinx_mapping = local_inventories()

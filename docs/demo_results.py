@@ -82,9 +82,12 @@ def numbers(demo: str, result: Any) -> dict[str, Any]:
         h = result.history
         t = np.array([r["t"] for r in h])
         ft = np.array([r["F_t1"] / r["area"] for r in h])
-        return {"peak_forward": ft[(t > 1) & (t <= 2)].max(),
-                "peak_reverse": -ft[(t > 2) & (t <= 4)].min(), "peak_reload": ft[t > 24].max(),
-                "info": plain(result.info)}  # fmt: skip
+        return {
+            "peak_forward": ft[(t > 1) & (t <= 2)].max(),
+            "peak_reverse": -ft[(t > 2) & (t <= 4)].min(),
+            "peak_reload": ft[t > 24].max(),
+            "info": plain(result.info),
+        }
     if demo == "lap_joint":
         from demos import lap_joint
 
@@ -92,8 +95,10 @@ def numbers(demo: str, result: Any) -> dict[str, Any]:
         cycles = lap_joint.parser().get_default("cycles")
         for name, res in result.items():
             s = lap_joint.slip_per_cycle(res.history, cycles)
-            out[name] = {"slip_per_cycle_um": (1e3 * np.diff(s)).tolist(),
-                         "total_um": 1e3 * float(s[-1] - s[0])}  # fmt: skip
+            out[name] = {
+                "slip_per_cycle_um": (1e3 * np.diff(s)).tolist(),
+                "total_um": 1e3 * float(s[-1] - s[0]),
+            }
         return out
     if demo == "punch":
         return plain(result[0].info["punch"])
@@ -137,12 +142,23 @@ def child(key: str, out: Path) -> None:
             wall = time.perf_counter() - t0
             rank = 0
     if rank == 0:
-        ours = sorted({f"{w.category.__name__}: {w.message}" for w in seen
-                       if w.category.__module__.startswith("subfric_dolfinx")})  # fmt: skip
-        record = {"command": ["mpirun", "-n", str(ranks), "python3", f"demos/{demo}.py", *options]
-                  if ranks > 1 else ["python3", f"demos/{demo}.py", *options],
-                  "ranks": ranks, "wall_s": wall, "load": os.getloadavg()[0], "warnings": ours,
-                  "numbers": numbers(demo, result)}  # fmt: skip
+        ours = sorted(
+            {
+                f"{w.category.__name__}: {w.message}"
+                for w in seen
+                if w.category.__module__.startswith("subfric_dolfinx")
+            }
+        )
+        record = {
+            "command": ["mpirun", "-n", str(ranks), "python3", f"demos/{demo}.py", *options]
+            if ranks > 1
+            else ["python3", f"demos/{demo}.py", *options],
+            "ranks": ranks,
+            "wall_s": wall,
+            "load": os.getloadavg()[0],
+            "warnings": ours,
+            "numbers": numbers(demo, result),
+        }
         (out / "result.json").write_text(json.dumps(record, indent=1, default=float))
 
 
@@ -152,10 +168,18 @@ def main() -> int:
     ap.add_argument("--only", nargs="+", choices=sorted(RUNS), help="these runs only")
     ap.add_argument("--child", choices=sorted(RUNS), help=argparse.SUPPRESS)
     ap.add_argument("--dir", help=argparse.SUPPRESS)
-    ap.add_argument("--results", type=Path, default=RESULTS,
-                    help="the results file (another one to run several jobs at once)")
-    ap.add_argument("--merge", type=Path, nargs="+",
-                    help="merge these results files (of the same code) into --results, run none")
+    ap.add_argument(
+        "--results",
+        type=Path,
+        default=RESULTS,
+        help="the results file (another one to run several jobs at once)",
+    )
+    ap.add_argument(
+        "--merge",
+        type=Path,
+        nargs="+",
+        help="merge these results files (of the same code) into --results, run none",
+    )
     args = ap.parse_args()
     if args.child:
         child(args.child, Path(args.dir))
@@ -176,8 +200,9 @@ def main() -> int:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for key in args.only or list(RUNS):
         demo, _, ranks, keep_figures = RUNS[key]
-        with tempfile.TemporaryDirectory(dir=ROOT / "scratch" if (ROOT / "scratch").is_dir()
-                                         else None) as tmp:  # fmt: skip
+        with tempfile.TemporaryDirectory(
+            dir=ROOT / "scratch" if (ROOT / "scratch").is_dir() else None
+        ) as tmp:
             cmd = [sys.executable, __file__, "--child", key, "--dir", tmp]
             if ranks > 1:
                 cmd = ["mpirun", "-n", str(ranks), *cmd]
@@ -188,8 +213,11 @@ def main() -> int:
                 raise SystemExit(f"{key} failed with exit code {p.returncode}")
             record = json.loads((Path(tmp) / "result.json").read_text())
             data["demos"][key] = record
-            print(f"[demo_results] {key}: {record['wall_s']:.1f} s, warnings "
-                  f"{record['warnings'] or 'none'}", flush=True)  # fmt: skip
+            print(
+                f"[demo_results] {key}: {record['wall_s']:.1f} s, warnings "
+                f"{record['warnings'] or 'none'}",
+                flush=True,
+            )
             if keep_figures:
                 dest = FIGURES / demo
                 shutil.rmtree(dest, ignore_errors=True)

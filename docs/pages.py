@@ -15,16 +15,29 @@ from pathlib import Path
 PACKAGE = "subfric_dolfinx"
 
 INVENTORIES = {
-    "petsc4py": ("https://petsc.org/release/petsc4py/",
-                 ["/usr/share/doc/python-petsc4py-doc/html/objects.inv"]),
-    "mpi4py": ("https://mpi4py.readthedocs.io/en/stable/",
-               ["/usr/share/doc/python-mpi4py-doc/html/objects.inv"]),
-    "python": ("https://docs.python.org/3/", ["/usr/share/doc/python3/html/objects.inv",
-                                              f"/usr/share/doc/python3.{sys.version_info[1]}"
-                                              "/html/objects.inv"]),
-    "numpy": ("https://numpy.org/doc/stable/", ["/usr/share/doc/python-numpy-doc/html/objects.inv",
-                                                "/usr/share/doc/python-numpy/html/objects.inv"]),
-}  # fmt: skip
+    "petsc4py": (
+        "https://petsc.org/release/petsc4py/",
+        ["/usr/share/doc/python-petsc4py-doc/html/objects.inv"],
+    ),
+    "mpi4py": (
+        "https://mpi4py.readthedocs.io/en/stable/",
+        ["/usr/share/doc/python-mpi4py-doc/html/objects.inv"],
+    ),
+    "python": (
+        "https://docs.python.org/3/",
+        [
+            "/usr/share/doc/python3/html/objects.inv",
+            f"/usr/share/doc/python3.{sys.version_info[1]}/html/objects.inv",
+        ],
+    ),
+    "numpy": (
+        "https://numpy.org/doc/stable/",
+        [
+            "/usr/share/doc/python-numpy-doc/html/objects.inv",
+            "/usr/share/doc/python-numpy/html/objects.inv",
+        ],
+    ),
+}
 """Project name -> (its site, candidate paths of its inventory, first found wins)."""
 
 

@@ -78,11 +78,15 @@ class Data:
         """One column of the scaling benchmark's row (strategy, ranks, dofs, program steps)."""
         for r in self.scaling:
             if (r["strategy"], int(r["ranks"]), int(r["dofs"]), int(r["steps_program"])) == (
-                strategy, ranks, dofs, steps
-            ):  # fmt: skip
+                strategy,
+                ranks,
+                dofs,
+                steps,
+            ):
                 return float(r[col])
-        raise KeyError(f"fe_scaling.csv has no row {strategy}, {ranks} ranks, {dofs} dofs, "
-                       f"{steps} steps")  # fmt: skip
+        raise KeyError(
+            f"fe_scaling.csv has no row {strategy}, {ranks} ranks, {dofs} dofs, {steps} steps"
+        )
 
 
 @dataclass(frozen=True)
@@ -119,8 +123,11 @@ def words(text: str) -> str:
             out.append(r"([^;'\n]+?)")
         elif p:
             inner = r"\s+".join(re.escape(w) for w in p.split())
-            out.append((r"\s+" if p[0].isspace() else "") + inner
-                       + (r"\s+" if p[-1].isspace() and inner else ""))  # fmt: skip
+            out.append(
+                (r"\s+" if p[0].isspace() else "")
+                + inner
+                + (r"\s+" if p[-1].isspace() and inner else "")
+            )
     return "".join(out)
 
 
@@ -177,9 +184,11 @@ def kdofs(n: float) -> str:
 
 
 def _table_time(demo: str) -> Quote:
-    return Quote(f"{demo}: wall time in the demo table",
-                 rf"^\| \[`{demo}`\]\(demos/{demo}\.py\)[^\n]*\| (\d+(?:\.\d+)? (?:s|min)) \|$",
-                 lambda d: [wall(d.demo(demo)["wall_s"])])  # fmt: skip
+    return Quote(
+        f"{demo}: wall time in the demo table",
+        rf"^\| \[`{demo}`\]\(demos/{demo}\.py\)[^\n]*\| (\d+(?:\.\d+)? (?:s|min)) \|$",
+        lambda d: [wall(d.demo(demo)["wall_s"])],
+    )
 
 
 def _warned(d: Data) -> str:
@@ -225,10 +234,17 @@ def _mp(d: Data) -> list[str]:
     rev, turn = paths["reversal"], paths["turn"]
     sub = [r for r in rev["runs"] if r["law"] == "subloading"]
     cou = max(r["error"] for r in rev["runs"] if r["law"] == "coulomb")
-    return [e1(sub[0]["error"]), str(sub[0]["steps"]), e1(sub[-1]["error"]),
-            str(sub[-1]["steps"]), f2(rev["order_subloading"]), e1(cou),
-            f2(turn["order_subloading"]), f2(turn["order_subloading_previous"]),
-            f2(turn["order_coulomb"])]  # fmt: skip
+    return [
+        e1(sub[0]["error"]),
+        str(sub[0]["steps"]),
+        e1(sub[-1]["error"]),
+        str(sub[-1]["steps"]),
+        f2(rev["order_subloading"]),
+        e1(cou),
+        f2(turn["order_subloading"]),
+        f2(turn["order_subloading_previous"]),
+        f2(turn["order_coulomb"]),
+    ]
 
 
 def _fe(d: Data, key: str) -> dict[str, Any]:
@@ -245,17 +261,17 @@ def _fe_block(d: Data) -> list[str]:
     pays = f["pays_off"]
     if not pays:
         faster = "at no size of the study"
-    elif pays == dofs[dofs.index(pays[0]):]:
+    elif pays == dofs[dofs.index(pays[0]) :]:
         faster = f"from {pays[0]} dofs on"
     else:
         faster = "at " + " and ".join(str(n) for n in pays) + " dofs only"
-    return [big, f"{ratio:.1f}", e1(diff), f"{f['newton_mean']:.1f}", faster,
-            f["largest"]["1"]]  # fmt: skip
+    return [big, f"{ratio:.1f}", e1(diff), f"{f['newton_mean']:.1f}", faster, f["largest"]["1"]]
 
 
 def _nan_free(d: Data) -> bool:
     return all(c["nan_free"] for c in d.report("stability_point")) and all(
-        c["nan_free"] for n in (1, 2) for c in d.report(f"stability_fe_{n}").values())
+        c["nan_free"] for n in (1, 2) for c in d.report(f"stability_fe_{n}").values()
+    )
 
 
 DEMOS = sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__")
@@ -382,8 +398,10 @@ def find(q: Quote, text: str) -> re.Match:
     """
     found = list(re.finditer(q.pattern, text, re.M))
     if len(found) != 1:
-        raise LookupError(f"{q.name}: the README has {len(found)} places matching its pattern "
-                          f"(need 1): {q.pattern[:120]}")  # fmt: skip
+        raise LookupError(
+            f"{q.name}: the README has {len(found)} places matching its pattern "
+            f"(need 1): {q.pattern[:120]}"
+        )
     return found[0]
 
 

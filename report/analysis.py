@@ -54,8 +54,16 @@ def key_t(t: float) -> float:
 # Material point
 
 
-MP_HEAD = ["law", "steps/mm", "steps", "error / peak", "worst at t (s)", "wall (ms)", "us/step",
-           "order (pairwise)"]  # fmt: skip
+MP_HEAD = [
+    "law",
+    "steps/mm",
+    "steps",
+    "error / peak",
+    "worst at t (s)",
+    "wall (ms)",
+    "us/step",
+    "order (pairwise)",
+]
 
 
 def mp_tables(res: dict[str, Any]) -> list[str]:
@@ -155,9 +163,16 @@ def stability_table(point: list[dict], fe: dict[int, dict]) -> tuple[str, dict[s
         "nan_free": all(d["nan_free"] for d in point)
         and all(v["nan_free"] for k in (1, 2) for v in fe[k].values()),
     }
-    head = ["level", "case", "setting", "must be", "outcome (FE: 1 / 2 ranks)",
-            "iterations mean / max (FE: 1 rank ; 2 ranks)", "no NaN",
-            "what happened (1 rank)"]  # fmt: skip
+    head = [
+        "level",
+        "case",
+        "setting",
+        "must be",
+        "outcome (FE: 1 / 2 ranks)",
+        "iterations mean / max (FE: 1 rank ; 2 ranks)",
+        "no NaN",
+        "what happened (1 rank)",
+    ]
     return table(head, rows), summary
 
 
@@ -196,16 +211,25 @@ def readme_context(
         j = f["joint"]
         best = min(j, key=lambda x: x["err1"])
         split = f["split"]
-        cases.append({
-            "key": key, "case": f["case"], "law": f["law"], "f": f, "best": best,
-            "first": j[0], "last": j[-1],
-            "dominant": None if split is None else ("time" if split["time"] > split["space"]
-                                                    else "space"),
-            "ratio": None if split is None or min(split.values()) <= 0 else
-            max(split.values()) / min(split.values()),
-            "pays": f["pays_off"],
-            "speedup_last": j[-1]["wall1"] / j[-1]["wall2"],
-        })  # fmt: skip
+        cases.append(
+            {
+                "key": key,
+                "case": f["case"],
+                "law": f["law"],
+                "f": f,
+                "best": best,
+                "first": j[0],
+                "last": j[-1],
+                "dominant": None
+                if split is None
+                else ("time" if split["time"] > split["space"] else "space"),
+                "ratio": None
+                if split is None or min(split.values()) <= 0
+                else max(split.values()) / min(split.values()),
+                "pays": f["pays_off"],
+                "speedup_last": j[-1]["wall1"] / j[-1]["wall2"],
+            }
+        )
     return {
         "quick": quick,
         "reuse": reuse,

@@ -93,32 +93,49 @@ def _one(runs1: list[dict], runs2: list[dict], c: dict[str, Any], case: str, law
         return float(np.abs(at(r) - against).max() / peak)
 
     # runs that did not converge (a step failed after every cut) are listed, not used
-    failed_runs = sorted({(r["n"], r["dt"]) for r in runs1 + runs2
-                          if not r["converged"] and "max_cuts" not in r})  # fmt: skip
-    time_rows = [(dt, err(_find(runs1, time_n, dt), T_ref), _find(runs1, time_n, dt))
-                 for dt in c["time_dts"] if _ok(runs1, time_n, dt)]  # fmt: skip
-    space_rows = [(n, err(_find(runs1, n, space_dt), S_ref), _find(runs1, n, space_dt))
-                  for n in c["ns"] if _ok(runs1, n, space_dt)]  # fmt: skip
+    failed_runs = sorted(
+        {(r["n"], r["dt"]) for r in runs1 + runs2 if not r["converged"] and "max_cuts" not in r}
+    )
+    time_rows = [
+        (dt, err(_find(runs1, time_n, dt), T_ref), _find(runs1, time_n, dt))
+        for dt in c["time_dts"]
+        if _ok(runs1, time_n, dt)
+    ]
+    space_rows = [
+        (n, err(_find(runs1, n, space_dt), S_ref), _find(runs1, n, space_dt))
+        for n in c["ns"]
+        if _ok(runs1, n, space_dt)
+    ]
     p_time = lsq_order([d for d, _, _ in time_rows], [max(e, 1e-300) for _, e, _ in time_rows])
-    p_space = lsq_order([1.0 / n for n, _, _ in space_rows],
-                        [max(e, 1e-300) for _, e, _ in space_rows])  # fmt: skip
+    p_space = lsq_order(
+        [1.0 / n for n, _, _ in space_rows], [max(e, 1e-300) for _, e, _ in space_rows]
+    )
     joint = []
     for n, dt in c["joint"]:
         if not (_ok(runs1, n, dt) and _ok(runs2, n, dt)):
             continue
         a, b = _find(runs1, n, dt), _find(runs2, n, dt)
         fa, fb = at(a), at(b)
-        joint.append({
-            "n": n, "dt": dt, "dofs": a["info"]["dofs"], "steps": len(a["t"]),
-            "err1": err(a, ref), "err2": err(b, ref), "wall1": a["wall"], "wall2": b["wall"],
-            "rep1": len(a["walls"]), "rep2": len(b["walls"]),
-            "diff12": float(np.abs(fa - fb).max() / peak),
-            "newton1": (float(np.mean(a["newton"])), int(max(a["newton"]))),
-            "newton2": (float(np.mean(b["newton"])), int(max(b["newton"]))),
-            "cuts": (a["cuts"], b["cuts"]),
-            # the parts of the joint level's error: time at the coarse mesh, space at the
-            # coarse step (both measured above when this level is in those studies)
-        })  # fmt: skip
+        joint.append(
+            {
+                "n": n,
+                "dt": dt,
+                "dofs": a["info"]["dofs"],
+                "steps": len(a["t"]),
+                "err1": err(a, ref),
+                "err2": err(b, ref),
+                "wall1": a["wall"],
+                "wall2": b["wall"],
+                "rep1": len(a["walls"]),
+                "rep2": len(b["walls"]),
+                "diff12": float(np.abs(fa - fb).max() / peak),
+                "newton1": (float(np.mean(a["newton"])), int(max(a["newton"]))),
+                "newton2": (float(np.mean(b["newton"])), int(max(b["newton"]))),
+                "cuts": (a["cuts"], b["cuts"]),
+                # the parts of the joint level's error: time at the coarse mesh, space at the
+                # coarse step (both measured above when this level is in those studies)
+            }
+        )
     p_joint = lsq_order([1.0 / j["n"] for j in joint], [max(j["err1"], 1e-300) for j in joint])
     probes = [r for r in runs1 if "max_cuts" in r]
     tried = sorted({r["dt"] for r in probes} | {d for d in c["time_dts"]}, reverse=True)
@@ -127,8 +144,10 @@ def _one(runs1: list[dict], runs2: list[dict], c: dict[str, Any], case: str, law
     coarsest = next((d for d in tried if converged.get(d)), None)
     failed = [d for d in tried if not converged.get(d)]
     last = joint[-1]
-    tim = {1: dict(_find(runs1, last["n"], last["dt"])["timing"]),
-           2: dict(_find(runs2, last["n"], last["dt"])["timing"])}  # fmt: skip
+    tim = {
+        1: dict(_find(runs1, last["n"], last["dt"])["timing"]),
+        2: dict(_find(runs2, last["n"], last["dt"])["timing"]),
+    }
     for k in (1, 2):
         tim[k]["other"] = tim[k]["total"] - sum(tim[k][s] for s in TIMING_ORDER)
     largest = {k: max([*TIMING_ORDER, "other"], key=lambda s: tim[k][s]) for k in (1, 2)}
@@ -139,20 +158,30 @@ def _one(runs1: list[dict], runs2: list[dict], c: dict[str, Any], case: str, law
     if n0 == time_n and d0 in t_time and n0 in t_space and d0 == space_dt:
         split = {"time": t_time[d0], "space": t_space[n0]}
     s = {
-        "case": case, "law": law, "peak": peak, "times": len(tc),
-        "p_time": p_time, "p_space": p_space, "p_joint": p_joint,
+        "case": case,
+        "law": law,
+        "peak": peak,
+        "times": len(tc),
+        "p_time": p_time,
+        "p_space": p_space,
+        "p_joint": p_joint,
         "time_rows": [(d, e) for d, e, _ in time_rows],
         "space_rows": [(n, e) for n, e, _ in space_rows],
-        "joint": joint, "max_diff12": max(j["diff12"] for j in joint),
+        "joint": joint,
+        "max_diff12": max(j["diff12"] for j in joint),
         "pays_off": [j["dofs"] for j in joint if j["wall2"] < j["wall1"]],
-        "coarsest_dt": coarsest, "failed_dts": failed, "probe_n": time_n,
+        "coarsest_dt": coarsest,
+        "failed_dts": failed,
+        "probe_n": time_n,
         "failed_runs": failed_runs,
-        "timing": tim, "largest": largest, "split": split,
+        "timing": tim,
+        "largest": largest,
+        "split": split,
         "newton_mean": float(np.mean([j["newton1"][0] for j in joint])),
         "newton_max": max(max(j["newton1"][1], j["newton2"][1]) for j in joint),
         "no_cuts": all(tuple(j["cuts"]) == (0, 0) for j in joint),
         "ref": {"time": (time_n, dt_ref), "space": (n_ref, space_dt)},
-    }  # fmt: skip
+    }
     title = f"**{case}, {law}**"
     tables = [
         f"{title}: time (n = {time_n} against dt = {dt_ref:g})\n\n" + _time_table(time_rows),
@@ -161,8 +190,13 @@ def _one(runs1: list[dict], runs2: list[dict], c: dict[str, Any], case: str, law
         f"{title}: timing of the finest joint level (n = {last['n']}, dt = {last['dt']:g})\n\n"
         + _timing_table(tim),
     ]
-    cv = {"tc": tc, "ref": ref, "time_rows": s["time_rows"], "space_rows": s["space_rows"],
-          "joint": joint}  # fmt: skip
+    cv = {
+        "tc": tc,
+        "ref": ref,
+        "time_rows": s["time_rows"],
+        "space_rows": s["space_rows"],
+        "joint": joint,
+    }
     return s, tables, cv
 
 
@@ -173,8 +207,9 @@ def _time_table(rows) -> str:
         order = "-" if prev is None else pair_order(prev[1], e, prev[0], dt)
         newton = f"{np.mean(r['newton']):.2f} / {max(r['newton'])}"
         out.append([f"{dt:g}", len(r["t"]), fmt(e), order, newton, f"{r['wall']:.2f}"])
-    return table(["dt (s)", "steps", "max error / peak", "order", "Newton mean / max",
-                  "wall (s)"], out)  # fmt: skip
+    return table(
+        ["dt (s)", "steps", "max error / peak", "order", "Newton mean / max", "wall (s)"], out
+    )
 
 
 def _space_table(rows) -> str:
@@ -187,13 +222,36 @@ def _space_table(rows) -> str:
 
 
 def _joint_table(joint) -> str:
-    head = ["n", "dofs", "dt (s)", "steps", "error 1 rank", "error 2 ranks", "wall 1 rank (s)",
-            "wall 2 ranks (s)", "Newton mean / max (1; 2)", "cuts", "1 vs 2 ranks"]  # fmt: skip
-    rows = [[j["n"], j["dofs"], f"{j['dt']:g}", j["steps"], fmt(j["err1"]), fmt(j["err2"]),
-             f"{j['wall1']:.2f} (best of {j['rep1']})", f"{j['wall2']:.2f} (best of {j['rep2']})",
-             f"{j['newton1'][0]:.2f} / {j['newton1'][1]} ; {j['newton2'][0]:.2f} / "
-             f"{j['newton2'][1]}", f"{j['cuts'][0]} ; {j['cuts'][1]}", fmt(j["diff12"], 1)]
-            for j in joint]  # fmt: skip
+    head = [
+        "n",
+        "dofs",
+        "dt (s)",
+        "steps",
+        "error 1 rank",
+        "error 2 ranks",
+        "wall 1 rank (s)",
+        "wall 2 ranks (s)",
+        "Newton mean / max (1; 2)",
+        "cuts",
+        "1 vs 2 ranks",
+    ]
+    rows = [
+        [
+            j["n"],
+            j["dofs"],
+            f"{j['dt']:g}",
+            j["steps"],
+            fmt(j["err1"]),
+            fmt(j["err2"]),
+            f"{j['wall1']:.2f} (best of {j['rep1']})",
+            f"{j['wall2']:.2f} (best of {j['rep2']})",
+            f"{j['newton1'][0]:.2f} / {j['newton1'][1]} ; {j['newton2'][0]:.2f} / "
+            f"{j['newton2'][1]}",
+            f"{j['cuts'][0]} ; {j['cuts'][1]}",
+            fmt(j["diff12"], 1),
+        ]
+        for j in joint
+    ]
     return table(head, rows)
 
 

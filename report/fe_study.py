@@ -62,8 +62,10 @@ def coulomb_of(law_spec: dict) -> dict:
     """Coulomb with the law's penalties and its kinetic strength at the nominal pressure."""
     law = build_law(law_spec)
     mu_c = -math.expm1(-law.c_n * PRESSURE) * law.mu_k / PRESSURE
-    return {"law": "coulomb", "params": {"alpha_t": law.alpha_t, "alpha_n": law.alpha_n,
-                                         "mu_c": mu_c}}  # fmt: skip
+    return {
+        "law": "coulomb",
+        "params": {"alpha_t": law.alpha_t, "alpha_n": law.alpha_n, "mu_c": mu_c},
+    }
 
 
 def make_scene(case: str, law: str, n: int, dt: float, hold: float) -> dict:

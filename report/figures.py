@@ -79,13 +79,28 @@ def fe_figures(fe: dict[str, Any], curves: dict[str, Any], cfg: dict[str, Any]) 
             s = fe[f"{case}/{law}"]
             c, m = styles[law]
             j = s["joint"]
-            a.loglog([x["wall1"] for x in j], [max(x["err1"], 1e-16) for x in j], "-" + m,
-                     color=c, label=f"{law}, 1 rank")  # fmt: skip
-            a.loglog([x["wall2"] for x in j], [max(x["err2"], 1e-16) for x in j], "--" + m,
-                     color=c, mfc="none", label=f"{law}, 2 ranks")  # fmt: skip
+            a.loglog(
+                [x["wall1"] for x in j],
+                [max(x["err1"], 1e-16) for x in j],
+                "-" + m,
+                color=c,
+                label=f"{law}, 1 rank",
+            )
+            a.loglog(
+                [x["wall2"] for x in j],
+                [max(x["err2"], 1e-16) for x in j],
+                "--" + m,
+                color=c,
+                mfc="none",
+                label=f"{law}, 2 ranks",
+            )
             for x in j:
-                a.annotate(f"{x['dofs']} dofs, dt {x['dt']:g}", (x["wall1"], max(x["err1"], 1e-16)),
-                           fontsize=6, alpha=0.7)  # fmt: skip
+                a.annotate(
+                    f"{x['dofs']} dofs, dt {x['dt']:g}",
+                    (x["wall1"], max(x["err1"], 1e-16)),
+                    fontsize=6,
+                    alpha=0.7,
+                )
         a.set_xlabel("wall time of the run (s)")
         a.set_ylabel(r"max$_t$ |$F_{t1}/A$ - ref| / peak")
         a.set_title(f"{case}: time and space refined together", fontsize=10)
@@ -101,17 +116,16 @@ def fe_figures(fe: dict[str, Any], curves: dict[str, Any], cfg: dict[str, Any]) 
             c, m = styles[law]
             d = [x for x, _ in s["time_rows"]]
             e = [max(y, 1e-16) for _, y in s["time_rows"]]
-            ax[0, k].loglog(d, e, "-" + m, color=c,
-                            label=f"{law}: order {s['p_time']:.2f}")  # fmt: skip
+            ax[0, k].loglog(d, e, "-" + m, color=c, label=f"{law}: order {s['p_time']:.2f}")
             h = [1.0 / n for n, _ in s["space_rows"]]
             es = [max(y, 1e-16) for _, y in s["space_rows"]]
-            ax[1, k].loglog(h, es, "-" + m, color=c,
-                            label=f"{law}: order {s['p_space']:.2f}")  # fmt: skip
+            ax[1, k].loglog(h, es, "-" + m, color=c, label=f"{law}: order {s['p_space']:.2f}")
         ax[0, k].set_xlabel("dt (s)")
         ax[0, k].set_title(f"{case}: time (n = {cfg['cases'][case]['time_n']})", fontsize=10)
         ax[1, k].set_xlabel("h = 1 / n")
-        ax[1, k].set_title(f"{case}: space (dt = {cfg['cases'][case]['space_dt']:g} s)",
-                           fontsize=10)  # fmt: skip
+        ax[1, k].set_title(
+            f"{case}: space (dt = {cfg['cases'][case]['space_dt']:g} s)", fontsize=10
+        )
         for a in ax[:, k]:
             a.set_ylabel("max error / peak")
             a.grid(True, which="both", alpha=0.3)

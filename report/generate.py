@@ -130,9 +130,17 @@ def main() -> int:
     (data / "fe_summary.json").write_text(json.dumps(fe, indent=1, default=float))
     elapsed = time.perf_counter() - running.T_START
     context = analysis.readme_context(
-        mp, mp_lines, stab_tab, stab_sum, fe, fe_lines, cfg,
-        quick=args.quick, elapsed=elapsed, reuse=args.reuse,
-    )  # fmt: skip
+        mp,
+        mp_lines,
+        stab_tab,
+        stab_sum,
+        fe,
+        fe_lines,
+        cfg,
+        quick=args.quick,
+        elapsed=elapsed,
+        reuse=args.reuse,
+    )
     section = data / "mp_section.md"  # written by report/mp_study.py (previous and current map)
     context["mp_section"] = section.read_text() if section.exists() else ""
     context["scale_section"] = scale_section(HERE / "fe_scaling.md")
@@ -140,9 +148,11 @@ def main() -> int:
     context["stamp_label"] = stamps.label(stamp)
     scaling = scaling_stamp()
     context["scaling_commit"] = scaling["commit"][:10] if scaling else None
-    context["scaling_changed"] = bool(scaling) and bool(stamps.git(
-        "diff", "--name-only", scaling["commit"], stamp["commit"], "--", *stamps.REPORT_MEASURES
-    ))  # fmt: skip
+    context["scaling_changed"] = bool(scaling) and bool(
+        stamps.git(
+            "diff", "--name-only", scaling["commit"], stamp["commit"], "--", *stamps.REPORT_MEASURES
+        )
+    )
     if scaling and (HERE / f"{SCALING}.png").exists():
         figures.stamp_existing(HERE / f"{SCALING}.png", scaling, "benchmarks/fe_scaling.py,")
     (HERE / "README.md").write_text(render(context))

@@ -183,8 +183,11 @@ def run(repeats: int = 3, log=print, laws: tuple[str, ...] = LAWS) -> dict:
             "coulomb_peak": peak_c,
             "runs": [],
         }
-        refs = {"subloading": (ref.f_t, peak), "subloading_previous": (ref.f_t, peak),
-                "coulomb": (exact_c, peak_c)}  # fmt: skip
+        refs = {
+            "subloading": (ref.f_t, peak),
+            "subloading_previous": (ref.f_t, peak),
+            "coulomb": (exact_c, peak_c),
+        }
         for law in laws:
             refv, pk = refs[law]
             for spm in spms:
@@ -192,8 +195,9 @@ def run(repeats: int = 3, log=print, laws: tuple[str, ...] = LAWS) -> dict:
                 walls, cpus = [], []
                 res = None
                 slow = law == "subloading_previous" and spm * path[-1, 0] > 4000
-                n_rep = 1 if slow else (repeats if spm * path.shape[0] < 4000 else
-                                        max(2, repeats - 1))  # fmt: skip
+                n_rep = (
+                    1 if slow else (repeats if spm * path.shape[0] < 4000 else max(2, repeats - 1))
+                )
                 for _ in range(n_rep):
                     c0 = time.thread_time()
                     res = run_case(case, steps_per_mm=spm)
@@ -244,9 +248,11 @@ def figure(res: dict, where: Path, save: Any = None) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.4))
-    styles = {"subloading": ("C0", "o", "subloading (current map)"),
-              "subloading_previous": ("C7", "v", "subloading (previous map)"),
-              "coulomb": ("C3", "s", "Coulomb")}  # fmt: skip
+    styles = {
+        "subloading": ("C0", "o", "subloading (current map)"),
+        "subloading_previous": ("C7", "v", "subloading (previous map)"),
+        "coulomb": ("C3", "s", "Coulomb"),
+    }
     for a, key in zip(ax, ("reversal", "turn"), strict=True):
         e = res["paths"][key]
         for law, (c, m, label) in styles.items():
@@ -263,8 +269,10 @@ def figure(res: dict, where: Path, save: Any = None) -> None:
         a.set_title(f"path '{key}' (labels: number of steps)")
         a.grid(True, which="both", alpha=0.3)
         a.legend(fontsize=8)
-    fig.suptitle("Material point, Sec. 7 set at 300 MPa: error against run time, "
-                 "current and previous return map")  # fmt: skip
+    fig.suptitle(
+        "Material point, Sec. 7 set at 300 MPa: error against run time, "
+        "current and previous return map"
+    )
     fig.tight_layout(rect=(0, 0.03, 1, 1))
     if save is not None:
         save(fig, where.name)
@@ -292,18 +300,25 @@ def section(res: dict) -> str:
             c = by["coulomb"].get(spm)
             cells = [f"{spm:g}", str(r["steps"])]
             if p:
-                cells += [f"{_fmt(p['error'])} ({p['t_worst']:.4g})",
-                          f"{p['cpu'] / p['steps'] * 1e6:.0f}"]  # fmt: skip
+                cells += [
+                    f"{_fmt(p['error'])} ({p['t_worst']:.4g})",
+                    f"{p['cpu'] / p['steps'] * 1e6:.0f}",
+                ]
             else:
                 cells += ["-", "-"]
-            cells += [f"{_fmt(r['error'])} ({r['t_worst']:.4g})",
-                      f"{r['cpu'] / r['steps'] * 1e6:.0f}",
-                      _fmt(c["error"]) if c else "-"]  # fmt: skip
+            cells += [
+                f"{_fmt(r['error'])} ({r['t_worst']:.4g})",
+                f"{r['cpu'] / r['steps'] * 1e6:.0f}",
+                _fmt(c["error"]) if c else "-",
+            ]
             rows.append("| " + " | ".join(cells) + " |")
         orders = ", ".join(
-            f"{law} {e.get('order_' + law):.2f}" if e.get("order_" + law) is not None
-            else f"{law} exact" for law in LAWS if f"order_{law}" in e
-        )  # fmt: skip
+            f"{law} {e.get('order_' + law):.2f}"
+            if e.get("order_" + law) is not None
+            else f"{law} exact"
+            for law in LAWS
+            if f"order_{law}" in e
+        )
         ref = e["reference"]
         out.append(
             f"**Path '{key}'** ({'1-D' if e['n_tangential'] == 1 else '3-D contact'}; "

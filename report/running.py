@@ -49,26 +49,54 @@ def fe_config(quick: bool) -> dict[str, Any]:
             "hold": 2.0,
             "laws": ["subloading", "coulomb"],
             "cases": {
-                "block": {"time_n": 8, "time_dts": [0.04, 0.02], "dt_ref": 0.01,
-                          "space_dt": 0.04, "ns": [8, 16], "n_ref": 32,
-                          "joint": [[8, 0.04], [16, 0.02]], "probe_dts": [0.16, 0.08]},
-                "pad": {"time_n": 2, "time_dts": [0.1, 0.05], "dt_ref": 0.025, "space_dt": 0.05,
-                        "ns": [2], "n_ref": 3, "joint": [[2, 0.1], [2, 0.05]], "probe_dts": []},
+                "block": {
+                    "time_n": 8,
+                    "time_dts": [0.04, 0.02],
+                    "dt_ref": 0.01,
+                    "space_dt": 0.04,
+                    "ns": [8, 16],
+                    "n_ref": 32,
+                    "joint": [[8, 0.04], [16, 0.02]],
+                    "probe_dts": [0.16, 0.08],
+                },
+                "pad": {
+                    "time_n": 2,
+                    "time_dts": [0.1, 0.05],
+                    "dt_ref": 0.025,
+                    "space_dt": 0.05,
+                    "ns": [2],
+                    "n_ref": 3,
+                    "joint": [[2, 0.1], [2, 0.05]],
+                    "probe_dts": [],
+                },
             },
-        }  # fmt: skip
+        }
     return {
         "hold": 2.0,
         "laws": ["subloading", "coulomb"],
         "cases": {
-            "block": {"time_n": 8, "time_dts": [0.04, 0.02, 0.01, 0.005], "dt_ref": 0.00125,
-                      "space_dt": 0.04, "ns": [8, 16, 32, 64, 128], "n_ref": 256,
-                      "joint": [[8, 0.04], [16, 0.02], [32, 0.01], [64, 0.005], [128, 0.0025]],
-                      "probe_dts": [0.32, 0.16, 0.08]},
-            "pad": {"time_n": 2, "time_dts": [0.1, 0.05, 0.025], "dt_ref": 0.00625,
-                    "space_dt": 0.05, "ns": [2, 3, 4, 8], "n_ref": 16,
-                    "joint": [[2, 0.1], [3, 0.05], [4, 0.025], [8, 0.0125]], "probe_dts": []},
+            "block": {
+                "time_n": 8,
+                "time_dts": [0.04, 0.02, 0.01, 0.005],
+                "dt_ref": 0.00125,
+                "space_dt": 0.04,
+                "ns": [8, 16, 32, 64, 128],
+                "n_ref": 256,
+                "joint": [[8, 0.04], [16, 0.02], [32, 0.01], [64, 0.005], [128, 0.0025]],
+                "probe_dts": [0.32, 0.16, 0.08],
+            },
+            "pad": {
+                "time_n": 2,
+                "time_dts": [0.1, 0.05, 0.025],
+                "dt_ref": 0.00625,
+                "space_dt": 0.05,
+                "ns": [2, 3, 4, 8],
+                "n_ref": 16,
+                "joint": [[2, 0.1], [3, 0.05], [4, 0.025], [8, 0.0125]],
+                "probe_dts": [],
+            },
         },
-    }  # fmt: skip
+    }
 
 
 def fe_runs(cfg: dict[str, Any], ranks: int) -> list[dict[str, Any]]:
@@ -76,8 +104,14 @@ def fe_runs(cfg: dict[str, Any], ranks: int) -> list[dict[str, Any]]:
     runs: list[dict[str, Any]] = []
 
     def add(case: str, law: str, n: int, dt: float, **extra: Any) -> None:
-        if not any(r["case"] == case and r["law"] == law and r["n"] == n and r["dt"] == dt
-                   and r.get("max_cuts") == extra.get("max_cuts") for r in runs):  # fmt: skip
+        if not any(
+            r["case"] == case
+            and r["law"] == law
+            and r["n"] == n
+            and r["dt"] == dt
+            and r.get("max_cuts") == extra.get("max_cuts")
+            for r in runs
+        ):
             runs.append({"case": case, "law": law, "n": n, "dt": dt, **extra})
 
     for case, c in cfg["cases"].items():

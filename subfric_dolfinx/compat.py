@@ -362,9 +362,13 @@ def dolfinx_newton(
         return DolfinxNewton(lambda: solver.solve(u), [problem, solver], list)
     options = {
         **{k: v for k, v in lu.items()},
-        "snes_type": "newtonls", "snes_linesearch_type": "basic",
-        "snes_rtol": rtol, "snes_atol": atol, "snes_stol": 0.0, "snes_max_it": max_it,
-    }  # fmt: skip
+        "snes_type": "newtonls",
+        "snes_linesearch_type": "basic",
+        "snes_rtol": rtol,
+        "snes_atol": atol,
+        "snes_stol": 0.0,
+        "snes_max_it": max_it,
+    }
     problem = dolfinx.fem.petsc.NonlinearProblem(
         F, u, petsc_options_prefix=prefix, bcs=bcs, J=J, petsc_options=options
     )

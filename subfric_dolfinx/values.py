@@ -122,8 +122,10 @@ def short_repr(value: Any, limit: int = 80) -> str:
     try:
         text = repr(value)
     except ValueError:  # e.g. a container holding an integer beyond the digit limit
-        return f"<{type(value).__name__} holding an integer of more than " \
+        return (
+            f"<{type(value).__name__} holding an integer of more than "
             f"{sys.get_int_max_str_digits()} digits>"
+        )
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 

@@ -375,11 +375,18 @@ def diagonal_slide_3d(
     )
     program = LoadingProgram([0.0, 1.0, slide_end], {"press": [0, 1, 1], "slide": [0, 0, 1]})
     return InterfaceProblem(
-        dom, law, {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)}, program,
-        [Dirichlet("bottom", (0.0, 0.0, 0.0)), Dirichlet("top", 0.5, 0, amplitude="slide"),
-         Dirichlet("top", 0.25, 1, amplitude="slide")],
+        dom,
+        law,
+        {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)},
+        program,
+        [
+            Dirichlet("bottom", (0.0, 0.0, 0.0)),
+            Dirichlet("top", 0.5, 0, amplitude="slide"),
+            Dirichlet("top", 0.25, 1, amplitude="slide"),
+        ],
         [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=0.5)],
+        interfaces=[
+            Interface("contact", "base", "block", kinematics="finite_sliding", search_radius=0.5)
+        ],
         degree=degree,
-    )  # fmt: skip
+    )

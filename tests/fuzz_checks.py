@@ -165,8 +165,6 @@ def check_invariants(b, res, *, surface=True):
     return {k: int(np.count_nonzero(v)) for k, v in parts}
 
 
-
-
 def random_orthogonal(rng, n, nt):
     """Per-point rotations and reflections of the tangential plane, shape (n, nt, nt), and a
     mask of the exact ones (quarter turns and axis reflections: no rounding in ``Q x``)."""
@@ -269,4 +267,3 @@ def check_frame_invariance(b, res, seed):
     bad = cmp & ~cancels & (D_err > 1e-7 * D_scale)
     assert_nowhere(bad, "tangent not rotated", b, res, err=D_err / D_scale)
     return {"exact symmetry": int(np.count_nonzero(exact)), "rotated": int(np.count_nonzero(cmp))}
-

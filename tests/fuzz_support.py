@@ -225,8 +225,6 @@ def mu_r(law, state, traction=None):
     return mu, np.minimum(r, 1.0)
 
 
-
-
 # --------------------------------------------------------------------------------------------
 # Checks
 
@@ -276,7 +274,6 @@ def yield_size(law, fn):
     """Size of the yield surface at ``f_n``: ``g mu_s`` (subloading) or ``mu_c f_n``."""
     g = saturation(law, fn)
     return g * law.mu_s if isinstance(law, SubloadingLaw) else g
-
 
 
 # --------------------------------------------------------------------------------------------
@@ -336,8 +333,9 @@ def split_phi0(b, A):
     mu = np.clip(b.state.mu, law.mu_k, law.mu_s)
     bb = law.xi * b.dt
     cand = np.flatnonzero((fn0 > 0) & (fn1 > 0) & np.isfinite(A))
-    seg = switch.Segment(f0[cand], fn0[cand], tr0[cand], fn1[cand], A[cand], mu[cand],
-                         np.full(cand.size, bb))  # fmt: skip
+    seg = switch.Segment(
+        f0[cand], fn0[cand], tr0[cand], fn1[cand], A[cand], mu[cand], np.full(cand.size, bb)
+    )
     s, kind = switch.split_point(law._consts, seg)
     sp = cand[kind > 0]
     s = s[kind > 0]

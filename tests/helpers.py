@@ -218,9 +218,14 @@ def mpirun(code: str, n: int, timeout: float = 150) -> subprocess.CompletedProce
     env = python_env(singleton_env())
     cmd = ["mpirun", "-n", str(n), sys.executable, "-c", code]
     p = subprocess.Popen(
-        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cmd,
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         start_new_session=True,
-    )  # fmt: skip
+    )
     try:
         out, err = p.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -251,9 +256,13 @@ def column(mode: str, comm):
 
     if mode == "3d":
         dom, _ = meshing.create_interface_mesh(
-            meshing.build_pad_on_plate, comm, plate_size=(1.0, 1.0, 0.5),
-            pad_size=(1.0, 1.0, 0.5), n_interface=2, cell_type="tetrahedron",
-        )  # fmt: skip
+            meshing.build_pad_on_plate,
+            comm,
+            plate_size=(1.0, 1.0, 0.5),
+            pad_size=(1.0, 1.0, 0.5),
+            n_interface=2,
+            cell_type="tetrahedron",
+        )
         dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "master")
         dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "master")
         bcs = [

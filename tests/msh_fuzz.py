@@ -37,8 +37,20 @@ STORED = {
     "pad_on_plate_hex.msh": 3,
 }
 _NUMBER = re.compile(rb"-?[0-9][0-9.eE+-]*")
-_REPLACEMENTS = [b"0", b"-1", b"1e20", b"160000000000", b"18446744073709551615", b"nan",
-                 b"inf", b"1e308", b"-7", b"x", b"2147483648", b"4.5"]  # fmt: skip
+_REPLACEMENTS = [
+    b"0",
+    b"-1",
+    b"1e20",
+    b"160000000000",
+    b"18446744073709551615",
+    b"nan",
+    b"inf",
+    b"1e308",
+    b"-7",
+    b"x",
+    b"2147483648",
+    b"4.5",
+]
 
 
 def _count_lines(text: bytes) -> list[tuple[int, int]]:
@@ -77,8 +89,11 @@ def mutants(data: bytes, n: int, rng: np.random.Generator) -> Iterator[tuple[str
     ascii_counts = _count_lines(data) if not binary else []
     numbers = [m.span() for m in _NUMBER.finditer(data)] if not binary else []
     for _ in range(n):
-        kind = rng.choice(["truncate", "bytes"] if binary else
-                          ["truncate", "count", "count", "number", "delete", "double"])  # fmt: skip
+        kind = rng.choice(
+            ["truncate", "bytes"]
+            if binary
+            else ["truncate", "count", "count", "number", "delete", "double"]
+        )
         if kind == "truncate":
             yield kind, data[: int(rng.integers(1, len(data)))]
         elif kind == "bytes":
@@ -185,8 +200,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{total} mutants of {len(sources)} files on {comm.size} rank(s) in {wall:.1f} s")
         for (kind, outcome), v in sorted(counts.items()):
             print(f"  {kind:9s} {outcome[:100]:100s} {v}")
-        print(f"FAILED (the mutants are kept in {work})" if bad else
-              "no crash, no hang, every damaged file refused or read")  # fmt: skip
+        print(
+            f"FAILED (the mutants are kept in {work})"
+            if bad
+            else "no crash, no hang, every damaged file refused or read"
+        )
     return 1 if bad else 0
 
 

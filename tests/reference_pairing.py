@@ -7,7 +7,6 @@ pairing exchanges only what each rank needs; ``tests/fem/interface/test_pairing.
 gives the same pairs, in the same order, and ``benchmarks/pairing_scaling.py`` measures both.
 """
 
-
 from __future__ import annotations
 
 import basix

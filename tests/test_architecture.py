@@ -48,8 +48,12 @@ LAYERS = {
     f"{NAME}.scenes": 4,
 }
 NUMPY_ONLY = [
-    f"{NAME}.constitutive", f"{NAME}.loading", f"{NAME}.logs", f"{NAME}.values",
-    f"{NAME}.commandline", f"{NAME}.driver",
+    f"{NAME}.constitutive",
+    f"{NAME}.loading",
+    f"{NAME}.logs",
+    f"{NAME}.values",
+    f"{NAME}.commandline",
+    f"{NAME}.driver",
 ]
 HEAVY = {"dolfinx", "petsc4py", "mpi4py", "gmsh", "basix", "ufl", "ffcx", "h5py", "adios2"}
 LONG_LINES = 1000
@@ -281,8 +285,14 @@ TESTS = ROOT / "tests"
 BEYOND_THE_PACKAGE = {"verification", "demos", "bad_inputs"}
 """Test folders that are no subpackage: reference comparisons, the repository's programs, the
 catalogue of bad inputs."""
-CROSS_CUTTING = {"test_architecture", "test_packaging", "test_runner", "test_commandline",
-                 "test_loading", "test_text"}  # fmt: skip
+CROSS_CUTTING = {
+    "test_architecture",
+    "test_packaging",
+    "test_runner",
+    "test_commandline",
+    "test_loading",
+    "test_text",
+}
 """The test modules at the top of tests/: the repository as a whole (layers, packaging, the
 runner) and the package's top-level modules (commandline, loading, values)."""
 
@@ -302,8 +312,15 @@ def test_the_tests_mirror_the_package():
     assert top == CROSS_CUTTING, f"test modules at the top of tests/: {sorted(top ^ CROSS_CUTTING)}"
 
 
-LOADS_BY_PATH = {"spec_from_file_location", "SourceFileLoader", "module_from_spec", "run_path",
-                 "runpy", "importlib.util", "importlib.machinery"}  # fmt: skip
+LOADS_BY_PATH = {
+    "spec_from_file_location",
+    "SourceFileLoader",
+    "module_from_spec",
+    "run_path",
+    "runpy",
+    "importlib.util",
+    "importlib.machinery",
+}
 
 
 def path_tricks(tree: ast.AST) -> list[str]:
@@ -334,8 +351,12 @@ def test_no_test_edits_sys_path_or_loads_a_file_by_path():
         if p != TESTS / "conftest.py" and (found := path_tricks(ast.parse(p.read_text())))
     }
     assert not bad, bad
-    for source in ("import sys\nsys.path.insert(0, 'x')", "from importlib.util import "
-                   "spec_from_file_location", "import runpy", "import importlib.util"):  # fmt: skip
+    for source in (
+        "import sys\nsys.path.insert(0, 'x')",
+        "from importlib.util import spec_from_file_location",
+        "import runpy",
+        "import importlib.util",
+    ):
         assert path_tricks(ast.parse(source)), source
     assert not path_tricks(ast.parse("from docs.pages import public_modules\nimport os.path"))
 

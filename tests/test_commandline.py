@@ -33,8 +33,9 @@ def one_error_line(err: str) -> str:
     ],
     ids=["malformed-value", "unknown-option", "no-value", "missing"],
 )
-def test_a_bad_argument_is_one_line_and_exit_code_2(main, argv, words, tmp_path, capsys,
-                                                    monkeypatch):  # fmt: skip
+def test_a_bad_argument_is_one_line_and_exit_code_2(
+    main, argv, words, tmp_path, capsys, monkeypatch
+):
     monkeypatch.chdir(tmp_path)
     assert main(argv) == EXIT_USAGE
     out = capsys.readouterr()

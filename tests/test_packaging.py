@@ -34,9 +34,14 @@ def test_the_tests_import_the_package_they_are_meant_to(tmp_path):
     here = Path(subfric_dolfinx.__file__).resolve()
     code = "import subfric_dolfinx; print(subfric_dolfinx.__file__)"
     child = subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, env=python_env(), capture_output=True,
-        text=True, timeout=60, check=True,
-    )  # fmt: skip
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        env=python_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    )
     there = Path(child.stdout.strip()).resolve()
     if INSTALLED:
         venv = Path(INSTALLED).resolve()
@@ -69,9 +74,10 @@ def source_copy(tmp_path: Path) -> Path:
     for name in ("pyproject.toml", "README.md", "LICENSE"):
         shutil.copy2(ROOT / name, src / name)
     shutil.copytree(
-        ROOT / "subfric_dolfinx", src / "subfric_dolfinx",
+        ROOT / "subfric_dolfinx",
+        src / "subfric_dolfinx",
         ignore=shutil.ignore_patterns("__pycache__"),
-    )  # fmt: skip
+    )
     return src
 
 
@@ -80,8 +86,10 @@ def venv_python(tmp_path: Path, name: str) -> Path:
     venv = tmp_path / name
     subprocess.run(
         [sys.executable, "-m", "venv", "--system-site-packages", str(venv)],
-        check=True, capture_output=True, timeout=900,  # ensurepip: over 120 s on a loaded machine
-    )  # fmt: skip
+        check=True,
+        capture_output=True,
+        timeout=900,  # ensurepip: over 120 s on a loaded machine
+    )
     return venv / "bin" / "python"
 
 
@@ -105,19 +113,28 @@ PROBE = (
 @pytest.mark.timeout(1800)  # a venv and a pip install: minutes on a loaded machine
 @pytest.mark.parametrize("editable", [False, True], ids=["pip-install", "pip-install-e"])
 def test_pip_install_into_an_environment_with_dolfinx_touches_nothing_else(tmp_path, editable):
-    if shutil.which("pip") is None and run(Path(sys.executable), "-m", "pip", "--version",
-                                           cwd=tmp_path).returncode != 0:  # fmt: skip
+    if (
+        shutil.which("pip") is None
+        and run(Path(sys.executable), "-m", "pip", "--version", cwd=tmp_path).returncode != 0
+    ):
         pytest.fail("pip is not available in this environment (debian-packages.txt: python3-pip)")
     src = source_copy(tmp_path)
     py = venv_python(tmp_path, "venv")
-    cmd = ["-m", "pip", "install", "--no-build-isolation", "--no-index",
-           "--disable-pip-version-check"]  # fmt: skip
+    cmd = [
+        "-m",
+        "pip",
+        "install",
+        "--no-build-isolation",
+        "--no-index",
+        "--disable-pip-version-check",
+    ]
     r = run(py, *cmd, *(["-e", str(src)] if editable else [str(src)]), cwd=tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     # what pip put into the environment: this package only
     site = run(py, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])", cwd=tmp_path)
-    listed = run(py, "-m", "pip", "list", "--path", site.stdout.strip(), "--format", "json",
-                 cwd=tmp_path)  # fmt: skip
+    listed = run(
+        py, "-m", "pip", "list", "--path", site.stdout.strip(), "--format", "json", cwd=tmp_path
+    )
     names = sorted(d["name"].lower() for d in json.loads(listed.stdout))
     assert [n for n in names if n != "pip"] == ["subfric-dolfinx"], names  # pip: the venv's own
     # our declared dependencies are all satisfied by the system's packages (pip check also

@@ -232,9 +232,12 @@ def test_a_stack_that_cannot_be_installed_says_which_and_why(tmp_path):
     and how to run the other stack alone; the tree is not marked as built."""
     tree = tmp_path / "tree"
     r = subprocess.run(
-        ["bash", "-c", FAILING_APT], env=env(tmp_path, TREE=tree), capture_output=True,
-        text=True, timeout=60,
-    )  # fmt: skip
+        ["bash", "-c", FAILING_APT],
+        env=env(tmp_path, TREE=tree),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert "the sid (Debian unstable, DOLFINx 0.11) stack cannot be installed" in r.stderr
     assert "Unable to locate package python3-dolfinx-real" in r.stderr
@@ -257,9 +260,12 @@ test_all
 def test_the_summary_names_the_stack_of_each_line(tmp_path, broken):
     extra = {"SID_BROKEN": "1"} if broken else {}
     r = subprocess.run(
-        ["bash", "-c", SUMMARY], env=env(tmp_path, **extra), capture_output=True, text=True,
+        ["bash", "-c", SUMMARY],
+        env=env(tmp_path, **extra),
+        capture_output=True,
+        text=True,
         timeout=60,
-    )  # fmt: skip
+    )
     assert r.returncode == 1, (r.stdout, r.stderr)  # trixie's 2-rank leg "failed"
     lines = [ln for ln in r.stderr.splitlines() if "DOLFINx" in ln and ": " in ln]
     assert (
@@ -296,8 +302,9 @@ def test_exec_runs_in_the_callers_folder(tmp_path):
     sub = tmp_path / "work"
     sub.mkdir()
     (sub / "where.py").write_text("import os\nprint('ran in', os.getcwd())\n")
-    r = run_runner(RUN, tmp_path, "exec", sys.executable, "where.py", cwd=sub,
-                   SUBFRIC_MODE="native")  # fmt: skip
+    r = run_runner(
+        RUN, tmp_path, "exec", sys.executable, "where.py", cwd=sub, SUBFRIC_MODE="native"
+    )
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == f"ran in {sub.resolve()}"
     r = run_runner(RUN, tmp_path, "exec", "pwd", cwd=ROOT / "demos", SUBFRIC_MODE="native")

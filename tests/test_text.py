@@ -57,9 +57,10 @@ def test_no_other_module_defines_its_own():
         f"{p.relative_to(PKG)}:{node.lineno}"
         for p in sorted(PKG.rglob("*.py"))
         for node in ast.walk(ast.parse(p.read_text()))
-        if isinstance(node, ast.FunctionDef) and node.name in ("_short", "short_repr")
+        if isinstance(node, ast.FunctionDef)
+        and node.name in ("_short", "short_repr")
         and p.name != "values.py"
-    ]  # fmt: skip
+    ]
     assert not copies, copies
 
 
@@ -96,9 +97,15 @@ def test_finite_float(value, numpy, out):
 
 @pytest.mark.parametrize(
     ("value", "numpy", "ok"),
-    [(3, False, True), (np.int32(3), True, True), (np.int32(3), False, False),
-     (True, False, False), (2.0, False, False), ("2", False, False)],
-)  # fmt: skip
+    [
+        (3, False, True),
+        (np.int32(3), True, True),
+        (np.int32(3), False, False),
+        (True, False, False),
+        (2.0, False, False),
+        ("2", False, False),
+    ],
+)
 def test_strict_int(value, numpy, ok):
     if ok:
         assert strict_int(value, numpy=numpy) == int(value)

@@ -55,12 +55,27 @@ def load(cflags: list[str] | None = None):
     fn = lib.rm_batch
     fn.restype = ctypes.c_int
     fn.argtypes = [
-        dp, ctypes.c_int, ctypes.c_int, dp, dp, dp, dp, ctypes.c_void_p, ctypes.c_double,
-        ctypes.c_double, ctypes.c_int, ctypes.c_double, dp, dp, dp, dp, dp,
+        dp,
+        ctypes.c_int,
+        ctypes.c_int,
+        dp,
+        dp,
+        dp,
+        dp,
+        ctypes.c_void_p,
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_int,
+        ctypes.c_double,
+        dp,
+        dp,
+        dp,
+        dp,
+        dp,
         np.ctypeslib.ndpointer(dtype=np.int8, flags="C_CONTIGUOUS"),
         np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS"),
         np.ctypeslib.ndpointer(dtype=np.int64, flags="C_CONTIGUOUS"),
-    ]  # fmt: skip
+    ]
     _LIB = lib
 
     def c_map(p, gap, up, mu, r, f, dt, tol=1e-13, max_iter=100, out=None, contact_tol=1e-12):
@@ -82,12 +97,27 @@ def load(cflags: list[str] | None = None):
             }
         fptr = None if f is None else np.ascontiguousarray(f, dtype=float).ctypes.data
         out["n_scan"] = fn(
-            law, n, nt, np.ascontiguousarray(gap), np.ascontiguousarray(up),
-            np.ascontiguousarray(mu), np.ascontiguousarray(r), fptr, float(dt), float(tol),
-            int(max_iter), float(contact_tol), out["traction"], out["tangent"], out["up"],
-            out["mu"], out["r"],
-            out["status"], out["unstable"], out["iterations"],
-        )  # fmt: skip
+            law,
+            n,
+            nt,
+            np.ascontiguousarray(gap),
+            np.ascontiguousarray(up),
+            np.ascontiguousarray(mu),
+            np.ascontiguousarray(r),
+            fptr,
+            float(dt),
+            float(tol),
+            int(max_iter),
+            float(contact_tol),
+            out["traction"],
+            out["tangent"],
+            out["up"],
+            out["mu"],
+            out["r"],
+            out["status"],
+            out["unstable"],
+            out["iterations"],
+        )
         return out
 
     c_map.command = " ".join(cmd)

@@ -42,8 +42,10 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    dense = [Curve(c.f_n, c.velocity, np.linspace(0.0, c.slip[-1], 401), np.zeros(401))
-             for c in data.curves]  # fmt: skip
+    dense = [
+        Curve(c.f_n, c.velocity, np.linspace(0.0, c.slip[-1], 401), np.zeros(401))
+        for c in data.curves
+    ]
     model = simulate([result.params], dense, steps_per_mm)[0]
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     for i, (c, d, f) in enumerate(zip(data.curves, dense, model, strict=True)):
@@ -52,9 +54,7 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
         ax.plot(d.slip, f, "-", color=col, label=f"{c.f_n:g} MPa, {c.velocity:g} mm/s")
     ax.set_xlabel(r"slip $\bar u_t$ (mm)")
     ax.set_ylabel(r"$f_t$ (MPa)")
-    fitted = ", ".join(
-        f"{k} = {result.params[k]:.4g} ± {result.stderr[k]:.2g}" for k in result.fit
-    )
+    fitted = ", ".join(f"{k} = {result.params[k]:.4g} ± {result.stderr[k]:.2g}" for k in result.fit)
     ax.set_title(f"data (points) and fit (lines); rms {result.rms:.3g} MPa", fontsize=10)
     fig.text(0.01, 0.01, fitted, fontsize=7)
     ax.grid(True, alpha=0.3)
@@ -80,13 +80,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("data", help="DATA.json")
     ap.add_argument("--out", required=True, help="FIT.json (written atomically)")
     ap.add_argument("--plot", help="a PNG of the data and the fit")
-    ap.add_argument("--steps-per-mm", type=float, default=STEPS_PER_MM,
-                    help=f"step density of the driver (default {STEPS_PER_MM:g})")  # fmt: skip
-    ap.add_argument("--max-evaluations", type=int, default=200,
-                    help="limit of the solver's residual evaluations (default 200)")  # fmt: skip
-    ap.add_argument("--max-steps", type=float, default=MAX_STEPS,
-                    help=f"limit of the driver steps of the whole fit, checked before it "
-                    f"(default {MAX_STEPS:g})")  # fmt: skip
+    ap.add_argument(
+        "--steps-per-mm",
+        type=float,
+        default=STEPS_PER_MM,
+        help=f"step density of the driver (default {STEPS_PER_MM:g})",
+    )
+    ap.add_argument(
+        "--max-evaluations",
+        type=int,
+        default=200,
+        help="limit of the solver's residual evaluations (default 200)",
+    )
+    ap.add_argument(
+        "--max-steps",
+        type=float,
+        default=MAX_STEPS,
+        help=f"limit of the driver steps of the whole fit, checked before it "
+        f"(default {MAX_STEPS:g})",
+    )
     ap.add_argument("--quiet", action="store_true", help="no progress lines")
     try:
         args = ap.parse_args(argv)
@@ -110,9 +122,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise CalibrationError(f"--plot {args.plot!r} must name a .png file")
         log = None if args.quiet else (lambda s: print(s, file=sys.stderr, flush=True))
         result = fit(
-            data, steps_per_mm=spm, max_evaluations=args.max_evaluations, log=log,
+            data,
+            steps_per_mm=spm,
+            max_evaluations=args.max_evaluations,
+            log=log,
             max_steps=args.max_steps,
-        )  # fmt: skip
+        )
     except CalibrationError as e:
         return error_line(str(e))
     except (RecursionError, MemoryError, OverflowError, TypeError, ValueError) as e:
@@ -126,12 +141,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             plot_fit(data, result, plot, spm)
         except OSError as e:
             return error_line(f"cannot write {str(plot)!r}: {e.strerror or e}", 1)
-    fitted = ", ".join(
-        f"{k} {result.params[k]:.6g} ± {result.stderr[k]:.2g}" for k in result.fit
-    )
+    fitted = ", ".join(f"{k} {result.params[k]:.6g} ± {result.stderr[k]:.2g}" for k in result.fit)
     if not result.converged:
-        print(f"error: not converged ({result.message}); FIT.json holds the last values: "
-              f"{fitted}", file=sys.stderr)  # fmt: skip
+        print(
+            f"error: not converged ({result.message}); FIT.json holds the last values: {fitted}",
+            file=sys.stderr,
+        )
         return 3
     print(
         f"ok: {fitted}; rms {result.rms:.4g} MPa over {result.n_points} points, "

@@ -86,18 +86,25 @@ def _curve(i: int, c: Any, base: str | Path | None) -> Curve:
         raise CalibrationError(f"field '{w}' must be an object, got {short_repr(c)}")
     unknown = sorted(set(c) - {"f_n", "velocity", "slip", "f_t", "csv", "columns"})
     if unknown:
-        raise CalibrationError(f"field '{w}': unknown keys {unknown}; allowed: f_n, velocity, "
-                               "slip, f_t (or csv, columns)")  # fmt: skip
+        raise CalibrationError(
+            f"field '{w}': unknown keys {unknown}; allowed: f_n, velocity, "
+            "slip, f_t (or csv, columns)"
+        )
     if "csv" in c:  # the measured curve from a CSV file (e.g. a tribometer's export)
         both = sorted({"slip", "f_t"} & set(c))
         if both:
-            raise CalibrationError(f"field '{w}': give the curve as csv or as slip and f_t, not "
-                                   f"both (also {both})")  # fmt: skip
+            raise CalibrationError(
+                f"field '{w}': give the curve as csv or as slip and f_t, not both (also {both})"
+            )
         try:
             spec = {"csv": c["csv"], **({"columns": c["columns"]} if "columns" in c else {})}
             cols = table_spec(spec, w, ("slip", "f_t"))
-            table = read_table(c["csv"], {k: (cols[k], True) for k in ("slip", "f_t")},
-                               what=f"field '{w}.csv'", base=base)  # fmt: skip
+            table = read_table(
+                c["csv"],
+                {k: (cols[k], True) for k in ("slip", "f_t")},
+                what=f"field '{w}.csv'",
+                base=base,
+            )
         except CaseError as e:
             raise CalibrationError(str(e)) from None
         c = {**c, "slip": table["slip"].tolist(), "f_t": table["f_t"].tolist()}
@@ -117,17 +124,19 @@ def _curve(i: int, c: Any, base: str | Path | None) -> Curve:
     if slip.size < 2:
         raise CalibrationError(f"field '{w}.slip' must hold at least two points, got {slip.size}")
     if f_t.size != slip.size:
-        raise CalibrationError(
-            f"field '{w}.f_t' has {f_t.size} values for {slip.size} slip values"
-        )
+        raise CalibrationError(f"field '{w}.f_t' has {f_t.size} values for {slip.size} slip values")
     if slip[0] < 0.0:
-        raise CalibrationError(f"field '{w}.slip[0]' must be >= 0 (the slide starts at 0 from "
-                               f"the virgin state), got {slip[0]!r}")  # fmt: skip
+        raise CalibrationError(
+            f"field '{w}.slip[0]' must be >= 0 (the slide starts at 0 from "
+            f"the virgin state), got {slip[0]!r}"
+        )
     bad = np.flatnonzero(~(np.diff(slip) > 0.0))
     if bad.size:
         j = int(bad[0]) + 1
-        raise CalibrationError(f"field '{w}.slip[{j}]' = {slip[j]!r}: slip must increase "
-                               f"strictly (a monotonic slide), after {slip[j - 1]!r}")  # fmt: skip
+        raise CalibrationError(
+            f"field '{w}.slip[{j}]' = {slip[j]!r}: slip must increase "
+            f"strictly (a monotonic slide), after {slip[j - 1]!r}"
+        )
     return Curve(f_n, v, slip, f_t)
 
 
@@ -156,16 +165,21 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
         raise CalibrationError(f"unknown fields {unknown}; allowed: params, fit, bounds, curves")
     raw = obj.get("params")
     if not isinstance(raw, dict):
-        raise CalibrationError(f"field 'params' must be an object with all eight parameters "
-                               f"{', '.join(NAMES)}; got {short_repr(raw)}")  # fmt: skip
+        raise CalibrationError(
+            f"field 'params' must be an object with all eight parameters "
+            f"{', '.join(NAMES)}; got {short_repr(raw)}"
+        )
     unknown = sorted(set(raw) - set(NAMES))
     if unknown:
-        raise CalibrationError(f"field 'params': unknown parameter names {unknown}; the eight "
-                               f"are {', '.join(NAMES)}")  # fmt: skip
+        raise CalibrationError(
+            f"field 'params': unknown parameter names {unknown}; the eight are {', '.join(NAMES)}"
+        )
     missing = [k for k in NAMES if k not in raw]
     if missing:
-        raise CalibrationError(f"field 'params': missing {missing} (give all eight: start "
-                               "values of the fitted ones, values of the fixed ones)")  # fmt: skip
+        raise CalibrationError(
+            f"field 'params': missing {missing} (give all eight: start "
+            "values of the fitted ones, values of the fixed ones)"
+        )
     params = {k: _num(f"params.{k}", raw[k]) for k in NAMES}
     try:
         SubloadingLaw(**params)
@@ -173,57 +187,69 @@ def _parse(obj: dict, base: str | Path | None) -> CalibrationData:
         raise CalibrationError(f"field 'params': {e}") from None
     fit = obj.get("fit")
     if not isinstance(fit, list) or not fit or not all(isinstance(k, str) for k in fit):
-        raise CalibrationError(f"field 'fit' must be a non-empty list of parameter names, got "
-                               f"{short_repr(fit)}")  # fmt: skip
+        raise CalibrationError(
+            f"field 'fit' must be a non-empty list of parameter names, got {short_repr(fit)}"
+        )
     bad = [k for k in fit if k not in NAMES]
     if bad:
-        raise CalibrationError(f"field 'fit': unknown parameter names {bad}; the eight are "
-                               f"{', '.join(NAMES)}")  # fmt: skip
+        raise CalibrationError(
+            f"field 'fit': unknown parameter names {bad}; the eight are {', '.join(NAMES)}"
+        )
     dup = sorted({k for k in fit if fit.count(k) > 1})
     if dup:
         raise CalibrationError(f"field 'fit' names {dup} more than once")
     rb = obj.get("bounds", {})
     if not isinstance(rb, dict):
-        raise CalibrationError(f"field 'bounds' must be an object {{name: [lo, hi]}}, got "
-                               f"{short_repr(rb)}")  # fmt: skip
+        raise CalibrationError(
+            f"field 'bounds' must be an object {{name: [lo, hi]}}, got {short_repr(rb)}"
+        )
     bad = sorted(set(rb) - set(fit))
     if bad:
-        raise CalibrationError(f"field 'bounds': {bad} not fitted (bounds only for names in "
-                               "'fit')")  # fmt: skip
+        raise CalibrationError(f"field 'bounds': {bad} not fitted (bounds only for names in 'fit')")
     bounds: dict[str, tuple[float, float]] = {}
     for k in fit:
         lo, hi = 0.0, math.inf
         if k in rb:
             b = rb[k]
             if not isinstance(b, list) or len(b) != 2:
-                raise CalibrationError(f"field 'bounds.{k}' must be [lo, hi] (null: no bound), "
-                                       f"got {short_repr(b)}")  # fmt: skip
+                raise CalibrationError(
+                    f"field 'bounds.{k}' must be [lo, hi] (null: no bound), got {short_repr(b)}"
+                )
             lo_, hi_ = (_num(f"bounds.{k}[{j}]", b[j], allow_none=True) for j in (0, 1))
             lo = 0.0 if lo_ is None else lo_
             hi = math.inf if hi_ is None else hi_
             if not 0.0 <= lo < hi:
-                raise CalibrationError(f"field 'bounds.{k}' = [{lo!r}, {hi!r}]: need "
-                                       "0 <= lo < hi (every parameter is >= 0)")  # fmt: skip
+                raise CalibrationError(
+                    f"field 'bounds.{k}' = [{lo!r}, {hi!r}]: need "
+                    "0 <= lo < hi (every parameter is >= 0)"
+                )
         x0 = params[k]
         if not x0 > 0.0:
-            raise CalibrationError(f"field 'params.{k}': the start value of a fitted "
-                                   f"parameter must be > 0 (the fit works on log {k}), "
-                                   f"got {x0!r}")  # fmt: skip
+            raise CalibrationError(
+                f"field 'params.{k}': the start value of a fitted "
+                f"parameter must be > 0 (the fit works on log {k}), "
+                f"got {x0!r}"
+            )
         if not lo <= x0 <= hi:
-            raise CalibrationError(f"field 'params.{k}': the start value {x0!r} lies outside "
-                                   f"its bounds [{lo!r}, {hi!r}]")  # fmt: skip
+            raise CalibrationError(
+                f"field 'params.{k}': the start value {x0!r} lies outside "
+                f"its bounds [{lo!r}, {hi!r}]"
+            )
         bounds[k] = (lo, hi)
     curves = obj.get("curves")
     if not isinstance(curves, list) or not curves:
-        raise CalibrationError("field 'curves' must be a non-empty list of curves {f_n, "
-                               "velocity, slip, f_t}")  # fmt: skip
+        raise CalibrationError(
+            "field 'curves' must be a non-empty list of curves {f_n, velocity, slip, f_t}"
+        )
     cs = tuple(_curve(i, c, base) for i, c in enumerate(curves))
     n = sum(c.slip.size for c in cs)
     if n > MAX_POINTS:
         raise CalibrationError(f"field 'curves': {n} points in all (limit {MAX_POINTS})")
     if n <= len(fit):
-        raise CalibrationError(f"field 'curves': {n} points for {len(fit)} fitted parameters; "
-                               "need more points than parameters")  # fmt: skip
+        raise CalibrationError(
+            f"field 'curves': {n} points for {len(fit)} fitted parameters; "
+            "need more points than parameters"
+        )
     return CalibrationData(params, tuple(fit), bounds, cs)
 
 

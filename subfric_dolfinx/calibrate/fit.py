@@ -157,15 +157,20 @@ def synthetic_curves(
         ``[{"f_n", "velocity", "slip", "f_t"}, ...]`` (JSON-ready).
     """
     s = np.asarray(slip, dtype=float)
-    curves = [Curve(float(fn), float(v), s, np.zeros(s.size))
-              for fn, v in zip(f_n, velocity, strict=True)]  # fmt: skip
+    curves = [
+        Curve(float(fn), float(v), s, np.zeros(s.size)) for fn, v in zip(f_n, velocity, strict=True)
+    ]
     sim = simulate([params], curves, steps_per_mm)[0]
     rng = np.random.default_rng(seed)
     return [
-        {"f_n": c.f_n, "velocity": c.velocity, "slip": s.tolist(),
-         "f_t": (f + noise * rng.standard_normal(s.size)).tolist()}
+        {
+            "f_n": c.f_n,
+            "velocity": c.velocity,
+            "slip": s.tolist(),
+            "f_t": (f + noise * rng.standard_normal(s.size)).tolist(),
+        }
         for c, f in zip(curves, sim, strict=True)
-    ]  # fmt: skip
+    ]
 
 
 class _Model:
@@ -348,10 +353,12 @@ def fit(
     model = _Model(data, steps_per_mm)
     names = model.names
     x0 = np.array([math.log(data.params[k]) for k in names])
-    lo = np.array([math.log(data.bounds[k][0]) if data.bounds[k][0] > 0 else -np.inf
-                   for k in names])  # fmt: skip
-    hi = np.array([math.log(data.bounds[k][1]) if math.isfinite(data.bounds[k][1]) else np.inf
-                   for k in names])  # fmt: skip
+    lo = np.array(
+        [math.log(data.bounds[k][0]) if data.bounds[k][0] > 0 else -np.inf for k in names]
+    )
+    hi = np.array(
+        [math.log(data.bounds[k][1]) if math.isfinite(data.bounds[k][1]) else np.inf for k in names]
+    )
     scale = float(np.linalg.norm(model.measured))
     check_jacobian(model.jac(x0, hi), names, "at the start values", scale)
     n_jac = [0]
@@ -366,14 +373,27 @@ def fit(
         return J
 
     sol = least_squares(
-        model.fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
-        ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=max_evaluations,
-    )  # fmt: skip
+        model.fun,
+        x0,
+        jac=jac,
+        bounds=(lo, hi),
+        method="trf",
+        x_scale=1.0,
+        ftol=1e-12,
+        xtol=1e-12,
+        gtol=1e-12,
+        max_nfev=max_evaluations,
+    )
     x = sol.x
     J = model.jac(x, hi)
     r = model.fun(x)
-    check_jacobian(J, names, "at the optimum " + ", ".join(
-        f"{k} = {math.exp(v):.6g}" for k, v in zip(names, x, strict=True)), scale)  # fmt: skip
+    check_jacobian(
+        J,
+        names,
+        "at the optimum "
+        + ", ".join(f"{k} = {math.exp(v):.6g}" for k, v in zip(names, x, strict=True)),
+        scale,
+    )
     m, n = r.size, x.size
     s2 = float(r @ r) / (m - n)
     C = np.linalg.pinv(J.T @ J)

@@ -123,7 +123,10 @@ class SubloadingLaw(LawBase):
         Variable("mu", SCALAR, "hardening function (MPa)", "MPa"),
         Variable("r", SCALAR, "normal-yield ratio F / mu", "1"),
         Variable(
-            "f", LOCAL, "traction at the end of the step (MPa): the next trial's start", "MPa",
+            "f",
+            LOCAL,
+            "traction at the end of the step (MPa): the next trial's start",
+            "MPa",
             output=False,  # the traction f_t, f_n itself
         ),
     )

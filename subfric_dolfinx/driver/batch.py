@@ -93,8 +93,10 @@ def run_cases(
         except CaseError as e:
             raise CaseError(f"case {i}: {e}") from None
         if case.control != "disp":
-            raise CaseError(f"case {i}: the batch driver runs displacement control only; run "
-                            "stress-controlled cases with run_case")  # fmt: skip
+            raise CaseError(
+                f"case {i}: the batch driver runs displacement control only; run "
+                "stress-controlled cases with run_case"
+            )
         parsed.append(case)
     spms = []
     for case in parsed:
@@ -150,8 +152,10 @@ class _CaseLog:
         nt = self.case.n_tangential
         f2 = [float(tr[0]), float(tr[1]) if nt == 2 else 0.0]
         u2 = [float(gap[0]), float(gap[1]) if nt == 2 else 0.0]
-        own = [0.0 if k == -1 else float(st[name][j] if k is None else st[name][j, k])
-               for name, k in self.own]  # fmt: skip
+        own = [
+            0.0 if k == -1 else float(st[name][j] if k is None else st[name][j, k])
+            for name, k in self.own
+        ]
         return [t, *f2, float(tr[nt]), *own, *u2, float(gap[nt])]
 
     def result(self, wall: float) -> DriverResult:
@@ -203,8 +207,9 @@ def _step(g: _Group, it: int, runs: list[_CaseLog], stop: bool) -> None:
             continue
         ss = log.sample_steps
         while log.next_sample < ss.size and ss[log.next_sample] == it:
-            log.rows.append(log.row(float(log.case.t_samples[log.next_sample]), tr[j], g.state,
-                                    j, gap[j]))  # fmt: skip
+            log.rows.append(
+                log.row(float(log.case.t_samples[log.next_sample]), tr[j], g.state, j, gap[j])
+            )
             log.row_status.append(_NAMES[status[j]])
             log.next_sample += 1
         if it == log.times.size - 1:

@@ -101,8 +101,12 @@ def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
     if isinstance(raw, dict):
         cols = table_spec(raw, "path", PATH_COLUMNS)
         required = {k: k != "x2" or nt == 2 for k in PATH_COLUMNS}
-        table = read_table(raw["csv"], {k: (cols[k], required[k]) for k in PATH_COLUMNS},
-                           what="field 'path.csv'", base=base)  # fmt: skip
+        table = read_table(
+            raw["csv"],
+            {k: (cols[k], required[k]) for k in PATH_COLUMNS},
+            what="field 'path.csv'",
+            base=base,
+        )
         n = len(table["t"])
         if n < 2:
             raise CaseError(f"field 'path.csv': {raw['csv']!r} holds {n} row(s), need two")
@@ -201,9 +205,10 @@ def read_table(
     except UnicodeDecodeError as e:
         raise CaseError(f"{what}: {str(p)!r} is not UTF-8 text (byte {e.start})") from None
     lines = [
-        (i + 1, ln) for i, ln in enumerate(text.splitlines())
+        (i + 1, ln)
+        for i, ln in enumerate(text.splitlines())
         if ln.strip() and not ln.lstrip().startswith("#")
-    ]  # fmt: skip
+    ]
     if not lines:
         raise CaseError(f"{what}: {str(p)!r} has no header line (the columns' names)")
     first = lines[0][1]
@@ -211,21 +216,22 @@ def read_table(
     rows = list(csv.reader(io.StringIO("\n".join(ln for _, ln in lines)), delimiter=delimiter))
     header = [h.strip() for h in rows[0]]
     if len(header) > MAX_TABLE_COLUMNS:
-        raise CaseError(f"{what}: {str(p)!r} has {len(header)} columns (limit "
-                        f"{MAX_TABLE_COLUMNS})")  # fmt: skip
+        raise CaseError(f"{what}: {str(p)!r} has {len(header)} columns (limit {MAX_TABLE_COLUMNS})")
     where: dict[str, int] = {}
     for name, (head, required) in columns.items():
         if head in header:
             where[name] = header.index(head)
         elif required:
-            raise CaseError(f"{what}: {str(p)!r} has no column {head!r}; its columns: "
-                            f"{short_repr(header, 200)}")  # fmt: skip
+            raise CaseError(
+                f"{what}: {str(p)!r} has no column {head!r}; its columns: {short_repr(header, 200)}"
+            )
     out = {name: np.empty(len(rows) - 1) for name in where}
     for k, row in enumerate(rows[1:]):
         line = lines[k + 1][0]
         if len(row) != len(header):
-            raise CaseError(f"{what}: {str(p)!r} line {line} has {len(row)} fields, the header "
-                            f"{len(header)}")  # fmt: skip
+            raise CaseError(
+                f"{what}: {str(p)!r} line {line} has {len(row)} fields, the header {len(header)}"
+            )
         for name, j in where.items():
             cell = row[j].strip()
             try:
@@ -233,8 +239,10 @@ def read_table(
             except ValueError:
                 x = math.nan
             if not math.isfinite(x) or not cell:
-                raise CaseError(f"{what}: {str(p)!r} line {line}, column {header[j]!r}: "
-                                f"{short_repr(cell)} is not a finite number")  # fmt: skip
+                raise CaseError(
+                    f"{what}: {str(p)!r} line {line}, column {header[j]!r}: "
+                    f"{short_repr(cell)} is not a finite number"
+                )
             out[name][k] = x
     return out
 
@@ -353,6 +361,7 @@ def read_json(path: str | Path, what: str = "case file", root: str = "") -> Any:
         bad = data[e.start : e.start + 1]
         msg = f"{what} {str(p)!r} is not UTF-8 text (byte {e.start}: {bad!r})"
         raise CaseError(msg) from None
+
     def too_deep(where: str = "") -> CaseError:
         at = f" at {where}" if where else ""
         return CaseError(

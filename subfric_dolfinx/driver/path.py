@@ -102,4 +102,3 @@ def step_arrays(plan: StepPlan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def end_steps(plan: StepPlan) -> np.ndarray:
     """Index of the step ending at each knot (0 for the first knot), (K,)."""
     return np.concatenate([[0], np.cumsum(plan.counts)])
-

@@ -137,8 +137,11 @@ class _Runner:
         if t >= tb:
             return vb
         a = (t - ta) / (tb - ta) if tb > ta else 1.0
-        return (va[0] + (vb[0] - va[0]) * a, va[1] + (vb[1] - va[1]) * a,
-                va[2] + (vb[2] - va[2]) * a)  # fmt: skip
+        return (
+            va[0] + (vb[0] - va[0]) * a,
+            va[1] + (vb[1] - va[1]) * a,
+            va[2] + (vb[2] - va[2]) * a,
+        )
 
     def _accept(self, res: ReturnMapResult, ubar_t: np.ndarray, t: float) -> None:
         self.state = res.state
@@ -163,8 +166,10 @@ class _Runner:
         f, s, ut = self.traction, self.state, self.ubar_t
         t2 = [float(ut[0]), float(ut[1]) if self.nt == 2 else 0.0]
         f2 = [float(f[0]), float(f[1]) if self.nt == 2 else 0.0]
-        own = [0.0 if k == -1 else float(s[name][0] if k is None else s[name][0, k])
-               for name, k in self._own]  # fmt: skip
+        own = [
+            0.0 if k == -1 else float(s[name][0] if k is None else s[name][0, k])
+            for name, k in self._own
+        ]
         return [t, *f2, float(f[self.nt]), *own, *t2, float(self.gap_now[2])]
 
     def sample(self, t: float) -> None:
@@ -232,8 +237,11 @@ class _Runner:
     def step_stress(self, t_a: float, t_b: float, depth: int = 0) -> None:
         solved = self._solve_stress(t_b, t_b - t_a)
         if solved is not None:
-            self.gap_now = (*solved[1].tolist(), *([0.0] if self.nt == 1 else []),
-                            self.path_at(t_b)[2])  # fmt: skip
+            self.gap_now = (
+                *solved[1].tolist(),
+                *([0.0] if self.nt == 1 else []),
+                self.path_at(t_b)[2],
+            )
             self._accept(solved[0], solved[1], t_b)
             return
         span = self.case.path[-1, 0] - self.case.path[0, 0]

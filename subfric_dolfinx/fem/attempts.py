@@ -92,11 +92,16 @@ def describe_attempt(problem: Any) -> AttemptReport:
         local += [c.get(n, 0) for n in names]
         st = res.status
         sev = np.select(
-            [st == Status.FAILED, res.unstable, st == Status.JUMP, st == Status.PLASTIC,
-             st == Status.ELASTIC],
+            [
+                st == Status.FAILED,
+                res.unstable,
+                st == Status.JUMP,
+                st == Status.PLASTIC,
+                st == Status.ELASTIC,
+            ],
             [5, 4, 3, 2, 1],
             0,
-        )  # fmt: skip
+        )
         size = np.linalg.norm(res.traction, axis=1)
         i = int(np.lexsort((size, sev))[-1])
         x = el.points.reshape(-1, problem.gdim)[i]

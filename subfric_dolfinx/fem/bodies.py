@@ -83,8 +83,7 @@ def resolve_topology(
                 "initial gap and the regions per interface (interfaces=[Interface(...), ...])"
             )
         specs = [
-            dataclasses.replace(s, initial_gap=initial_gap, regions=regions or None)
-            for s in specs
+            dataclasses.replace(s, initial_gap=initial_gap, regions=regions or None) for s in specs
         ]
     else:
         specs = list(interfaces)
@@ -119,9 +118,7 @@ def resolve_topology(
                 secondary=secondary,
                 law=the_law,
                 quadrature=s.quadrature or quadrature,
-                kinematics=s.kinematics
-                or getattr(known, "kinematics", None)
-                or "small_sliding",
+                kinematics=s.kinematics or getattr(known, "kinematics", None) or "small_sliding",
             )
         )
     bodies = dict(mesh_bodies)

@@ -255,16 +255,17 @@ def _replace(form: Any, u_user: Any, u: Any, v: Any, du: Any) -> Any:
     return ufl.replace(form, mapping)
 
 
-def bulk_forms(
-    bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext
-) -> tuple[Any, Any]:
+def bulk_forms(bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[Any, Any]:
     """The bulk's residual and Jacobian forms, the Jacobian derived where it is ``None``.
 
     Raises:
         TypeError: ``bulk`` lacks a method of :class:`BulkModel` (named).
     """
-    missing = [m for m in ("forms", "update", "commit", "revert", "state", "restore")
-               if not callable(getattr(bulk, m, None))]  # fmt: skip
+    missing = [
+        m
+        for m in ("forms", "update", "commit", "revert", "state", "restore")
+        if not callable(getattr(bulk, m, None))
+    ]
     if missing:
         raise TypeError(
             f"the bulk model {type(bulk).__name__} lacks the method(s) {missing} of BulkModel"

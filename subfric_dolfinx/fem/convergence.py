@@ -210,9 +210,7 @@ class ScaledConvergence:
         reaction = (reaction + r_int)[~self._free]
         s = (s + fabs)[self._free]
         fabs = fabs[self._free]
-        sums = p.comm.allreduce(
-            np.array([s @ s, fabs @ fabs, reaction @ reaction]), op=MPI.SUM
-        )
+        sums = p.comm.allreduce(np.array([s @ s, fabs @ fabs, reaction @ reaction]), op=MPI.SUM)
         self.forces = math.sqrt(sums[1]) + math.sqrt(sums[2])
         scale = math.sqrt(sums[0])
         self.force_free = sums[1] == 0.0 and math.sqrt(sums[2]) <= self.stall_factor * EPS * scale

@@ -61,9 +61,7 @@ def mandel_strain(u, mode: str):
     e = strain(u, mode)
     r2 = np.sqrt(2.0)
     if mode == "3d":
-        return ufl.as_vector(
-            [e[0, 0], e[1, 1], e[2, 2], r2 * e[1, 2], r2 * e[0, 2], r2 * e[0, 1]]
-        )
+        return ufl.as_vector([e[0, 0], e[1, 1], e[2, 2], r2 * e[1, 2], r2 * e[0, 2], r2 * e[0, 1]])
     return ufl.as_vector([e[0, 0], e[1, 1], e[2, 2], r2 * e[0, 1]])
 
 
@@ -269,9 +267,7 @@ class J2Bulk:
             tangent[body.points] = self._reduce_tangent(body.material.elastic_tangent())
         gdim = mesh.geometry.dim
         xexpr = dolfinx.fem.Expression(ufl.SpatialCoordinate(mesh), X)
-        xs = [
-            eval_expression(xexpr, mesh, b.cells, gdim).reshape(-1, gdim) for b in self._bodies
-        ]
+        xs = [eval_expression(xexpr, mesh, b.cells, gdim).reshape(-1, gdim) for b in self._bodies]
         self.points = np.concatenate(xs) if xs else np.zeros((0, gdim))
 
     # ------------------------------------------------------------------------------------
@@ -404,8 +400,7 @@ class J2Bulk:
         missing = sorted(set(names) - set(data))
         if extra or missing:
             raise PlasticityError(
-                f"the J2 state needs the arrays {list(names)}; missing: {missing}, "
-                f"unknown: {extra}"
+                f"the J2 state needs the arrays {list(names)}; missing: {missing}, unknown: {extra}"
             )
         n, nc = self._owned_points.size if names else 0, self.n_components
         out = {}

@@ -53,6 +53,7 @@ __all__ = ["InterfaceProblem", "stiffen_separated"]
 
 logger = logging.getLogger(__name__)
 
+
 class InterfaceProblem:
     """Residual and Jacobian of bodies joined by frictional interfaces.
 
@@ -127,9 +128,14 @@ class InterfaceProblem:
         gdim = mesh.geometry.dim
         self.mode = check_mode(mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
         topo = resolve_topology(
-            domain, law, names=names, interfaces=interfaces, initial_gap=initial_gap,
-            regions=regions, quadrature=quadrature,
-        )  # fmt: skip
+            domain,
+            law,
+            names=names,
+            interfaces=interfaces,
+            initial_gap=initial_gap,
+            regions=regions,
+            quadrature=quadrature,
+        )
         self.topology = topo
         needed = [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
         missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
@@ -156,10 +162,17 @@ class InterfaceProblem:
             groups = getattr(domain, "interface_groups", None) or {}
             for spec in topo.interfaces:
                 self.interfaces[spec.group] = make_interface(
-                    spec, V, cell_tags, facet_tags, self.tags[spec.group],
-                    topo.tags[spec.primary], topo.tags[spec.secondary], groups, self.mode,
+                    spec,
+                    V,
+                    cell_tags,
+                    facet_tags,
+                    self.tags[spec.group],
+                    topo.tags[spec.primary],
+                    topo.tags[spec.secondary],
+                    groups,
+                    self.mode,
                     self.timings,
-                )  # fmt: skip
+                )
             first = next(iter(self.interfaces.values()))
             self.pairs = first.pairs  # None with finite sliding (no fixed pairs)
             self.interface = first.law_points
@@ -451,4 +464,3 @@ class InterfaceProblem:
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
         return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
-

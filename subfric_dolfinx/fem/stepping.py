@@ -451,8 +451,11 @@ class LoadStepper:
                 raise StepFailure(
                     f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
                     f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
-                    self.t, self.t, self.step, "max_steps",
-                )  # fmt: skip
+                    self.t,
+                    self.t,
+                    self.step,
+                    "max_steps",
+                )
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
             hold = self.hold_dt is not None and self.program.is_hold(self.t)
@@ -470,17 +473,24 @@ class LoadStepper:
             stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
             predicted = self._predict(target, dt)
             r = self.solver.solve(
-                target, dt, options=first, separated_stiffness=stiff, predictor=predicted,
+                target,
+                dt,
+                options=first,
+                separated_stiffness=stiff,
+                predictor=predicted,
                 frictionless_start=predicted is None and self._turns(target),
                 keep_contact=self.predictor,
-            )  # fmt: skip
+            )
             self._check_interrupted(r, target)
             retried = first is not None
             if not r.converged and not retried and self.retry_options is not None:
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
-                    target, dt, _why(r, self.solver), _options_text(self.retry_options),
-                )  # fmt: skip
+                    target,
+                    dt,
+                    _why(r, self.solver),
+                    _options_text(self.retry_options),
+                )
                 self._undo()  # the retry starts from the converged state
                 r = self.solver.solve(
                     target,
@@ -501,8 +511,11 @@ class LoadStepper:
                 since.cuts += 1
                 logger.debug(
                     "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
-                    target, dt, why, attempt.text,
-                )  # fmt: skip
+                    target,
+                    dt,
+                    why,
+                    attempt.text,
+                )
                 if hold:
                     self._hold_step = dt * self.cut
                 else:
@@ -548,9 +561,17 @@ class LoadStepper:
             self.step += 1
             self.t = target
             rec = StepRecord(
-                self.step, target, dt, r.iterations, cuts, list(r.residuals), dict(r.counts),
-                retried, sliding, open_,
-            )  # fmt: skip
+                self.step,
+                target,
+                dt,
+                r.iterations,
+                cuts,
+                list(r.residuals),
+                dict(r.counts),
+                retried,
+                sliding,
+                open_,
+            )
             if not self.keep_records:
                 self.records.clear()
             self.records.append(rec)
@@ -561,9 +582,15 @@ class LoadStepper:
                 logger.debug(
                     "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  "
                     "(%.2f s)",
-                    self.step, target, dt, r.iterations, res[0], res[-1], rec.activity,
+                    self.step,
+                    target,
+                    dt,
+                    r.iterations,
+                    res[0],
+                    res[-1],
+                    rec.activity,
                     time.perf_counter() - t0,
-                )  # fmt: skip
+                )
             printed = False
             if target >= breakpoint_ - tol:
                 long_ = len(segment.iterations) >= LONG_SEGMENT_STEPS

@@ -200,30 +200,40 @@ class ValidityWatch:
             es = self.contact_modulus
             layer = es * p.value / p.f_n
             tol = layer / p.ratio
-            out.append((logs.PenetrationWarning, (
-                f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
-                f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa). The interface is as compliant as "
-                f"l = E* ubar_n / f_n "
-                f"= {layer:.3g} mm of the bodies (E* = {es:.4g} MPa, their contact modulus), "
-                f"{p.ratio:.3g} times the {tol:.3g} mm tolerated there, max(h, "
-                f"{PENETRATION_FRACTION:g} L) with h = {p.h:.3g} mm the interface element and L "
-                f"= {self.size:.3g} mm the interface's size: the penalty spreads the contact "
-                f"pressure over about l. Set alpha_n >= E*/{tol:.3g} mm = {es / tol:.3g} MPa/mm; "
-                f"10 E*/h = {10 * es / self.h_min:.3g} MPa/mm makes the interface ten times "
-                "stiffer than its smallest elements"
-            )))  # fmt: skip
+            out.append(
+                (
+                    logs.PenetrationWarning,
+                    (
+                        f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
+                        f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa). The interface is as "
+                        f"compliant as l = E* ubar_n / f_n = {layer:.3g} mm of the bodies "
+                        f"(E* = {es:.4g} MPa, their contact modulus), {p.ratio:.3g} times the "
+                        f"{tol:.3g} mm tolerated there, max(h, {PENETRATION_FRACTION:g} L) with "
+                        f"h = {p.h:.3g} mm the interface element and L = {self.size:.3g} mm the "
+                        "interface's size: the penalty spreads the contact pressure over about "
+                        f"l. Set alpha_n >= E*/{tol:.3g} mm = {es / tol:.3g} MPa/mm; "
+                        f"10 E*/h = {10 * es / self.h_min:.3g} MPa/mm makes the interface ten "
+                        "times stiffer than its smallest elements"
+                    ),
+                )
+            )
         s = self.slide
         if s is not None:
-            out.append((logs.SlideWarning, (
-                f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
-                f"t = {s.t:.6g} s), "
-                f"{s.value / s.h:.3g} interface elements (h = {s.h:.3g} mm; warned beyond "
-                f"{SLIDE_ELEMENTS:g}). The interface is small-sliding: a slave point's traction "
-                f"still acts on the master point that faced it at the start, {s.value:.3g} mm "
-                "away, which is right for a uniformly loaded flat interface, not where the "
-                "contact's state varies over that distance (e.g. at its edges). Coarser interface "
-                "elements or a shorter slide keep it small"
-            )))  # fmt: skip
+            out.append(
+                (
+                    logs.SlideWarning,
+                    (
+                        f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
+                        f"t = {s.t:.6g} s), {s.value / s.h:.3g} interface elements "
+                        f"(h = {s.h:.3g} mm; warned beyond {SLIDE_ELEMENTS:g}). The interface is "
+                        "small-sliding: a slave point's traction still acts on the master point "
+                        f"that faced it at the start, {s.value:.3g} mm away, which is right for a "
+                        "uniformly loaded flat interface, not where the contact's state varies "
+                        "over that distance (e.g. at its edges). Coarser interface elements or a "
+                        "shorter slide keep it small"
+                    ),
+                )
+            )
         return out
 
     def warn(self) -> None:

@@ -65,8 +65,14 @@ from .collective import OutputError, collective
 from .h5 import ParallelH5
 from .slabs import interface_rows, pull, push, slab
 
-__all__ = ["Checkpoint", "CheckpointError", "CheckpointWriteError", "read_checkpoint",
-           "restore_checkpoint", "write_checkpoint"]  # fmt: skip
+__all__ = [
+    "Checkpoint",
+    "CheckpointError",
+    "CheckpointWriteError",
+    "read_checkpoint",
+    "restore_checkpoint",
+    "write_checkpoint",
+]
 
 
 # -- The format and its validation on read
@@ -208,9 +214,10 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
 
 def check_blocks(name: str, displacement: np.ndarray, interface: dict[str, np.ndarray]) -> None:
     """Refuse non-finite values in the slabs a rank read (NaN in ``mu``, inf in ``u``, ...)."""
-    for key, a in [("displacement", displacement), *(
-        (f"interface/{k}", v) for k, v in interface.items()
-    )]:  # fmt: skip
+    for key, a in [
+        ("displacement", displacement),
+        *((f"interface/{k}", v) for k, v in interface.items()),
+    ]:
         if not np.all(np.isfinite(a)):
             raise CheckpointError(f"checkpoint {name}: {key!r} holds non-finite values (NaN/inf)")
 
@@ -379,11 +386,12 @@ def write_checkpoint(
         collective(
             comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
         )
-        values = (1 + (iblock is not None)) * n_cells * int(np.prod(ublock.shape[1:])) + (
-            table.size
-        ) + n_points * (
-            sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks)
-        ) + extras.values()  # fmt: skip
+        values = (
+            (1 + (iblock is not None)) * n_cells * int(np.prod(ublock.shape[1:]))
+            + (table.size)
+            + n_points * (sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks))
+            + extras.values()
+        )
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
             n_sets = len(blocks) + 4 + len(extras.bulk) + 8 * len(extras.interfaces)
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
@@ -615,9 +623,7 @@ def restore_checkpoint(
         v.x.array.reshape(-1, gdim)[dofs] = pull(comm, cells, ck.increment[0], n_cells)
         v.x.scatter_forward()
         increment, increment_dt = v.x.array.copy(), ck.increment[1]
-    stepper.restore(
-        float(a["time"]), int(a["step"]), dt, int(a["easy"]), increment, increment_dt
-    )
+    stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]), increment, increment_dt)
     return ck.history
 
 
@@ -722,8 +728,9 @@ def read_extras(f: Any, name: str, comm: Any, n_cells: int) -> dict[str, Any]:
             raise CheckpointError(f"checkpoint {name}: the interface {iname!r} is incomplete")
         p0, p1 = slab(n_points, comm.size, comm.rank)
         data = {k: np.asarray(g[k][p0:p1], dtype=float) for k in g if k != "point_data"}
-        pdata = {k: np.asarray(g["point_data"][k][p0:p1], dtype=float)
-                 for k in g.get("point_data", {})}  # fmt: skip
+        pdata = {
+            k: np.asarray(g["point_data"][k][p0:p1], dtype=float) for k in g.get("point_data", {})
+        }
         for k, a in [*data.items(), *pdata.items()]:
             if a.shape[:1] != (p1 - p0,) or not np.all(np.isfinite(a)):
                 raise CheckpointError(f"checkpoint {name}: 'interfaces/{iname}/{k}' is damaged")
@@ -774,9 +781,9 @@ def restore_extras(
         x = pull(comm, rows, data["x"], n_points)
         pts = el.points.reshape(-1, el.gdim)
         scale = comm.allreduce(float(np.abs(pts).max()) if pts.size else 0.0, op=MPI.MAX)
-        bad = comm.allreduce(int(np.count_nonzero(
-            np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)
-        )))  # fmt: skip
+        bad = comm.allreduce(
+            int(np.count_nonzero(np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)))
+        )
         if bad:
             raise CheckpointError(
                 f"{bad} points of the interface {iname!r} are not in the checkpoint {name}"

@@ -129,9 +129,13 @@ class FieldWriter:
         self._u = u
         ensure_space(comm, self.dir, self.space_needed(), self._what("creating"))
         collective(
-            comm, lambda: self._open(fmt), self._what("creating"), root=None,
-            path=self.dir / "displacement", cleanup=self.abandon,
-        )  # fmt: skip
+            comm,
+            lambda: self._open(fmt),
+            self._what("creating"),
+            root=None,
+            path=self.dir / "displacement",
+            cleanup=self.abandon,
+        )
 
     def space_needed(self) -> int:
         """The free bytes a write asks for: ``2 step_bytes + MARGIN``.
@@ -159,9 +163,13 @@ class FieldWriter:
             for _, _, law, _ in self.parts:
                 units.update(interface_units(law, gdim))
             stems = ", ".join(stem for stem, _, _, _ in self.parts)
-            meta = {"files": f"displacement, {stems} (DG0: the average of each interface "
-                    "facet) and stress, VTX (.bp) or XDMF", "units": units, "frame": FRAME,
-                    "status_legend": status_legend()}  # fmt: skip
+            meta = {
+                "files": f"displacement, {stems} (DG0: the average of each interface "
+                "facet) and stress, VTX (.bp) or XDMF",
+                "units": units,
+                "frame": FRAME,
+                "status_legend": status_legend(),
+            }
             write_text_nofollow(self.dir / "units.json", json.dumps(meta, indent=1) + "\n")
         if fmt == "vtx":
             self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
@@ -175,9 +183,7 @@ class FieldWriter:
             mesh = problem.mesh
             cdeg = coordinate_element(mesh).degree
             if u.function_space.ufl_element().embedded_superdegree != cdeg:
-                V1 = dolfinx.fem.functionspace(
-                    mesh, ("Lagrange", cdeg, (gdim,))
-                )
+                V1 = dolfinx.fem.functionspace(mesh, ("Lagrange", cdeg, (gdim,)))
                 self._u = dolfinx.fem.Function(V1, name="displacement")
             self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
             self._wu.write_mesh(mesh)
@@ -257,9 +263,13 @@ class FieldWriter:
                 other()
 
         collective(
-            comm, write, self._what("writing", t), root=None,
-            path=self.dir / "displacement", cleanup=self.abandon,
-        )  # fmt: skip
+            comm,
+            write,
+            self._what("writing", t),
+            root=None,
+            path=self.dir / "displacement",
+            cleanup=self.abandon,
+        )
         if comm.rank == 0:  # what a step really took, for the next check
             self.step_bytes = max(self.step_bytes, 2 * (_dir_bytes(self.dir) - before))
 

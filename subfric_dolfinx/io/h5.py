@@ -318,4 +318,3 @@ class ParallelH5:
             self.close()
         else:
             self.abort()
-

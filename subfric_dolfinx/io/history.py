@@ -74,8 +74,12 @@ class HistoryRows(Sequence[dict[str, float]]):
             self._ints.append(isinstance(row[k], int) and not isinstance(row[k], bool))
         width = len(self.columns)
         if self._n == len(self._data) or width > self._data.shape[1]:
-            grown = np.zeros((max(16, 2 * len(self._data)) if self._n == len(self._data)
-                              else len(self._data), width))  # fmt: skip
+            grown = np.zeros(
+                (
+                    max(16, 2 * len(self._data)) if self._n == len(self._data) else len(self._data),
+                    width,
+                )
+            )
             grown[: self._n, : self._data.shape[1]] = self._data[: self._n]
             self._data = grown
             if self._has is not None:
@@ -135,8 +139,15 @@ def history_metadata(path: Path, columns: Sequence[str], law: Any, gdim: int) ->
     cols = []
     for name in columns:
         unit, what = column_unit(name, law, gdim)
-        cols.append({"name": name, "titles": name, "datatype": "number",
-                     "dc:description": what, "schema:unitText": unit})  # fmt: skip
+        cols.append(
+            {
+                "name": name,
+                "titles": name,
+                "datatype": "number",
+                "dc:description": what,
+                "schema:unitText": unit,
+            }
+        )
     return {
         "@context": ["http://www.w3.org/ns/csvw", {"@language": "en"}],
         "url": path.name,
@@ -192,9 +203,12 @@ class HistoryCSV:
         self.rows.append(row)
         if self.path is not None:
             collective(
-                p.comm, lambda: self._append(row), f"writing {str(self.path)!r}",
-                path=self.path, cleanup=self._discard,
-            )  # fmt: skip
+                p.comm,
+                lambda: self._append(row),
+                f"writing {str(self.path)!r}",
+                path=self.path,
+                cleanup=self._discard,
+            )
         return row
 
     def _append(self, row: dict[str, float]) -> None:
@@ -232,6 +246,8 @@ class HistoryCSV:
             f, path = self._file, self.path
             self._file = self._writer = self.path = None
             collective(
-                self.problem.comm, lambda: f.close() if f is not None else None,
-                f"closing {str(path)!r}", path=path,
-            )  # fmt: skip
+                self.problem.comm,
+                lambda: f.close() if f is not None else None,
+                f"closing {str(path)!r}",
+                path=path,
+            )

@@ -84,9 +84,15 @@ class InterfaceHistoryH5:
         self.lo, self.hi = slab(self.p, comm.size, comm.rank)
         # what a step adds to the file (reserved before it, see ParallelH5.reserve): the new
         # chunks, twice, and then twice what the steps written took
-        self.step_bytes = 2 * self.p * sum(
-            int(np.prod(shape)) * np.dtype(dtype).itemsize for shape, dtype in self.shapes.values()
-        ) + 2048  # fmt: skip
+        self.step_bytes = (
+            2
+            * self.p
+            * sum(
+                int(np.prod(shape)) * np.dtype(dtype).itemsize
+                for shape, dtype in self.shapes.values()
+            )
+            + 2048
+        )
         x = push(comm, self.rows, el.points.reshape(-1, gdim), self.p)
         self.pdata = {k: push(comm, self.rows, a, self.p) for k, a in el.point_data.items()}
         self.h: ParallelH5 | None = None
@@ -94,9 +100,12 @@ class InterfaceHistoryH5:
         exists = comm.bcast(self.path.exists() if comm.rank == 0 else None, root=0)
         if restart_time is not None and exists:
             self.h = ParallelH5(
-                self.path, "r+", comm, f"continuing the interface history {str(self.path)!r}",
+                self.path,
+                "r+",
+                comm,
+                f"continuing the interface history {str(self.path)!r}",
                 open_hint="not a readable HDF5 file (truncated?)",
-            )  # fmt: skip
+            )
             self._cut(x, float(restart_time), el.coordinate_tolerance)
         else:
             self.h = ParallelH5(self.path, "w", comm, f"writing {str(self.path)!r}")
@@ -122,9 +131,13 @@ class InterfaceHistoryH5:
             f.create_dataset("time", (0,), maxshape=(None,), dtype=float, chunks=(256,))
             for k, (shape, dtype) in self.shapes.items():
                 f.create_dataset(
-                    k, (0, p, *shape), maxshape=(None, p, *shape), dtype=dtype,
-                    chunks=(1, max(p, 1), *shape), fill_time="never",
-                )  # fmt: skip
+                    k,
+                    (0, p, *shape),
+                    maxshape=(None, p, *shape),
+                    dtype=dtype,
+                    chunks=(1, max(p, 1), *shape),
+                    fill_time="never",
+                )
             for k in ("x", "time", *self.pdata, *self.shapes):
                 f[k].attrs["unit"] = units.get(k, "?")
 
@@ -167,8 +180,7 @@ class InterfaceHistoryH5:
             return keep
 
         self.h.what = (
-            f"continuing the interface history {str(self.path)!r} (move it away to start a "
-            "new one)"
+            f"continuing the interface history {str(self.path)!r} (move it away to start a new one)"
         )
         keep = min(self.problem.comm.allgather(self.h.call(check)))
         self.h.reserve(4096 * len(self.shapes))

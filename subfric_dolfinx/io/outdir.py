@@ -69,7 +69,6 @@ FIELD_NAMES = re.compile(
 """Names this code writes in ``fields/`` (VTX, XDMF and their HDF5 files; a killed run's spare)."""
 
 
-
 class OutputDirectory:
     """The output directory of a run, locked for it (collective context manager).
 
@@ -96,9 +95,12 @@ class OutputDirectory:
     def __enter__(self) -> OutputDirectory:
         probe_directory(self.comm, self.path)
         holder = collective(
-            self.comm, self._lock, f"locking the output directory {str(self.path)!r}",
-            path=self.path / LOCK_NAME, share=True,
-        )  # fmt: skip
+            self.comm,
+            self._lock,
+            f"locking the output directory {str(self.path)!r}",
+            path=self.path / LOCK_NAME,
+            share=True,
+        )
         if holder is not None:
             raise OutputError(
                 f"the output directory {str(self.path)!r} is in use by another run ({holder}); "
@@ -108,10 +110,11 @@ class OutputDirectory:
         if self.fresh:
             try:
                 collective(
-                    self.comm, self._move_aside,
+                    self.comm,
+                    self._move_aside,
                     f"moving the earlier run's files in {str(self.path)!r} to {PREVIOUS}/",
                     path=self.path / PREVIOUS,
-                )  # fmt: skip
+                )
             except OutputError:
                 self._unlock()
                 raise

@@ -263,8 +263,10 @@ class InterfacePointsXDMF:
             '<?xml version="1.0"?>',
             '<Xdmf Version="3.0" xmlns:xi="http://www.w3.org/2001/XInclude">',
             "<Domain>",
-            *(f"<Information Name={quoteattr(k)} Value={quoteattr(v)}/>"
-              for k, v in file_attributes(self.problem.law, gdim).items()),
+            *(
+                f"<Information Name={quoteattr(k)} Value={quoteattr(v)}/>"
+                for k, v in file_attributes(self.problem.law, gdim).items()
+            ),
             '<Grid Name="interface_points" GridType="Collection" CollectionType="Temporal">',
         ]
         for k, t in enumerate(self.times):
@@ -275,16 +277,16 @@ class InterfacePointsXDMF:
                 f'NodesPerElement="1">{topology}</Topology>',
                 f'<Geometry GeometryType="{"XY" if gdim == 2 else "XYZ"}">{geometry}</Geometry>',
                 f'<Attribute Name="rank" AttributeType="Scalar" Center="Node">'
-                f'{item("/rank", str(p), "Int", 4)}</Attribute>',
+                f"{item('/rank', str(p), 'Int', 4)}</Attribute>",
             ]
             for name, kind in self.arrays:
                 dims = f"{p} 3" if kind == "Vector" else str(p)
                 number, prec = ("Int", 4) if name == "status" else ("Float", 8)
                 unit = quoteattr(self.units.get(name, "?"))
                 lines.append(
-                    f"<Attribute Name={quoteattr(name)} AttributeType=\"{kind}\" "
+                    f'<Attribute Name={quoteattr(name)} AttributeType="{kind}" '
                     f'Center="Node"><Information Name="unit" Value={unit}/>'
-                    f'{item(f"/step_{k}/{name}", dims, number, prec)}</Attribute>'
+                    f"{item(f'/step_{k}/{name}', dims, number, prec)}</Attribute>"
                 )
             lines.append("</Grid>")
         lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]

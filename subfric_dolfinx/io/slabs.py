@@ -56,9 +56,7 @@ def _exchange(
     mpitype = MPI.DOUBLE if payload.dtype == np.float64 else MPI.INT64_T
     sdispl = np.concatenate([[0], np.cumsum(scount)[:-1]]) * w
     rdispl = np.concatenate([[0], np.cumsum(rcount)[:-1]]) * w
-    comm.Alltoallv(
-        [send, (scount * w, sdispl), mpitype], [recv, (rcount * w, rdispl), mpitype]
-    )
+    comm.Alltoallv([send, (scount * w, sdispl), mpitype], [recv, (rcount * w, rdispl), mpitype])
     return recv, order, rcount
 
 

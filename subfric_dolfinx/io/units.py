@@ -64,8 +64,18 @@ def interface_units(law: Any, gdim: int) -> dict[str, str]:
     """
     nt = gdim - 1
     tang = [f"t{i + 1}" for i in range(nt)]
-    units = {"x": "mm", "f_t": "MPa", "f_n": "MPa", "traction_global": "MPa", "gap": "mm",
-             "g0": "mm", "status": "1", "region": "1", "rank": "1", "time": "s"}  # fmt: skip
+    units = {
+        "x": "mm",
+        "f_t": "MPa",
+        "f_n": "MPa",
+        "traction_global": "MPa",
+        "gap": "mm",
+        "g0": "mm",
+        "status": "1",
+        "region": "1",
+        "rank": "1",
+        "time": "s",
+    }
     units.update({f"f_{t}": "MPa" for t in tang})
     units.update({f"gap_{t}": "mm" for t in [*tang, "n"]})
     for var in law.variables:

@@ -21,15 +21,31 @@ ZERO_SIZE = 1e-10
 
 # gmsh element type -> (number of nodes, dimension, name)
 ELEMENTS: dict[int, tuple[int, int, str]] = {
-    1: (2, 1, "line"), 2: (3, 2, "triangle"), 3: (4, 2, "quadrilateral"),
-    4: (4, 3, "tetrahedron"), 5: (8, 3, "hexahedron"), 6: (6, 3, "prism"), 7: (5, 3, "pyramid"),
-    8: (3, 1, "line3"), 9: (6, 2, "triangle6"), 10: (9, 2, "quadrilateral9"),
-    11: (10, 3, "tetrahedron10"), 12: (27, 3, "hexahedron27"), 13: (18, 3, "prism18"),
-    14: (14, 3, "pyramid14"), 15: (1, 0, "point"), 16: (8, 2, "quadrilateral8"),
-    17: (20, 3, "hexahedron20"), 18: (15, 3, "prism15"), 19: (13, 3, "pyramid13"),
-    20: (9, 2, "triangle9"), 21: (10, 2, "triangle10"), 26: (4, 1, "line4"),
-    29: (20, 3, "tetrahedron20"), 36: (16, 2, "quadrilateral16"),
-}  # fmt: skip
+    1: (2, 1, "line"),
+    2: (3, 2, "triangle"),
+    3: (4, 2, "quadrilateral"),
+    4: (4, 3, "tetrahedron"),
+    5: (8, 3, "hexahedron"),
+    6: (6, 3, "prism"),
+    7: (5, 3, "pyramid"),
+    8: (3, 1, "line3"),
+    9: (6, 2, "triangle6"),
+    10: (9, 2, "quadrilateral9"),
+    11: (10, 3, "tetrahedron10"),
+    12: (27, 3, "hexahedron27"),
+    13: (18, 3, "prism18"),
+    14: (14, 3, "pyramid14"),
+    15: (1, 0, "point"),
+    16: (8, 2, "quadrilateral8"),
+    17: (20, 3, "hexahedron20"),
+    18: (15, 3, "prism15"),
+    19: (13, 3, "pyramid13"),
+    20: (9, 2, "triangle9"),
+    21: (10, 2, "triangle10"),
+    26: (4, 1, "line4"),
+    29: (20, 3, "tetrahedron20"),
+    36: (16, 2, "quadrilateral16"),
+}
 _SECTIONS = (b"PhysicalNames", b"Entities", b"Nodes", b"Elements")
 _MAX_INT = 2**53  # tags are read as doubles in ASCII: exact below this
 _INT32 = 2**31 - 1  # gmsh keeps entity and physical tags (and format 2's tags) in an int
@@ -39,6 +55,8 @@ TAG_SLACK = 1 << 20
 
 def _tag_limit(n: int) -> int:
     return 16 * n + TAG_SLACK
+
+
 _NAME = re.compile(rb'^\s*(-?\d+)\s+(-?\d+)\s+"([^"]*)"\s*$')
 
 
@@ -122,9 +140,7 @@ def _is_number(token: bytes) -> bool:
 
 def _ints(values: np.ndarray, what: str, *, lo: int = 0, hi: int = _MAX_INT - 1) -> np.ndarray:
     """``values`` as integers; refused if not integral, below ``lo`` or above ``hi``."""
-    if values.size and not (
-        np.all(np.isfinite(values)) and np.all(values == np.floor(values))
-    ):
+    if values.size and not (np.all(np.isfinite(values)) and np.all(values == np.floor(values))):
         bad = values[~(np.isfinite(values) & (values == np.floor(values)))][0]
         raise _Bad(f"{what}: {bad!r} is not an integer")
     if values.size and (values.min() < lo or values.max() > hi):

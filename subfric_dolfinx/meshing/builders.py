@@ -185,9 +185,11 @@ def build_block_on_base(
     """
     _check_cell_type(2, cell_type)
     _positive(
-        base_width=base_width, base_height=base_height,
-        block_width=block_width, block_height=block_height,
-    )  # fmt: skip
+        base_width=base_width,
+        base_height=base_height,
+        block_width=block_width,
+        block_height=block_height,
+    )
     if block_x is None:
         block_x = 0.5 * (base_width - block_width)
     if block_x < 0 or block_x + block_width > base_width * (1 + 1e-12):

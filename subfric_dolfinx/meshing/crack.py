@@ -202,10 +202,15 @@ def _crack_one(
                 gmsh.model.mesh.reverse([(fdim, e)])
     open_tag, added = _open_boundary(fdim, entities, np.concatenate(facets))
     for option, value in (
-        ("Dimension", fdim), ("PhysicalGroup", tag),
-        ("OpenBoundaryPhysicalGroup", open_tag), ("NormalX", 0.0), ("NormalY", 0.0),
-        ("NormalZ", normal_z), ("NewPhysicalGroup", 0), ("DebugView", 0),
-    ):  # fmt: skip
+        ("Dimension", fdim),
+        ("PhysicalGroup", tag),
+        ("OpenBoundaryPhysicalGroup", open_tag),
+        ("NormalX", 0.0),
+        ("NormalY", 0.0),
+        ("NormalZ", normal_z),
+        ("NewPhysicalGroup", 0),
+        ("DebugView", 0),
+    ):
         gmsh.plugin.setNumber("Crack", option, value)
     gmsh.plugin.run("Crack")
     gmsh.model.removePhysicalGroups([(fdim - 1, open_tag)])
@@ -213,14 +218,15 @@ def _crack_one(
         gmsh.model.removeEntities([(fdim - 1, added)])
     n_after = gmsh.model.mesh.getNodes()[0].size
     return CrackedInterface(
-        iface, tuple(primary), tuple(secondary), int(sum(f.shape[0] for f in facets)),
+        iface,
+        tuple(primary),
+        tuple(secondary),
+        int(sum(f.shape[0] for f in facets)),
         int(n_after - n_before),
-    )  # fmt: skip
+    )
 
 
-def _open_boundary(
-    fdim: int, entities: list[int], facets: np.ndarray
-) -> tuple[int, int | None]:
+def _open_boundary(fdim: int, entities: list[int], facets: np.ndarray) -> tuple[int, int | None]:
     """A physical group of the interface's boundary (its ends in 2-D, its edge lines in 3-D).
 
     The boundary entities' own elements where they have some (a model meshed here); otherwise
@@ -233,9 +239,7 @@ def _open_boundary(
     gmsh = gmsh_module()
     boundary = gmsh.model.getBoundary([(fdim, e) for e in entities], combined=True, oriented=False)
     ents = sorted({abs(t) for _, t in boundary})
-    meshed = all(
-        any(len(t) for t in gmsh.model.mesh.getElements(fdim - 1, e)[1]) for e in ents
-    )
+    meshed = all(any(len(t) for t in gmsh.model.mesh.getElements(fdim - 1, e)[1]) for e in ents)
     if ents and meshed:
         return gmsh.model.addPhysicalGroup(fdim - 1, ents), None
     if fdim == 1:
@@ -244,9 +248,7 @@ def _open_boundary(
         etype, conn = 15, ends  # points
     else:
         nv = facets.shape[1]
-        edges = np.sort(
-            np.concatenate([facets[:, [i, (i + 1) % nv]] for i in range(nv)]), axis=1
-        )
+        edges = np.sort(np.concatenate([facets[:, [i, (i + 1) % nv]] for i in range(nv)]), axis=1)
         uniq, counts = np.unique(edges, axis=0, return_counts=True)
         etype, conn = 1, uniq[counts == 1].ravel()  # 2-node lines
     added = gmsh.model.addDiscreteEntity(fdim - 1)

@@ -95,21 +95,51 @@ BODIES: tuple[str, str] = (MASTER, SLAVE)
 REQUIRED_GROUPS: tuple[str, ...] = (MASTER, SLAVE, INTERFACE)
 #: Boundary facet groups of the 2-D builder (``master_top`` only when the block is narrower).
 BOUNDARY_GROUPS_2D: tuple[str, ...] = (
-    BOTTOM, TOP, MASTER_TOP, MASTER_LEFT, MASTER_RIGHT, SLAVE_LEFT, SLAVE_RIGHT,
-)  # fmt: skip
+    BOTTOM,
+    TOP,
+    MASTER_TOP,
+    MASTER_LEFT,
+    MASTER_RIGHT,
+    SLAVE_LEFT,
+    SLAVE_RIGHT,
+)
 #: Boundary facet groups of the 3-D builder (``master_top`` only when the pad is smaller).
 BOUNDARY_GROUPS_3D: tuple[str, ...] = (
-    BOTTOM, TOP, MASTER_TOP, MASTER_XMIN, MASTER_XMAX, MASTER_YMIN, MASTER_YMAX,
-    SLAVE_XMIN, SLAVE_XMAX, SLAVE_YMIN, SLAVE_YMAX,
-)  # fmt: skip
+    BOTTOM,
+    TOP,
+    MASTER_TOP,
+    MASTER_XMIN,
+    MASTER_XMAX,
+    MASTER_YMIN,
+    MASTER_YMAX,
+    SLAVE_XMIN,
+    SLAVE_XMAX,
+    SLAVE_YMIN,
+    SLAVE_YMAX,
+)
 #: Integer tags the builders give the groups (files may use others: look tags up by name).
 TAGS: dict[str, int] = {
-    MASTER: 1, SLAVE: 2, INTERFACE: 3, BOTTOM: 4, TOP: 5, MASTER_TOP: 6,
-    MASTER_LEFT: 7, MASTER_RIGHT: 8, SLAVE_LEFT: 9, SLAVE_RIGHT: 10,
-    MASTER_XMIN: 11, MASTER_XMAX: 12, MASTER_YMIN: 13, MASTER_YMAX: 14,
-    SLAVE_XMIN: 15, SLAVE_XMAX: 16, SLAVE_YMIN: 17, SLAVE_YMAX: 18,
-    BOLT_HEAD: 19, BOLT_NUT: 20,
-}  # fmt: skip
+    MASTER: 1,
+    SLAVE: 2,
+    INTERFACE: 3,
+    BOTTOM: 4,
+    TOP: 5,
+    MASTER_TOP: 6,
+    MASTER_LEFT: 7,
+    MASTER_RIGHT: 8,
+    SLAVE_LEFT: 9,
+    SLAVE_RIGHT: 10,
+    MASTER_XMIN: 11,
+    MASTER_XMAX: 12,
+    MASTER_YMIN: 13,
+    MASTER_YMAX: 14,
+    SLAVE_XMIN: 15,
+    SLAVE_XMAX: 16,
+    SLAVE_YMIN: 17,
+    SLAVE_YMAX: 18,
+    BOLT_HEAD: 19,
+    BOLT_NUT: 20,
+}
 
 
 class InterfaceMeshError(ValueError):

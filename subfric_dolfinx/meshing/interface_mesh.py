@@ -90,9 +90,7 @@ class InterfaceMesh:
             return (self.tags[name],)
         raise KeyError(f"no body or group {name!r}; bodies: {sorted(self.bodies)}")
 
-    def add_node_group(
-        self, name: str, x: npt.ArrayLike, body: str | None = None
-    ) -> NodeGroup:
+    def add_node_group(self, name: str, x: npt.ArrayLike, body: str | None = None) -> NodeGroup:
         """Name the nodes at the points ``x`` (n, gdim) of ``body`` (any body if ``None``).
 
         Conditions may then refer to ``name`` (a Dirichlet condition on its nodes). A point must
@@ -170,9 +168,7 @@ class InterfaceMesh:
         """
         name = self._interface(interface)
         sides = self._sides.get(name, {})
-        f = np.concatenate([sides.get("primary", []), sides.get("secondary", [])]).astype(
-            np.int32
-        )
+        f = np.concatenate([sides.get("primary", []), sides.get("secondary", [])]).astype(np.int32)
         tdim = self.tdim
         self.mesh.topology.create_connectivity(tdim - 1, tdim)
         f2c = self.mesh.topology.connectivity(tdim - 1, tdim)

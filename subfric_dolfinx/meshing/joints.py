@@ -87,9 +87,13 @@ def build_bolted_lap_joint(
             f"cell_type must be 'tetrahedron' for the bolted lap joint, got {cell_type!r}"
         )
     sizes = {
-        "plate_length": plate_length, "width": width, "thickness": thickness,
-        "overlap": overlap, "hole_radius": hole_radius, "washer_radius": washer_radius,
-    }  # fmt: skip
+        "plate_length": plate_length,
+        "width": width,
+        "thickness": thickness,
+        "overlap": overlap,
+        "hole_radius": hole_radius,
+        "washer_radius": washer_radius,
+    }
     _positive(**sizes)
     L, W, t, c = (float(v) for v in (plate_length, width, thickness, overlap))
     r, R = float(hole_radius), float(washer_radius)
@@ -164,10 +168,12 @@ def build_bolted_lap_joint(
     saved = {
         o: gmsh.option.getNumber(o)
         for o in (
-            "Mesh.MeshSizeMax", "Mesh.ElementOrder", "Mesh.MeshSizeFromCurvature",
+            "Mesh.MeshSizeMax",
+            "Mesh.ElementOrder",
+            "Mesh.MeshSizeFromCurvature",
             "Mesh.Algorithm3D",
         )
-    }  # fmt: skip
+    }
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
     gmsh.option.setNumber("Mesh.ElementOrder", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 16)  # the hole in 16 elements at least

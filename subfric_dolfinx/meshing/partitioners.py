@@ -145,9 +145,7 @@ def body_partitioner(
         nv = dolfinx.cpp.mesh.cell_num_entities(cell_type, 0)
         conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
         if conn.shape[0] == 0:
-            return adjacency_list(
-                np.empty(0, dtype=np.int32), np.zeros(1, dtype=np.int32)
-            )
+            return adjacency_list(np.empty(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
         owner = np.zeros(conn.shape[0], dtype=np.int32)
         if nparts > 1:
             tdim = dolfinx.mesh.cell_dim(cell_type)

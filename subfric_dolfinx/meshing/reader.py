@@ -136,9 +136,12 @@ def _inspect_current_model(
         raise InterfaceMeshError(f"{what}: expected one cell type, found {tnames}")
     try:
         bodies, sides = mesh_topology(
-            by_name, gdim, names=topology.get("names"), bodies=topology.get("bodies"),
+            by_name,
+            gdim,
+            names=topology.get("names"),
+            bodies=topology.get("bodies"),
             interfaces=topology.get("interfaces"),
-        )  # fmt: skip
+        )
     except InterfaceMeshError as e:
         raise InterfaceMeshError(f"{what}: {e}") from None
     body_tags = {b: [names[g] for g in gs] for b, gs in bodies.items()}
@@ -383,11 +386,7 @@ def _find_sides(imesh: InterfaceMesh, iface: str, what: str) -> None:
         raise InterfaceMeshError(
             f"{what}: the two sides of the {iface!r} group have different numbers of facets: "
             f"{n_p} on the {p!r} side, {n_s} on the {q!r} side"
-            + (
-                f", {n_owned - n_p - n_s} next to neither body"
-                if n_p + n_s != n_owned
-                else ""
-            )
+            + (f", {n_owned - n_p - n_s} next to neither body" if n_p + n_s != n_owned else "")
         )
     imesh._sides[iface] = sides
     imesh._counts[iface] = n_p
@@ -435,9 +434,15 @@ def create_interface_mesh(
         _raise_collectively(comm, error)
         info = comm.bcast(info, root=0)
         imesh = read_interface_mesh(
-            None, comm, info.gdim, partitioner=partitioner, ghost_mode=ghost_mode,
-            names=names, bodies=bodies, interfaces=interfaces,
-        )  # fmt: skip
+            None,
+            comm,
+            info.gdim,
+            partitioner=partitioner,
+            ghost_mode=ghost_mode,
+            names=names,
+            bodies=bodies,
+            interfaces=interfaces,
+        )
     return imesh, info
 
 

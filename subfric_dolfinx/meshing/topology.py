@@ -190,8 +190,7 @@ def mesh_topology(
 def _check_group(groups: Mapping[str, tuple[int, int]], name: str, dim: int, where: str) -> None:
     if name not in groups:
         raise InterfaceMeshError(
-            f"{where}: physical group {name!r} not found; physical groups found: "
-            f"{sorted(groups)}"
+            f"{where}: physical group {name!r} not found; physical groups found: {sorted(groups)}"
         )
     if groups[name][0] != dim:
         raise InterfaceMeshError(

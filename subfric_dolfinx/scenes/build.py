@@ -43,8 +43,9 @@ def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshi
     topo: dict[str, Any] = {"names": dict(spec.names) or None}
     if scene is not None:
         if scene.bodies:
-            topo["bodies"] = {b: ([g] if isinstance(g, str) else list(g))
-                              for b, g in scene.bodies.items()}  # fmt: skip
+            topo["bodies"] = {
+                b: ([g] if isinstance(g, str) else list(g)) for b, g in scene.bodies.items()
+            }
         if scene.interfaces:  # sides given, or None: found from the mesh
             topo["interfaces"] = {n: _mesh_sides(spec) for n, spec in scene.interfaces.items()}
     try:
@@ -139,15 +140,18 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
     if scene.interfaces:
         interfaces = [
             Interface(
-                name, *spec.sides,
+                name,
+                *spec.sides,
                 law=model.interfaces[name].law,
                 initial_gap=model.interfaces[name].initial_gap,
                 regions=model.interfaces[name].regions or None,
-                quadrature=spec.quadrature, kinematics=spec.kinematics,
-                search_radius=spec.search_radius, reach=spec.reach,
+                quadrature=spec.quadrature,
+                kinematics=spec.kinematics,
+                search_radius=spec.search_radius,
+                reach=spec.reach,
             )
             for name, spec in scene.interfaces.items()
-        ]  # fmt: skip
+        ]
     _check_material_names(scene, domain)
     bulk = _j2_bulk(scene, domain, model.law, interfaces)
     try:

@@ -161,9 +161,11 @@ class DerivedOutputs:
         names = ["stress.bp"] if self.fmt == "vtx" else ["stress.xdmf", "stress.h5"]
         paths = [directory, *(directory / n for n in names)]
         collective(  # before anything is written (.io.links)
-            comm, lambda: refuse_links(*paths), f"writing the stress in {str(directory)!r}",
+            comm,
+            lambda: refuse_links(*paths),
+            f"writing the stress in {str(directory)!r}",
             path=directory,
-        )  # fmt: skip
+        )
         if comm.rank == 0:
             directory.mkdir(parents=True, exist_ok=True)
         comm.Barrier()

@@ -150,8 +150,13 @@ def run_fe_scene(
     i = res.info
     logger.info(
         "[%s] %d-D, %d cells, %d dofs, %d interface points, %d rank(s)",
-        scene.name, i["gdim"], i["cells"], i["dofs"], i["interface points"], i["ranks"],
-    )  # fmt: skip
+        scene.name,
+        i["gdim"],
+        i["cells"],
+        i["dofs"],
+        i["interface points"],
+        i["ranks"],
+    )
     settings = restart_settings(scene)
     with contextlib.ExitStack() as stack:
         # first in, last out: a stop signal is a request until every file is closed (.signals)
@@ -184,8 +189,11 @@ def run_fe_scene(
             restart_time = stepper.t
             logger.info(
                 "[%s] restarted from %s at t = %.6g (step %d)",
-                scene.name, restart, stepper.t, stepper.step,
-            )  # fmt: skip
+                scene.name,
+                restart,
+                stepper.t,
+                stepper.step,
+            )
         outputs = stack.enter_context(
             SceneOutputs(
                 out,
@@ -256,8 +264,11 @@ def run_fe_scene(
     if its:
         logger.info(
             "[%s] %d steps, Newton iterations per step: mean %.2f, max %d",
-            scene.name, len(its), np.mean(its), max(its),
-        )  # fmt: skip
+            scene.name,
+            len(its),
+            np.mean(its),
+            max(its),
+        )
     else:
         logger.info("[%s] no step to take: the program had already ended", scene.name)
     return res

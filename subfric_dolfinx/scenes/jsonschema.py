@@ -112,8 +112,12 @@ def _dataclass(cls: type, defs: dict[str, Any]) -> dict[str, Any]:
         elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
             required.append(f.name)
         props[f.name] = prop
-    out: dict[str, Any] = {"type": "object", "description": _summary(cls), "properties": props,
-                           "additionalProperties": False}  # fmt: skip
+    out: dict[str, Any] = {
+        "type": "object",
+        "description": _summary(cls),
+        "properties": props,
+        "additionalProperties": False,
+    }
     if required:
         out["required"] = required
     return out
@@ -193,9 +197,11 @@ def _program(defs: dict[str, Any]) -> dict[str, Any]:
 
 
 def _regions(defs: dict[str, Any]) -> dict[str, Any]:
-    return {"type": "object", "additionalProperties": _law(defs),
-            "description": "interface regions: a physical group of interface facets -> its "
-            "law"}  # fmt: skip
+    return {
+        "type": "object",
+        "additionalProperties": _law(defs),
+        "description": "interface regions: a physical group of interface facets -> its law",
+    }
 
 
 def _initial_gap(defs: dict[str, Any]) -> dict[str, Any]:
@@ -208,13 +214,25 @@ def _initial_gap(defs: dict[str, Any]) -> dict[str, Any]:
 
 
 def _materials(defs: dict[str, Any]) -> dict[str, Any]:
-    body = {"type": "object", "properties": {
-        "E": {"type": "number", "exclusiveMinimum": 0, "description": "Young's modulus (MPa)"},
-        "nu": {"type": "number", "minimum": 0, "exclusiveMaximum": 0.5,
-               "description": "Poisson's ratio"}},
-        "required": ["E", "nu"], "additionalProperties": False}  # fmt: skip
-    return {"type": "object", "additionalProperties": body,
-            "description": "body (cell group) name -> its isotropic elasticity"}  # fmt: skip
+    body = {
+        "type": "object",
+        "properties": {
+            "E": {"type": "number", "exclusiveMinimum": 0, "description": "Young's modulus (MPa)"},
+            "nu": {
+                "type": "number",
+                "minimum": 0,
+                "exclusiveMaximum": 0.5,
+                "description": "Poisson's ratio",
+            },
+        },
+        "required": ["E", "nu"],
+        "additionalProperties": False,
+    }
+    return {
+        "type": "object",
+        "additionalProperties": body,
+        "description": "body (cell group) name -> its isotropic elasticity",
+    }
 
 
 def _positive_or_null() -> dict[str, Any]:
@@ -259,8 +277,9 @@ def scene_schema() -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the schema, or write it to ``--out``."""
-    ap = ArgumentParser(prog="python3 -m subfric_dolfinx.scenes.jsonschema",
-                        description=__doc__.split("\n")[0])  # fmt: skip
+    ap = ArgumentParser(
+        prog="python3 -m subfric_dolfinx.scenes.jsonschema", description=__doc__.split("\n")[0]
+    )
     ap.add_argument("--out", help="write it to this file (default: print it)")
     try:
         args = ap.parse_args(argv)

@@ -122,19 +122,22 @@ class SceneOutputs:
                 self.fields = FieldWriter(outdir / "fields", problem, spec.fields, extra)
                 self.points = [
                     InterfacePointsXDMF(
-                        outdir / f"fields/{_stem('interface_points', n, names)}.xdmf", problem,
+                        outdir / f"fields/{_stem('interface_points', n, names)}.xdmf",
+                        problem,
                         n if len(names) > 1 else None,
                     )
                     for n in names
-                ]  # fmt: skip
+                ]
             if spec.interface_history:
                 self.ihist = [
                     InterfaceHistoryH5(
-                        outdir / f"{_stem('interface_history', n, names)}.h5", problem,
-                        restart_time, n if len(names) > 1 else None,
+                        outdir / f"{_stem('interface_history', n, names)}.h5",
+                        problem,
+                        restart_time,
+                        n if len(names) > 1 else None,
                     )
                     for n in names
-                ]  # fmt: skip
+                ]
         except BaseException:
             try:
                 self.close()

@@ -35,8 +35,6 @@ def is_classic(scene: FEScene) -> bool:
     )
 
 
-
-
 def interface_laws(
     scene: FEScene, parse_law: Callable[[Any], FrictionLaw]
 ) -> tuple[FrictionLaw | None, dict[str, FrictionLaw | None]]:

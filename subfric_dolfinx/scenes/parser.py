@@ -40,8 +40,14 @@ from .schema import (
 )
 
 __all__ = [
-    "build_program", "check_name", "check_plain", "from_dict", "load_scene", "parse_law",
-    "parse_scene", "scene_model",
+    "build_program",
+    "check_name",
+    "check_plain",
+    "from_dict",
+    "load_scene",
+    "parse_law",
+    "parse_scene",
+    "scene_model",
 ]
 
 

@@ -302,9 +302,7 @@ class InterfaceSpec:
     quadrature: str | None = None
     # left out of a restart's settings while unset (checkpoints written before they existed)
     kinematics: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
-    search_radius: float | None = dataclasses.field(
-        default=None, metadata={"omit_if_none": True}
-    )
+    search_radius: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
     reach: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
 
     @property

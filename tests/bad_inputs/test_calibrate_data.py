@@ -82,20 +82,32 @@ BIG = "1" + "0" * 399
         (curve(slip=[0.0], f_t=[0.0]), ("curves[0].slip", "at least two")),
         (curve(mu=1), ("curves[0]", "unknown keys", "mu")),
         (data(curves=[{"f_n": 300, "velocity": 1, "slip": [0, 1]}]), ("curves[0].f_t", "missing")),
-        (data(curves=[{"f_n": 300, "velocity": 1, "slip": [0, 1], "f_t": [0, 1]}],
-              fit=["mu_s", "mu_k", "kappa"]), ("2 points for 3",)),
+        (
+            data(
+                curves=[{"f_n": 300, "velocity": 1, "slip": [0, 1], "f_t": [0, 1]}],
+                fit=["mu_s", "mu_k", "kappa"],
+            ),
+            ("2 points for 3",),
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_data(tmp_path, obj, words):
     rejected(tmp_path, obj, *words)
 
 
 @pytest.mark.parametrize(
     "text",
-    [b"\xff\xfe{\x00}", "[" * 100_000 + "]" * 100_000, json.dumps(GOOD).replace("500.0", BIG, 1),
-     '"a string"', "", json.dumps(GOOD)[:-5], '{"curves": [], ' + json.dumps(GOOD)[1:]],
+    [
+        b"\xff\xfe{\x00}",
+        "[" * 100_000 + "]" * 100_000,
+        json.dumps(GOOD).replace("500.0", BIG, 1),
+        '"a string"',
+        "",
+        json.dumps(GOOD)[:-5],
+        '{"curves": [], ' + json.dumps(GOOD)[1:],
+    ],
     ids=["utf16", "deep", "400-digits", "string", "empty", "truncated", "duplicate-key"],
-)  # fmt: skip
+)
 def test_malformed_files(tmp_path, text):
     rejected(tmp_path, text)
 
@@ -123,7 +135,7 @@ def test_missing_file_and_bad_out(tmp_path, capsys):
         (["xi", "mu_k"], [150, 450], [1, 1], ("xi together with mu_k", "one velocity")),
         (["c_n", "mu_s", "mu_k"], [300, 300], [1, 2], ("c_n together with mu_s and mu_k",)),
     ],
-)  # fmt: skip
+)
 def test_parameters_the_curves_cannot_identify_by_rule(tmp_path, fitted, f_n, velocity, words):
     curves = synthetic_curves(TRUE, f_n, velocity, SLIP)
     d = parse_data(data(fit=fitted, curves=curves))

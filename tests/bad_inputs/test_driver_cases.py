@@ -186,9 +186,9 @@ def test_case_with_non_finite_value(tmp_path, capsys, where, value, field):
 
 
 @pytest.mark.parametrize(
-    ("where", "value", "field"), [(("path", 1, 1), NAN, "path[1][1]"), (("t_samples", 1), INF,
-                                                                         "t_samples[1]")]
-)  # fmt: skip
+    ("where", "value", "field"),
+    [(("path", 1, 1), NAN, "path[1][1]"), (("t_samples", 1), INF, "t_samples[1]")],
+)
 def test_cli_process_on_a_bad_case_writes_nothing(tmp_path, where, value, field):
     """The real command line (a separate process): exit code 2, the field named, no file."""
     out = tmp_path / "result.json"
@@ -286,31 +286,63 @@ BIG = "1" + "0" * 399  # a 400-digit integer
         (json.dumps(CASE).encode("utf-8").replace(b"disp", b"d\xe9sp"), ("not UTF-8",)),
         ("[" * 100_000 + "]" * 100_000, ("nests too deeply",)),
         ('{"params": ' + "[" * 5000 + "]" * 5000 + "}", ("'params'",)),
-        (json.dumps(CASE).replace('"steps_per_mm": 100', f'"steps_per_mm": {BIG}'),
-         ("steps_per_mm", "must be finite")),
-        (json.dumps(CASE).replace("[0.3, 0.3, 0.0, 1.2]", f"[0.3, {BIG}, 0.0, 1.2]"),
-         ("path[1][1]", "must be finite")),
-        (json.dumps(CASE).replace('"n_tangential": 2', f'"n_tangential": {BIG}'),
-         ("n_tangential",)),
-        (json.dumps(CASE).replace('"preset": "sec7"', f'"preset": "sec7", "kappa": {BIG}'),
-         ("kappa",)),
-        (json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": ' + "9" * 5000),
-         ("is not valid",)),
+        (
+            json.dumps(CASE).replace('"steps_per_mm": 100', f'"steps_per_mm": {BIG}'),
+            ("steps_per_mm", "must be finite"),
+        ),
+        (
+            json.dumps(CASE).replace("[0.3, 0.3, 0.0, 1.2]", f"[0.3, {BIG}, 0.0, 1.2]"),
+            ("path[1][1]", "must be finite"),
+        ),
+        (
+            json.dumps(CASE).replace('"n_tangential": 2', f'"n_tangential": {BIG}'),
+            ("n_tangential",),
+        ),
+        (
+            json.dumps(CASE).replace('"preset": "sec7"', f'"preset": "sec7", "kappa": {BIG}'),
+            ("kappa",),
+        ),
+        (
+            json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": ' + "9" * 5000),
+            ("is not valid",),
+        ),
         ('"a string"', ("JSON object",)),
         ("", ("not valid JSON",)),
         (json.dumps({**CASE, "control": ["disp"]}), ("'control'",)),
         (json.dumps({**CASE, "t_samples": {"a": 1}}), ("t_samples",)),
         (json.dumps({**CASE, "law": {"subloading": 1}}), ("'law'",)),
         (json.dumps({**CASE, "path": [[0, 0, 0, 1.2], [0.3, "x", 0, 1.2]]}), ("path[1][1]",)),
-        (json.dumps(CASE).replace('"steps_per_mm": 100', '"steps_per_mm": 100, "steps_per_mm": 1'),
-         ("the key 'steps_per_mm' twice in one object", "JSON would keep the last")),
-        (json.dumps(CASE).replace('"preset": "sec7"', '"preset": "sec7", "preset": "sec7"'),
-         ("the key 'preset' twice",)),
+        (
+            json.dumps(CASE).replace(
+                '"steps_per_mm": 100', '"steps_per_mm": 100, "steps_per_mm": 1'
+            ),
+            ("the key 'steps_per_mm' twice in one object", "JSON would keep the last"),
+        ),
+        (
+            json.dumps(CASE).replace('"preset": "sec7"', '"preset": "sec7", "preset": "sec7"'),
+            ("the key 'preset' twice",),
+        ),
     ],
-    ids=["bom16", "latin1", "deep", "deep-field", "big-spm", "big-path", "big-nt", "big-param",
-         "5000-digits", "string", "empty", "control-list", "samples-dict", "law-dict", "row-str",
-         "duplicate-key", "duplicate-nested"],
-)  # fmt: skip
+    ids=[
+        "bom16",
+        "latin1",
+        "deep",
+        "deep-field",
+        "big-spm",
+        "big-path",
+        "big-nt",
+        "big-param",
+        "5000-digits",
+        "string",
+        "empty",
+        "control-list",
+        "samples-dict",
+        "law-dict",
+        "row-str",
+        "duplicate-key",
+        "duplicate-nested",
+    ],
+)
 def test_malformed_file_gets_one_error_line(tmp_path, contents, words):
     cli_rejects(tmp_path, contents, *words)
 

@@ -15,30 +15,42 @@ MESH_CASES = {
     # name: (file, gdim, exception, words, regular expression or None)
     "missing-file": ("no_such_mesh.msh", 2, FileNotFoundError, ["mesh file not found"], None),
     "no-interface-group": (
-        "broken_no_interface.msh", 2, meshing.InterfaceMeshError,
+        "broken_no_interface.msh",
+        2,
+        meshing.InterfaceMeshError,
         # the groups found are listed
         ["required physical group 'interface' not found", "'master'", "'slave'", "'bottom'"],
         None,
     ),
     "sides-count-differ": (
-        "broken_mismatch_count.msh", 2, meshing.InterfaceMeshError,
-        ["8 on the 'master' side, 9 on the 'slave' side"], None,
+        "broken_mismatch_count.msh",
+        2,
+        meshing.InterfaceMeshError,
+        ["8 on the 'master' side, 9 on the 'slave' side"],
+        None,
     ),
     "3d-mesh-read-as-2d-tet": (
-        "pad_on_plate_tet.msh", 2, meshing.InterfaceMeshError,
+        "pad_on_plate_tet.msh",
+        2,
+        meshing.InterfaceMeshError,
         ["expected a 2-D mesh", "found cells of topological dimension 3"],
         "expected a 2-D mesh .* found cells of topological dimension 3",
     ),
     "3d-mesh-read-as-2d-hex": (
-        "pad_on_plate_hex.msh", 2, meshing.InterfaceMeshError,
-        ["expected a 2-D mesh", "found cells of topological dimension 3"], None,
+        "pad_on_plate_hex.msh",
+        2,
+        meshing.InterfaceMeshError,
+        ["expected a 2-D mesh", "found cells of topological dimension 3"],
+        None,
     ),
     "2d-mesh-read-as-3d": (
-        "block_on_base_quad.msh", 3, meshing.InterfaceMeshError,
+        "block_on_base_quad.msh",
+        3,
+        meshing.InterfaceMeshError,
         ["expected a 3-D mesh", "found cells of topological dimension 2"],
         "expected a 3-D mesh .* found cells of topological dimension 2",
     ),
-}  # fmt: skip
+}
 
 
 @pytest.mark.parametrize("name", list(MESH_CASES))
@@ -96,11 +108,12 @@ NOT_MSH = {
     "file-type-2": ("t2.msh", b"$MeshFormat\n4.1 2 8\n$EndMeshFormat\n", ["file type"]),
     "data-size-4": ("d4.msh", b"$MeshFormat\n4.1 0 4\n$EndMeshFormat\n", ["data size"]),
     "binary-bad-endianness": (
-        "endian.msh", b"$MeshFormat\n4.1 1 8\n\x02\x00\x00\x00\n$EndMeshFormat\n",
+        "endian.msh",
+        b"$MeshFormat\n4.1 1 8\n\x02\x00\x00\x00\n$EndMeshFormat\n",
         ["endianness"],
     ),
     "no-end-of-format": ("noend.msh", b"$MeshFormat\n4.1 0 8\n" + SCRIPT.encode(), ["$End"]),
-}  # fmt: skip
+}
 
 
 @pytest.mark.parametrize("case", list(NOT_MSH))

@@ -203,8 +203,9 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
         ),
         (
             lambda s: s.update(
-                interfaces={"interface": {"kinematics": "finite_sliding",
-                                          "regions": {"left": s["law"]}}}
+                interfaces={
+                    "interface": {"kinematics": "finite_sliding", "regions": {"left": s["law"]}}
+                }
             ),
             r"scene.interfaces.interface.regions: interface regions are not available with "
             r"finite sliding",
@@ -249,9 +250,11 @@ def test_a_petsc_option_petsc_refuses_is_named():
         s["solver"]["prefix"] = prefix("badopt")
         s["solver"]["options"] = {"snes_max_it": 20, key: value}
         with raised_on_every_rank(
-            SceneError, f"scene.solver.options.{key}: PETSc refuses the option",
-            f"{key} = {value!r}", f"error code {code}",
-        ):  # fmt: skip
+            SceneError,
+            f"scene.solver.options.{key}: PETSc refuses the option",
+            f"{key} = {value!r}",
+            f"error code {code}",
+        ):
             run_scene(s)
     prob = block_problem(MPI.COMM_WORLD)
     with raised_on_every_rank(SolverOptionError, "the option badsolver_snes_max_it = 'many'"):

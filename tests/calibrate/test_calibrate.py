@@ -72,8 +72,9 @@ def test_standard_errors_match_a_direct_computation_on_noisy_data():
     noise = 0.1
     curves = synthetic_curves(TRUE, F_N, [1.0] * 5, SLIP[::2], noise=noise, seed=4)
     names = ["mu_k", "kappa", "u_tilde"]
-    data = parse_data(data_for(curves, params={**TRUE, "mu_k": 70.0, "kappa": 1.2,
-                                               "u_tilde": 12.0}, names=names))  # fmt: skip
+    data = parse_data(
+        data_for(curves, params={**TRUE, "mu_k": 70.0, "kappa": 1.2, "u_tilde": 12.0}, names=names)
+    )
     res = fit(data)
     assert res.converged
     measured = np.concatenate([c["f_t"] for c in curves])
@@ -100,8 +101,13 @@ def test_xi_from_curves_at_several_velocities():
     effect), and is recovered."""
     p = {**TRUE, "xi": 0.2}
     curves = synthetic_curves(p, [300.0, 300.0, 300.0, 600.0], [0.02, 0.2, 2.0, 0.2], SLIP)
-    data = parse_data(data_for(curves, params={**p, "xi": 0.1, "kappa": 1.2, "mu_k": 70.0},
-                               names=["xi", "kappa", "mu_k"]))  # fmt: skip
+    data = parse_data(
+        data_for(
+            curves,
+            params={**p, "xi": 0.1, "kappa": 1.2, "mu_k": 70.0},
+            names=["xi", "kappa", "mu_k"],
+        )
+    )
     res = fit(data)
     assert res.converged
     for k in ("xi", "kappa", "mu_k"):
@@ -111,8 +117,11 @@ def test_xi_from_curves_at_several_velocities():
 def test_command_line_writes_fit_and_plot(tmp_path):
     curves = synthetic_curves(TRUE, [150.0, 450.0], [1.0, 1.0], SLIP[::4], noise=0.05)
     src = tmp_path / "data.json"
-    src.write_text(json.dumps(data_for(curves, names=["mu_k", "kappa"],
-                                       params={**TRUE, "mu_k": 75.0, "kappa": 1.0})))  # fmt: skip
+    src.write_text(
+        json.dumps(
+            data_for(curves, names=["mu_k", "kappa"], params={**TRUE, "mu_k": 75.0, "kappa": 1.0})
+        )
+    )
     out, png = tmp_path / "fit.json", tmp_path / "fit.png"
     proc = module_cli("calibrate", src, "--out", out, "--plot", png, timeout=300)
     assert proc.returncode == 0, proc.stderr

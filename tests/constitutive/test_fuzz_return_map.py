@@ -128,10 +128,15 @@ def test_fuzz_at_batch_sizes_1_2_7_and_1e5(law, start):
         ref = concat([whole])
         for size in (1, 2, 7):
             pieces = [
-                Batch(b.law, b.gap[i : i + size], b.state.take(np.arange(i, min(i + size, n))),
-                      b.dt, b.contact_tol).run()
+                Batch(
+                    b.law,
+                    b.gap[i : i + size],
+                    b.state.take(np.arange(i, min(i + size, n))),
+                    b.dt,
+                    b.contact_tol,
+                ).run()
                 for i in range(0, n, size)
-            ]  # fmt: skip
+            ]
             got = concat(pieces)
             for k, v in ref.items():
                 np.testing.assert_array_equal(got[k], v, err_msg=f"{k} at batch size {size}")
@@ -158,8 +163,6 @@ def test_fuzz_invariants_long(law, start):
     assert volume.points >= (6_000_000 if law == "subloading" else 2_500_000)
 
 
-
-
 # --------------------------------------------------------------------------------------------
 # Regressions of bugs this fuzzing found and that were fixed in subloading.py
 
@@ -168,9 +171,15 @@ def test_recovery_never_overshoots_mu_s():
     """mu + (mu_s - mu) (1 - exp(-xi dt)) rounded above mu_s for about 1 point in 20 once
     exp(-xi dt) = 0 (here xi dt = 50): mu left [mu_k, mu_s] by one ulp."""
     p = SubloadingLaw(
-        alpha_t=664910.87, alpha_n=156.48, mu_s=444.3668939609549, mu_k=32.608568832899785,
-        kappa=666.56, xi=50.0, u_tilde=0.018, c_n=3.2e-9,
-    )  # fmt: skip
+        alpha_t=664910.87,
+        alpha_n=156.48,
+        mu_s=444.3668939609549,
+        mu_k=32.608568832899785,
+        kappa=666.56,
+        xi=50.0,
+        u_tilde=0.018,
+        c_n=3.2e-9,
+    )
     rng = np.random.default_rng(3)
     n = 20000
     mu = rng.uniform(p.mu_k, p.mu_s, n)

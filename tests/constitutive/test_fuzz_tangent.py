@@ -41,6 +41,7 @@ from tests.fuzz_support import (
 
 pytestmark = pytest.mark.numpy_only
 
+
 def fd_sample_laws():
     """Laws for which central differences are meaningful: moderate magnitudes (no subnormal g,
     no step below the float resolution of the gap), both paper readings included."""
@@ -212,7 +213,6 @@ def test_consistent_tangent_matches_central_differences(law, start):
     assert counter["used"] >= 0.8 * counter["candidates"], counter
 
 
-
 @pytest.mark.parametrize("start", [False, True])
 def test_the_tangent_at_batch_sizes_1_2_7_and_1e5(start):
     """The consistent tangent of a batch of 10^5 points equals, point by point, the tangent of
@@ -225,10 +225,12 @@ def test_the_tangent_at_batch_sizes_1_2_7_and_1e5(start):
         big = b.run()
         idx = np.random.default_rng(seed).choice(b.gap.shape[0], 70, replace=False)
         for size in (1, 2, 7):
-            D = np.concatenate([
-                Batch(law, b.gap[i], b.state.take(i), b.dt).run().tangent
-                for i in np.split(idx, range(size, idx.size, size))
-            ])  # fmt: skip
+            D = np.concatenate(
+                [
+                    Batch(law, b.gap[i], b.state.take(i), b.dt).run().tangent
+                    for i in np.split(idx, range(size, idx.size, size))
+                ]
+            )
             np.testing.assert_array_equal(D, big.tangent[idx], err_msg=f"batch size {size}")
         check_tangent(b, seed, counter, n_sample=40)
     assert counter["used"] >= 0.8 * counter["candidates"] >= 0.8 * 100, counter

@@ -69,7 +69,7 @@ def uniaxial_closed_form(E, sy, Hi, Hk, eps_a, eps_b, n):
     # p: the accumulated |d ep| along the path (monotone on each plastic leg)
     p = np.concatenate(
         [
-            np.maximum(ep[: n], 0.0),
+            np.maximum(ep[:n], 0.0),
             pA + (epA - ep[n : 2 * n]),
             pB + (ep[2 * n :] - epB),
         ]
@@ -221,12 +221,29 @@ def rate_reference(mat, path, t_end, rtol=1e-11):
     t, y, plastic = 0.0, np.zeros(13), False
     while t < t_end:
         if plastic:
-            sol = solve_ivp(rhs_plastic, (t, t_end), y, method="DOP853", rtol=rtol, atol=1e-16,
-                            events=unload_event, dense_output=True)  # fmt: skip
+            sol = solve_ivp(
+                rhs_plastic,
+                (t, t_end),
+                y,
+                method="DOP853",
+                rtol=rtol,
+                atol=1e-16,
+                events=unload_event,
+                dense_output=True,
+            )
         else:
-            sol = solve_ivp(lambda t, y: np.zeros(13), (t, t_end), y, method="DOP853",
-                            rtol=rtol, atol=1e-16, events=yield_event, dense_output=True,
-                            first_step=1e-4, max_step=1e-3)  # fmt: skip
+            sol = solve_ivp(
+                lambda t, y: np.zeros(13),
+                (t, t_end),
+                y,
+                method="DOP853",
+                rtol=rtol,
+                atol=1e-16,
+                events=yield_event,
+                dense_output=True,
+                first_step=1e-4,
+                max_step=1e-3,
+            )
         segments.append((t, sol.t[-1], sol.sol))
         t, y = sol.t[-1], sol.y[:, -1]
         plastic = not plastic

@@ -69,8 +69,10 @@ def central(law, gap, st, dt, rel=1e-7):
         h = rel * max(abs(gap[0, j]), 1e-3)
         e = np.zeros((1, m))
         e[0, j] = h
-        D[:, j] = (law.return_map(gap + e, st, dt).traction[0]
-                   - law.return_map(gap - e, st, dt).traction[0]) / (2 * h)  # fmt: skip
+        D[:, j] = (
+            law.return_map(gap + e, st, dt).traction[0]
+            - law.return_map(gap - e, st, dt).traction[0]
+        ) / (2 * h)
     return D
 
 
@@ -79,8 +81,15 @@ def split_of(law, st, gap, dt):
     nt = st.n_tangential
     f0 = st["f"]
     ft = law.alpha_t * (gap[:, :nt] - st.up)
-    seg = Segment(f0[:, :nt], f0[:, nt], ft, law.alpha_n * gap[:, nt], np.linalg.norm(ft, axis=1),
-                  st.mu, np.full(len(gap), law.xi * dt))  # fmt: skip
+    seg = Segment(
+        f0[:, :nt],
+        f0[:, nt],
+        ft,
+        law.alpha_n * gap[:, nt],
+        np.linalg.norm(ft, axis=1),
+        st.mu,
+        np.full(len(gap), law.xi * dt),
+    )
     return split_point(law._consts, seg)
 
 
@@ -141,8 +150,9 @@ def assert_same(res, ref, rtol):
     np.testing.assert_array_equal(res.unstable, ref.unstable)
     n = len(res.status)
     sc = np.maximum(np.abs(res.tangent).reshape(n, -1).max(axis=1), 1e-300)
-    np.testing.assert_array_less(np.abs(res.tangent - ref.tangent).reshape(n, -1).max(axis=1),
-                                 rtol * sc + 1e-300)  # fmt: skip
+    np.testing.assert_array_less(
+        np.abs(res.tangent - ref.tangent).reshape(n, -1).max(axis=1), rtol * sc + 1e-300
+    )
     np.testing.assert_allclose(res.traction, ref.traction, rtol=rtol, atol=rtol)
     for v in ("up", "mu", "r"):
         np.testing.assert_allclose(res.state[v], getattr(ref, v), rtol=rtol, atol=1e-14)
@@ -179,14 +189,18 @@ def test_the_same_numbers_whatever_the_batch_size(nt):
     big = P.return_map(gap, st, 0.05)
     for size in (1, 2, 7):
         idx = np.concatenate([np.arange(k, min(k + size, n)) for k in range(0, 700, size)])
-        parts = [P.return_map(gap[i], st.take(i), 0.05)
-                 for i in np.split(idx, range(size, idx.size, size))]  # fmt: skip
+        parts = [
+            P.return_map(gap[i], st.take(i), 0.05)
+            for i in np.split(idx, range(size, idx.size, size))
+        ]
         for f in ("traction", "tangent", "status", "unstable", "iterations"):
-            np.testing.assert_array_equal(np.concatenate([getattr(p, f) for p in parts]),
-                                          getattr(big, f)[idx], err_msg=f)  # fmt: skip
+            np.testing.assert_array_equal(
+                np.concatenate([getattr(p, f) for p in parts]), getattr(big, f)[idx], err_msg=f
+            )
         for v in ("up", "mu", "r", "f"):
-            np.testing.assert_array_equal(np.concatenate([p.state[v] for p in parts]),
-                                          big.state[v][idx], err_msg=v)  # fmt: skip
+            np.testing.assert_array_equal(
+                np.concatenate([p.state[v] for p in parts]), big.state[v][idx], err_msg=v
+            )
 
 
 def test_the_map_is_written_once_one_module_per_step():
@@ -199,8 +213,18 @@ def test_the_map_is_written_once_one_module_per_step():
 
     pkg = pathlib.Path(_subloading.__file__).parent
     names = sorted(p.stem for p in pkg.glob("*.py"))
-    assert names == ["__init__", "branch", "common", "integrate", "root", "rotation", "scan",
-                     "switch", "tangent", "trial"]  # fmt: skip
+    assert names == [
+        "__init__",
+        "branch",
+        "common",
+        "integrate",
+        "root",
+        "rotation",
+        "scan",
+        "switch",
+        "tangent",
+        "trial",
+    ]
     many = []
     for p in pkg.glob("*.py"):
         for node in ast.walk(ast.parse(p.read_text())):
@@ -272,8 +296,9 @@ def test_pressing_with_a_rounding_tangential_gap_is_elastic(law, size):
     assert np.all(res.status == Status.ELASTIC), res.counts()
     np.testing.assert_array_equal(res.state.up, 0.0)
     if law == "subloading":
-        np.testing.assert_allclose(res.state.r, np.linalg.norm(res.traction[:, :2], axis=1)
-                                   / (G * p.mu_s), rtol=1e-12)  # fmt: skip
+        np.testing.assert_allclose(
+            res.state.r, np.linalg.norm(res.traction[:, :2], axis=1) / (G * p.mu_s), rtol=1e-12
+        )
 
 
 def test_a_real_first_slip_is_still_plastic():
@@ -319,12 +344,15 @@ def test_no_split_where_the_plastic_part_would_start_unstable():
     ft = L.at * (gap[0, 0] - up)
     s, kind = split_of(lit, st, gap, dt)
     assert kind[0] == ROOT and 0.9 < s[0] < 1.0
-    for res in (lit.return_map(gap, st, dt),
-                lit.return_map(np.repeat(gap, 40, 0), st.take(np.zeros(40, int)), dt)):  # fmt: skip
+    for res in (
+        lit.return_map(gap, st, dt),
+        lit.return_map(np.repeat(gap, 40, 0), st.take(np.zeros(40, int)), dt),
+    ):
         assert np.all(res.status == Status.ELASTIC)
         np.testing.assert_allclose(res.traction[:, 0], ft, rtol=1e-15)
     # the rule itself: H(0) <= 0 at the split state, > 0 at a virgin-like one
     g = -math.expm1(-L.cn * L.an * gap[0, 1])
     a = np.array
-    assert unstable_start(L, a([g, 0.1]), a([0.3986] * 2), a([413.84, 63.5]), a([0.017] * 2),
-                          a([-86.2, -436.5])).tolist() == [True, False]  # fmt: skip
+    assert unstable_start(
+        L, a([g, 0.1]), a([0.3986] * 2), a([413.84, 63.5]), a([0.017] * 2), a([-86.2, -436.5])
+    ).tolist() == [True, False]

@@ -25,10 +25,26 @@ from tests.helpers import everywhere, on_root
 N = 6
 ARGV = ["--n", str(N), "--amplitude", "1", "--cycles", "2", "--steps", "8", "--no-figures"]
 COMPARED = [
-    "t", "F_t1", "F_t2", "F_n", "f_t_norm", "up_norm", "up_t1", "up_t2", "mu", "r", "f_n",
-    "plastic", "separated", "R_master_xmin_x", "R_master_xmin_y", "R_master_xmin_z",
-    "R_slave_xmax_x", "R_slave_xmax_y", "R_slave_xmax_z",
-]  # fmt: skip
+    "t",
+    "F_t1",
+    "F_t2",
+    "F_n",
+    "f_t_norm",
+    "up_norm",
+    "up_t1",
+    "up_t2",
+    "mu",
+    "r",
+    "f_n",
+    "plastic",
+    "separated",
+    "R_master_xmin_x",
+    "R_master_xmin_y",
+    "R_master_xmin_z",
+    "R_slave_xmax_x",
+    "R_slave_xmax_y",
+    "R_slave_xmax_z",
+]
 
 
 def column(history, name):
@@ -53,8 +69,14 @@ def test_the_builder_makes_two_plates_joined_over_the_overlap_minus_the_hole():
     )
     assert info.h == pytest.approx(g["width"] / N)
     assert set(dom.tags) == {
-        "master", "slave", "interface", "master_xmin", "slave_xmax", "bolt_head", "bolt_nut",
-    }  # fmt: skip
+        "master",
+        "slave",
+        "interface",
+        "master_xmin",
+        "slave_xmax",
+        "bolt_head",
+        "bolt_nut",
+    }
     L, W, t, c = g["plate_length"], g["width"], g["thickness"], g["overlap"]
     assert info.interface_min == pytest.approx((L - c, 0.0, t))
     assert info.interface_max == pytest.approx((L, W, t))

@@ -14,8 +14,11 @@ def test_quick_demo(tmp_path, capsys):
     res = calibration.run_demo(tmp_path, quick=True)
     out = capsys.readouterr().out
     assert "refused on purpose: the data cannot identify xi together with kappa" in out
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["DATA.json", "FIT.json",
-                                                          "calibration.png"]  # fmt: skip
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "DATA.json",
+        "FIT.json",
+        "calibration.png",
+    ]
     assert json.loads((tmp_path / "FIT.json").read_text()) == json.loads(json.dumps(res))
     data = json.loads((tmp_path / "DATA.json").read_text())
     assert data["fit"] == ["mu_s", "mu_k", "kappa"] and len(data["curves"]) == 2

@@ -47,7 +47,8 @@ SMALL = {
     ),
     "user_loop": (["--n", "4", "--dt", "0.25"], ["history.csv"]),
     "shrink_fit": (
-        ["--h", "5", "--steps", "4"], ["coulomb.csv", "subloading.csv", "shrink_fit.png"]
+        ["--h", "5", "--steps", "4"],
+        ["coulomb.csv", "subloading.csv", "shrink_fit.png"],
     ),
     "bolt_clamped_joint": (
         ["--h", "5", "--cycles", "1", "--dt", "1"],
@@ -57,9 +58,7 @@ SMALL = {
         ["--n", "4", "--cycles", "1", "--steps", "4", "--no-subloading"],
         ["coulomb.csv", "fretting.png"],
     ),
-    "block_sliding_far": (
-        ["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]
-    ),
+    "block_sliding_far": (["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],

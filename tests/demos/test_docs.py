@@ -80,8 +80,12 @@ def site(tmp_path_factory):
     out = tmp_path_factory.mktemp("docs") / "html"
     p = subprocess.run(
         [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", "docs", out],
-        cwd=ROOT, env=singleton_env(), capture_output=True, text=True, timeout=1400,
-    )  # fmt: skip
+        cwd=ROOT,
+        env=singleton_env(),
+        capture_output=True,
+        text=True,
+        timeout=1400,
+    )
     assert p.returncode == 0, p.stdout + p.stderr
     return out
 

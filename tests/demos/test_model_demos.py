@@ -19,9 +19,7 @@ from tests.helpers import everywhere
 
 
 def test_shrink_fit_against_lame_and_the_coulomb_push_off_force(comm, shared_tmp):
-    res = shrink_fit.main(
-        ["--h", "2.5", "--steps", "8", "--out", str(shared_tmp)], comm
-    )
+    res = shrink_fit.main(["--h", "2.5", "--steps", "8", "--out", str(shared_tmp)], comm)
     r = res["report"]
     sub = np.array([h["force"] for h in res["results"]["subloading"]["history"]])
     sub = sub[1:]  # after the fit

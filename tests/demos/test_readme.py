@@ -34,8 +34,10 @@ def test_every_quoted_number_is_its_data():
     rn, _ = modules()
     text = (ROOT / "README.md").read_text()
     diff = rn.differences(text, rn.Data())
-    assert not diff, ("the README's numbers differ from the measured data (./run exec python3 "
-                      "docs/readme_numbers.py writes them):\n" + "\n".join(diff))  # fmt: skip
+    assert not diff, (
+        "the README's numbers differ from the measured data (./run exec python3 "
+        "docs/readme_numbers.py writes them):\n" + "\n".join(diff)
+    )
     # every demo of the repository has its time in the table
     demos = sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__")
     assert sorted(rn.DEMOS) == demos
@@ -56,9 +58,12 @@ def test_the_demo_results_measure_the_code_on_main():
         why = stamp.check(data["stamp"], "docs/demo_results.json")
     except stamp.NoHistory as e:
         pytest.skip(f"no git history to compare the demo results' stamp with: {e}")
-    assert not why, ("docs/demo_results.json is outdated: " + "; ".join(why)
-                     + ". Run ./run exec python3 docs/demo_results.py, then "
-                     "docs/readme_numbers.py.")  # fmt: skip
+    assert not why, (
+        "docs/demo_results.json is outdated: "
+        + "; ".join(why)
+        + ". Run ./run exec python3 docs/demo_results.py, then "
+        "docs/readme_numbers.py."
+    )
 
 
 # an all-caps name, a to-do word, a template's {{ expression }} or {% tag (not the "}}" that
@@ -71,10 +76,16 @@ PLACEHOLDER = re.compile(
 def known_names():
     """Every all-caps name of the source tree (constants, environment variables)."""
     names = set()
-    files = [*ROOT.glob("subfric_dolfinx/**/*.py"), *ROOT.glob("demos/*.py"),
-             *ROOT.glob("benchmarks/**/*.py"), *ROOT.glob("report/*.py"),
-             *ROOT.glob("tests/**/*.py"), ROOT / "run", *ROOT.glob(".ci/*"),
-             *ROOT.glob("docker/*")]  # fmt: skip
+    files = [
+        *ROOT.glob("subfric_dolfinx/**/*.py"),
+        *ROOT.glob("demos/*.py"),
+        *ROOT.glob("benchmarks/**/*.py"),
+        *ROOT.glob("report/*.py"),
+        *ROOT.glob("tests/**/*.py"),
+        ROOT / "run",
+        *ROOT.glob(".ci/*"),
+        *ROOT.glob("docker/*"),
+    ]
     for f in files:
         if f.is_file() and f != Path(__file__).resolve():  # this file names placeholders
             names |= set(re.findall(r"\b[A-Z][A-Z0-9]*_[A-Z0-9_]*[A-Z0-9]\b", f.read_text()))
@@ -83,8 +94,11 @@ def known_names():
 
 def test_no_placeholder_reaches_the_pages():
     known = known_names()
-    pages = [ROOT / "README.md", ROOT / "report" / "README.md",
-             *sorted((ROOT / "docs").glob("*.md"))]  # fmt: skip
+    pages = [
+        ROOT / "README.md",
+        ROOT / "report" / "README.md",
+        *sorted((ROOT / "docs").glob("*.md")),
+    ]
     pages = [p for p in pages if p.name != "readme.md"]  # the docs' copy of the README
     found = {}
     for page in pages:

@@ -40,13 +40,26 @@ def test_the_report_template_renders_from_report_data():
     stab_tab, stab_sum = analysis.stability_table(point, fe_stab)
     fe, fe_lines, _ = fe_analysis(running.fe_study(data, cfg, reuse=True), cfg)
     ctx = analysis.readme_context(
-        mp, analysis.mp_tables(mp), stab_tab, stab_sum, fe, fe_lines, cfg,
-        quick=False, elapsed=123.0, reuse=True,
-    )  # fmt: skip
+        mp,
+        analysis.mp_tables(mp),
+        stab_tab,
+        stab_sum,
+        fe,
+        fe_lines,
+        cfg,
+        quick=False,
+        elapsed=123.0,
+        reuse=True,
+    )
     st = json.loads((data / "stamp.json").read_text())
-    ctx.update(scale_section=generate.scale_section(REPORT / "fe_scaling.md"), stamp=st,
-               stamp_label=stamp.label(st), scaling_commit="abc", scaling_changed=True,
-               mp_section=(data / "mp_section.md").read_text())  # fmt: skip
+    ctx.update(
+        scale_section=generate.scale_section(REPORT / "fe_scaling.md"),
+        stamp=st,
+        stamp_label=stamp.label(st),
+        scaling_commit="abc",
+        scaling_changed=True,
+        mp_section=(data / "mp_section.md").read_text(),
+    )
     text = generate.render(ctx)
     assert "{{" not in text and "{%" not in text
     assert "in\n**123 s**" in text and "QUICK MODE" not in text
@@ -91,8 +104,9 @@ def test_the_report_measures_the_code_on_main():
 
 
 def git(repo, *args):
-    return subprocess.run(["git", "-C", str(repo), *args], check=True, capture_output=True,
-                          text=True).stdout.strip()  # fmt: skip
+    return subprocess.run(
+        ["git", "-C", str(repo), *args], check=True, capture_output=True, text=True
+    ).stdout.strip()
 
 
 def test_stamp_check_judges_a_branch_against_main_unless_it_regenerated(tmp_path, monkeypatch):

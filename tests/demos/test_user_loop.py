@@ -39,11 +39,15 @@ def test_the_dolfinx_solver_is_freed_without_the_garbage_collector(comm):
 
     def make():
         return compat.dolfinx_newton(
-            F, u, bcs, J, A,
+            F,
+            u,
+            bcs,
+            J,
+            A,
             add_residual=lambda x, b: iface.assemble_residual(b, x, bcs=bcs),
             add_jacobian=lambda x, mat: iface.assemble_jacobian(mat, x, bcs=bcs),
             prefix="freed_",
-        )  # fmt: skip
+        )
 
     gc.disable()
     try:

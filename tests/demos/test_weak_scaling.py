@@ -30,19 +30,29 @@ def synthetic_rows(f: float = F) -> tuple[list[dict], list[list[int]]]:
         d = dofs / ranks
         iface = 0.5 * dofs ** (2 / 3)
         kry = 10.0 + 2.0 * math.log10(dofs)
-        rows.append({
-            "ranks": ranks, "dofs": dofs, "dofs_per_rank": d, "interface_points": iface,
-            "rss_others_mib": A + B * d if ranks > 1 else math.nan,  # no other rank: unused
-            "rss_rank0_mib": A + B * d + E, "rss_start_mib": START,
-            "rss_mesh_rank0_mib": START + MESH0 + f * dofs,
-            "setup_gather_bytes": K * dofs**ALPHA * ranks**BETA if ranks > 1 else 0.0,
-            "jacobian_mib": 0.002 * d, "gamg_mib": 0.0005 * d,
-            "checkpoint_mib": 90.0 * dofs / 2.0**20, "checkpoint_rank0_bytes": 32.0 * iface,
-            "profile_bytes": 150.0 * iface, "gather_bytes_per_step": 1500.0 + 100.0 * ranks,
-            "petsc_bytes_per_newton": 3000.0 * d ** (2 / 3) if ranks == 8 else 1.0,
-            "krylov_per_newton": kry, "allreduce_calls_per_newton": 5.0 * kry,
-            "coarse_rows": 100 if ranks == 8 else 50,
-        })  # fmt: skip
+        rows.append(
+            {
+                "ranks": ranks,
+                "dofs": dofs,
+                "dofs_per_rank": d,
+                "interface_points": iface,
+                "rss_others_mib": A + B * d if ranks > 1 else math.nan,  # no other rank: unused
+                "rss_rank0_mib": A + B * d + E,
+                "rss_start_mib": START,
+                "rss_mesh_rank0_mib": START + MESH0 + f * dofs,
+                "setup_gather_bytes": K * dofs**ALPHA * ranks**BETA if ranks > 1 else 0.0,
+                "jacobian_mib": 0.002 * d,
+                "gamg_mib": 0.0005 * d,
+                "checkpoint_mib": 90.0 * dofs / 2.0**20,
+                "checkpoint_rank0_bytes": 32.0 * iface,
+                "profile_bytes": 150.0 * iface,
+                "gather_bytes_per_step": 1500.0 + 100.0 * ranks,
+                "petsc_bytes_per_newton": 3000.0 * d ** (2 / 3) if ranks == 8 else 1.0,
+                "krylov_per_newton": kry,
+                "allreduce_calls_per_newton": 5.0 * kry,
+                "coarse_rows": 100 if ranks == 8 else 50,
+            }
+        )
         levels.append([dofs, dofs // 10, dofs // 100])
     return rows, levels
 

@@ -22,8 +22,13 @@ PATH = [[0.0, 0.0, 0.0, 0.6], [1.0, 0.0, 0.0, 0.6], [2.0, 0.5, 0.0, 0.6], [3.0, 
 
 
 def case(path):
-    return {"params": {"preset": "sec7"}, "control": "disp", "n_tangential": 1, "path": path,
-            "t_samples": [1.0, 1.5, 2.0, 2.5, 3.0]}  # fmt: skip
+    return {
+        "params": {"preset": "sec7"},
+        "control": "disp",
+        "n_tangential": 1,
+        "path": path,
+        "t_samples": [1.0, 1.5, 2.0, 2.5, 3.0],
+    }
 
 
 def test_a_driver_path_from_csv_equals_the_json_rows(tmp_path):
@@ -63,10 +68,12 @@ def test_a_bad_path_csv_is_named(tmp_path, text, words):
         load_case(tmp_path / "case.json")
     for w in words:
         assert w in str(e.value), (w, str(e.value))
-    for bad, word in [({"csv": "missing.csv"}, "is not a file"),
-                      ({"csv": "p.csv", "sep": ";"}, "unknown keys ['sep']"),
-                      ({"csv": "p.csv", "columns": {"y": "t"}}, "unknown names ['y']"),
-                      ({"csv": 3}, "must be a file name")]:  # fmt: skip
+    for bad, word in [
+        ({"csv": "missing.csv"}, "is not a file"),
+        ({"csv": "p.csv", "sep": ";"}, "unknown keys ['sep']"),
+        ({"csv": "p.csv", "columns": {"y": "t"}}, "unknown names ['y']"),
+        ({"csv": 3}, "must be a file name"),
+    ]:
         with pytest.raises(CaseError, match=word.replace("[", r"\[")):
             parse_case(case(bad), tmp_path)
 
@@ -83,8 +90,14 @@ def test_calibration_curves_from_csv_equal_the_json_lists(tmp_path):
         pairs = zip(c["slip"], c["f_t"], strict=True)
         rows = "\n".join(f"{s}\t{f}\t{k}" for k, (s, f) in enumerate(pairs))
         (tmp_path / f"run{i}.csv").write_text("\ufeffdisp_mm\tshear_MPa\tsample\n" + rows + "\n")
-        entries.append({"f_n": c["f_n"], "velocity": c["velocity"], "csv": f"run{i}.csv",
-                        "columns": {"slip": "disp_mm", "f_t": "shear_MPa"}})  # fmt: skip
+        entries.append(
+            {
+                "f_n": c["f_n"],
+                "velocity": c["velocity"],
+                "csv": f"run{i}.csv",
+                "columns": {"slip": "disp_mm", "f_t": "shear_MPa"},
+            }
+        )
     data = {"params": {**TRUE, "mu_k": 75.0}, "fit": ["mu_k"], "curves": entries}
     (tmp_path / "data.json").write_text(json.dumps(data))
     got = load_data(tmp_path / "data.json")
@@ -122,8 +135,10 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
     import tomllib
 
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
-    assert scripts == {"subfric-driver": "subfric_dolfinx.driver.cli:main",
-                       "subfric-calibrate": "subfric_dolfinx.calibrate.cli:main"}  # fmt: skip
+    assert scripts == {
+        "subfric-driver": "subfric_dolfinx.driver.cli:main",
+        "subfric-calibrate": "subfric_dolfinx.calibrate.cli:main",
+    }
     where = scripts_dir()
     if where is None:  # the source tree: the entry points themselves, through -m
         assert module_cli("driver", "--help").returncode == 0
@@ -136,10 +151,21 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
     run = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert len(json.loads((tmp_path / "r.json").read_text())["samples"]["t"]) == 5
-    bad = subprocess.run([os.path.join(where, "subfric-calibrate"), "missing.json", "--out",
-                          "f.json"], cwd=tmp_path, env=env, capture_output=True, text=True,
-                         timeout=120)  # fmt: skip
+    bad = subprocess.run(
+        [os.path.join(where, "subfric-calibrate"), "missing.json", "--out", "f.json"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert bad.returncode == 2 and bad.stderr.startswith("error:"), bad.stderr
-    usage = subprocess.run([os.path.join(where, "subfric-calibrate"), "--help"], cwd=tmp_path,
-                           env=env, capture_output=True, text=True, timeout=120)  # fmt: skip
+    usage = subprocess.run(
+        [os.path.join(where, "subfric-calibrate"), "--help"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert usage.returncode == 0 and "usage: subfric-calibrate" in usage.stdout, usage.stdout

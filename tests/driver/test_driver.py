@@ -376,8 +376,12 @@ def test_a_path_of_many_rows_gives_the_same_steps():
     rows: benchmarks/driver_steps.py measures it, up to 10^6 rows.)"""
     n = 10_000
     t = np.linspace(0.0, 0.3, n + 1)
-    many = {**SEC7, "n_tangential": 1, "path": [[ti, ti, 0.0, UN] for ti in t],
-            "t_samples": [0.0, 0.3]}  # fmt: skip
+    many = {
+        **SEC7,
+        "n_tangential": 1,
+        "path": [[ti, ti, 0.0, UN] for ti in t],
+        "t_samples": [0.0, 0.3],
+    }
     few = {**many, "path": [[0.0, 0.0, 0.0, UN], [0.3, 0.3, 0.0, UN]], "t_samples": t.tolist()}
     a = run_case(many, steps_per_mm=1)  # one step per row interval
     b = run_case(few, steps_per_mm=1)
@@ -411,8 +415,13 @@ def test_batch_driver_equals_one_by_one():
     cases = [fig10_case(fn) for fn in (100, 200, 300, 400, 500, 600)]
     cases.append(fig10_case(300, {"preset": "sec7", "kappa": 0.5, "mu0": 400.0}))
     cases.append(SEC7)
-    cases.append({**fig10_case(300), "path": [[0, 0, 0, 0.6], [2, 0.5, 0, 0.6], [6, -0.5, 0, 0.6]],
-                  "t_samples": [0, 1, 2, 3, 4.5, 6]})  # fmt: skip
+    cases.append(
+        {
+            **fig10_case(300),
+            "path": [[0, 0, 0, 0.6], [2, 0.5, 0, 0.6], [6, -0.5, 0, 0.6]],
+            "t_samples": [0, 1, 2, 3, 4.5, 6],
+        }
+    )
     cases.append(sec6_monotonic("sec6-mus10000-literal"))
     batch = run_cases(cases)
     for c, b in zip(cases, batch, strict=True):

@@ -55,9 +55,14 @@ def exact(mode: str, x: np.ndarray, upper: np.ndarray) -> np.ndarray:
 def test_every_mode_against_uniaxial_stress(comm, mode):
     dom, bcs = column(mode, comm)
     problem = InterfaceProblem(
-        dom, STICK, {"master": Material(E, NU), "slave": Material(E, NU)}, RAMP, bcs,
-        [Pressure("top", P, amplitude="press")], mode=mode,
-    )  # fmt: skip
+        dom,
+        STICK,
+        {"master": Material(E, NU), "slave": Material(E, NU)},
+        RAMP,
+        bcs,
+        [Pressure("top", P, amplitude="press")],
+        mode=mode,
+    )
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
     V = problem.V
@@ -105,9 +110,14 @@ def user_elasticity(u, v, ctx):
 def with_bulk(comm, bulk, partitioner=None, base=None):
     p = base or block_problem(comm, partitioner=partitioner)
     return InterfaceProblem(
-        p.domain, LAW, p.materials, PROGRAM,
-        [c for c, _, _ in p.dirichlet], [c.condition for c, _ in p.loads], bulk=bulk,
-    )  # fmt: skip
+        p.domain,
+        LAW,
+        p.materials,
+        PROGRAM,
+        [c for c, _, _ in p.dirichlet],
+        [c.condition for c, _ in p.loads],
+        bulk=bulk,
+    )
 
 
 def test_a_users_ufl_residual_gives_the_fast_paths_history(comm):
@@ -197,9 +207,7 @@ def test_a_bulk_with_state_is_updated_committed_reverted_and_checkpointed(comm, 
     problem = with_bulk(comm, bulk)
     V0 = bulk.old.function_space
     probe = dolfinx.fem.Function(V0)
-    expr = dolfinx.fem.Expression(
-        abs(ufl.sym(ufl.grad(problem.u))[0, 0]), interpolation_points(V0)
-    )
+    expr = dolfinx.fem.Expression(abs(ufl.sym(ufl.grad(problem.u))[0, 0]), interpolation_points(V0))
     seen = np.zeros_like(probe.x.array)
     rows = []
 

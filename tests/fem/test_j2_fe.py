@@ -123,11 +123,16 @@ def test_plane_strain_block_is_a_3d_block_with_fixed_z():
     V2 = dolfinx.fem.functionspace(m2, ("Lagrange", 1, (2,)))
     b2 = J2Bulk({"b": mat})
     u2 = dolfinx.fem.Function(V2)
-    n2 = Newton(b2, context(m2, V2, "plane_strain", tag_all_cells(m2), {"b": (1,)}), u2, {
-        "x0": (0, component_dofs(V2, 0, near(0, 0.0))),
-        "y0": (1, component_dofs(V2, 1, near(1, 0.0))),
-        "x1": (0, component_dofs(V2, 0, near(0, 1.0))),
-    })  # fmt: skip
+    n2 = Newton(
+        b2,
+        context(m2, V2, "plane_strain", tag_all_cells(m2), {"b": (1,)}),
+        u2,
+        {
+            "x0": (0, component_dofs(V2, 0, near(0, 0.0))),
+            "y0": (1, component_dofs(V2, 1, near(1, 0.0))),
+            "x1": (0, component_dofs(V2, 0, near(0, 1.0))),
+        },
+    )
     b3, n3, _ = bar_3d(comm, mat, n=3)
     V3 = n3.u.function_space
     n3.constraints["z1"] = (2, component_dofs(V3, 2, near(2, 1.0)))
@@ -482,11 +487,16 @@ def test_plane_stress_accepts_elastic_bodies_only():
     V = dolfinx.fem.functionspace(m, ("Lagrange", 1, (2,)))
     ctx = context(m, V, "plane_stress", tag_all_cells(m), {"s": (1,)})
     bulk = J2Bulk({"s": LinearElastic(E=E, nu=NU)})
-    nw = Newton(bulk, ctx, dolfinx.fem.Function(V), {
-        "x0": (0, component_dofs(V, 0, near(0, 0.0))),
-        "y0": (1, component_dofs(V, 1, near(1, 0.0))),
-        "x1": (0, component_dofs(V, 0, near(0, 1.0))),
-    })  # fmt: skip
+    nw = Newton(
+        bulk,
+        ctx,
+        dolfinx.fem.Function(V),
+        {
+            "x0": (0, component_dofs(V, 0, near(0, 0.0))),
+            "y0": (1, component_dofs(V, 1, near(1, 0.0))),
+            "x1": (0, component_dofs(V, 0, near(0, 1.0))),
+        },
+    )
     nw.solve({"x1": 1e-3})
     assert nw.reaction("x1") == pytest.approx(E * 1e-3, rel=1e-12)
     bad = J2Bulk({"s": J2Material(E=E, nu=NU, sigma_y=SY)})

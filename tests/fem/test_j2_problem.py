@@ -148,17 +148,17 @@ def column_stress(drops: np.ndarray) -> np.ndarray:
 
 
 def test_a_j2_scene_against_the_closed_form_and_its_restart(comm, shared_tmp):
-    full = run_scene(
-        column_scene(checkpoint_times=[1.5]), outdir=shared_tmp / "a", comm=comm
-    )
+    full = run_scene(column_scene(checkpoint_times=[1.5]), outdir=shared_tmp / "a", comm=comm)
     t = np.array([r["t"] for r in full.history])
     drops = DROP * np.interp(t, [0, 1, 2, 3], [0.0, 1.0, 0.85, 1.3])
     want = column_stress(drops) * np.pi  # 2 pi r: the force over the revolution (R = 1)
     got = np.array([r["R_bottom_y"] for r in full.history])
     again = run_scene(
-        column_scene(), outdir=shared_tmp / "a", comm=comm,
+        column_scene(),
+        outdir=shared_tmp / "a",
+        comm=comm,
         restart=shared_tmp / "a" / "checkpoint.h5",
-    )  # fmt: skip
+    )
     tail = np.array([r["R_bottom_y"] for r in again.history])
     checks = {
         "reaction": np.abs(got - want).max() < 1e-8 * want.max(),
@@ -203,22 +203,36 @@ def test_a_j2_block_on_an_elastic_base_in_a_scene(comm, shared_tmp):
 @pytest.mark.parametrize(
     "change, message",
     [
-        (lambda s: s["materials"]["slave"].update(model="j3"),
-         r"scene.materials.slave.model: must be one of \['elastic', 'j2'\], got 'j3'"),
-        (lambda s: s["materials"]["slave"].pop("sigma_y"),
-         r"scene.materials.slave: keys must be \['E', 'model', 'nu', 'sigma_y'\]"),
-        (lambda s: s["materials"]["slave"].update(sigma_y=-5.0),
-         r"scene.materials.slave: parameter sigma_y = -5.0 is out of range"),
-        (lambda s: s["materials"]["slave"].update(H_kin="hard"),
-         r"scene.materials.slave.H_kin: expected a number, got 'hard'"),
-        (lambda s: s["materials"]["master"].update(sigma_y=1.0, model="elastic"),
-         r"scene.materials.master: keys must be \['E', 'nu'\] \(optional: \['model'\]\)"),
-        (lambda s: s.update(mode="plane_stress"),
-         r"scene.mode: J2 plasticity \(scene.materials \['master', 'slave'\]\)"),
-        (lambda s: s["outputs"].update(stress=True),
-         r"scene.outputs.stress: not available with J2 bodies"),
+        (
+            lambda s: s["materials"]["slave"].update(model="j3"),
+            r"scene.materials.slave.model: must be one of \['elastic', 'j2'\], got 'j3'",
+        ),
+        (
+            lambda s: s["materials"]["slave"].pop("sigma_y"),
+            r"scene.materials.slave: keys must be \['E', 'model', 'nu', 'sigma_y'\]",
+        ),
+        (
+            lambda s: s["materials"]["slave"].update(sigma_y=-5.0),
+            r"scene.materials.slave: parameter sigma_y = -5.0 is out of range",
+        ),
+        (
+            lambda s: s["materials"]["slave"].update(H_kin="hard"),
+            r"scene.materials.slave.H_kin: expected a number, got 'hard'",
+        ),
+        (
+            lambda s: s["materials"]["master"].update(sigma_y=1.0, model="elastic"),
+            r"scene.materials.master: keys must be \['E', 'nu'\] \(optional: \['model'\]\)",
+        ),
+        (
+            lambda s: s.update(mode="plane_stress"),
+            r"scene.mode: J2 plasticity \(scene.materials \['master', 'slave'\]\)",
+        ),
+        (
+            lambda s: s["outputs"].update(stress=True),
+            r"scene.outputs.stress: not available with J2 bodies",
+        ),
     ],
-)  # fmt: skip
+)
 def test_j2_scene_errors_name_the_key_and_value(change, message):
     s = column_scene()
     s["mode"] = "plane_strain"

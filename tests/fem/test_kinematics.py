@@ -90,9 +90,12 @@ def test_plane_stress_is_uniaxial_stress_and_others_hooke():
 
 @pytest.mark.parametrize(
     ("mode", "gdim", "message"),
-    [("axi", 2, "mode must be one of"), ("3d", 2, "needs a 3-D mesh"),
-     ("plane_stress", 3, "needs a 2-D mesh")],
-)  # fmt: skip
+    [
+        ("axi", 2, "mode must be one of"),
+        ("3d", 2, "needs a 3-D mesh"),
+        ("plane_stress", 3, "needs a 2-D mesh"),
+    ],
+)
 def test_bad_modes_are_named(mode, gdim, message):
     with pytest.raises(ValueError, match=message):
         check_mode(mode, gdim)

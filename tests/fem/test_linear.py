@@ -38,9 +38,13 @@ def pad_problem(comm, n=4):
     benchmarks/fe_scaling.py: press to 300 MPa in 4 steps, slide to +0.5 mm in 8 (past the
     static peak), back to -0.5 mm in 12."""
     dom, _ = meshing.create_interface_mesh(
-        meshing.build_pad_on_plate, comm, n_interface=n, cell_type="hexahedron",
-        plate_size=(2.0, 2.0, 0.5), pad_size=(1.0, 1.0, 0.5),
-    )  # fmt: skip
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="hexahedron",
+        plate_size=(2.0, 2.0, 0.5),
+        pad_size=(1.0, 1.0, 0.5),
+    )
     t = list(np.linspace(0, 1, 5)) + list(np.linspace(1, 1.5, 9)[1:])
     t += list(np.linspace(1.5, 2.5, 13)[1:])
     slide = [0.0] * 5 + list(np.linspace(0, 0.5, 9)[1:]) + list(np.linspace(0.5, -0.5, 13)[1:])
@@ -215,7 +219,7 @@ def test_scene_chooses_the_strategy(comm):
 
 
 def test_auto_choice_by_size_and_dofs_per_rank():
-    """"auto" in 3-D: "gamg" below AUTO_REUSE_DOFS_PER_RANK dofs per rank and from
+    """ "auto" in 3-D: "gamg" below AUTO_REUSE_DOFS_PER_RANK dofs per rank and from
     AUTO_GAMG_DOFS dofs in all, "reuse" between; 2-D: "reuse" at every size and rank count."""
     per_rank, large = linear_module.AUTO_REUSE_DOFS_PER_RANK, linear_module.AUTO_GAMG_DOFS
     assert 2 * per_rank < large  # a window where "reuse" is taken on 1 and on 2 ranks

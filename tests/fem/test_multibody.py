@@ -109,11 +109,14 @@ def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
     steel = Material(2.1e5, 0.3)
     law = CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.5)
     problem = InterfaceProblem(
-        dom, law, {"base": steel, "middle": steel, "cap": steel}, program,
+        dom,
+        law,
+        {"base": steel, "middle": steel, "cap": steel},
+        program,
         [Dirichlet("ground", [0.0, 0.0]), Dirichlet("lid", 0.01, 0, amplitude="push")],
         [Pressure("lid", P_LID, amplitude="press")],
         interfaces=[Interface("low", law=law.replace(mu_c=0.2)), Interface("high")],
-    )  # fmt: skip
+    )
     assert list(problem.interfaces) == ["low", "high"]
     rows = []
 
@@ -159,10 +162,13 @@ def renamed_block(**kw):
 def run_block(dom, materials):
     program = LoadingProgram([0, 1, 2], {"press": [0, 1, 1], "slide": [0, 0, 0.5]})
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), materials, program,
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3),
+        materials,
+        program,
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.01, 0, amplitude="slide")],
         [Pressure("top", 100.0, amplitude="press")],
-    )  # fmt: skip
+    )
     out = []
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(
@@ -220,8 +226,11 @@ def test_duplicated_msh_file_is_read_by_dolfinx_gmsh_reader(comm, shared_tmp):
             occ.synchronize()
             low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
             high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
-            mid = [t for _, t in gmsh.model.getEntities(1)
-                   if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9]  # fmt: skip
+            mid = [
+                t
+                for _, t in gmsh.model.getEntities(1)
+                if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
+            ]
             gmsh.model.addPhysicalGroup(2, low, name="lower")
             gmsh.model.addPhysicalGroup(2, high, name="upper")
             tag = gmsh.model.addPhysicalGroup(1, mid, name="seam")
@@ -306,19 +315,24 @@ def test_a_body_of_two_groups_with_their_own_materials(comm):
     same in every group, so the lateral strains match and the stress stays uniaxial): every dof
     against the closed form, each layer straining by ``p / E`` of its own material."""
     dom, _ = meshing.create_interface_mesh(
-        layered_builder, comm, bodies={"base": "base", "top": ["soft", "hard"]},
+        layered_builder,
+        comm,
+        bodies={"base": "base", "top": ["soft", "hard"]},
         interfaces={"seam": ("base", "top")},
-    )  # fmt: skip
+    )
     assert dom.bodies == {"base": ("base",), "top": ("soft", "hard")}
     dom.add_node_group("pin", [[0.0, 0.0]], "base")
     mats = {"base": Material(2e5, 0.3), "soft": Material(1e5, 0.15), "hard": Material(2e5, 0.3)}
     alpha, p = 1e6, 50.0
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=0.5), mats,
+        dom,
+        CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=0.5),
+        mats,
         LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]}),
         [Dirichlet("ground", 0.0, component=1), Dirichlet("pin", 0.0, component=0)],
-        [Pressure("lid", p, amplitude="press")], mode="plane_stress",
-    )  # fmt: skip
+        [Pressure("lid", p, amplitude="press")],
+        mode="plane_stress",
+    )
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
     V = problem.V
@@ -331,8 +345,11 @@ def test_a_body_of_two_groups_with_their_own_materials(comm):
     (_, hb), (ys, hs), (yh, _) = LAYERS.values()
     E = {k: m.E for k, m in mats.items()}
     y = x[:, 1]
-    uy = -p * (np.minimum(y, hb) / E["base"] + np.clip(y - ys, 0, hs) / E["soft"]
-               + np.clip(y - yh, 0, None) / E["hard"]) - np.where(top, p / alpha, 0.0)  # fmt: skip
+    uy = -p * (
+        np.minimum(y, hb) / E["base"]
+        + np.clip(y - ys, 0, hs) / E["soft"]
+        + np.clip(y - yh, 0, None) / E["hard"]
+    ) - np.where(top, p / alpha, 0.0)
     ux = 0.3 / 2e5 * p * x[:, 0]
     u = problem.u.x.array[: 2 * n].reshape(n, 2)
     err = max(np.abs(u[:, 0] - ux).max(initial=0.0), np.abs(u[:, 1] - uy).max(initial=0.0))

@@ -63,7 +63,7 @@ def test_the_predictor_saves_newton_iterations_and_changes_nothing_else():
     # predicted (3.9e-8, 1e-12): Newton's tolerance is relative to the first residual, which
     # the predictor makes smaller; it is never less accurate than the plain run
     assert np.all(err["plain"] < 3e-7), err
-    print('ERR', err, n_pred, n_plain)
+    print("ERR", err, n_pred, n_plain)
     assert np.all(err["pred"] <= np.maximum(err["plain"], 1e-11)), err
     assert not any(r[2] for r in plain)
 

@@ -2,7 +2,6 @@
 line-search retry of a failed Newton step and what a StepFailure says (the warnings about
 penetration and slide: ``test_validity.py``). 1 and 2 ranks."""
 
-
 import dataclasses
 
 import numpy as np

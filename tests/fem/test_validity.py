@@ -68,9 +68,13 @@ def run_block(comm, n, alpha_n, slide, watch_steps=None):
     program = LoadingProgram([0, 1, 2], {"press": [0, 1, 1], "slide": [0, 0, 1]})
     bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", slide, component=0, amplitude="slide")]
     prob = InterfaceProblem(
-        block(comm, n), LAW.replace(alpha_n=alpha_n), MATERIALS, program, bcs,
+        block(comm, n),
+        LAW.replace(alpha_n=alpha_n),
+        MATERIALS,
+        program,
+        bcs,
         [Pressure("top", 300.0, amplitude="press")],
-    )  # fmt: skip
+    )
     on_step = None if watch_steps is None else (lambda rec: watch_steps(prob))
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
@@ -232,9 +236,13 @@ def test_short_segments_get_no_line_and_long_ones_do(caplog, monkeypatch):
         program = LoadingProgram([0, 1], {"press": [0, 1]})
         bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.0, component=0)]
         prob = InterfaceProblem(
-            block(comm, 4), LAW.replace(alpha_n=1e6), MATERIALS, program, bcs,
+            block(comm, 4),
+            LAW.replace(alpha_n=1e6),
+            MATERIALS,
+            program,
+            bcs,
             [Pressure("top", 300.0, amplitude="press")],
-        )  # fmt: skip
+        )
         with FrictionSolver(prob, prefix("seg"), {"snes_atol": 1e-6}) as solver:
             LoadStepper(solver, 1.0 / stepping_mod.LONG_SEGMENT_STEPS).run()
 

@@ -239,8 +239,10 @@ def test_disk_full_keeps_the_previous_checkpoint(shared_tmp):
             kept.append(read_checkpoint(out / "checkpoint.h5", MPI.COMM_SELF).attrs["step"])
 
     messages = disk_full_runs(
-        shared_tmp / "full", {"checkpoint_every": 1, "history": True}, [210_000, 260_000, 400_000],
+        shared_tmp / "full",
+        {"checkpoint_every": 1, "history": True},
+        [210_000, 260_000, 400_000],
         check=check,
-    )  # fmt: skip
+    )
     assert kept and min(kept) >= 1, (kept, messages)  # failed after at least one checkpoint
     assert None in messages, messages  # 400 kB are enough

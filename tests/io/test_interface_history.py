@@ -41,8 +41,18 @@ def test_the_gap_in_the_interface_history_is_the_gap_the_law_saw(shared_tmp):
             # the vocabulary of every output file: units, frame, status legend; no dataset
             # repeats the traction (the law's end-of-step traction is f_t, f_n itself)
             units = {k: f[k].attrs["unit"] for k in f}
-            assert units == {"x": "mm", "time": "s", "g0": "mm", "f_t": "MPa", "f_n": "MPa",
-                             "gap": "mm", "status": "1", "up": "mm", "mu": "MPa", "r": "1"}
+            assert units == {
+                "x": "mm",
+                "time": "s",
+                "g0": "mm",
+                "f_t": "MPa",
+                "f_n": "MPa",
+                "gap": "mm",
+                "status": "1",
+                "up": "mm",
+                "mu": "MPa",
+                "r": "1",
+            }
             assert json.loads(f.attrs["units"])["gap_n"] == "mm" and "f" not in f
             legend = json.loads(f.attrs["status_legend"])
             assert legend[str(int(Status.SEPARATED))].startswith(Status.SEPARATED.name)
@@ -86,27 +96,34 @@ def _end_early(path):
 def test_a_restart_into_a_broken_interface_history_fails_on_every_rank(shared_tmp, damage, words):
     comm = MPI.COMM_WORLD
     out = shared_tmp / "run"
-    run_scene(
-        short_scene(interface_history=True, checkpoint_times=[1.0]), outdir=out, comm=comm
-    )
+    run_scene(short_scene(interface_history=True, checkpoint_times=[1.0]), outdir=out, comm=comm)
     ih = out / "interface_history.h5"
     on_root(comm, lambda: damage(ih))
     with raised_on_every_rank(OutputError, f"interface history {str(ih)!r}", words):
         run_scene(
-            short_scene(interface_history=True), outdir=out, comm=comm,
+            short_scene(interface_history=True),
+            outdir=out,
+            comm=comm,
             restart=out / "checkpoint.h5",
-        )  # fmt: skip
+        )
     # the lock was released: moved away, a fresh history lets the restart run
     on_root(comm, lambda: ih.rename(out / "broken.h5"))
     res = run_scene(
-        short_scene(interface_history=True), outdir=out, comm=comm,
+        short_scene(interface_history=True),
+        outdir=out,
+        comm=comm,
         restart=out / "checkpoint.h5",
-    )  # fmt: skip
+    )
     assert res.history[-1]["t"] == pytest.approx(2.0)
 
 
-CHECKPOINT_ROWS = {"/displacement", "/interface/x", "/interface/up", "/interface/mu",
-                   "/interface/r"}  # fmt: skip
+CHECKPOINT_ROWS = {
+    "/displacement",
+    "/interface/x",
+    "/interface/up",
+    "/interface/mu",
+    "/interface/r",
+}
 """Checkpoint datasets with one row per cell or interface point (axis 0)."""
 SERIES = {"/f_t", "/f_n", "/gap", "/status", "/up", "/mu", "/r"}
 """Interface history datasets (step, point, ...): the points are on axis 1."""
@@ -169,8 +186,12 @@ def test_checkpoint_and_interface_history_are_read_and_written_in_slabs(shared_t
         expect = CHECKPOINT_ROWS | ({"/x"} | SERIES if how == "write" else {"/x"})
         assert names == expect, (how, names)
         for name in names:
-            got = [(lo, hi, n) for acc in everyone for h, nm, n, lo, hi in acc
-                   if h == how and nm == name]  # fmt: skip
+            got = [
+                (lo, hi, n)
+                for acc in everyone
+                for h, nm, n, lo, hi in acc
+                if h == how and nm == name
+            ]
             n = got[0][2]
             covered = np.zeros(n, dtype=bool)
             for lo, hi, _ in got:

@@ -235,9 +235,13 @@ def test_a_second_run_into_a_directory_in_use_is_refused(shared_tmp):
             "    print('LOCKED', flush=True)\n    sys.stdin.read()\n"
         )
         holder = subprocess.Popen(
-            [sys.executable, "-c", code], cwd=ROOT, env=singleton_env(), text=True,
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-        )  # fmt: skip
+            [sys.executable, "-c", code],
+            cwd=ROOT,
+            env=singleton_env(),
+            text=True,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+        )
         assert holder.stdout.readline().strip() == "LOCKED"
     comm.Barrier()
     try:
@@ -355,8 +359,10 @@ def test_every_rank_returns_with_the_directory_in_its_final_state_under_load(sha
             out = shared_tmp / f"run{i}"
             run_scene(s, outdir=out, comm=comm)
             assert listing(out) == [
-                "history.csv", "history.csv-metadata.json", "interface_history.h5"
-            ], (comm.rank, i)  # fmt: skip
+                "history.csv",
+                "history.csv-metadata.json",
+                "interface_history.h5",
+            ], (comm.rank, i)
 
 
 def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
@@ -376,12 +382,20 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
 
     def check():
         assert listing(out) == [  # no lock left
-            "history.csv", "history.csv-metadata.json", "notes.txt", "previous_run"
-        ]  # fmt: skip
+            "history.csv",
+            "history.csv-metadata.json",
+            "notes.txt",
+            "previous_run",
+        ]
         prev = out / "previous_run"
-        assert listing(prev) == [".made-by-subfric-dolfinx", "checkpoint.h5", "fields",
-                                 "history.csv", "history.csv-metadata.json",
-                                 "interface_history.h5"]  # fmt: skip
+        assert listing(prev) == [
+            ".made-by-subfric-dolfinx",
+            "checkpoint.h5",
+            "fields",
+            "history.csv",
+            "history.csv-metadata.json",
+            "interface_history.h5",
+        ]
         rows = list(csv.DictReader(open(out / "history.csv")))
         assert len(rows) == len(second.history) and float(rows[-1]["t"]) == 1.5
         old = list(csv.DictReader(open(prev / "history.csv")))
@@ -395,8 +409,10 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
 
     def check_third():
         assert listing(out / "previous_run") == [
-            ".made-by-subfric-dolfinx", "history.csv", "history.csv-metadata.json"
-        ]  # fmt: skip
+            ".made-by-subfric-dolfinx",
+            "history.csv",
+            "history.csv-metadata.json",
+        ]
         assert "history.csv" not in listing(out)
 
     on_root(comm, check_third)
@@ -531,8 +547,17 @@ def test_fields_of_100_kB_a_step_are_written_with_1_MB_free(shared_tmp, monkeypa
 # of its own (mpirun, killed after 150 s: a hang fails). Several sizes, so that the disk fills up
 # in different places (the probe, the lock, a CSV row, an HDF5 slab, a flush, a checkpoint).
 
-CRASH_SIGNS = ("Segmentation", "Aborted", "Exception ignored", "MPI_ABORT", "core dumped",
-               "signal 6", "signal 11", "killed after", "Timeout (")  # fmt: skip
+CRASH_SIGNS = (
+    "Segmentation",
+    "Aborted",
+    "Exception ignored",
+    "MPI_ABORT",
+    "core dumped",
+    "signal 6",
+    "signal 11",
+    "killed after",
+    "Timeout (",
+)
 
 RUN = """
 import faulthandler
@@ -588,9 +613,10 @@ def test_disk_full_with_history_and_interface_history(shared_tmp):
     """Full at the start (the probe), at the HDF5 file's creation (its spare, its first
     reservation), during the run (a CSV row, the HDF5 reservation of a step), or not at all."""
     messages = disk_full_runs(
-        shared_tmp / "full", {"history": True, "interface_history": True},
+        shared_tmp / "full",
+        {"history": True, "interface_history": True},
         [2048, 4096, 81920, 204800, 307200],
-    )  # fmt: skip
+    )
     print(*messages, sep="\n")
     failed = [m for m in messages if m]
     assert any("preparing the output directory" in m for m in failed), failed
@@ -605,7 +631,7 @@ def test_disk_full_with_fields(shared_tmp, fmt):
     """The check before each write refuses it: exit 1, the error, no SIGABRT from ADIOS2."""
     messages = disk_full_runs(
         shared_tmp / "full", {"fields": fmt}, [100_000, 150_000, 400_000], size="4m"
-    )  # fmt: skip
+    )
     assert any(m and "writing the" in m and "fields" in m for m in messages), messages
 
 
@@ -652,12 +678,20 @@ def test_a_demo_ends_an_output_error_with_one_line_and_exit_1(shared_tmp):
     assert "preparing the output directory" in errors[0] and "Not a directory" in errors[0]
     busy = shared_tmp / "busy"
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys\nfrom mpi4py import MPI\n"
-         "from subfric_dolfinx.io import OutputDirectory\n"
-         f"with OutputDirectory({str(busy)!r}, MPI.COMM_SELF):\n"
-         "    print('LOCKED', flush=True)\n    sys.stdin.read()\n"],
-        cwd=ROOT, env=singleton_env(), text=True, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-c",
+            "import sys\nfrom mpi4py import MPI\n"
+            "from subfric_dolfinx.io import OutputDirectory\n"
+            f"with OutputDirectory({str(busy)!r}, MPI.COMM_SELF):\n"
+            "    print('LOCKED', flush=True)\n    sys.stdin.read()\n",
+        ],
+        cwd=ROOT,
+        env=singleton_env(),
+        text=True,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    )
     try:
         assert holder.stdout.readline().strip() == "LOCKED"
         rc, text = run(demo_cmd("--out", busy, ranks=2), timeout=150)

@@ -94,8 +94,17 @@ def test_quadrature_point_cloud_read_back_against_the_gathered_state(shared_tmp)
         np.testing.assert_allclose(x[order], ref0["x"], rtol=0, atol=1e-12)
         plastic = 0
         for (_, ref), got in zip(expected, steps, strict=True):
-            assert set(got) >= {"f_t1", "f_n", "traction_global", "status", "up_t1", "mu", "r",
-                                "up_global", "rank"}  # fmt: skip
+            assert set(got) >= {
+                "f_t1",
+                "f_n",
+                "traction_global",
+                "status",
+                "up_t1",
+                "mu",
+                "r",
+                "up_global",
+                "rank",
+            }
             assert not [k for k in got if k.startswith(("state_", "f_t2")) or k == "f"], got
             g = {k: v[order] for k, v in got.items()}
             np.testing.assert_array_equal(g["f_t1"], ref["f_t"][:, 0])

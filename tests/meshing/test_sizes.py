@@ -64,7 +64,7 @@ def test_the_cell_estimate_against_the_builders(monkeypatch, builder, options, l
     ],
 )
 def test_a_mesh_larger_than_the_machine_is_refused_naming_the_option(builder, option):
-    (name, value), = option.items()
+    ((name, value),) = option.items()
     with raised_on_every_rank(ValueError, f"{name} = {value!r}", "GiB", "memory"):
         meshing.create_interface_mesh(builder, MPI.COMM_WORLD, **option)
 
@@ -174,8 +174,12 @@ def test_the_calibration_command_line_refuses_beyond_max_steps(tmp_path, capsys)
     from subfric_dolfinx.logs import launcher_rank
 
     true = {k: v for k, v in preset("sec7").parameters().items() if k != "mu0"}
-    curve = {"f_n": 300.0, "velocity": 1.0, "slip": [0.0, 0.5, 1.0, 2.0, 4.0, 10.0],
-             "f_t": [0.0, 40, 50, 55, 57, 58]}  # fmt: skip
+    curve = {
+        "f_n": 300.0,
+        "velocity": 1.0,
+        "slip": [0.0, 0.5, 1.0, 2.0, 4.0, 10.0],
+        "f_t": [0.0, 40, 50, 55, 57, 58],
+    }
     path = tmp_path / "data.json"
     path.write_text(json.dumps({"params": true, "fit": ["mu_s"], "curves": [curve]}))
     out = tmp_path / "fit.json"

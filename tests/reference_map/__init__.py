@@ -44,8 +44,15 @@ def return_map(law, gap, state, dt, *, tol=LOAD_TOL, max_iter=100, contact_tol=C
     n = gap.shape[0]
     f = state["f"].tolist() if "f" in state else [None] * n
     dts = np.broadcast_to(np.asarray(dt, dtype=float), (n,)).tolist()
-    rows = zip(gap.tolist(), state["up"].tolist(), state["mu"].tolist(), state["r"].tolist(), f,
-               dts, strict=True)  # fmt: skip
+    rows = zip(
+        gap.tolist(),
+        state["up"].tolist(),
+        state["mu"].tolist(),
+        state["r"].tolist(),
+        f,
+        dts,
+        strict=True,
+    )
     res = [point(L, g, u, mu, r, f0, d, tol, max_iter, contact_tol) for g, u, mu, r, f0, d in rows]
     return Result(
         np.array([q[0] for q in res]).reshape(n, -1),

@@ -44,9 +44,20 @@ class Law:
     """
 
     __slots__ = (
-        "an", "at", "cn", "k", "kappa", "len_n", "mu_k", "mu_s", "p", "sqrt2k_inv", "ut", "xi",
+        "an",
+        "at",
+        "cn",
+        "k",
+        "kappa",
+        "len_n",
+        "mu_k",
+        "mu_s",
+        "p",
+        "sqrt2k_inv",
+        "ut",
+        "xi",
         "zc_cap",
-    )  # fmt: skip
+    )
 
     def __init__(self, p: Any) -> None:
         self.p = p

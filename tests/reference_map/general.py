@@ -20,8 +20,28 @@ _sqrt, _hypot = math.sqrt, math.hypot
 _PI = math.pi
 
 
-def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter, br, dl0, e0,
-             iters, jump, rotate):  # fmt: skip
+def general(
+    L,
+    gap,
+    up,
+    ft,
+    A,
+    tstar,
+    fn,
+    g,
+    f0,
+    split,
+    b,
+    mu_c,
+    tol_f,
+    max_iter,
+    br,
+    dl0,
+    e0,
+    iters,
+    jump,
+    rotate,
+):
     """Split and/or rotated flow direction, with forward derivatives for the exact tangent."""
     nt = len(up)
     m = nt + 1
@@ -129,16 +149,27 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
                 e_g = at / gs2
                 for j in J:
                     dden = e_r * dr0[j] + e_m * dmu0[j] - e_g * dg_s[j]
-                    dnum[j] += (c_g * dg_s[j] - c_rho * drho_s[j] - c_b * db[j] + c_m * dmu0[j]
-                                - c_r * dr0[j] - lam * dden)  # fmt: skip
+                    dnum[j] += (
+                        c_g * dg_s[j]
+                        - c_rho * drho_s[j]
+                        - c_b * db[j]
+                        + c_m * dmu0[j]
+                        - c_r * dr0[j]
+                        - lam * dden
+                    )
             f = at / den
             dd0 = [ddirect[j] - f * dnum[j] for j in J]
     rho1p = A - at * dl0
     drho1p = [dA[j] - at * ddl0[j] for j in J]
     # rotation over the step (model of |f_t| and quadratures: _rotation)
     P = ws0 * f_s[0] + ws1 * f_s[1]
-    dP = [ws0 * df_s[0][j] + ws1 * df_s[1][j] + f_s[0] * (dft[0][j] - df_s[0][j])
-          + f_s[1] * (dft[1][j] - df_s[1][j]) for j in J]  # fmt: skip
+    dP = [
+        ws0 * df_s[0][j]
+        + ws1 * df_s[1][j]
+        + f_s[0] * (dft[0][j] - df_s[0][j])
+        + f_s[1] * (dft[1][j] - df_s[1][j])
+        for j in J
+    ]
     C, T1, cC, cT = rotation(rho_s, d0, rho1p, P, W, A, tau0)
     dtf = 0.5 * (1.0 + tau0 * tau0)  # d tau0 / d theta0
     bases = ([dtf * v for v in dth0], drho_s, dd0, drho1p, dP, dW, dA)
@@ -174,5 +205,3 @@ def general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter
     ]
     up1 = [up[i] + (ft[i] - f1[i]) / at for i in range(2)]
     return finish(L, [*f1, fn], [*df1, dfn1], up1, e, g, jump, iters)
-
-

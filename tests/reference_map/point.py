@@ -135,9 +135,11 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
         ws0, ws1 = ft[0] - f_s[0], ft[1] - f_s[1]
         W = _hypot(ws0, ws1)
         rotate = (
-            ROT_LO < min(rho_s, W) and max(rho_s, W, A) < ROT_HI and g_of(L, f0[nt]) > ROT_LO
+            ROT_LO < min(rho_s, W)
+            and max(rho_s, W, A) < ROT_HI
+            and g_of(L, f0[nt]) > ROT_LO
             and (split or ws0 * f_s[0] + ws1 * f_s[1] >= 0.0)
-        )  # fmt: skip
+        )
     if not rotate and not split:
         # fixed direction from a fixed start: closed-form tangent of main
         _, r, U, mu, dmu = e[:5]
@@ -157,5 +159,25 @@ def point(L: Law, gap, up, mu_n, r_n, f0, dt, tol, max_iter, contact_tol):
         tan[nt][nt] = an
         up1 = [up[i] + dl * tstar[i] for i in range(nt)]
         return finish(L, [rho1 * t for t in tstar] + [fn], tan, up1, e, g, jump, iters)
-    return general(L, gap, up, ft, A, tstar, fn, g, f0, split, b, mu_c, tol_f, max_iter,
-                   br, dl, e, iters, jump, rotate)  # fmt: skip
+    return general(
+        L,
+        gap,
+        up,
+        ft,
+        A,
+        tstar,
+        fn,
+        g,
+        f0,
+        split,
+        b,
+        mu_c,
+        tol_f,
+        max_iter,
+        br,
+        dl,
+        e,
+        iters,
+        jump,
+        rotate,
+    )

@@ -45,8 +45,21 @@ class Br:
     """
 
     __slots__ = (
-        "A", "L", "b", "c", "c0", "d_k", "d_s", "dmu0", "g", "mu0", "mu_rec", "r0", "s0", "sin0",
-    )  # fmt: skip
+        "A",
+        "L",
+        "b",
+        "c",
+        "c0",
+        "d_k",
+        "d_s",
+        "dmu0",
+        "g",
+        "mu0",
+        "mu_rec",
+        "r0",
+        "s0",
+        "sin0",
+    )
 
     def __init__(
         self, L: Law, A: float, g: float, r0: float, mu0: float, b: float, d_s=None
@@ -198,9 +211,7 @@ def certified_root(br: Br, tol_f: float, max_iter: int, dl_start: float = 0.0, e
         vb = scan.Branch(
             L.p, np.array([br.A]), np.array([br.g]), np.array([br.r0]), np.array([br.mu0]), br.b
         )
-        x, ok, its, jp = scan.scan(
-            vb, np.array([0]), np.array([dl]), np.array([tol_f]), max_iter
-        )
+        x, ok, its, jp = scan.scan(vb, np.array([0]), np.array([dl]), np.array([tol_f]), max_iter)
         dl, conv, jump = float(x[0]), bool(ok[0]), bool(jp[0])
         it += int(its[0])
         e = br.ev(dl)

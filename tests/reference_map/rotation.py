@@ -164,4 +164,3 @@ def rotation(rho_s, d0, rho1, P, W, A, tau0):
             T1 = T
             dT1 = [ex, -TW * p0, -TW * p1, -TW * p2, -TW * p3, -T * Jv - TW * p4, -TW * p5]
     return C, T1, [c_t, c_s, c_d, c_1, c_P, c_W, c_A], dT1
-

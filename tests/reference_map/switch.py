@@ -107,9 +107,13 @@ def split_point(L: Law, f0t, fn0, ft, fn, A, mu_c, b):
     W = _sqrt(ww)
     dfn = fn - fn0
     ok_h = (
-        ROT_LO < rho0 < ROT_HI and ROT_LO < W < ROT_HI and A < ROT_HI and b < ROT_HI
-        and -_expm1(-L.cn * fn0) > ROT_LO and -_expm1(-L.cn * fn) > ROT_LO
-    )  # fmt: skip
+        ROT_LO < rho0 < ROT_HI
+        and ROT_LO < W < ROT_HI
+        and A < ROT_HI
+        and b < ROT_HI
+        and -_expm1(-L.cn * fn0) > ROT_LO
+        and -_expm1(-L.cn * fn) > ROT_LO
+    )
     args = (f0t, w, ww, fn0, dfn, mu_c, b)
     if fw < 0.0:
         # |f| falls at the start; its minimum inside the step, the rest resolved

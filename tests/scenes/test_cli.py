@@ -28,7 +28,14 @@ from subfric_dolfinx.scenes import cli
 from tests.helpers import ROOT, everywhere, singleton_env
 
 DEMOS = [
-    block_on_base, pad_on_plate, punch, lap_joint, hertz, cattaneo_mindlin, bolted_joint, fretting,
+    block_on_base,
+    pad_on_plate,
+    punch,
+    lap_joint,
+    hertz,
+    cattaneo_mindlin,
+    bolted_joint,
+    fretting,
 ]
 SMALL = ["--n", "4", "--hold", "1", "--no-figures"]
 

@@ -27,13 +27,22 @@ X = np.array([[0.0, 0.5, 1.0, 2.0], [1.0, 1.0, -1.0, 0.25], [0.0, 0.0, 3.0, 1.0]
         ("(x - 1)**2 / (2*R)", {"R": 50}, lambda x, y, z: (x - 1) ** 2 / 100),
         ("-x + +y*2 - 3e-2", {}, lambda x, y, z: -x + 2 * y - 0.03),
         ("sqrt(x**2 + y**2 + z**2)", {}, lambda x, y, z: np.sqrt(x**2 + y**2 + z**2)),
-        ("max(0, x - a) + min(y, 0)", {"a": 0.7},
-         lambda x, y, z: np.maximum(0, x - 0.7) + y.clip(max=0)),
-        ("abs(y) * exp(-x) + log(2) + sin(pi*x) + cos(z) + tan(e)",
-         {}, lambda x, y, z: abs(y) * np.exp(-x) + math.log(2) + np.sin(np.pi * x) + np.cos(z)
-         + math.tan(math.e)),
+        (
+            "max(0, x - a) + min(y, 0)",
+            {"a": 0.7},
+            lambda x, y, z: np.maximum(0, x - 0.7) + y.clip(max=0),
+        ),
+        (
+            "abs(y) * exp(-x) + log(2) + sin(pi*x) + cos(z) + tan(e)",
+            {},
+            lambda x, y, z: abs(y) * np.exp(-x)
+            + math.log(2)
+            + np.sin(np.pi * x)
+            + np.cos(z)
+            + math.tan(math.e),
+        ),
     ],
-)  # fmt: skip
+)
 def test_accepted_expressions_evaluate_like_numpy(text, params, expected):
     f = compile_expression(text, params)
     np.testing.assert_allclose(f(X), expected(*X), rtol=1e-15)

@@ -55,10 +55,13 @@ def sliding_runs(tmp_path_factory):
     s = far.scene(mesh, 4, 10.0)
     s["points"] = {"P": {"x": [10.0, 0.0], "body": "block"}}
     s["outputs"] = {
-        "history": True, "fields": "vtx", "interface_history": True, "checkpoint_times": [6.0],
+        "history": True,
+        "fields": "vtx",
+        "interface_history": True,
+        "checkpoint_times": [6.0],
         "snapshots": [11.0],
         "probes": [{"point": "P", "fields": ["f_n", "f_t", "mu", "status", "gap"]}],
-    }  # fmt: skip
+    }
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
         full = run_scene(s, outdir=root / "full", comm=comm)
@@ -106,9 +109,7 @@ def test_a_finite_sliding_scene_restarts_where_it_stopped(comm, sliding_runs):
     after = restarted.history
     steps = [r["step"] for r in after]
     worst = max(
-        abs(r[k] - rows[r["step"]][k]) / (1.0 + abs(rows[r["step"]][k]))
-        for r in after
-        for k in r
+        abs(r[k] - rows[r["step"]][k]) / (1.0 + abs(rows[r["step"]][k])) for r in after for k in r
     )
     assert steps == sorted(rows) and restarted.history[0]["t"] < 6.0 < after[-1]["t"]
     assert worst < 1e-9, worst

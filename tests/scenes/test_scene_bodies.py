@@ -73,10 +73,17 @@ def test_a_scene_with_three_bodies_and_two_interfaces(comm, shared_tmp):
     path = shared_tmp / "stack.msh"
     on_root(comm, lambda: write_model(stack_builder, path))
     full = run_scene(
-        stack_scene(path, history=True, interface_history=True, fields="xdmf",
-                    checkpoint_times=[1.5], snapshots=[2.0]),
-        outdir=shared_tmp / "a", comm=comm,
-    )  # fmt: skip
+        stack_scene(
+            path,
+            history=True,
+            interface_history=True,
+            fields="xdmf",
+            checkpoint_times=[1.5],
+            snapshots=[2.0],
+        ),
+        outdir=shared_tmp / "a",
+        comm=comm,
+    )
     last = full.history[-1]
     load = P_LID * W_CAP
     high = full.snapshots[2.0]["high"]  # the profile of the interface the probe names
@@ -98,9 +105,11 @@ def test_a_scene_with_three_bodies_and_two_interfaces(comm, shared_tmp):
 
     on_root(comm, files)
     again = run_scene(
-        stack_scene(path, history=True), outdir=shared_tmp / "a", comm=comm,
+        stack_scene(path, history=True),
+        outdir=shared_tmp / "a",
+        comm=comm,
         restart=shared_tmp / "a" / "checkpoint.h5",
-    )  # fmt: skip
+    )
     keys = ["low.F_t1", "high.F_t1", "low.up_norm", "high.F_n"]
     a = np.array([[r[k] for k in keys] for r in full.history])
     b = np.array([[r[k] for k in keys] for r in again.history])

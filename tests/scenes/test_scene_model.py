@@ -89,8 +89,12 @@ def test_a_pointwise_scene_runs_the_cases_it_parsed(monkeypatch):
     from subfric_dolfinx.scenes import run_scene
     from subfric_dolfinx.scenes import runner as runner_mod
 
-    case = {"params": {"preset": "sec7"}, "control": "disp",
-            "path": [[0, 0, 0, 0.5], [1, 0.01, 0, 0.5]], "t_samples": [1]}  # fmt: skip
+    case = {
+        "params": {"preset": "sec7"},
+        "control": "disp",
+        "path": [[0, 0, 0, 0.5], [1, 0.01, 0, 0.5]],
+        "t_samples": [1],
+    }
     parsed = parse_scene({"kind": "pointwise", "name": "p", "cases": {"a": case}})
     assert isinstance(parsed.model["a"], Case)
     seen = []

@@ -39,8 +39,14 @@ def demo_scenes():
         "pointwise": {
             "kind": "pointwise",
             "name": "p",
-            "cases": {"a": {"params": {"preset": "sec7"}, "control": "disp",
-                            "path": [[0, 0, 0, 0.5], [1, 1, 0, 0.5]], "t_samples": [1]}},
+            "cases": {
+                "a": {
+                    "params": {"preset": "sec7"},
+                    "control": "disp",
+                    "path": [[0, 0, 0, 0.5], [1, 1, 0, 0.5]],
+                    "t_samples": [1],
+                }
+            },
         },
     }
 

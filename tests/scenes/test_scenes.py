@@ -70,8 +70,9 @@ def test_demo_block_on_base_against_the_material_point_driver(shared_tmp):
     before = abs(ft[np.flatnonzero(np.isclose(t, 4.0))[0]])
     assert ft[t > 9.0].max() > 1.2 * before
     assert sorted(p.name for p in shared_tmp.iterdir()) == [
-        "history.csv", "history.csv-metadata.json"
-    ]  # fmt: skip
+        "history.csv",
+        "history.csv-metadata.json",
+    ]
     assert len(res.snapshots) == 7 and all(len(s["x"]) == 16 for s in res.snapshots.values())
 
 

@@ -180,8 +180,10 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
                 latencies.append(time.perf_counter() - sent if sent else float("nan"))
         if len(results) < runs:  # the job ended early: its output says why
             p.wait(timeout=120)
-            pytest.fail(f"the job ended (exit code {p.returncode}) after {len(results)} of "
-                        f"{runs} runs:\n" + "".join(text))  # fmt: skip
+            pytest.fail(
+                f"the job ended (exit code {p.returncode}) after {len(results)} of "
+                f"{runs} runs:\n" + "".join(text)
+            )
         p.stdin.write("done\n")  # every signal sent: the job may end (tests/signal_job.py)
         p.stdin.close()
         p.wait(timeout=120)
@@ -190,8 +192,10 @@ def test_double_signals_at_random_moments_under_mpirun(tmp_path):
             p.kill()
             p.wait()
     abandoned = sum("(abandoned)" in r.get("message", "") for r in results)
-    print(f"stop after the last signal: {np.round(latencies, 2).tolist()} s; {abandoned} of "
-          f"{len(results)} stopped within a step (the others after it)")  # fmt: skip
+    print(
+        f"stop after the last signal: {np.round(latencies, 2).tolist()} s; {abandoned} of "
+        f"{len(results)} stopped within a step (the others after it)"
+    )
     assert p.returncode == 0, "".join(text)
     assert len(results) == runs, "".join(text)
     early = 0
@@ -244,9 +248,13 @@ def test_a_signal_while_gmsh_meshes_stops_at_once(tmp_path, ranks, sig):
     if ranks > 1:
         cmd = ["mpirun", "-n", str(ranks), *cmd]
     p = subprocess.Popen(
-        cmd, cwd=ROOT, env=singleton_env(), stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT, text=True,
-    )  # fmt: skip
+        cmd,
+        cwd=ROOT,
+        env=singleton_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     try:
         seen, q = _until(p, "building the mesh")
         p.send_signal(sig)

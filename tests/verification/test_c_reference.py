@@ -55,8 +55,9 @@ def test_c_reference_equals_the_package_map(cmap, name, nt, dt):
         assert use.sum() > (900 if name.endswith("literal") else 2900)
         np.testing.assert_array_equal(c["status"][use], res.status[use])
         sc = np.abs(res.tangent).reshape(len(gap), -1).max(axis=1)[:, None]
-        np.testing.assert_allclose(c["traction"][use], res.traction[use], rtol=0,
-                                   atol=1e-12 * sc[use].max())  # fmt: skip
+        np.testing.assert_allclose(
+            c["traction"][use], res.traction[use], rtol=0, atol=1e-12 * sc[use].max()
+        )
         dD = np.abs(c["tangent"] - res.tangent).reshape(len(gap), -1).max(axis=1)
         assert np.all(dD[use] <= 1e-10 * sc[use, 0]), dD[use].max()
         np.testing.assert_allclose(c["mu"][use], res.state["mu"][use], rtol=1e-12)

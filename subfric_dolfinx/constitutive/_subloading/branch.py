@@ -101,15 +101,31 @@ class Branch:
     (``dmu/ddl`` there).
     """
 
-    __slots__ = ("A", "L", "Pm", "b", "c", "c0", "d_k", "d_s", "dmu0", "g", "mu0", "mu_rec",
-                 "r0", "s0", "sin0")  # fmt: skip
+    __slots__ = (
+        "A",
+        "L",
+        "Pm",
+        "b",
+        "c",
+        "c0",
+        "d_k",
+        "d_s",
+        "dmu0",
+        "g",
+        "mu0",
+        "mu_rec",
+        "r0",
+        "s0",
+        "sin0",
+    )
 
     def __init__(self, L: Law, Pm: np.ndarray) -> None:
         self.L, self.Pm = L, Pm
         self.c0, self.s0, self.b = Pm[Row.C0], Pm[Row.S0], Pm[Row.B]
         self.mu0, self.A, self.g = Pm[Row.MU0], Pm[Row.A], Pm[Row.G]
-        (self.d_k, self.d_s, self.c, self.r0, self.sin0, self.mu_rec,
-         self.dmu0) = Pm[Row.DK : Row.DMU0 + 1]  # fmt: skip
+        (self.d_k, self.d_s, self.c, self.r0, self.sin0, self.mu_rec, self.dmu0) = Pm[
+            Row.DK : Row.DMU0 + 1
+        ]
 
     @classmethod
     def start(cls, L: Law, A, g, r0, mu0, b, d_s=None) -> Branch:
@@ -206,8 +222,11 @@ def partials(br: Branch, dl: np.ndarray, e: Eval, full: bool = True):
         return H, None, None, None
     c0, sin0, sn = br.c0, br.sin0, e.sn
     okR = (sn > 0.0) & (c0 > 0.0)
-    R = np.where(okR, (e.w / np.where(okR, c0, 1.0)) * sin0 / np.where(okR, sn, 1.0),
-                 np.where(dl == 0.0, 1.0, 0.0))  # fmt: skip
+    R = np.where(
+        okR,
+        (e.w / np.where(okR, c0, 1.0)) * sin0 / np.where(okR, sn, 1.0),
+        np.where(dl == 0.0, 1.0, 0.0),
+    )
     a = L.kappa * dl
     b = br.b
     E, dE = E_dE(a + b)

@@ -54,9 +54,20 @@ class Law:
     """
 
     __slots__ = (
-        "_diag", "an", "at", "cn", "k", "kappa", "len_n", "mu_k", "mu_s", "sqrt2k_inv", "ut",
-        "xi", "zc_cap",
-    )  # fmt: skip
+        "_diag",
+        "an",
+        "at",
+        "cn",
+        "k",
+        "kappa",
+        "len_n",
+        "mu_k",
+        "mu_s",
+        "sqrt2k_inv",
+        "ut",
+        "xi",
+        "zc_cap",
+    )
 
     def __init__(self, p: Any) -> None:
         self.at, self.an = float(p.alpha_t), float(p.alpha_n)

@@ -35,9 +35,14 @@ def integrate(L: Law, inp: Inputs, out: Outputs, cfg: Settings, chunk: int = CHU
             return
         for a in range(0, n, chunk):
             sl = slice(a, min(a + chunk, n))
-            part = Inputs(inp.gap[sl], inp.up[sl], inp.mu[sl], inp.r[sl],
-                          None if inp.f0 is None else inp.f0[sl],
-                          inp.dt if np.ndim(inp.dt) == 0 else inp.dt[sl])  # fmt: skip
+            part = Inputs(
+                inp.gap[sl],
+                inp.up[sl],
+                inp.mu[sl],
+                inp.r[sl],
+                None if inp.f0 is None else inp.f0[sl],
+                inp.dt if np.ndim(inp.dt) == 0 else inp.dt[sl],
+            )
             _chunk(L, part, out.rows(sl), cfg)
 
 
@@ -71,8 +76,29 @@ class Plastic:
         root: The predictor's root (step 4), once solved.
     """
 
-    __slots__ = ("A", "P", "b", "br", "f0t", "f_s", "fn", "fn0", "fn_s", "ft", "g", "g_s", "kind",
-                 "mu_c", "r_c", "rho_s", "root", "s", "t", "tol", "up")  # fmt: skip
+    __slots__ = (
+        "A",
+        "P",
+        "b",
+        "br",
+        "f0t",
+        "f_s",
+        "fn",
+        "fn0",
+        "fn_s",
+        "ft",
+        "g",
+        "g_s",
+        "kind",
+        "mu_c",
+        "r_c",
+        "rho_s",
+        "root",
+        "s",
+        "t",
+        "tol",
+        "up",
+    )
     _start = ("kind", "s", "f0t", "fn0", "f_s", "fn_s", "g_s", "rho_s")
 
     def __init__(self, L: Law, t: Trial, st: Start, P: np.ndarray, tol: float) -> None:

@@ -115,7 +115,8 @@ def quadrature(rho_s, d0, rho1, P, W, A, tau0):
     bc = beta[:, None]
     rho = rhoH + bc * e
     dr = [
-        (1.0 - Y2) + bc * (drel[0] - 1.0 + Y2 + (Pr / rho_s)[:, None] * (Y - Y2))
+        (1.0 - Y2)
+        + bc * (drel[0] - 1.0 + Y2 + (Pr / rho_s)[:, None] * (Y - Y2))
         + e * b_s[:, None],
         Y - Y2,
         Y2 + e * b_1[:, None],
@@ -147,8 +148,7 @@ def quadrature(rho_s, d0, rho1, P, W, A, tau0):
     ex = np.exp(-Wc * Jx)
     T = tau0[:, None] * ex
     TW = T * Wc
-    dT = [ex, -TW * pJ[0], -TW * pJ[1], -TW * pJ[2], -TW * pJ[3], -T * Jx - TW * pJ[4],
-          -TW * pJ[5]]  # fmt: skip
+    dT = [ex, -TW * pJ[0], -TW * pJ[1], -TW * pJ[2], -TW * pJ[3], -T * Jx - TW * pJ[4], -TW * pJ[5]]
     T4 = T[:, :NO]
     Te = tau0[:, None] * q_el[:, :NO]
     den2 = 1.0 + T4 * T4
@@ -160,8 +160,15 @@ def quadrature(rho_s, d0, rho1, P, W, A, tau0):
     ce = -4.0 * Te / (de2 * de2) * GWO
     TeW = Te * Wc
     Je4 = Je[:, :NO]
-    dTe = [q_el[:, :NO], -TeW * dJe[0][:, :NO], None, None, -TeW * dJe[1][:, :NO],
-           -Te * Je4 - TeW * dJe[2][:, :NO], None]  # fmt: skip
+    dTe = [
+        q_el[:, :NO],
+        -TeW * dJe[0][:, :NO],
+        None,
+        None,
+        -TeW * dJe[1][:, :NO],
+        -Te * Je4 - TeW * dJe[2][:, :NO],
+        None,
+    ]
     dC0 = {1: (drel1[0] - 1.0) / W, 4: drel1[1] / W, 5: drel1[2] / W - C0 / W}
     dT = np.stack(dT)  # (7, k, NO + 1)
     dC = np.einsum("ki,qki->qk", cw, dT[:, :, :NO])
@@ -170,7 +177,6 @@ def quadrature(rho_s, d0, rho1, P, W, A, tau0):
     for q, v in dC0.items():
         dC[q] += v
     return C, T[:, NO], dC, dT[:, :, NO]
-
 
 
 def rotates(L: Law, pl) -> np.ndarray:
@@ -248,8 +254,9 @@ def rotate(L: Law, pl, sd: StartDerivatives | None, ddl0, max_iter: int):
     cC[0] = cC[0] * dtf
     cT[0] = cT[0] * dtf
     dC = sum(c[:, None] * bv for c, bv in zip(cC, bases, strict=True) if bv is not None)
-    dth1 = h1[:, None] * sum(c[:, None] * bv for c, bv in zip(cT, bases, strict=True)
-                             if bv is not None)  # fmt: skip
+    dth1 = h1[:, None] * sum(
+        c[:, None] * bv for c, bv in zip(cT, bases, strict=True) if bv is not None
+    )
     # the corrector: phi again with A_eff (the predictor's where the rotated trial is inside)
     Aeff = rho_s + W * C
     dAeff = dW * C[:, None] + W[:, None] * dC
@@ -309,10 +316,13 @@ def _start_slope(L: Law, pl, sd, d_el, dd_el):
     dnum = dd_el / gs_[:, None] - (rho_s * gp / gs2)[:, None] * ddfr
     if sd is not None:
         c_g = -d_el / gs2 + rho_s * cn * dfr / gs2 + 2.0 * rho_s * gp * dfr / (gs2 * gs_)
-        dnum += (c_g[:, None] * sd.dg_s
-                 - (gp * dfr / gs2)[:, None] * sd.drho_s
-                 - (ms0 * r0)[:, None] * sd.db + (b0 * r0)[:, None] * sd.dmu0
-                 - (b0 * ms0)[:, None] * sd.dr0)  # fmt: skip
+        dnum += (
+            c_g[:, None] * sd.dg_s
+            - (gp * dfr / gs2)[:, None] * sd.drho_s
+            - (ms0 * r0)[:, None] * sd.db
+            + (b0 * r0)[:, None] * sd.dmu0
+            - (b0 * ms0)[:, None] * sd.dr0
+        )
         dU = -L.ut * 0.5 * _PI / (sin0_ * sin0_)
         dden = (
             (-L.kappa * (mu0 - mu_k) + dU * mu0)[:, None] * sd.dr0

@@ -152,8 +152,9 @@ def scan(br: Branch, hi, tol_f, max_iter):
         solve &= ~at_lo
         if np.count_nonzero(solve):
             s = act[solve]
-            x, ok, it = rtsafe(br, s, x_left[solve], x_right[solve], x_right[solve], tol_f[s],
-                               max_iter)  # fmt: skip
+            x, ok, it = rtsafe(
+                br, s, x_left[solve], x_right[solve], x_right[solve], tol_f[s], max_iter
+            )
             root[s], conv[s] = x, ok
             iters[s] += it
             finished[solve] = True

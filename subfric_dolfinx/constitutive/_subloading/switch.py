@@ -160,10 +160,15 @@ def split_point(L: Law, sg: Segment):
     if not (n_A or np.count_nonzero(caseB)):
         return s, kind  # (unloading that stays elastic through the segment's end)
     ok_h = (
-        (ROT_LO < rho0) & (rho0 < ROT_HI) & (ROT_LO < W) & (W < ROT_HI) & (A < ROT_HI)
-        & (sg.b < ROT_HI) & (-np.expm1(-L.cn * sg.fn0) > ROT_LO)
+        (ROT_LO < rho0)
+        & (rho0 < ROT_HI)
+        & (ROT_LO < W)
+        & (W < ROT_HI)
+        & (A < ROT_HI)
+        & (sg.b < ROT_HI)
+        & (-np.expm1(-L.cn * sg.fn0) > ROT_LO)
         & (-np.expm1(-L.cn * sg.fn) > ROT_LO)
-    )  # fmt: skip
+    )
     caseB &= ok_h
     if n_A:
         s_f = np.where(caseA, -fw / np.where(ww > 0.0, ww, 1.0), 0.0)
@@ -243,8 +248,21 @@ class Start:
         b, mu_rec: ``xi dt`` of the rest of the step; ``mu`` recovered over it.
     """
 
-    __slots__ = ("b", "d", "f0t", "f_s", "fn0", "fn_s", "g_s", "kind", "mu", "mu_rec", "r",
-                 "rho_s", "s")  # fmt: skip
+    __slots__ = (
+        "b",
+        "d",
+        "f0t",
+        "f_s",
+        "fn0",
+        "fn_s",
+        "g_s",
+        "kind",
+        "mu",
+        "mu_rec",
+        "r",
+        "rho_s",
+        "s",
+    )
 
 
 def start_state(L: Law, t: Trial, f0) -> Start:
@@ -267,8 +285,7 @@ def start_state(L: Law, t: Trial, f0) -> Start:
         sg = Segment(f0t, fn0, t.ft, t.fn, t.A, t.mu, t.b)
         st.s, st.kind = split_point(L, sg)
     elif cand.size:
-        sg = Segment(f0t[cand], fn0[cand], t.ft[cand], t.fn[cand], t.A[cand], t.mu[cand],
-                     t.b[cand])  # fmt: skip
+        sg = Segment(f0t[cand], fn0[cand], t.ft[cand], t.fn[cand], t.A[cand], t.mu[cand], t.b[cand])
         st.s[cand], st.kind[cand] = split_point(L, sg)
     si = st.kind.nonzero()[0]
     if si.size == 0:  # the start traction throughout (views: nothing writes into them)

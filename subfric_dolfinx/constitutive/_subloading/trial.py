@@ -31,8 +31,23 @@ class Trial:
             touching); valid and not in contact; a finite trial magnitude.
     """
 
-    __slots__ = ("A", "all_ok", "b", "contact", "finite", "fn", "ft", "g", "mu", "mu_rec", "ok",
-                 "r", "separated", "touching", "up")  # fmt: skip
+    __slots__ = (
+        "A",
+        "all_ok",
+        "b",
+        "contact",
+        "finite",
+        "fn",
+        "ft",
+        "g",
+        "mu",
+        "mu_rec",
+        "ok",
+        "r",
+        "separated",
+        "touching",
+        "up",
+    )
 
     def __init__(self, L: Law, inp: Inputs, cfg: Settings) -> None:
         gap, up, mu, r, f0, dt = inp.gap, inp.up, inp.mu, inp.r, inp.f0, inp.dt

@@ -154,9 +154,13 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         sorter = np.argsort(slave.facets)
         perm = sorter[np.searchsorted(slave.facets, parents, sorter=sorter)]
         self.slave = dataclasses.replace(
-            slave, facets=slave.facets[perm], cells=slave.cells[perm], nodes=slave.nodes[perm],
-            orientation=slave.orientation[perm], global_facets=slave.global_facets[perm],
-        )  # fmt: skip
+            slave,
+            facets=slave.facets[perm],
+            cells=slave.cells[perm],
+            nodes=slave.nodes[perm],
+            orientation=slave.orientation[perm],
+            global_facets=slave.global_facets[perm],
+        )
         self.n_elements = self.slave.size
         counts = self.comm.allreduce(np.array([self.master.size, self.slave.size]))
         if counts.min() == 0:
@@ -420,9 +424,17 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
             # the segments and the master-side transfer
             with self._time(TIMER_PROJECTION):
                 seg = overlap_points(
-                    Xs, s.cell, s.degree, Ym, Nm, m.cell, m.degree, self.radius,
-                    slave_measure_x=self.X0[s.nodes], rates=self.transfer_in_tangent,
-                )  # fmt: skip
+                    Xs,
+                    s.cell,
+                    s.degree,
+                    Ym,
+                    Nm,
+                    m.cell,
+                    m.degree,
+                    self.radius,
+                    slave_measure_x=self.X0[s.nodes],
+                    rates=self.transfer_in_tangent,
+                )
                 keep = seg.converged.copy()
                 if seg.size:
                     npf = max(self.pf_global.size, 1)

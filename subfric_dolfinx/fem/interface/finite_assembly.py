@@ -179,16 +179,21 @@ class SlidingAssembly:
             Mt = np.einsum("mai,mab,mbj->mij", self._Q[mv], D[mv], E)
             fm, fo = self._facet[mv], self._old_facet[mv]
             out += self._point_blocks(mv, self.pf_nodes[fm], self._Nm[mv], Mt, self._held_now)
-            out += self._point_blocks(
-                mv, self.pf_nodes[fo], -self._N_old[mv], Mt, self._held_old
-            )
+            out += self._point_blocks(mv, self.pf_nodes[fo], -self._N_old[mv], Mt, self._held_old)
         if self.transfer_in_tangent:  # the transfer's change with the geometry
             ps, pm, vb = transfer_tangent(
-                self._segments, self.projector,
-                self._global_tractions().reshape(s.size, nq, gdim), self._Xs,
-                self.X0[s.nodes], s.degree, self._Ym, self.pf_normals, self.master.degree,
-                s.cell, self.master.cell,
-            )  # fmt: skip
+                self._segments,
+                self.projector,
+                self._global_tractions().reshape(s.size, nq, gdim),
+                self._Xs,
+                self.X0[s.nodes],
+                s.degree,
+                self._Ym,
+                self.pf_normals,
+                self.master.degree,
+                s.cell,
+                self.master.cell,
+            )
             held = self._self_held[pm]  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
             if ps.size:
@@ -325,7 +330,6 @@ class SlidingAssembly:
         lift = self.b_ext.array_r[: self.n_owned]
         ba[free] += f[free] + lift[free]
         return bool(self.last.converged)
-
 
 
 def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:

@@ -103,9 +103,7 @@ class FrictionInterface:
         self.V = V
         self.comm = V.mesh.comm
         self.timings = timings
-        self.pairs = pair_interface(
-            V, cell_tags, facet_tags, tag, primary, secondary, name=name
-        )
+        self.pairs = pair_interface(V, cell_tags, facet_tags, tag, primary, secondary, name=name)
         by_region = None
         if regions:
             by_region = (element_regions(self.pairs, groups or {}, list(regions)), dict(regions))
@@ -122,9 +120,11 @@ class FrictionInterface:
         self.force = np.zeros(self.n_owned)
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
-        self._global_nodes = self.index_map.local_to_global(
-            self.elements.nodes.ravel()
-        ).reshape(self.elements.nodes.shape).astype(PETSc.IntType)
+        self._global_nodes = (
+            self.index_map.local_to_global(self.elements.nodes.ravel())
+            .reshape(self.elements.nodes.shape)
+            .astype(PETSc.IntType)
+        )
         self._mask_ext: PETSc.Vec | None = None
         self._work: PETSc.Vec | None = None
 
@@ -399,9 +399,7 @@ def _bc_values(
     return dofs, values[dofs]
 
 
-def create_matrix(
-    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]
-) -> PETSc.Mat:
+def create_matrix(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> PETSc.Mat:
     """A matrix with every bulk cell's block and every interface's couplings preallocated.
 
     Assemble the bulk into it with DOLFINx (``dolfinx.fem.petsc.assemble_matrix``) and the
@@ -410,9 +408,7 @@ def create_matrix(
     return layout_of(V, interfaces).create_matrix()
 
 
-def layout_of(
-    V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]
-) -> ExtendedLayout:
+def layout_of(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> ExtendedLayout:
     """The :class:`~.layout.ExtendedLayout` of all interfaces on ``V`` (collective)."""
     parts = [el.layout_parts() for el in interfaces]
     if len(parts) == 1:

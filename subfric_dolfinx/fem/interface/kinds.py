@@ -16,9 +16,17 @@ KINEMATICS = ("small_sliding", "finite_sliding")
 
 
 def make_interface(
-    spec: Any, V: Any, cell_tags: Any, facet_tags: Any, tag: int, primary: Any, secondary: Any,
-    groups: Any, mode: str, timings: Any,
-) -> FrictionInterface | SlidingInterface:  # fmt: skip
+    spec: Any,
+    V: Any,
+    cell_tags: Any,
+    facet_tags: Any,
+    tag: int,
+    primary: Any,
+    secondary: Any,
+    groups: Any,
+    mode: str,
+    timings: Any,
+) -> FrictionInterface | SlidingInterface:
     """The interface object of one resolved :class:`~..conditions.Interface` (its ``kinematics``).
 
     Raises:
@@ -27,20 +35,42 @@ def make_interface(
     kind = spec.kinematics or "small_sliding"
     if kind == "small_sliding":
         return FrictionInterface(
-            V, cell_tags, facet_tags, spec.law, tag=tag, primary=primary, secondary=secondary,
-            name=spec.group, quadrature=spec.quadrature, initial_gap=spec.initial_gap,
-            regions=spec.regions, groups=groups, mode=mode, timings=timings,
-        )  # fmt: skip
+            V,
+            cell_tags,
+            facet_tags,
+            spec.law,
+            tag=tag,
+            primary=primary,
+            secondary=secondary,
+            name=spec.group,
+            quadrature=spec.quadrature,
+            initial_gap=spec.initial_gap,
+            regions=spec.regions,
+            groups=groups,
+            mode=mode,
+            timings=timings,
+        )
     if kind == "finite_sliding":
         if spec.regions:
             raise InterfaceError(
                 f"interface {spec.group!r}: regions are not available with finite sliding"
             )
         return SlidingInterface(
-            V, cell_tags, facet_tags, spec.law, tag=tag, primary=primary, secondary=secondary,
-            name=spec.group, quadrature=spec.quadrature, initial_gap=spec.initial_gap,
-            mode=mode, timings=timings, search_radius=spec.search_radius, reach=spec.reach,
-        )  # fmt: skip
+            V,
+            cell_tags,
+            facet_tags,
+            spec.law,
+            tag=tag,
+            primary=primary,
+            secondary=secondary,
+            name=spec.group,
+            quadrature=spec.quadrature,
+            initial_gap=spec.initial_gap,
+            mode=mode,
+            timings=timings,
+            search_radius=spec.search_radius,
+            reach=spec.reach,
+        )
     raise InterfaceError(
         f"interface {spec.group!r}: kinematics {kind!r} is not one of {list(KINEMATICS)}"
     )

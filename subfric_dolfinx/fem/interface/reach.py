@@ -45,7 +45,6 @@ def _near(points, extent, X, Nn, radius) -> tuple[np.ndarray, np.ndarray]:
     return near_pairs(points, extent, X, Nn, radius)
 
 
-
 class ReachSearch:
     """The search part of :class:`~.finite.SlidingInterface` (the interface's attributes).
 
@@ -282,4 +281,3 @@ class ReachSearch:
         m = self.master
         B = facet_basis(m.cell, m.degree, self.xi_old[pf], 1)
         self.tan_old[pf] = np.einsum("amk,mkd->mda", B[1:], Ym[self.pf_old[pf]])
-

@@ -229,9 +229,11 @@ def overlap_points(
     # vertex position and normal) once (row by row, the same numbers)
     sv = np.repeat(si, nv)
     _, first, back = np.unique(
-        np.column_stack([sv.astype(float), xv, nvv]), axis=0, return_index=True,
+        np.column_stack([sv.astype(float), xv, nvv]),
+        axis=0,
+        return_index=True,
         return_inverse=True,
-    )  # fmt: skip
+    )
     back = back.reshape(-1)
     xu, nu, Ys = xv[first], nvv[first], slave_x[sv[first]]
     # preimages may lie far outside a slave facet much smaller than the master's: start from
@@ -281,8 +283,9 @@ def overlap_points(
     else:
         count = np.full(poly.shape[0], nv)
         if rates:
-            poly_r = _preimage_rates(pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order,
-                                     master_x.shape[1])  # fmt: skip
+            poly_r = _preimage_rates(
+                pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order, master_x.shape[1]
+            )
             clipped, cnt, clipped_r = clip_to_reference(poly, count, slave_cell, poly_r)
         else:
             clipped, cnt = clip_to_reference(poly, count, slave_cell)
@@ -306,9 +309,11 @@ def overlap_points(
                 dJ = np.stack([r1 - r0, r2 - r0], axis=2)  # (n, 2, 2, m)
                 Jb = J[big]
                 ddet = (
-                    dJ[:, 0, 0] * Jb[:, 1, 1, None] + Jb[:, 0, 0, None] * dJ[:, 1, 1]
-                    - dJ[:, 0, 1] * Jb[:, 1, 0, None] - Jb[:, 0, 1, None] * dJ[:, 1, 0]
-                )  # fmt: skip
+                    dJ[:, 0, 0] * Jb[:, 1, 1, None]
+                    + Jb[:, 0, 0, None] * dJ[:, 1, 1]
+                    - dJ[:, 0, 1] * Jb[:, 1, 0, None]
+                    - Jb[:, 0, 1, None] * dJ[:, 1, 0]
+                )
                 xr_l.append(r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X))
                 wr_l.append(np.sign(det[big])[:, None, None] * ddet[:, None, :] * w[None, :, None])
         if not pair_l:
@@ -367,9 +372,14 @@ def _preimage_rates(
     nfd_s, gdim = Ys.shape[1], Ys.shape[2]
     fdim, nv = gdim - 1, len(order)
     Ainv, N = projection_jacobian(
-        xu, Ys, np.repeat(nu[:, None, :], nfd_s, axis=1), slave_cell, slave_degree,
-        pre_u.xi, pre_u.gamma,
-    )  # fmt: skip
+        xu,
+        Ys,
+        np.repeat(nu[:, None, :], nfd_s, axis=1),
+        slave_cell,
+        slave_degree,
+        pre_u.xi,
+        pre_u.gamma,
+    )
     D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
     Nk = N[back].reshape(-1, nv, nfd_s)[ok]
     R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m, gdim))

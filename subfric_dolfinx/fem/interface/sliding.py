@@ -83,9 +83,7 @@ def gap_operator(
     return G, N, Ainv[:, :fdim, :]
 
 
-def frame_rate(
-    Nn: np.ndarray, cell: basix.CellType, degree: int, xi: np.ndarray
-) -> np.ndarray:
+def frame_rate(Nn: np.ndarray, cell: basix.CellType, degree: int, xi: np.ndarray) -> np.ndarray:
     """How a 2-D frame ``(e1, -n)`` turns as the projection moves along the facet (2-D only).
 
     The normal ``n = n~(xi) / |n~(xi)|`` turns with the projection (the nodal normals held):
@@ -131,11 +129,7 @@ def transport(v: np.ndarray, n_old: np.ndarray, n_new: np.ndarray) -> np.ndarray
     ok = c > -1.0 + 1e-12
     f = np.where(ok, 1.0 / np.where(ok, 1.0 + c, 1.0), 0.0)
     # Rodrigues: v c + k x v + k (k . v) / (1 + c)
-    out = (
-        c[:, None] * v
-        + np.cross(k, v)
-        + (f * np.einsum("md,md->m", k, v))[:, None] * k
-    )
+    out = c[:, None] * v + np.cross(k, v) + (f * np.einsum("md,md->m", k, v))[:, None] * k
     return np.where(ok[:, None], out, v)
 
 

@@ -61,14 +61,20 @@ def pressed_patch(comm, cell, degree, n_base, n_block, p, mode=None):
     pressed by ``p`` on top in two steps; the problem, the step records, the gathered tractions."""
     dom = tagged_blocks(comm, n_base=n_base, n_block=n_block, cell=cell, split_x=0.5)
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3),
+        {"base": STEEL, "block": STEEL},
         LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
-        [Dirichlet("bottom", 0.0, 1), Dirichlet("base_left", 0.0, 0),
-         Dirichlet("block_left", 0.0, 0)],
+        [
+            Dirichlet("bottom", 0.0, 1),
+            Dirichlet("base_left", 0.0, 0),
+            Dirichlet("block_left", 0.0, 0),
+        ],
         [Pressure("top", p, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
-        degree=degree, mode=mode,
-    )  # fmt: skip
+        degree=degree,
+        mode=mode,
+    )
     with FrictionSolver(problem, linear="lu") as solver:
         records = LoadStepper(solver, 0.5).run()
     return problem, records, gather(comm, problem.interfaces["contact"].last.traction)
@@ -101,9 +107,12 @@ def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree,
 
 @pytest.mark.parametrize(
     "cell, degree, n_base, n_block",
-    [("triangle", 1, (3, 2), (2, 2)), ("triangle", 2, (3, 2), (2, 2)),
-     ("quadrilateral", 2, (2, 1), (3, 2))],
-)  # fmt: skip
+    [
+        ("triangle", 1, (3, 2), (2, 2)),
+        ("triangle", 2, (3, 2), (2, 2)),
+        ("quadrilateral", 2, (2, 1), (3, 2)),
+    ],
+)
 def test_axisymmetric_nonmatching_patch_test(comm, cell, degree, n_base, n_block):
     """Two discs (x = r) stacked, meshed apart, pressed: the exact solution is a uniform
     ``sigma_zz = -p`` (``u_r = nu p r / E``, in the FE space), the interface transmits it
@@ -138,15 +147,29 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     h, push = 2.5, 5.0
     domain, _ = meshing.create_interface_mesh(sf.build, comm, interfaces=sf.SIDES, h=h)
     problem = InterfaceProblem(
-        domain, CoulombLaw(alpha_t=sf.ALPHA, alpha_n=sf.ALPHA, mu_c=sf.MU),
+        domain,
+        CoulombLaw(alpha_t=sf.ALPHA, alpha_n=sf.ALPHA, mu_c=sf.MU),
         {"shaft": STEEL, "hub": STEEL},
         LoadingProgram([0.0, 1.0, 2.0], {"push": [0.0, 0.0, 1.0]}),
-        [Dirichlet("axis", 0.0, component=0), Dirichlet("hub_ends", 0.0, component=1),
-         Dirichlet("shaft", push, component=1, amplitude="push")],
-        degree=2, mode="axisymmetric",
-        interfaces=[Interface("fit", "hub", "shaft", kinematics="finite_sliding",
-                              initial_gap=-sf.DELTA, search_radius=0.1, reach=2 * h)],
-    )  # fmt: skip
+        [
+            Dirichlet("axis", 0.0, component=0),
+            Dirichlet("hub_ends", 0.0, component=1),
+            Dirichlet("shaft", push, component=1, amplitude="push"),
+        ],
+        degree=2,
+        mode="axisymmetric",
+        interfaces=[
+            Interface(
+                "fit",
+                "hub",
+                "shaft",
+                kinematics="finite_sliding",
+                initial_gap=-sf.DELTA,
+                search_radius=0.1,
+                reach=2 * h,
+            )
+        ],
+    )
     iface, p0, rows = problem.interfaces["fit"], sf.lame_pressure(), []
 
     def on_step(rec):
@@ -154,10 +177,17 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
         z = iface.points[:, 1] + push * max(rec.t - 1.0, 0.0)  # the shaft moves rigidly in z
         out = z > sf.L + 1e-6
         fn = iface.last.traction[:, 1]
-        rows.append((rec.t, rec.iterations, problem.reactions["shaft"][1],
-                     problem.reactions["hub_ends"][1], s["F_n"],
-                     comm.allreduce(int(np.count_nonzero(fn[out] != 0.0))),
-                     comm.allreduce(np.abs(fn / p0 - 1.0).max(initial=0.0), op=MPI.MAX)))
+        rows.append(
+            (
+                rec.t,
+                rec.iterations,
+                problem.reactions["shaft"][1],
+                problem.reactions["hub_ends"][1],
+                s["F_n"],
+                comm.allreduce(int(np.count_nonzero(fn[out] != 0.0))),
+                comm.allreduce(np.abs(fn / p0 - 1.0).max(initial=0.0), op=MPI.MAX),
+            )
+        )
 
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 0.5, hold_dt=1.0, on_step=on_step).run()
@@ -182,19 +212,33 @@ def slide_problem(comm, p, slide, law, n_base=36):
     the interface follows the same slip path; the pressure is applied on top."""
     length = 2.0 + slide
     dom = tagged_blocks(
-        comm, base=(0.0, length, -1.0, 0.0), block=(0.5, 1.5, 0.0, 1.0),
-        n_base=(max(n_base, int(3 * length)), 1), n_block=(2, 2), split_x=length / 2,
-    )  # fmt: skip
-    program = LoadingProgram([0.0, 0.1, 0.2, 1.0], {
-        "press": [0, 1, 1, 1], "slide": [0, 0, 0.5 / slide, 1.0]
-    })  # fmt: skip
+        comm,
+        base=(0.0, length, -1.0, 0.0),
+        block=(0.5, 1.5, 0.0, 1.0),
+        n_base=(max(n_base, int(3 * length)), 1),
+        n_block=(2, 2),
+        split_x=length / 2,
+    )
+    program = LoadingProgram(
+        [0.0, 0.1, 0.2, 1.0], {"press": [0, 1, 1, 1], "slide": [0, 0, 0.5 / slide, 1.0]}
+    )
     return InterfaceProblem(
-        dom, law, {"base": STEEL, "block": STEEL}, program,
+        dom,
+        law,
+        {"base": STEEL, "block": STEEL},
+        program,
         [Dirichlet("base", (0.0, 0.0)), Dirichlet("block", slide, 0, amplitude="slide")],
         [Pressure("top", p, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=2.5 * p / law.alpha_n)],
-    )  # fmt: skip
+        interfaces=[
+            Interface(
+                "contact",
+                "base",
+                "block",
+                kinematics="finite_sliding",
+                search_radius=2.5 * p / law.alpha_n,
+            )
+        ],
+    )
 
 
 def run_slide(comm, problem, dt):
@@ -209,9 +253,17 @@ def run_slide(comm, problem, dt):
         tr, w = iface.last.traction, iface.weights
         f = problem.interface_force.reshape(-1, 2)[base_nodes]
         sums = comm.allreduce(
-            np.array([w @ tr[:, 0], w @ tr[:, 1], w @ iface.last_gap[:, 1], w.sum(),
-                      f[:, 1].sum(), f[:, 1] @ X[base_nodes, 0]])
-        )  # fmt: skip
+            np.array(
+                [
+                    w @ tr[:, 0],
+                    w @ tr[:, 1],
+                    w @ iface.last_gap[:, 1],
+                    w.sum(),
+                    f[:, 1].sum(),
+                    f[:, 1] @ X[base_nodes, 0],
+                ]
+            )
+        )
         ft, fn, gn, area, fy, my = sums
         slide = problem.program.amplitude("slide", rec.t)
         rows.append(
@@ -276,11 +328,14 @@ def test_finite_sliding_on_a_matching_mesh_is_small_sliding_at_small_slip(comm):
         dom = tagged_blocks(comm, n_base=(4, 2), n_block=(4, 2), split_x=0.5)
         program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
         problem = InterfaceProblem(
-            dom, law, {"base": STEEL, "block": STEEL}, program,
+            dom,
+            law,
+            {"base": STEEL, "block": STEEL},
+            program,
             [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1e-6, 0, amplitude="slide")],
             [Pressure("top", 100.0, amplitude="press")],
             interfaces=[Interface("contact", "base", "block", kinematics=kind)],
-        )  # fmt: skip
+        )
         with FrictionSolver(problem, linear="lu") as solver:
             LoadStepper(solver, 0.5).run()
         out[kind] = problem.interface_force.copy()
@@ -294,8 +349,12 @@ def test_finite_sliding_on_a_matching_mesh_is_small_sliding_at_small_slip(comm):
 
 def test_unknown_kinematics_are_named(comm):
     dom = tagged_blocks(comm)
-    args = (dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
-            LoadingProgram([0.0, 1.0], {"press": [0, 1]}))  # fmt: skip
+    args = (
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3),
+        {"base": STEEL, "block": STEEL},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+    )
     with raised_on_every_rank(InterfaceError, "kinematics 'large' is not one of"):
         InterfaceProblem(
             *args, interfaces=[Interface("contact", "base", "block", kinematics="large")]
@@ -325,15 +384,20 @@ def turn_hub(comm, geometry_degree, n_inner=48, n_outer=64, facets=3):
         return f
 
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=mu),
+        dom,
+        CoulombLaw(alpha_t=alpha, alpha_n=alpha, mu_c=mu),
         {"shaft": Material(E, nu), "hub": Material(E, nu)},
         LoadingProgram([0.0, 0.1, 1.1], {"turn": [0, 0, 1]}),
-        [DirichletField("shaft", rotation(0), 0), DirichletField("shaft", rotation(1), 1),
-         Dirichlet("outer", (0.0, 0.0))],
-        interfaces=[Interface("contact", "shaft", "hub", kinematics="finite_sliding",
-                              initial_gap=-delta)],
+        [
+            DirichletField("shaft", rotation(0), 0),
+            DirichletField("shaft", rotation(1), 1),
+            Dirichlet("outer", (0.0, 0.0)),
+        ],
+        interfaces=[
+            Interface("contact", "shaft", "hub", kinematics="finite_sliding", initial_gap=-delta)
+        ],
         degree=2,
-    )  # fmt: skip
+    )
     # Lame: the hub ring with u(R) = delta - p / alpha (the penalty's share), u(r2) = 0
     lam, G = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
     k = -(2 * (lam + G) + 2 * G * r2**2 / R**2) / (R - r2**2 / R)
@@ -377,13 +441,15 @@ def test_nonmatching_patch_test_in_3d(comm, degree):
     dom = tagged_boxes(comm, n_base=(3, 3, 1), n_block=(2, 2, 1), split_x=0.5)
     p = 100.0
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3),
+        {"base": STEEL, "block": STEEL},
         LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
         [Dirichlet("bottom", 0.0, 2), Dirichlet("x0", 0.0, 0), Dirichlet("y0", 0.0, 1)],
         [Pressure("top", p, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
         degree=degree,
-    )  # fmt: skip
+    )
     iface = problem.interfaces["contact"]
     with FrictionSolver(problem, linear="lu") as solver:
         records = LoadStepper(solver, 1.0).run()
@@ -409,13 +475,20 @@ def test_3d_block_slides_diagonally_like_a_material_point(comm):
         [0.0, 0.1, 0.2, 1.0], {"press": [0, 1, 1, 1], "slide": [0, 0, 0.1, 1.0]}
     )
     problem = InterfaceProblem(
-        dom, law, {"base": STEEL, "block": STEEL}, program,
-        [Dirichlet("base", (0.0, 0.0, 0.0)), Dirichlet("block", e[0], 0, amplitude="slide"),
-         Dirichlet("block", e[1], 1, amplitude="slide")],
+        dom,
+        law,
+        {"base": STEEL, "block": STEEL},
+        program,
+        [
+            Dirichlet("base", (0.0, 0.0, 0.0)),
+            Dirichlet("block", e[0], 0, amplitude="slide"),
+            Dirichlet("block", e[1], 1, amplitude="slide"),
+        ],
         [Pressure("top", p, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding",
-                              search_radius=1.5)],
-    )  # fmt: skip
+        interfaces=[
+            Interface("contact", "base", "block", kinematics="finite_sliding", search_radius=1.5)
+        ],
+    )
     iface = problem.interfaces["contact"]
     rows = []
 
@@ -489,10 +562,13 @@ def test_the_reader_takes_sides_meshed_apart_for_finite_sliding(comm):
     assert dom.interfaces["contact"].kinematics == "finite_sliding"
     p = 50.0
     problem = InterfaceProblem(
-        dom, CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3), {"base": STEEL, "block": STEEL},
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.3),
+        {"base": STEEL, "block": STEEL},
         LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
-        [Dirichlet("bottom", (0.0, 0.0))], [Pressure("top", p, amplitude="press")],
-    )  # fmt: skip
+        [Dirichlet("bottom", (0.0, 0.0))],
+        [Pressure("top", p, amplitude="press")],
+    )
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)  # the mesh's kinematics
     sizes = comm.allreduce(np.array([iface.master.size, iface.slave.size]))

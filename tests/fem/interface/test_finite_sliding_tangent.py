@@ -50,17 +50,24 @@ pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 def problem_2d(comm, law, degree):
     dom = tagged_blocks(
-        comm, base=(0.0, 4.0, -1.0, 0.0), block=(1.0, 2.0, 0.0, 1.0),
-        n_base=(7, 2), n_block=(3, 2), split_x=2.0,
-    )  # fmt: skip
+        comm,
+        base=(0.0, 4.0, -1.0, 0.0),
+        block=(1.0, 2.0, 0.0, 1.0),
+        n_base=(7, 2),
+        n_block=(3, 2),
+        split_x=2.0,
+    )
     program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
     return InterfaceProblem(
-        dom, law, {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)}, program,
+        dom,
+        law,
+        {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)},
+        program,
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")],
         [Pressure("top", 300.0, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
         degree=degree,
-    )  # fmt: skip
+    )
 
 
 def mid_step(solver, t_stop, t, dt):

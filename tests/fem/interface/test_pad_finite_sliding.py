@@ -27,9 +27,7 @@ STEPS = 12  # press in 2, to +0.5 mm in 4, back to -0.5 mm in 6
 
 def history(comm: MPI.Comm, kinematics: str) -> np.ndarray:
     """(step, [t, F_t1, F_n, separated fraction, Newton]) of the 12-step program, n = 4."""
-    pad = fe_scaling.build_pad(
-        comm, 4, "lu", STEPS, kinematics, alpha_n=fe_scaling.FINITE_ALPHA_N
-    )
+    pad = fe_scaling.build_pad(comm, 4, "lu", STEPS, kinematics, alpha_n=fe_scaling.FINITE_ALPHA_N)
     rows = []
 
     def on_step(rec):

@@ -148,7 +148,7 @@ def test_a_rank_without_interface_receives_nothing(cell_type):
 
 @pytest.mark.parametrize("kind", ["bodies", "together"])
 def test_what_each_rank_receives_is_its_own_interface(kind):
-    """"bodies" (masters on rank 0, slaves on rank 1): rank 0 receives exactly the slave facets
+    """ "bodies" (masters on rank 0, slaves on rank 1): rank 0 receives exactly the slave facets
     of its masters, rank 1 (no master) nothing. "together" (each pair on one rank): no rank
     receives anything, though each has half the interface."""
     comm = MPI.COMM_WORLD
