@@ -1,16 +1,19 @@
 """Run every demo as the README's table says and keep what the README and the docs quote.
 
-    ./run exec python3 docs/demo_results.py            # all (about 15 minutes on 2 cores)
+    ./run exec python3 docs/demo_results.py            # all (about 5 minutes on 2 cores)
     ./run exec python3 docs/demo_results.py --only lap_joint punch
 
-Each run is ``mpirun -n 2 python3 docs/demo_results.py --child KEY`` (the numpy-only demos: one
-process), which calls the demo's ``main`` with its default options (or those of :data:`RUNS`),
-times it, and writes on rank 0 what the demo measured (:func:`numbers`), the warnings it issued
-and its wall time. This script then copies the figures of the default runs into
-``docs/figures/<demo>/`` (the demo pages show them) and writes ``docs/demo_results.json``,
-stamped with the code it measured (``report/stamp.py``: ``constitutive/``, ``fem/``, ``demos/``).
-``tests/demos/test_readme.py`` checks every number the README quotes from it, and that the stamp
-still describes the code.
+(``./run refresh`` runs this with the report and rewrites the quotes.) Each run is ``mpirun -n 2
+python3 docs/demo_results.py --child KEY`` (the numpy-only demos: one process), which calls the
+demo's ``main`` with the options of :data:`RUNS` and writes on rank 0 what the demo measured
+(:func:`numbers`) and the warnings it issued; the wall time recorded is that of the whole command
+(start-up included: what a user typing it waits). Besides each demo's default run (and the
+variants the README quotes) every demo has a run at its smallest size (``<demo>_small``, the
+sizes of :data:`SMALL`): ``tests/demos/test_records.py`` re-runs those and the cheap quoted runs
+on the current code and compares what they measure with these records. This script then copies
+the figures of the default runs into ``docs/figures/<demo>/`` (the demo pages show them) and
+writes ``docs/demo_results.json``, stamped with the commit, date and load of the run
+(``report/stamp.py``; each run carries its own stamp too).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import sys
 import tempfile
 import time
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,26 +41,74 @@ if not __package__:  # run as a script, not imported as docs.demo_results: the r
     sys.path.insert(0, str(ROOT))
 from report import stamp as stamps  # noqa: E402
 
-# key -> (demo, options, MPI ranks, figures of this run go to the docs)
-RUNS: dict[str, tuple[str, list[str], int, bool]] = {
-    "block_on_base": ("block_on_base", [], 2, True),
-    "pad_on_plate": ("pad_on_plate", [], 2, True),
-    "punch": ("punch", [], 2, True),
-    "lap_joint": ("lap_joint", [], 2, True),
-    "bolted_joint": ("bolted_joint", [], 2, True),
-    "paper_figures": ("paper_figures", [], 1, True),
-    "calibration": ("calibration", [], 1, True),
-    "two_bodies_api": ("two_bodies_api", [], 2, True),
-    "hertz": ("hertz", [], 2, True),
-    "hertz_n4": ("hertz", ["--n", "4"], 2, False),
-    "hertz_n8": ("hertz", ["--n", "8"], 2, False),
-    "cattaneo_mindlin": ("cattaneo_mindlin", [], 2, True),
-    "cattaneo_mindlin_n4": ("cattaneo_mindlin", ["--n", "4", "--no-subloading"], 2, False),
-    "cattaneo_mindlin_n16": ("cattaneo_mindlin", ["--n", "16", "--no-subloading"], 2, False),
-    "elastic_smoke": ("elastic_smoke", [], 2, False),
+
+@dataclass(frozen=True)
+class Run:
+    """One recorded run of a demo.
+
+    Attributes:
+        demo: The demo (``demos/<demo>.py``).
+        options: Its command-line options.
+        ranks: MPI ranks (1: a plain process).
+        figures: Its figures go to the docs' demo page.
+    """
+
+    demo: str
+    options: tuple[str, ...] = ()
+    ranks: int = 2
+    figures: bool = False
+
+    @property
+    def command(self) -> list[str]:
+        """The command a user types for this run."""
+        cmd = ["python3", f"demos/{self.demo}.py", *self.options]
+        return ["mpirun", "-n", str(self.ranks), *cmd] if self.ranks > 1 else cmd
+
+
+DEMOS = sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__")
+"""Every demo of the repository."""
+
+NUMPY_ONLY = ("calibration", "paper_figures")
+"""Demos without MPI or DOLFINx: recorded in one process."""
+
+SMALL: dict[str, tuple[str, ...]] = {
+    "block_on_base": ("--n", "4", "--hold", "1", "--dt", "0.1"),
+    "pad_on_plate": ("--n", "2", "--holds", "0", "5", "--dt", "0.1"),
+    "punch": ("--n", "4", "--dt", "0.1"),
+    "lap_joint": ("--n", "4", "--cycles", "2", "--dt", "0.2"),
+    "elastic_smoke": ("--n", "4"),
+    "paper_figures": ("--quick", "--only", "fig5"),
+    "calibration": ("--quick",),
+    "hertz": ("--n", "4"),
+    "cattaneo_mindlin": ("--n", "4", "--no-subloading"),
+    "bolted_joint": ("--n", "2", "--cycles", "1"),
+    "user_loop": ("--n", "4", "--dt", "0.25"),
+    "shrink_fit": ("--h", "5", "--steps", "4"),
+    "bolt_clamped_joint": ("--h", "5", "--cycles", "1", "--dt", "1"),
+    "fretting": ("--n", "4", "--cycles", "1", "--steps", "4", "--no-subloading"),
+    "block_sliding_far": ("--n", "4", "--slide", "20"),
+    "two_bodies_api": ("--n", "4", "--dt", "0.1"),
 }
-for _demo in sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__init__"):
-    RUNS.setdefault(_demo, (_demo, [], 2, True))  # a demo added later: its default run, 2 ranks
+"""Each demo's smallest configuration (the test suite's sizes)."""
+
+
+def _runs() -> dict[str, Run]:
+    runs = {
+        "hertz_n4": Run("hertz", ("--n", "4")),
+        "hertz_n8": Run("hertz", ("--n", "8")),
+        "cattaneo_mindlin_n4": Run("cattaneo_mindlin", ("--n", "4", "--no-subloading")),
+        "cattaneo_mindlin_n16": Run("cattaneo_mindlin", ("--n", "16", "--no-subloading")),
+    }
+    for demo in DEMOS:
+        ranks = 1 if demo in NUMPY_ONLY else 2
+        runs[demo] = Run(demo, (), ranks, figures=demo != "elastic_smoke")
+        if demo in SMALL:
+            runs[f"{demo}_small"] = Run(demo, SMALL[demo], ranks)
+    return dict(sorted(runs.items()))
+
+
+RUNS: dict[str, Run] = _runs()
+"""Every recorded run by key: each demo's default run, its smallest one, the quoted variants."""
 
 
 def plain(v: Any, limit: int = 64) -> Any:
@@ -118,48 +170,58 @@ def numbers(demo: str, result: Any) -> dict[str, Any]:
     return plain(info) if info is not None else {}
 
 
-def child(key: str, out: Path) -> None:
-    """Run one demo in this (MPI) process; rank 0 writes ``out/result.json``."""
+def measure(key: str, files: Path, comm: Any = None) -> dict[str, Any]:
+    """Run ``RUNS[key]`` in this process (on ``comm``'s ranks); what it measured and warned.
+
+    Args:
+        key: The run.
+        files: The demo's output directory (``--out``).
+        comm: The communicator of the demo's ``main`` (``None``: a numpy-only demo, or
+            ``MPI.COMM_WORLD``).
+
+    Returns:
+        ``{"numbers": ..., "warnings": [...], "main_s": ...}`` on every rank (the warnings of the
+        package's own classes, as text).
+    """
     import importlib
     import inspect
 
-    demo, options, ranks, _ = RUNS[key]
-    module = importlib.import_module(f"demos.{demo}")
-    argv = [*options, "--out", str(out / "files")]
+    run = RUNS[key]
+    module = importlib.import_module(f"demos.{run.demo}")
+    argv = [*run.options, "--out", str(files)]
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
         t0 = time.perf_counter()
-        if ranks > 1:
-            from mpi4py import MPI
+        if run.demo in NUMPY_ONLY:
+            result = module.main(argv)
+        else:
+            if comm is None:
+                from mpi4py import MPI
 
-            comm = MPI.COMM_WORLD
+                comm = MPI.COMM_WORLD
             takes_comm = "comm" in inspect.signature(module.main).parameters
             result = module.main(argv, comm) if takes_comm else module.main(argv)
-            wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-            rank = comm.rank
-        else:
-            result = module.main(argv)
-            wall = time.perf_counter() - t0
-            rank = 0
-    if rank == 0:
-        ours = sorted(
-            {
-                f"{w.category.__name__}: {w.message}"
-                for w in seen
-                if w.category.__module__.startswith("subfric_dolfinx")
-            }
-        )
-        record = {
-            "command": ["mpirun", "-n", str(ranks), "python3", f"demos/{demo}.py", *options]
-            if ranks > 1
-            else ["python3", f"demos/{demo}.py", *options],
-            "ranks": ranks,
-            "wall_s": wall,
-            "load": os.getloadavg()[0],
-            "warnings": ours,
-            "numbers": numbers(demo, result),
+        main_s = time.perf_counter() - t0
+    ours = sorted(
+        {
+            f"{w.category.__name__}: {w.message}"
+            for w in seen
+            if w.category.__module__.startswith("subfric_dolfinx")
         }
-        (out / "result.json").write_text(json.dumps(record, indent=1, default=float))
+    )
+    return {"numbers": numbers(run.demo, result), "warnings": ours, "main_s": main_s}
+
+
+def child(key: str, out: Path) -> None:
+    """Run one demo in this (MPI) process; rank 0 writes ``out/result.json``."""
+    rec = measure(key, out / "files")
+    rank = 0
+    if RUNS[key].demo not in NUMPY_ONLY:
+        from mpi4py import MPI
+
+        rank = MPI.COMM_WORLD.rank
+    if rank == 0:
+        (out / "result.json").write_text(json.dumps(rec, indent=1, default=float))
 
 
 def main() -> int:
@@ -174,59 +236,54 @@ def main() -> int:
         default=RESULTS,
         help="the results file (another one to run several jobs at once)",
     )
-    ap.add_argument(
-        "--merge",
-        type=Path,
-        nargs="+",
-        help="merge these results files (of the same code) into --results, run none",
-    )
     args = ap.parse_args()
     if args.child:
         child(args.child, Path(args.dir))
         return 0
     results = args.results.resolve()
-    data = json.loads(results.read_text()) if results.exists() else {"demos": {}}
-    stamp = stamps.make(stamps.DEMOS_MEASURE)
-    if data.get("stamp", {}).get("trees") != stamp["trees"] or stamp["dirty"]:
-        data["demos"] = {}  # results of other code: not mixed with these
-    if args.merge:
-        for other in args.merge:
-            more = json.loads(other.read_text())
-            if more["stamp"]["trees"] != stamp["trees"] or more["stamp"]["dirty"]:
-                raise SystemExit(f"{other} measured other code: not merged")
-            data["demos"].update(more["demos"])
-        write(data, stamp, results)
-        return 0
+    data = json.loads(results.read_text()) if results.exists() and args.only else {"demos": {}}
+    stamp = stamps.make()
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     for key in args.only or list(RUNS):
-        demo, _, ranks, keep_figures = RUNS[key]
+        run = RUNS[key]
         with tempfile.TemporaryDirectory(
             dir=ROOT / "scratch" if (ROOT / "scratch").is_dir() else None
         ) as tmp:
             cmd = [sys.executable, __file__, "--child", key, "--dir", tmp]
-            if ranks > 1:
-                cmd = ["mpirun", "-n", str(ranks), *cmd]
-            print(f"[demo_results] {key}: {' '.join(cmd[:4])} ...", flush=True)
+            if run.ranks > 1:
+                cmd = ["mpirun", "-n", str(run.ranks), *cmd]
+            print(f"[demo_results] {key}: {' '.join(run.command)} ...", flush=True)
+            t0 = time.perf_counter()
             p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+            wall = time.perf_counter() - t0
             if p.returncode != 0:
                 print(p.stdout[-3000:], p.stderr[-3000:])
                 raise SystemExit(f"{key} failed with exit code {p.returncode}")
-            record = json.loads((Path(tmp) / "result.json").read_text())
+            measured = json.loads((Path(tmp) / "result.json").read_text())
+            record = {
+                "command": run.command,
+                "ranks": run.ranks,
+                "wall_s": wall,
+                "main_s": measured["main_s"],
+                "warnings": measured["warnings"],
+                "numbers": measured["numbers"],
+                "stamp": stamps.make(),
+            }
             data["demos"][key] = record
             print(
-                f"[demo_results] {key}: {record['wall_s']:.1f} s, warnings "
-                f"{record['warnings'] or 'none'}",
+                f"[demo_results] {key}: {wall:.1f} s, warnings {record['warnings'] or 'none'}",
                 flush=True,
             )
-            if keep_figures:
-                dest = FIGURES / demo
+            if run.figures:
+                dest = FIGURES / run.demo
                 shutil.rmtree(dest, ignore_errors=True)
                 dest.mkdir(parents=True)
                 files = Path(tmp) / "files"
                 for png in sorted(files.rglob("*.png")):
                     rel = png.relative_to(files)
                     shutil.copy2(png, dest / "_".join(rel.parts))
-        write(data, stamp, results)  # after each run: an interrupted run keeps what it measured
+        # after each run: an interrupted run keeps what it measured
+        write(data, stamp if not args.only else data.get("stamp", stamp), results)
     print(f"[demo_results] wrote {results} and {FIGURES}/", flush=True)
     return 0
 

@@ -1,19 +1,20 @@
-"""The numbers the README quotes from measured results, each tied to the data it comes from.
+"""The numbers the README and the docs quote from measured results, each tied to its record.
 
-    ./run exec python3 docs/readme_numbers.py           # write them into README.md from the data
+    ./run exec python3 docs/readme_numbers.py           # write them into the pages from the data
     ./run exec python3 docs/readme_numbers.py --check   # list the quotes that differ (exit 1)
 
-A :class:`Quote` finds its place in the README with a regular expression whose groups are the
-quoted numbers, and computes their text from the data:
+A :class:`Quote` finds its place in its page (``README.md`` or a page of ``docs/``) with a
+regular expression whose groups are the quoted numbers, and computes their text from the data:
 
 * the demos' runs, ``docs/demo_results.json`` (``docs/demo_results.py``: wall times, warnings and
   what each demo measured, on 2 ranks as the README's table says);
 * the report, ``report/data/`` (``./run report``: material point, FE study, stability);
 * the scaling benchmark, ``report/data/fe_scaling.csv`` (``benchmarks/fe_scaling.py``).
 
-Only the groups are rewritten: the prose around them is the README's own, so other edits of the
-README merge freely. ``tests/demos/test_readme.py`` fails when a quote is not found or differs from
-its data, so a number of the README cannot go stale.
+Only the groups are rewritten: the prose around them is the page's own, so other edits of the
+pages merge freely. ``tests/demos/test_readme.py`` fails when a quote is not found or differs from
+its data, so a quoted number cannot go stale; ``tests/demos/test_records.py`` re-checks the
+records themselves on the current code.
 """
 
 from __future__ import annotations
@@ -46,6 +47,11 @@ class Data:
         if rel not in self._cache:
             self._cache[rel] = json.loads((self.root / rel).read_text())
         return self._cache[rel]
+
+    @property
+    def stamp(self) -> dict[str, Any]:
+        """The stamp of ``docs/demo_results.json`` (the last ``./run refresh``)."""
+        return self._json("docs/demo_results.json")["stamp"]
 
     @property
     def demos(self) -> dict[str, Any]:
@@ -98,11 +104,13 @@ class Quote:
         pattern: A regular expression (multiline) matching the place once; each group is a
             quoted number.
         values: The groups' text, computed from the data.
+        page: The page, relative to the repository's root.
     """
 
     name: str
     pattern: str
     values: Callable[[Data], Sequence[str]]
+    page: str = "README.md"
 
 
 def words(text: str) -> str:
@@ -310,6 +318,13 @@ QUOTES: list[Quote] = [
         lambda d: [*(sig(100 * abs(x)) for x in _hertz(d, "err_a_fit")),
                    *(f"{100 * x:+.3f}" for x in _hertz(d, "err_p0")),
                    *(sig(100 * x) for x in _hertz(d, "err_p_inner"))]),
+    Quote("bolt_clamped_joint: force balance", words(
+        "equals the head's, the joint's and the nut's normal resultants ({} of the pretension)"),
+        lambda d: [e1(d.demo("bolt_clamped_joint")["numbers"]["report"]["balance"])]),
+    Quote("the records' commit and date", words(
+        "The times and numbers quoted here were recorded at commit `{}` on {} (load {})"),
+        lambda d: [d.stamp["commit"][:10], d.stamp["date"].split()[0],
+                   f"{d.stamp['load'][0]:.1f}"]),
     Quote("block_sliding_far: steps and Newton", words(
         "{} steps, Newton up to {} iterations in a step"),
         lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
@@ -405,25 +420,34 @@ def find(q: Quote, text: str) -> re.Match:
     return found[0]
 
 
-def differences(text: str, data: Data) -> list[str]:
-    """Every quote of ``text`` that is not found or differs from its data (empty: all agree)."""
+def pages() -> list[str]:
+    """The pages that hold quotes (relative to the repository's root)."""
+    return sorted({q.page for q in QUOTES})
+
+
+def differences(text: str, data: Data, page: str = "README.md") -> list[str]:
+    """The quotes of ``page`` (text ``text``) not found or not equal to their data."""
     out = []
     for q in QUOTES:
+        if q.page != page:
+            continue
         try:
             m = find(q, text)
             want = [str(v) for v in q.values(data)]
         except (LookupError, KeyError, FileNotFoundError) as e:
-            out.append(str(e))
+            out.append(f"{page}: {e}")
             continue
         have = [re.sub(r"\s+", " ", g) for g in m.groups()]
         if have != want:
-            out.append(f"{q.name}: the README says {have}, the data {want}")
+            out.append(f"{page}: {q.name}: the page says {have}, the data {want}")
     return out
 
 
-def rewrite(text: str, data: Data) -> str:
-    """``text`` with every quote's groups replaced by its data's values."""
+def rewrite(text: str, data: Data, page: str = "README.md") -> str:
+    """``text`` (of ``page``) with every quote's groups replaced by its data's values."""
     for q in QUOTES:
+        if q.page != page:
+            continue
         m = find(q, text)
         want = [str(v) for v in q.values(data)]
         if len(want) != len(m.groups()):
@@ -434,22 +458,27 @@ def rewrite(text: str, data: Data) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Rewrite the README's quoted numbers from the data, or only check them."""
+    """Rewrite the pages' quoted numbers from the data, or only check them."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--check", action="store_true", help="only list the differences")
     args = ap.parse_args(argv)
-    text = README.read_text()
     data = Data()
-    if args.check:
-        diff = differences(text, data)
-        for d in diff:
-            print(d)
-        return 1 if diff else 0
-    new = rewrite(text, data)
-    if new != text:
-        README.write_text(new)
-    print(f"{README}: {len(QUOTES)} quotes, {'rewritten' if new != text else 'unchanged'}")
-    return 0
+    status = 0
+    for page in pages():
+        path = ROOT / page
+        text = path.read_text()
+        if args.check:
+            diff = differences(text, data, page)
+            for d in diff:
+                print(d)
+            status |= 1 if diff else 0
+            continue
+        new = rewrite(text, data, page)
+        if new != text:
+            path.write_text(new)
+        n = sum(q.page == page for q in QUOTES)
+        print(f"{path}: {n} quotes, {'rewritten' if new != text else 'unchanged'}")
+    return status
 
 
 if __name__ == "__main__":

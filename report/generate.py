@@ -12,9 +12,9 @@ the numbers: nothing in it can be contradicted by a rerun). Old outputs (``READM
 but the scaling benchmark's, and ``data/`` but the scaling benchmarks' data unless ``--reuse``) are
 deleted first.
 
-Stamp (``report/stamp.py``): the commit and the git trees of ``constitutive/`` and ``fem/`` the
-run measured, in ``data/stamp.json``, printed on every figure and in the README;
-``tests/demos/test_report.py`` fails when the measured code is no longer what the stamp says.
+Stamp (``report/stamp.py``): the commit, date and machine load of the run, in
+``data/stamp.json``, printed on every figure and in the README (a label, not a check:
+``tests/demos/test_records.py`` re-checks the report's cheap accuracy figures on the current code).
 """
 
 from __future__ import annotations
@@ -40,6 +40,8 @@ from report.running import say  # noqa: E402
 
 SCALING = "fe_scaling"  # benchmarks/fe_scaling.py's table and figure (hours to rerun: kept)
 KEPT = (SCALING, "weak_scaling")  # data of the benchmarks this script does not run
+SOLVER_CODE = ("subfric_dolfinx/constitutive", "subfric_dolfinx/fem", "subfric_dolfinx/compat.py")
+"""The code whose change since the scaling benchmark's commit the report mentions."""
 
 
 def scale_section(path: Path) -> str:
@@ -110,7 +112,7 @@ def main() -> int:
         data.mkdir()
         for name, content in kept.items():
             (data / name).write_bytes(content)
-        stamp = stamps.make(stamps.REPORT_MEASURES)
+        stamp = stamps.make()
         (data / "stamp.json").write_text(json.dumps(stamp, indent=1) + "\n")
     figures.STAMP.update(stamp)
     cfg = running.fe_config(args.quick)
@@ -149,9 +151,7 @@ def main() -> int:
     scaling = scaling_stamp()
     context["scaling_commit"] = scaling["commit"][:10] if scaling else None
     context["scaling_changed"] = bool(scaling) and bool(
-        stamps.git(
-            "diff", "--name-only", scaling["commit"], stamp["commit"], "--", *stamps.REPORT_MEASURES
-        )
+        stamps.git("diff", "--name-only", scaling["commit"], stamp["commit"], "--", *SOLVER_CODE)
     )
     if scaling and (HERE / f"{SCALING}.png").exists():
         figures.stamp_existing(HERE / f"{SCALING}.png", scaling, "benchmarks/fe_scaling.py,")

@@ -12,6 +12,8 @@
   (``./run test3``: parallel code paths on an odd partition, oversubscribed on these 2-core
   machines, correctness only). The suite is written for 1 and 2 ranks: on more, the tests of the
   other modules are deselected (reported as such).
+* ``@pytest.mark.two_ranks``: tests of records made on 2 ranks (``test_records.py``): run in the
+  2-rank leg only, deselected (reported as such) on 1 and 3 ranks.
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
 * Repeatable partitions: ``SCOTCH_PTHREAD_NUMBER=1`` unless set (see below).
 * A broken pipe is an exception again: PETSc's initialisation installs its signal handler for
@@ -58,16 +60,17 @@ def pytest_collection_modifyitems(config, items):
     size = MPI.COMM_WORLD.size
 
     def off(item) -> bool:
-        return (size > 1 and "numpy_only" in item.keywords) or (
-            size > 2 and "three_ranks" not in item.keywords
+        return (
+            (size > 1 and "numpy_only" in item.keywords)
+            or (size > 2 and "three_ranks" not in item.keywords)
+            or (size != 2 and "two_ranks" in item.keywords)
         )
 
-    if size > 1:
-        dropped = [item for item in items if off(item)]
-        if dropped:
-            config.hook.pytest_deselected(items=dropped)
-            config.stash[_DESELECTED] = len(dropped)
-            items[:] = [item for item in items if not off(item)]
+    dropped = [item for item in items if off(item)]
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        config.stash[_DESELECTED] = len(dropped)
+        items[:] = [item for item in items if not off(item)]
     skip_serial = pytest.mark.skip(reason=f"serial-only test, running on {size} ranks")
     skip_slow = pytest.mark.skip(reason="slow test: give --run-slow to run it")
     for item in items:
