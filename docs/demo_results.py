@@ -128,32 +128,83 @@ def plain(v: Any, limit: int = 64) -> Any:
     return None
 
 
-def numbers(demo: str, result: Any) -> dict[str, Any]:
-    """What the demo measured, from the object its ``main`` returned."""
+def digest(rows: Any) -> dict[str, Any]:
+    """A history (a sequence of row dicts) in a few numbers.
+
+    Its steps, and each numeric column's largest, smallest and last value.
+    """
+    rows = list(rows)
+    out: dict[str, Any] = {"steps": len(rows)}
+    if not rows:
+        return out
+    for col in rows[0]:
+        vals = [r.get(col) for r in rows]
+        if all(isinstance(v, int | float | np.number) and not isinstance(v, bool) for v in vals):
+            a = np.asarray(vals, dtype=float)
+            out[col] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
+    return out
+
+
+def _csv_digest(path: Path) -> dict[str, Any]:
+    """A CSV file's numeric columns: largest, smallest and last value, and the row count."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    numeric = {}
+    for r in rows:
+        for k, v in r.items():
+            try:
+                numeric.setdefault(k, []).append(float(v))
+            except (TypeError, ValueError):
+                numeric[k] = None  # a text column
+    out: dict[str, Any] = {"rows": len(rows)}
+    for k, vals in numeric.items():
+        if vals:
+            a = np.asarray(vals)
+            out[k] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
+    return out
+
+
+def numbers(demo: str, result: Any, files: Path | None = None) -> dict[str, Any]:
+    """What the demo measured, from the object its ``main`` returned.
+
+    The numpy-only demos' ``main`` returns an exit code: what they measured is read from the
+    files they wrote into ``files``.
+    """
+    if demo == "calibration":
+        return plain(json.loads((files / "FIT.json").read_text()))
+    if demo == "paper_figures":
+        return {f.stem: _csv_digest(f) for f in sorted(files.glob("*.csv"))}
     if demo == "block_on_base":
         h = result.history
         t = np.array([r["t"] for r in h])
         ft = np.array([r["F_t1"] / r["area"] for r in h])
-        return {
-            "peak_forward": ft[(t > 1) & (t <= 2)].max(),
-            "peak_reverse": -ft[(t > 2) & (t <= 4)].min(),
-            "peak_reload": ft[t > 24].max(),
-            "info": plain(result.info),
-        }
+        out: dict[str, Any] = {"history": digest(h), "info": plain(result.info)}
+        for name, window, sign in (
+            ("peak_forward", (t > 1) & (t <= 2), 1),
+            ("peak_reverse", (t > 2) & (t <= 4), -1),
+            ("peak_reload", t > 24, 1),
+        ):
+            if window.any():
+                out[name] = float((sign * ft[window]).max())
+        return out
     if demo == "lap_joint":
         from demos import lap_joint
 
         out = {}
-        cycles = lap_joint.parser().get_default("cycles")
+        t_end = max(r["t"] for r in next(iter(result.values())).history)
+        cycles = int(np.rint((t_end - lap_joint.CLAMP_TIME) / lap_joint.PERIOD))
         for name, res in result.items():
             s = lap_joint.slip_per_cycle(res.history, cycles)
             out[name] = {
                 "slip_per_cycle_um": (1e3 * np.diff(s)).tolist(),
                 "total_um": 1e3 * float(s[-1] - s[0]),
+                "history": digest(res.history),
             }
         return out
     if demo == "punch":
-        return plain(result[0].info["punch"])
+        return {**plain(result[0].info["punch"]), "history": digest(result[0].history)}
     if demo == "cattaneo_mindlin":
         cres, sres = result
         out = {"coulomb": plain(cres.info["cattaneo_mindlin"])}
@@ -162,12 +213,24 @@ def numbers(demo: str, result: Any) -> dict[str, Any]:
         return out
     if demo == "block_sliding_far":
         return plain(result["report"])
-    if demo == "two_bodies_api":
-        return {"steps": len(result["history"])}
     if isinstance(result, dict):
-        return plain(result)
-    info = getattr(result, "info", None)
-    return plain(info) if info is not None else {}
+        out = {}
+        for k, v in result.items():
+            if k == "history" or k == "reference":
+                out[k] = digest(v)
+            elif k == "results" and isinstance(v, dict):
+                out[k] = {
+                    name: digest(r["history"] if isinstance(r, dict) else r.history)
+                    for name, r in v.items()
+                    if (isinstance(r, dict) and "history" in r) or hasattr(r, "history")
+                }
+            else:
+                out[k] = plain(v)
+        return {k: v for k, v in out.items() if v is not None}
+    out = plain(getattr(result, "info", None) or {})
+    if hasattr(result, "history"):
+        out["history"] = digest(result.history)
+    return out
 
 
 def measure(key: str, files: Path, comm: Any = None) -> dict[str, Any]:
@@ -209,7 +272,7 @@ def measure(key: str, files: Path, comm: Any = None) -> dict[str, Any]:
             if w.category.__module__.startswith("subfric_dolfinx")
         }
     )
-    return {"numbers": numbers(run.demo, result), "warnings": ours, "main_s": main_s}
+    return {"numbers": numbers(run.demo, result, files), "warnings": ours, "main_s": main_s}
 
 
 def child(key: str, out: Path) -> None:

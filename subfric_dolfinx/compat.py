@@ -117,11 +117,9 @@ def repeatable_partitions() -> Iterator[None]:
 
     A threaded Scotch (Debian sid's) gives a different partition of the same mesh from one call to
     the next, so that two runs of a script, or two problems built in one process, number and place
-    their dofs differently; one thread makes it repeatable. Building the mesh costs the same (a
-    228k-cell block mesh on 2 ranks: 9.4-9.5 s either way), but the partition differs, and the
-    solver may pay for it: the 3-D pad at 184,050 dofs, 24 steps, 2 ranks, trixie, "reuse":
-    109 s and 4.55 GiB on one rank with the one-thread partition, 88 s and 2.9 GiB with two
-    threads (one run each; MUMPS's factor is larger). Hence opt-in, not the package's default.
+    their dofs differently; one thread makes it repeatable. Building the mesh costs the same, but
+    the partition differs, and the solver may pay for it (a larger MUMPS factor:
+    ``docs/design.md``, *Repeatable partitions*). Hence opt-in, not the package's default.
     The variable is set only if the user has not set it, and restored afterwards.
     """
     if _SCOTCH_THREADS in os.environ:

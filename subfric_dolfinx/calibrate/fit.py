@@ -45,7 +45,7 @@ __all__ = [
     "synthetic_curves",
 ]
 
-STEPS_PER_MM = 50.0  # the driver's step density (monotonic slides: 1e-6 of the peak at 50)
+STEPS_PER_MM = 50.0  # the driver's step density: far below the noise of measured curves
 MAX_STEPS = 1e9
 """Default limit of the driver steps of a whole fit (``fit``'s ``max_steps``, the command
 line's ``--max-steps``), counted before it starts: the steps of one model run (every curve,

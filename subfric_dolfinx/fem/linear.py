@@ -7,21 +7,13 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
 ``"auto"`` (the default)
     In 3-D, ``"reuse"`` for a problem of :data:`AUTO_REUSE_DOFS_PER_RANK` dofs per rank or more
     and fewer than :data:`AUTO_GAMG_DOFS` dofs in all, ``"gamg"`` otherwise (smaller per rank
-    or larger in all); in 2-D ``"reuse"`` at every size (:func:`auto_choice`). Measured on the
-    3-D pad, 1 and 2 ranks, with the load stepper's predictor, 24 steps, on a quiet machine
-    (``benchmarks/fe_scaling.py --sizes 10 12 14 16 18 20 22 --strategies reuse gamg --out DIR
-    --report DIR``; the campaign of ``report/fe_scaling.md`` ran at a load of 6-9
-    on 2 cores, where a rule drawn from it, ``"reuse"`` from 25k dofs per rank to 100k, was
-    1.21, 1.22 and 1.48 times slower than GAMG at 52k dofs on 2 ranks and 92k on 1 and 2 when
-    checked quietly at sizes it had not seen): below ~30k dofs per rank MUMPS's fixed costs
-    (analysis, and on several ranks its communicating triangular solves) outweigh GAMG's cheap
-    set-up (1 rank 10k, 16.7k, 25.6k dofs: GAMG 1.09, 1.05, 1.08 times faster; 2 ranks 10k to
-    52k: 1.10 to 1.25); at 30k-35k dofs per rank the reused factor's 1-2 GMRES iterations a
-    Newton win or tie (1 rank 37k: 1.16 times faster, 52k and 70k: 1.00 and 0.98 times as fast;
-    2 ranks 70k: 0.98); from ~75k dofs in all the factor's fill and set-up grow faster than
-    GAMG's (92k: GAMG 1.22 and 1.48 times faster on 1 and 2 ranks; 184k dofs, 100 steps: 117 s
-    against 176 s, 0.8 GiB per rank against 4.5), and only ``"gamg"`` reaches 1M dofs in this
-    machine's memory.
+    or larger in all); in 2-D ``"reuse"`` at every size (:func:`auto_choice`). Below the
+    per-rank threshold MUMPS's fixed costs (analysis, and on several ranks its communicating
+    triangular solves) outweigh GAMG's cheap set-up; above it the reused factor's one or two
+    GMRES iterations a Newton win or tie; beyond the global threshold the factor's fill and
+    set-up grow faster than GAMG's, and only ``"gamg"`` reaches a million dofs in the memory of
+    a small machine. The thresholds come from the measurements in ``docs/design.md``
+    (*Linear strategies*).
     In 2-D a factorisation grows nearly linearly with the size (nested dissection fill
     ``N log N``): ``"reuse"`` at every size. A 3-D problem between ``AUTO_REUSE_DOFS_PER_RANK``
     and twice that takes ``"reuse"`` on 1 rank and ``"gamg"`` on 2: both are Newton on the same
@@ -41,30 +33,31 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
       those the factor needed right after its last refresh (at its rate then) are counted, and
       when they exceed what one factorisation costs in Krylov iterations, the factor is renewed
       (ski rental: never more than about twice the cost of the best fixed schedule). That price
-      is a model of the measured ratio of a MUMPS factorisation to one GMRES iteration on these
-      machines, ``20 (N / 5000)^0.38`` for ``N`` dofs (20 at 5k, 57 at 70k, 80 at 225k dofs),
-      not a timing: the decisions, hence the results, do not depend on the load of the machine
-      and are the same on every rank;
+      is a model of the ratio of a MUMPS factorisation to one GMRES iteration,
+      ``20 (N / 5000)^0.38`` for ``N`` dofs (:func:`refresh_price`), not a timing: the
+      decisions, hence the results, do not depend on the load of the machine and are the same on
+      every rank;
     * or the last solve converged slower than ``rho_stag`` per iteration (near stagnation);
     * or the Krylov solve failed; a Newton solve that failed that way with a stale factor is
       repeated at once with a factor refreshed at each of its Newton iterations (same step, no
       cut: it does what ``"lu"`` would); any failed solve refreshes.
 
 ``"lu"``
-    A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the former behaviour.
+    A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
+    other strategies are compared with.
 
 ``"gamg"``
     GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
     body modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D: every aggregate gets its
     body's rigid modes, since with ``pc_gamg_threshold 0.01`` no aggregate straddles the weak
-    interface; per-body modes were measured worse), refreshed by the same rules. No
+    interface; per-body modes converge worse), refreshed by the same rules. No
     factorisation: memory grows linearly with the size.
 
 Krylov tolerance (``"reuse"``, ``"gamg"``): tied to Newton's residual so that Newton stays
 quadratic, ``eta_k = min(eta_max, c |F_k| / |F_0|)``, never below 1 % of the Newton target over
 ``|F_k|`` (no oversolving), and at a step's first iteration 1 % of that target (a linear step
-then converges in one Newton iteration, as with LU; 1 % rather than the 10 % of the note keeps
-the histories within 1e-9 of LU's instead of 1e-8). The target is the largest of
+then converges in one Newton iteration, as with LU; 1 % rather than 10 % keeps the histories
+an order of magnitude closer to LU's: ``docs/design.md``). The target is the largest of
 ``snes_atol``, ``snes_rtol |F_0|`` and the round-off floor of the convergence test
 (:meth:`~.convergence.ScaledConvergence.floor`).
 
@@ -160,9 +153,8 @@ _REFRESH = {  # refresh policy and forcing term: cost factor, rho_stag, forcing 
 def refresh_price(name: str, dofs: int) -> float:
     """A preconditioner set-up in Krylov iterations (the cost rule's price; module docstring).
 
-    MUMPS LU (``"reuse"``): ``20 (N / 5000)^0.38``, at least 10 (fitted to the factorisation and
-    GMRES-iteration times measured from 5k to 225k dofs). GAMG: 50 (its set-up measured at
-    the time of 40 to 60 preconditioned iterations).
+    MUMPS LU (``"reuse"``): ``20 (N / 5000)^0.38``, at least 10; GAMG: 50 (both fitted to
+    timings of set-ups and iterations: ``docs/design.md``, *Linear strategies*).
     """
     if name == "gamg":
         return 50.0

@@ -225,8 +225,8 @@ class FrictionSolver:
             ``"subfric_<n>_"`` when omitted.
         options: Options under the prefix (they override the command line's for this solver,
             without changing the database).
-        linear: The linear strategy, ``"auto"`` (default: ``"gamg"`` for 3-D problems of
-            100k dofs or more, ``"reuse"`` otherwise), ``"reuse"``, ``"lu"`` or ``"gamg"``
+        linear: The linear strategy, ``"auto"`` (default: chosen by the problem's size and
+            dimension, :func:`~.linear.auto_choice`), ``"reuse"``, ``"lu"`` or ``"gamg"``
             (:mod:`.linear`); its PETSc options are defaults that options override. The one
             chosen is :attr:`strategy`.
 

@@ -82,7 +82,7 @@ finds every point separated and the linear solve fails at every step size. With 
 the Newton step exists and closes the gap (``tests/fem/test_reliability.py``: every strategy,
 ``sec7`` and ``sec7-literal``). 1e-6 of ``alpha_n`` is far below any body's stiffness (no effect on
 a converged step's Newton path where the Jacobian is regular) and far enough above round-off for
-GAMG (1e-9 was measured to fail with it)."""
+GAMG's set-up (``docs/design.md``, *Separated points in the Jacobian*)."""
 
 MAX_STEPS = 1_000_000
 """Default limit of the converged steps of a run (:class:`LoadStepper`'s ``max_steps``; scenes:
@@ -241,7 +241,7 @@ class LoadStepper:
             segment of the program (up to the next breakpoint) with the retry options; after
             ``easy_steps`` such steps in a row, the next step tries the solver's own options
             first again (the retry stays its fallback), and stays with them if they converge:
-            a line search costs Newton its quadratic rate (about 6 iterations a step, above
+            a line search costs Newton its quadratic rate (more iterations a step than
             ``easy_iterations``), so a segment kept on it would never let the step grow back
             after a cut.
         hold_dt: Step in the holds of the program (segments where every channel is constant),
@@ -249,8 +249,8 @@ class LoadStepper:
             untouched); ``None``: holds are stepped like the rest.
         max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
             :class:`StepFailure` when it has made that many and is not at its end.
-        keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (about 0.8 kB a
-            step, measured); ``False``: the last one only (a run that keeps its own history,
+        keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (under a kilobyte
+            a step); ``False``: the last one only (a run that keeps its own history,
             as scenes do).
         predictor: Start Newton at the converged displacement plus the last step's increment
             scaled to this step (``dt / dt_last``; linear extrapolation, as Abaqus/Standard's
@@ -264,21 +264,18 @@ class LoadStepper:
             reachable). The retry of a failed attempt (with a line search) starts from the
             converged displacement. The increment is in the checkpoint (a restart repeats the
             path). ``False``: every step starts from the converged displacement (with the new
-            Dirichlet values). Only Newton's path changes, not the equations. Measured: the 3-D
-            pad of ``benchmarks/fe_scaling.py`` (16,674 dofs, 2 ranks) takes 2.08 Newton
-            iterations a step instead of 2.99 (100 steps), 2.33 instead of 3.08 (24 steps).
+            Dirichlet values). Only Newton's path changes, not the equations: fewer Newton
+            iterations a step (``docs/design.md``, *The predictor*).
             With finite sliding, a step started from the converged state evaluates the law at a
             zero slip increment, with its stick (elastic) tangent: the first iterate shears the
-            block instead of sliding it, its points open and close, the second overshoots (a
-            1 mm penetration, a failed return map and a line-search retry on
-            ``demos/block_sliding_far.py``) and Newton needs 7 to 10 iterations a step, where
-            from the extrapolated start it needs 4 to 5 (``docs/model.md`` §12). With finite
+            block instead of sliding it, its points open and close, the second overshoots, and
+            Newton needs about twice the iterations of the extrapolated start
+            (``docs/model.md`` §12). With finite
             sliding, where the program turns (nothing to extrapolate: the slide's first step, a
             reversal) the step's first Newton iteration is frictionless
             (:meth:`FrictionSolver.solve`'s ``frictionless_start``), and the first Jacobian of
             every step keeps the points that were in contact at the step's start in contact
-            (``keep_contact``): the slide's first step of ``demos/block_sliding_far.py`` in 5
-            iterations instead of 10 (after a failed attempt), every step within 5.
+            (``keep_contact``), which saves the slide's first step a failed attempt.
     """
 
     def __init__(

@@ -14,14 +14,15 @@ the mesh's degree). Collective.
 Failures are collective (:mod:`.collective`): the directory is created and probed by rank 0, and
 every write ends with the ranks agreeing on its outcome. ADIOS2 (VTX) and DOLFINx's HDF5 (XDMF)
 write collectively: a full disk stops one rank inside an MPI collective where the others wait
-for it (measured: a hang, then SIGABRT at exit). So before each write rank 0 checks that the
+for it (a hang, then SIGABRT at exit). So before each write rank 0 checks that the
 file system has room for :meth:`FieldWriter.space_needed`: four times what a step takes
-(``step_bytes``, twice the largest step: estimated from the mesh sizes, then measured on the
+(``step_bytes``, twice the largest step: estimated from the mesh sizes, then taken from the
 steps written) plus :data:`MARGIN` (64 KiB: what closing the files adds, ``profiling.json`` of
 ADIOS2, HDF5's metadata, the end of the XDMF file), and ends the run with an
 :class:`~.collective.OutputError` on every rank when it has not. The room asked for grows with
-the step (a fixed 1 MiB refused a 100 kB step with 1 MB free): measured, ADIOS2 (BP4) writes a
-step's data and metadata at the step, and closing adds a few hundred bytes. A disk filled by
+the step (a fixed margin would refuse a small step on a nearly full disk, or let a large one
+fail): ADIOS2 (BP4) writes a step's data and metadata at the step, and closing adds a few hundred
+bytes. A disk filled by
 another process between that check and the write is not covered.
 """
 

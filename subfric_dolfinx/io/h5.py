@@ -4,8 +4,8 @@ h5py's MPI driver (``driver="mpio"``, Debian's ``python3-h5py-mpi``) lets every 
 slab of a dataset: memory stays local to each rank. Its calls are of two kinds: metadata calls
 (open, create a dataset, resize, write an attribute, flush, close) must be made by all ranks with
 the same arguments; data transfers are independent (each rank writes or reads its own selection,
-possibly empty). The rules followed here, measured on a full file system with Open MPI 5 (OMPIO
-and ROMIO) and HDF5 1.14:
+possibly empty). The rules followed here hold on a full file system with Open MPI 5 (OMPIO and
+ROMIO) and HDF5 1.14 and 2.2:
 
 * data transfers are *independent*, never collective: a collective MPI-IO write that fails on one
   rank leaves the other inside ``MPI_File_write_at_all`` (a hang); an independent one returns the
@@ -15,14 +15,14 @@ and ROMIO) and HDF5 1.14:
   raises the same error;
 * a metadata call that failed on some ranks only (which HDF5's arguments, the same on every rank,
   make unlikely: a local fault such as memory) leaves the ranks with different metadata: no
-  rank can close the file then (measured: the close hangs, and so does the implicit close at
-  exit). Every rank then prints the error and the job ends with ``MPI_Abort`` (exit 1): a clear
-  error instead of a hang;
+  rank can close the file then (the close hangs, and so does the implicit close at exit).
+  Every rank then prints the error and the job ends with ``MPI_Abort`` (exit 1): a clear error
+  instead of a hang;
 * datasets are created with ``fill_time="never"`` (every byte is written by its owner), so
   creating one writes nothing;
 * a full disk must not strike inside a collective call either: HDF5 writes its metadata during
   ``flush`` and ``close``, where a rank that fails leaves the other inside ``MPI_File_sync``
-  (measured: a hang). So before the calls that make a file grow, rank 0 *reserves* the disk
+  (a hang). So before the calls that make a file grow, rank 0 *reserves* the disk
   blocks they will need (:meth:`ParallelH5.reserve`: ``fallocate`` with ``FALLOC_FL_KEEP_SIZE``
   beyond the end of the file, an estimate with a margin): a full disk fails there, on rank 0
   alone and before any HDF5 call, and every rank raises. The blocks left unused beyond the end

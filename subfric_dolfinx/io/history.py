@@ -12,8 +12,8 @@ what it is, :func:`~.units.column_unit`; the frame and the ``status`` legend) in
 ``schema:unitText``), so the CSV stays one header line and numbers for every reader.
 
 In memory the rows are a :class:`HistoryRows`: a sequence of dicts to its reader, stored as one
-float64 array (8 bytes a column: about 170 bytes a step for a 21-column row, against 1.4 kB for a
-list of dicts, measured), so a run of :data:`~subfric_dolfinx.fem.stepping.MAX_STEPS` (a million)
+float64 array (8 bytes a column: about 170 bytes a step for a 21-column row, several times less
+than a list of dicts), so a run of :data:`~subfric_dolfinx.fem.stepping.MAX_STEPS` (a million)
 steps keeps about 170 MB of history (plus half that at most while the array grows).
 
 Writing is collective: rank 0 writes and flushes each row inside ``try`` and every rank raises the

@@ -10,10 +10,9 @@ the first step:
    second run into the same directory is refused on every rank, naming the directory and the
    process holding it. The lock file is removed when the run ends, and every rank waits for
    that (a barrier): when the context exits, on any rank, the directory is in its final state
-   (without the barrier a rank could list it before rank 0 had removed the lock; seen in CI on
-   2 ranks under load). A killed run leaves the lock file
-   unlocked: the next run takes it); a run that locked a file another run removed meanwhile
-   sees that the name no longer leads to it and starts again;
+   (without the barrier a rank could list it before rank 0 had removed the lock). A killed run
+   leaves the lock file unlocked: the next run takes it); a run that locked a file another run
+   removed meanwhile sees that the name no longer leads to it and starts again;
 3. for a fresh run (not a restart), moves the files an earlier run of this code wrote there
    (:data:`RUN_FILES`: ``history.csv`` and its units, ``interface_history.h5``,
    ``checkpoint.h5``, the ``fields`` directory, a stale ``checkpoint.h5.tmp``) into

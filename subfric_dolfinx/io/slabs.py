@@ -10,7 +10,7 @@ one ``Alltoallv`` of the rows a rank holds or needs, so memory stays O(local) pe
 coordinates (``gdim`` numbers per point, the only O(interface) data) to rank 0 once, sorts them
 as :func:`~.gather.gather_interface` does and scatters the rows back: the file's rows are those of
 the gathered interface, whatever the partition. The interface is a surface: in 3-D it holds
-O(n^(2/3)) of the n cells (a 200k-dof pad on a plate: 3,136 points, 75 kB of coordinates).
+O(n^(2/3)) of the n cells: a small fraction of the mesh.
 """
 
 from __future__ import annotations

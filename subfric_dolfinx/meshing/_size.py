@@ -20,13 +20,12 @@ import numpy as np
 __all__ = ["BYTES_PER_CELL", "CELLS_PER_VOLUME", "check_mesh_size", "estimate_cells"]
 
 BYTES_PER_CELL = 2048
-"""Memory to mesh a cell and hold it (measured 680 to 1,900 bytes per cell, peak resident
-memory of gmsh's meshing and the DOLFINx mesh: triangles, quadrilaterals, tetrahedra,
-hexahedra, the bolted joint; 14k to 310k cells)."""
+"""Memory to mesh a cell and hold it: above the peak resident memory per cell of gmsh's meshing
+and the DOLFINx mesh for every cell type (``docs/design.md``, *Mesh size limits*)."""
 
 CELLS_PER_VOLUME = {"triangle": 2.31, "quadrilateral": 1.0, "tetrahedron": 7.0, "hexahedron": 1.0}
-"""Cells per ``h^d`` of volume: equilateral triangles (gmsh's unstructured triangles: measured
-2.30), a structured grid, unstructured tetrahedra (measured 3.9 to 6.6), a structured grid."""
+"""Cells per ``h^d`` of volume: equilateral triangles, a structured grid, regular tetrahedra
+(an upper bound for gmsh's unstructured ones), a structured grid."""
 
 
 def machine_memory() -> int:

@@ -177,7 +177,7 @@ def build_bolted_lap_joint(
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
     gmsh.option.setNumber("Mesh.ElementOrder", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 16)  # the hole in 16 elements at least
-    gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 2x faster than Delaunay, deterministic
+    gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: faster than Delaunay, deterministic
     try:
         gmsh.model.mesh.generate(3)
     finally:

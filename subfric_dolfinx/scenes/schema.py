@@ -132,7 +132,7 @@ class LoadSpec:
     amplitude: str | None | list[str | None] = None
 
 
-# --- supports, points, probes and frames (issue 16, items 2, 3, 5) --------------------------------
+# --- supports, points, probes and frames -----------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class SpringSpec:
     """Elastic support ``t = -k (u - u0 amplitude(t))`` per component on a facet group.

@@ -15,7 +15,7 @@ a signal never raises anything: the handler only counts it.
 
 Under ``mpirun`` (Open MPI 5), send **SIGUSR1** (or SIGUSR2) to ``mpirun``: it forwards the signal
 to every rank and waits. ``mpirun`` does not forward SIGINT or SIGTERM: it ends the job itself
-(SIGTERM kills the ranks about 0.2 s later; Ctrl-C at a terminal likewise), leaving the last
+(SIGTERM kills the ranks a moment later; Ctrl-C at a terminal likewise), leaving the last
 checkpoint readable (it is written to a temporary file, then renamed). For a single process
 (``python3 demos/x.py``, a script calling :func:`~.runner.run_scene`), Ctrl-C is a clean stop like
 SIGUSR1.

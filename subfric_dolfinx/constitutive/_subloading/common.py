@@ -22,7 +22,7 @@ KD_CAP = 36.0  # cap of k * d_n in the offset c of the Newton variable (r_n = 1 
 ROT_LO, ROT_HI = 1e-100, 1e100  # rotation only for tractions (MPa) and g in this range
 HERMITE_MIN = 0.5  # model of |f_t| in a step used when its minimum >= this * end values
 SPLIT_EPS = 8.0 * EPS  # a split needs (1 - s*) |w| > SPLIT_EPS (|f0| + |f*|)
-CHUNK = 8192  # points per chunk (best of 1024..100000 on a 1 MB-L2 core)
+CHUNK = 8192  # points per chunk: the arrays of a chunk stay within a core's cache
 # Gauss-Legendre on [0, 1]: 3 outer points (C = int cos theta; plus x = 1 for theta_1) and 2
 # inner points per outer node (J(x) = int_0^x dy / rho): 8 inner nodes. With the elastic path
 # subtracted the integrands are smooth; 4 x 4 points gave the same errors (to 3 digits) on the

@@ -29,16 +29,10 @@ class SlidingAssembly:
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
             ``dB t`` (2-D and 3-D): then the 2-D tangent is the residual's derivative, the 3-D
-            one but for the frame's turn within an iteration (2e-5 of the interface's ``J v``;
-            ``tests/fem/interface/test_finite_sliding_tangent.py``), and Newton converges
-            quadratically at the end of a step (without it linearly, a factor of about 5e-3 per
-            iteration). On by
-            default: ``demos/block_sliding_far.py``'s first 10 mm, with the load stepper's
-            predictor, 4.0 iterations per sliding step with it (max 5), 4.6 without (max 6);
-            the 3-D diagonal slide 2 per step after the first instead of 3
-            (``benchmarks/finite_sliding_newton.py``). It was off while a restarted scene did not
-            repeat Newton's path with it: that came from the steps' start at the converged state
-            (the stick tangent's overshoot amplified round-off), which the predictor removes.
+            one but for the frame's turn within an iteration
+            (``tests/fem/interface/test_finite_sliding_tangent.py``), and Newton converges
+            quadratically at the end of a step (without it linearly). On by default: fewer
+            Newton iterations per sliding step (``benchmarks/finite_sliding_newton.py``).
     """
 
     transfer_in_tangent = True

@@ -4,8 +4,8 @@ A slave facet of a non-matching interface faces pieces of several master facets.
 slave field against the master's shape functions, ``int_slave lambda(x) N_m(pi(x)) dA`` with
 ``pi`` the normal projection on the master (:mod:`.projection`), are exact only if the slave facet
 is cut where ``pi`` crosses from one master facet to the next (a Gauss rule across the kink of
-``N_m o pi`` makes an error of 1.7 % of the master nodal forces on a 3 : 2 mesh, and a patch test
-then fails). This module makes the cut (``docs/model.md`` §11):
+``N_m o pi`` makes an error of the order of a percent of the master nodal forces on a 3 : 2 mesh,
+and a patch test then fails). This module makes the cut (``docs/model.md`` §11):
 
 * The preimage of a master vertex ``k`` is where the line ``x_k + s n_k`` (its nodal normal) meets
   the slave facet; it is found by the same normal projection, of ``x_k`` on the slave facet with

@@ -22,8 +22,8 @@ rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j =
 delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
 Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
 the interpolant of the point values and the master got the consistent-mass forces, not the
-slave's (``demos/hertz.py --meshed-apart``: 0.85 % of ``p0`` off the small-sliding pressures on
-coinciding nodes).
+slave's (visibly off the small-sliding pressures on coinciding nodes in ``demos/hertz.py
+--meshed-apart``).
 """
 
 from __future__ import annotations
