@@ -151,18 +151,13 @@ def _csv_digest(path: Path) -> dict[str, Any]:
 
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    numeric = {}
-    for r in rows:
-        for k, v in r.items():
-            try:
-                numeric.setdefault(k, []).append(float(v))
-            except (TypeError, ValueError):
-                numeric[k] = None  # a text column
     out: dict[str, Any] = {"rows": len(rows)}
-    for k, vals in numeric.items():
-        if vals:
-            a = np.asarray(vals)
-            out[k] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
+    for k in rows[0] if rows else ():
+        try:
+            a = np.array([float(r[k]) for r in rows])
+        except (TypeError, ValueError):
+            continue  # a text column
+        out[k] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
     return out
 
 
