@@ -14,6 +14,10 @@
   other modules are deselected (reported as such).
 * ``@pytest.mark.two_ranks``: tests of records made on 2 ranks (``test_records.py``): run in the
   2-rank leg only, deselected (reported as such) on 1 and 3 ranks.
+* The package's warnings are errors (``filterwarnings`` in ``pyproject.toml``): a test whose scene
+  leaves the model's validity on purpose says so, with ``@pytest.mark.leaves_validity(
+  PenetrationWarning, reason=...)`` or :func:`tests.helpers.leaves_validity` around the run, and
+  the warning must then come (on every rank).
 * ``shared_tmp``: a temporary directory common to all ranks (``tmp_path`` differs per rank).
 * Repeatable partitions: ``SCOTCH_PTHREAD_NUMBER=1`` unless set (see below).
 * A broken pipe is an exception again: PETSc's initialisation installs its signal handler for
@@ -51,6 +55,11 @@ if _ROOT not in sys.path:
 
 _DESELECTED = pytest.StashKey[int]()
 
+UNDECLARED = pathlib.Path(__file__).resolve().parent / "fem" / "interface"
+"""Tests whose scenes do not say yet where they leave the model's validity (the interface tests,
+being restructured): the package's warnings there are shown in the warnings summary, not raised.
+"""
+
 
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False, help="run tests marked slow")
@@ -71,6 +80,11 @@ def pytest_collection_modifyitems(config, items):
         config.hook.pytest_deselected(items=dropped)
         config.stash[_DESELECTED] = len(dropped)
         items[:] = [item for item in items if not off(item)]
+    for item in items:  # see UNDECLARED
+        if pathlib.Path(str(item.path)).is_relative_to(UNDECLARED):
+            item.add_marker(
+                pytest.mark.filterwarnings("default::subfric_dolfinx.logs.SubfricWarning")
+            )
     skip_serial = pytest.mark.skip(reason=f"serial-only test, running on {size} ranks")
     skip_slow = pytest.mark.skip(reason="slow test: give --run-slow to run it")
     for item in items:
@@ -88,6 +102,24 @@ def pytest_sessionfinish(session, exitstatus):
         _DESELECTED, 0
     ):
         session.exitstatus = pytest.ExitCode.OK
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item):
+    """``@pytest.mark.leaves_validity(Category, ..., reason=...)``: the test's scene leaves the
+    model's validity on purpose; the warnings named must come (on every rank), as with
+    :func:`tests.helpers.leaves_validity` around the whole test."""
+    mark = item.get_closest_marker("leaves_validity")
+    if mark is None:
+        return (yield)
+    if not mark.args or not mark.kwargs.get("reason"):
+        raise pytest.UsageError(
+            f"{item.nodeid}: leaves_validity needs the warning categories and a reason="
+        )
+    from tests.helpers import leaves_validity
+
+    with leaves_validity(*mark.args):
+        return (yield)
 
 
 def pytest_runtest_teardown(item):
