@@ -14,6 +14,10 @@
   other modules are deselected (reported as such).
 * ``@pytest.mark.two_ranks``: tests of records made on 2 ranks (``test_records.py``): run in the
   2-rank leg only, deselected (reported as such) on 1 and 3 ranks.
+* ``@pytest.mark.e2e``: an end-to-end check (a program in a subprocess, an ``mpirun`` job, a pip
+  install; every test in ``tests/demos`` and ``tests/verification``: whole demos, the docs, the
+  records, results against their references). ``./run test-fast`` leaves them out: the unit
+  level of the package, for development; ``./run test`` runs everything.
 * The package's warnings are errors (``filterwarnings`` in ``pyproject.toml``): a test whose scene
   leaves the model's validity on purpose says so, with ``@pytest.mark.leaves_validity(
   PenetrationWarning, reason=...)`` or :func:`tests.helpers.leaves_validity` around the run, and
@@ -55,16 +59,25 @@ if _ROOT not in sys.path:
 
 _DESELECTED = pytest.StashKey[int]()
 
-UNDECLARED = pathlib.Path(__file__).resolve().parent / "fem" / "interface"
-"""Tests whose scenes do not say yet where they leave the model's validity (the interface tests,
-being restructured): the package's warnings there are shown in the warnings summary, not raised.
-"""
+TESTS = pathlib.Path(__file__).resolve().parent
+E2E_FOLDERS = (TESTS / "demos", TESTS / "verification")
+"""Every test in these folders is ``e2e``: demos run whole, the docs and the records, results
+against their references (see ``pytest_collection_modifyitems``)."""
+
+UNDECLARED = (
+    "tests/fem/interface/",
+    "tests/demos/test_records.py::test_the_fe_study_gives_its_record",
+)
+"""Tests (node-id prefixes) whose scenes do not say yet where they leave the model's validity
+(the interface tests, being restructured; the report's FE study re-run): the package's warnings
+there are shown in the warnings summary, not raised."""
 
 
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False, help="run tests marked slow")
 
 
+@pytest.hookimpl(tryfirst=True)  # the marks it adds are there for -m
 def pytest_collection_modifyitems(config, items):
     size = MPI.COMM_WORLD.size
 
@@ -80,8 +93,11 @@ def pytest_collection_modifyitems(config, items):
         config.hook.pytest_deselected(items=dropped)
         config.stash[_DESELECTED] = len(dropped)
         items[:] = [item for item in items if not off(item)]
-    for item in items:  # see UNDECLARED
-        if pathlib.Path(str(item.path)).is_relative_to(UNDECLARED):
+    for item in items:
+        path = pathlib.Path(str(item.path))
+        if any(path.is_relative_to(folder) for folder in E2E_FOLDERS):
+            item.add_marker(pytest.mark.e2e)
+        if item.nodeid.startswith(UNDECLARED):
             item.add_marker(
                 pytest.mark.filterwarnings("default::subfric_dolfinx.logs.SubfricWarning")
             )
@@ -92,6 +108,17 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip_serial)
         if "slow" in item.keywords and not config.getoption("--run-slow"):
             item.add_marker(skip_slow)
+
+
+def pytest_collection_finish(session):
+    """Everything alive once the tests are collected (the imported stack: DOLFINx, UFL, numpy,
+    the package, the test modules, the items) stays alive for the whole session: it is moved out
+    of the collector's sight (:func:`gc.freeze`), so that the full collection after every test
+    traverses only what the tests made (it traversed the whole imported stack every time, a
+    large share of the suite's time). Nothing is frozen that a test could make garbage: the
+    tests' problems, PETSc objects included, are made after this and collected as before."""
+    gc.collect()
+    gc.freeze()
 
 
 def pytest_sessionfinish(session, exitstatus):

@@ -197,6 +197,7 @@ print("done")
 """
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_a_plain_script_sees_the_warning_once(ranks):

@@ -167,6 +167,7 @@ def test_a_failure_leaves_the_last_converged_state_in_the_checkpoint(shared_tmp)
     assert ck.history[-1]["F_n"] >= 0.0 and e.value.last_t <= 2.5 + 1e-9
 
 
+@pytest.mark.e2e
 @pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
     """A 1-rank run in a subprocess gets SIGTERM; it writes a checkpoint and stops; the run
@@ -227,13 +228,15 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
     )
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @SUBPROCESSES
 def test_disk_full_keeps_the_previous_checkpoint(shared_tmp):
     """For real: a 1 MiB tmpfs filled but 130-400 kB (the first checkpoint needs about 200), a
-    checkpoint after every step, runs on 1 and 2 ranks in processes of their own (mpirun, killed
-    after 150 s). A checkpoint that does not fit is one CheckpointWriteError on every rank, exit
-    1, no crash; the previous checkpoint is intact and restartable, no temporary file is left."""
+    checkpoint after every step, runs on 2 ranks (the fullest on 1 rank too) in processes of their
+    own (mpirun, killed after 150 s). A checkpoint that does not fit is one CheckpointWriteError
+    on every rank, exit 1, no crash; the previous checkpoint is intact and restartable, no
+    temporary file is left."""
     kept = []
 
     def check(out, msg):
