@@ -4,7 +4,7 @@ every rank with a ``CheckpointError`` naming the file and the item or the settin
 takes anything from it; solver settings may change across a restart.
 
 One good checkpoint is written per module (at t = 1 s of a 2 s program: press, then slide
-0.5 mm); each case copies it and damages the copy with plain h5py on rank 0.
+0.35 mm); each case copies it and damages the copy with plain h5py on rank 0.
 """
 
 import json
@@ -19,7 +19,14 @@ from mpi4py import MPI
 
 from subfric_dolfinx.io import CheckpointError
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import hang_fails, on_root, prefix, raised_on_every_rank, small_scene
+from tests.helpers import (
+    SHORT_SLIDE,
+    hang_fails,
+    on_root,
+    prefix,
+    raised_on_every_rank,
+    small_scene,
+)
 
 pytestmark = hang_fails()
 
@@ -27,8 +34,7 @@ T_CK, T_END = 1.0, 2.0
 
 
 def scene(**outputs):
-    s = small_scene()
-    s["program"] = {"times": [0, 1, T_END], "channels": {"press": [0, 1, 1], "slide": [0, 0, 0.5]}}
+    s = small_scene(short=True)  # press (1 s), slide (1 s)
     s["outputs"] = dict(outputs)
     s["solver"]["prefix"] = prefix("badck")
     return s
@@ -165,7 +171,7 @@ OTHER_SETTINGS = {
     "pressure": (_pressure, "loads[0].value = 300.0, this run has 250.0"),
     "slide amplitude": (_slide_value, "dirichlet[1].value = 1.0, this run has 0.8"),
     "boundary value": (_bottom_held, "dirichlet[0].value[1] = 0.0, this run has 0.01"),
-    "program": (_slide_channel, "program.slide[2] = 0.5, this run has 0.6"),
+    "program": (_slide_channel, f"program.slide[2] = {SHORT_SLIDE}, this run has 0.6"),
 }
 
 

@@ -324,7 +324,7 @@ def test_files_requested_without_a_directory_are_refused():
 
 
 def scene(**outputs):
-    s = small_scene()
+    s = small_scene(short=True)
     s["outputs"] = dict(outputs)
     s["solver"]["prefix"] = prefix("ck")
     return s

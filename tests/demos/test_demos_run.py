@@ -1,11 +1,15 @@
-"""Every demo as a program, at a small size, on one rank and under ``mpirun -n 2``.
+"""Every demo as a program, at a small size, once.
 
 The demos' physics is tested in-process on the suite's ranks (``test_fe_demos.py``,
-``test_scenes.py``, ``test_elastic_smoke.py``, ``test_paper_figures.py``); here each demo runs
-the way a user runs it: ``python3 demos/<name>.py`` (its ``__main__`` block, the command line,
-the exit code, the figures and files it writes), in a subprocess with a timeout. The main demo's
-output stays within 30 lines. The API demo (``two_bodies_api``) is also run in-process, on the
-suite's ranks, and checked for what its text says.
+``test_scenes.py``, ``test_elastic_smoke.py``, ``test_paper_figures.py``), and every demo's
+``main`` at its smallest size, files included, on the ranks its record was made on
+(``test_records.py``: the FE demos on 2); here each demo runs the way a user runs it:
+``python3 demos/<name>.py`` (its ``__main__`` block, the command line, the exit code, the
+figures and files it writes), in a subprocess with a timeout; the numpy-only demos under
+``mpirun -n 2``, where rank 0 alone computes and writes.
+The main demo's output stays within 30 lines; the quick calibration's fit lands within a few
+standard errors of the truth its curves were made from. The API demo (``two_bodies_api``) is
+also run in-process, on the suite's ranks, and checked for what its text says.
 """
 
 import subprocess
@@ -16,6 +20,7 @@ import pytest
 from mpi4py import MPI
 
 from demos import two_bodies_api
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import ROOT, everywhere, on_root, singleton_env
 
 # demo -> (small command line, files it must write into --out)
@@ -97,15 +102,38 @@ def test_every_demo_is_a_notebook_whose_first_cell_is_its_docstring(name):
         assert "(default: " in text
 
 
+def check_calibration(out, text):
+    """The quick calibration: the refused fit said, the fit within a few standard errors of the
+    truth the curves were made from (the demo's ``TRUE``), the residual at the noise's level."""
+    import json
+
+    from demos import calibration
+
+    assert "refused on purpose: the data cannot identify xi together with kappa" in text, text
+    assert sorted(p.name for p in out.iterdir()) == ["DATA.json", "FIT.json", "calibration.png"]
+    data = json.loads((out / "DATA.json").read_text())
+    fit = json.loads((out / "FIT.json").read_text())
+    assert data["fit"] == ["mu_s", "mu_k", "kappa"] and len(data["curves"]) == 2
+    assert fit["converged"]
+    for k in data["fit"]:
+        assert abs(fit["params"][k] - calibration.TRUE[k]) < 4.0 * fit["stderr"][k], k
+    assert 0.1 < fit["rms"] < 0.3  # noise 0.2 MPa
+    assert (out / "calibration.png").read_bytes()[:4] == b"\x89PNG"
+
+
+CHECKS = {"calibration": check_calibration}
+NUMPY_ONLY = ("calibration", "paper_figures")
+"""What a demo's program run is checked for beyond its exit, its output and its files."""
+
+
 @pytest.mark.serial
-@pytest.mark.parametrize("ranks", [1, 2])
 @pytest.mark.parametrize("name", sorted(SMALL))
-def test_the_demo_runs_as_a_program(tmp_path, name, ranks):
+def test_the_demo_runs_as_a_program(tmp_path, name):
     args, files = SMALL[name]
     out = tmp_path / name
     cmd = [sys.executable, f"demos/{name}.py", *args, "--out", str(out)]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    if name in NUMPY_ONLY:  # rank 0 computes and writes, the other returns at once
+        cmd = ["mpirun", "-n", "2", *cmd]
     p = subprocess.run(
         cmd, cwd=ROOT, env=singleton_env(), capture_output=True, text=True, timeout=240
     )
@@ -116,8 +144,15 @@ def test_the_demo_runs_as_a_program(tmp_path, name, ranks):
     assert not missing, (missing, sorted(str(q.relative_to(out)) for q in out.rglob("*")))
     if name == "block_on_base":  # quiet by default: a line per program segment
         assert len(text.splitlines()) <= 30, text
+    if name in CHECKS:
+        CHECKS[name](out, p.stdout)
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning,
+    SlideWarning,
+    reason="the API demo's normal penalty and its 1 mm slides on the 1 mm block",
+)
 def test_the_api_demo_shows_what_it_says(shared_tmp):
     """Peak, softening, recovery in the hold and a second peak; the hold in a few steps; the
     leading edge pressed harder than the trailing one; the outputs written."""

@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 import pytest
 
+from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
 from tests.fem.test_multibody import P_LID, W_CAP, renamed_block, stack_builder
 from tests.helpers import everywhere, on_root, raised_on_every_rank
@@ -69,6 +70,9 @@ def stack_scene(path, **outputs) -> dict:
     }
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on 1 mm bodies"
+)
 def test_a_scene_with_three_bodies_and_two_interfaces(comm, shared_tmp):
     path = shared_tmp / "stack.msh"
     on_root(comm, lambda: write_model(stack_builder, path))
@@ -137,6 +141,9 @@ def classic(path=None, names=None):
     return s
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on the 1 mm block"
+)
 def test_a_classic_scene_on_a_file_with_the_users_names(comm, shared_tmp):
     path = shared_tmp / "named.msh"
     on_root(comm, lambda: write_model(renamed_block, path))

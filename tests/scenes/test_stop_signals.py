@@ -135,6 +135,7 @@ def _lines(p, q):
     q.put(None)
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @hang_fails(900)
 def test_double_signals_at_random_moments_under_mpirun(tmp_path):
@@ -230,6 +231,7 @@ def _until(p, word, timeout=300):
             return seen, q
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @hang_fails(600)
 @pytest.mark.parametrize(
