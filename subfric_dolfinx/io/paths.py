@@ -90,13 +90,15 @@ def interface_stems(base: str, names: Sequence[str]) -> dict[str, str]:
     return stems
 
 
-def inside(directory: str | os.PathLike[str], name: str) -> Path:
+def inside(directory: str | os.PathLike[str], name: str, resolve: bool = True) -> Path:
     """``directory / name``, confirmed to lie inside ``directory``.
 
     Args:
         directory: The directory (it need not exist yet; it may itself be a link, the user's
             choice).
         name: A relative name, ``/`` between parts (``"fields/interface_low.bp"``).
+        resolve: Also confirm that the parent directory, resolved (its links followed), is
+            ``directory`` or below it (``False``: the name's parts only).
 
     Raises:
         OutputError: ``name`` is absolute, has an empty, ``.`` or ``..`` part or a NUL, or its
@@ -112,7 +114,7 @@ def inside(directory: str | os.PathLike[str], name: str) -> Path:
         or any(p in (".", "..") for p in parts)
     )
     path = root.joinpath(*parts) if parts else root
-    if not bad:
+    if not bad and resolve:
         top = os.path.realpath(root)
         parent = os.path.realpath(path.parent)
         bad = os.path.commonpath([top, parent]) != top

@@ -166,9 +166,7 @@ def run_fe_scene(
         # first in, last out: a stop signal is a request until every file is closed (.signals)
         guard = stack.enter_context(StopSignals())
         if wants_files:
-            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
-            for name in planned:
-                inside(outdir, name)  # type: ignore[arg-type]
+            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None, files=planned))
         try:
             solver = stack.enter_context(
                 FrictionSolver(

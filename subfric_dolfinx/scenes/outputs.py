@@ -46,8 +46,9 @@ def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
     """Every name a run with these outputs may write in its output directory (``/`` inside).
 
     With the temporary names and the HDF5 spares (:mod:`subfric_dolfinx.io.h5`); the names of
-    interfaces made safe (:mod:`subfric_dolfinx.io.paths`). ``fields`` is the directory of the
-    field output.
+    interfaces made safe (:mod:`subfric_dolfinx.io.paths`). ``fields/`` is the directory of the
+    field output, made by the run for its files (:class:`~subfric_dolfinx.io.OutputDirectory`:
+    only the listed names in it are the run's).
 
     Raises:
         OutputError: Two interface names map to the same file.
@@ -65,7 +66,7 @@ def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
         stress = ["stress.bp"] if spec.fields == "vtx" else ["stress.xdmf", "stress.h5"]
         inner = [*FieldWriter.file_names(spec.fields, names), *stress]
         inner += [n for s in points.values() for n in (f"{s}.xdmf", f"{s}.h5", f"{s}.xdmf.tmp")]
-        files += ["fields", *(f"fields/{n}" for n in inner)]
+        files += ["fields/", *(f"fields/{n}" for n in inner)]
     return files
 
 
