@@ -502,6 +502,10 @@ class LoadStepper:
             if not r.converged:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
+                fault = getattr(self.problem, "bulk_fault", None)
+                bulk = fault() if fault is not None else None  # collective
+                if bulk is not None:  # the bodies' law, not the interface: said first
+                    why = f"{bulk}; {why}"
                 self._undo()
                 cuts += 1
                 segment.cuts += 1
@@ -524,8 +528,8 @@ class LoadStepper:
                         f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
-                        f"{self.step} at t = {self.t:.6g}, whose state is kept; "
-                        f"{attempt.text}",
+                        f"{self.step} at t = {self.t:.6g}, whose state is kept"
+                        + (f"; {attempt.text}" if bulk is None else ""),
                         target,
                         self.t,
                         self.step,
