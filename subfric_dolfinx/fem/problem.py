@@ -46,7 +46,7 @@ from .conditions import (
 from .interface import FrictionInterface, InterfaceError
 from .interface.friction import layout_of, stiffen_separated
 from .interface.kinds import make_interface
-from .kinematics import check_mode, weight
+from .kinematics import check_axisymmetric, check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
 __all__ = ["InterfaceProblem", "stiffen_separated"]
@@ -127,6 +127,8 @@ class InterfaceProblem:
         self.tags = dict(domain.tags)
         gdim = mesh.geometry.dim
         self.mode = check_mode(mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
+        if self.mode == "axisymmetric":
+            check_axisymmetric(mesh)  # r >= 0 everywhere (collective)
         topo = resolve_topology(
             domain,
             law,
