@@ -30,7 +30,9 @@ ranks restarts on 1 or 2 (format version 2):
 Every rank writes and reads its own contiguous slab of rows (:mod:`.slabs`) through h5py's MPI
 driver (:class:`~.h5.ParallelH5`): memory O(local) per rank. The file is written as
 ``<path>.tmp``, flushed, closed and renamed over ``<path>`` by rank 0: a run killed (or a disk
-filling up) while writing leaves the previous checkpoint intact; any failure is a
+filling up) while writing leaves the previous checkpoint intact; its ``format`` attribute is
+written last, after everything else was flushed, so a temporary file cut short by a kill is
+refused by every reader as incomplete; any failure is a
 :class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
 :class:`~.collective.OutputError`), naming the file and the OS error.
 
@@ -168,6 +170,11 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
         The attributes (as Python values) and the history rows.
     """
     fmt = _text(f.attrs.get("format"))
+    if fmt is None and "version" in f.attrs and "time" in f.attrs:
+        raise CheckpointError(
+            f"checkpoint {name} is incomplete: its write was interrupted before its end (the "
+            "previous checkpoint, if any, is the one to restart from)"
+        )
     if fmt != FORMAT:
         raise CheckpointError(
             f"{name} is not a subfric-dolfinx checkpoint (format attribute {short_repr(fmt)})"
@@ -410,7 +417,7 @@ def write_checkpoint(
     p0, p1 = slab(n_points, comm.size, comm.rank)
 
     def create(f: Any) -> None:  # collective metadata calls, the same on every rank
-        f.attrs.update(attrs)
+        f.attrs.update({k: v for k, v in attrs.items() if k != "format"})  # format: at the end
         kw = {"dtype": float, "fill_time": "never"}
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
         if iblock is not None:
@@ -457,6 +464,10 @@ def write_checkpoint(
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
+            h.call(lambda f: f.flush(), meta=True)
+            # the mark of a whole checkpoint, once everything else is in the file: a write
+            # killed before it (SIGKILL, mpirun's after SIGTERM) leaves a file no reader takes
+            h.call(lambda f: f.attrs.__setitem__("format", FORMAT), meta=True)
             h.call(lambda f: f.flush(), meta=True)
     except CheckpointError:
         if comm.rank == 0:

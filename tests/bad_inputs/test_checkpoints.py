@@ -304,3 +304,40 @@ def test_a_restart_on_another_mesh_of_the_same_counts_is_refused(shared_tmp):
                     restore_checkpoint(path, q, LoadStepper(solver, 0.5))
             else:
                 restore_checkpoint(path, q, LoadStepper(solver, 0.5))
+
+
+def test_a_checkpoint_write_cut_short_is_refused_as_incomplete(shared_tmp, monkeypatch):
+    """A write killed in its middle (mpirun kills the ranks 0.25 s after forwarding SIGTERM)
+    left ``checkpoint.h5.tmp`` with every attribute, a later time included: it read back as a
+    valid checkpoint. The ``format`` mark is now written last: the cut file is refused as
+    incomplete, on every rank; the previous checkpoint is intact."""
+    from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+    from subfric_dolfinx.io import checkpoint, read_checkpoint, write_checkpoint
+    from tests.helpers import block_problem
+
+    class Killed(BaseException):
+        """The process killed (nothing of this package sees it)."""
+
+    comm = MPI.COMM_WORLD
+    path = shared_tmp / "checkpoint.h5"
+    p = block_problem(comm)
+    real = checkpoint.write_extras
+
+    def cut(f, extras, comm_, create):
+        if not create:  # the datasets made, their values being written
+            raise Killed
+        return real(f, extras, comm_, create=create)
+
+    with FrictionSolver(p, prefix("cut"), linear="lu") as solver:
+        st = LoadStepper(solver, 0.5)
+        write_checkpoint(path, p, st, [])  # the previous one, at t = 0
+        st.t = 0.75
+        monkeypatch.setattr(checkpoint, "write_extras", cut)
+        with pytest.raises(Killed):
+            write_checkpoint(path, p, st, [])
+        monkeypatch.undo()
+    tmp = path.with_name("checkpoint.h5.tmp")
+    assert on_root(comm, tmp.exists)
+    with raised_on_every_rank(CheckpointError, repr(str(tmp)), "is incomplete", "interrupted"):
+        read_checkpoint(tmp, comm)
+    assert read_checkpoint(path, comm).attrs["time"] == 0.0
