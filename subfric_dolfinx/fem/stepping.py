@@ -38,6 +38,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from .. import logs
 from ..constitutive import Status
@@ -48,6 +49,7 @@ from .validity import ValidityWatch
 __all__ = [
     "LONG_SEGMENT_STEPS",
     "MAX_STEPS",
+    "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
@@ -59,6 +61,10 @@ __all__ = [
     "interface_activity",
 ]
 
+
+PREDICTOR_FORCE_RATIO = 1e3
+"""A step's increment is extrapolated (``predictor``) only where its converged state's forces
+exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
 
 LONG_SEGMENT_STEPS = 10
 """A segment of the program of at least this many steps gets its own log line."""
@@ -357,6 +363,29 @@ class LoadStepper:
             return ratio * self.increment
         return None
 
+    def _forces_resolved(self, r: SolveResult) -> bool:
+        """Whether the converged state's forces stand above Newton's error (collective).
+
+        The forces: the interface's, the reactions and the loads; Newton's error: the step's
+        last residual. Where they are not :data:`PREDICTOR_FORCE_RATIO` times larger (an
+        unloaded body touching or floating: every position of it is an equilibrium to within
+        the residual), the step's increment is not the response to anything: it is the part
+        of the linear solves' round-off and of Newton's tolerance the state kept, and
+        extrapolating it carries that on from step to step (identical runs on several ranks,
+        whose direct solver rounds differently from run to run, then parted). Such a step's
+        increment is not extrapolated (a zero one is kept).
+        """
+        p = self.problem
+        res = float(r.residuals[-1]) if r.residuals else 0.0
+        own = getattr(p, "interface_force", None)
+        interface = float(own @ own) if own is not None else 0.0
+        forces = math.sqrt(p.comm.allreduce(interface, op=MPI.SUM))
+        for v in getattr(p, "reactions", {}).values():
+            forces += float(np.linalg.norm(v))
+        for c, f in getattr(p, "loads", []):
+            forces += abs(p.program.amplitude(c.amplitude, p.t)) * f.norm()
+        return forces > PREDICTOR_FORCE_RATIO * res
+
     def _turns(self, target: float) -> bool:
         """Whether the step to ``target`` starts a new direction of the program (finite sliding).
 
@@ -502,6 +531,10 @@ class LoadStepper:
             if not r.converged:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
+                fault = getattr(self.problem, "bulk_fault", None)
+                bulk = fault() if fault is not None else None  # collective
+                if bulk is not None:  # the bodies' law, not the interface: said first
+                    why = f"{bulk}; {why}"
                 self._undo()
                 cuts += 1
                 segment.cuts += 1
@@ -524,8 +557,8 @@ class LoadStepper:
                         f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
-                        f"{self.step} at t = {self.t:.6g}, whose state is kept; "
-                        f"{attempt.text}",
+                        f"{self.step} at t = {self.t:.6g}, whose state is kept"
+                        + (f"; {attempt.text}" if bulk is None else ""),
                         target,
                         self.t,
                         self.step,
@@ -552,6 +585,8 @@ class LoadStepper:
                     self.increment = np.empty_like(x)
                 np.subtract(x, x0, out=self.increment)
                 self.increment_dt = dt
+                if not self._forces_resolved(r):  # nothing determined this motion
+                    self.increment[:] = 0.0
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()

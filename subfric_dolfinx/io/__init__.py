@@ -10,7 +10,9 @@
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
 * :mod:`.checkpoint`: checkpoint and restart in one HDF5 file, validated on read.
 * :mod:`.collective`: collective errors (:class:`OutputError`), the directory probe.
-* :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run.
+* :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run, its files
+  known by its manifest.
+* :mod:`.paths`: names made safe file names, output paths confirmed inside their directory.
 * :mod:`.h5`, :mod:`.slabs`: HDF5 files written and read in per-rank slabs (h5py's MPI driver).
 
 May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, the layer-0 modules

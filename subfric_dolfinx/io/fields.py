@@ -42,6 +42,7 @@ from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 from .gather import interface_of
 from .links import refuse_links, write_text_nofollow
+from .paths import inside, interface_stems
 from .units import FRAME, interface_units, status_legend
 
 __all__ = ["FieldWriter"]
@@ -76,7 +77,7 @@ class FieldWriter:
         problem: The problem.
         fmt: ``"vtx"`` (``displacement.bp``, ``interface.bp``) or ``"xdmf"``
             (``displacement.xdmf``, ``interface.xdmf``); with several interfaces one file each,
-            ``interface_<name>.bp`` (``.xdmf``).
+            ``interface_<name>.bp`` (``.xdmf``; the name made safe, :func:`~.paths.file_part`).
         extra_step_bytes: What the writes passed to :meth:`write` as ``also`` add per step
             (an estimate, for the first step's space check; later steps are measured).
     """
@@ -93,6 +94,7 @@ class FieldWriter:
         ifaces = getattr(problem, "interfaces", None) or {"interface": None}
         F = dolfinx.fem.Function
         # one interface file per interface: interface.bp (or interface_<name>.bp with several)
+        stems = interface_stems("interface", list(ifaces))
         self.parts: list[tuple[str, Any, Any, dict[str, Any]]] = []
         for name in ifaces:
             el, law = interface_of(problem, None if ifaces[name] is None else name)
@@ -114,8 +116,7 @@ class FieldWriter:
                     fields[c] = F(D0s, name=c)
             for k in el.point_data:
                 fields[k] = F(D0s, name=k)
-            stem = "interface" if len(ifaces) == 1 else f"interface_{name}"
-            self.parts.append((stem, el, law, fields))
+            self.parts.append((stems[name], el, law, fields))
         self.fields = self.parts[0][3]
         u = problem.u
         n_u = u.function_space.dofmap.index_map.size_global
@@ -138,6 +139,17 @@ class FieldWriter:
             cleanup=self.abandon,
         )
 
+    @staticmethod
+    def file_names(fmt: str, interfaces: Sequence[str]) -> list[str]:
+        """The names a writer creates in its directory, for a format and the interfaces' names.
+
+        Raises:
+            OutputError: Two interface names map to the same file (:mod:`.paths`).
+        """
+        stems = interface_stems("interface", interfaces).values()
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
+        return [n + e for n in ("displacement", *stems) for e in exts] + ["units.json"]
+
     def space_needed(self) -> int:
         """The free bytes a write asks for: ``2 step_bytes + MARGIN``.
 
@@ -156,9 +168,10 @@ class FieldWriter:
         u = problem.u
         gdim = problem.mesh.geometry.dim
         self._wi = []
-        names = ("displacement", *(stem for stem, _, _, _ in self.parts))
-        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
-        refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
+        ifaces = getattr(problem, "interfaces", None) or {"interface": None}
+        files = self.file_names(fmt, list(ifaces))
+        path = {f: inside(self.dir, f) for f in files}  # .paths: every one inside the directory
+        refuse_links(*path.values())  # .links
         if comm.rank == 0:
             units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
             for _, _, law, _ in self.parts:
@@ -171,13 +184,13 @@ class FieldWriter:
                 "frame": FRAME,
                 "status_legend": status_legend(),
             }
-            write_text_nofollow(self.dir / "units.json", json.dumps(meta, indent=1) + "\n")
+            write_text_nofollow(path["units.json"], json.dumps(meta, indent=1) + "\n")
         if fmt == "vtx":
-            self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
+            self._wu = dolfinx.io.VTXWriter(comm, path["displacement.bp"], [u], engine="BP4")
             for stem, _, _, fields in self.parts:
                 self._wi.append(
                     dolfinx.io.VTXWriter(
-                        comm, self.dir / f"{stem}.bp", list(fields.values()), engine="BP4"
+                        comm, path[f"{stem}.bp"], list(fields.values()), engine="BP4"
                     )
                 )
         else:
@@ -186,10 +199,10 @@ class FieldWriter:
             if u.function_space.ufl_element().embedded_superdegree != cdeg:
                 V1 = dolfinx.fem.functionspace(mesh, ("Lagrange", cdeg, (gdim,)))
                 self._u = dolfinx.fem.Function(V1, name="displacement")
-            self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
+            self._wu = dolfinx.io.XDMFFile(comm, path["displacement.xdmf"], "w")
             self._wu.write_mesh(mesh)
             for stem, el, _, _ in self.parts:
-                w = dolfinx.io.XDMFFile(comm, self.dir / f"{stem}.xdmf", "w")
+                w = dolfinx.io.XDMFFile(comm, path[f"{stem}.xdmf"], "w")
                 self._wi.append(w)
                 w.write_mesh(el.submesh)
 

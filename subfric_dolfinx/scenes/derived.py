@@ -27,6 +27,7 @@ from ..fem.probes import InterfacePointProbe, PointEvaluator
 from ..fem.stress import STRESS_COMPONENTS, StressField
 from ..io.collective import collective
 from ..io.links import refuse_links
+from ..io.paths import inside
 from .parse_features import frame_axes
 from .schema import FEScene, SceneError
 
@@ -159,10 +160,9 @@ class DerivedOutputs:
     def _open(self, directory: Path) -> None:
         comm = self.problem.comm
         names = ["stress.bp"] if self.fmt == "vtx" else ["stress.xdmf", "stress.h5"]
-        paths = [directory, *(directory / n for n in names)]
-        collective(  # before anything is written (.io.links)
+        collective(  # before anything is written (.io.links, .io.paths)
             comm,
-            lambda: refuse_links(*paths),
+            lambda: refuse_links(directory, *(inside(directory, n) for n in names)),
             f"writing the stress in {str(directory)!r}",
             path=directory,
         )

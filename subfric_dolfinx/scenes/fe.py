@@ -36,9 +36,10 @@ from ..fem import (
     timing_breakdown,
 )
 from ..io import OutputDirectory, interface_summary, restore_checkpoint
+from ..io.paths import inside
 from .build import build_mesh, build_problem
 from .derived import DerivedOutputs
-from .outputs import SceneOutputs
+from .outputs import SceneOutputs, planned_files
 from .result import SceneResult
 from .schema import FEScene, SceneError
 from .signals import SceneInterrupted, StopSignals
@@ -158,11 +159,14 @@ def run_fe_scene(
         i["ranks"],
     )
     settings = restart_settings(scene)
+    # the names of every file the run may write (an interface's name made safe; two names of
+    # the same file refused): before anything is written
+    planned = planned_files(out, list(problem.interfaces)) if wants_files else []
     with contextlib.ExitStack() as stack:
         # first in, last out: a stop signal is a request until every file is closed (.signals)
         guard = stack.enter_context(StopSignals())
         if wants_files:
-            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
+            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None, files=planned))
         try:
             solver = stack.enter_context(
                 FrictionSolver(
@@ -204,7 +208,7 @@ def run_fe_scene(
                 restart_history=restart_history,
                 settings=settings,
                 derived=DerivedOutputs(
-                    scene, problem, outdir / "fields" if out.fields is not None else None
+                    scene, problem, inside(outdir, "fields") if out.fields is not None else None
                 ),
             )
         )

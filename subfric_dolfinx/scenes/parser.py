@@ -92,6 +92,20 @@ def check_plain(value: Any, path: str) -> None:
     raise SceneError(f"{path}: expected a JSON value, got {typed_repr(value)}")
 
 
+def _same_kind(value: Any, tp: Any) -> bool:
+    """Whether a JSON value is of the kind of the type ``tp`` (a number for a number, ...)."""
+    origin = typing.get_origin(tp)
+    if isinstance(value, bool):
+        return tp is bool
+    if isinstance(value, int | float):
+        return tp in (int, float)
+    if isinstance(value, list | tuple):
+        return origin is list
+    if isinstance(value, dict):
+        return origin is dict or dataclasses.is_dataclass(tp)
+    return False
+
+
 def _convert(value: Any, tp: Any, path: str) -> Any:
     origin = typing.get_origin(tp)
     if tp is Any:
@@ -102,7 +116,10 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             try:
                 return _convert(value, option, path)
             except SceneError as e:
-                errors.append(str(e))
+                errors.append((option, str(e)))
+        for option, text in errors:  # the value has this option's kind: its own error says more
+            if _same_kind(value, option):  # (a number not finite, an item of a list, ...)
+                raise SceneError(text)
         names = " or ".join(_type_name(a) for a in typing.get_args(tp))
         raise SceneError(f"{path}: expected {names}, got {short_repr(value)}")
     if tp is type(None):

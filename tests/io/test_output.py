@@ -34,6 +34,7 @@ from subfric_dolfinx.io import (
     fields,
     interface_summary,
 )
+from subfric_dolfinx.io.outdir import MANIFEST
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import (
@@ -322,7 +323,11 @@ def test_a_stale_or_vanishing_lock_file_is_handled(shared_tmp, monkeypatch):
     s = short_scene(history=True)
     s["program"]["times"] = [0, 0.5, 1]
     run_scene(s, outdir=out, comm=comm)
-    assert on_root(comm, lambda: listing(out)) == ["history.csv", "history.csv-metadata.json"]
+    assert on_root(comm, lambda: listing(out)) == [
+        MANIFEST,
+        "history.csv",
+        "history.csv-metadata.json",
+    ]
     real = fcntl.flock
     removed = []
 
@@ -337,7 +342,11 @@ def test_a_stale_or_vanishing_lock_file_is_handled(shared_tmp, monkeypatch):
         held = not lock_is_free(out)  # the file at the name is locked
     monkeypatch.undo()
     assert on_root(comm, lambda: bool(removed)) and held
-    assert on_root(comm, lambda: listing(out)) == ["history.csv", "history.csv-metadata.json"]
+    assert on_root(comm, lambda: listing(out)) == [
+        MANIFEST,
+        "history.csv",
+        "history.csv-metadata.json",
+    ]
 
 
 @contextlib.contextmanager
@@ -372,6 +381,7 @@ def test_every_rank_returns_with_the_directory_in_its_final_state_under_load(sha
             out = shared_tmp / f"run{i}"
             run_scene(s, outdir=out, comm=comm)
             assert listing(out) == [
+                MANIFEST,
                 "history.csv",
                 "history.csv-metadata.json",
                 "interface_history.h5",
@@ -395,6 +405,7 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
 
     def check():
         assert listing(out) == [  # no lock left
+            MANIFEST,
             "history.csv",
             "history.csv-metadata.json",
             "notes.txt",
@@ -403,6 +414,7 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
         prev = out / "previous_run"
         assert listing(prev) == [
             ".made-by-subfric-dolfinx",
+            MANIFEST,
             "checkpoint.h5",
             "fields",
             "history.csv",
@@ -423,6 +435,7 @@ def test_a_fresh_run_moves_the_earlier_runs_files_aside(shared_tmp):
     def check_third():
         assert listing(out / "previous_run") == [
             ".made-by-subfric-dolfinx",
+            MANIFEST,
             "history.csv",
             "history.csv-metadata.json",
         ]

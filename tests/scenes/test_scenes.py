@@ -71,6 +71,7 @@ def test_demo_block_on_base_against_the_material_point_driver(shared_tmp):
     before = abs(ft[np.flatnonzero(np.isclose(t, 4.0))[0]])
     assert ft[t > 9.0].max() > 1.2 * before
     assert sorted(p.name for p in shared_tmp.iterdir()) == [
+        ".subfric-files.json",  # the run's files (io.outdir)
         "history.csv",
         "history.csv-metadata.json",
     ]
