@@ -50,7 +50,6 @@ the output directory. PETSc options apply under the prefix `block_`, e.g. `-bloc
 
 # %%
 import argparse
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -227,5 +226,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return result
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -53,7 +53,6 @@ axis when every point of an interface slides.
 # %%
 import argparse
 import math
-import sys
 import types
 from pathlib import Path
 
@@ -365,5 +364,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return {"history": rows, "report": out}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -93,7 +93,6 @@ under the prefix `bolt_`, e.g. `-bolt_snes_monitor`.
 # %%
 import argparse
 import math
-import sys
 
 # %%
 import numpy as np
@@ -355,5 +354,8 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

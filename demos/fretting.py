@@ -107,7 +107,6 @@ PETSc options go under the prefixes `fretting_coulomb_` and `fretting_subloading
 # %%
 import argparse
 import math
-import sys
 from pathlib import Path
 
 # %%
@@ -544,5 +543,8 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

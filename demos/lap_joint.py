@@ -80,7 +80,6 @@ figures into the output directory. PETSc options apply under the prefixes `lap_s
 # %%
 import argparse
 import math
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -291,5 +290,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return results
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -76,7 +76,6 @@ apply under the prefix `pad_`, e.g. `-pad_snes_monitor`.
 # %%
 import argparse
 import math
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -365,5 +364,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return result
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -82,12 +82,12 @@ import csv
 import math
 import os
 import pathlib
-import sys
 import time
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.driver import run_case
 from subfric_dolfinx.logs import launcher_rank
@@ -565,7 +565,7 @@ def run_demo(
 
 # %%
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
+    ap = argparse.ArgumentParser(description=summary(__doc__), formatter_class=HelpFormatter)
     ap.add_argument("--out", default="demos/output/paper_figures", help="output directory")
     ap.add_argument(
         "--steps-per-mm",
@@ -575,7 +575,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(FIGURES)}")
     ap.add_argument("--quick", action="store_true", help="coarse and fast (a check, ~10 s)")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv))  # in a notebook: the defaults
     if args.steps_per_mm is not None and not args.steps_per_mm > 0:
         ap.error("--steps-per-mm must be > 0")
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
@@ -589,5 +589,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    main_block(main)

@@ -98,7 +98,6 @@ directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`
 
 # %%
 import argparse
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -368,5 +367,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return sub, coul
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -44,7 +44,6 @@ demo (`shaft`, `hub`, `fit`, `axis`, `hub_ends`), the interface's nodes split wi
 
 # %%
 import argparse
-import sys
 import types
 from pathlib import Path
 
@@ -283,5 +282,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return {"results": results, "report": out}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

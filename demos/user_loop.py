@@ -41,7 +41,6 @@ difference (`tests/demos/test_user_loop.py` checks it on 1 and 2 ranks).
 
 # %%
 import argparse
-import sys
 from pathlib import Path
 
 import dolfinx
@@ -269,5 +268,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return {"history": mine, "reference": ref, "difference": diff}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)
