@@ -306,19 +306,23 @@ def _flush() -> None:
             pass
 
 
-def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> int:
+def run_main(
+    main: Callable[[list[str] | None], Any], argv: list[str] | None = None, prog: str | None = None
+) -> int:
     """Run a demo's ``main(argv)``; return its exit code, the way it ended in one line.
 
     Use as ``sys.exit(run_main(main))``. SIGTERM, SIGINT, SIGUSR1 and SIGUSR2 stop the run:
     during an FE run after the current step (with a checkpoint if the run writes any; a second
     signal within the step, :mod:`.signals`), elsewhere (building the mesh and the problem,
     drawing figures) within a second (:class:`_StopWatch`); either way exit code
-    :data:`EXIT_INTERRUPTED`, one line, no traceback.
+    :data:`EXIT_INTERRUPTED`, one line, no traceback. ``prog`` names the program in that line
+    (default: the script's name).
     """
     from mpi4py import MPI
 
     rank = MPI.COMM_WORLD.rank
-    prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
+    if prog is None:
+        prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
     with _StopWatch(prog, rank):
         try:
             main(argv)
