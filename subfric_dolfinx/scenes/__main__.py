@@ -1,4 +1,4 @@
-"""``python3 -m subfric_dolfinx.scenes SCENE.json --out DIR`` (the console script ``subfric-scene``)."""
+"""``python3 -m subfric_dolfinx.scenes SCENE.json --out DIR`` (console script: subfric-scene)."""
 
 import sys
 

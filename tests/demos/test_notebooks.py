@@ -6,8 +6,7 @@ What a kernel does differently from ``python3 demos/<name>.py``: the command lin
 ``__file__`` is not defined. So every demo ends with the same last cell, ``if __name__ ==
 "__main__":`` and the package's ``main_block(main)``, which in a kernel runs ``main()`` with the
 defaults instead of exiting, and parses no command line there (``program_args``); no other cell
-reads ``sys.argv``, exits or uses ``__file__`` (:func:`test_every_demo_ends_with_the_notebook_safe_block`,
-for every demo).
+reads ``sys.argv``, exits or uses ``__file__`` (checked for every demo).
 
 Executing every demo in a kernel costs a kernel and the demo's run each (3-15 s): the demos run
 here are one of each kind of last cell, each at its smallest size (``docs/demo_results.SMALL``,

@@ -14,7 +14,6 @@ import pytest
 
 from subfric_dolfinx.scenes import SceneError, load_scene
 from subfric_dolfinx.scenes.schema import FEScene
-from tests.helpers import ROOT
 from tests.scenes.test_cli import run
 
 SCENE = {
