@@ -15,12 +15,12 @@ progress line every :data:`PROGRESS_SECONDS`, DEBUG for one line per load step a
 attempt.
 
 **Warnings about the model's validity** (a penetration or a slide the small-sliding interface no
-longer describes) are not log records: they go through :func:`warn`, i.e. :func:`warnings.warn`
-with a :class:`SubfricWarning` category, so that every user sees them in a plain script without
-configuring anything, and the standard filters apply (``warnings.simplefilter("error",
-SubfricWarning)`` makes them errors, ``"ignore"`` silences them). Under MPI every rank evaluates
-the filters alike (an ``"error"`` filter raises on every rank, never on one alone) and rank 0
-shows the warning: one line per job, not one per rank.
+longer describes, a law's ``mu_s`` that looks like a friction coefficient) are not log records:
+they go through :func:`warn`, i.e. :func:`warnings.warn` with a :class:`SubfricWarning` category,
+so that every user sees them in a plain script without configuring anything, and the standard
+filters apply (``warnings.simplefilter("error", SubfricWarning)`` makes them errors, ``"ignore"``
+silences them). Under MPI every rank evaluates the filters alike (an ``"error"`` filter raises on
+every rank, never on one alone) and rank 0 shows the warning: one line per job, not one per rank.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ __all__ = [
     "Progress",
     "SlideWarning",
     "SubfricWarning",
+    "UnitsWarning",
     "configure",
     "launcher_rank",
     "level_for",
@@ -141,6 +142,10 @@ class PenetrationWarning(SubfricWarning):
 
 class SlideWarning(SubfricWarning):
     """A slide longer than the small-sliding interface (pairs fixed at the reference) describes."""
+
+
+class UnitsWarning(SubfricWarning):
+    """A parameter that looks given in another unit: a friction coefficient as ``mu_s`` (MPa)."""
 
 
 _PACKAGE_DIR = str(Path(__file__).resolve().parent)
