@@ -71,7 +71,7 @@ from subfric_dolfinx.fem import (
     Material,
     Spring,
 )
-from subfric_dolfinx.io import interface_summary
+from subfric_dolfinx.io import interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import cli
 
@@ -226,8 +226,8 @@ def bolt_force(problem: InterfaceProblem):
     return evaluate
 
 
-def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
-    """Pretension and cyclic shear; one row per step: the forces of the balance."""
+def run(domain, cycles: int, dt: float) -> tuple[list[dict[str, float]], InterfaceProblem]:
+    """Pretension and cyclic shear: one row per step (the forces of the balance), the problem."""
     p = problem(domain, cycles)
     N = bolt_force(p)
     rows = []
@@ -252,7 +252,21 @@ def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
 
     with FrictionSolver(p, "bolt_", linear="lu") as solver:
         LoadStepper(solver, dt, hold_dt=1.0, on_step=on_step).run()
-    return rows
+    return rows, p
+
+
+COLUMNS = {
+    "shear": ("mm", "displacement imposed at the upper plate's end, x"),
+    "force": ("N", "shear force: the reaction at the upper plate's end, x"),
+    "bolt": ("N", "bolt force: the shank's axial stress integrated over its section"),
+    "head": ("N", "normal resultant of the head's face (head_face.F_n)"),
+    "joint": ("N", "normal resultant of the joint between the plates (joint.F_n)"),
+    "nut": ("N", "normal resultant of the nut's face (nut_face.F_n)"),
+    "joint_slip": ("mm", "mean plastic slip of the joint (joint.up_norm)"),
+    "joint_plastic": ("1", "fraction of the joint's points sliding (joint.plastic)"),
+    "residual_bound": ("N", "sqrt(dofs) times Newton's last residual norm"),
+}
+"""Units and meanings of the history's columns (``history.csv-metadata.json``)."""
 
 
 def balance(rows: list[dict[str, float]]) -> float:
@@ -350,16 +364,12 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     domain, _ = meshing.create_interface_mesh(
         build, comm, bodies=BODIES, interfaces=SIDES, h=args.h
     )
-    rows = run(domain, args.cycles, args.dt)
+    rows, problem_ = run(domain, args.cycles, args.dt)
     out = report(rows, comm)
     if comm.rank == 0:
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
-        keys = list(rows[0])
-        with open(outdir / "history.csv", "w") as f:
-            f.write(",".join(keys) + "\n")
-            for r in rows:
-                f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        write_history_file(outdir / "history.csv", rows, problem_, COLUMNS)  # and its units
         figure(rows, outdir)
     return {"history": rows, "report": out}
 

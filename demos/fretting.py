@@ -119,7 +119,7 @@ from mpi4py import MPI
 from demos import cattaneo_mindlin, hertz
 from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
-from subfric_dolfinx.io import interface_summary
+from subfric_dolfinx.io import interface_summary, write_history_file
 from subfric_dolfinx.scenes import cli, parse_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
 from subfric_dolfinx.scenes.outputs import interface_profile
@@ -242,7 +242,13 @@ def run(sc: dict, comm: MPI.Comm, options: dict | None = None) -> dict:
     with FrictionSolver(problem, spec.solver.prefix, options or {}, linear="lu") as solver:
         LoadStepper(solver, spec.solver.dt, on_step=on_step).run()
     dofs = problem.global_dofs
-    return {"history": rows, "snapshots": snaps, "plastic": plastic, "dofs": dofs}
+    return {
+        "history": rows,
+        "snapshots": snaps,
+        "plastic": plastic,
+        "dofs": dofs,
+        "problem": problem,
+    }
 
 
 # %%
@@ -479,15 +485,23 @@ def figure(results: dict, cycles: int, outdir: Path) -> str:
 
 
 # %%
+COLUMNS = {
+    "s": ("mm", "sideways displacement of the cylinder's top"),
+    "Q": ("N/mm", "tangential load: the reaction at the cylinder's top, x"),
+    "P": ("N/mm", "normal load: the reaction at the cylinder's top, y"),
+    "F_t": ("N/mm", "tangential interface resultant"),
+    "F_n": ("N/mm", "normal interface resultant, > 0 in compression"),
+    "plastic_points": ("1", "J2 quadrature points that have yielded"),
+    "iterations": ("1", "Newton iterations of the step"),
+    "residual": ("N/mm", "Newton's last residual norm"),
+}
+"""Units and meanings of the history's own columns (the others: the package's names)."""
+
+
 def write_history(results: dict, outdir: Path) -> None:
-    """One CSV per law with every step's row."""
+    """One CSV per law with every step's row, and its units (``<law>.csv-metadata.json``)."""
     for name, res in results.items():
-        rows = res["history"]
-        keys = list(rows[0])
-        with open(outdir / f"{name}.csv", "w") as f:
-            f.write(",".join(keys) + "\n")
-            for r in rows:
-                f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        write_history_file(outdir / f"{name}.csv", res["history"], res["problem"], COLUMNS)
 
 
 # %%

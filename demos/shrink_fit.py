@@ -59,7 +59,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
 )
-from subfric_dolfinx.io import gather_interface, interface_summary
+from subfric_dolfinx.io import gather_interface, interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import cli
 
@@ -167,7 +167,7 @@ def run(domain, law, steps: int, push: float) -> dict:
 
     with FrictionSolver(p, linear="lu") as solver:
         LoadStepper(solver, 1.0 / steps, hold_dt=1.0, on_step=on_step).run()
-    return {"history": rows, "fit": fit}
+    return {"history": rows, "fit": fit, "problem": p}
 
 
 def laws():
@@ -272,12 +272,12 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     if comm.rank == 0:
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
-        for name, res in results.items():
-            keys = list(res["history"][0])
-            with open(outdir / f"{name}.csv", "w") as f:
-                f.write(",".join(keys) + "\n")
-                for r in res["history"]:
-                    f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        columns = {  # the history's own columns (the others: the package's names and units)
+            "push": ("mm", "axial displacement of the shaft's end"),
+            "force": ("N", "axial force on the shaft (its reaction), over the circumference"),
+        }
+        for name, res in results.items():  # <law>.csv and <law>.csv-metadata.json (units)
+            write_history_file(outdir / f"{name}.csv", res["history"], res["problem"], columns)
         figure(results, outdir)
     return {"results": results, "report": out}
 

@@ -89,15 +89,18 @@ def program_args(argv: Sequence[str] | None = None) -> list[str]:
 
 
 def main_block(main: Callable[[], Any]) -> Any:
-    """A program's ``__main__`` block: ``sys.exit(main())``, in a notebook ``main()``.
+    """A program's ``__main__`` block: exits with ``main()``'s code, in a notebook returns it.
 
-    In a Jupyter kernel ``sys.exit`` raises ``SystemExit`` into the cell, which the notebook shows
-    as an error even for 0: there ``main()`` runs with its defaults (see :func:`program_args`)
-    and its result is returned; call ``main([...])`` in a cell for other options.
+    As a program the exit code is ``main()``'s return value if it is an integer, else 0 (a
+    ``main`` that returns its results). In a Jupyter kernel ``sys.exit`` raises ``SystemExit``
+    into the cell, which the notebook shows as an error even for 0: there ``main()`` runs with
+    its defaults (see :func:`program_args`) and its result is returned; call ``main([...])`` in
+    a cell for other options.
 
     Raises:
-        SystemExit: As a program, always, with ``main``'s return value as the exit code.
+        SystemExit: As a program, always.
     """
     if in_notebook():
         return main()
-    sys.exit(main())
+    result = main()
+    sys.exit(result if isinstance(result, int) else 0)

@@ -3,11 +3,12 @@
 The demos' physics is tested in-process on the suite's ranks (``test_fe_demos.py``,
 ``test_scenes.py``, ``test_elastic_smoke.py``, ``test_paper_figures.py``); here each demo runs
 the way a user runs it: ``python3 demos/<name>.py`` (its ``__main__`` block, the command line,
-the exit code, the figures and files it writes), in a subprocess with a timeout. The main demo's
-output stays within 30 lines. The API demo (``two_bodies_api``) is also run in-process, on the
-suite's ranks, and checked for what its text says.
+the exit code, the figures and files it writes, each CSV file's units), in a subprocess with
+a timeout. Each demo's output stays within 30 lines. The API demo (``two_bodies_api``) is also
+run in-process, on the suite's ranks, and checked for what its text says.
 """
 
+import json
 import subprocess
 import sys
 
@@ -122,8 +123,15 @@ def test_the_demo_runs_as_a_program(tmp_path, name, ranks):
     assert "Traceback" not in text and "error" not in text.lower(), text
     missing = [f for f in files if not (out / f).exists()]
     assert not missing, (missing, sorted(str(q.relative_to(out)) for q in out.rglob("*")))
-    if name == "block_on_base":  # quiet by default: a line per program segment
-        assert len(text.splitlines()) <= 30, text
+    assert len(text.splitlines()) <= 30, text  # quiet by default: a line per program segment
+    for table in out.rglob("*.csv"):  # every CSV has its units (paper_figures: in its names)
+        if name == "paper_figures":
+            assert all("_" in c for c in table.read_text().splitlines()[0].split(",")[2:])
+            continue
+        meta = json.loads(table.with_name(table.name + "-metadata.json").read_text())
+        units = {c["name"]: c["schema:unitText"] for c in meta["tableSchema"]["columns"]}
+        assert list(units) == table.read_text().splitlines()[0].split(","), table
+        assert "?" not in units.values(), (table, units)
 
 
 def test_the_api_demo_shows_what_it_says(shared_tmp):
