@@ -4,10 +4,12 @@ Under ``mpirun``, a numpy-only program finds its rank with :func:`launcher_rank`
 started from a rank gets :func:`singleton_environment` so that it does not join the job.
 
 Every module logs to a child of the ``subfric_dolfinx`` logger (``logging.getLogger(__name__)``).
-As a library, the package installs no output handler of its own; a program (a demo, a script)
-calls :func:`configure` once to see the log::
+As a library, the package installs no output handler of its own and prints nothing but its
+warnings; a program (a script, a notebook) calls :func:`show_progress` once to see a line per
+load step, or :func:`configure` for another level::
 
     from subfric_dolfinx import logs
+    logs.show_progress(MPI.COMM_WORLD)                 # a progress line per step, on rank 0
     logs.configure(verbosity=0, comm=MPI.COMM_WORLD)   # -1 warnings, 0 info, 1 debug
 
 Levels: INFO for the run's size and summary, a line per long segment of the loading program and a
@@ -44,6 +46,7 @@ __all__ = [
     "configure",
     "launcher_rank",
     "level_for",
+    "show_progress",
     "singleton_environment",
     "warn",
 ]
@@ -96,6 +99,25 @@ def configure(
     logger.setLevel(level_for(verbosity))
     logger.propagate = False
     return handler
+
+
+def show_progress(comm: Any = None, stream: TextIO | None = None) -> logging.Handler:
+    """Print a progress line per converged load step on rank 0 of ``comm``: the library's log.
+
+    For a script or a notebook that calls the library (``run_scene``, ``LoadStepper.run``,
+    ``run_case``): each step's number, time, step size, Newton iterations, residuals, what the
+    interface does and the elapsed time, each failed attempt, and the run's size and summary.
+    ``configure(1, comm, stream)``; ``configure(0, comm)`` prints a line per long segment of the
+    program instead, ``logs.configure(-1)`` warnings only.
+
+    Args:
+        comm: MPI communicator; only its rank 0 prints (``None``: every process prints).
+        stream: Where to print (default ``sys.stdout``).
+
+    Returns:
+        The installed handler.
+    """
+    return configure(1, comm, stream)
 
 
 PROGRESS_SECONDS = 10.0
