@@ -327,3 +327,13 @@ def test_the_environment_imports_the_mpi_builds_of_adios2_and_h5py(tmp_path):
     p = subprocess.run(["bash", "-c", script], cwd=tmp_path, capture_output=True, text=True)
     assert p.returncode == 0, p.stdout + p.stderr
     assert p.stdout.split() == ["True", "True"], p.stdout
+
+
+def test_the_docs_command_fails_on_any_sphinx_warning(tmp_path):
+    """``./run docs`` is Sphinx with warnings as errors, going on to list them all (the same build
+    as ``tests/demos/test_docs.py``'s, which asserts it succeeds)."""
+    script = f'source "{RUN}"; in_env() {{ printf "%s\\n" "$@"; }}; main docs -q'
+    p = subprocess.run(["bash", "-c", script], cwd=tmp_path, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    args = p.stdout.split()
+    assert args[0] == "sphinx-build" and {"-W", "--keep-going", "-q"} <= set(args), args

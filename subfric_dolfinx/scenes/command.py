@@ -4,9 +4,10 @@ The same as ``python3 -m subfric_dolfinx.scenes SCENE.json --out DIR``, on any n
 (``mpirun -n 2 subfric-scene ...``). The scene is read strictly (:func:`~.parser.load_scene`) and
 run by :func:`~.runner.run_scene`; its files go to ``--out``. Options with one dash go to PETSc
 (``-<prefix>snes_monitor``, the prefix being the scene's ``solver.prefix``), ``-v`` prints a line
-per step. Exit codes as the demos' (:mod:`.cli`): 0 done, 1 a step that could not be solved or
-an I/O error, 2 bad input (the scene, its mesh, the command line), 75 stopped by a signal
-(SIGUSR1 to ``mpirun``; after the current step, with a checkpoint if the scene writes any).
+per step. Exit codes as the demos' (:mod:`~subfric_dolfinx.scenes.cli`): 0 done, 1 a step that
+could not be solved or an I/O error, 2 bad input (the scene, its mesh, the command line), 75
+stopped by a signal (SIGUSR1 to ``mpirun``; after the current step, with a checkpoint if the scene
+writes any).
 """
 
 from __future__ import annotations
