@@ -396,13 +396,28 @@ def measure(res: dict, cycles: int, coulomb: bool) -> dict:
 
 
 # %%
-def report(name: str, m: dict) -> str:
-    """The numbers of one run."""
+def report(name: str, m: dict, detail: bool = False) -> str:
+    """The numbers of one run: a few lines, or every extreme's with ``detail`` (``-v``)."""
     lines = [
         f"[fretting] {name}: force balance {m['balance']:.2e} of P; largest |Q|/mu P = "
         f"{m['ratio_max']:.4f}"
     ]
-    for t, e in m["extremes"].items():
+    if not detail:
+        ends = list(m["extremes"].values())
+        slips = [1e3 * e["slip_centre"] for e in ends]
+        sticks = [e["stick"] for e in ends if e.get("stick") and e["stick"]["stick"]]
+        if sticks:
+            lines.append(
+                f"[fretting]   stick zone against Cattaneo-Mindlin: c (fit) "
+                f"{sticks[0]['err_c_fit']:+.2%} at the first extreme, "
+                f"{sticks[-1]['err_c_fit']:+.2%} at the last"
+            )
+        depth = max(e["plastic"]["depth_any"] for e in ends)
+        lines.append(
+            f"[fretting]   slip at the centre at the extremes: {min(slips):.4f} to "
+            f"{max(slips):.4f} µm; plastic strain within {depth:.3f} mm of the surface"
+        )
+    for t, e in m["extremes"].items() if detail else ():
         pl = e["plastic"]
         lines.append(
             f"[fretting]   t = {t:g}: Q = {e['Q']:+8.2f} N/mm, P = {e['P']:.2f} N/mm, "
@@ -445,41 +460,60 @@ def report(name: str, m: dict) -> str:
 
 # %%
 def figure(results: dict, cycles: int, outdir: Path) -> str:
-    """Fretting loops (Q against s) and the flat's plastic strain after the last cycle."""
+    """Fretting loops, their opening, and the flat's plastic strain (one scale for both laws)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = list(results)
-    fig, ax = plt.subplots(1, 1 + len(names), figsize=(5 + 4.5 * len(names), 4.2))
+    fig = plt.figure(figsize=(12, 4.0 + 2.2 * len(names)))
+    grid = fig.add_gridspec(len(names), 2, width_ratios=[1.0, 1.35])
+    loops = fig.add_subplot(grid[: max(len(names) // 2, 1), 0])
+    opening = fig.add_subplot(grid[max(len(names) // 2, 1) :, 0]) if len(names) > 1 else None
     t_end = extremes(cycles)[-1]
+    styles = ["-", "--", ":"]
+    fields = {}
     for k, name in enumerate(names):
         rows = [r for r in results[name]["history"] if r["t"] >= 1.0]
-        ax[0].plot(
-            [1e3 * r["s"] for r in rows],
-            [r["Q"] for r in rows],
-            "-",
-            ms=2,
-            color=f"C{k}",
-            label=name,
-        )
+        s = np.array([1e3 * r["s"] for r in rows])
+        Q = np.array([r["Q"] for r in rows])
+        style = {"ls": styles[k % 3], "color": f"C{k}", "lw": 1.4, "label": name}
+        loops.plot(s, Q, **style)
+        # the loop's opening: Q less the secant through the last cycle's extremes, so that the
+        # hysteresis (the dissipation) shows instead of the bodies' elastic compliance
+        last = np.array([r["t"] >= extremes(cycles)[-3] - 1e-9 for r in rows])
+        k_sec = np.ptp(Q[last]) / max(np.ptp(s[last]), 1e-300)
+        if opening is not None:
+            opening.plot(s, Q - k_sec * s, **style)
         pl = results[name]["plastic"][round(t_end, 9)]
         x, y = pl["x"][:, 0] - hertz.L, pl["x"][:, 1] - hertz.L
         near = (np.abs(x) < 1.6) & (y > -0.8)
-        sc = ax[1 + k].scatter(x[near], y[near], c=pl["p"][near], s=6, cmap="viridis")
-        fig.colorbar(sc, ax=ax[1 + k], label="equivalent plastic strain p")
-        ax[1 + k].set_title(f"{name}: the flat after {cycles} cycle(s)", fontsize=9)
-        ax[1 + k].set_xlabel("x from the centre (mm)")
-        ax[1 + k].set_ylabel("y below the surface (mm)")
-        ax[1 + k].set_aspect("equal")
-    ax[0].set_xlabel("sideways displacement of the top s (µm)")
-    ax[0].set_ylabel("tangential load Q (N/mm)")
-    ax[0].legend(fontsize=8)
-    ax[0].grid(True, alpha=0.3)
-    fig.tight_layout()
+        fields[name] = (x[near], y[near], pl["p"][near])
+    top = max(float(np.max(f[2])) if f[2].size else 0.0 for f in fields.values()) or 1.0
+    panels = []
+    for k, (name, (x, y, p)) in enumerate(fields.items()):
+        a = fig.add_subplot(grid[k, 1])
+        sc = a.scatter(x, y, c=p, s=6, cmap="viridis", vmin=0.0, vmax=top)
+        a.set_title(f"{name}: the flat's plastic strain after {cycles} cycle(s)", fontsize=9)
+        a.set_ylabel("depth y (mm)")
+        a.set_aspect("equal")
+        panels.append(a)
+    panels[-1].set_xlabel("x from the contact's centre (mm)")
+    fig.colorbar(sc, ax=panels, label="equivalent plastic strain p (same scale)", shrink=0.9)
+    loops.set_ylabel("tangential load Q (N/mm)")
+    loops.set_title("fretting loops", fontsize=9)
+    loops.legend(fontsize=8)
+    loops.grid(True, alpha=0.3)
+    bottom = opening if opening is not None else loops
+    bottom.set_xlabel("sideways displacement of the top s (µm)")
+    if opening is not None:
+        opening.set_ylabel("Q - k s (N/mm)")
+        opening.set_title("the loops' opening (k: each loop's secant stiffness)", fontsize=9)
+        opening.axhline(0.0, color="k", lw=0.5)
+        opening.grid(True, alpha=0.3)
     path = outdir / "fretting.png"
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return str(path)
 
@@ -546,7 +580,7 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         measures[name] = measure(results[name], args.cycles, coulomb=name == "coulomb")
     if comm.rank == 0:
         for name, m in measures.items():
-            print(report(name, m))
+            print(report(name, m, detail=args.verbose > 0))
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
         write_history(results, outdir)

@@ -71,9 +71,9 @@ Run it on two ranks:
 
     mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 20] [--load 0.4] [--out DIR]
 
-It prints progress on rank 0, the timing breakdown of each run and the slip per cycle, and
-writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and two
-figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
+It prints progress on rank 0 (`-v`: a line per step, the timing breakdown of each run) and the slip
+per cycle, and writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and
+two figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
 `lap_coul_`.
 """
 

@@ -91,9 +91,9 @@ Run it on two ranks:
 
     mpirun -n 2 python3 demos/punch.py [--n 16] [--alpha 1e6] [--out DIR]
 
-It prints progress on rank 0 and the timing breakdown of each run, and writes each law's CSV
-history (`subloading/history.csv`, `coulomb/history.csv`) and three figures into the output
-directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
+It prints progress on rank 0 (`-v`: a line per step and the timing breakdown of each run), and
+writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and three figures
+into the output directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
 """
 
 # %%

@@ -305,15 +305,20 @@ def run_fe_scene(
             res.info["summary"] = interface_summary(problem)
     t = dict(res.timing)
     total = t.pop("total")
-    logger.info(format_breakdown(t, total))
+    logger.debug(format_breakdown(t, total))  # -v: the whole breakdown
     its = res.iterations
     if its:
+        part = max(t, key=lambda k: t[k]) if t else "run"
         logger.info(
-            "[%s] %d steps, Newton iterations per step: mean %.2f, max %d",
+            "[%s] %d steps, Newton iterations per step: mean %.2f, max %d; %.3g s, the largest "
+            "part %s (%.3g s)",
             scene.name,
             len(its),
             np.mean(its),
             max(its),
+            total,
+            part,
+            t.get(part, total),
         )
     else:
         logger.info("[%s] no step to take: the program had already ended", scene.name)
