@@ -221,12 +221,17 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
     for ax, name in zip(axes, SEC6, strict=True):
         p = PRESETS[name].law
         fn = np.linspace(0.0, 1.15 * FN_SEC6[-1], 200)
+        labels = {  # the series' names in the CSV file, their labels in the figure
+            "g mu_s": r"$g(f_n)\,\mu_s$ (static)",
+            "g mu_k": r"$g(f_n)\,\mu_k$ (kinetic)",
+            "g mu_steady": r"$g(f_n)\,\mu$ in steady sliding",
+        }
         for series, mu, style in (
             ("g mu_s", p.mu_s, "r-"),
             ("g mu_k", p.mu_k, "k-"),
             ("g mu_steady", mu_steady(name), "k--"),
         ):
-            ax.plot(fn, g_of(name, fn) * mu, style, lw=1, label=series.replace("_", " "))
+            ax.plot(fn, g_of(name, fn) * mu, style, lw=1, label=labels[series])
             rows += [(name, series, x, y) for x, y in zip(fn, g_of(name, fn) * mu, strict=True)]
         for f_n in FN_SEC6:
             s = PathBuilder(name, f_n, spm["sec6"], 1.0 / spm["sec6"], normal_leg=True)
