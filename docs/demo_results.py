@@ -153,18 +153,13 @@ def _csv_digest(path: Path) -> dict[str, Any]:
 
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    numeric = {}
-    for r in rows:
-        for k, v in r.items():
-            try:
-                numeric.setdefault(k, []).append(float(v))
-            except (TypeError, ValueError):
-                numeric[k] = None  # a text column
     out: dict[str, Any] = {"rows": len(rows)}
-    for k, vals in numeric.items():
-        if vals:
-            a = np.asarray(vals)
-            out[k] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
+    for k in rows[0] if rows else ():
+        try:
+            a = np.array([float(r[k]) for r in rows])
+        except (TypeError, ValueError):
+            continue  # a text column
+        out[k] = {"max": float(a.max()), "min": float(a.min()), "last": float(a[-1])}
     return out
 
 
@@ -245,8 +240,8 @@ def measure(key: str, files: Path, comm: Any = None) -> dict[str, Any]:
             ``MPI.COMM_WORLD``).
 
     Returns:
-        ``{"numbers": ..., "warnings": [...], "main_s": ...}`` on every rank (the warnings of the
-        package's own classes, as text).
+        ``{"numbers": ..., "warnings": [...], "main_s": ...}`` on every rank (the numbers of rank
+        0; the warnings of the package's own classes, as text).
     """
     import importlib
     import inspect
@@ -274,7 +269,18 @@ def measure(key: str, files: Path, comm: Any = None) -> dict[str, Any]:
             if w.category.__module__.startswith("subfric_dolfinx")
         }
     )
-    return {"numbers": numbers(run.demo, result, files), "warnings": ours, "main_s": main_s}
+    if comm is None or comm.size == 1:
+        return {"numbers": numbers(run.demo, result, files), "warnings": ours, "main_s": main_s}
+    got: Any = None
+    if comm.rank == 0:  # some demos give their report on rank 0 only
+        try:
+            got = numbers(run.demo, result, files)
+        except Exception as e:  # every rank raises it, none waits in the broadcast
+            got = e
+    got = comm.bcast(got, root=0)
+    if isinstance(got, Exception):
+        raise got
+    return {"numbers": got, "warnings": ours, "main_s": main_s}
 
 
 def child(key: str, out: Path) -> None:

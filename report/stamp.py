@@ -25,8 +25,17 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-MEASURED = ("subfric_dolfinx", "demos", "benchmarks", "report", "docs")
-"""The folders whose uncommitted changes a stamp lists (the code a record may have measured)."""
+MEASURED = (
+    "subfric_dolfinx",
+    "demos",
+    "benchmarks",
+    "report/*.py",
+    "docs/*.py",
+    "tests/stability",
+    "tests/reference_ode.py",
+)
+"""The code a record may have measured (git pathspecs): a stamp lists its uncommitted changes
+(not those of the records themselves, which a run writes as it goes)."""
 
 
 class NoHistory(RuntimeError):
