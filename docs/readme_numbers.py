@@ -472,7 +472,7 @@ QUOTES: list[Quote] = [
                     gib(d.scale("reuse", 1, 224736, 24, "rss_max_mib"))], SOLVER_PAGE),
         ("gamg against reuse", words(
             "(118k dofs, 2 ranks: {} s against {} s; 184k dofs, 100 steps: {} s against {} s, {} "
-            "GiB per rank against {}) and it is the only one that reaches 1M dofs on this 24 GB "
+            "GiB per rank against {}) and it is the only one that reaches 1M dofs on a 24 GB "
             "machine (100 steps in {} s, {} GiB per rank)"),
          lambda d: [sig(d.scale("gamg", 2, 118014, 24, "wall_s"), 3),
                     sig(d.scale("reuse", 2, 118014, 24, "wall_s"), 3),
