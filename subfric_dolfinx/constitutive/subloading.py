@@ -90,8 +90,8 @@ class SubloadingLaw(LawBase):
     are **stresses in MPa**, not friction coefficients: the strength is ``g(f_n) mu`` with the
     dimensionless saturation ``g = 1 - exp(-c_n f_n)`` (the Sec. 7 set: ``mu_s = 500`` MPa,
     ``c_n = 2e-4`` 1/MPa, so ``g mu_s = 29`` MPa at 300 MPa, a ratio ``f_t/f_n`` of 0.097).
-    Coulomb's ``mu_c`` is the coefficient. :meth:`units_check` tells whether values at a normal
-    stress look like friction coefficients (scenes warn with it).
+    Coulomb's ``mu_c`` is the coefficient. Values that look like friction coefficients at a
+    scene's pressure are warned about (``units_check``).
 
     Attributes:
         alpha_t: Tangential penalty (elastic sliding) modulus, MPa/mm, > 0.
