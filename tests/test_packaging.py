@@ -164,7 +164,7 @@ def test_pip_install_into_an_environment_with_dolfinx_touches_nothing_else(tmp_p
     # the command lines work from the installed package, and as console scripts
     r = run(py, "-m", "subfric_dolfinx.driver", "--help", cwd=tmp_path)
     assert r.returncode == 0 and "usage" in r.stdout.lower(), r.stdout + r.stderr
-    for script in ("subfric-driver", "subfric-calibrate"):
+    for script in ("subfric-driver", "subfric-calibrate", "subfric-scene"):
         r = run(py.parent / script, "--help", cwd=tmp_path)
         assert r.returncode == 0 and f"usage: {script}" in r.stdout, r.stdout + r.stderr
 

@@ -19,13 +19,14 @@ A step that converges at once costs nothing extra.
 Logging (:mod:`subfric_dolfinx.logs`): an INFO line per long segment of the program (at least
 :data:`LONG_SEGMENT_STEPS` steps or :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` of wall time:
 its steps, Newton iterations mean/max, cuts, what the interface does at its end, wall time), and
-between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (programs of
-many short segments, e.g. sampled at knots, print those only); one DEBUG line per step and per
-failed attempt. What the interface does is said as the fractions of its points that slide (a
-traction at the law's strength, :meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`),
-stick (closed, below it; the subloading law's micro-slip included) and are open
-(:func:`interface_activity`). Warnings about the model's validity (penetration, slide) are
-issued when a run ends (:class:`~.validity.ValidityWatch`).
+between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (a run of more
+than :data:`SEGMENT_LINES` segments, e.g. many cycles or a program sampled at knots, prints those
+only); one DEBUG line per step and per failed attempt. What the interface does is said as the
+fractions of its points that slide (a traction at the law's strength,
+:meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`), stick (closed, below it; the
+subloading law's micro-slip included) and are open (:func:`interface_activity`). Warnings about the
+model's validity (penetration, slide) are issued when a run ends
+(:class:`~.validity.ValidityWatch`).
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ __all__ = [
     "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
+    "SEGMENT_LINES",
     "SLIDING_FRACTION",
     "LoadStepper",
     "StepFailure",
@@ -67,6 +69,8 @@ PREDICTOR_FORCE_RATIO = 1e3
 exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
 
 LONG_SEGMENT_STEPS = 10
+SEGMENT_LINES = 8
+"""A run of more program segments than this logs progress lines only, not a line per segment."""
 """A segment of the program of at least this many steps gets its own log line."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
@@ -472,6 +476,8 @@ class LoadStepper:
         since = _Tally(self.t)  # since the last line printed
         clock = logs.Progress()
         span = (self.t, t_end)
+        inner = (self.program.times > self.t + tol) & (self.program.times < t_end - tol)
+        few_segments = int(np.count_nonzero(inner)) + 1 <= SEGMENT_LINES
         while self.t < t_end - tol:
             if self.step >= self.max_steps:
                 raise StepFailure(
@@ -626,7 +632,7 @@ class LoadStepper:
             printed = False
             if target >= breakpoint_ - tol:
                 long_ = len(segment.iterations) >= LONG_SEGMENT_STEPS
-                if long_ or segment.seconds() >= clock.interval:
+                if few_segments and (long_ or segment.seconds() >= clock.interval):
                     logger.info(segment.segment_line(target, rec))
                     printed = True
                 segment = _Tally(target)

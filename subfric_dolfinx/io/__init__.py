@@ -3,7 +3,8 @@
 * :mod:`.gather`: :func:`gather_interface`, interface values of all ranks in one deterministic
   order.
 * :mod:`.summary`: :func:`interface_summary`, resultant forces and area-weighted means.
-* :mod:`.history`: :class:`HistoryCSV`, one row per converged step (:class:`HistoryRows`).
+* :mod:`.history`: :class:`HistoryCSV`, one row per converged step (:class:`HistoryRows`);
+  :func:`write_history_file`, rows of one's own step callback with the same metadata.
 * :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView.
 * :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
   as a point-cloud time series (XDMF/HDF5) for ParaView.
@@ -29,7 +30,7 @@ from .checkpoint import (
 from .collective import OutputError, collective, probe_directory
 from .fields import FieldWriter
 from .gather import gather_interface, interface_of, interface_order
-from .history import HistoryCSV, HistoryRows
+from .history import HistoryCSV, HistoryRows, write_history_file
 from .interface_history import InterfaceHistoryH5
 from .outdir import OutputDirectory
 from .points import InterfacePointsXDMF, PointCloudError
@@ -56,4 +57,5 @@ __all__ = [
     "read_checkpoint",
     "restore_checkpoint",
     "write_checkpoint",
+    "write_history_file",
 ]

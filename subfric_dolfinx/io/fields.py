@@ -6,8 +6,12 @@ in global components, for glyphs), every output variable of the law (a scalar as
 by its local components ``up_t1`` ... and as ``<v>_global`` in global components) and the fixed
 point data (the initial gap ``g0``; ``region``, the region number, with interface regions), as
 cell averages of the quadrature values on the interface submesh (DG0). Their units, the frame
-and the ``status`` legend are in ``units.json`` beside the files (VTX and DOLFINx's XDMF carry
-no attributes of ours).
+and the ``status`` legend are in ``units.json`` beside the files, and, once the files are closed,
+in the XDMF files themselves (:func:`annotate_xdmf`: an ``Information`` element ``unit`` in each
+``Attribute``, the file's ``units``, ``frame`` and ``status_legend`` in its ``Domain``, and the
+attribute ``unit`` of each function's group in the ``.h5`` file). A VTX (ADIOS2 BP4) file cannot
+take attributes after DOLFINx's writer has closed it without adding a time step, nor be given
+them before: its units are ``units.json``'s.
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
 
@@ -29,9 +33,11 @@ another process between that check and the write is not covered.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+import re
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+from xml.sax.saxutils import quoteattr
 
 import dolfinx
 import dolfinx.io
@@ -45,10 +51,56 @@ from .links import refuse_links, write_text_nofollow
 from .paths import inside, interface_stems
 from .units import FRAME, interface_units, status_legend
 
-__all__ = ["FieldWriter"]
+__all__ = ["FieldWriter", "annotate_xdmf"]
 
 MARGIN = 64 << 10
 """Bytes asked for beyond the steps' share (:meth:`FieldWriter.space_needed`): the files' close."""
+
+
+def annotate_xdmf(
+    path: str | Path, units: Mapping[str, str], attributes: Mapping[str, str] | None = None
+) -> None:
+    """Write units into a closed XDMF file of DOLFINx's and its HDF5 file (one process).
+
+    Each ``<Attribute Name="X">`` gets ``<Information Name="unit" Value="..."/>`` (``"?"`` for a
+    name ``units`` lacks), the ``Domain`` one ``Information`` element per entry of
+    ``attributes`` (e.g. the frame and the status legend), and in the ``.h5`` file each group
+    ``/Function/X`` the attribute ``unit``. An annotated file is left as it is.
+
+    Args:
+        path: The ``.xdmf`` file.
+        units: Function name -> unit.
+        attributes: File-level name -> text.
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    if '<Information Name="unit"' in text:
+        return
+    names = set(re.findall(r'<Attribute Name="([^"]+)"', text))
+
+    def unit(m: re.Match) -> str:
+        return f'{m.group(0)}<Information Name="unit" Value={quoteattr(units.get(m[1], "?"))}/>'
+
+    text = re.sub(r'<Attribute Name="([^"]+)"[^>]*>', unit, text)
+    info = "".join(
+        f"<Information Name={quoteattr(k)} Value={quoteattr(v)}/>"
+        for k, v in (attributes or {}).items()
+    )
+    text = text.replace("<Domain>", f"<Domain>{info}", 1)
+    tmp = path.with_name(path.name + ".tmp")
+    if tmp.is_symlink():
+        tmp.unlink()
+    write_text_nofollow(tmp, text)
+    tmp.replace(path)
+    h5 = path.with_suffix(".h5")
+    if h5.is_file() and not h5.is_symlink():
+        import h5py
+
+        with h5py.File(h5, "a") as f:
+            for name in sorted(names):
+                group = f.get(f"Function/{name}")
+                if group is not None:
+                    group.attrs["unit"] = units.get(name, "?")
 
 
 def _mesh_bytes(mesh: Any) -> int:
@@ -147,7 +199,7 @@ class FieldWriter:
             OutputError: Two interface names map to the same file (:mod:`.paths`).
         """
         stems = interface_stems("interface", interfaces).values()
-        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5", ".xdmf.tmp")  # .tmp: annotate_xdmf
         return [n + e for n in ("displacement", *stems) for e in exts] + ["units.json"]
 
     def space_needed(self) -> int:
@@ -172,10 +224,11 @@ class FieldWriter:
         files = self.file_names(fmt, list(ifaces))
         path = {f: inside(self.dir, f) for f in files}  # .paths: every one inside the directory
         refuse_links(*path.values())  # .links
+        units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
+        for _, _, law, _ in self.parts:
+            units.update(interface_units(law, gdim))
+        self.units = units
         if comm.rank == 0:
-            units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
-            for _, _, law, _ in self.parts:
-                units.update(interface_units(law, gdim))
             stems = ", ".join(stem for stem, _, _, _ in self.parts)
             meta = {
                 "files": f"displacement, {stems} (DG0: the average of each interface "
@@ -307,7 +360,17 @@ class FieldWriter:
             for w in self._wi:
                 w.close()
 
+        comm = self.problem.comm
         try:
-            collective(self.problem.comm, close, self._what("closing"), root=None)
+            collective(comm, close, self._what("closing"), root=None)
         finally:
             self._wu = self._wi = None
+        if self.fmt == "xdmf":
+            files = ["displacement", *(stem for stem, _, _, _ in self.parts)]
+            meta = {"frame": FRAME, "status_legend": json.dumps(status_legend())}
+
+            def annotate() -> None:
+                for stem in files:
+                    annotate_xdmf(inside(self.dir, f"{stem}.xdmf"), self.units, meta)
+
+            collective(comm, annotate, self._what("writing the units into"), root=0)

@@ -67,6 +67,8 @@ FE_QUOTED = (
     "hertz",
     "hertz_n4",
     "hertz_n8",
+    "hertz_apart_n4",
+    "hertz_apart_n8",
     "block_sliding_far",
     "cattaneo_mindlin",
     "cattaneo_mindlin_n4",

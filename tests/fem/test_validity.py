@@ -268,3 +268,7 @@ def test_short_segments_get_no_line_and_long_ones_do(caplog, monkeypatch):
     lines = stepping_lines(caplog, pressed)
     n = stepping_mod.LONG_SEGMENT_STEPS
     assert len(lines) == 1 and lines[0].startswith(f"t = 0 -> 1 s: {n} steps"), lines
+    # a run of more segments than SEGMENT_LINES (many cycles) prints no line per segment
+    caplog.clear()
+    monkeypatch.setattr(stepping_mod, "SEGMENT_LINES", 0)
+    assert not stepping_lines(caplog, pressed)

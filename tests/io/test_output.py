@@ -35,6 +35,7 @@ from subfric_dolfinx.io import (
     interface_summary,
 )
 from subfric_dolfinx.io.outdir import MANIFEST
+from subfric_dolfinx.io.units import FRAME, interface_units
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import (
@@ -149,7 +150,20 @@ def test_history_and_fields(shared_tmp, fmt):
                 assert want <= set(f["Function"]), set(f["Function"])
                 assert not {"f_t", "up", "f", "f_n_global"} & set(f["Function"])
                 assert len(f["Function/mu"]) == 8
-            assert (shared_tmp / "fields" / "displacement.h5").exists()
+                # the units, in the HDF5 file and the XDMF file (each Attribute's Information)
+                assert f["Function/mu"].attrs["unit"] == "MPa"
+                assert f["Function/up_t1"].attrs["unit"] == "mm"
+            with h5py.File(shared_tmp / "fields" / "displacement.h5") as f:
+                assert f["Function/displacement"].attrs["unit"] == "mm"
+            want = interface_units(prob.law, prob.gdim)
+            xdmf = ElementTree.parse(shared_tmp / "fields" / "interface.xdmf").getroot()
+            attributes = xdmf.findall(".//Attribute")
+            assert len(attributes) == 8 * len(fields.fields), len(attributes)
+            for a in attributes:
+                (info,) = a.findall("Information")
+                assert info.get("Name") == "unit" and info.get("Value") == want[a.get("Name")]
+            domain = {i.get("Name"): i.get("Value") for i in xdmf.findall("Domain/Information")}
+            assert domain["frame"] == FRAME and Status.PLASTIC.name in domain["status_legend"]
         side = json.loads((shared_tmp / "fields" / "units.json").read_text())
         assert side["units"]["traction_global"] == "MPa" and side["units"]["displacement"] == "mm"
 
