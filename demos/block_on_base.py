@@ -43,14 +43,14 @@ SIGUSR1 to `mpirun` (`kill -USR1 <pid of mpirun>`): every rank finishes its step
 is written and the demo exits with code 75 and one line (SIGTERM to `mpirun` is followed by a
 kill ~0.2 s later, usually too soon; SIGTERM, SIGUSR1 or SIGUSR2 to a single process work alike).
 
-It prints a line per stage of the program on rank 0 (what the interface does at its end:
-sliding, sticking, open), the timing breakdown, and writes the CSV history and two figures into
-the output directory. PETSc options apply under the prefix `block_`, e.g. `-block_snes_monitor`.
+It prints a line per stage of the program on rank 0 (what the interface does at its end: sliding,
+sticking, open), the steps and time taken (`-v`: a line per step and the timing breakdown), and
+writes the CSV history and two figures into the output directory. PETSc options apply under the
+prefix `block_`, e.g. `-block_snes_monitor`.
 """
 
 # %%
 import argparse
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -227,5 +227,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return result
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -37,7 +37,6 @@ the block's centre.
 
 # %%
 import argparse
-import sys
 from pathlib import Path
 from typing import NamedTuple
 
@@ -301,5 +300,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return out
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

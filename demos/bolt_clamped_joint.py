@@ -53,7 +53,6 @@ axis when every point of an interface slides.
 # %%
 import argparse
 import math
-import sys
 import types
 from pathlib import Path
 
@@ -72,7 +71,7 @@ from subfric_dolfinx.fem import (
     Material,
     Spring,
 )
-from subfric_dolfinx.io import interface_summary
+from subfric_dolfinx.io import interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import cli
 
@@ -227,8 +226,8 @@ def bolt_force(problem: InterfaceProblem):
     return evaluate
 
 
-def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
-    """Pretension and cyclic shear; one row per step: the forces of the balance."""
+def run(domain, cycles: int, dt: float) -> tuple[list[dict[str, float]], InterfaceProblem]:
+    """Pretension and cyclic shear: one row per step (the forces of the balance), the problem."""
     p = problem(domain, cycles)
     N = bolt_force(p)
     rows = []
@@ -253,7 +252,21 @@ def run(domain, cycles: int, dt: float) -> list[dict[str, float]]:
 
     with FrictionSolver(p, "bolt_", linear="lu") as solver:
         LoadStepper(solver, dt, hold_dt=1.0, on_step=on_step).run()
-    return rows
+    return rows, p
+
+
+COLUMNS = {
+    "shear": ("mm", "displacement imposed at the upper plate's end, x"),
+    "force": ("N", "shear force: the reaction at the upper plate's end, x"),
+    "bolt": ("N", "bolt force: the shank's axial stress integrated over its section"),
+    "head": ("N", "normal resultant of the head's face (head_face.F_n)"),
+    "joint": ("N", "normal resultant of the joint between the plates (joint.F_n)"),
+    "nut": ("N", "normal resultant of the nut's face (nut_face.F_n)"),
+    "joint_slip": ("mm", "mean plastic slip of the joint (joint.up_norm)"),
+    "joint_plastic": ("1", "fraction of the joint's points sliding (joint.plastic)"),
+    "residual_bound": ("N", "sqrt(dofs) times Newton's last residual norm"),
+}
+"""Units and meanings of the history's columns (``history.csv-metadata.json``)."""
 
 
 def balance(rows: list[dict[str, float]]) -> float:
@@ -312,20 +325,46 @@ def report(rows: list[dict[str, float]], comm: MPI.Comm) -> dict:
 
 
 def figure(rows: list[dict[str, float]], outdir: Path) -> None:
+    """Hysteresis, one colour per cycle; the bolt's force and the three normal resultants."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    ax[0].plot([1e3 * r["shear"] for r in rows], [r["force"] for r in rows], ".-")
-    ax[0].set_xlabel("upper plate's end (µm)")
+    fig, ax = plt.subplots(1, 2, figsize=(10.5, 4))
+    t = np.array([r["t"] for r in rows])
+    shear = np.array([1e3 * r["shear"] for r in rows])
+    force = np.array([r["force"] for r in rows])
+    cycles = max(round((t[-1] - 1.0) / 4.0), 1)  # 4 s a cycle after the 1 s pretension
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, cycles))
+    for k in range(cycles):
+        inside = (t >= 1.0 + 4 * k - 1e-9) & (t <= 5.0 + 4 * k + 1e-9)
+        ax[0].plot(
+            shear[inside], force[inside], ".-", ms=3, color=colours[k], label=f"cycle {k + 1}"
+        )
+    ax[0].plot(shear[0], force[0], "ko", ms=4, label="after the pretension")
+    ax[0].axhline(0.0, color="k", lw=0.5)
+    ax[0].set_xlabel("displacement of the upper plate's end (µm)")
     ax[0].set_ylabel("shear force (N)")
-    ax[0].set_title("hysteresis")
-    t = [r["t"] for r in rows]
-    for k in ("bolt", "head", "joint", "nut"):
-        ax[1].plot(t, [abs(r[k]) for r in rows], label=k)
+    ax[0].set_title("hysteresis", fontsize=10)
+    ax[0].legend(fontsize=8)
+    ax[0].grid(True, alpha=0.3)
+    styles = {  # the four agree to round-off: drawn so that each stays visible
+        "bolt": {"lw": 4.0, "alpha": 0.35, "color": "C0"},
+        "head": {"lw": 1.2, "ls": "--", "color": "C1"},
+        "joint": {"lw": 1.2, "ls": ":", "color": "k"},
+        "nut": {"lw": 0.0, "marker": "x", "ms": 3, "color": "C3"},
+    }
+    labels = {
+        "bolt": "bolt (the shank's axial stress)",
+        "head": "head's face, F_n",
+        "joint": "joint, F_n",
+        "nut": "nut's face, F_n",
+    }
+    for k, style in styles.items():
+        ax[1].plot(t, [abs(r[k]) for r in rows], label=labels[k], **style)
     ax[1].set_xlabel("t (s)")
     ax[1].set_ylabel("force (N)")
-    ax[1].set_title("bolt force and clamping")
-    ax[1].legend()
+    ax[1].set_title("bolt force and the normal resultants (equal at every step)", fontsize=10)
+    ax[1].legend(fontsize=8)
+    ax[1].grid(True, alpha=0.3)
     fig.tight_layout()
     fig.savefig(outdir / "bolt_clamped_joint.png", dpi=120)
     plt.close(fig)
@@ -351,19 +390,16 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     domain, _ = meshing.create_interface_mesh(
         build, comm, bodies=BODIES, interfaces=SIDES, h=args.h
     )
-    rows = run(domain, args.cycles, args.dt)
+    rows, problem_ = run(domain, args.cycles, args.dt)
     out = report(rows, comm)
     if comm.rank == 0:
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
-        keys = list(rows[0])
-        with open(outdir / "history.csv", "w") as f:
-            f.write(",".join(keys) + "\n")
-            for r in rows:
-                f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        write_history_file(outdir / "history.csv", rows, problem_, COLUMNS)  # and its units
         figure(rows, outdir)
     return {"history": rows, "report": out}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -84,16 +84,15 @@ Run it on two ranks:
     mpirun -n 2 python3 demos/bolted_joint.py [--n 8] [--cycles 3] [--amplitude 0.25]
         [--preload 30] [--out DIR]
 
-It prints progress on rank 0, the timing breakdown, the clamping resultant against the bolt
-load and the shear force's extremes per stroke, and writes the CSV history (`history.csv`) and
-two figures (`hysteresis.png`, `pressure.png`) into the output directory. PETSc options apply
-under the prefix `bolt_`, e.g. `-bolt_snes_monitor`.
+It prints progress on rank 0 (`-v`: a line per step and the timing breakdown), the clamping
+resultant against the bolt load and the shear force's extremes per stroke, and writes the CSV
+history (`history.csv`) and two figures (`hysteresis.png`, `pressure.png`) into the output
+directory. PETSc options apply under the prefix `bolt_`, e.g. `-bolt_snes_monitor`.
 """
 
 # %%
 import argparse
 import math
-import sys
 
 # %%
 import numpy as np
@@ -247,24 +246,33 @@ def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
     t = np.array([r["t"] for r in h])
     R = 1e-3 * np.array([r["R_slave_xmax_x"] for r in h])  # kN
     up = np.array([r["up_t1"] for r in h])
-    times, channels, _ = program(amplitude, cycles, steps_per_stroke)
+    times, channels, reversals = program(amplitude, cycles, steps_per_stroke)
     end = np.interp(t, times, channels["shear"])
     bound = 1e-3 * saturation_bound(preload)
     files = []
 
+    # cycle k: from the end of the previous one (the clamping's for the first) to its second
+    # reversal; the last one also takes the return to zero
+    starts = [CLAMP_TIME, *reversals[1 : 2 * cycles - 1 : 2]]
+    stops = [*reversals[1 : 2 * cycles - 1 : 2], reversals[-1]]
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, max(cycles, 1)))
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
-    sheared = t >= CLAMP_TIME - 1e-9
     for a, x, label in (
         (ax[0], up, "mean plastic slip $u^p_1$ over the interface (mm)"),
         (ax[1], end, "displacement of the upper plate's end (mm)"),
     ):
-        a.plot(x[sheared], R[sheared], lw=1.3)
+        for k, (t0, t1) in enumerate(zip(starts, stops, strict=True)):
+            inside = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
+            a.plot(x[inside], R[inside], lw=1.4, color=colours[k], label=f"cycle {k + 1}")
+        first = np.flatnonzero(t >= CLAMP_TIME - 1e-9)[0]
+        a.plot(x[first], R[first], "ko", ms=4, label="start of the shear")
         for s in (1, -1):
             a.axhline(s * bound, color="C3", ls="--", lw=0.8)
         a.axhline(0.0, color="k", lw=0.5)
         a.set_xlabel(label)
         a.grid(True, alpha=0.3)
     ax[0].set_ylabel("shear force (kN)")
+    ax[0].legend(fontsize=8, loc="lower right")
     ax[1].text(
         0.02,
         0.95,
@@ -355,5 +363,8 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

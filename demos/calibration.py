@@ -61,7 +61,6 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
-import sys
 import time
 from collections.abc import Sequence
 
@@ -76,6 +75,7 @@ from subfric_dolfinx.calibrate import (
     synthetic_curves,
 )
 from subfric_dolfinx.calibrate.cli import plot_fit
+from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.logs import launcher_rank
 
@@ -183,12 +183,12 @@ def run_demo(
 # %%
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.ArgumentDefaultsHelpFormatter
+        description=summary(__doc__), formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
     ap.add_argument("--out", default="demos/output/calibration", help="output directory")
     ap.add_argument("--quick", action="store_true", help="two curves, three parameters (a check)")
     ap.add_argument("--noise", type=float, default=0.2, help="noise of the curves, MPa")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv))  # in a notebook: the defaults
     if not args.noise >= 0:
         ap.error("--noise must be >= 0")
     if launcher_rank() != 0:  # under mpirun: rank 0 fits and writes, the others have nothing to do
@@ -200,5 +200,5 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    main_block(main)

@@ -107,7 +107,6 @@ PETSc options go under the prefixes `cm_coulomb_` and `cm_subloading_`.
 # %%
 import argparse
 import math
-import sys
 
 # %%
 import numpy as np
@@ -396,5 +395,8 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -76,6 +76,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.compat import model_to_mesh
 from subfric_dolfinx.scenes.cli import HelpFormatter
 
@@ -305,10 +306,10 @@ def timoshenko_tip_deflection(length, height, young, poisson, shear_load):
 
 # %%
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
+    parser = argparse.ArgumentParser(description=summary(__doc__), formatter_class=HelpFormatter)
     parser.add_argument("--n", type=int, default=8, help="mesh resolution: h = H / n")
     parser.add_argument("--out", type=pathlib.Path, default=None, help="write u.xdmf into OUT")
-    args = parser.parse_args(argv)
+    args = parser.parse_args(program_args(argv))  # in a notebook: the defaults
     if args.n < 1:
         parser.error("--n must be a positive integer")
 
@@ -339,5 +340,6 @@ def main(argv=None) -> dict:
     return result
 
 
-if __name__ == "__main__":
-    main()
+# %%
+if __name__ == "__main__":  # in a notebook: main() with the defaults
+    main_block(main)

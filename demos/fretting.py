@@ -107,7 +107,6 @@ PETSc options go under the prefixes `fretting_coulomb_` and `fretting_subloading
 # %%
 import argparse
 import math
-import sys
 from pathlib import Path
 
 # %%
@@ -120,7 +119,7 @@ from mpi4py import MPI
 from demos import cattaneo_mindlin, hertz
 from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
-from subfric_dolfinx.io import interface_summary
+from subfric_dolfinx.io import interface_summary, write_history_file
 from subfric_dolfinx.scenes import cli, parse_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
 from subfric_dolfinx.scenes.outputs import interface_profile
@@ -243,7 +242,13 @@ def run(sc: dict, comm: MPI.Comm, options: dict | None = None) -> dict:
     with FrictionSolver(problem, spec.solver.prefix, options or {}, linear="lu") as solver:
         LoadStepper(solver, spec.solver.dt, on_step=on_step).run()
     dofs = problem.global_dofs
-    return {"history": rows, "snapshots": snaps, "plastic": plastic, "dofs": dofs}
+    return {
+        "history": rows,
+        "snapshots": snaps,
+        "plastic": plastic,
+        "dofs": dofs,
+        "problem": problem,
+    }
 
 
 # %%
@@ -391,13 +396,28 @@ def measure(res: dict, cycles: int, coulomb: bool) -> dict:
 
 
 # %%
-def report(name: str, m: dict) -> str:
-    """The numbers of one run."""
+def report(name: str, m: dict, detail: bool = False) -> str:
+    """The numbers of one run: a few lines, or every extreme's with ``detail`` (``-v``)."""
     lines = [
         f"[fretting] {name}: force balance {m['balance']:.2e} of P; largest |Q|/mu P = "
         f"{m['ratio_max']:.4f}"
     ]
-    for t, e in m["extremes"].items():
+    if not detail:
+        ends = list(m["extremes"].values())
+        slips = [1e3 * e["slip_centre"] for e in ends]
+        sticks = [e["stick"] for e in ends if e.get("stick") and e["stick"]["stick"]]
+        if sticks:
+            lines.append(
+                f"[fretting]   stick zone against Cattaneo-Mindlin: c (fit) "
+                f"{sticks[0]['err_c_fit']:+.2%} at the first extreme, "
+                f"{sticks[-1]['err_c_fit']:+.2%} at the last"
+            )
+        depth = max(e["plastic"]["depth_any"] for e in ends)
+        lines.append(
+            f"[fretting]   slip at the centre at the extremes: {min(slips):.4f} to "
+            f"{max(slips):.4f} µm; plastic strain within {depth:.3f} mm of the surface"
+        )
+    for t, e in m["extremes"].items() if detail else ():
         pl = e["plastic"]
         lines.append(
             f"[fretting]   t = {t:g}: Q = {e['Q']:+8.2f} N/mm, P = {e['P']:.2f} N/mm, "
@@ -440,55 +460,82 @@ def report(name: str, m: dict) -> str:
 
 # %%
 def figure(results: dict, cycles: int, outdir: Path) -> str:
-    """Fretting loops (Q against s) and the flat's plastic strain after the last cycle."""
+    """Fretting loops, their opening, and the flat's plastic strain (one scale for both laws)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = list(results)
-    fig, ax = plt.subplots(1, 1 + len(names), figsize=(5 + 4.5 * len(names), 4.2))
+    fig = plt.figure(figsize=(12, 4.0 + 2.2 * len(names)))
+    grid = fig.add_gridspec(len(names), 2, width_ratios=[1.0, 1.35])
+    loops = fig.add_subplot(grid[: max(len(names) // 2, 1), 0])
+    opening = fig.add_subplot(grid[max(len(names) // 2, 1) :, 0]) if len(names) > 1 else None
     t_end = extremes(cycles)[-1]
+    styles = ["-", "--", ":"]
+    fields = {}
     for k, name in enumerate(names):
         rows = [r for r in results[name]["history"] if r["t"] >= 1.0]
-        ax[0].plot(
-            [1e3 * r["s"] for r in rows],
-            [r["Q"] for r in rows],
-            "-",
-            ms=2,
-            color=f"C{k}",
-            label=name,
-        )
+        s = np.array([1e3 * r["s"] for r in rows])
+        Q = np.array([r["Q"] for r in rows])
+        style = {"ls": styles[k % 3], "color": f"C{k}", "lw": 1.4, "label": name}
+        loops.plot(s, Q, **style)
+        # the loop's opening: Q less the secant through the last cycle's extremes, so that the
+        # hysteresis (the dissipation) shows instead of the bodies' elastic compliance
+        last = np.array([r["t"] >= extremes(cycles)[-3] - 1e-9 for r in rows])
+        k_sec = np.ptp(Q[last]) / max(np.ptp(s[last]), 1e-300)
+        if opening is not None:
+            opening.plot(s, Q - k_sec * s, **style)
         pl = results[name]["plastic"][round(t_end, 9)]
         x, y = pl["x"][:, 0] - hertz.L, pl["x"][:, 1] - hertz.L
         near = (np.abs(x) < 1.6) & (y > -0.8)
-        sc = ax[1 + k].scatter(x[near], y[near], c=pl["p"][near], s=6, cmap="viridis")
-        fig.colorbar(sc, ax=ax[1 + k], label="equivalent plastic strain p")
-        ax[1 + k].set_title(f"{name}: the flat after {cycles} cycle(s)", fontsize=9)
-        ax[1 + k].set_xlabel("x from the centre (mm)")
-        ax[1 + k].set_ylabel("y below the surface (mm)")
-        ax[1 + k].set_aspect("equal")
-    ax[0].set_xlabel("sideways displacement of the top s (µm)")
-    ax[0].set_ylabel("tangential load Q (N/mm)")
-    ax[0].legend(fontsize=8)
-    ax[0].grid(True, alpha=0.3)
-    fig.tight_layout()
+        fields[name] = (x[near], y[near], pl["p"][near])
+    top = max(float(np.max(f[2])) if f[2].size else 0.0 for f in fields.values()) or 1.0
+    panels = []
+    for k, (name, (x, y, p)) in enumerate(fields.items()):
+        a = fig.add_subplot(grid[k, 1])
+        sc = a.scatter(x, y, c=p, s=6, cmap="viridis", vmin=0.0, vmax=top)
+        a.set_title(f"{name}: the flat's plastic strain after {cycles} cycle(s)", fontsize=9)
+        a.set_ylabel("depth y (mm)")
+        a.set_aspect("equal")
+        panels.append(a)
+    panels[-1].set_xlabel("x from the contact's centre (mm)")
+    fig.colorbar(sc, ax=panels, label="equivalent plastic strain p (same scale)", shrink=0.9)
+    loops.set_ylabel("tangential load Q (N/mm)")
+    loops.set_title("fretting loops", fontsize=9)
+    loops.legend(fontsize=8)
+    loops.grid(True, alpha=0.3)
+    bottom = opening if opening is not None else loops
+    bottom.set_xlabel("sideways displacement of the top s (µm)")
+    if opening is not None:
+        opening.set_ylabel("Q - k s (N/mm)")
+        opening.set_title("the loops' opening (k: each loop's secant stiffness)", fontsize=9)
+        opening.axhline(0.0, color="k", lw=0.5)
+        opening.grid(True, alpha=0.3)
     path = outdir / "fretting.png"
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return str(path)
 
 
 # %%
+COLUMNS = {
+    "s": ("mm", "sideways displacement of the cylinder's top"),
+    "Q": ("N/mm", "tangential load: the reaction at the cylinder's top, x"),
+    "P": ("N/mm", "normal load: the reaction at the cylinder's top, y"),
+    "F_t": ("N/mm", "tangential interface resultant"),
+    "F_n": ("N/mm", "normal interface resultant, > 0 in compression"),
+    "plastic_points": ("1", "J2 quadrature points that have yielded"),
+    "iterations": ("1", "Newton iterations of the step"),
+    "residual": ("N/mm", "Newton's last residual norm"),
+}
+"""Units and meanings of the history's own columns (the others: the package's names)."""
+
+
 def write_history(results: dict, outdir: Path) -> None:
-    """One CSV per law with every step's row."""
+    """One CSV per law with every step's row, and its units (``<law>.csv-metadata.json``)."""
     for name, res in results.items():
-        rows = res["history"]
-        keys = list(rows[0])
-        with open(outdir / f"{name}.csv", "w") as f:
-            f.write(",".join(keys) + "\n")
-            for r in rows:
-                f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        write_history_file(outdir / f"{name}.csv", res["history"], res["problem"], COLUMNS)
 
 
 # %%
@@ -533,7 +580,7 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         measures[name] = measure(results[name], args.cycles, coulomb=name == "coulomb")
     if comm.rank == 0:
         for name, m in measures.items():
-            print(report(name, m))
+            print(report(name, m, detail=args.verbose > 0))
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
         write_history(results, outdir)
@@ -544,5 +591,8 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

@@ -97,7 +97,6 @@ PETSc options go under the prefix `hertz_` (e.g. `-hertz_snes_monitor`).
 # %%
 import argparse
 import math
-import sys
 
 # %%
 import numpy as np
@@ -485,5 +484,8 @@ def main(argv=None, comm=MPI.COMM_WORLD):
 
 
 # %%
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+
+
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

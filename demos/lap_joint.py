@@ -71,16 +71,15 @@ Run it on two ranks:
 
     mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 20] [--load 0.4] [--out DIR]
 
-It prints progress on rank 0, the timing breakdown of each run and the slip per cycle, and
-writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and two
-figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
+It prints progress on rank 0 (`-v`: a line per step, the timing breakdown of each run) and the slip
+per cycle, and writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and
+two figures into the output directory. PETSc options apply under the prefixes `lap_sub_` and
 `lap_coul_`.
 """
 
 # %%
 import argparse
 import math
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -291,5 +290,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return results
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

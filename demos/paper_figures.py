@@ -82,12 +82,12 @@ import csv
 import math
 import os
 import pathlib
-import sys
 import time
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.constitutive import PRESETS
 from subfric_dolfinx.driver import run_case
 from subfric_dolfinx.logs import launcher_rank
@@ -221,12 +221,17 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
     for ax, name in zip(axes, SEC6, strict=True):
         p = PRESETS[name].law
         fn = np.linspace(0.0, 1.15 * FN_SEC6[-1], 200)
+        labels = {  # the series' names in the CSV file, their labels in the figure
+            "g mu_s": r"$g(f_n)\,\mu_s$ (static)",
+            "g mu_k": r"$g(f_n)\,\mu_k$ (kinetic)",
+            "g mu_steady": r"$g(f_n)\,\mu$ in steady sliding",
+        }
         for series, mu, style in (
             ("g mu_s", p.mu_s, "r-"),
             ("g mu_k", p.mu_k, "k-"),
             ("g mu_steady", mu_steady(name), "k--"),
         ):
-            ax.plot(fn, g_of(name, fn) * mu, style, lw=1, label=series.replace("_", " "))
+            ax.plot(fn, g_of(name, fn) * mu, style, lw=1, label=labels[series])
             rows += [(name, series, x, y) for x, y in zip(fn, g_of(name, fn) * mu, strict=True)]
         for f_n in FN_SEC6:
             s = PathBuilder(name, f_n, spm["sec6"], 1.0 / spm["sec6"], normal_leg=True)
@@ -565,7 +570,7 @@ def run_demo(
 
 # %%
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=HelpFormatter)
+    ap = argparse.ArgumentParser(description=summary(__doc__), formatter_class=HelpFormatter)
     ap.add_argument("--out", default="demos/output/paper_figures", help="output directory")
     ap.add_argument(
         "--steps-per-mm",
@@ -575,7 +580,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     ap.add_argument("--only", default=None, help=f"comma-separated subset of {','.join(FIGURES)}")
     ap.add_argument("--quick", action="store_true", help="coarse and fast (a check, ~10 s)")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(program_args(argv))  # in a notebook: the defaults
     if args.steps_per_mm is not None and not args.steps_per_mm > 0:
         ap.error("--steps-per-mm must be > 0")
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
@@ -589,5 +594,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    main_block(main)

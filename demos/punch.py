@@ -91,14 +91,13 @@ Run it on two ranks:
 
     mpirun -n 2 python3 demos/punch.py [--n 16] [--alpha 1e6] [--out DIR]
 
-It prints progress on rank 0 and the timing breakdown of each run, and writes each law's CSV
-history (`subloading/history.csv`, `coulomb/history.csv`) and three figures into the output
-directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
+It prints progress on rank 0 (`-v`: a line per step and the timing breakdown of each run), and
+writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and three figures
+into the output directory. PETSc options apply under the prefixes `punch_sub_` and `punch_coul_`.
 """
 
 # %%
 import argparse
-import sys
 
 import numpy as np
 from mpi4py import MPI
@@ -368,5 +367,6 @@ def main(argv=None, comm=MPI.COMM_WORLD):
     return sub, coul
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

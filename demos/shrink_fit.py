@@ -44,7 +44,6 @@ demo (`shaft`, `hub`, `fit`, `axis`, `hub_ends`), the interface's nodes split wi
 
 # %%
 import argparse
-import sys
 import types
 from pathlib import Path
 
@@ -60,7 +59,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
 )
-from subfric_dolfinx.io import gather_interface, interface_summary
+from subfric_dolfinx.io import gather_interface, interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import cli
 
@@ -168,7 +167,7 @@ def run(domain, law, steps: int, push: float) -> dict:
 
     with FrictionSolver(p, linear="lu") as solver:
         LoadStepper(solver, 1.0 / steps, hold_dt=1.0, on_step=on_step).run()
-    return {"history": rows, "fit": fit}
+    return {"history": rows, "fit": fit, "problem": p}
 
 
 def laws():
@@ -228,24 +227,36 @@ def report(results: dict, comm: MPI.Comm) -> dict:
 
 
 def figure(results: dict, outdir: Path) -> None:
+    """The push force of both laws with their bounds; the fit's pressure against Lamé's."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    for name, res in results.items():
+    p0 = lame_pressure()
+    area = 2 * np.pi * B * L
+    law_s = laws()["subloading"]
+    fig, ax = plt.subplots(1, 2, figsize=(10.5, 4))
+    for k, (name, res) in enumerate(results.items()):
         h = res["history"]
-        ax[0].plot([1e3 * r["push"] for r in h], [1e-3 * r["force"] for r in h], label=name)
+        ax[0].plot(
+            [1e3 * r["push"] for r in h], [1e-3 * r["force"] for r in h], color=f"C{k}", label=name
+        )
+    ax[0].axhline(1e-3 * MU * area * p0, ls=":", c="C0", label=r"Coulomb: $2\pi b L \mu p$")
     ax[0].axhline(
-        1e-3 * MU * 2 * np.pi * B * L * lame_pressure(), ls=":", c="k", label=r"$2\pi b L \mu p$"
+        1e-3 * area * -np.expm1(-law_s.c_n * p0) * law_s.mu_s,
+        ls="--",
+        c="C1",
+        label=r"saturation: $2\pi b L\, g(p)\, \mu_s$",
     )
-    ax[0].set_xlabel("push (µm)")
-    ax[0].set_ylabel("push force (kN)")
-    ax[0].legend()
+    ax[0].set_xlabel("push of the shaft (µm)")
+    ax[0].set_ylabel("push force (kN, over the circumference)")
+    ax[0].legend(fontsize=8)
+    ax[0].grid(True, alpha=0.3)
     fit = results["coulomb"]["fit"]
-    ax[1].plot(fit["x"][:, 1], fit["f_n"], ".", label="FE")
-    ax[1].axhline(lame_pressure(), c="k", ls=":", label="Lamé")
-    ax[1].set_xlabel("z (mm)")
-    ax[1].set_ylabel("contact pressure after the fit (MPa)")
-    ax[1].legend()
+    ax[1].plot(fit["x"][:, 1], 100 * (fit["f_n"] / p0 - 1.0), ".", label="FE, interface points")
+    ax[1].axhline(0.0, c="k", ls=":", label=f"Lamé, p = {p0:.2f} MPa")
+    ax[1].set_xlabel("z along the fit (mm)")
+    ax[1].set_ylabel("contact pressure after the fit, off Lamé's (%)")
+    ax[1].legend(fontsize=8)
+    ax[1].grid(True, alpha=0.3)
     fig.tight_layout()
     fig.savefig(outdir / "shrink_fit.png", dpi=120)
     plt.close(fig)
@@ -273,15 +284,16 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     if comm.rank == 0:
         outdir = Path(args.out)
         outdir.mkdir(parents=True, exist_ok=True)
-        for name, res in results.items():
-            keys = list(res["history"][0])
-            with open(outdir / f"{name}.csv", "w") as f:
-                f.write(",".join(keys) + "\n")
-                for r in res["history"]:
-                    f.write(",".join(f"{r[k]:.17g}" for k in keys) + "\n")
+        columns = {  # the history's own columns (the others: the package's names and units)
+            "push": ("mm", "axial displacement of the shaft's end"),
+            "force": ("N", "axial force on the shaft (its reaction), over the circumference"),
+        }
+        for name, res in results.items():  # <law>.csv and <law>.csv-metadata.json (units)
+            write_history_file(outdir / f"{name}.csv", res["history"], res["problem"], columns)
         figure(results, outdir)
     return {"results": results, "report": out}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

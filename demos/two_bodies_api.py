@@ -48,7 +48,6 @@ It writes `history.csv`, the displacement and the per-facet interface fields for
 
 # %%
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -283,5 +282,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return result
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

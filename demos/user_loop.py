@@ -41,7 +41,6 @@ difference (`tests/demos/test_user_loop.py` checks it on 1 and 2 ranks).
 
 # %%
 import argparse
-import sys
 from pathlib import Path
 
 import dolfinx
@@ -53,7 +52,7 @@ from mpi4py import MPI
 from subfric_dolfinx import compat, meshing
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem import FrictionInterface, create_matrix
-from subfric_dolfinx.io import element_summary
+from subfric_dolfinx.io import element_summary, write_history_file
 from subfric_dolfinx.scenes import cli
 
 PRESSURE = 300.0  # MPa
@@ -241,6 +240,16 @@ def parser() -> argparse.ArgumentParser:
     return ap
 
 
+COLUMNS = {
+    "t": ("s", "time at the end of the step"),
+    "F_t1": ("N/mm", "tangential interface resultant (this loop)"),
+    "F_n": ("N/mm", "normal interface resultant, > 0 in compression (this loop)"),
+    "newton": ("1", "Newton iterations of the step (DOLFINx's solver)"),
+    "F_t1_reference": ("N/mm", "tangential resultant of FrictionSolver + LoadStepper"),
+}
+"""Units and meanings of the history's columns (``history.csv-metadata.json``)."""
+
+
 def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     args = cli.parse_args(parser(), argv, comm)
     mine = run(comm, args.n, args.dt)
@@ -249,13 +258,12 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     if comm.rank == 0:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        with open(out / "history.csv", "w") as f:
-            f.write("t,F_t1,F_n,newton,F_t1_reference\n")
-            for r, q in zip(mine, ref, strict=True):
-                f.write(
-                    f"{r['t']:.17g},{r['F_t1']:.17g},{r['F_n']:.17g},{r['newton']},"
-                    f"{q['F_t1']:.17g}\n"
-                )
+        rows = [
+            {"t": r["t"], "F_t1": r["F_t1"], "F_n": r["F_n"], "newton": r["newton"],
+             "F_t1_reference": q["F_t1"]}
+            for r, q in zip(mine, ref, strict=True)
+        ]  # fmt: skip
+        write_history_file(out / "history.csv", rows, extra=COLUMNS, gdim=2)  # and its units
         peak = max(abs(r["F_t1"]) for r in mine)
         print(
             f"{len(mine)} steps; peak tangential force {peak:.6g} N/mm; Newton iterations "
@@ -269,5 +277,6 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
     return {"history": mine, "reference": ref, "difference": diff}
 
 
-if __name__ == "__main__":
-    sys.exit(cli.run_main(main))
+# %%
+if __name__ == "__main__":  # a program: its exit code; a notebook: main() with the defaults
+    cli.main_block(main)

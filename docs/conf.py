@@ -3,10 +3,12 @@
 Pages: the index, the README (rewritten for its links: ``readme.md``), ``model.md``, the demos
 rendered from their jupytext sources (copied here from ``demos/`` at every build, not executed:
 see ``index.md``), each with the figures and numbers of its last full run (``figures/<demo>/``
-and ``demo_results.json``, made by ``docs/demo_results.py``), and one API page per public module
-(generated here at every build: ``automodule`` with its members). The generated folders
-(``demos/``, ``api/``, ``_mathjax/``) and ``readme.md`` are rebuilt from the sources each time and
-not kept in git.
+and ``demo_results.json``, made by ``docs/demo_results.py``), the reference pages
+(``reference/``), and the API reference, one page per layer of the package (generated here at
+every build: ``automodule`` of each public module with its members; ``pages.API_LAYERS``).
+The generated folders (``demos/``, ``api/``, ``_mathjax/``) and ``readme.md`` are rebuilt from
+the sources each time and not kept in git. The pages link the repository's files as on GitHub
+(:func:`repository_links` makes those links work here).
 
 Offline: equations are rendered by the MathJax of Debian's ``libjs-mathjax`` (the part it needs
 is copied into the site: no CDN), and intersphinx reads only inventories installed on this
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 import re
 import shutil
 import sys
@@ -26,7 +29,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 
-from docs.pages import local_inventories, public_modules  # noqa: E402
+from docs.pages import API_LAYERS, api_pages, local_inventories  # noqa: E402
 
 project = "subfric-dolfinx"
 author = "the subfric-dolfinx developers"
@@ -111,21 +114,25 @@ DEMOS = ROOT / "demos"
 
 
 def write_api_pages() -> list[str]:
-    """``api/<module>.md`` for every public module.
+    """``api/<layer>.md`` for every layer of the package (``pages.API_LAYERS``).
 
-    A package's page has its docstring only: its members are documented in their modules.
+    Each documents its public modules one after the other, under a heading each; a package's
+    section has its docstring only (its members are documented in their modules).
     """
     out = HERE / "api"
     shutil.rmtree(out, ignore_errors=True)
     out.mkdir()
-    names = public_modules()
-    for name in names:
-        is_package = hasattr(importlib.import_module(name), "__path__")
-        options = "   :no-members:\n" if is_package else ""
-        (out / f"{name}.md").write_text(
-            f"# `{name}`\n\n```{{eval-rst}}\n.. automodule:: {name}\n{options}```\n"
-        )
-    return names
+    titles = {page: title for page, title, _ in API_LAYERS}
+    written = []
+    for page, names in api_pages().items():
+        parts = [f"# {titles[page]}\n"]
+        for name in names:
+            is_package = hasattr(importlib.import_module(name), "__path__")
+            options = "   :no-members:\n" if is_package else ""
+            parts.append(f"## `{name}`\n\n```{{eval-rst}}\n.. automodule:: {name}\n{options}```\n")
+        (out / f"{page}.md").write_text("\n".join(parts))
+        written += names
+    return written
 
 
 def copy_mathjax() -> None:
@@ -223,7 +230,54 @@ def write_readme() -> None:
     (HERE / "readme.md").write_text(text)
 
 
-API_MODULES = write_api_pages()
-DEMO_NAMES = copy_demos()
+# ``sphinx-build -t pages``: the Markdown pages only (no API reference, no demos): the tests' quick
+# build of the pages (tests/demos/test_docs.py); the toctrees' globs then match nothing
+PAGES_ONLY = "tags" in globals() and globals()["tags"].has("pages")
+if PAGES_ONLY:
+    exclude_patterns += ["api", "demos"]
+    API_MODULES: list[str] = []
+    DEMO_NAMES: list[str] = []
+else:
+    API_MODULES = write_api_pages()
+    DEMO_NAMES = copy_demos()
 write_readme()
 copy_mathjax()
+
+
+LINK = re.compile(r"(!?\[[^\]]*\])\(([^)\s]+)\)")
+
+
+def repository_links(app: object, docname: str, source: list[str]) -> None:
+    """Links of the Markdown pages written for the repository (GitHub), made to work here.
+
+    The pages link files by their place in the repository (``../../demos/hertz.py`` from
+    ``reference/``): a demo becomes its page of this site, a file outside ``docs/`` a download
+    (``path:``); links within ``docs/`` and to the web stay as they are. (Sphinx's
+    ``source-read`` event: the page's text before it is parsed.)
+    """
+    if docname.startswith(("api/", "demos/")) or docname == "readme":
+        return
+    here = (HERE / docname).parent
+
+    def link(m: re.Match) -> str:
+        target = m.group(2)
+        if re.match(r"^[a-z]+:|^#|^/", target):
+            return m.group(0)
+        path, _, anchor = target.partition("#")
+        full = (here / path).resolve()
+        if full.is_relative_to(HERE):
+            return m.group(0)
+        rel = full.relative_to(ROOT) if full.is_relative_to(ROOT) else None
+        if rel is None:
+            return m.group(0)
+        if rel.parts[0] == "demos" and rel.suffix == ".py" and len(rel.parts) == 2:
+            page = Path(os.path.relpath(HERE / "demos" / rel.name, here)).as_posix()
+            return f"{m.group(1)}({page}{'#' + anchor if anchor else ''})"
+        return f"{m.group(1)}(path:{Path(os.path.relpath(full, here)).as_posix()})"
+
+    source[0] = LINK.sub(link, source[0])
+
+
+def setup(app: object) -> None:
+    """Sphinx's hook: :func:`repository_links` on every page read."""
+    app.connect("source-read", repository_links)  # type: ignore[attr-defined]

@@ -96,6 +96,8 @@ def _runs() -> dict[str, Run]:
     runs = {
         "hertz_n4": Run("hertz", ("--n", "4")),
         "hertz_n8": Run("hertz", ("--n", "8")),
+        "hertz_apart_n4": Run("hertz", ("--n", "4", "--meshed-apart")),
+        "hertz_apart_n8": Run("hertz", ("--n", "8", "--meshed-apart")),
         "cattaneo_mindlin_n4": Run("cattaneo_mindlin", ("--n", "4", "--no-subloading")),
         "cattaneo_mindlin_n16": Run("cattaneo_mindlin", ("--n", "16", "--no-subloading")),
     }

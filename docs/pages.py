@@ -1,6 +1,7 @@
 """What the documentation site is built from, for ``conf.py`` and the tests alike (no side effects).
 
-* :func:`public_modules`: the modules that get an API page;
+* :func:`public_modules`: the modules the API reference documents, and :func:`api_pages`, the
+  page of each (one per layer of the package, :data:`API_LAYERS`);
 * :func:`local_inventories`: the intersphinx inventories installed on this machine (the build
   never reads the network); links point to the projects' sites.
 """
@@ -59,3 +60,28 @@ def public_modules() -> list[str]:
         if not any(part.startswith("_") for part in info.name.split(".")):
             names.append(info.name)
     return sorted(names)
+
+
+API_LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
+    ("constitutive", "Friction laws and the bulk J2 law (numpy only)", ("constitutive",)),
+    ("driver", "Material-point driver and calibration", ("driver", "calibrate")),
+    ("meshing", "Meshing: gmsh models, duplicated nodes, reading into DOLFINx", ("meshing",)),
+    ("fem", "Finite elements: interfaces, problem, solver, load stepping", ("fem",)),
+    ("io", "Output: history, fields, interface history, checkpoints", ("io",)),
+    ("scenes", "Scenes: schema, parser, runner, command line", ("scenes",)),
+    ("package", "Loading programs, logs, values, command lines, DOLFINx versions", ("",)),
+]
+"""The API reference's pages, one per layer: (page, title, subpackages of ``subfric_dolfinx``;
+``""``: the package and its top-level modules, the rest)."""
+
+
+def api_pages() -> dict[str, list[str]]:
+    """Page -> the public modules it documents (each module on the first layer that holds it)."""
+    pages: dict[str, list[str]] = {page: [] for page, _, _ in API_LAYERS}
+    for name in public_modules():
+        rel = name[len(PACKAGE) + 1 :]
+        for page, _, subpackages in API_LAYERS:
+            if any(rel == s or rel.startswith(s + ".") if s else True for s in subpackages):
+                pages[page].append(name)
+                break
+    return pages

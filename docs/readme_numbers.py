@@ -32,6 +32,9 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DEMOS_PAGE = "docs/reference/demos.md"
+ACCURACY_PAGE = "docs/reference/accuracy.md"
+SOLVER_PAGE = "docs/reference/solver.md"
 DEMO_RESULTS = ROOT / "docs" / "demo_results.json"
 REPORT_DATA = ROOT / "report" / "data"
 
@@ -97,7 +100,7 @@ class Data:
 
 @dataclass(frozen=True)
 class Quote:
-    """Numbers quoted at one place of the README.
+    """Numbers quoted at one place of the README or of a page of the docs.
 
     Attributes:
         name: What is quoted (for messages).
@@ -228,6 +231,56 @@ def _hertz(d: Data, key: str) -> list[str]:
     return [d.demo(r)["numbers"]["hertz"][key] for r in runs]
 
 
+def _hertz_apart(d: Data) -> list[str]:
+    apart = [d.demo(f"hertz_apart_n{n}")["numbers"]["hertz"] for n in (4, 8)]
+    matched = [d.demo(f"hertz_n{n}")["numbers"]["hertz"] for n in (4, 8)]
+    return [
+        *(sig(100 * abs(h["err_a_fit"])) for h in apart),
+        *(sig(100 * h["err_p_inner"]) for h in apart),
+        *(sig(100 * h["err_p_inner"]) for h in matched),
+    ]
+
+
+def _fretting(d: Data) -> list[str]:
+    m = d.demo("fretting")["numbers"]["measures"]
+    coul, sub = m["coulomb"], m["subloading"]
+    depth = max(e["plastic"]["depth_any"] for e in coul["extremes"].values())
+    last = max(sub["extremes"], key=float)
+    return [
+        f2(coul["ratio_max"]),
+        f2(depth),
+        *(f"{p:.4f}" for p in coul["p_max_by_cycle"]),
+        f2(sub["loops"][-1]),
+        f2(coul["loops"][-1]),
+        f2(1e3 * sub["extremes"][last]["slip_centre"]),
+        f"{100 * (1 - sub['p_max_by_cycle'][-1] / coul['p_max_by_cycle'][-1]):.0f}",
+        f"{100 * (1 - sub['p_integral_by_cycle'][-1] / coul['p_integral_by_cycle'][-1]):.0f}",
+    ]
+
+
+def _shrink_fit(d: Data) -> list[str]:
+    r = d.demo("shrink_fit")["numbers"]["report"]
+    return [
+        sig(100 * r["p_mean_error"]),
+        sig(100 * r["p_max_error"]),
+        f"{100 * r['coulomb_onset_error']:+.2g}",
+    ]
+
+
+def _sliding_far(d: Data) -> list[str]:
+    r = d.demo("block_sliding_far")["numbers"]
+    return [
+        f2(r["F_n_end"]),
+        f"{r['friction_end']:.5f}",
+        f"{r['material_point_end']:.5f}",
+        f2(r["compression_offset_max"]),
+    ]
+
+
+def _records(d: Data) -> list[str]:
+    return [d.stamp["commit"][:10], d.stamp["date"].split()[0], f"{d.stamp['load'][0]:.1f}"]
+
+
 def _cm(d: Data) -> dict[str, Any]:
     return d.demo("cattaneo_mindlin")["numbers"]
 
@@ -287,83 +340,115 @@ DEMOS = sorted(f.stem for f in (ROOT / "demos").glob("*.py") if f.stem != "__ini
 
 # fmt: off
 QUOTES: list[Quote] = [
+    # README.md: the demo table's times and the records they come from
     *(_table_time(demo) for demo in DEMOS),
+    Quote("the records' commit and date (README)", words(
+        "The times and numbers quoted here were recorded at commit `{}` on {} (load {})"),
+        _records),
+    # docs/reference/demos.md: what each demo shows
+    Quote("the records' commit and date (demos)", words(
+        "recorded at commit `{}` on {} (load {}) by `docs/demo_results.py`"),
+        _records, page=DEMOS_PAGE),
     Quote("demos whose default run warns", words(
         "default runs of {t} end with a warning that the model's validity is at stake"),
-        lambda d: [_warned(d)]),
+        lambda d: [_warned(d)], page=DEMOS_PAGE),
     Quote("pad_on_plate: restored peaks", words("peak grows with the hold ({}, {}, {}, {} MPa for"),
-          _pad_peaks),
+          _pad_peaks, page=DEMOS_PAGE),
     Quote("punch: peaks and saturation", words(
         "(edge peaks about {} MPa), then shear; this law and Coulomb side by side: under the "
         "pressure peaks the tangential stress saturates ({} MPa) where Coulomb's keeps growing "
         "({} MPa)"),
         lambda d: [f"{round(_punch(d)['fn_peak'], -2):.0f}", f"{abs(_punch(d)['ft_sub']):.0f}",
-                   f"{abs(_punch(d)['ft_coul']):.0f}"]),
+                   f"{abs(_punch(d)['ft_coul']):.0f}"], page=DEMOS_PAGE),
     Quote("lap_joint: slip per cycle", words(
         "slip accumulates cycle by cycle ({} µm in the first, {} µm in the last, {} µm in all), "
         "the loosening Coulomb cannot produce ({} µm, then nothing)"),
         lambda d: [f2(_lap(d, "subloading")["slip_per_cycle_um"][0]),
                    f2(_lap(d, "subloading")["slip_per_cycle_um"][-1]),
                    f"{_lap(d, 'subloading')['total_um']:.0f}",
-                   f2(_lap(d, "coulomb")["slip_per_cycle_um"][0])]),
+                   f2(_lap(d, "coulomb")["slip_per_cycle_um"][0])], page=DEMOS_PAGE),
     Quote("bolted_joint: peaks and size", words(
         "shrink from the static peak ({} kN) to a symmetric kinetic loop ({} kN) as `mu` softens. "
         "{} dofs by default"),
         lambda d: [f"{1e-3 * abs(_bolted(d)['strokes'][0][1]):.2f}",
                    f"{1e-3 * abs(_bolted(d)['strokes'][-1][1]):.2f}",
-                   kdofs(_bolted(d)["dofs"])]),
+                   kdofs(_bolted(d)["dofs"])], page=DEMOS_PAGE),
+    Quote("bolt_clamped_joint: force balance and pretension", words(
+        "equals the head's, the joint's and the nut's normal resultants ({} of the pretension); "
+        "the pretension changes by {} % under the shear"),
+        lambda d: [e1(d.demo("bolt_clamped_joint")["numbers"]["report"]["balance"]),
+                   f2(100 * d.demo("bolt_clamped_joint")["numbers"]["report"][
+                       "pretension_change"])], page=DEMOS_PAGE),
+    Quote("shrink_fit: Lame and Coulomb", words(
+        "within {} % on average and {} % at every point; pushed off, Coulomb's fit slides at "
+        "`2 pi b L mu p` ({} %)"),
+        _shrink_fit, page=DEMOS_PAGE),
+    Quote("fretting: plastic strain, loops, microslip", words(
+        "at `Q/µP` = {} (µ = 0.6): plastic strain only under the contact edges, in the slip "
+        "zones within {} mm of the surface, growing every half cycle (largest `p` {}, {}, {}, {} "
+        "at the ends of cycles 0-3 with Coulomb); Coulomb's stick zone against Cattaneo-Mindlin "
+        "(`--elastic`: the flat elastic); the subloading law calibrated to the same sliding "
+        "force: the same loop ({} against {} N mm/mm dissipated in the last cycle), its centre "
+        "slipping by {} µm where Coulomb's sticks, {} % less peak plastic strain and {} % less "
+        "`∫p dA` after 3 cycles"),
+        _fretting, page=DEMOS_PAGE),
     Quote("hertz: errors at n = 4, 8, 16", words(
         "half-width (fit) within {}, {}, {} %; peak pressure {}, {}, {} %; largest error of "
         "`p(x)` over `|x| <= 0.8a` {}, {}, {} % of `p0`"),
         lambda d: [*(sig(100 * abs(x)) for x in _hertz(d, "err_a_fit")),
                    *(f"{100 * x:+.3f}" for x in _hertz(d, "err_p0")),
-                   *(sig(100 * x) for x in _hertz(d, "err_p_inner"))]),
-    Quote("bolt_clamped_joint: force balance", words(
-        "equals the head's, the joint's and the nut's normal resultants ({} of the pretension)"),
-        lambda d: [e1(d.demo("bolt_clamped_joint")["numbers"]["report"]["balance"])]),
-    Quote("the records' commit and date", words(
-        "The times and numbers quoted here were recorded at commit `{}` on {} (load {})"),
-        lambda d: [d.stamp["commit"][:10], d.stamp["date"].split()[0],
-                   f"{d.stamp['load'][0]:.1f}"]),
-    Quote("block_sliding_far: steps and Newton", words(
-        "{} steps, Newton up to {} iterations in a step"),
-        lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
-                   str(d.demo("block_sliding_far")["numbers"]["newton_max"])]),
+                   *(sig(100 * x) for x in _hertz(d, "err_p_inner"))], page=DEMOS_PAGE),
+    Quote("hertz --meshed-apart at n = 4, 8", words(
+        "at `--n 4, 8` half-width (fit) within {}, {} %, largest error of `p(x)` over "
+        "`|x| <= 0.8a` {}, {} % of `p0` (matched meshes: {}, {} %)"),
+        _hertz_apart, page=DEMOS_PAGE),
     Quote("cattaneo_mindlin: Q/muP, stick zone, microslip", words(
         "pushed sideways (`Q/µP` = {}, measured): Coulomb's stick zone against "
         "`c = a sqrt(1 - Q/µP)` (fit within {}, {}, {} % at `--n 4, 8, 16`)"),
-        lambda d: [f2(_cm(d)["coulomb"]["ratio"]), *_cm_fit(d)]),
+        lambda d: [f2(_cm(d)["coulomb"]["ratio"]), *_cm_fit(d)], page=DEMOS_PAGE),
     Quote("cattaneo_mindlin: microslip at the centre", words(
         "microslip all over the stick zone ({} µm at the centre)"),
-        lambda d: [f"{1e3 * _cm(d)['subloading']['slip_centre']:.3f}"]),
+        lambda d: [f"{1e3 * _cm(d)['subloading']['slip_centre']:.3f}"], page=DEMOS_PAGE),
+    Quote("block_sliding_far: resultant, friction, compression", words(
+        "the normal resultant stays the pressure's ({} N/mm), the friction at the end is the "
+        "material point's ({} against {}), and the base's compression 1 mm below its surface "
+        "follows the block (its centre within {} mm of the block's"),
+        _sliding_far, page=DEMOS_PAGE),
+    Quote("block_sliding_far: steps and Newton", words(
+        "{} steps, Newton up to {} iterations in a step"),
+        lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
+                   str(d.demo("block_sliding_far")["numbers"]["newton_max"])], page=DEMOS_PAGE),
+    # docs/reference/accuracy.md: the report's headlines
     Quote("report: material point", words(
         "error {} of the peak at {} steps down to {} at {}, observed order {} on a 1-D path "
         "(Coulomb's largest error there: {}); order {} where the sliding direction turns (the "
         "previous return map: {}; Coulomb: {})."),
-        _mp),
+        _mp, page=ACCURACY_PAGE),
     Quote("report: FE orders", words(
         "2-D block {} / {} / {} with this law, {} / {} / {} with Coulomb; 3-D pad {} / {} / {} "
         "and {} / {} / {}."),
         lambda d: [f2(_fe(d, k)[o]) for k in ("block/subloading", "block/coulomb",
-                   "pad/subloading", "pad/coulomb") for o in ("p_time", "p_space", "p_joint")]),
+                   "pad/subloading", "pad/coulomb") for o in ("p_time", "p_space", "p_joint")],
+        page=ACCURACY_PAGE),
     Quote("report: FE block with this law", words(
         "block with this law the {} error is {} times the other; in all four studies 1 and 2 ranks "
         "agree within {} of the peak (the 3-D pad's default, GAMG, is iterative: Newton's "
         "tolerance); {} Newton iterations per step on average; 2 ranks are faster than 1 {t}; "
         "the largest part of the finest run's time is '{t}' (1 rank)."),
-        _fe_block),
+        _fe_block, page=ACCURACY_PAGE),
     Quote("report: stability", words(
         "Stability: {} of {} material-point and {} of {} FE cases"),
         lambda d: [str(sum(c["passed"] for c in d.report("stability_point"))),
                    str(len(d.report("stability_point"))),
                    str(min(sum(c["passed"] for c in d.report(f"stability_fe_{n}").values())
                            for n in (1, 2))),
-                   str(len(d.report("stability_fe_1")))]),
+                   str(len(d.report("stability_fe_1")))], page=ACCURACY_PAGE),
     Quote("report: stability on 1 and 2 ranks, NaN", words(
         "(converged, flagged unstable, or a clear error) on 1 and 2 ranks, {t}; each is also a "
         "test."),
-        lambda d: ["with no NaN" if _nan_free(d) else "but NaN or inf seen (see the report)"]),
-    *(Quote(f"scale ({where})", pattern, values) for where, pattern, values in [
+        lambda d: ["with no NaN" if _nan_free(d) else "but NaN or inf seen (see the report)"],
+        page=ACCURACY_PAGE),
+    *(Quote(f"scale ({where})", pattern, values, page) for where, pattern, values, page in [
         ("report headlines", words(
             "37k dofs {} s against {} s with LU at every iteration ({} of 24 steps); 225k dofs "
             "{} s; 184k dofs over 100 steps {} s; 1M dofs over 100 steps {} s at {} GiB per "
@@ -374,7 +459,8 @@ QUOTES: list[Quote] = [
                     sig(d.scale("gamg", 2, 224736, 24, "wall_s"), 3),
                     sig(d.scale("gamg", 2, 184050, 100, "wall_s"), 3),
                     sig(d.scale("gamg", 2, 998556, 100, "wall_s"), 3),
-                    gib(d.scale("gamg", 2, 998556, 100, "rss_max_mib"))]),
+                    gib(d.scale("gamg", 2, 998556, 100, "rss_max_mib"))], ACCURACY_PAGE),
+        # docs/reference/solver.md: the linear strategies
         ("linear strategies", words(
             "(3-D pad, 24 steps, 2 ranks: {} s at 37k dofs where LU takes {} s for {} of the 24 "
             "steps; {} s at 70k) and robust with stiff interfaces, but its factor grows faster "
@@ -383,10 +469,10 @@ QUOTES: list[Quote] = [
                     sig(d.scale("lu", 2, 37206, 24, "wall_s"), 3),
                     str(int(d.scale("lu", 2, 37206, 24, "steps"))),
                     sig(d.scale("reuse", 2, 70026, 24, "wall_s"), 3),
-                    gib(d.scale("reuse", 1, 224736, 24, "rss_max_mib"))]),
+                    gib(d.scale("reuse", 1, 224736, 24, "rss_max_mib"))], SOLVER_PAGE),
         ("gamg against reuse", words(
             "(118k dofs, 2 ranks: {} s against {} s; 184k dofs, 100 steps: {} s against {} s, {} "
-            "GiB per rank against {}) and it is the only one that reaches 1M dofs on this 24 GB "
+            "GiB per rank against {}) and it is the only one that reaches 1M dofs on a 24 GB "
             "machine (100 steps in {} s, {} GiB per rank)"),
          lambda d: [sig(d.scale("gamg", 2, 118014, 24, "wall_s"), 3),
                     sig(d.scale("reuse", 2, 118014, 24, "wall_s"), 3),
@@ -395,7 +481,7 @@ QUOTES: list[Quote] = [
                     gib(d.scale("gamg", 2, 184050, 100, "rss_max_mib")),
                     gib(d.scale("reuse", 2, 184050, 100, "rss_max_mib")),
                     sig(d.scale("gamg", 2, 998556, 100, "wall_s"), 3),
-                    gib(d.scale("gamg", 2, 998556, 100, "rss_max_mib"))]),
+                    gib(d.scale("gamg", 2, 998556, 100, "rss_max_mib"))], SOLVER_PAGE),
     ]),
 ]
 # fmt: on
@@ -406,7 +492,7 @@ QUOTES: list[Quote] = [
 
 
 def find(q: Quote, text: str) -> re.Match:
-    """The one place of the README a quote is at.
+    """The one place of its page a quote is at.
 
     Raises:
         LookupError: Not found, or found more than once.
@@ -414,7 +500,7 @@ def find(q: Quote, text: str) -> re.Match:
     found = list(re.finditer(q.pattern, text, re.M))
     if len(found) != 1:
         raise LookupError(
-            f"{q.name}: the README has {len(found)} places matching its pattern "
+            f"{q.name}: {q.page} has {len(found)} places matching its pattern "
             f"(need 1): {q.pattern[:120]}"
         )
     return found[0]

@@ -4,10 +4,12 @@ Under ``mpirun``, a numpy-only program finds its rank with :func:`launcher_rank`
 started from a rank gets :func:`singleton_environment` so that it does not join the job.
 
 Every module logs to a child of the ``subfric_dolfinx`` logger (``logging.getLogger(__name__)``).
-As a library, the package installs no output handler of its own; a program (a demo, a script)
-calls :func:`configure` once to see the log::
+As a library, the package installs no output handler of its own and prints nothing but its
+warnings; a program (a script, a notebook) calls :func:`show_progress` once to see a line per
+load step, or :func:`configure` for another level::
 
     from subfric_dolfinx import logs
+    logs.show_progress(MPI.COMM_WORLD)                 # a progress line per step, on rank 0
     logs.configure(verbosity=0, comm=MPI.COMM_WORLD)   # -1 warnings, 0 info, 1 debug
 
 Levels: INFO for the run's size and summary, a line per long segment of the loading program and a
@@ -15,12 +17,12 @@ progress line every :data:`PROGRESS_SECONDS`, DEBUG for one line per load step a
 attempt.
 
 **Warnings about the model's validity** (a penetration or a slide the small-sliding interface no
-longer describes) are not log records: they go through :func:`warn`, i.e. :func:`warnings.warn`
-with a :class:`SubfricWarning` category, so that every user sees them in a plain script without
-configuring anything, and the standard filters apply (``warnings.simplefilter("error",
-SubfricWarning)`` makes them errors, ``"ignore"`` silences them). Under MPI every rank evaluates
-the filters alike (an ``"error"`` filter raises on every rank, never on one alone) and rank 0
-shows the warning: one line per job, not one per rank.
+longer describes, a law's ``mu_s`` that looks like a friction coefficient) are not log records:
+they go through :func:`warn`, i.e. :func:`warnings.warn` with a :class:`SubfricWarning` category,
+so that every user sees them in a plain script without configuring anything, and the standard
+filters apply (``warnings.simplefilter("error", SubfricWarning)`` makes them errors, ``"ignore"``
+silences them). Under MPI every rank evaluates the filters alike (an ``"error"`` filter raises on
+every rank, never on one alone) and rank 0 shows the warning: one line per job, not one per rank.
 """
 
 from __future__ import annotations
@@ -40,9 +42,11 @@ __all__ = [
     "Progress",
     "SlideWarning",
     "SubfricWarning",
+    "UnitsWarning",
     "configure",
     "launcher_rank",
     "level_for",
+    "show_progress",
     "singleton_environment",
     "warn",
 ]
@@ -97,6 +101,25 @@ def configure(
     return handler
 
 
+def show_progress(comm: Any = None, stream: TextIO | None = None) -> logging.Handler:
+    """Print a progress line per converged load step on rank 0 of ``comm``: the library's log.
+
+    For a script or a notebook that calls the library (``run_scene``, ``LoadStepper.run``,
+    ``run_case``): each step's number, time, step size, Newton iterations, residuals, what the
+    interface does and the elapsed time, each failed attempt, and the run's size and summary.
+    ``configure(1, comm, stream)``; ``configure(0, comm)`` prints a line per long segment of the
+    program instead, ``logs.configure(-1)`` warnings only.
+
+    Args:
+        comm: MPI communicator; only its rank 0 prints (``None``: every process prints).
+        stream: Where to print (default ``sys.stdout``).
+
+    Returns:
+        The installed handler.
+    """
+    return configure(1, comm, stream)
+
+
 PROGRESS_SECONDS = 10.0
 """A long run prints a progress line at most this often (wall seconds): the FE load stepping
 (INFO, when no other line came in between) and the material-point driver's command line."""
@@ -141,6 +164,10 @@ class PenetrationWarning(SubfricWarning):
 
 class SlideWarning(SubfricWarning):
     """A slide longer than the small-sliding interface (pairs fixed at the reference) describes."""
+
+
+class UnitsWarning(SubfricWarning):
+    """A parameter that looks given in another unit: a friction coefficient as ``mu_s`` (MPa)."""
 
 
 _PACKAGE_DIR = str(Path(__file__).resolve().parent)

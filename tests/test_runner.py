@@ -314,3 +314,26 @@ def test_exec_runs_in_the_callers_folder(tmp_path):
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert f"{sub.resolve()} is outside the repository" in r.stderr, r.stderr
     assert not marker.exists() and not (tmp_path / "cache").exists()
+
+
+def test_the_environment_imports_the_mpi_builds_of_adios2_and_h5py(tmp_path):
+    """``./run exec python3 -c 'import adios2'`` works in a plain process: the runner's variables
+    (``env_vars``) select the MPI builds of ADIOS2 and h5py, the libraries DOLFINx uses (Debian's
+    wrappers load their serial builds otherwise, and the serial ADIOS2 is not installed)."""
+    script = (
+        f'source "{RUN}"; mapfile -t v < <(env_vars); exec env -i "${{v[@]}}" python3 -c '
+        '"import adios2, h5py; print(adios2.is_built_with_mpi, h5py.get_config().mpi)"'
+    )
+    p = subprocess.run(["bash", "-c", script], cwd=tmp_path, capture_output=True, text=True)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert p.stdout.split() == ["True", "True"], p.stdout
+
+
+def test_the_docs_command_fails_on_any_sphinx_warning(tmp_path):
+    """``./run docs`` is Sphinx with warnings as errors, going on to list them all (the same build
+    as ``tests/demos/test_docs.py``'s, which asserts it succeeds)."""
+    script = f'source "{RUN}"; in_env() {{ printf "%s\\n" "$@"; }}; main docs -q'
+    p = subprocess.run(["bash", "-c", script], cwd=tmp_path, capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    args = p.stdout.split()
+    assert args[0] == "sphinx-build" and {"-W", "--keep-going", "-q"} <= set(args), args

@@ -71,9 +71,15 @@ from .result import ReturnMapResult
 from .state import LOCAL, SCALAR, TANGENTIAL, InterfaceState, Variable
 from .tolerances import CONTACT_TOL, LOAD_TOL
 
-__all__ = ["SubloadingLaw", "subloading_return_map"]
+__all__ = ["LOW_STRENGTH", "SubloadingLaw", "subloading_return_map"]
 
 _MU_UNIT = "a stress: the strength is g(f_n) mu, not a friction coefficient"
+
+LOW_STRENGTH = 0.01
+"""A static strength ``g(f_n) mu_s`` below this fraction of the normal stress ``f_n`` is taken for
+friction coefficients given as ``mu_s``, ``mu_k`` (:meth:`SubloadingLaw.units_check`): a sliding
+contact's friction coefficient lies above 0.01 even lubricated, and the presets' static ratio
+``g mu_s / f_n`` is 0.09 or more up to 1000 MPa."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,7 +90,8 @@ class SubloadingLaw(LawBase):
     are **stresses in MPa**, not friction coefficients: the strength is ``g(f_n) mu`` with the
     dimensionless saturation ``g = 1 - exp(-c_n f_n)`` (the Sec. 7 set: ``mu_s = 500`` MPa,
     ``c_n = 2e-4`` 1/MPa, so ``g mu_s = 29`` MPa at 300 MPa, a ratio ``f_t/f_n`` of 0.097).
-    Coulomb's ``mu_c`` is the coefficient.
+    Coulomb's ``mu_c`` is the coefficient. Values that look like friction coefficients at a
+    scene's pressure are warned about (``units_check``).
 
     Attributes:
         alpha_t: Tangential penalty (elastic sliding) modulus, MPa/mm, > 0.
@@ -192,6 +199,34 @@ class SubloadingLaw(LawBase):
         """Integrate the law over one step; see :func:`subloading_return_map`."""
         return subloading_return_map(
             self, gap, state, dt, out=out, tol=tol, max_iter=max_iter, contact_tol=contact_tol
+        )
+
+    def units_check(self, f_n: float) -> str | None:
+        """Do ``mu_s``, ``mu_k`` look like friction coefficients at the normal stress ``f_n``?
+
+        Args:
+            f_n: A normal stress the interface is pressed with (MPa), e.g. a scene's pressure.
+
+        Returns:
+            ``None`` when the static strength ``g(f_n) mu_s`` is at least :data:`LOW_STRENGTH`
+            ``f_n`` (or ``f_n <= 0``); otherwise what the values give and what would give a
+            friction coefficient of ``mu_s`` (the text of a
+            :class:`~subfric_dolfinx.logs.UnitsWarning`).
+        """
+        f_n = float(f_n)
+        if not f_n > 0 or not math.isfinite(f_n):
+            return None
+        g = -math.expm1(-self.c_n * f_n)
+        static, kinetic = g * self.mu_s, g * self.mu_k
+        if static >= LOW_STRENGTH * f_n:
+            return None
+        return (
+            f"mu_s = {self.mu_s:g} and mu_k = {self.mu_k:g} are stresses in MPa, not friction "
+            f"coefficients: at f_n = {f_n:g} MPa the strength g(f_n) mu is {static:.3g} MPa "
+            f"static and {kinetic:.3g} MPa kinetic, a ratio f_t / f_n of {static / f_n:.2g} (below "
+            f"{LOW_STRENGTH:g}). A friction coefficient m at this f_n is mu = m f_n / g(f_n) with "
+            f"g(f_n) = {g:.3g} (c_n = {self.c_n:g} 1/MPa): m = {self.mu_s:g} is mu_s = "
+            f"{self.mu_s * f_n / g:.4g} MPa; or take a preset's values (e.g. 'sec7': mu_s 500 MPa)"
         )
 
     def strength(self, state: InterfaceState, f_n: npt.ArrayLike, dt: float = 0.0) -> np.ndarray:

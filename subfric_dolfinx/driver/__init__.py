@@ -24,9 +24,10 @@ CASE.json::
       "steps_per_mm": 200                  # optional; --steps-per-mm overrides it
     }
 
-A path from a CSV file (relative to the case file's folder): a header line naming the columns
-``t, x1, x2, ubar_n`` (``x2`` may be left out with ``n_tangential`` 1; ``columns`` maps them to
-the file's own names), then rows of numbers; ``,``, ``;`` or tab; lines starting with ``#``
+A path from a CSV file (relative to the case file's folder, and in it: a table elsewhere, through
+``..``, an absolute path or a link leading out, is refused unread): a header line naming the
+columns ``t, x1, x2, ubar_n`` (``x2`` may be left out with ``n_tangential`` 1; ``columns`` maps
+them to the file's own names), then rows of numbers; ``,``, ``;`` or tab; lines starting with ``#``
 (e.g. units) are skipped (:func:`~.case.read_table`).
 
 Units: MPa, mm, s. The subloading law's ``mu0``, ``mu_s``, ``mu_k`` are values of its hardening

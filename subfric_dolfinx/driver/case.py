@@ -10,6 +10,7 @@ import dataclasses
 import io
 import json
 import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -180,18 +181,30 @@ def read_table(
         path: The file; relative to ``base`` if given.
         columns: Name -> (its header in the file, required).
         what: How error messages call it (e.g. ``"field 'path.csv'"``).
-        base: Directory of relative paths.
+        base: Directory of relative paths: the folder of the case (or data) file. The table
+            must lie in it or below (resolved: not through ``..``, an absolute path elsewhere
+            or a symbolic link leading out): a case file names its own data, never a file
+            elsewhere (whose first line an error would show).
 
     Returns:
         Name -> values, for the required columns and the optional ones present.
 
     Raises:
-        CaseError: Unreadable, too large, not UTF-8, no header, a required column missing, a
-            short row or a value that is not a finite number (file, line and column named).
+        CaseError: Outside ``base``, not a regular file, unreadable, too large, not UTF-8, no
+            header, a field beyond the csv module's limit, a required column missing, a short
+            row or a value that is not a finite number (file, line and column named).
     """
     p = Path(path)
     if base is not None and not p.is_absolute():
         p = Path(base) / p
+    if base is not None:
+        top = os.path.realpath(base)
+        if os.path.commonpath([top, os.path.realpath(p)]) != top:
+            link = f" (a symbolic link to {os.readlink(p)!r})" if p.is_symlink() else ""
+            raise CaseError(
+                f"{what}: {str(path)!r}{link} lies outside the folder of the file that names "
+                f"it ({str(base)!r}): not read; put the table in that folder"
+            )
     try:
         if not p.is_file():
             raise CaseError(f"{what}: {str(p)!r} is not a file")
@@ -213,7 +226,12 @@ def read_table(
         raise CaseError(f"{what}: {str(p)!r} has no header line (the columns' names)")
     first = lines[0][1]
     delimiter = max((",", ";", "\t"), key=lambda d: len(first.split(d)))
-    rows = list(csv.reader(io.StringIO("\n".join(ln for _, ln in lines)), delimiter=delimiter))
+    reader = csv.reader(io.StringIO("\n".join(ln for _, ln in lines)), delimiter=delimiter)
+    try:
+        rows = list(reader)
+    except csv.Error as e:  # e.g. a field beyond csv.field_size_limit()
+        line = lines[min(max(reader.line_num, 1), len(lines)) - 1][0]
+        raise CaseError(f"{what}: {str(p)!r} line {line}: {e}") from None
     header = [h.strip() for h in rows[0]]
     if len(header) > MAX_TABLE_COLUMNS:
         raise CaseError(f"{what}: {str(p)!r} has {len(header)} columns (limit {MAX_TABLE_COLUMNS})")

@@ -34,6 +34,12 @@ Shipped here:
 A bulk model may also declare ``linear = True`` (its ``F`` must then be linear in ``u``: the
 problem assembles the Jacobian once and uses ``F(u) = J u``) and provide
 ``stress(u, ctx) -> 3 x 3 UFL tensor`` for stress outputs.
+
+Every user form is checked before anything is compiled or assembled (:func:`check_forms`): a
+form of the wrong rank (a ``TrialFunction`` in ``F``), a test or trial function of another
+space than the problem's ``V``, an integral or a coefficient on another mesh would otherwise
+corrupt memory in the assembler or end in an error that blames the interface; each is a
+``ValueError`` naming the bulk model (:func:`bulk_name`) and what is wrong.
 """
 
 from __future__ import annotations
@@ -45,11 +51,20 @@ from typing import Any, Protocol, runtime_checkable
 import dolfinx
 import numpy as np
 import ufl
+from ufl.domain import extract_unique_domain
 
 from .conditions import Material
 from .kinematics import MODES, elastic_stress, strain, weight
 
-__all__ = ["BulkContext", "BulkModel", "LinearElasticity", "UFLBulk", "bulk_forms"]
+__all__ = [
+    "BulkContext",
+    "BulkModel",
+    "LinearElasticity",
+    "UFLBulk",
+    "bulk_forms",
+    "bulk_name",
+    "check_forms",
+]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -235,24 +250,125 @@ class UFLBulk(_Stateless):
         self.linear = bool(linear)
 
     def forms(self, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[Any, Any]:
-        """The user's forms in the problem's ``u``, ``v`` and ``du``."""
+        """The user's forms in the problem's ``u``, ``v`` and ``du``.
+
+        Raises:
+            ValueError: A form in the user's functions whose unknown, test or trial function
+                is not of the problem's space (element and mesh), naming it.
+        """
+        name = bulk_name(self)
         if isinstance(self.F, ufl.Form):  # (a UFL form is callable too: test it first)
-            F = _replace(self.F, self.u_user, u, v, du)
+            F = _replace(self.F, self.u_user, u, v, du, f"{name}: its residual F")
         else:
             F = self.F(u, v, ctx)
         if self.J is None:
             return F, None
         if isinstance(self.J, ufl.Form):
-            return F, _replace(self.J, self.u_user, u, v, du)
+            return F, _replace(self.J, self.u_user, u, v, du, f"{name}: its Jacobian J")
         return F, self.J(u, v, du, ctx)
 
 
-def _replace(form: Any, u_user: Any, u: Any, v: Any, du: Any) -> Any:
+def _space_text(space: Any) -> str:
+    text = " ".join(str(space.ufl_element()).split())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def _same_space(a: Any, b: Any) -> bool:
+    """The same element on the same mesh (two spaces built alike are two objects)."""
+    return a.ufl_element() == b.ufl_element() and a.ufl_domain() == b.ufl_domain()
+
+
+def _replace(form: Any, u_user: Any, u: Any, v: Any, du: Any, what: str) -> Any:
     """``form`` with the user's unknown, test and trial functions replaced by the problem's."""
+    V = v.ufl_function_space()
+    if u_user is not None and not _same_space(u_user.ufl_function_space(), V):
+        raise ValueError(
+            f"{what}: the unknown u it is written in is of another space "
+            f"({_space_text(u_user.ufl_function_space())}) than the problem's displacement "
+            f"space ({_space_text(V)}) on its mesh"
+        )
     mapping: dict[Any, Any] = {} if u_user is None else {u_user: u}
     for arg in form.arguments():
+        if not _same_space(arg.ufl_function_space(), V):
+            raise ValueError(
+                f"{what}: its {_ARGUMENTS.get(arg.number(), 'argument')} is of another space "
+                f"({_space_text(arg.ufl_function_space())}) than the problem's displacement "
+                f"space ({_space_text(V)}) on its mesh"
+            )
         mapping[arg] = v if arg.number() == 0 else du
     return ufl.replace(form, mapping)
+
+
+_ARGUMENTS = {0: "test function", 1: "trial function"}
+
+
+def bulk_name(bulk: Any) -> str:
+    """How messages name a bulk model: ``the bulk model UFLBulk(my_residual)``."""
+    if isinstance(bulk, UFLBulk):
+        f = bulk.F
+        what = (
+            "a UFL form"
+            if isinstance(f, ufl.Form)
+            else getattr(f, "__qualname__", type(f).__name__)
+        )
+        return f"the bulk model UFLBulk({what})"
+    return f"the bulk model {type(bulk).__name__}"
+
+
+def _check_form(name: str, what: str, form: Any, rank: int, V: Any) -> None:
+    if not isinstance(form, ufl.Form):
+        hint = ""
+        if isinstance(form, ufl.core.expr.Expr):
+            hint = " (an expression: multiply it by a measure, e.g. ctx.dx)"
+        raise ValueError(f"{name}: its {what} is not a UFL form but a {type(form).__name__}{hint}")
+    if form.empty():
+        raise ValueError(f"{name}: its {what} is an empty form (no integral)")
+    try:
+        args = form.arguments()
+    except ValueError as e:  # UFL's own analysis: e.g. two test functions of different spaces
+        text = " ".join(str(e).split("The Arguments found")[0].split())  # (a list in any order)
+        raise ValueError(f"{name}: its {what}: {text}") from None
+    numbers = sorted(a.number() for a in args)
+    if numbers != list(range(rank)):
+        got = ", ".join(_ARGUMENTS.get(n, f"argument {n}") for n in numbers) or "none"
+        if rank == 1:
+            want = "linear in the test function v alone (F(u; v): u the unknown Function"
+            want += ", no TrialFunction)" if 1 in numbers else ")"
+        else:
+            want = "bilinear in the test function v and the trial function du"
+        raise ValueError(
+            f"{name}: its {what} has rank {len(numbers)} (arguments: {got}); it must be {want}"
+        )
+    for a in args:
+        if a.ufl_function_space() != V:
+            raise ValueError(
+                f"{name}: the {_ARGUMENTS[a.number()]} of its {what} is of another space "
+                f"({_space_text(a.ufl_function_space())}) than the problem's displacement space "
+                f"V ({_space_text(V)}): write it with the v (and du) the problem gives"
+            )
+    domain = V.ufl_domain()
+    if any(d != domain for d in form.ufl_domains()):
+        raise ValueError(f"{name}: its {what} integrates over another mesh than the problem's")
+    for c in (*form.coefficients(), *form.constants()):
+        d = extract_unique_domain(c)
+        if d is not None and d != domain:
+            raise ValueError(
+                f"{name}: its {what} holds {c!s}, defined on another mesh than the problem's"
+            )
+
+
+def check_forms(bulk: Any, F: Any, J: Any, V: Any) -> None:
+    """Check a bulk model's residual and Jacobian before they are compiled.
+
+    ``F`` must be a UFL form linear in one test function of ``V`` (rank 1), ``J`` bilinear in a
+    test and a trial function of ``V`` (rank 2), both over ``V``'s mesh, their coefficients too.
+
+    Raises:
+        ValueError: Naming the bulk model (:func:`bulk_name`), the form and what is wrong.
+    """
+    name = bulk_name(bulk)
+    _check_form(name, "residual F", F, 1, V)
+    _check_form(name, "Jacobian J", J, 2, V)
 
 
 def bulk_forms(bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[Any, Any]:
@@ -260,6 +376,7 @@ def bulk_forms(bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[An
 
     Raises:
         TypeError: ``bulk`` lacks a method of :class:`BulkModel` (named).
+        ValueError: A form of the wrong kind (:func:`check_forms`).
     """
     missing = [
         m
@@ -271,6 +388,8 @@ def bulk_forms(bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[An
             f"the bulk model {type(bulk).__name__} lacks the method(s) {missing} of BulkModel"
         )
     F, J = bulk.forms(u, v, du, ctx)
+    _check_form(bulk_name(bulk), "residual F", F, 1, ctx.V)
     if J is None:
         J = ufl.derivative(F, u, du)
+    check_forms(bulk, F, J, ctx.V)
     return F, J

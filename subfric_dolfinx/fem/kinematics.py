@@ -26,6 +26,8 @@ import ufl
 
 __all__ = [
     "MODES",
+    "ModeError",
+    "check_axisymmetric",
     "check_mode",
     "elastic_stress",
     "point_weight",
@@ -36,17 +38,61 @@ __all__ = [
 MODES = ("3d", "plane_strain", "plane_stress", "axisymmetric")
 
 
+class ModeError(ValueError):
+    """A modelling mode that does not fit the mesh (the same message on every rank)."""
+
+
+def check_axisymmetric(mesh) -> None:
+    """Refuse an axisymmetric mesh with a node at ``r = x[0] < 0`` (collective).
+
+    The weight ``2 pi r`` and the hoop strain ``u_r / r`` hold for ``r >= 0`` only: a body at
+    ``r < 0`` has negative volume (its forces change sign), and one across the axis cancels its
+    own. Nodes on the axis are allowed (up to round-off: ``1e-12`` of the mesh's size).
+
+    Raises:
+        ModeError: On every rank, naming the smallest ``r``, where it is, and whether the mesh
+            crosses the axis or lies wholly at ``r < 0``.
+    """
+    from mpi4py import MPI
+
+    comm = mesh.comm
+    gdim = mesh.geometry.dim
+    x = mesh.geometry.x[:, :gdim]
+    n = mesh.geometry.index_map().size_local
+    r = x[:n, 0]
+    here = (float(r.min()), tuple(float(c) for c in x[int(np.argmin(r))])) if n else None
+    size = comm.allreduce(float(np.abs(x[:n]).max()) if n else 0.0, op=MPI.MAX)
+    r_max = comm.allreduce(float(r.max()) if n else -math.inf, op=MPI.MAX)
+    found = [h for h in comm.allgather(here) if h is not None]
+    if not found:
+        return
+    r_min, at = min(found)
+    tol = 1e-12 * max(size, 1e-300)
+    if r_min >= -tol:
+        return
+    where = ", ".join(f"{c:.6g}" for c in at)
+    how = (
+        f"it crosses the axis (r from {r_min:.6g} to {r_max:.6g})"
+        if r_max > tol
+        else f"it lies at r < 0 (r from {r_min:.6g} to {r_max:.6g})"
+    )
+    raise ModeError(
+        f"mode 'axisymmetric' needs the mesh in r = x >= 0 (the axis is x = 0): {how}, the "
+        f"smallest r at ({where}); mirror or move the mesh to r >= 0"
+    )
+
+
 def check_mode(mode: str, gdim: int) -> str:
     """``mode`` if it is known and fits a mesh of dimension ``gdim``.
 
     Raises:
-        ValueError: An unknown mode, or one that does not fit ``gdim`` (both named).
+        ModeError: An unknown mode, or one that does not fit ``gdim`` (both named).
     """
     if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        raise ModeError(f"mode must be one of {MODES}, got {mode!r}")
     want = 3 if mode == "3d" else 2
     if gdim != want:
-        raise ValueError(f"mode {mode!r} needs a {want}-D mesh, got a {gdim}-D one")
+        raise ModeError(f"mode {mode!r} needs a {want}-D mesh, got a {gdim}-D one")
     return mode
 
 

@@ -31,7 +31,7 @@ from ..constitutive import FrictionLaw
 from ..loading import LoadingProgram
 from .bodies import resolve_topology
 from .boundary import check_groups, dirichlet_dofs, load_vectors, spring_forms
-from .bulk import BulkContext, LinearElasticity, bulk_forms
+from .bulk import BulkContext, LinearElasticity, bulk_forms, bulk_name
 from .conditions import (
     Dirichlet,
     DirichletField,
@@ -46,7 +46,7 @@ from .conditions import (
 from .interface import FrictionInterface, InterfaceError
 from .interface.friction import layout_of, stiffen_separated
 from .interface.kinds import make_interface
-from .kinematics import check_mode, weight
+from .kinematics import check_axisymmetric, check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
 __all__ = ["InterfaceProblem", "stiffen_separated"]
@@ -127,6 +127,8 @@ class InterfaceProblem:
         self.tags = dict(domain.tags)
         gdim = mesh.geometry.dim
         self.mode = check_mode(mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
+        if self.mode == "axisymmetric":
+            check_axisymmetric(mesh)  # r >= 0 everywhere (collective)
         topo = resolve_topology(
             domain,
             law,
@@ -236,6 +238,8 @@ class InterfaceProblem:
         self.dt = 0.0
         self._x_at_update: np.ndarray | None = None
         self._bulk_work = self.create_vector() if not self.linear_bulk else None
+        self._bulk_fault: tuple[int, int] | None = None  # (non-finite entries, first) here
+        self._bulk_fault_jacobian = False  # the bulk's Jacobian was not finite (every rank)
         self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
         self.interface_round_off: np.ndarray | None = None  # finite sliding (convergence)
         self.reactions: dict[str, np.ndarray] = {}
@@ -273,6 +277,8 @@ class InterfaceProblem:
         """
         self.t, self.dt = float(t), float(dt)
         self._x_at_update = None
+        self._bulk_fault = None
+        self._bulk_fault_jacobian = False
         for iface in self.interfaces.values():
             iface.set_step(dt)
         versions = self._versions()
@@ -328,6 +334,10 @@ class InterfaceProblem:
                 dolfinx.fem.petsc.assemble_vector(F, self._F_form)
                 F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
                 self.bulk_force = F.array_r.copy()
+                bad = ~np.isfinite(self.bulk_force)
+                if bad.any() and np.isfinite(x.array_r).all():  # the bulk's own doing
+                    self._bulk_fault = (int(bad.sum()), int(np.argmax(bad)))
+                    ok = False
                 self.K.multAdd(x, F, F)
             for c, f in self.loads:
                 F.axpy(-self.program.amplitude(c.amplitude, self.t), f)
@@ -374,6 +384,8 @@ class InterfaceProblem:
             if not self.linear_bulk:
                 dolfinx.fem.petsc.assemble_matrix(J, self._J_form)
                 J.assemble()
+                if not np.isfinite(J.norm()):  # collective: the bulk's tangent alone so far
+                    self._bulk_fault_jacobian = True
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
             iface.assemble_jacobian(
@@ -394,6 +406,30 @@ class InterfaceProblem:
     def finite_sliding(self) -> bool:
         """Whether one of the interfaces is finite-sliding."""
         return any(i.kinematics == "finite_sliding" for i in self.interfaces.values())
+
+    def bulk_fault(self) -> str | None:
+        """What the bulk model's residual or Jacobian gave that was not finite in this attempt.
+
+        Collective; the same text on every rank (``None``: nothing), naming the bulk model, the
+        number of entries and where the first one is.
+        """
+        here = None
+        if self._bulk_fault is not None:
+            n, i = self._bulk_fault
+            bs = self.V.dofmap.bs
+            x = self.V.tabulate_dof_coordinates()[i // bs, : self.gdim]
+            here = (n, tuple(float(c) for c in x))
+        found = [f for f in self.comm.allgather(here) if f is not None]
+        if found:
+            total = sum(n for n, _ in found)
+            where = ", ".join(f"{c:.4g}" for c in found[0][1])
+            return (
+                f"{bulk_name(self.bulk)} gave a residual that is not finite (NaN or inf) at "
+                f"{total} dof(s), the first at x = ({where}), from a finite displacement"
+            )
+        if self._bulk_fault_jacobian:
+            return f"{bulk_name(self.bulk)} gave a Jacobian that is not finite (NaN or inf)"
+        return None
 
     def failed_points(self) -> np.ndarray:
         """Indices of the points where the last return maps failed (all interfaces, this rank)."""

@@ -19,13 +19,14 @@ A step that converges at once costs nothing extra.
 Logging (:mod:`subfric_dolfinx.logs`): an INFO line per long segment of the program (at least
 :data:`LONG_SEGMENT_STEPS` steps or :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` of wall time:
 its steps, Newton iterations mean/max, cuts, what the interface does at its end, wall time), and
-between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (programs of
-many short segments, e.g. sampled at knots, print those only); one DEBUG line per step and per
-failed attempt. What the interface does is said as the fractions of its points that slide (a
-traction at the law's strength, :meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`),
-stick (closed, below it; the subloading law's micro-slip included) and are open
-(:func:`interface_activity`). Warnings about the model's validity (penetration, slide) are
-issued when a run ends (:class:`~.validity.ValidityWatch`).
+between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (a run of more
+than :data:`SEGMENT_LINES` segments, e.g. many cycles or a program sampled at knots, prints those
+only); one DEBUG line per step and per failed attempt. What the interface does is said as the
+fractions of its points that slide (a traction at the law's strength,
+:meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`), stick (closed, below it; the
+subloading law's micro-slip included) and are open (:func:`interface_activity`). Warnings about the
+model's validity (penetration, slide) are issued when a run ends
+(:class:`~.validity.ValidityWatch`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from .. import logs
 from ..constitutive import Status
@@ -48,8 +50,10 @@ from .validity import ValidityWatch
 __all__ = [
     "LONG_SEGMENT_STEPS",
     "MAX_STEPS",
+    "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
+    "SEGMENT_LINES",
     "SLIDING_FRACTION",
     "LoadStepper",
     "StepFailure",
@@ -60,7 +64,13 @@ __all__ = [
 ]
 
 
+PREDICTOR_FORCE_RATIO = 1e3
+"""A step's increment is extrapolated (``predictor``) only where its converged state's forces
+exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
+
 LONG_SEGMENT_STEPS = 10
+SEGMENT_LINES = 8
+"""A run of more program segments than this logs progress lines only, not a line per segment."""
 """A segment of the program of at least this many steps gets its own log line."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
@@ -357,6 +367,29 @@ class LoadStepper:
             return ratio * self.increment
         return None
 
+    def _forces_resolved(self, r: SolveResult) -> bool:
+        """Whether the converged state's forces stand above Newton's error (collective).
+
+        The forces: the interface's, the reactions and the loads; Newton's error: the step's
+        last residual. Where they are not :data:`PREDICTOR_FORCE_RATIO` times larger (an
+        unloaded body touching or floating: every position of it is an equilibrium to within
+        the residual), the step's increment is not the response to anything: it is the part
+        of the linear solves' round-off and of Newton's tolerance the state kept, and
+        extrapolating it carries that on from step to step (identical runs on several ranks,
+        whose direct solver rounds differently from run to run, then parted). Such a step's
+        increment is not extrapolated (a zero one is kept).
+        """
+        p = self.problem
+        res = float(r.residuals[-1]) if r.residuals else 0.0
+        own = getattr(p, "interface_force", None)
+        interface = float(own @ own) if own is not None else 0.0
+        forces = math.sqrt(p.comm.allreduce(interface, op=MPI.SUM))
+        for v in getattr(p, "reactions", {}).values():
+            forces += float(np.linalg.norm(v))
+        for c, f in getattr(p, "loads", []):
+            forces += abs(p.program.amplitude(c.amplitude, p.t)) * f.norm()
+        return forces > PREDICTOR_FORCE_RATIO * res
+
     def _turns(self, target: float) -> bool:
         """Whether the step to ``target`` starts a new direction of the program (finite sliding).
 
@@ -443,6 +476,8 @@ class LoadStepper:
         since = _Tally(self.t)  # since the last line printed
         clock = logs.Progress()
         span = (self.t, t_end)
+        inner = (self.program.times > self.t + tol) & (self.program.times < t_end - tol)
+        few_segments = int(np.count_nonzero(inner)) + 1 <= SEGMENT_LINES
         while self.t < t_end - tol:
             if self.step >= self.max_steps:
                 raise StepFailure(
@@ -502,6 +537,10 @@ class LoadStepper:
             if not r.converged:
                 why = _why(r, self.solver)
                 attempt = describe_attempt(self.problem)  # before the undo (collective)
+                fault = getattr(self.problem, "bulk_fault", None)
+                bulk = fault() if fault is not None else None  # collective
+                if bulk is not None:  # the bodies' law, not the interface: said first
+                    why = f"{bulk}; {why}"
                 self._undo()
                 cuts += 1
                 segment.cuts += 1
@@ -524,8 +563,8 @@ class LoadStepper:
                         f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
                         f"{cuts} failed attempt(s) since the last converged step, smallest step "
                         f"allowed {self.dt_min:.3g}); the last converged step is "
-                        f"{self.step} at t = {self.t:.6g}, whose state is kept; "
-                        f"{attempt.text}",
+                        f"{self.step} at t = {self.t:.6g}, whose state is kept"
+                        + (f"; {attempt.text}" if bulk is None else ""),
                         target,
                         self.t,
                         self.step,
@@ -552,6 +591,8 @@ class LoadStepper:
                     self.increment = np.empty_like(x)
                 np.subtract(x, x0, out=self.increment)
                 self.increment_dt = dt
+                if not self._forces_resolved(r):  # nothing determined this motion
+                    self.increment[:] = 0.0
             self._x_converged.array_w[:] = self.solver.x.array_r
             self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
             self.problem.u.x.scatter_forward()
@@ -591,7 +632,7 @@ class LoadStepper:
             printed = False
             if target >= breakpoint_ - tol:
                 long_ = len(segment.iterations) >= LONG_SEGMENT_STEPS
-                if long_ or segment.seconds() >= clock.interval:
+                if few_segments and (long_ or segment.seconds() >= clock.interval):
                     logger.info(segment.segment_line(target, rec))
                     printed = True
                 segment = _Tally(target)

@@ -22,13 +22,17 @@ ranks restarts on 1 or 2 (format version 2):
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
   counter of the stepper), ``law``, ``program`` and ``settings`` (JSON: what the runner passed,
   e.g. the scene's materials, boundary conditions and loads), ``n_cells``, ``n_points``,
-  ``degree``, ``gdim``;
+  ``degree``, ``gdim``, and ``geometry``: the mesh's fingerprint (:func:`geometry_fingerprint`:
+  weighted sums over the cells of their nodes' coordinates, the same on any partition to
+  round-off; a checkpoint without it is of an earlier version and is not compared);
 * ``/history``: the rows of the history so far (column names in the attribute ``columns``).
 
 Every rank writes and reads its own contiguous slab of rows (:mod:`.slabs`) through h5py's MPI
 driver (:class:`~.h5.ParallelH5`): memory O(local) per rank. The file is written as
 ``<path>.tmp``, flushed, closed and renamed over ``<path>`` by rank 0: a run killed (or a disk
-filling up) while writing leaves the previous checkpoint intact; any failure is a
+filling up) while writing leaves the previous checkpoint intact; its ``format`` attribute is
+written last, after everything else was flushed, so a temporary file cut short by a kill is
+refused by every reader as incomplete; any failure is a
 :class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
 :class:`~.collective.OutputError`), naming the file and the OS error.
 
@@ -45,7 +49,8 @@ dataset against the attributes (:func:`check_metadata`), and that the values a r
 finite (:func:`check_blocks`: NaN in ``mu`` is refused). Every failure is a
 :class:`CheckpointError` naming the file and the item, never a raw ``IndexError``,
 ``JSONDecodeError`` or ``ValueError``. A restart compares the mesh, the law, the loading program
-and the runner's settings with the run's, naming the first difference.
+and the runner's settings with the run's, naming the first difference; a mesh of the same
+numbers of cells and interface points but other node coordinates is told by the fingerprint.
 """
 
 from __future__ import annotations
@@ -59,6 +64,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
+from ..compat import geometry_dofmap
 from ..constitutive import law_description
 from ..values import NotAnInteger, NotANumber, NotFinite, finite_float, short_repr, strict_int
 from .collective import OutputError, collective
@@ -84,6 +90,11 @@ INTS = {"step": 0, "easy": 0, "n_cells": 1, "n_points": 0, "degree": 1, "gdim": 
 """Integer attributes and their smallest valid value."""
 FLOATS = ("time", "dt")
 JSONS = ("law", "program", "settings")
+FINGERPRINT = 8
+"""Weighted sums in the geometry fingerprint (and one more: the sum of magnitudes)."""
+FINGERPRINT_TOL = 1e-10
+"""A restart's fingerprint may differ from the checkpoint's by this fraction of the magnitudes
+(round-off of sums over differently partitioned cells)."""
 
 
 class CheckpointError(RuntimeError):
@@ -159,6 +170,11 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
         The attributes (as Python values) and the history rows.
     """
     fmt = _text(f.attrs.get("format"))
+    if fmt is None and "version" in f.attrs and "time" in f.attrs:
+        raise CheckpointError(
+            f"checkpoint {name} is incomplete: its write was interrupted before its end (the "
+            "previous checkpoint, if any, is the one to restart from)"
+        )
     if fmt != FORMAT:
         raise CheckpointError(
             f"{name} is not a subfric-dolfinx checkpoint (format attribute {short_repr(fmt)})"
@@ -178,6 +194,18 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
     a.update({k: _json(name, k, f.attrs[k]) for k in JSONS})
     if a["dt"] <= 0:
         raise CheckpointError(f"checkpoint {name}: attribute 'dt' = {a['dt']} is not > 0")
+    if "geometry" in f.attrs:  # (absent from checkpoints of earlier versions)
+        g = f.attrs["geometry"]
+        if (
+            not isinstance(g, np.ndarray)
+            or g.shape != (FINGERPRINT + 1,)
+            or g.dtype.kind != "f"
+            or not np.all(np.isfinite(g))
+        ):
+            raise CheckpointError(
+                f"checkpoint {name}: attribute 'geometry' is not {FINGERPRINT + 1} finite numbers"
+            )
+        a["geometry"] = np.asarray(g, dtype=float)
     if a["degree"] > 2 or a["gdim"] > 3:
         raise CheckpointError(
             f"checkpoint {name}: degree {a['degree']} / gdim {a['gdim']} out of range"
@@ -268,6 +296,44 @@ class CheckpointWriteError(CheckpointError, OutputError):
     """
 
 
+def geometry_fingerprint(mesh: Any) -> np.ndarray:
+    """The mesh's geometry in :data:`FINGERPRINT` + 1 numbers (collective; the same on every rank).
+
+    Each cell's value ``s_c`` is a fixed linear combination of the sums of its nodes' coordinates
+    and of their squares (so it does not depend on the order of its nodes); the fingerprint is
+    ``sum_c s_c cos(w_j i_c)`` for ``j < FINGERPRINT`` (``i_c`` the cell's original index, ``w_j``
+    fixed irrational frequencies) and ``sum_c |s_c|``, the scale of the round-off. Two meshes
+    with the same cells whose nodes differ give different sums; the same mesh on any partition
+    gives the same sums to round-off.
+    """
+    gdim = mesh.geometry.dim
+    n = mesh.topology.index_map(mesh.topology.dim).size_local
+    idx = np.asarray(mesh.topology.original_cell_index[:n], dtype=float)
+    X = mesh.geometry.x[geometry_dofmap(mesh)[:n], :gdim]
+    alpha = np.array([1.0, 0.5772156649, 0.3183098862])[:gdim]
+    beta = np.array([0.2718281828, 0.1732050808, 0.1414213562])[:gdim]
+    s = X.sum(axis=1) @ alpha + (X**2).sum(axis=1) @ beta
+    w = 0.6180339887 * np.arange(1, FINGERPRINT + 1) + 0.1
+    local = np.concatenate([np.cos(np.outer(idx, w)).T @ s, [np.abs(s).sum()]])
+    out = np.zeros_like(local)
+    mesh.comm.Allreduce(local, out, op=MPI.SUM)
+    return out
+
+
+def _compare_geometry(name: str, saved: Any, mesh: Any) -> None:
+    """Refuse a checkpoint whose geometry fingerprint differs from the mesh's (collective)."""
+    mine = geometry_fingerprint(mesh)
+    theirs = np.asarray(saved, dtype=float)
+    scale = max(abs(theirs[-1]), abs(mine[-1]), 1e-300)
+    diff = float(np.abs(theirs - mine).max())
+    if diff > FINGERPRINT_TOL * scale:
+        raise CheckpointError(
+            f"checkpoint {name} is for another mesh: the same numbers of cells and interface "
+            f"points, but other node coordinates (its geometry fingerprint differs by "
+            f"{diff / scale:.3g} of its scale, round-off allows {FINGERPRINT_TOL:g})"
+        )
+
+
 def _cell_dofs(problem: Any) -> tuple[np.ndarray, np.ndarray, int]:
     mesh, V = problem.mesh, problem.V
     imap = mesh.topology.index_map(mesh.topology.dim)
@@ -345,12 +411,13 @@ def write_checkpoint(
         n_points=int(n_points),
         degree=int(problem.V.ufl_element().embedded_superdegree),
         gdim=int(gdim),
+        geometry=geometry_fingerprint(problem.mesh),
     )
     c0, c1 = slab(n_cells, comm.size, comm.rank)
     p0, p1 = slab(n_points, comm.size, comm.rank)
 
     def create(f: Any) -> None:  # collective metadata calls, the same on every rank
-        f.attrs.update(attrs)
+        f.attrs.update({k: v for k, v in attrs.items() if k != "format"})  # format: at the end
         kw = {"dtype": float, "fill_time": "never"}
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
         if iblock is not None:
@@ -397,6 +464,10 @@ def write_checkpoint(
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
+            h.call(lambda f: f.flush(), meta=True)
+            # the mark of a whole checkpoint, once everything else is in the file: a write
+            # killed before it (SIGKILL, mpirun's after SIGTERM) leaves a file no reader takes
+            h.call(lambda f: f.attrs.__setitem__("format", FORMAT), meta=True)
             h.call(lambda f: f.flush(), meta=True)
     except CheckpointError:
         if comm.rank == 0:
@@ -546,7 +617,8 @@ def restore_checkpoint(
     Raises:
         CheckpointError: On every rank: an unreadable or invalid file (see
             :func:`read_checkpoint`), or one that does not fit: another mesh (cell count,
-            degree, dimension, interface points), law, loading program or setting (named).
+            degree, dimension, geometry, interface points), law, loading program or setting
+            (named).
     """
     comm = problem.comm
     name = repr(str(path))
@@ -566,6 +638,8 @@ def restore_checkpoint(
             raise CheckpointError(
                 f"checkpoint {name} is for a mesh with {k} = {a[k]}, this one has {v}"
             )
+    if "geometry" in a:
+        _compare_geometry(name, a["geometry"], problem.mesh)
     if ck.displacement.shape[1] != dofs.shape[1]:
         raise CheckpointError(
             f"checkpoint {name} has {ck.displacement.shape[1]} dofs per cell, this run "

@@ -6,8 +6,12 @@ in global components, for glyphs), every output variable of the law (a scalar as
 by its local components ``up_t1`` ... and as ``<v>_global`` in global components) and the fixed
 point data (the initial gap ``g0``; ``region``, the region number, with interface regions), as
 cell averages of the quadrature values on the interface submesh (DG0). Their units, the frame
-and the ``status`` legend are in ``units.json`` beside the files (VTX and DOLFINx's XDMF carry
-no attributes of ours).
+and the ``status`` legend are in ``units.json`` beside the files, and, once the files are closed,
+in the XDMF files themselves (:func:`annotate_xdmf`: an ``Information`` element ``unit`` in each
+``Attribute``, the file's ``units``, ``frame`` and ``status_legend`` in its ``Domain``, and the
+attribute ``unit`` of each function's group in the ``.h5`` file). A VTX (ADIOS2 BP4) file cannot
+take attributes after DOLFINx's writer has closed it without adding a time step, nor be given
+them before: its units are ``units.json``'s.
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
 
@@ -29,9 +33,11 @@ another process between that check and the write is not covered.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+import re
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+from xml.sax.saxutils import quoteattr
 
 import dolfinx
 import dolfinx.io
@@ -42,12 +48,59 @@ from ..constitutive import SCALAR
 from .collective import collective, ensure_space, probe_directory
 from .gather import interface_of
 from .links import refuse_links, write_text_nofollow
+from .paths import inside, interface_stems
 from .units import FRAME, interface_units, status_legend
 
-__all__ = ["FieldWriter"]
+__all__ = ["FieldWriter", "annotate_xdmf"]
 
 MARGIN = 64 << 10
 """Bytes asked for beyond the steps' share (:meth:`FieldWriter.space_needed`): the files' close."""
+
+
+def annotate_xdmf(
+    path: str | Path, units: Mapping[str, str], attributes: Mapping[str, str] | None = None
+) -> None:
+    """Write units into a closed XDMF file of DOLFINx's and its HDF5 file (one process).
+
+    Each ``<Attribute Name="X">`` gets ``<Information Name="unit" Value="..."/>`` (``"?"`` for a
+    name ``units`` lacks), the ``Domain`` one ``Information`` element per entry of
+    ``attributes`` (e.g. the frame and the status legend), and in the ``.h5`` file each group
+    ``/Function/X`` the attribute ``unit``. An annotated file is left as it is.
+
+    Args:
+        path: The ``.xdmf`` file.
+        units: Function name -> unit.
+        attributes: File-level name -> text.
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    if '<Information Name="unit"' in text:
+        return
+    names = set(re.findall(r'<Attribute Name="([^"]+)"', text))
+
+    def unit(m: re.Match) -> str:
+        return f'{m.group(0)}<Information Name="unit" Value={quoteattr(units.get(m[1], "?"))}/>'
+
+    text = re.sub(r'<Attribute Name="([^"]+)"[^>]*>', unit, text)
+    info = "".join(
+        f"<Information Name={quoteattr(k)} Value={quoteattr(v)}/>"
+        for k, v in (attributes or {}).items()
+    )
+    text = text.replace("<Domain>", f"<Domain>{info}", 1)
+    tmp = path.with_name(path.name + ".tmp")
+    if tmp.is_symlink():
+        tmp.unlink()
+    write_text_nofollow(tmp, text)
+    tmp.replace(path)
+    h5 = path.with_suffix(".h5")
+    if h5.is_file() and not h5.is_symlink():
+        import h5py
+
+        with h5py.File(h5, "a") as f:
+            for name in sorted(names):
+                group = f.get(f"Function/{name}")
+                if group is not None:
+                    group.attrs["unit"] = units.get(name, "?")
 
 
 def _mesh_bytes(mesh: Any) -> int:
@@ -76,7 +129,7 @@ class FieldWriter:
         problem: The problem.
         fmt: ``"vtx"`` (``displacement.bp``, ``interface.bp``) or ``"xdmf"``
             (``displacement.xdmf``, ``interface.xdmf``); with several interfaces one file each,
-            ``interface_<name>.bp`` (``.xdmf``).
+            ``interface_<name>.bp`` (``.xdmf``; the name made safe, :func:`~.paths.file_part`).
         extra_step_bytes: What the writes passed to :meth:`write` as ``also`` add per step
             (an estimate, for the first step's space check; later steps are measured).
     """
@@ -93,6 +146,7 @@ class FieldWriter:
         ifaces = getattr(problem, "interfaces", None) or {"interface": None}
         F = dolfinx.fem.Function
         # one interface file per interface: interface.bp (or interface_<name>.bp with several)
+        stems = interface_stems("interface", list(ifaces))
         self.parts: list[tuple[str, Any, Any, dict[str, Any]]] = []
         for name in ifaces:
             el, law = interface_of(problem, None if ifaces[name] is None else name)
@@ -114,8 +168,7 @@ class FieldWriter:
                     fields[c] = F(D0s, name=c)
             for k in el.point_data:
                 fields[k] = F(D0s, name=k)
-            stem = "interface" if len(ifaces) == 1 else f"interface_{name}"
-            self.parts.append((stem, el, law, fields))
+            self.parts.append((stems[name], el, law, fields))
         self.fields = self.parts[0][3]
         u = problem.u
         n_u = u.function_space.dofmap.index_map.size_global
@@ -138,6 +191,17 @@ class FieldWriter:
             cleanup=self.abandon,
         )
 
+    @staticmethod
+    def file_names(fmt: str, interfaces: Sequence[str]) -> list[str]:
+        """The names a writer creates in its directory, for a format and the interfaces' names.
+
+        Raises:
+            OutputError: Two interface names map to the same file (:mod:`.paths`).
+        """
+        stems = interface_stems("interface", interfaces).values()
+        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5", ".xdmf.tmp")  # .tmp: annotate_xdmf
+        return [n + e for n in ("displacement", *stems) for e in exts] + ["units.json"]
+
     def space_needed(self) -> int:
         """The free bytes a write asks for: ``2 step_bytes + MARGIN``.
 
@@ -156,13 +220,15 @@ class FieldWriter:
         u = problem.u
         gdim = problem.mesh.geometry.dim
         self._wi = []
-        names = ("displacement", *(stem for stem, _, _, _ in self.parts))
-        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5")
-        refuse_links(*(self.dir / (n + e) for n in names for e in exts))  # .links
+        ifaces = getattr(problem, "interfaces", None) or {"interface": None}
+        files = self.file_names(fmt, list(ifaces))
+        path = {f: inside(self.dir, f) for f in files}  # .paths: every one inside the directory
+        refuse_links(*path.values())  # .links
+        units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
+        for _, _, law, _ in self.parts:
+            units.update(interface_units(law, gdim))
+        self.units = units
         if comm.rank == 0:
-            units = {"displacement": "mm", "sigma": "MPa", "von_mises": "MPa"}
-            for _, _, law, _ in self.parts:
-                units.update(interface_units(law, gdim))
             stems = ", ".join(stem for stem, _, _, _ in self.parts)
             meta = {
                 "files": f"displacement, {stems} (DG0: the average of each interface "
@@ -171,13 +237,13 @@ class FieldWriter:
                 "frame": FRAME,
                 "status_legend": status_legend(),
             }
-            write_text_nofollow(self.dir / "units.json", json.dumps(meta, indent=1) + "\n")
+            write_text_nofollow(path["units.json"], json.dumps(meta, indent=1) + "\n")
         if fmt == "vtx":
-            self._wu = dolfinx.io.VTXWriter(comm, self.dir / "displacement.bp", [u], engine="BP4")
+            self._wu = dolfinx.io.VTXWriter(comm, path["displacement.bp"], [u], engine="BP4")
             for stem, _, _, fields in self.parts:
                 self._wi.append(
                     dolfinx.io.VTXWriter(
-                        comm, self.dir / f"{stem}.bp", list(fields.values()), engine="BP4"
+                        comm, path[f"{stem}.bp"], list(fields.values()), engine="BP4"
                     )
                 )
         else:
@@ -186,10 +252,10 @@ class FieldWriter:
             if u.function_space.ufl_element().embedded_superdegree != cdeg:
                 V1 = dolfinx.fem.functionspace(mesh, ("Lagrange", cdeg, (gdim,)))
                 self._u = dolfinx.fem.Function(V1, name="displacement")
-            self._wu = dolfinx.io.XDMFFile(comm, self.dir / "displacement.xdmf", "w")
+            self._wu = dolfinx.io.XDMFFile(comm, path["displacement.xdmf"], "w")
             self._wu.write_mesh(mesh)
             for stem, el, _, _ in self.parts:
-                w = dolfinx.io.XDMFFile(comm, self.dir / f"{stem}.xdmf", "w")
+                w = dolfinx.io.XDMFFile(comm, path[f"{stem}.xdmf"], "w")
                 self._wi.append(w)
                 w.write_mesh(el.submesh)
 
@@ -294,7 +360,17 @@ class FieldWriter:
             for w in self._wi:
                 w.close()
 
+        comm = self.problem.comm
         try:
-            collective(self.problem.comm, close, self._what("closing"), root=None)
+            collective(comm, close, self._what("closing"), root=None)
         finally:
             self._wu = self._wi = None
+        if self.fmt == "xdmf":
+            files = ["displacement", *(stem for stem, _, _, _ in self.parts)]
+            meta = {"frame": FRAME, "status_legend": json.dumps(status_legend())}
+
+            def annotate() -> None:
+                for stem in files:
+                    annotate_xdmf(inside(self.dir, f"{stem}.xdmf"), self.units, meta)
+
+            collective(comm, annotate, self._what("writing the units into"), root=0)

@@ -38,7 +38,7 @@ from .links import opener, write_text_nofollow
 from .summary import interface_summary
 from .units import FRAME, column_unit, status_legend
 
-__all__ = ["HistoryCSV", "HistoryRows", "history_metadata"]
+__all__ = ["HistoryCSV", "HistoryRows", "history_metadata", "write_history_file"]
 
 
 class HistoryRows(Sequence[dict[str, float]]):
@@ -134,11 +134,30 @@ class HistoryRows(Sequence[dict[str, float]]):
         return self._data.nbytes + (self._has.nbytes if self._has is not None else 0)
 
 
-def history_metadata(path: Path, columns: Sequence[str], law: Any, gdim: int) -> dict[str, Any]:
-    """The CSV-on-the-Web metadata of a history file: every column's unit and meaning."""
+def history_metadata(
+    path: Path,
+    columns: Sequence[str],
+    law: Any,
+    gdim: int,
+    mode: str | None = None,
+    extra: Mapping[str, tuple[str, str]] | None = None,
+) -> dict[str, Any]:
+    """The CSV-on-the-Web metadata of a history file: every column's unit and meaning.
+
+    Args:
+        path: The CSV file.
+        columns: Its columns.
+        law: The friction law (its variables' units); ``None``: only ``extra`` names units.
+        gdim: The geometric dimension.
+        mode: The problem's mode (``"axisymmetric"``: forces are totals, in N).
+        extra: Column -> (unit, description) of columns of the caller's own (these first).
+    """
     cols = []
     for name in columns:
-        unit, what = column_unit(name, law, gdim)
+        known = (extra or {}).get(name)
+        if known is None:
+            known = column_unit(name, law, gdim, mode) if law is not None else ("?", "")
+        unit, what = known
         cols.append(
             {
                 "name": name,
@@ -148,14 +167,58 @@ def history_metadata(path: Path, columns: Sequence[str], law: Any, gdim: int) ->
                 "schema:unitText": unit,
             }
         )
+    if mode == "axisymmetric":
+        forces = "N (totals over the circumference), areas mm2"
+    else:
+        forces = "N, areas mm2" if gdim == 3 else "N/mm and areas mm per unit thickness"
     return {
         "@context": ["http://www.w3.org/ns/csvw", {"@language": "en"}],
         "url": path.name,
         "dc:description": "subfric-dolfinx run history: one row per converged step; units MPa, "
-        "mm, s; forces N (3-D) or N/mm per unit thickness (2-D); " + FRAME,
+        f"mm, s; forces {forces}; " + FRAME,
         "status_legend": status_legend(),
         "tableSchema": {"columns": cols},
     }
+
+
+def write_history_file(
+    path: str | Path,
+    rows: Sequence[Mapping[str, float]],
+    problem: Any = None,
+    extra: Mapping[str, tuple[str, str]] | None = None,
+    gdim: int | None = None,
+) -> None:
+    """Write rows of one's own as a history CSV file with its metadata (one process).
+
+    For a history kept by one's own step callback (columns of its own beside those of
+    :class:`HistoryCSV`): ``path`` and ``<path>-metadata.json`` (:func:`history_metadata`), each
+    written to a temporary file and renamed; a link at either name is refused.
+
+    Args:
+        path: The CSV file.
+        rows: One mapping per row, every row with the first row's columns.
+        problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem` (law, dimension, mode), or
+            ``None`` (a loop of one's own: ``extra`` names every column's unit).
+        extra: Column -> (unit, description) of the columns :func:`.column_unit` does not know.
+        gdim: The dimension without a problem (the forces' unit in the description).
+    """
+    path = Path(path)
+    columns = list(rows[0]) if rows else []
+    law = getattr(problem, "law", None)
+    dim = getattr(problem, "gdim", gdim or 3)
+    meta = history_metadata(path, columns, law, dim, getattr(problem, "mode", None), extra)
+    lines = [",".join(columns)]
+    lines += [",".join(f"{float(r[k]):.17g}" for k in columns) for r in rows]
+    files = {
+        path: "\n".join(lines) + "\n",
+        path.with_name(path.name + "-metadata.json"): json.dumps(meta, indent=1) + "\n",
+    }
+    for target, text in files.items():
+        tmp = target.with_name(target.name + ".tmp")
+        if tmp.is_symlink():
+            tmp.unlink()
+        write_text_nofollow(tmp, text)
+        os.replace(tmp, target)
 
 
 class HistoryCSV:
@@ -219,7 +282,10 @@ class HistoryCSV:
             meta = self.path.with_name(self.path.name + "-metadata.json")
             tmp = meta.with_name(meta.name + ".tmp")
             p = self.problem
-            text = json.dumps(history_metadata(self.path, list(row), p.law, p.gdim), indent=1)
+            text = json.dumps(
+                history_metadata(self.path, list(row), p.law, p.gdim, getattr(p, "mode", None)),
+                indent=1,
+            )
             write_text_nofollow(tmp, text + "\n")
             os.replace(tmp, meta)
             self._file = open(self.path, "w", newline="", opener=opener)

@@ -35,7 +35,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 from typing import Any
-from xml.sax.saxutils import quoteattr
+from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
@@ -249,7 +249,7 @@ class InterfacePointsXDMF:
     def _write_xdmf(self) -> None:
         """The XDMF text for the steps written so far (rank 0; replaced atomically)."""
         p, gdim = self.n_points, self.gdim
-        h5 = self.h5path.name
+        h5 = escape(self.h5path.name)
 
         def item(path: str, dims: str, number: str = "Float", precision: int = 8) -> str:
             return (

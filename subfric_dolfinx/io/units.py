@@ -15,8 +15,9 @@ elements, a JSON sidecar beside the VTX/XDMF fields, the W3C CSV-on-the-Web side
 * ``<v>``: a law variable (its own unit), a vector by its local components (``up_t1`` ...) and,
   where fields are drawn, as ``<v>_global`` in global components.
 
-Units MPa, mm, s; forces N (3-D) or N/mm, per unit thickness (2-D plane strain); areas mm² (3-D)
-or mm (2-D). The local frame of a point is ``(e1, [e2,] n)``, ``n`` the master body's outward
+Units MPa, mm, s; forces N (3-D, and the totals over the circumference of an axisymmetric model)
+or N/mm, per unit thickness (2-D plane strain and plane stress); areas mm² (3-D, axisymmetric) or
+mm (2-D). The local frame of a point is ``(e1, [e2,] n)``, ``n`` the master body's outward
 normal: :data:`FRAME`.
 """
 
@@ -50,9 +51,9 @@ def status_legend() -> dict[str, str]:
     return {str(k): v for k, v in Status.legend().items()}
 
 
-def _force_units(gdim: int) -> tuple[str, str]:
-    """(force, area) units: N and mm² in 3-D; N/mm and mm per unit thickness in 2-D."""
-    return ("N", "mm2") if gdim == 3 else ("N/mm", "mm")
+def _force_units(gdim: int, mode: str | None = None) -> tuple[str, str]:
+    """(force, area) units: N and mm² in 3-D and axisymmetric, else N/mm and mm (per thickness)."""
+    return ("N", "mm2") if gdim == 3 or mode == "axisymmetric" else ("N/mm", "mm")
 
 
 def interface_units(law: Any, gdim: int) -> dict[str, str]:
@@ -114,13 +115,14 @@ _HISTORY = [  # (pattern, unit or a key of the dimension-dependent units, descri
 ]
 
 
-def column_unit(name: str, law: Any, gdim: int) -> tuple[str, str]:
+def column_unit(name: str, law: Any, gdim: int, mode: str | None = None) -> tuple[str, str]:
     """Unit and description of a history column (``"?"`` and ``""`` if unknown).
 
     Law variables appear as area-weighted means (``mu``, ``up_t1``; ``up_norm`` the mean
-    magnitude) and probes as ``<point>.<quantity>`` with the interface names above.
+    magnitude) and probes as ``<point>.<quantity>`` with the interface names above. ``mode``
+    (the problem's, e.g. ``"axisymmetric"``) decides the force and area units in 2-D.
     """
-    force, area = _force_units(gdim)
+    force, area = _force_units(gdim, mode)
     for pattern, unit, what in _HISTORY:
         if re.fullmatch(pattern, name):
             return {"force": force, "area": area}.get(unit, unit), what

@@ -14,8 +14,18 @@
 * :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks
   (:class:`InterfaceMesh`, :mod:`.interface_mesh`).
 
+**On one rank.** The gmsh helpers (the builders, :func:`duplicate_interface_nodes`,
+:func:`gmsh_session`) run on one process, rank 0 of an MPI job, whose other ranks wait to read
+the result: importing them (``from subfric_dolfinx.meshing import duplicate_interface_nodes``)
+imports neither DOLFINx nor PETSc, whose initialisation is collective (on one rank of several it
+hangs or aborts the job). The DOLFINx parts (:mod:`.reader`, :mod:`.interface_mesh`,
+:mod:`.nodes`, :mod:`.partitioners`) are imported when one of their names is first used.
+
 May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
 """
+
+import importlib
+from typing import Any
 
 from .builders import ModelInfo, build_block_on_base, build_pad_on_plate
 from .crack import CrackedInterface, duplicate_interface_nodes
@@ -49,10 +59,33 @@ from .groups import (
     gmsh_session,
 )
 from .joints import build_bolted_lap_joint
-from .nodes import NodeGroup, locate_node_group, nearest_vertex
-from .partitioners import PARTITIONER_KINDS, body_partitioner
-from .reader import InterfaceMesh, create_interface_mesh, read_interface_mesh
 from .topology import ROLES, InterfaceSides, mesh_topology
+
+_WITH_DOLFINX = {
+    "NodeGroup": "nodes",
+    "locate_node_group": "nodes",
+    "nearest_vertex": "nodes",
+    "PARTITIONER_KINDS": "partitioners",
+    "body_partitioner": "partitioners",
+    "InterfaceMesh": "reader",
+    "create_interface_mesh": "reader",
+    "read_interface_mesh": "reader",
+}
+"""The names whose modules import DOLFINx: imported on first use (:func:`__getattr__`)."""
+
+
+def __getattr__(name: str) -> Any:
+    """A name of the DOLFINx parts, imported when first used (PEP 562)."""
+    if name in _WITH_DOLFINX:
+        value = getattr(importlib.import_module(f".{_WITH_DOLFINX[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "BODIES",

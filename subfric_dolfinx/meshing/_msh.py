@@ -31,13 +31,17 @@ naming the section and the number at fault:
   block), and inverted ones (whose orientation is opposite to the rest of their block; a
   quadrilateral or hexahedron whose corners do not agree), each named by its tag and physical group.
 
-The file is read once into memory (as gmsh does); ASCII numbers are parsed with
-``numpy.fromstring``, whose memory is bounded by the file's size, not by any count in it.
+The file is mapped into memory, not copied (its pages belong to the file); ASCII numbers are
+parsed with ``numpy.fromstring``, whose memory is bounded by the file's size, not by any count
+in it. Before anything is read, the file's size is compared with the machine's memory
+(:func:`check_file_size`: checking and reading a file takes up to :data:`MEMORY_PER_FILE_BYTE`
+times its size).
 """
 
 from __future__ import annotations
 
 import contextlib
+import mmap
 import os
 import re
 import stat
@@ -50,6 +54,7 @@ import numpy as np
 from ._msh_read import (
     _INT32,
     _SECTIONS,
+    CHUNK,
     ELEMENTS,
     MAX_COORDINATE,
     TAG_SLACK,
@@ -64,9 +69,10 @@ from ._msh_read import (
     _tag_limit,
     element_problems,
 )
+from ._size import machine_memory
 from .groups import InterfaceMeshError
 
-__all__ = ["check_msh", "check_msh_header", "open_msh"]
+__all__ = ["MEMORY_PER_FILE_BYTE", "check_file_size", "check_msh", "check_msh_header", "open_msh"]
 
 _VERSION = re.compile(rb"^[24](\.[0-9]+)?$")
 _ONE = (struct.pack("<i", 1), struct.pack(">i", 1))
@@ -120,19 +126,47 @@ def check_msh_header(head: bytes, what: str) -> None:
         raise InterfaceMeshError(f"{refuse}: '$EndMeshFormat' does not follow the format line")
 
 
-def _read_all(fd: int, path: Path) -> bytes:
+MEMORY_PER_FILE_BYTE = 5
+"""Memory to check a mesh file and read it with gmsh, per byte of the file: above the peak
+resident memory of :func:`check_msh` and ``gmsh.merge`` (``docs/design.md``, *Mesh size
+limits*)."""
+
+
+def check_file_size(size: int, path: Path) -> None:
+    """Refuse a mesh file whose reading would need more than the machine's memory.
+
+    Raises:
+        InterfaceMeshError: Naming the file, its size, the memory it would take and the
+            machine's (before anything of it is read).
+    """
+    need = size * MEMORY_PER_FILE_BYTE
+    have = machine_memory()
+    if have and need > have:
+        raise InterfaceMeshError(
+            f"{path}: a mesh file of {size / 2**30:.3g} GiB; checking and reading it takes about "
+            f"{MEMORY_PER_FILE_BYTE} times that ({need / 2**30:.3g} GiB), more than this "
+            f"machine's {have / 2**30:.3g} GiB of memory: not read"
+        )
+
+
+@contextlib.contextmanager
+def _mapped(fd: int, path: Path) -> Iterator[bytes | mmap.mmap]:
+    """The file's bytes, mapped (pages of the file, not copies in the process's memory)."""
     size = os.fstat(fd).st_size
-    chunks, pos = [], 0
-    while pos < size:
+    if size == 0:
+        yield b""
+        return
+    try:
+        m = mmap.mmap(fd, 0, access=mmap.ACCESS_READ)
+    except (OSError, ValueError) as e:
+        raise InterfaceMeshError(f"{path}: cannot be read: {e}") from e
+    try:
+        yield m
+    finally:
         try:
-            chunk = os.pread(fd, min(size - pos, 1 << 26), pos)
-        except OSError as e:
-            raise InterfaceMeshError(f"{path}: cannot be read: {e.strerror}") from e
-        if not chunk:
-            break
-        chunks.append(chunk)
-        pos += len(chunk)
-    return b"".join(chunks)
+            m.close()
+        except BufferError:  # a view of it still alive (an error's traceback): freed with it
+            pass
 
 
 @contextlib.contextmanager
@@ -140,11 +174,16 @@ def open_msh(path: Path) -> Iterator[str]:
     """Open an MSH file, check its header, and yield the name under which gmsh must read it.
 
     Raises:
-        FileNotFoundError: Not a regular file.
-        InterfaceMeshError: Not an MSH file of format 2 or 4, or unreadable.
+        FileNotFoundError: No such file.
+        InterfaceMeshError: A directory or another file that is not a regular one, too large
+            for the machine's memory (:func:`check_file_size`, before reading), not an MSH file
+            of format 2 or 4, damaged, or unreadable.
     """
-    if not path.is_file():
+    if not os.path.exists(path):
         raise FileNotFoundError(f"mesh file not found: {path}")
+    if not path.is_file():
+        kind = "a directory" if path.is_dir() else "not a regular file (a FIFO, a device, ...)"
+        raise InterfaceMeshError(f"{path}: {kind}, not a mesh file")
     try:  # non-blocking: a FIFO put in the file's place does not hang the open
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError as e:
@@ -152,12 +191,14 @@ def open_msh(path: Path) -> Iterator[str]:
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
             raise FileNotFoundError(f"mesh file not found: {path} (not a regular file)")
+        check_file_size(os.fstat(fd).st_size, path)  # before anything is read
         try:
             head = os.pread(fd, 256, 0)
         except OSError as e:
             raise InterfaceMeshError(f"{path}: cannot be read: {e.strerror}") from e
         check_msh_header(head, str(path))
-        check_msh(_read_all(fd, path), str(path))  # every section, before gmsh parses any
+        with _mapped(fd, path) as data:
+            check_msh(data, str(path))  # every section, before gmsh parses any
         proc = f"/proc/self/fd/{fd}"
         if os.path.exists(proc):
             yield proc
@@ -327,13 +368,16 @@ class _Mesh(_Sections):
             )
         known = np.sort(self.node_tags)
         for _, _, etype, etags, conn, _ in blocks:
-            missing = ~np.isin(conn, known)
-            if missing.any():
-                i = np.argwhere(missing)[0]
-                raise _Bad(
-                    f"element {int(etags[i[0]])} ({ELEMENTS[etype][2]}) names node "
-                    f"{int(conn[i[0], i[1]])}, which the file does not define"
-                )
+            for lo in range(0, len(conn), CHUNK):  # in chunks: bounded memory
+                part = conn[lo : lo + CHUNK]
+                at = np.minimum(np.searchsorted(known, part), max(known.size - 1, 0))
+                missing = known[at] != part if known.size else np.ones(part.shape, bool)
+                if missing.any():
+                    i = np.argwhere(missing)[0]
+                    raise _Bad(
+                        f"element {int(etags[lo + i[0]])} ({ELEMENTS[etype][2]}) names node "
+                        f"{int(part[i[0], i[1]])}, which the file does not define"
+                    )
 
     def _one_group_per_cell(self, blocks: list) -> None:
         """Every cell in one physical group at most.
@@ -516,7 +560,7 @@ _HANDLERS: dict[bytes, Callable[[_Mesh, _File], None]] = {
 }
 
 
-def check_msh(data: bytes, what: str) -> None:
+def check_msh(data: bytes | mmap.mmap, what: str) -> None:
     """Check a whole MSH file (its header already checked) before gmsh reads it.
 
     Args:

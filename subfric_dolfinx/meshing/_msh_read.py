@@ -6,6 +6,7 @@ Sections, numbers (ASCII and binary) with their bounds checked before anything i
 
 from __future__ import annotations
 
+import mmap
 import re
 import warnings
 from collections.abc import Callable
@@ -75,23 +76,31 @@ class _Blocks:
         self.items: list[tuple[int, int, int, np.ndarray, np.ndarray, np.ndarray | None]] = []
 
 
+_NOT_SPACE = re.compile(rb"\S")
+MAX_LINE = 1 << 20
+"""The longest line read as one (a section start, a count, a name): longer ones are refused
+before they are copied."""
+
+
 class _File:
     """Sequential reading of an MSH file's bytes, every read bounded by what is left."""
 
-    def __init__(self, data: bytes) -> None:
+    def __init__(self, data: bytes | mmap.mmap) -> None:
         self.data = data
         self.pos = 0
 
     def line(self) -> bytes:
-        end = self.data.find(b"\n", self.pos)
+        end = self.data.find(b"\n", self.pos, self.pos + MAX_LINE + 1)
         if end < 0:
             end = len(self.data)
+            if end - self.pos > MAX_LINE:
+                raise _Bad(f"a line of more than {MAX_LINE} bytes at byte {self.pos}")
         text = self.data[self.pos : end].rstrip(b"\r")
         self.pos = min(end + 1, len(self.data))
         return text
 
     def at_end(self) -> bool:
-        return not self.data[self.pos :].strip()
+        return _NOT_SPACE.search(self.data, self.pos) is None  # (no copy of the rest)
 
     def body(self, name: bytes) -> bytes:
         """The text up to the line ``$End<name>`` (ASCII sections)."""
@@ -121,7 +130,7 @@ def _numbers(text: bytes, section: str) -> np.ndarray:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            values = np.fromstring(text.decode("ascii"), dtype=float, sep=" ")
+            values = np.fromstring(text, dtype=float, sep=" ")  # (bytes: no decoded copy)
     except (ValueError, DeprecationWarning, UnicodeDecodeError) as e:
         bad = next(
             (t for t in text.split() if not _is_number(t)), b"?"
@@ -353,6 +362,10 @@ class _Sections:
         return [abs(int(p)) for p in phys]
 
 
+CHUNK = 1 << 16
+"""Elements whose coordinates are gathered at once (bounds the memory of the checks)."""
+
+
 def element_problems(
     blocks: list, node_tags: np.ndarray, coords: np.ndarray, group: Callable[..., str]
 ) -> list[str]:
@@ -374,10 +387,18 @@ def element_problems(
     for dim, ent, etype, etags, conn, phys in blocks:
         if dim not in (top, top - 1) or dim < 1:
             continue
-        x = coords[order[np.searchsorted(sorted_tags, conn)]]
-        measure, kind, corners = _measure(etype, x, flat and dim == 2)
+        parts = []  # in chunks: the memory of the coordinates gathered is bounded
+        for lo in range(0, max(len(conn), 1), CHUNK):
+            x = coords[order[np.searchsorted(sorted_tags, conn[lo : lo + CHUNK])]]
+            parts.append(_measure(etype, x, flat and dim == 2))
+        measure, kind, _ = parts[0]
         if measure is None:
             continue
+        measure = np.concatenate([m for m, _, _ in parts])
+        corners = None
+        if parts[0][2] is not None:  # the corners' signs only
+            corners = np.concatenate([np.sign(c).astype(np.int8) for _, _, c in parts])
+        del parts
         size = np.abs(measure)
         mean = float(size.mean()) if size.size else 0.0
         zero = size <= ZERO_SIZE * mean if mean > 0 else np.ones(size.shape, bool)

@@ -26,14 +26,18 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
+import mmap
 import os
+import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._msh import open_msh
+from ._msh import check_msh_header, open_msh
 from .groups import InterfaceMeshError, gmsh_module, gmsh_session, group_elements
 
 __all__ = ["CrackedInterface", "duplicate_interface_nodes"]
@@ -76,15 +80,21 @@ def duplicate_interface_nodes(
             nodes. Without sides, the two cell groups its facets touch, the one with the larger
             physical tag being the secondary.
         output: Where to write the result (required with a file ``source``; optional with the
-            current model).
+            current model). Written to a new file beside it, checked whole (a full disk leaves
+            gmsh's file short without an error), then renamed over it: a failed write leaves no
+            partial file and what was at ``output`` intact. A symbolic link, a directory or
+            another file that is not a regular one at ``output`` is refused.
 
     Returns:
         Interface -> :class:`CrackedInterface`.
 
     Raises:
         FileNotFoundError: ``source`` does not exist.
-        InterfaceMeshError: Not an MSH file, an unknown group, an interface that does not
-            separate two bodies, elements not consistently oriented within a gmsh entity.
+        InterfaceMeshError: Not an MSH file (a directory, a FIFO, ...), an unknown group, sides
+            that share a cell group, an interface that does not separate two bodies, elements
+            not consistently oriented within a gmsh entity, or an ``output`` that is not a
+            regular file.
+        OSError: The output could not be written whole (the OS error, e.g. no space left).
     """
     if isinstance(interfaces, str):
         interfaces = [interfaces]
@@ -95,6 +105,8 @@ def duplicate_interface_nodes(
     )
     if source is not None and output is None:
         raise ValueError("duplicate_interface_nodes: a file source needs an output file")
+    if output is not None:
+        _check_output(Path(output))
     gmsh = gmsh_module()
     with contextlib.ExitStack() as stack:
         if source is not None:
@@ -114,8 +126,70 @@ def duplicate_interface_nodes(
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()
         if output is not None:
-            gmsh.write(str(output))
+            _write(Path(output))
     return out
+
+
+def _check_output(path: Path) -> None:
+    """Refuse an output name that is a link, a directory or another non-regular file."""
+    if path.is_symlink():
+        raise InterfaceMeshError(
+            f"output {str(path)!r} is a symbolic link (to {os.readlink(path)!r}): not written "
+            "through; remove it, or give another name"
+        )
+    if os.path.lexists(path) and not path.is_file():
+        kind = "a directory" if path.is_dir() else "not a regular file"
+        raise InterfaceMeshError(f"output {str(path)!r} is {kind}: not written")
+
+
+def _not_whole(path: Path) -> str:
+    """What shows a written MSH file cut short (empty: it looks whole).
+
+    Its header, both ``$EndNodes`` and ``$EndElements``, and a last line ``$End...``.
+    """
+    size = path.stat().st_size
+    if size == 0:
+        return "it is empty"
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as m:
+        try:
+            check_msh_header(m[:256], str(path))
+        except InterfaceMeshError:
+            return "no MSH header"
+        for marker in (b"\n$EndNodes", b"\n$EndElements"):
+            if m.find(marker) < 0:
+                return f"no {marker.decode().strip()}"
+        tail = m[max(0, size - 256) :].rstrip()
+    if not tail.rsplit(b"\n", 1)[-1].startswith(b"$End"):
+        return "its last section does not end"
+    return ""
+
+
+def _write(path: Path) -> None:
+    """Write the current model to ``path`` through a checked temporary file (see above)."""
+    gmsh = gmsh_module()
+    fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".msh", dir=path.parent or ".")
+    tmp = Path(name)
+    try:
+        os.close(fd)
+        gmsh.write(str(tmp))
+        fd = os.open(tmp, os.O_RDONLY | os.O_NOFOLLOW)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        short = _not_whole(tmp)
+        if short:
+            free = shutil.disk_usage(tmp.parent).free
+            raise OSError(
+                errno.EIO,
+                f"writing {str(path)!r} failed: gmsh's file is not whole ({short}); {free} bytes "
+                "free on its file system",
+            )
+        _check_output(path)  # (again: the name may have changed meanwhile)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _named_groups() -> dict[str, tuple[int, int]]:
@@ -173,6 +247,12 @@ def _crack_one(
             raise InterfaceMeshError(f"interface {iface!r}: sides must be (primary, secondary)")
         primary = _cell_groups(given[0], groups, gdim, f"interface {iface!r}")
         secondary = _cell_groups(given[1], groups, gdim, f"interface {iface!r}")
+        both = sorted(set(primary) & set(secondary))
+        if both:
+            raise InterfaceMeshError(
+                f"interface {iface!r}: its sides share the cell group(s) {both}; the primary "
+                "and the secondary side are two different bodies"
+            )
     sec = [c for n in secondary for c in cells[n]]
     widths = {c.shape[1] for c in sec}
     if len(widths) != 1:

@@ -178,11 +178,36 @@ def _inspect_current_model(
                 f"of facets: {n_p} on the {p!r} side, {n_s} on the {q!r} side (sides meshed "
                 "independently need the interface's kinematics 'finite_sliding')"
             )
+    _no_shared_facets(gdim, names, list(interfaces), what)
     if ntags.size and not np.array_equal(np.sort(ntags), np.arange(1, ntags.size + 1)):
         # e.g. right after the Crack plugin: gmshio needs contiguous node tags
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()
     return names, bodies, interfaces
+
+
+def _no_shared_facets(gdim: int, names: dict[str, int], ifaces: list[str], what: str) -> None:
+    """Refuse two interfaces over the same facets (rank 0, the current gmsh model).
+
+    Raises:
+        InterfaceMeshError: Naming both groups and the number of facets they share.
+    """
+    if len(ifaces) < 2:
+        return
+    sets = {}
+    for iface in ifaces:
+        conns = [np.sort(c, axis=1) for c in group_elements(gdim - 1, names[iface])[1]]
+        rows = {tuple(r) for c in conns for r in c.tolist()}
+        sets[iface] = rows
+    for i, a in enumerate(ifaces):
+        for b in ifaces[i + 1 :]:
+            both = sets[a] & sets[b]
+            if both:
+                raise InterfaceMeshError(
+                    f"{what}: the interfaces {a!r} and {b!r} share {len(both)} facets (of "
+                    f"{len(sets[a])} and {len(sets[b])}): two interfaces over the same facets; "
+                    "give each interface facets of its own (one physical group per interface)"
+                )
 
 
 def read_interface_mesh(

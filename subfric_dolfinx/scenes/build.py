@@ -18,6 +18,7 @@ from ..fem import (
     Traction,
 )
 from ..fem.bodies import resolve_topology
+from ..fem.kinematics import ModeError
 from ..fem.plasticity import J2Bulk, PlasticityError
 from ..fem.probes import require_near
 from .materials import scene_materials
@@ -173,6 +174,8 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         )
     except PlasticityError as e:
         raise SceneError(f"scene.materials: {e}") from None
+    except ModeError as e:
+        raise SceneError(f"scene.mode: {e}") from None
 
 
 def _j2_bulk(scene: FEScene, domain: Any, law: Any, interfaces: Any) -> J2Bulk | None:

@@ -1,7 +1,8 @@
 """The command line of the demos (and of programs like them), in one place.
 
 A demo defines its options with :func:`demo_parser` and, in its ``main(argv, comm)``, reads them
-with :func:`parse_args`; its ``__main__`` block is ``sys.exit(run_main(main))``:
+with :func:`parse_args`; its ``__main__`` block is :func:`main_block` (as a program
+``sys.exit(run_main(main))``; in a Jupyter kernel, a demo opened as a notebook, ``main()``):
 
 * Options with two dashes are the demo's; an unknown one (``--chekpoint-every 5``) is an error
   (exit 2). Options with one dash (``-block_snes_monitor``, ``-log_view``) and their values go to
@@ -30,7 +31,14 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from .. import logs
-from ..commandline import EXIT_USAGE, ArgumentError, ArgumentParser
+from ..commandline import (
+    EXIT_USAGE,
+    ArgumentError,
+    ArgumentParser,
+    in_notebook,
+    program_args,
+    summary,
+)
 from .signals import STOP_SIGNALS, SceneInterrupted, guard_active, note_stop
 
 __all__ = [
@@ -39,6 +47,7 @@ __all__ = [
     "EXIT_INTERRUPTED",
     "HelpFormatter",
     "demo_parser",
+    "main_block",
     "parse_args",
     "run_main",
     "split_petsc",
@@ -51,8 +60,8 @@ EXIT_INTERRUPTED = 75  # EX_TEMPFAIL of sysexits.h: stopped on request, restart 
 logger = logging.getLogger(__name__)
 
 
-class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """``--help`` with every option's default, and the description as written (Markdown)."""
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """``--help`` with every option's default."""
 
 
 class _Parser(ArgumentParser):
@@ -69,9 +78,17 @@ def demo_parser(description: str, prog: str | None = None) -> argparse.ArgumentP
     """An argument parser with ``-v``/``--verbose`` and ``-q``/``--quiet``.
 
     Add the demo's own (long) options to it. Abbreviated options are not accepted.
+
+    Args:
+        description: The demo's docstring: ``--help`` shows its first line (the title), the
+            options and their defaults; the rest is the demo's documentation (its page).
+        prog: The program's name (default: the script's).
     """
     ap = _Parser(
-        description=description, prog=prog, allow_abbrev=False, formatter_class=HelpFormatter
+        description=summary(description),
+        prog=prog,
+        allow_abbrev=False,
+        formatter_class=HelpFormatter,
     )
     ap.epilog = "Options with one dash (e.g. -<prefix>snes_monitor, -log_view) go to PETSc."
     ap.add_argument("-v", "--verbose", action="count", default=0, help="a log line per step")
@@ -155,9 +172,7 @@ def parse_args(
     """
     if isinstance(parser, _Parser) and comm is not None:
         parser.rank = comm.rank
-    if argv is None:  # in a Jupyter kernel (a demo opened as a notebook) argv is the kernel's
-        argv = [] if "ipykernel" in sys.modules else sys.argv[1:]
-    demo, petsc = split_petsc(parser, argv)
+    demo, petsc = split_petsc(parser, program_args(argv))  # in a notebook: no command line
     try:
         args, unknown = parser.parse_known_args(demo)
         if unknown:
@@ -291,19 +306,23 @@ def _flush() -> None:
             pass
 
 
-def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = None) -> int:
+def run_main(
+    main: Callable[[list[str] | None], Any], argv: list[str] | None = None, prog: str | None = None
+) -> int:
     """Run a demo's ``main(argv)``; return its exit code, the way it ended in one line.
 
     Use as ``sys.exit(run_main(main))``. SIGTERM, SIGINT, SIGUSR1 and SIGUSR2 stop the run:
     during an FE run after the current step (with a checkpoint if the run writes any; a second
     signal within the step, :mod:`.signals`), elsewhere (building the mesh and the problem,
     drawing figures) within a second (:class:`_StopWatch`); either way exit code
-    :data:`EXIT_INTERRUPTED`, one line, no traceback.
+    :data:`EXIT_INTERRUPTED`, one line, no traceback. ``prog`` names the program in that line
+    (default: the script's name).
     """
     from mpi4py import MPI
 
     rank = MPI.COMM_WORLD.rank
-    prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
+    if prog is None:
+        prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
     with _StopWatch(prog, rank):
         try:
             main(argv)
@@ -316,3 +335,19 @@ def run_main(main: Callable[[list[str] | None], Any], argv: list[str] | None = N
                 print(f"{prog}: {what}{e}", file=sys.stderr, flush=True)
             return code
     return 0
+
+
+def main_block(main: Callable[..., Any]) -> Any:
+    """A demo's ``if __name__ == "__main__":`` block.
+
+    As a program: ``sys.exit(run_main(main))``. In a Jupyter kernel (the demo opened as a
+    notebook), where ``sys.exit`` would end the cell with ``SystemExit``: ``main()`` with the
+    defaults, its result returned and any error shown as the notebook shows it (call
+    ``main(["--n", "8"])`` in a cell for other options).
+
+    Raises:
+        SystemExit: As a program, always, with :func:`run_main`'s exit code.
+    """
+    if in_notebook():
+        return main()
+    sys.exit(run_main(main))

@@ -26,7 +26,9 @@ import numpy as np
 from ..fem.probes import InterfacePointProbe, PointEvaluator
 from ..fem.stress import STRESS_COMPONENTS, StressField
 from ..io.collective import collective
+from ..io.fields import annotate_xdmf
 from ..io.links import refuse_links
+from ..io.paths import inside
 from .parse_features import frame_axes
 from .schema import FEScene, SceneError
 
@@ -159,10 +161,9 @@ class DerivedOutputs:
     def _open(self, directory: Path) -> None:
         comm = self.problem.comm
         names = ["stress.bp"] if self.fmt == "vtx" else ["stress.xdmf", "stress.h5"]
-        paths = [directory, *(directory / n for n in names)]
-        collective(  # before anything is written (.io.links)
+        collective(  # before anything is written (.io.links, .io.paths)
             comm,
-            lambda: refuse_links(*paths),
+            lambda: refuse_links(directory, *(inside(directory, n) for n in names)),
             f"writing the stress in {str(directory)!r}",
             path=directory,
         )
@@ -202,7 +203,14 @@ class DerivedOutputs:
             self.writer.write_function(self.stress.von_mises, t)
 
     def close(self) -> None:
-        """Close the stress file."""
+        """Close the stress file (an XDMF file then gets its units: :func:`.annotate_xdmf`)."""
         if self.writer is not None:
             self.writer.close()
             self.writer = None
+            if self.fmt == "xdmf":
+                collective(
+                    self.problem.comm,
+                    lambda: annotate_xdmf(self.path, {"sigma": "MPa", "von_mises": "MPa"}),
+                    f"writing the units into {str(self.path)!r}",
+                    path=self.path,
+                )

@@ -25,6 +25,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .. import logs
 from ..constitutive import FrictionLaw, law_description
 from ..fem import (
     FrictionSolver,
@@ -36,9 +37,10 @@ from ..fem import (
     timing_breakdown,
 )
 from ..io import OutputDirectory, interface_summary, restore_checkpoint
+from ..io.paths import inside
 from .build import build_mesh, build_problem
 from .derived import DerivedOutputs
-from .outputs import SceneOutputs
+from .outputs import SceneOutputs, planned_files
 from .result import SceneResult
 from .schema import FEScene, SceneError
 from .signals import SceneInterrupted, StopSignals
@@ -120,11 +122,56 @@ def restart_settings(scene: FEScene) -> dict[str, Any]:
     return out
 
 
+def largest_pressure(scene: FEScene) -> float | None:
+    """The largest normal stress the scene's pressure loads apply (MPa), ``None`` if none.
+
+    A load's value times the largest magnitude of its amplitude channel over the program.
+    """
+    channels = scene.model.program.channels if scene.model is not None else {}
+    found = []
+    for load in scene.loads:
+        if load.type != "pressure":
+            continue
+        amp = load.amplitude
+        scale = float(np.max(np.abs(channels[amp]))) if isinstance(amp, str) else 1.0
+        found.append(abs(float(load.value)) * scale)
+    return max(found) if found else None
+
+
+def warn_units(scene: FEScene, comm: Any) -> None:
+    """Warn about the laws whose ``mu_s``, ``mu_k`` look like friction coefficients.
+
+    A :class:`~subfric_dolfinx.logs.UnitsWarning` per such law, at the scene's largest pressure
+    (:func:`largest_pressure`), before anything is built: the law's ``units_check``
+    (:meth:`.SubloadingLaw.units_check`). A scene without pressure loads is not checked.
+    """
+    f_n = largest_pressure(scene)
+    model = scene.model
+    if f_n is None or model is None:
+        return
+    laws: list[tuple[str, Any]] = [("scene.law", model.law)]
+    laws += [(f"scene.regions.{k}", v) for k, v in model.regions.items()]
+    for name, iface in model.interfaces.items():
+        laws.append((f"scene.interfaces.{name}.law", iface.law))
+        laws += [(f"scene.interfaces.{name}.regions.{k}", v) for k, v in iface.regions.items()]
+    seen: list[Any] = []
+    for where, law in laws:
+        check = getattr(law, "units_check", None)
+        if check is None or any(law is s for s in seen):
+            continue
+        seen.append(law)
+        message = check(f_n)
+        if message is not None:
+            text = f"{where} (the largest pressure: {f_n:g} MPa): {message}"
+            logs.warn(text, logs.UnitsWarning, comm)
+
+
 def run_fe_scene(
     scene: FEScene, outdir: str | Path | None, comm: Any, restart: str | Path | None
 ) -> SceneResult:
     """Run a validated FE scene (see :func:`~.runner.run_scene`)."""
     comm = MPI.COMM_WORLD if comm is None else comm
+    warn_units(scene, comm)
     out = scene.outputs
     wants_files = out.history or out.fields is not None or out.interface_history or out.checkpoints
     if wants_files and outdir is None:
@@ -158,11 +205,14 @@ def run_fe_scene(
         i["ranks"],
     )
     settings = restart_settings(scene)
+    # the names of every file the run may write (an interface's name made safe; two names of
+    # the same file refused): before anything is written
+    planned = planned_files(out, list(problem.interfaces)) if wants_files else []
     with contextlib.ExitStack() as stack:
         # first in, last out: a stop signal is a request until every file is closed (.signals)
         guard = stack.enter_context(StopSignals())
         if wants_files:
-            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None))
+            stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None, files=planned))
         try:
             solver = stack.enter_context(
                 FrictionSolver(
@@ -204,7 +254,7 @@ def run_fe_scene(
                 restart_history=restart_history,
                 settings=settings,
                 derived=DerivedOutputs(
-                    scene, problem, outdir / "fields" if out.fields is not None else None
+                    scene, problem, inside(outdir, "fields") if out.fields is not None else None
                 ),
             )
         )
@@ -259,15 +309,20 @@ def run_fe_scene(
             res.info["summary"] = interface_summary(problem)
     t = dict(res.timing)
     total = t.pop("total")
-    logger.info(format_breakdown(t, total))
+    logger.debug(format_breakdown(t, total))  # -v: the whole breakdown
     its = res.iterations
     if its:
+        part = max(t, key=lambda k: t[k]) if t else "run"
         logger.info(
-            "[%s] %d steps, Newton iterations per step: mean %.2f, max %d",
+            "[%s] %d steps, Newton iterations per step: mean %.2f, max %d; %.3g s, the largest "
+            "part %s (%.3g s)",
             scene.name,
             len(its),
             np.mean(its),
             max(its),
+            total,
+            part,
+            t.get(part, total),
         )
     else:
         logger.info("[%s] no step to take: the program had already ended", scene.name)

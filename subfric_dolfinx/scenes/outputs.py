@@ -30,15 +30,44 @@ from ..io import (
     interface_of,
     write_checkpoint,
 )
+from ..io.paths import inside, interface_stems
 from .schema import OutputSpec
 from .signals import SceneInterrupted
 
-__all__ = ["SceneOutputs", "interface_profile"]
+__all__ = ["SceneOutputs", "interface_profile", "planned_files"]
 
 
-def _stem(base: str, name: str, names: list[str]) -> str:
-    """``base`` with one interface; ``base_<name>`` with several."""
-    return base if len(names) == 1 else f"{base}_{name}"
+def _stems(names: list[str]) -> tuple[dict[str, str], dict[str, str]]:
+    """The stems of the point clouds and of the interface histories, per interface name."""
+    return interface_stems("interface_points", names), interface_stems("interface_history", names)
+
+
+def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
+    """Every name a run with these outputs may write in its output directory (``/`` inside).
+
+    With the temporary names and the HDF5 spares (:mod:`subfric_dolfinx.io.h5`); the names of
+    interfaces made safe (:mod:`subfric_dolfinx.io.paths`). ``fields/`` is the directory of the
+    field output, made by the run for its files (:class:`~subfric_dolfinx.io.OutputDirectory`:
+    only the listed names in it are the run's).
+
+    Raises:
+        OutputError: Two interface names map to the same file.
+    """
+    points, ihist = _stems(names)
+    files: list[str] = []
+    if spec.history:
+        meta = "history.csv-metadata.json"
+        files += ["history.csv", meta, f"{meta}.tmp"]
+    if spec.interface_history:
+        files += [n for s in ihist.values() for n in (f"{s}.h5", f".{s}.h5.spare")]
+    if spec.checkpoints:
+        files += ["checkpoint.h5", "checkpoint.h5.tmp", ".checkpoint.h5.tmp.spare"]
+    if spec.fields:
+        stress = ["stress.bp"] if spec.fields == "vtx" else ["stress.xdmf", "stress.h5"]
+        inner = [*FieldWriter.file_names(spec.fields, names), *stress]
+        inner += [n for s in points.values() for n in (f"{s}.xdmf", f"{s}.h5", f"{s}.xdmf.tmp")]
+        files += ["fields/", *(f"fields/{n}" for n in inner)]
+    return files
 
 
 def interface_profile(problem: Any, interface: str | None = None) -> dict[str, np.ndarray]:
@@ -108,7 +137,7 @@ class SceneOutputs:
         self.ihist: list[InterfaceHistoryH5] | None = None  # one file per interface
         self.derived = derived
         self.history = HistoryCSV(
-            outdir / "history.csv" if spec.history else None,
+            inside(outdir, "history.csv") if spec.history and outdir is not None else None,
             problem,
             derived.columns if derived is not None else None,
         )
@@ -116,22 +145,24 @@ class SceneOutputs:
             self.history.preload(restart_history)
         names = list(getattr(problem, "interfaces", None) or {"interface": None})
         self.interface_names = names
+        points, ihist = _stems(names)
+        self._names = {n: (f"fields/{points[n]}.xdmf", f"{ihist[n]}.h5") for n in names}
         try:
             if spec.fields:
+                assert outdir is not None
                 extra = derived.field_bytes() if derived is not None else 0
-                self.fields = FieldWriter(outdir / "fields", problem, spec.fields, extra)
+                self.fields = FieldWriter(inside(outdir, "fields"), problem, spec.fields, extra)
                 self.points = [
                     InterfacePointsXDMF(
-                        outdir / f"fields/{_stem('interface_points', n, names)}.xdmf",
-                        problem,
-                        n if len(names) > 1 else None,
+                        inside(outdir, self._names[n][0]), problem, n if len(names) > 1 else None
                     )
                     for n in names
                 ]
             if spec.interface_history:
+                assert outdir is not None
                 self.ihist = [
                     InterfaceHistoryH5(
-                        outdir / f"{_stem('interface_history', n, names)}.h5",
+                        inside(outdir, self._names[n][1]),
                         problem,
                         restart_time,
                         n if len(names) > 1 else None,
@@ -144,7 +175,9 @@ class SceneOutputs:
             except Exception:
                 pass
             raise
-        self.checkpoint_path = outdir / "checkpoint.h5" if spec.checkpoints else None
+        self.checkpoint_path = (
+            inside(outdir, "checkpoint.h5") if spec.checkpoints and outdir is not None else None
+        )
         self._ck_times = np.asarray(spec.checkpoint_times, dtype=float)
         self._field_times = np.asarray(spec.field_times, dtype=float)
         self._snaps = np.asarray(spec.snapshots, dtype=float)
@@ -217,11 +250,11 @@ class SceneOutputs:
         closers = [("history", self.history.close)]
         names = self.interface_names
         for n, pts in zip(names, self.points or [], strict=False):
-            closers.append((f"fields/{_stem('interface_points', n, names)}.xdmf", pts.close))
+            closers.append((self._names[n][0], pts.close))
         if self.fields is not None:
             closers.append(("fields", self.fields.close))
         for n, h in zip(names, self.ihist or [], strict=False):
-            closers.append((f"{_stem('interface_history', n, names)}.h5", h.close))
+            closers.append((self._names[n][1], h.close))
         if self.derived is not None and self.derived.writer is not None:
             closers.append((str(self.derived.path), self.derived.close))
         for name, close in closers:

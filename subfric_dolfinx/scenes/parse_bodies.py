@@ -193,3 +193,39 @@ def _check_materials(scene: FEScene, known: set[str]) -> None:
                 f"scene.materials: {extra} are neither bodies of scene.bodies nor their cell "
                 f"groups; bodies: {sorted(scene.bodies)}"
             )
+        _every_body_has_a_material(scene)
+
+
+def _every_body_has_a_material(scene: FEScene) -> None:
+    """Each body of ``scene.bodies`` has a material.
+
+    Its own, one for each of its cell groups, or ``master``/``slave`` where it is the first
+    interface's primary/secondary side. Checked before the mesh is read where the scene tells
+    it (the first interface's sides given, or no ``master``/``slave`` key); otherwise once the
+    mesh is read.
+
+    Raises:
+        SceneError: Naming the body without a material.
+    """
+    mats = scene.materials
+    by_role: dict[str, str] = {}
+    if scene.interfaces:
+        p, q = next(iter(scene.interfaces.values())).sides
+        if p is None and ({"master", "slave"} & set(mats)):
+            return  # which body master/slave name is the mesh's to tell
+        owner = {
+            g: b for b, gs in scene.bodies.items() for g in ([gs] if isinstance(gs, str) else gs)
+        }
+        by_role = {"master": owner.get(p or "", p or ""), "slave": owner.get(q or "", q or "")}
+    elif {"master", "slave"} & set(mats):
+        return
+    for body, groups in scene.bodies.items():
+        groups = [groups] if isinstance(groups, str) else list(groups)
+        if body in mats or all(g in mats for g in groups):
+            continue
+        if any(by_role.get(role) == body for role in ("master", "slave") if role in mats):
+            continue
+        raise SceneError(
+            f"scene.materials: no material for the body {body!r} (give one for it, or for each "
+            f"of its cell groups {groups}); materials are given for {sorted(mats)}"
+        )

@@ -92,6 +92,20 @@ def check_plain(value: Any, path: str) -> None:
     raise SceneError(f"{path}: expected a JSON value, got {typed_repr(value)}")
 
 
+def _same_kind(value: Any, tp: Any) -> bool:
+    """Whether a JSON value is of the kind of the type ``tp`` (a number for a number, ...)."""
+    origin = typing.get_origin(tp)
+    if isinstance(value, bool):
+        return tp is bool
+    if isinstance(value, int | float):
+        return tp in (int, float)
+    if isinstance(value, list | tuple):
+        return origin is list
+    if isinstance(value, dict):
+        return origin is dict or dataclasses.is_dataclass(tp)
+    return False
+
+
 def _convert(value: Any, tp: Any, path: str) -> Any:
     origin = typing.get_origin(tp)
     if tp is Any:
@@ -102,7 +116,10 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
             try:
                 return _convert(value, option, path)
             except SceneError as e:
-                errors.append(str(e))
+                errors.append((option, str(e)))
+        for option, text in errors:  # the value has this option's kind: its own error says more
+            if _same_kind(value, option):  # (a number not finite, an item of a list, ...)
+                raise SceneError(text)
         names = " or ".join(_type_name(a) for a in typing.get_args(tp))
         raise SceneError(f"{path}: expected {names}, got {short_repr(value)}")
     if tp is type(None):
@@ -171,19 +188,32 @@ def _choice(path: str, value: Any, allowed: tuple) -> None:
         raise SceneError(f"{path}: must be one of {list(allowed)}, got {short_repr(value)}")
 
 
-def load_scene(path: str | os.PathLike[str]) -> FEScene | PointScene:
-    """Read a scene from a JSON file and validate it (:func:`parse_scene`).
+def load_scene(
+    source: str | os.PathLike[str] | dict[str, Any] | FEScene | PointScene,
+) -> FEScene | PointScene:
+    """Read a scene from a JSON file (or take it as given) and validate it (:func:`parse_scene`).
 
     The file is read strictly: a key given twice in one object (which ``json.load`` would
     resolve silently, keeping the last value) is refused naming its key path, and so are files
     that are not UTF-8, too large, nested too deeply or not JSON at all. File names in the scene
     (a mesh file) are taken as given, relative to the working directory.
 
+    Args:
+        source: The name of a JSON file, or the scene itself (a dict, or a parsed scene).
+
     Raises:
-        SceneError: The file cannot be read, is malformed, or its scene is invalid.
+        SceneError: The file cannot be read, is malformed, or its scene is invalid; ``source``
+            is neither a file name nor a scene.
     """
+    if isinstance(source, dict | FEScene | PointScene):
+        return parse_scene(source)
+    if not isinstance(source, str | os.PathLike):
+        raise SceneError(
+            f"load_scene: expected the name of a JSON file or a scene (a dict), got "
+            f"{type(source).__name__} {str(source)[:60]!r}"
+        )
     try:
-        obj = read_json(path, "scene file", root="scene")
+        obj = read_json(source, "scene file", root="scene")
     except CaseError as e:
         raise SceneError(str(e)) from None
     return parse_scene(obj)

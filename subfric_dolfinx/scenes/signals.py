@@ -15,8 +15,10 @@ a signal never raises anything: the handler only counts it.
 
 Under ``mpirun`` (Open MPI 5), send **SIGUSR1** (or SIGUSR2) to ``mpirun``: it forwards the signal
 to every rank and waits. ``mpirun`` does not forward SIGINT or SIGTERM: it ends the job itself
-(SIGTERM kills the ranks a moment later; Ctrl-C at a terminal likewise), leaving the last
-checkpoint readable (it is written to a temporary file, then renamed). For a single process
+(SIGCONT and SIGTERM to the ranks, SIGKILL 0.25 s later; Ctrl-C at a terminal likewise),
+leaving the last checkpoint readable (it is written to a temporary file, then renamed; a
+temporary file cut short is refused as incomplete). :mod:`.launch` runs ``mpirun`` so that
+SIGTERM and SIGINT reach the ranks as SIGUSR1. For a single process
 (``python3 demos/x.py``, a script calling :func:`~.runner.run_scene`), Ctrl-C is a clean stop like
 SIGUSR1.
 """

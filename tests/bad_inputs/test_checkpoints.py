@@ -4,7 +4,7 @@ every rank with a ``CheckpointError`` naming the file and the item or the settin
 takes anything from it; solver settings may change across a restart.
 
 One good checkpoint is written per module (at t = 1 s of a 2 s program: press, then slide
-0.5 mm); each case copies it and damages the copy with plain h5py on rank 0.
+0.35 mm); each case copies it and damages the copy with plain h5py on rank 0.
 """
 
 import json
@@ -19,7 +19,14 @@ from mpi4py import MPI
 
 from subfric_dolfinx.io import CheckpointError
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import hang_fails, on_root, prefix, raised_on_every_rank, small_scene
+from tests.helpers import (
+    SHORT_SLIDE,
+    hang_fails,
+    on_root,
+    prefix,
+    raised_on_every_rank,
+    small_scene,
+)
 
 pytestmark = hang_fails()
 
@@ -27,8 +34,7 @@ T_CK, T_END = 1.0, 2.0
 
 
 def scene(**outputs):
-    s = small_scene()
-    s["program"] = {"times": [0, 1, T_END], "channels": {"press": [0, 1, 1], "slide": [0, 0, 0.5]}}
+    s = small_scene(short=True)  # press (1 s), slide (1 s)
     s["outputs"] = dict(outputs)
     s["solver"]["prefix"] = prefix("badck")
     return s
@@ -116,6 +122,8 @@ DAMAGED = {
     "settings a list": (_set("settings", "[1, 2]"), "attribute 'settings' is not a JSON object"),
     "more points claimed": (_set("n_points", 17), "'interface/x' has shape (16, 2), expected"),
     "old version": (_set("version", 1), "has version 1, this code reads version 2"),
+    "geometry as text": (_set("geometry", "a mesh"), "'geometry' is not 9 finite numbers"),
+    "geometry NaN": (_set("geometry", np.full(9, np.nan)), "'geometry' is not 9 finite numbers"),
     "history columns": (_columns, "1 history columns for"),
     "increment of another shape": (_increment(shape=(3, 2)), "'increment' has shape (3, 2)"),
     "increment without dt": (_increment(dt=None), "and dt None (> 0 wanted)"),
@@ -165,7 +173,7 @@ OTHER_SETTINGS = {
     "pressure": (_pressure, "loads[0].value = 300.0, this run has 250.0"),
     "slide amplitude": (_slide_value, "dirichlet[1].value = 1.0, this run has 0.8"),
     "boundary value": (_bottom_held, "dirichlet[0].value[1] = 0.0, this run has 0.01"),
-    "program": (_slide_channel, "program.slide[2] = 0.5, this run has 0.6"),
+    "program": (_slide_channel, f"program.slide[2] = {SHORT_SLIDE}, this run has 0.6"),
 }
 
 
@@ -274,3 +282,68 @@ def test_solver_settings_may_change_across_a_restart(good):
     assert before.size > 0 and before[-1] == pytest.approx(T_CK)
     assert len(after) >= 50 and max(r["dt"] for r in after) <= 0.02 + 1e-12
     assert res.history[-1]["t"] == pytest.approx(T_END)
+
+
+def test_a_restart_on_another_mesh_of_the_same_counts_is_refused(shared_tmp):
+    """The same cells and interface points, the base's bottom nodes 25 mm lower: the geometry
+    fingerprint stored in the checkpoint tells them apart (the counts and the interface points
+    alone did not); the same mesh built again restores."""
+    from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+    from subfric_dolfinx.io import restore_checkpoint, write_checkpoint
+    from tests.helpers import block_problem
+
+    comm = MPI.COMM_WORLD
+    path = shared_tmp / "ck.h5"
+    p = block_problem(comm)
+    with FrictionSolver(p, prefix("geo"), linear="lu") as solver:
+        write_checkpoint(path, p, LoadStepper(solver, 0.5), [])
+    for moved in (True, False):
+        q = block_problem(comm)
+        x = q.mesh.geometry.x
+        if moved:
+            x[x[:, 1] < 1e-9, 1] -= 25.0
+        with FrictionSolver(q, prefix("geo"), linear="lu") as solver:
+            if moved:
+                with raised_on_every_rank(
+                    CheckpointError, repr(str(path)), "is for another mesh", "node coordinates"
+                ):
+                    restore_checkpoint(path, q, LoadStepper(solver, 0.5))
+            else:
+                restore_checkpoint(path, q, LoadStepper(solver, 0.5))
+
+
+def test_a_checkpoint_write_cut_short_is_refused_as_incomplete(shared_tmp, monkeypatch):
+    """A write killed in its middle (mpirun kills the ranks 0.25 s after forwarding SIGTERM)
+    left ``checkpoint.h5.tmp`` with every attribute, a later time included: it read back as a
+    valid checkpoint. The ``format`` mark is now written last: the cut file is refused as
+    incomplete, on every rank; the previous checkpoint is intact."""
+    from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+    from subfric_dolfinx.io import checkpoint, read_checkpoint, write_checkpoint
+    from tests.helpers import block_problem
+
+    class Killed(BaseException):
+        """The process killed (nothing of this package sees it)."""
+
+    comm = MPI.COMM_WORLD
+    path = shared_tmp / "checkpoint.h5"
+    p = block_problem(comm)
+    real = checkpoint.write_extras
+
+    def cut(f, extras, comm_, create):
+        if not create:  # the datasets made, their values being written
+            raise Killed
+        return real(f, extras, comm_, create=create)
+
+    with FrictionSolver(p, prefix("cut"), linear="lu") as solver:
+        st = LoadStepper(solver, 0.5)
+        write_checkpoint(path, p, st, [])  # the previous one, at t = 0
+        st.t = 0.75
+        monkeypatch.setattr(checkpoint, "write_extras", cut)
+        with pytest.raises(Killed):
+            write_checkpoint(path, p, st, [])
+        monkeypatch.undo()
+    tmp = path.with_name("checkpoint.h5.tmp")
+    assert on_root(comm, tmp.exists)
+    with raised_on_every_rank(CheckpointError, repr(str(tmp)), "is incomplete", "interrupted"):
+        read_checkpoint(tmp, comm)
+    assert read_checkpoint(path, comm).attrs["time"] == 0.0

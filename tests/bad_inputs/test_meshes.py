@@ -1,6 +1,9 @@
 """Bad meshes: files that are missing, not meshes, lack a group, have sides that do not pair or
 the wrong dimension; gmsh models with shared or lost nodes; bad meshing arguments."""
 
+import contextlib
+import os
+
 import gmsh
 import numpy as np
 import pytest
@@ -80,7 +83,7 @@ def test_mesh_without_two_required_boundary_groups():
 
 
 def test_mesh_path_is_a_directory():
-    with raised_on_every_rank(FileNotFoundError, "mesh file not found", str(MESH_DIR)):
+    with raised_on_every_rank(meshing.InterfaceMeshError, str(MESH_DIR), "a directory"):
         meshing.read_interface_mesh(MESH_DIR, MPI.COMM_WORLD, 2)
 
 
@@ -341,3 +344,152 @@ def test_a_facet_group_partly_on_the_interface():
             meshing.read_interface_mesh(None, MPI.COMM_WORLD, 2)
 
     on_root_with_a_gmsh_model(with_a_straddling_group, read)
+
+
+# --------------------------------------------------------------------------------------------
+# duplicate_interface_nodes: bad sides, sources and outputs; a full disk (issue 36)
+
+
+def joined_model(h=0.25):
+    """Two rectangles meshed together, the shared edge the group ``seam`` (current model)."""
+    import gmsh
+
+    gmsh.model.add("joined")
+    occ = gmsh.model.occ
+    a, b = occ.addRectangle(0, 0, 0, 1, 0.5), occ.addRectangle(0, 0.5, 0, 1, 0.5)
+    occ.fragment([(2, a)], [(2, b)])
+    occ.synchronize()
+    low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
+    high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
+    mid = [
+        t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
+    ]
+    gmsh.model.addPhysicalGroup(2, low, name="lower")
+    gmsh.model.addPhysicalGroup(2, high, name="upper")
+    gmsh.model.addPhysicalGroup(1, mid, name="seam")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.model.mesh.generate(2)
+
+
+@contextlib.contextmanager
+def gmsh_open():
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh.option.setNumber("General.Verbosity", 2)
+    try:
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.serial
+def test_duplicate_refuses_equal_sides_and_sources_that_are_not_files(tmp_path):
+    with gmsh_open():
+        joined_model()
+        with pytest.raises(
+            meshing.InterfaceMeshError, match=r"share the cell group\(s\) \['upper'"
+        ):
+            meshing.duplicate_interface_nodes(None, {"seam": ("upper", "upper")})
+        with pytest.raises(
+            meshing.InterfaceMeshError, match=r"share the cell group\(s\) \['lower'"
+        ):
+            meshing.duplicate_interface_nodes(None, {"seam": (["lower"], ["upper", "lower"])})
+    os.mkfifo(tmp_path / "fifo.msh")
+    (tmp_path / "dir.msh").mkdir()
+    for name, words in (("fifo.msh", "not a regular file"), ("dir.msh", "a directory")):
+        with pytest.raises(meshing.InterfaceMeshError, match=words):  # no hang on the FIFO
+            meshing.duplicate_interface_nodes(tmp_path / name, "seam", output=tmp_path / "o.msh")
+    assert not (tmp_path / "o.msh").exists()
+
+
+@pytest.mark.serial
+def test_duplicate_never_writes_through_a_link_or_into_a_directory(tmp_path):
+    (tmp_path / "victim").write_text("precious\n")
+    (tmp_path / "link.msh").symlink_to(tmp_path / "victim")
+    (tmp_path / "dir.msh").mkdir()
+    with gmsh_open():
+        joined_model()
+        for name, words in (("link.msh", "is a symbolic link"), ("dir.msh", "is a directory")):
+            with pytest.raises(meshing.InterfaceMeshError, match=words):
+                meshing.duplicate_interface_nodes(None, "seam", output=tmp_path / name)
+    assert (tmp_path / "victim").read_text() == "precious\n"
+    assert sorted(os.listdir(tmp_path)) == ["dir.msh", "link.msh", "victim"]  # nothing left
+
+
+@pytest.mark.serial
+def test_duplicate_on_a_full_disk_fails_and_leaves_the_old_output(tmp_path, monkeypatch):
+    """gmsh returns normally from a write the disk cut short: the file is checked whole before
+    it replaces the output. A real small tmpfs where it can be mounted, and always a write cut
+    short by hand (gmsh's file truncated after it wrote it)."""
+    from tests.helpers import tmpfs
+
+    old = "an earlier output\n"
+    with tmpfs(tmp_path / "small", "64k") as mounted:
+        places = [tmp_path / "small"] if mounted else []
+        for d in places:
+            (d / "apart.msh").write_text(old)
+            (d / "filler").write_bytes(b"\0" * (60 << 10))  # the rest: less than the mesh
+            with gmsh_open():
+                joined_model(h=0.02)
+                with pytest.raises(OSError, match=r"apart\.msh"):
+                    meshing.duplicate_interface_nodes(None, "seam", output=d / "apart.msh")
+            assert (d / "apart.msh").read_text() == old
+            assert sorted(os.listdir(d)) == ["apart.msh", "filler"]
+    import gmsh
+
+    real = gmsh.write
+
+    def cut_short(name):
+        real(name)
+        with open(name, "r+b") as f:
+            f.truncate(os.path.getsize(name) // 2)
+
+    out = tmp_path / "apart.msh"
+    out.write_text(old)
+    with gmsh_open():
+        joined_model()
+        monkeypatch.setattr(gmsh, "write", cut_short)
+        with pytest.raises(OSError, match=r"apart\.msh' failed: gmsh's file is not whole"):
+            meshing.duplicate_interface_nodes(None, "seam", output=out)
+    assert out.read_text() == old and sorted(os.listdir(tmp_path)) == ["apart.msh", "small"]
+    monkeypatch.setattr(gmsh, "write", real)
+    with gmsh_open():
+        joined_model()
+        meshing.duplicate_interface_nodes(None, "seam", output=out)  # a whole write replaces it
+    assert out.read_text() != old and sorted(os.listdir(tmp_path)) == ["apart.msh", "small"]
+
+
+def test_a_mesh_file_too_large_for_the_memory_is_refused_before_it_is_read(shared_tmp, monkeypatch):
+    """A 2 GB file was read whole (4.2 GB resident) before being refused. Its size is now
+    compared with the machine's memory first (here the memory said to be 64 MiB, the file a
+    sparse 16 MiB with a valid header: checking it takes about 5 times its size): nothing of it
+    is mapped or read. A line too long to be one is refused before it is copied."""
+    from subfric_dolfinx.meshing import _msh
+
+    path = shared_tmp / "huge.msh"
+
+    def make():
+        with open(path, "wb") as f:
+            f.write(HEADER_ASCII)
+            f.truncate(16 << 20)
+
+    on_root(MPI.COMM_WORLD, make)
+    monkeypatch.setattr(_msh, "machine_memory", lambda: 64 << 20)
+    mapped = []
+    real = _msh._mapped
+    monkeypatch.setattr(_msh, "_mapped", lambda *a: mapped.append(1) or real(*a))
+    with raised_on_every_rank(
+        meshing.InterfaceMeshError, str(path), "a mesh file of 0.0156 GiB", "not read"
+    ):
+        meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)
+    assert everywhere(MPI.COMM_WORLD, not mapped)
+    monkeypatch.undo()
+
+    def long_line():
+        with open(path, "wb") as f:
+            f.write(HEADER_ASCII + b"x" * (2 << 20))
+
+    on_root(MPI.COMM_WORLD, long_line)
+    with raised_on_every_rank(meshing.InterfaceMeshError, "a line of more than 1048576 bytes"):
+        meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)

@@ -95,3 +95,48 @@ def test_options_prefix_in_use(problem):
     finally:
         first.destroy()
     FrictionSolver(problem, name).destroy()  # usable again once released
+
+
+# --------------------------------------------------------------------------------------------
+# Axisymmetric meshes: r >= 0 (issue 36)
+
+
+@pytest.mark.parametrize(
+    ("shift", "words"),
+    [
+        (-1.0, ["it lies at r < 0", "r from -1 to 0"]),
+        (-0.5, ["it crosses the axis", "r from -0.5 to 0.5"]),
+        (-1e-9, ["it crosses the axis", "r from -1e-09"]),
+    ],
+    ids=["r<0", "across the axis", "a hair across"],
+)
+def test_an_axisymmetric_mesh_at_negative_radius_is_refused(shift, words):
+    """The column of tests/fem/test_bulk.py (r in [0, 1]) moved along r: pressed, it gave
+    F_n = -3769.9 (r < 0) or 2.9e-10 (across the axis) where p pi R^2 is due."""
+    from subfric_dolfinx.fem.kinematics import ModeError
+    from tests.helpers import column
+
+    dom, bcs = column("axisymmetric", MPI.COMM_WORLD)
+    dom.mesh.geometry.x[:, 0] += shift
+    with raised_on_every_rank(
+        ModeError, "mode 'axisymmetric' needs the mesh in r = x >= 0", *words
+    ):
+        InterfaceProblem(
+            dom,
+            preset("sec7"),
+            MATERIALS,
+            PROGRAM,
+            bcs,
+            [Pressure("top", 1.0, "press")],
+            mode="axisymmetric",
+        )
+    dom.mesh.geometry.x[:, 0] -= shift + 1e-13  # on the axis up to round-off: accepted
+    InterfaceProblem(
+        dom,
+        preset("sec7"),
+        MATERIALS,
+        PROGRAM,
+        bcs,
+        [Pressure("top", 1.0, "press")],
+        mode="axisymmetric",
+    )

@@ -62,7 +62,7 @@ def test_the_reference_scene_is_valid():
         (lambda s: s["springs"][0].update(k=1.0), r"scene.springs\[0\]: unknown key\(s\) \['k'\]"),
         (
             lambda s: s["springs"][0].update(stiffness=float("nan")),
-            r"scene.springs\[0\].stiffness: expected float or list",
+            r"scene.springs\[0\].stiffness: expected a finite number, got nan",
         ),
         # points and point forces
         (lambda s: s["points"]["A"].update(x=[1.0]), r"scene.points.A.x: expected a list of 2"),

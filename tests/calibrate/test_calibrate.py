@@ -114,6 +114,7 @@ def test_xi_from_curves_at_several_velocities():
         assert abs(res.params[k] / p[k] - 1.0) < 1e-5, k
 
 
+@pytest.mark.e2e
 def test_command_line_writes_fit_and_plot(tmp_path):
     curves = synthetic_curves(TRUE, [150.0, 450.0], [1.0, 1.0], SLIP[::4], noise=0.05)
     src = tmp_path / "data.json"

@@ -8,6 +8,10 @@
   README, the docs' pages or the report.
 * The quoting itself: a changed number is found and written back, a quote whose place is gone
   is reported.
+* The README is a quick start: at most :data:`README_LINES` lines, its Python example runs as
+  written (on the suite's ranks, as ``mpirun -n 2 python3 example.py`` runs it), its install
+  line works offline (``tests/test_packaging.py`` runs the same), and it links every page of
+  ``docs/reference/``.
 """
 
 import re
@@ -17,7 +21,7 @@ import pytest
 
 from tests.helpers import ROOT
 
-pytestmark = pytest.mark.serial  # reads files and git: the same on any number of ranks
+SERIAL = pytest.mark.serial  # reads files and git: the same on any number of ranks
 
 
 def modules():
@@ -27,6 +31,7 @@ def modules():
     return readme_numbers, stamp
 
 
+@SERIAL
 def test_every_quoted_number_is_its_record():
     rn, _ = modules()
     data = rn.Data()
@@ -69,12 +74,14 @@ def known_names():
     return names | {"COMM_WORLD", "PETSC_OPTIONS", "OMPI_ALLOW_RUN_AS_ROOT"}
 
 
+@SERIAL
 def test_no_placeholder_reaches_the_pages():
     known = known_names()
     pages = [
         ROOT / "README.md",
         ROOT / "report" / "README.md",
         *sorted((ROOT / "docs").glob("*.md")),
+        *sorted((ROOT / "docs" / "reference").glob("*.md")),
     ]
     pages = [p for p in pages if p.name != "readme.md"]  # the docs' copy of the README
     found = {}
@@ -92,17 +99,59 @@ def test_no_placeholder_reaches_the_pages():
     assert "BJ_TIME" not in known
 
 
+@SERIAL
 def test_a_changed_number_is_found_and_written_back():
     rn, _ = modules()
-    text = (ROOT / "README.md").read_text()
-    data = rn.Data()
     q = next(q for q in rn.QUOTES if q.name == "lap_joint: slip per cycle")
+    text = (ROOT / q.page).read_text()
+    data = rn.Data()
     m = rn.find(q, text)
     stale = text[: m.start(1)] + "8.97" + text[m.end(1) :]
     if m.group(1) == "8.97":
         stale = text[: m.start(1)] + "9.99" + text[m.end(1) :]
-    assert any("lap_joint" in d for d in rn.differences(stale, data))
-    assert rn.rewrite(stale, data) == text
+    assert any("lap_joint" in d for d in rn.differences(stale, data, q.page))
+    assert rn.rewrite(stale, data, q.page) == text
     # a quote whose sentence was reworded is reported, not skipped
     gone = text.replace("slip accumulates cycle by cycle", "slip grows")
-    assert any("0 places" in d for d in rn.differences(gone, data))
+    assert any("0 places" in d for d in rn.differences(gone, data, q.page))
+
+
+README_LINES = 300
+"""The README's length at most: a quick start, the reference is the docs' (``docs/reference/``)."""
+
+
+def readme_blocks(language):
+    """The README's fenced code blocks in ``language``."""
+    text = (ROOT / "README.md").read_text()
+    return re.findall(rf"^```{language}\n(.*?)^```$", text, re.M | re.S)
+
+
+@SERIAL
+def test_the_readme_is_a_quick_start_that_links_the_reference():
+    text = (ROOT / "README.md").read_text()
+    assert len(text.splitlines()) <= README_LINES, len(text.splitlines())
+    first_python = text.index("```python")
+    assert text[:first_python].count("\n") < 80  # the example near the top
+    for page in sorted((ROOT / "docs" / "reference").glob("*.md")):
+        assert f"(docs/reference/{page.name})" in text, page.name
+    (install,) = [ln for b in readme_blocks("bash") for ln in b.splitlines() if "pip install" in ln]
+    assert "--no-build-isolation" in install  # offline: the environment's setuptools
+    assert "these hosts" not in text
+
+
+@pytest.mark.timeout(300)
+def test_the_readme_example_runs_as_written(shared_tmp, monkeypatch, capsys):
+    """Every Python block of the README, run as a script is (``__name__`` ``"__main__"``), in an
+    empty folder: the example writes its history there and prints its line on rank 0."""
+    from mpi4py import MPI
+
+    (code,) = readme_blocks("python")
+    monkeypatch.chdir(shared_tmp)
+    exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})
+    out = capsys.readouterr().out
+    comm = MPI.COMM_WORLD
+    comm.Barrier()
+    rows = (shared_tmp / "output" / "block" / "history.csv").read_text().splitlines()
+    if comm.rank == 0:
+        assert re.fullmatch(r"\d+ steps; peak mean friction stress [\d.]+ MPa\n", out), out
+        assert out.startswith(f"{len(rows) - 1} steps"), (out, len(rows))

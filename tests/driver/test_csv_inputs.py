@@ -14,7 +14,7 @@ import pytest
 from subfric_dolfinx.calibrate import CalibrationError, load_data, parse_data, synthetic_curves
 from subfric_dolfinx.constitutive import LawError, build_law, preset
 from subfric_dolfinx.driver import CaseError, load_case, parse_case, run_case
-from tests.helpers import ROOT, module_cli, python_env
+from tests.helpers import ROOT, driver_cli, module_cli, python_env
 
 pytestmark = pytest.mark.numpy_only
 
@@ -169,3 +169,57 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
         timeout=120,
     )
     assert usage.returncode == 0 and "usage: subfric-calibrate" in usage.stdout, usage.stdout
+
+
+SECRET = "the first line of a file elsewhere\n"
+
+
+@pytest.mark.parametrize("how", ["dotdot", "absolute", "link", "link in a folder"])
+def test_a_table_outside_the_case_files_folder_is_not_read(tmp_path, how):
+    """A case (or data) file names its own tables: ``../x.csv``, an absolute path elsewhere or
+    a link leading out (e.g. to a system file) is refused, and nothing of it is shown."""
+    (tmp_path / "elsewhere.csv").write_text(SECRET)
+    folder = tmp_path / "case"
+    (folder / "sub").mkdir(parents=True)
+    name = {
+        "dotdot": "../elsewhere.csv",
+        "absolute": str(tmp_path / "elsewhere.csv"),
+        "link": "p.csv",
+        "link in a folder": "sub/p.csv",
+    }[how]
+    if how.startswith("link"):
+        (folder / name).symlink_to(tmp_path / "elsewhere.csv")
+    (folder / "case.json").write_text(json.dumps(case({"csv": name})))
+    curve = {"f_n": 1.0, "velocity": 1.0, "csv": name}
+    data = {"params": {**TRUE, "mu_k": 75.0}, "fit": ["mu_k"], "curves": [curve]}
+    (folder / "data.json").write_text(json.dumps(data))
+    for load, error in ((load_case, CaseError), (load_data, CalibrationError)):
+        file = folder / ("case.json" if load is load_case else "data.json")
+        with pytest.raises(error) as e:
+            load(file)
+        msg = str(e.value)
+        assert "lies outside the folder" in msg and "not read" in msg, msg
+        assert "first line" not in msg and repr(name) in msg, msg
+        if how.startswith("link"):
+            assert "symbolic link" in msg, msg
+
+
+def test_a_link_inside_the_folder_is_read(tmp_path):
+    lines = ["t,x1,ubar_n"] + [f"{t},{x},{n}" for t, x, _, n in PATH]
+    (tmp_path / "real.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "p.csv").symlink_to("real.csv")
+    (tmp_path / "case.json").write_text(json.dumps(case({"csv": "p.csv"})))
+    assert load_case(tmp_path / "case.json").path.shape[0] == len(PATH)
+
+
+def test_a_field_beyond_the_csv_modules_limit_is_a_clear_error(tmp_path):
+    import csv
+
+    big = "1" * (csv.field_size_limit() + 10)
+    (tmp_path / "p.csv").write_text(f"t,x1,ubar_n\n0,0,0.6\n1,{big},0.6\n")
+    (tmp_path / "case.json").write_text(json.dumps(case({"csv": "p.csv"})))
+    with pytest.raises(CaseError, match=r"p.csv' line 3: field larger than field limit"):
+        load_case(tmp_path / "case.json")
+    out = driver_cli(str(tmp_path / "case.json"))
+    assert out.returncode == 2 and "field larger than field limit" in out.stderr, out
+    assert "Traceback" not in out.stderr, out.stderr

@@ -101,6 +101,7 @@ def test_cli_prints_json_without_out_and_steps_per_mm_overrides(tmp_path):
     assert data["complete"]
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 def test_under_mpirun_rank_0_alone_runs_and_writes(tmp_path):
     """``mpirun -n 2 python3 -m subfric_dolfinx.driver --out``: one run, one "ok:" line (two
@@ -352,18 +353,19 @@ def test_core_and_driver_import_no_fe_or_mpi_stack():
 
 def test_progress_lines_on_stderr(tmp_path, monkeypatch, capsys):
     """A progress line at most every PROGRESS_SECONDS (set to 0 here: one per checkpoint of the
-    step loop, every _PROGRESS_EVERY steps: 200 here instead of 2000, for a tenth of the steps)."""
+    step loop, every _PROGRESS_EVERY steps: 20 here instead of 2000, for a hundredth of the
+    steps)."""
     from subfric_dolfinx.driver import cli as cli_mod
     from subfric_dolfinx.driver import run as run_mod
 
     monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 0.0)
-    monkeypatch.setattr(run_mod, "_PROGRESS_EVERY", 200)
-    case = {**SEC7, "steps_per_mm": 2000}  # 1001 steps
+    monkeypatch.setattr(run_mod, "_PROGRESS_EVERY", 20)
+    case = {**SEC7, "steps_per_mm": 200}  # 101 steps
     out = tmp_path / "r.json"
     assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
     err = capsys.readouterr().err.splitlines()
     prog = [ln for ln in err if ln.startswith("progress:")]
-    assert len(prog) == 5 and "of 1001 steps" in prog[0], err
+    assert len(prog) == 5 and "of 101 steps" in prog[0], err
     assert err[-1].startswith("ok:")
     monkeypatch.setattr(cli_mod, "PROGRESS_SECONDS", 3600.0)  # a short run prints none
     assert cli_mod.main([str(write(tmp_path, case)), "--out", str(out)]) == 0
@@ -371,10 +373,10 @@ def test_progress_lines_on_stderr(tmp_path, monkeypatch, capsys):
 
 
 def test_a_path_of_many_rows_gives_the_same_steps():
-    """The same straight path given as 2 rows or as 10001 rows (with the knots as samples in the
+    """The same straight path given as 2 rows or as 201 rows (with the knots as samples in the
     first): the same steps, the same result. (The cost per step does not depend on the number of
     rows: benchmarks/driver_steps.py measures it, up to 10^6 rows.)"""
-    n = 10_000
+    n = 200
     t = np.linspace(0.0, 0.3, n + 1)
     many = {
         **SEC7,
@@ -408,12 +410,13 @@ def fig10_case(fn, law=None, n_samples=11):
 
 
 def test_batch_driver_equals_one_by_one():
-    """Six normal stresses (Fig. 10), two parameter sets, a turn in 3-D, a reversal at another
-    velocity, a case that loses stability: every result equals run_case's."""
+    """Six normal stresses (Fig. 10, at 5 steps/mm), two parameter sets, a turn in 3-D, a
+    reversal at another velocity, a case that loses stability: every result equals run_case's."""
     from subfric_dolfinx.driver import run_cases
 
-    cases = [fig10_case(fn) for fn in (100, 200, 300, 400, 500, 600)]
-    cases.append(fig10_case(300, {"preset": "sec7", "kappa": 0.5, "mu0": 400.0}))
+    coarse = {"steps_per_mm": 5}  # the comparison holds at any step: fewer steps, the same test
+    cases = [{**fig10_case(fn), **coarse} for fn in (100, 200, 300, 400, 500, 600)]
+    cases.append({**fig10_case(300, {"preset": "sec7", "kappa": 0.5, "mu0": 400.0}), **coarse})
     cases.append(SEC7)
     cases.append(
         {
@@ -435,10 +438,11 @@ def test_batch_driver_equals_one_by_one():
 
 
 def test_batch_driver_with_many_cases_takes_the_numpy_path():
-    """40 cases of one law (the numpy path of the map) equal the one-by-one runs to 1e-12."""
+    """12 cases of one law (one call of the numpy map a step) equal the one-by-one runs to
+    1e-12."""
     from subfric_dolfinx.driver import run_cases
 
-    cases = [fig10_case(fn, n_samples=5) for fn in np.linspace(50.0, 700.0, 40)]
+    cases = [fig10_case(fn, n_samples=5) for fn in np.linspace(50.0, 700.0, 12)]
     for c, b in zip(cases, run_cases(cases, steps_per_mm=5), strict=True):
         one = run_case(c, steps_per_mm=5)
         np.testing.assert_allclose(b.samples["f_t1"], one.samples["f_t1"], rtol=1e-12)

@@ -33,7 +33,8 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary, restore_checkpoint, write_checkpoint
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, PROGRAM, block_problem, column, everywhere
+from subfric_dolfinx.logs import PenetrationWarning
+from tests.helpers import LAW, PROGRAM, SEC7_PENALTY, block_problem, column, everywhere
 
 E, NU, P, ALPHA = 1.0e5, 0.3, 50.0, 1.0e6
 STICK = CoulombLaw(alpha_t=ALPHA, alpha_n=ALPHA, mu_c=0.5)
@@ -120,6 +121,7 @@ def with_bulk(comm, bulk, partitioner=None, base=None):
     )
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_users_ufl_residual_gives_the_fast_paths_history(comm):
     t_end = 3.0
     ref = history(block_problem(comm), t_end)
@@ -200,6 +202,7 @@ def by_cell(problem, values):
     return pairs[np.argsort(pairs[:, 0])]
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_bulk_with_state_is_updated_committed_reverted_and_checkpointed(comm, shared_tmp):
     import dolfinx
 

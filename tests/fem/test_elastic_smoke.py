@@ -126,6 +126,7 @@ def test_gmsh_failure_raises_on_every_rank(comm):
     assert not gmsh.isInitialized()
 
 
+@pytest.mark.e2e
 def test_demo_script_runs(comm, shared_tmp):
     # Rank 0 runs the demo once (one rank, as a subprocess) and broadcasts what it saw, so that
     # every rank checks the same thing and nothing is skipped on 2 ranks.
@@ -156,6 +157,7 @@ def test_demo_script_runs(comm, shared_tmp):
     assert files == ["u.h5", "u.xdmf"]
 
 
+@pytest.mark.e2e
 def test_demo_writes_nothing_without_out(shared_tmp):
     def run_demo():
         proc = subprocess.run(

@@ -19,7 +19,17 @@ from subfric_dolfinx.fem import (
     StepFailure,
 )
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, PROGRAM, block_problem, everywhere, global_spread, on_root, prefix
+from subfric_dolfinx.logs import PenetrationWarning
+from tests.helpers import (
+    LAW,
+    PROGRAM,
+    SEC7_PENALTY,
+    block_problem,
+    everywhere,
+    global_spread,
+    on_root,
+    prefix,
+)
 
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
@@ -72,6 +82,7 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
     ), top_value
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 @pytest.mark.parametrize(
     ("gdim", "cell_type", "degree"),
     [
@@ -141,6 +152,7 @@ def test_patch_test_equals_the_material_point_driver(gdim, cell_type, degree):
     solver.destroy()
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_jacobian_matches_finite_differences_and_newton_is_quadratic():
     comm = MPI.COMM_WORLD
     prob = block_problem(comm)
@@ -219,6 +231,7 @@ def _run_block(comm, partitioner=None):
     return out
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_parallel_run_equals_the_gathered_serial_run():
     comm = MPI.COMM_WORLD
     par = _run_block(comm, "bodies" if comm.size > 1 else None)
@@ -243,6 +256,7 @@ def test_parallel_run_equals_the_gathered_serial_run():
     assert not failed, failed
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_partial_separation_and_recontact():
     comm = MPI.COMM_WORLD
     program = LoadingProgram(
@@ -301,6 +315,7 @@ class FlakyLaw:
         return self.law.return_map(gap, state, dt, **kw)
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_failed_return_map_is_a_domain_error_and_the_step_is_cut_and_recovered():
     comm = MPI.COMM_WORLD
     # fails for steps longer than 0.15 s once t > 1.2: the stepper must cut and go on
@@ -321,6 +336,7 @@ def test_a_failed_return_map_is_a_domain_error_and_the_step_is_cut_and_recovered
     solver.destroy()
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_too_many_cuts_raise_with_the_last_converged_state_intact():
     comm = MPI.COMM_WORLD
     law = FlakyLaw(LAW, lambda t, dt: t > 1.6)

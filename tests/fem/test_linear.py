@@ -28,9 +28,17 @@ from subfric_dolfinx.fem import linear as linear_module
 from subfric_dolfinx.fem.linear import STRATEGIES, rigid_modes
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from subfric_dolfinx.scenes import parse_scene, run_scene
 from subfric_dolfinx.scenes.schema import LINEAR_STRATEGIES
-from tests.helpers import block_problem, prefix, raised_on_every_rank, small_scene
+from tests.helpers import (
+    DEMO_SLIDES,
+    SEC7_PENALTY,
+    block_problem,
+    prefix,
+    raised_on_every_rank,
+    small_scene,
+)
 
 
 def pad_problem(comm, n=4):
@@ -89,6 +97,7 @@ def difference(a, b):
     return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 @pytest.mark.parametrize("linear", ["reuse", "gamg"])
 @pytest.mark.parametrize("scene", ["pad", "block"])
 def test_strategy_equals_lu(comm, scene, linear):
@@ -114,6 +123,7 @@ def stiff(alpha):
     )
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_refresh_when_the_state_goes_far(comm):
     """The refresh rules, each alone, and the run still ends as LU's (within 1e-8 of the peak).
 
@@ -147,6 +157,7 @@ def test_refresh_when_the_state_goes_far(comm):
     assert difference(ft, ft_lu) < 1e-8
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_stale_krylov_failure_is_retried_fresh(comm):
     """GMRES limited to 2 iterations: a stale factor fails, the Newton solve is repeated at once
     with fresh factors (no cut, no line-search retry) and the run equals LU's."""
@@ -199,6 +210,7 @@ def test_rigid_modes_are_the_kernel_of_the_free_bodies(comm):
         ns.destroy()
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 def test_scene_chooses_the_strategy(comm):
     """scene.solver.linear reaches the solver (the main demo's scene, with a hold: there the
     floor test may end a step at its first residual with one strategy and after one iteration

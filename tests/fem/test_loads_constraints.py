@@ -21,8 +21,9 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
+from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import LAW, everywhere, prefix, small_scene
+from tests.helpers import LAW, SEC7_PENALTY, everywhere, prefix, small_scene
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
 PROGRAM = LoadingProgram([0, 1, 2, 3], {"press": [0, 1, 1, 1], "shear": [0, 0, 1, -1]})
@@ -59,6 +60,7 @@ def body_dofs(prob, body):
     return np.unique(blocks[blocks < V.dofmap.index_map.size_local])
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_shear_traction_with_a_channel_per_component_equals_the_reaction():
     """A traction (q shear(t), -p press(t)) on the block's top, each component on its own
     channel: the base's reaction is minus its resultant at every step (the top is 1 mm wide)."""
@@ -95,6 +97,7 @@ def shared_vertex(dom):
     return np.asarray(allx[0]) if allx else None
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_point_force_is_applied_once_and_equals_the_reaction():
     """Point forces: one at a vertex shared by two ranks (on 2 ranks), one off any vertex of the
     block (it goes to the nearest): the base's reaction is minus their sum, each counted once."""
@@ -124,6 +127,7 @@ def test_a_point_force_is_applied_once_and_equals_the_reaction():
         assert s["F_n"] == pytest.approx(-(F1 + F2)[1], rel=1e-9)
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_dirichlet_condition_on_a_cell_group_holds_every_dof_of_the_body():
     """The base held as a whole (its cell group) against the base held at its bottom: with the
     cell group every dof of the base is zero, its interface side included; its reaction is the
@@ -173,6 +177,7 @@ def vertex_value(prob, x, body):
     return np.asarray(values[0])
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_dirichlet_conditions_on_gmsh_physical_points():
     """Physical points of the gmsh model are node groups: ``pin`` (the block's top-left corner)
     is moved by 0.01 mm sideways while the block is pressed; ``ipin`` (the left end of the

@@ -33,6 +33,7 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
+from subfric_dolfinx.logs import PenetrationWarning
 from tests.helpers import everywhere, on_root, raised_on_every_rank
 
 P_LID = 100.0  # MPa
@@ -102,6 +103,9 @@ def test_the_stack_mesh_knows_its_bodies_and_interfaces(comm):
     assert counts[0] > counts[2]  # the middle block is wider than the cap
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on 1 mm bodies"
+)
 @pytest.mark.parametrize("partitioner", [None, "bodies", "together"])
 def test_three_bodies_two_interfaces_against_statics(comm, partitioner):
     dom = stack(comm, partitioner)
@@ -177,6 +181,9 @@ def run_block(dom, materials):
     return np.array(out)
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on the 1 mm block"
+)
 def test_user_group_names_read_and_run_as_the_classic_names(comm):
     names = {"master": "base", "slave": "block", "interface": "contact"}
     dom, _ = meshing.create_interface_mesh(renamed_block, comm, names=names)

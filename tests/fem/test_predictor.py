@@ -7,12 +7,14 @@ as the run that wrote it (the restart tests of ``test_checkpoint.py`` and
 ``test_finite_sliding_scenes.py``, with the predictor on by default). 1 and 2 ranks."""
 
 import numpy as np
+import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import block_problem, prefix
+from subfric_dolfinx.logs import PenetrationWarning
+from tests.helpers import SEC7_PENALTY, block_problem, prefix
 
 # press (knot at 0.4 on the line), slide (knot at 1.2 on the line), at half the rate (knot at 1.8
 # on the line), back, hold
@@ -47,6 +49,7 @@ def run(predictor, rtol=1e-9):
     return rows
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_the_predictor_saves_newton_iterations_and_changes_nothing_else():
     plain, pred, tight = run(False), run(True), run(False, rtol=1e-12)
     t = [r[0] for r in plain]
@@ -68,6 +71,7 @@ def test_the_predictor_saves_newton_iterations_and_changes_nothing_else():
     assert not any(r[2] for r in plain)
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_the_predictor_is_used_only_where_the_program_goes_straight_on():
     rows = run(True)
     predicted = {round(r[0], 9): r[2] for r in rows}
@@ -86,6 +90,7 @@ def test_the_predictor_is_used_only_where_the_program_goes_straight_on():
     assert not any(at(t) for t in (3.1, 3.2, 3.3, 3.4))  # a hold: nothing the program moves
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_small_sliding_keeps_the_law_tangent_at_the_first_iteration():
     """The finite-sliding start (a frictionless first iteration where the program turns, the
     points in contact at the step's start kept so in the first Jacobian) leaves small sliding

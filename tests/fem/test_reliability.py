@@ -21,6 +21,7 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.fem.stepping import describe_attempt
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
+from subfric_dolfinx.logs import SlideWarning
 from tests.helpers import LAW, block_problem, prefix
 
 # the cases below run the paper's soft normal penalty on purpose
@@ -113,6 +114,7 @@ def run_stepper(prob, scene, linear=None, **kwargs):
 SLIDE_THEN_PRESS = {"times": [0, 1, 2], "channels": {"press": [0, 0, 1], "slide": [0, 1, 1]}}
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason="the main demo's 1 mm slides")
 @pytest.mark.parametrize("linear", ["reuse", "lu", "gamg"])
 @pytest.mark.parametrize("preset", ["sec7", "sec7-literal"])
 def test_an_unloaded_slide_then_a_press_runs_with_default_options(preset, linear):
@@ -137,6 +139,7 @@ def test_an_unloaded_slide_then_a_press_runs_with_default_options(preset, linear
     assert counts[Status.SEPARATED.name] == 0 and counts[Status.FAILED.name] == 0, counts
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason="the main demo's 1 mm slides")
 def test_an_unloaded_slide_then_a_press_without_the_retry():
     """With the previous return map Newton with full steps cycled on the first pressure
     increment of the literal set on one rank (not on two: it depended on the round-off of the
@@ -148,6 +151,7 @@ def test_an_unloaded_slide_then_a_press_without_the_retry():
     assert err is None or (1.0 < err.t < 1.1 and err.last_t == pytest.approx(1.0)), err
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason="the main demo's 1 mm slides")
 def test_the_literal_sec7_set_runs_the_main_demo_with_default_options():
     """The main demo's program (press, slide forward, back, hold, slide; a 5 s hold here) with
     the literal Sec. 7 set runs with default options. (The previous return map needed the
@@ -172,6 +176,7 @@ def test_the_literal_sec7_set_runs_the_main_demo_with_default_options():
         assert st.t == pytest.approx(11.0)
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason="the main demo's 1 mm slides")
 def test_a_run_that_needs_no_retry_is_unchanged_by_it():
     """The retry costs nothing where every step converges: the same steps, the same Newton
     iterations, the same history (bit for bit on one rank; MUMPS on two ranks is reproducible
@@ -248,6 +253,7 @@ def test_a_domain_error_on_one_rank_stops_every_rank():
     assert len(set(outcomes)) == 1 and not r.converged, outcomes
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason="the main demo's 1 mm slides")
 @pytest.mark.parametrize("plain_fails_again", [False, True])
 def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again):
     """Once a step needed the line-search retry, the next ``easy_steps`` steps of its segment
@@ -287,3 +293,36 @@ def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again)
         # the failed step and easy_steps steps on the retry's options; the rest plain
         assert flags == [True] * (1 + st.easy_steps) + [False] * (len(slide) - 1 - st.easy_steps)
         assert st.retries == 1 and st.line_search_steps == 1 + st.easy_steps
+
+
+def test_an_unloaded_slide_then_a_press_repeats_and_extrapolates_no_noise():
+    """Identical runs of the unloaded slide then the press agree (to 1e-8 of the peak force).
+
+    They parted on two ranks (final F_t from 0.42 to 0.47 N of a 300 N press with ``"lu"``):
+    MUMPS's parallel factorisation rounds differently from run to run, and without load the
+    block's position is an equilibrium wherever its interface carries nothing, to within
+    Newton's residual. The predictor extrapolated each step's increment, whose motion of the
+    free block was that round-off and tolerance, carried it from step to step (the block drifted
+    by 1e-9 mm a step), and which points touched the base, hence their plastic slip at the
+    press, followed the drift. A step whose forces do not stand 1e3 times above its residual is
+    now not extrapolated: its kept increment is zero (checked at every step of the slide), and
+    five runs in processes of their own agree to 3e-13 of the peak (scratch measurement; two
+    runs in one process, as here, repeat the factorisation's rounding and agree anyway)."""
+    runs, kept = [], []
+    for _ in range(2):
+        prob, scene = demo_problem("sec7", SLIDE_THEN_PRESS)
+        out = []
+        with FrictionSolver(prob, prefix("again"), linear="lu") as solver:
+            st = LoadStepper(solver, scene.solver.dt, dt_max=scene.solver.dt_max)
+
+            def on_step(rec, st=st, prob=prob, out=out):
+                if rec.t <= 1.0:  # the unloaded slide: nothing to extrapolate
+                    kept.append(float(np.abs(st.increment).max(initial=0.0)))
+                out.append(interface_summary(prob)["F_t1"])
+
+            st.on_step = on_step
+            st.run()
+        runs.append(np.array(out))
+    a, b = runs
+    assert a.shape == b.shape and np.abs(a - b).max() <= 1e-8 * 300.0, (a[-1], b[-1])
+    assert max(kept) == 0.0, kept

@@ -22,6 +22,7 @@ from subfric_dolfinx.fem import (
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import everywhere, prefix
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
@@ -95,6 +96,9 @@ def test_a_block_pulled_off_its_base_and_held_by_springs_moves_by_force_over_sti
     assert s["F_n"] == 0.0  # open
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e4 MPa/mm Coulomb penalty on the 1 mm block"
+)
 def test_spring_stiffness_is_in_the_jacobian():
     """A pressed block held sideways by springs, Coulomb friction sticking: every step after the
     first is linear (closed, elastic), and full Newton takes one iteration; the Jacobian at a
@@ -152,6 +156,11 @@ def sheared_block(comm, q, springs=()):
     )
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning,
+    SlideWarning,
+    reason="a 1e4 MPa/mm Coulomb penalty on the 1 mm block, which slides away",
+)
 def test_a_sliding_block_has_an_equilibrium_only_with_springs():
     """A block pressed with P = 100 N and pushed sideways with Q = 35 N > mu P = 30 N (Coulomb):
     without support it has no equilibrium (the step fails); with springs on its sides (2 N/mm
@@ -177,6 +186,9 @@ def test_a_sliding_block_has_an_equilibrium_only_with_springs():
     assert everywhere(comm, ux.size == 0 or ux.min() > 0.5)  # slid by about 5 N / 8 N/mm
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e4 MPa/mm Coulomb penalty on the 1 mm block"
+)
 @pytest.mark.parametrize("k", [1e-3, 1e-2])
 def test_weak_springs_take_a_share_of_the_load_proportional_to_their_stiffness(k):
     """Weak springs (``k`` MPa/mm on the block's sides) added so that a block held by friction

@@ -25,7 +25,7 @@ from subfric_dolfinx.fem import Dirichlet, FrictionSolver, InterfaceProblem, Loa
 from subfric_dolfinx.fem import stepping as stepping_mod
 from subfric_dolfinx.fem.validity import SLIDE_ELEMENTS, contact_modulus
 from subfric_dolfinx.loading import LoadingProgram
-from tests.helpers import LAW, everywhere, mpirun, prefix, raised_on_every_rank
+from tests.helpers import LAW, everywhere, leaves_validity, mpirun, prefix, raised_on_every_rank
 
 MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
 E_STAR = 1.0 / (0.91 / 2.1e5 + (1 - 0.33**2) / 7.0e4)
@@ -48,6 +48,24 @@ def test_warn_acts_on_every_rank_and_shows_once():
         warnings.simplefilter("ignore", logs.SubfricWarning)
         logs.warn("ignored", logs.SlideWarning, comm)
     assert not seen
+
+
+def test_the_suite_raises_the_packages_warnings_unless_a_test_declares_them():
+    """The suite's filter (pyproject.toml) makes a package warning an error on every rank;
+    :func:`~tests.helpers.leaves_validity` lets the categories it names through and fails, on
+    every rank, when one of them does not come; another package warning inside still raises."""
+    comm = MPI.COMM_WORLD
+    with raised_on_every_rank(logs.SlideWarning, "undeclared"):
+        logs.warn("undeclared", logs.SlideWarning, comm)
+    with leaves_validity(logs.SlideWarning, logs.PenetrationWarning):
+        logs.warn("declared", logs.SlideWarning, comm)
+        logs.warn("declared", logs.PenetrationWarning, comm)
+    with raised_on_every_rank(AssertionError, "['PenetrationWarning']", "drop the declaration"):
+        with leaves_validity(logs.SlideWarning, logs.PenetrationWarning):
+            logs.warn("declared", logs.SlideWarning, comm)
+    with raised_on_every_rank(logs.PenetrationWarning, "another"):
+        with leaves_validity(logs.SlideWarning):
+            logs.warn("another", logs.PenetrationWarning, comm)
 
 
 def block(comm, n):
@@ -179,6 +197,7 @@ print("done")
 """
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_a_plain_script_sees_the_warning_once(ranks):
@@ -249,3 +268,7 @@ def test_short_segments_get_no_line_and_long_ones_do(caplog, monkeypatch):
     lines = stepping_lines(caplog, pressed)
     n = stepping_mod.LONG_SEGMENT_STEPS
     assert len(lines) == 1 and lines[0].startswith(f"t = 0 -> 1 s: {n} steps"), lines
+    # a run of more segments than SEGMENT_LINES (many cycles) prints no line per segment
+    caplog.clear()
+    monkeypatch.setattr(stepping_mod, "SEGMENT_LINES", 0)
+    assert not stepping_lines(caplog, pressed)

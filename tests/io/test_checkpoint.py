@@ -14,9 +14,12 @@ from mpi4py import MPI
 
 from subfric_dolfinx.fem import StepFailure
 from subfric_dolfinx.io import CheckpointWriteError, read_checkpoint
+from subfric_dolfinx.logs import SlideWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import (
+    DEMO_SLIDES,
     ROOT,
+    SHORT_SLIDE,
     hang_fails,
     on_root,
     prefix,
@@ -44,6 +47,7 @@ def columns(hist, after):
     return np.array([[r[k] for k in keys] for r in rows])
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 @pytest.mark.parametrize("linear", ["lu", "reuse"])
 @pytest.mark.three_ranks  # the distributed write and read (N -> N, N -> 1) on 3 ranks too
 def test_restart_gives_the_same_history(shared_tmp, linear):
@@ -101,6 +105,7 @@ def test_restart_gives_the_same_history(shared_tmp, linear):
         on_root(comm, restart_on_one_rank)
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 @pytest.mark.filterwarnings("error::pytest.PytestUnraisableExceptionWarning")
 def test_a_failed_write_leaves_the_previous_checkpoint(shared_tmp, monkeypatch):
     """Injected (monkeypatch of h5py's Dataset.__setitem__): the last rank's slab write of the
@@ -130,6 +135,7 @@ def test_a_failed_write_leaves_the_previous_checkpoint(shared_tmp, monkeypatch):
     gc.collect()
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 def test_an_absurd_step_is_cut_back_and_recovers():
     """Whole strokes in one step with at most 3 Newton iterations: SNES diverges mid-run, the
     stepper cuts the step and recovers."""
@@ -148,7 +154,7 @@ def test_a_failure_leaves_the_last_converged_state_in_the_checkpoint(shared_tmp)
     s["solver"].update(dt=0.05, dt_max=0.05, max_cuts=4)
     s["program"] = {
         "times": [0, 1, 2, 3],
-        "channels": {"press": [0, 1, 1, -1], "slide": [0, 0, 0.5, 0.5]},
+        "channels": {"press": [0, 1, 1, -1], "slide": [0, 0, SHORT_SLIDE, SHORT_SLIDE]},
     }
     with pytest.raises(StepFailure, match="no convergence at t = 2") as e:
         run_scene(s, outdir=shared_tmp, comm=comm)
@@ -161,6 +167,8 @@ def test_a_failure_leaves_the_last_converged_state_in_the_checkpoint(shared_tmp)
     assert ck.history[-1]["F_n"] >= 0.0 and e.value.last_t <= 2.5 + 1e-9
 
 
+@pytest.mark.e2e
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
     """A 1-rank run in a subprocess gets SIGTERM; it writes a checkpoint and stops; the run
     restarted from it ends where an uninterrupted run ends."""
@@ -220,13 +228,15 @@ def test_sigterm_leaves_a_restartable_checkpoint(shared_tmp):
     )
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @SUBPROCESSES
 def test_disk_full_keeps_the_previous_checkpoint(shared_tmp):
     """For real: a 1 MiB tmpfs filled but 130-400 kB (the first checkpoint needs about 200), a
-    checkpoint after every step, runs on 1 and 2 ranks in processes of their own (mpirun, killed
-    after 150 s). A checkpoint that does not fit is one CheckpointWriteError on every rank, exit
-    1, no crash; the previous checkpoint is intact and restartable, no temporary file is left."""
+    checkpoint after every step, runs on 2 ranks (the fullest on 1 rank too) in processes of their
+    own (mpirun, killed after 150 s). A checkpoint that does not fit is one CheckpointWriteError
+    on every rank, exit 1, no crash; the previous checkpoint is intact and restartable, no
+    temporary file is left."""
     kept = []
 
     def check(out, msg):

@@ -4,10 +4,11 @@ Each case plants a link in the output directory, under the name of a file a run 
 file outside it (whose content must survive) or to a missing one (that must not appear), then
 runs a tiny scene with every output (history, interface history, VTX fields with the stress
 and the interface points, a checkpoint at every step), fresh or restarted. The run either goes
-on without touching the target (a fresh run moves a link named like its files to
+on without touching the target (a fresh run moves a link the earlier run's manifest lists to
 ``previous_run/``, as a link; a rename replaces a link, not its target; a temporary name is
-removed first) or is refused on every rank, naming the link. ``previous_run/`` holding a
-user's files, or made by the user, is never deleted. 1 and 2 ranks.
+removed first) or is refused on every rank, naming the link (a link the manifest does not
+list is not the run's). ``previous_run/`` holding a user's files, or made by the user, is never
+deleted. 1 and 2 ranks.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from mpi4py import MPI
 
 from demos import block_on_base
 from subfric_dolfinx.io import OutputError, PointCloudError
+from subfric_dolfinx.io.outdir import MANIFEST, read_manifest, write_manifest
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import on_root, prefix, raised_on_every_rank
 
@@ -84,42 +86,63 @@ def fresh(out):
     return run_scene(scene(), outdir=out, comm=MPI.COMM_WORLD)
 
 
-# name planted -> the run is refused (True) or goes on (False)
+def earlier_run(out, *names):
+    """The files of an earlier run of this code: ``checkpoint.h5`` and the manifest, which lists
+    ``names`` too (files of the run later replaced by a link)."""
+
+    def make():
+        (out / "checkpoint.h5").write_text("an earlier run\n")
+        write_manifest(out, ["checkpoint.h5", *names])
+
+    on_root(MPI.COMM_WORLD, make)
+
+
+# name planted, its target, listed in the earlier run's manifest -> the run is refused (True)
+# or goes on (False): a listed link is moved aside as a link, an unlisted one is refused
 FRESH = [
-    (".subfric.lock", "victim", True),
-    (".subfric.lock", "ghost", True),
-    (".interface_history.h5.spare", "victim", True),
-    (".checkpoint.h5.tmp.spare", "ghost", True),
-    ("history.csv", "victim", False),
-    ("history.csv", "ghost", False),
-    ("checkpoint.h5.tmp", "ghost", False),
-    ("interface_history.h5", "victim", False),
-    ("fields", "dir", False),
-    ("previous_run", "dir", False),
-    (f".subfric-probe-{os.getpid()}", "victim", False),
+    (".subfric.lock", "victim", False, True),
+    (".subfric.lock", "ghost", False, True),
+    (".interface_history.h5.spare", "victim", False, True),
+    (".checkpoint.h5.tmp.spare", "ghost", False, True),
+    ("history.csv", "victim", True, False),
+    ("history.csv", "ghost", False, True),
+    ("checkpoint.h5.tmp", "ghost", True, False),
+    ("checkpoint.h5.tmp", "ghost", False, True),
+    ("interface_history.h5", "victim", True, False),
+    ("interface_history.h5", "victim", False, True),
+    ("fields", "dir", True, False),
+    ("fields", "dir", False, True),
+    ("previous_run", "dir", False, False),
+    (f".subfric-probe-{os.getpid()}", "victim", False, False),
+    (MANIFEST, "victim", False, False),
 ]
 
 
-@pytest.mark.parametrize(("name", "to", "refused"), FRESH, ids=[f"{n}->{t}" for n, t, _ in FRESH])
-def test_a_fresh_run_never_writes_through_a_link(place, name, to, refused):
+@pytest.mark.parametrize(
+    ("name", "to", "listed", "refused"),
+    FRESH,
+    ids=[f"{n}->{t}{'-listed' if li else ''}" for n, t, li, _ in FRESH],
+)
+def test_a_fresh_run_never_writes_through_a_link(place, name, to, listed, refused):
     out, victim, ghost, directory = place
     target = {"victim": victim, "ghost": ghost, "dir": directory}[to]
     if name.startswith(".subfric-probe"):  # the probe is named by rank 0's pid
         name = f".subfric-probe-{MPI.COMM_WORLD.bcast(os.getpid(), root=0)}"
-    if name != "previous_run":
-        on_root(MPI.COMM_WORLD, lambda: (out / "history.csv").write_text("an earlier run\n"))
+    if name != MANIFEST:  # a link there: no manifest (the run replaces the link with its own)
+        earlier_run(out, *([name] if listed else []))
     plant(out, name, target)
     if refused:
         with raised_on_every_rank(OutputError, "symbolic link", name):
             fresh(out)
     else:
         fresh(out)
-        if name in ("history.csv", "checkpoint.h5.tmp", "interface_history.h5", "fields"):
-            # moved aside as a link; the run wrote its own regular file or directory
+        if listed:  # moved aside as a link; the run wrote its own regular file or directory
             on_root(
                 MPI.COMM_WORLD,
                 lambda: (out / "previous_run" / name).is_symlink() or pytest.fail("not moved"),
             )
+        if name == MANIFEST:
+            on_root(MPI.COMM_WORLD, lambda: read_manifest(out) or pytest.fail("no manifest"))
     untouched(victim, ghost, directory)
 
 
@@ -131,7 +154,7 @@ RESTART = [
     ("fields/interface_points.h5", "victim", True),
     ("fields", "dir", True),
     ("checkpoint.h5", "victim", False),
-    ("checkpoint.h5.tmp", "ghost", False),
+    ("checkpoint.h5.tmp", "ghost", True),  # not the run's (not listed once it had ended)
 ]
 
 
@@ -177,9 +200,9 @@ def test_previous_run_of_the_user_is_not_deleted(place):
         prev.mkdir()
         (prev / "notes.txt").write_text(PRECIOUS)
         (prev / "history.csv").write_text(PRECIOUS)
-        (out / "history.csv").write_text("an earlier run\n")
 
     on_root(comm, setup)
+    earlier_run(out)
     with raised_on_every_rank(OutputError, "previous_run", "notes.txt", "not deleted"):
         fresh(out)
     on_root(comm, lambda: (prev / "notes.txt").read_text() == PRECIOUS or 1 / 0)
@@ -207,19 +230,19 @@ def test_previous_run_of_the_user_is_not_deleted(place):
 
 
 @pytest.mark.parametrize("fields", ["vtx", "xdmf"])
-def test_every_field_file_a_run_writes_is_known_as_its_own(shared_tmp, fields):
-    """``previous_run/fields/`` is replaced only if it holds names this code writes: every file
-    of a run with every field output (displacement, interfaces, their points, stress) is one."""
-    from subfric_dolfinx.io.outdir import FIELD_NAMES
-
+def test_every_file_a_run_writes_is_in_its_manifest(shared_tmp, fields):
+    """A fresh run moves aside only what the manifest lists: every file of a run with every
+    output (history, interface history, checkpoint, displacement, interfaces, their points,
+    stress) is listed, and nothing listed is missing once the run has ended."""
     out = shared_tmp / fields
     run_scene(scene(fields=fields), outdir=out, comm=MPI.COMM_WORLD)
 
-    def names():
-        found = sorted(os.listdir(out / "fields"))
+    def check():
+        listed = read_manifest(out)
+        found = [str(p.relative_to(out)) + "/" * p.is_dir() for p in out.rglob("*")]
         assert {"displacement", "interface", "interface_points", "stress"} <= {
-            n.split(".")[0] for n in found
+            n[len("fields/") :].split(".")[0] for n in found if n.startswith("fields/")
         }, found
-        return [n for n in found if not FIELD_NAMES.fullmatch(n)]
+        assert sorted(set(found) - {MANIFEST}) == sorted(listed), (found, listed)
 
-    assert on_root(MPI.COMM_WORLD, names) == []
+    on_root(MPI.COMM_WORLD, check)

@@ -18,7 +18,15 @@ from subfric_dolfinx.constitutive import Status
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
 from subfric_dolfinx.io import InterfacePointsXDMF, PointCloudError, gather_interface
 from subfric_dolfinx.io.gather import interface_order
-from tests.helpers import block_problem, on_root, prefix, raised_on_every_rank
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
+from tests.helpers import (
+    DEMO_SLIDES,
+    SEC7_PENALTY,
+    block_problem,
+    on_root,
+    prefix,
+    raised_on_every_rank,
+)
 
 
 def gathered(prob):
@@ -68,6 +76,7 @@ def read_back(xdmf):
     return times, steps, geometry
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_quadrature_point_cloud_read_back_against_the_gathered_state(shared_tmp):
     comm = MPI.COMM_WORLD
     prob = block_problem(comm, partitioner="together")  # the interface on both ranks
@@ -176,6 +185,7 @@ def test_a_write_failing_on_one_rank_fails_on_every_rank(shared_tmp, monkeypatch
     solver.destroy()
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 @pytest.mark.serial
 def test_the_xdmf_of_a_scene_with_fields_lists_every_step(shared_tmp):
     """Fields asked for in a scene: the point cloud is written beside the facet averages."""

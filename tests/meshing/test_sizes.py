@@ -22,8 +22,9 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import meshing
+from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.meshing import _size
-from tests.helpers import raised_on_every_rank
+from tests.helpers import SEC7_PENALTY, raised_on_every_rank
 
 CASES = [
     (meshing.build_block_on_base, {"n_interface": 32, "cell_type": "triangle"}, 0.8, 1.2),
@@ -117,6 +118,7 @@ def test_a_program_of_1e9_steps_is_refused_when_parsed():
     parse_scene(scene(dt=0.02, hold_dt=1.0, max_steps=301))
 
 
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_a_run_that_reaches_max_steps_stops_with_a_step_failure(comm):
     """A 1 s program at dt = 0.1 with max_steps = 3: the stepper stops after step 3 at t = 0.3
     with a StepFailure naming max_steps, every rank alike, the state of step 3 kept."""

@@ -145,6 +145,7 @@ def demo_cmd(*args, ranks=1):
     return ["mpirun", "-n", str(ranks), *cmd] if ranks > 1 else cmd
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 def test_sigusr1_to_mpirun_stops_after_the_step_and_the_run_restarts(tmp_path):
     """The documented way to stop an MPI job: SIGUSR1 to mpirun. Both ranks finish the step,
@@ -163,6 +164,7 @@ def test_sigusr1_to_mpirun_stops_after_the_step_and_the_run_restarts(tmp_path):
     assert "restarted from" in text
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGUSR2], ids=["SIGTERM", "SIGUSR2"])
 def test_a_signal_stops_a_run_without_checkpoints_cleanly(tmp_path, sig):
@@ -172,6 +174,7 @@ def test_a_signal_stops_a_run_without_checkpoints_cleanly(tmp_path, sig):
     assert f"interrupted by {sig.name} after step" in text and "no checkpoint" in text, text
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 def test_a_signal_before_the_stepping_stops_at_once(tmp_path):
     """Sent while the problem is being built (after the first log line): exit 75, one line."""
@@ -180,6 +183,7 @@ def test_a_signal_before_the_stepping_stops_at_once(tmp_path):
     assert "Traceback" not in text and "interrupted by SIGUSR1" in text, text
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @pytest.mark.parametrize(
     ("args", "code", "words"),

@@ -25,10 +25,12 @@ from mpi4py import MPI
 from demos import block_sliding_far as far
 from subfric_dolfinx import logs
 from subfric_dolfinx.fem import FrictionSolver
+from subfric_dolfinx.logs import SlideWarning
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import everywhere, on_root, small_scene
+from tests.helpers import DEMO_SLIDES, everywhere, on_root, small_scene
 
 
+@pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)
 def test_the_small_sliding_key_is_todays_interface(comm):
     plain = small_scene()
     keyed = copy.deepcopy(plain)

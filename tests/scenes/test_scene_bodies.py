@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 import pytest
 
+from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
 from tests.fem.test_multibody import P_LID, W_CAP, renamed_block, stack_builder
 from tests.helpers import everywhere, on_root, raised_on_every_rank
@@ -69,6 +70,9 @@ def stack_scene(path, **outputs) -> dict:
     }
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on 1 mm bodies"
+)
 def test_a_scene_with_three_bodies_and_two_interfaces(comm, shared_tmp):
     path = shared_tmp / "stack.msh"
     on_root(comm, lambda: write_model(stack_builder, path))
@@ -137,6 +141,9 @@ def classic(path=None, names=None):
     return s
 
 
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on the 1 mm block"
+)
 def test_a_classic_scene_on_a_file_with_the_users_names(comm, shared_tmp):
     path = shared_tmp / "named.msh"
     on_root(comm, lambda: write_model(renamed_block, path))
@@ -182,6 +189,23 @@ BAD = [
         lambda s: s["interfaces"]["low"].update(quadrature="simpson"),
         r"scene.interfaces.low.quadrature: must be 'gauss' or 'nodal'",
     ),
+    # issue 36: the key path and "finite" said; a body without material before the mesh
+    (
+        lambda s: s["interfaces"]["low"].update(kinematics="finite_sliding", reach=float("nan")),
+        r"scene.interfaces.low.reach: expected a finite number, got nan",
+    ),
+    (
+        lambda s: s["solver"].update(dt_max=float("inf")),
+        r"scene.solver.dt_max: expected a finite number, got inf",
+    ),
+    (
+        lambda s: s["materials"].pop("cap"),
+        r"scene.materials: no material for the body 'cap' \(give one for it, or for each of its",
+    ),
+    (
+        lambda s: (s["materials"].pop("cap"), s["materials"].update(master=s["materials"]["base"])),
+        r"no material for the body 'cap'",  # master is the first interface's primary: base
+    ),
 ]
 
 
@@ -199,4 +223,25 @@ def test_a_mesh_without_the_named_interface_is_refused_naming_it(comm, shared_tm
     s = stack_scene(path)
     s["interfaces"]["middle_cap"] = s["interfaces"].pop("high")
     with raised_on_every_rank(SceneError, "scene.mesh:", "'middle_cap' not found"):
+        run_scene(s, comm=comm)
+
+
+def test_two_interfaces_over_the_same_facets_are_named(comm, shared_tmp):
+    """A second physical group on the facets of ``low``, named as an interface too: refused
+    naming both (it ended in 'elements of physical groups are not entities of the DOLFINx
+    mesh')."""
+    import gmsh
+
+    def builder():
+        stack_builder()
+        for d, t in gmsh.model.getPhysicalGroups():
+            if gmsh.model.getPhysicalName(d, t) == "low":
+                ents = gmsh.model.getEntitiesForPhysicalGroup(d, t)
+                gmsh.model.addPhysicalGroup(d, [int(e) for e in ents], name="low2")
+
+    path = shared_tmp / "stack.msh"
+    on_root(comm, lambda: write_model(builder, path))
+    s = stack_scene(path)
+    s["interfaces"]["low2"] = copy.deepcopy(s["interfaces"]["low"])
+    with raised_on_every_rank(SceneError, "the interfaces 'low' and 'low2' share 24 facets"):
         run_scene(s, comm=comm)

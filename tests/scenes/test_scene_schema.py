@@ -81,7 +81,7 @@ def test_every_demo_scene_passes_the_schema_and_the_parser(name):
 
 def test_the_readme_example_passes():
     text = (ROOT / "README.md").read_text()
-    block = text.split("result = run_scene(", 1)[1].split("}, outdir=", 1)[0] + "}"
+    block = "{" + text.split("scene = {", 1)[1].split("\nresult = run_scene(", 1)[0]
     scene = ast.literal_eval(block)  # the README's literal dict
     assert not [e.message for e in validator().iter_errors(plain(scene))]
 

@@ -135,6 +135,7 @@ def _lines(p, q):
     q.put(None)
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @hang_fails(900)
 def test_double_signals_at_random_moments_under_mpirun(tmp_path):
@@ -230,6 +231,7 @@ def _until(p, word, timeout=300):
             return seen, q
 
 
+@pytest.mark.e2e
 @pytest.mark.serial
 @hang_fails(600)
 @pytest.mark.parametrize(
@@ -272,3 +274,40 @@ def test_a_signal_while_gmsh_meshes_stops_at_once(tmp_path, ranks, sig):
     assert p.returncode == EXIT_INTERRUPTED, text
     assert "Traceback" not in text and f"interrupted by {sig.name}" in text, text
     assert "[block_on_base] 2-D" not in text, text  # stopped in the mesh's set-up
+
+
+@pytest.mark.serial
+@hang_fails(600)
+def test_sigterm_and_sigint_through_the_launcher_stop_a_finite_sliding_run(tmp_path):
+    """SIGTERM or SIGINT to ``mpirun`` ends the job at once (SIGKILL 0.25 s after it forwards
+    SIGTERM; exit 1, nothing printed: Open MPI's doing). Through
+    ``python3 -m subfric_dolfinx.scenes.launch`` they stop a 2-rank finite-sliding run
+    cleanly: SIGTERM after the step, SIGINT 50 ms later within it; exit 75, the launcher's two
+    lines and the run's own, no traceback."""
+    cmd = [sys.executable, "-m", "subfric_dolfinx.scenes.launch", "-n", "2", sys.executable]
+    cmd += ["demos/block_sliding_far.py", "--no-figures", "-v", "--out", str(tmp_path)]
+    p = subprocess.Popen(
+        cmd,
+        cwd=ROOT,
+        env=singleton_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        seen, q = _until(p, "step    3 ")
+        p.send_signal(signal.SIGTERM)
+        time.sleep(0.05)
+        p.send_signal(signal.SIGINT)
+        p.wait(timeout=300)
+        while (line := q.get(timeout=30)) is not None:
+            seen.append(line)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    text = "".join(seen)
+    assert p.returncode == EXIT_INTERRUPTED, text
+    assert "launch: SIGTERM: the run stops after its step" in text, text
+    assert "launch: SIGINT: the run stops within its step" in text, text
+    assert "interrupted by SIGUSR1" in text and "Traceback" not in text, text

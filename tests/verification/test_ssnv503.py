@@ -36,8 +36,9 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx.constitutive import Status
+from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import run_scene
-from tests.helpers import prefix
+from tests.helpers import leaves_validity, prefix
 
 PN, PT_STICK, PT_SLIDE, MU = 300.0, 178.2, 181.8, 0.3
 WIDTH, HEIGHT = 40.0, 20.0  # the skate: AB = CD = 40 mm, AD = 20 mm
@@ -94,7 +95,8 @@ def scene() -> dict:
 
 @pytest.fixture(scope="module")
 def result():
-    return run_scene(scene(), comm=MPI.COMM_WORLD)
+    with leaves_validity(PenetrationWarning):  # SSNV503's joint stiffness, as the benchmark has it
+        return run_scene(scene(), comm=MPI.COMM_WORLD)
 
 
 def at(result, t):

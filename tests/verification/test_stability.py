@@ -10,6 +10,7 @@ every rank.
 import pytest
 from mpi4py import MPI
 
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.stability import CASES
 
 
@@ -23,7 +24,23 @@ def test_the_case_list_covers_both_levels_and_every_outcome():
     assert len({c.name for c in CASES}) == len(CASES)
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
+# The FE cases press the 1 mm block with the laws the cases name, most with the paper's soft
+# normal penalties, on purpose (the report tabulates these runs); "FE r -> 1" slides it 5 mm.
+VALID = {"FE penalty 1e8"}
+SLIDING = {"FE r -> 1"}
+
+
+def leaves(case):
+    """The case's ``leaves_validity`` mark, if it has one."""
+    if case.level != "fe" or case.name in VALID:
+        return ()
+    categories = (
+        (PenetrationWarning, SlideWarning) if case.name in SLIDING else (PenetrationWarning,)
+    )
+    return (pytest.mark.leaves_validity(*categories, reason="the case's soft normal penalty"),)
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.name, marks=leaves(c)) for c in CASES])
 def test_stability_case(case):
     comm = MPI.COMM_WORLD
     out = case.run(comm)
