@@ -21,6 +21,7 @@ FIVE = ["mu_s", "mu_k", "kappa", "u_tilde", "c_n"]
 START = {**TRUE, "mu_s": 400.0, "mu_k": 80.0, "kappa": 1.0, "u_tilde": 10.0, "c_n": 3e-4}
 F_N = [100.0, 200.0, 350.0, 450.0, 600.0]
 SLIP = np.linspace(0.0, 4.0, 81)
+SPM = 20.0  # steps/mm of the fits and of their curves (the default, 50, is finer: slower)
 
 
 def data_for(curves, params=START, names=FIVE, **extra):
@@ -48,8 +49,8 @@ def test_the_model_of_a_curve_is_the_driver():
 def test_five_parameters_recovered_from_five_noiseless_curves():
     """mu_s, mu_k, kappa, u_tilde, c_n from 20-60 % off, five curves at 100-600 MPa: each
     within 2 % (issue 14; in fact to 1e-6), converged, rms at round-off."""
-    data = parse_data(data_for(synthetic_curves(TRUE, F_N, [1.0] * 5, SLIP)))
-    res = fit(data)
+    data = parse_data(data_for(synthetic_curves(TRUE, F_N, [1.0] * 5, SLIP, steps_per_mm=SPM)))
+    res = fit(data, steps_per_mm=SPM)
     assert res.converged, res.message
     for k in FIVE:
         assert abs(res.params[k] / TRUE[k] - 1.0) < 1e-6, (k, res.params[k], TRUE[k])
@@ -70,12 +71,14 @@ def test_standard_errors_match_a_direct_computation_on_noisy_data():
     computed here by central differences in p at the optimum, and the truth lies within 4 of
     them."""
     noise = 0.1
-    curves = synthetic_curves(TRUE, F_N, [1.0] * 5, SLIP[::2], noise=noise, seed=4)
+    curves = synthetic_curves(
+        TRUE, F_N, [1.0] * 5, SLIP[::2], noise=noise, seed=4, steps_per_mm=SPM
+    )
     names = ["mu_k", "kappa", "u_tilde"]
     data = parse_data(
         data_for(curves, params={**TRUE, "mu_k": 70.0, "kappa": 1.2, "u_tilde": 12.0}, names=names)
     )
-    res = fit(data)
+    res = fit(data, steps_per_mm=SPM)
     assert res.converged
     measured = np.concatenate([c["f_t"] for c in curves])
     cols = []
@@ -84,10 +87,10 @@ def test_standard_errors_match_a_direct_computation_on_noisy_data():
         up, dn = dict(res.params), dict(res.params)
         up[k] += h
         dn[k] -= h
-        a, b = simulate([up, dn], data.curves, 50.0)
+        a, b = simulate([up, dn], data.curves, SPM)
         cols.append((np.concatenate(a) - np.concatenate(b)) / (2 * h))
     J = np.column_stack(cols)
-    r = np.concatenate(simulate([res.params], data.curves, 50.0)[0]) - measured
+    r = np.concatenate(simulate([res.params], data.curves, SPM)[0]) - measured
     s2 = r @ r / (r.size - len(names))
     sd = np.sqrt(np.diag(np.linalg.inv(J.T @ J)) * s2)
     for i, k in enumerate(names):
@@ -100,7 +103,9 @@ def test_xi_from_curves_at_several_velocities():
     """xi with kappa and mu_k is identifiable from slides at 0.02, 0.2 and 2 mm/s (a rate
     effect), and is recovered."""
     p = {**TRUE, "xi": 0.2}
-    curves = synthetic_curves(p, [300.0, 300.0, 300.0, 600.0], [0.02, 0.2, 2.0, 0.2], SLIP)
+    curves = synthetic_curves(
+        p, [300.0, 300.0, 300.0, 600.0], [0.02, 0.2, 2.0, 0.2], SLIP, steps_per_mm=SPM
+    )
     data = parse_data(
         data_for(
             curves,
@@ -108,7 +113,7 @@ def test_xi_from_curves_at_several_velocities():
             names=["xi", "kappa", "mu_k"],
         )
     )
-    res = fit(data)
+    res = fit(data, steps_per_mm=SPM)
     assert res.converged
     for k in ("xi", "kappa", "mu_k"):
         assert abs(res.params[k] / p[k] - 1.0) < 1e-5, k
@@ -143,6 +148,7 @@ def test_not_converged_exit_code_3_and_fit_written(tmp_path, capsys):
     src = tmp_path / "data.json"
     src.write_text(json.dumps(data_for(curves)))
     out = tmp_path / "fit.json"
-    assert main([str(src), "--out", str(out), "--max-evaluations", "1", "--quiet"]) == 3
+    argv = [str(src), "--out", str(out), "--max-evaluations", "1", "--steps-per-mm", "10"]
+    assert main([*argv, "--quiet"]) == 3
     assert "not converged" in capsys.readouterr().err
     assert json.loads(out.read_text())["converged"] is False
