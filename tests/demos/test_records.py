@@ -14,11 +14,11 @@ are never compared.
   built from it are the solver's, not results, and are left out). The FE runs are recorded on 2
   ranks and re-checked in the 2-rank leg (the ``two_ranks`` mark), the numpy-only demos in the
   1-rank leg. The package's warnings a run issues are part of its record.
-* **The report's material-point study** (numpy only): the runs of this law and Coulomb recorded
-  at most :data:`MP_CHEAP_SECONDS` long, both paths, against the reference (LSODA): their errors
+* **The report's material-point study** (numpy only): the :data:`MP_CHEAP_RUNS` coarsest runs
+  of this law and of Coulomb on both paths, against the reference (LSODA): their errors
   compared with the record, and the quoted orders refitted with them (the finer runs enter as
   recorded).
-* **The report's FE study**: its runs recorded at most :data:`CHEAP_FE_SECONDS` long re-run on
+* **The report's FE study**: its runs of at most :data:`CHEAP_FE_WORK` dofs x steps re-run on
   the suite's ranks (the 1-rank study and the 2-rank joint runs are recorded apart), their
   histories compared with the record, and the quoted orders re-derived with the re-run
   histories in place of the recorded ones (the finer runs, minutes each, enter as recorded).
@@ -227,8 +227,9 @@ def test_every_demo_has_its_records():
 # The report: material point
 
 
-MP_CHEAP_SECONDS = 0.3
-"""Material-point runs recorded at most this long (wall, best of repeats) are re-run."""
+MP_CHEAP_RUNS = 3
+"""The coarsest runs of each law on each path re-run (chosen by their steps, not their time: a
+record made on a loaded machine selects the same runs)."""
 
 
 @pytest.mark.serial
@@ -238,13 +239,12 @@ def test_the_material_point_study_gives_its_record():
     from report import mp_study
 
     recorded = json.loads((REPORT / "mp_study.json").read_text())
-    cheap = {
-        (key, r["law"], r["spm"])
-        for key, rec in recorded["paths"].items()
-        for r in rec["runs"]
-        if r["law"] in ("subloading", "coulomb") and r["wall"] <= MP_CHEAP_SECONDS
-    }
-    assert len(cheap) >= 16, "the study has too few cheap runs to re-check"
+    cheap = set()
+    for key, rec in recorded["paths"].items():
+        for law in ("subloading", "coulomb"):
+            runs = sorted((r for r in rec["runs"] if r["law"] == law), key=lambda r: r["steps"])
+            cheap |= {(key, law, r["spm"]) for r in runs[:MP_CHEAP_RUNS]}
+    assert len(cheap) == 4 * MP_CHEAP_RUNS, "the study has too few runs to re-check"
     now = mp_study.run(
         repeats=1,
         laws=("subloading", "coulomb"),
@@ -284,8 +284,9 @@ def test_the_material_point_study_gives_its_record():
 # --------------------------------------------------------------------------------------------
 # The report: FE study
 
-CHEAP_FE_SECONDS = 0.5
-"""FE-study runs recorded at most this long (wall, best of repeats) are re-run."""
+CHEAP_FE_WORK = 70_000
+"""FE-study runs of at most this many dofs x load steps are re-run (chosen by their size, not
+their time: a record made on a loaded machine selects the same runs)."""
 
 
 def _fe_recorded(size: int) -> list[dict]:
@@ -293,9 +294,13 @@ def _fe_recorded(size: int) -> list[dict]:
 
 
 def _cheap(runs: list[dict]) -> list[dict]:
-    """The study's converged runs of at most CHEAP_FE_SECONDS, not the coarsest-step probes."""
+    """The study's converged runs of at most CHEAP_FE_WORK, not the coarsest-step probes."""
     return [
-        r for r in runs if r["converged"] and r["wall"] <= CHEAP_FE_SECONDS and "max_cuts" not in r
+        r
+        for r in runs
+        if r["converged"]
+        and "max_cuts" not in r
+        and r["info"]["dofs"] * len(r["t"]) <= CHEAP_FE_WORK
     ]
 
 
