@@ -130,7 +130,7 @@ def scripts_dir():
 
 
 def test_the_console_scripts_are_declared_and_work(tmp_path):
-    """pyproject declares subfric-driver and subfric-calibrate; from the installed package
+    """pyproject declares subfric-driver, subfric-calibrate and subfric-scene; from the installed package
     (./run test) they run a case and refuse bad data with exit code 2, saying their own name."""
     import tomllib
 
@@ -138,6 +138,7 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
     assert scripts == {
         "subfric-driver": "subfric_dolfinx.driver.cli:main",
         "subfric-calibrate": "subfric_dolfinx.calibrate.cli:main",
+        "subfric-scene": "subfric_dolfinx.scenes.command:main",
     }
     where = scripts_dir()
     if where is None:  # the source tree: the entry points themselves, through -m
@@ -169,6 +170,15 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
         timeout=120,
     )
     assert usage.returncode == 0 and "usage: subfric-calibrate" in usage.stdout, usage.stdout
+    scene = subprocess.run(
+        [os.path.join(where, "subfric-scene"), "--help"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert scene.returncode == 0 and "usage: subfric-scene" in scene.stdout, scene.stdout
 
 
 SECRET = "the first line of a file elsewhere\n"
