@@ -130,8 +130,9 @@ def scripts_dir():
 
 
 def test_the_console_scripts_are_declared_and_work(tmp_path):
-    """pyproject declares subfric-driver, subfric-calibrate and subfric-scene; from the installed package
-    (./run test) they run a case and refuse bad data with exit code 2, saying their own name."""
+    """pyproject declares subfric-driver, subfric-calibrate and subfric-scene; from the installed
+    package (./run test) they run a case and refuse bad data with exit code 2, saying their own
+    name."""
     import tomllib
 
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
