@@ -31,6 +31,7 @@
   with exit code 59 instead of failing with the job's output (sid, 1 rank, under load).
 """
 
+import faulthandler
 import gc
 import os
 import pathlib
@@ -147,6 +148,39 @@ def pytest_runtest_call(item):
 
     with leaves_validity(*mark.args):
         return (yield)
+
+
+HANG_EXIT_MARGIN = float(os.environ.get("SUBFRIC_TEST_HANG_MARGIN", "60"))
+"""Seconds after a test's pytest-timeout at which faulthandler's watchdog ends its process
+(``SUBFRIC_TEST_HANG_MARGIN``: the test of the watchdog itself sets it short)."""
+
+
+def _original_stderr(config) -> object:
+    """The file descriptor of the stderr pytest found (its own faulthandler plugin keeps it):
+    fd 2 is the capture's file during a test."""
+    from _pytest import faulthandler as plugin
+
+    key = getattr(plugin, "fault_handler_stderr_fd_key", None)
+    fd = config.stash.get(key, None) if key is not None else None
+    return fd if isinstance(fd, int) else sys.stderr
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    """A hang ends the job even where pytest-timeout cannot fire. Its thread needs the GIL,
+    which a rank waiting in a reduction inside PETSc holds (a vector norm that one rank answered
+    from its cache while the other waited kept a 2-rank leg busy until CI's limit): faulthandler's
+    watchdog is a C thread; past the test's timeout and a margin it dumps every thread's stack and
+    ends the process, and mpirun ends the other ranks."""
+    mark = item.get_closest_marker("timeout")
+    limit = float(mark.args[0]) if mark and mark.args else float(item.config.getini("timeout"))
+    if limit > 0:
+        where = _original_stderr(item.config)
+        faulthandler.dump_traceback_later(limit + HANG_EXIT_MARGIN, exit=True, file=where)
+    try:
+        return (yield)
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 def pytest_runtest_teardown(item):

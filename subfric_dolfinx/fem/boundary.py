@@ -261,9 +261,14 @@ def load_vectors(
         blocks, _ = _point_vector(V, domain, c)
         for ch, part in parts.items():
             f = petsc_vector(V.dofmap.index_map, V.dofmap.bs)
-            f.set(0.0)
+            # Written through one array access on every rank, the ranks without the point too:
+            # an access changes the vector's state, which drops PETSc's cached norms. A rank
+            # whose vector kept the norm cached by ``set`` would answer ``f.norm()`` alone while
+            # the others wait in its reduction (a hang).
+            values = f.array_w
+            values[:] = 0.0
             for b in blocks:
-                f.array_w[b * gdim : (b + 1) * gdim] += part
+                values[b * gdim : (b + 1) * gdim] += part
             out.append((LoadPart(c, ch), f))
     return out
 

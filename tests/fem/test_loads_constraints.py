@@ -120,6 +120,10 @@ def test_a_point_force_is_applied_once_and_equals_the_reaction():
             PointForce((0.93, 0.871), F2, amplitude="f", body="slave"),
         ],
     )
+    # each load vector's norm, a reduction, is the force's on every rank: the ranks without the
+    # point take part (a norm cached on them while the others reduced hung a 2-rank run)
+    norms = [f.norm() for _, f in prob.loads]
+    assert norms == pytest.approx([np.linalg.norm(F1), np.linalg.norm(F2)], rel=1e-12)
     run(prob, "point", dt=1.0)
     assert prob.reactions["bottom"] == pytest.approx(-(F1 + F2), rel=1e-9)
     if x1[1] > 0.5:  # both on the block: the interface carries them
