@@ -22,7 +22,6 @@ import pytest
 from mpi4py import MPI
 
 from demos import two_bodies_api
-from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import ROOT, everywhere, on_root, singleton_env
 
 # demo -> (small command line, files it must write into --out)
@@ -174,11 +173,6 @@ def test_the_demo_runs_as_a_program(tmp_path, name):
         CHECKS[name](out, p.stdout)
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning,
-    SlideWarning,
-    reason="the API demo's normal penalty and its 1 mm slides on the 1 mm block",
-)
 def test_the_api_demo_shows_what_it_says(shared_tmp):
     """Peak, softening, recovery in the hold and a second peak; the hold in a few steps; the
     leading edge pressed harder than the trailing one; the outputs written."""
