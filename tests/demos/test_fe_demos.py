@@ -54,7 +54,7 @@ def test_the_main_demo_trusts_itself():
 
 def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):
     comm = MPI.COMM_WORLD
-    argv = ["--n", "3", "--holds", "0", "20", "5", "--amplitude", "1", "--dt", "0.05"]
+    argv = ["--n", "3", "--holds", "0", "20", "5", "--amplitude", "0.5", "--dt", "0.05"]
     argv += ["--fields", "vtx", "--out", str(shared_tmp), "--no-figures"]
     res = pad_on_plate.main(argv, comm)
     assert res.info["gdim"] == 3
