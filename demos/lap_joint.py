@@ -52,14 +52,19 @@ surface, so there is no rigid-body mode to suppress).
   sliding force; with a stiff one the shear concentrates at the block's edges, as it does in
   a real joint, and Coulomb slips there a little in the first cycle, which makes the
   comparison a fair one. This law's ratcheting hardly depends on $\alpha$ (the plastic slip
-  per cycle comes from $r$ and $U(r)$, not from the elastic part).
+  per cycle comes from $r$ and $U(r)$, not from the elastic part). Stiff against the paper's,
+  this penalty is still as compliant as 0.6 mm of the bodies: a choice of the model, which the
+  scene declares (`interfaces.interface.intended_compliance`), so the validity check judges only
+  how far the bodies overlap (3.5 µm, a twentieth of an interface element).
 * Coulomb with the **same peak strength**: $\mu_c = g(p)\,\mu_s / p = 0.097$, so that its
   sliding stress at the clamp pressure equals this law's static strength.
 * $q_{\max} = 0.4\,g(p)\,\mu_s = 11.6$ MPa: 40 % of Coulomb's sliding force, and 40 % of
   this law's static strength (though above its kinetic strength: once slipping, the joint
   would not stop; the ratcheting softens $\mu$ towards that point cycle by cycle).
-* 20 cycles of 2 s (`--cycles`); the slip per cycle is checked against the material-point
-  driver in `tests/demos/test_fe_demos.py`.
+* 15 cycles of 2 s (`--cycles`); the slip per cycle is checked against the material-point
+  driver in `tests/demos/test_fe_demos.py`. The block ratchets less than three interface
+  elements in all, within the validity of the small-sliding interface (more cycles on this mesh
+  would want finite sliding).
 
 | time (s)            | what happens                                           |
 |---------------------|--------------------------------------------------------|
@@ -69,7 +74,7 @@ surface, so there is no rigid-body mode to suppress).
 
 Run it on two ranks:
 
-    mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 20] [--load 0.4] [--out DIR]
+    mpirun -n 2 python3 demos/lap_joint.py [--n 16] [--cycles 15] [--load 0.4] [--out DIR]
 
 It prints progress on rank 0 (`-v`: a line per step, the timing breakdown of each run) and the slip
 per cycle, and writes each law's CSV history (`subloading/history.csv`, `coulomb/history.csv`) and
@@ -127,7 +132,7 @@ def scene(
     law: dict,
     name: str,
     n: int = 16,
-    cycles: int = 20,
+    cycles: int = 15,
     load: float = 0.4,
     pressure: float = PRESSURE,
     dt: float = 0.05,
@@ -151,6 +156,9 @@ def scene(
             "master": {"E": 2.1e5, "nu": 0.3},  # tool steel base
             "slave": {"E": 7.0e4, "nu": 0.33},  # aluminium block
         },
+        # the stiff-but-soft penalty is the model's (see above): its penetration is judged against
+        # the interface element size only
+        "interfaces": {"interface": {"intended_compliance": True}},
         "program": {"times": times, "channels": {"clamp": clamp, "cycle": cyc}},
         "dirichlet": [{"group": "bottom", "value": [0.0, 0.0]}],
         "loads": [
@@ -250,7 +258,7 @@ def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
     ap = cli.demo_parser(__doc__)
     ap.add_argument("--n", type=int, default=16, help="elements along the interface")
-    ap.add_argument("--cycles", type=int, default=20, help="number of load cycles")
+    ap.add_argument("--cycles", type=int, default=15, help="number of load cycles")
     ap.add_argument(
         "--load", type=float, default=0.4, help="peak traction over the static strength"
     )

@@ -205,7 +205,7 @@ def _table_time(demo: str) -> Quote:
 def _warned(d: Data) -> str:
     names = [f"`{k}`" for k in DEMOS if d.demo(k)["warnings"]]
     if not names:
-        return "no demo"
+        return "none"
     return ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
 
 
@@ -350,7 +350,8 @@ QUOTES: list[Quote] = [
         "recorded at commit `{}` on {} (load {}) by `docs/demo_results.py`"),
         _records, page=DEMOS_PAGE),
     Quote("demos whose default run warns", words(
-        "default runs of {t} end with a warning that the model's validity is at stake"),
+        "Demos whose default run ends with a warning that the model's validity is at stake (a "
+        "penetration, or a slide beyond the small-sliding assumption): {t}."),
         lambda d: [_warned(d)], page=DEMOS_PAGE),
     Quote("pad_on_plate: restored peaks", words("peak grows with the hold ({}, {}, {}, {} MPa for"),
           _pad_peaks, page=DEMOS_PAGE),

@@ -8,8 +8,9 @@ is what varies) and no output files:
 
 * ``block`` (2-D): ``demos/block_on_base.scene(n, hold, dt)``, the main demo with its hold
   shortened to ``hold``;
-* ``pad`` (3-D): ``demos/pad_on_plate.scene(n, holds=(hold,))``, its program sampled as at
-  ``dt = 0.1`` for every run (the same knots: the runs share their breakpoints);
+* ``pad`` (3-D): ``demos/pad_on_plate.scene(n, holds=(hold,), amplitude=1, alpha_n=500)``
+  (1 mm strokes and the Sec. 7 set's normal penalty), its program sampled as at ``dt = 0.1`` for
+  every run (the same knots: the runs share their breakpoints);
 
 and a law, ``subloading`` (the demo's) or ``coulomb`` with the same penalties and the kinetic
 strength of the subloading law at the nominal pressure (``mu_c f_n = g(f_n) mu_k``). A run with
@@ -75,7 +76,10 @@ def make_scene(case: str, law: str, n: int, dt: float, hold: float) -> dict:
     if case == "block":
         scene = block_on_base.scene(n=n, hold=hold, dt=dt)
     elif case == "pad":
-        scene = pad_on_plate.scene(n=n, holds=(hold,), dt=0.1, fields=None)
+        # the report's records: 1 mm strokes and the Sec. 7 set's normal penalty
+        scene = pad_on_plate.scene(
+            n=n, holds=(hold,), amplitude=1.0, dt=0.1, fields=None, alpha_n=500.0
+        )
     else:
         raise ValueError(f"unknown case {case!r}")
     if law == "coulomb":

@@ -160,6 +160,9 @@ class Interface:
             other body (mm); ``None``: twice the largest facet size.
         reach: Finite sliding: how far a point may slide in one step (mm); ``None``: the
             largest facet size.
+        intended_compliance: Its normal penalty's compliance is the model's, chosen on purpose
+            (a soft layer, rough surfaces): its penetration is then judged against the interface
+            element size only, not as a compliance (:mod:`~subfric_dolfinx.fem.validity`).
     """
 
     group: str
@@ -172,6 +175,7 @@ class Interface:
     kinematics: str | None = None
     search_radius: float | None = None
     reach: float | None = None
+    intended_compliance: bool = False
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

@@ -7,18 +7,30 @@ warns once at its end, naming the worst point, where and when (:func:`subfric_do
 a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
 :class:`~subfric_dolfinx.logs.SlideWarning`, visible in a plain script, one per MPI job):
 
-* **Penetration.** A pressed point sinks by ``ubar_n``; the interface is then as compliant as a
-  layer of the bodies ``l = E* ubar_n / f_n`` thick (``E*`` the contact modulus of the two
-  bodies, ``1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2``; ``l = E*/alpha_n`` for a linear
-  penalty), and it spreads the contact pressure over about ``l`` (``demos/punch.py`` measures
-  it). The bodies' own compliance over a contact of size ``L`` is about ``L / E*``: with ``l``
-  below a tenth of ``L`` the penalty adds less than a tenth to it. A mesh cannot resolve anything
-  shorter than its interface elements ``h`` either, so the tolerance is ``max(h,
-  PENETRATION_FRACTION L)``: on a fine mesh it is a fixed fraction of the contact (refining never
-  makes a warning appear), on a coarse one the element. ``L`` is the interface's size (its length
-  in 2-D, the square root of its area in 3-D). The warning says which ``alpha_n`` removes it
-  (``E*/tolerance``) and which makes the interface ten times stiffer than one interface element
-  of the bodies (``10 E*/h``, the usual rule for a penalty that the mesh cannot see).
+* **Penetration.** A pressed point sinks by ``ubar_n``: the two bodies overlap by that much. It
+  is judged twice, and warned about when either check fails:
+
+  - *interpenetration*: ``ubar_n`` against the interface element size ``h`` there. An overlap
+    beyond :data:`INTERPENETRATION_FRACTION` of an element is one the mesh resolves: the contact
+    is then not where the bodies touch (finite sliding pairs its points at that depth). Always
+    judged.
+  - *compliance*: the interface is as compliant as a layer of the bodies ``l = E* ubar_n / f_n``
+    thick (``E*`` the contact modulus of the two bodies, ``1/E* = (1 - nu_1^2)/E_1 + (1 -
+    nu_2^2)/E_2``; ``l = E*/alpha_n`` for a linear penalty), and it spreads the contact pressure
+    over about ``l`` (``demos/punch.py`` measures it). The bodies' own compliance over a contact
+    of size ``L`` is about ``L / E*``: with ``l`` below a tenth of ``L`` the penalty adds less
+    than a tenth to it. A mesh cannot resolve anything shorter than its interface elements
+    ``h`` either, so the tolerance is ``max(h, PENETRATION_FRACTION L)``: on a fine mesh it is a
+    fixed fraction of the contact (refining never makes this check fail), on a coarse one the
+    element. ``L`` is the interface's size (its length in 2-D, the square root of its area in
+    3-D). The warning says which ``alpha_n`` passes it (``E*/tolerance``) and which makes the
+    interface ten times stiffer than one interface element of the bodies (``10 E*/h``, the usual
+    rule for a penalty that the mesh cannot see). A compliance chosen on purpose (a soft layer,
+    the roughness of the surfaces: the pressure it spreads is the model's) is not a fault: an
+    interface declared with ``intended_compliance`` (:class:`~subfric_dolfinx.fem.Interface`,
+    the scene key ``interfaces.<name>.intended_compliance``) is judged on its interpenetration
+    only.
+
 * **Slide.** The traction at a slave point acts on the master point that faced it at the start:
   a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it several
   elements away from the point the slave really touches. Results stay those of that
@@ -34,7 +46,7 @@ A problem of several interfaces has one watch per interface (the
 :class:`~subfric_dolfinx.fem.LoadStepper` keeps them all); each uses the contact modulus of its
 own two bodies and names its interface in its warnings. A user bulk law without
 :class:`~subfric_dolfinx.fem.Material` values for an interface's bodies leaves ``E*`` unknown:
-that interface's penetration is then not judged (its slide is).
+that interface's compliance is then not judged (its interpenetration and its slide are).
 
 The checks cost one all-reduce of two numbers per step (and a gather when a maximum grows).
 """
@@ -51,6 +63,7 @@ from mpi4py import MPI
 from .. import logs
 
 __all__ = [
+    "INTERPENETRATION_FRACTION",
     "PENETRATION_FRACTION",
     "SLIDE_ELEMENTS",
     "ValidityWatch",
@@ -60,7 +73,12 @@ __all__ = [
 
 PENETRATION_FRACTION = 0.1
 """A penetration is tolerated while ``l = E* ubar_n / f_n`` stays below the larger of the
-interface element size and this fraction of the interface's size."""
+interface element size and this fraction of the interface's size (unless the interface declares
+its compliance intended)."""
+
+INTERPENETRATION_FRACTION = 0.1
+"""A penetration ``ubar_n`` beyond this fraction of the interface element size is warned about,
+whatever the interface declares."""
 
 SLIDE_ELEMENTS = 3.0
 """A slide ``|ubar_t|`` beyond this many interface element sizes is warned about."""
@@ -116,6 +134,8 @@ class ValidityWatch:
         penetration: The worst penetration beyond its tolerance so far, or ``None``.
         slide: The worst slide beyond :data:`SLIDE_ELEMENTS` elements so far, or ``None``.
         contact_modulus: ``E*`` of the interface's two bodies (MPa), ``None`` if unknown.
+        intended_compliance: The interface declares its normal compliance intended: its
+            penetration is judged against the element size only.
         size: The interface's size ``L`` (mm).
         h_min: The smallest interface element size (mm).
     """
@@ -140,6 +160,7 @@ class ValidityWatch:
         self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)
         self.h_min = self.comm.allreduce(float(self.h.min()) if self.h.size else np.inf, MPI.MIN)
         self.contact_modulus = _interface_modulus(problem, self.interface)
+        self.intended_compliance = _intended_compliance(problem, self.interface)
         self.tolerance = np.maximum(self.h, PENETRATION_FRACTION * self.size)
         self.penetration: WorstPoint | None = None
         self.slide: WorstPoint | None = None
@@ -148,9 +169,9 @@ class ValidityWatch:
     def track(self, t: float) -> None:
         """Look at the committed step that ended at ``t`` (collective).
 
-        Penetration: the worst point is the deepest among those beyond the tolerance (for a
-        linear penalty ``l`` is the same at every pressed point); slide: the point of the most
-        elements.
+        Penetration: the worst point is the deepest among those beyond a tolerance (the
+        interpenetration's or the compliance's; for a linear penalty ``l`` is the same at every
+        pressed point); slide: the point of the most elements.
         """
         el = self._elements
         nt = el.nt
@@ -159,10 +180,12 @@ class ValidityWatch:
         gap = el.last_gap if n else np.zeros((0, nt + 1))
         f_n = res.traction[:, nt] if res is not None and n else np.zeros(n)
         un = gap[:, nt]
-        pressed = (un > 0.0) & (f_n > 0.0) & (self.contact_modulus is not None)
-        es = self.contact_modulus or 0.0
-        layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
-        pen = layer / self.tolerance
+        pressed = (un > 0.0) & (f_n > 0.0)
+        pen = np.where(pressed, un / (INTERPENETRATION_FRACTION * self.h), 0.0)
+        if self.judges_compliance:
+            es = self.contact_modulus or 0.0
+            layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
+            pen = np.maximum(pen, layer / self.tolerance)
         slide = np.linalg.norm(gap[:, :nt], axis=1) if self.slides_small else np.zeros(n)
         checks = {  # name -> (ratio, value, what selects the worst point)
             "penetration": (pen, un, np.where(pen > 1.0, un, -np.inf)),
@@ -191,32 +214,18 @@ class ValidityWatch:
             found = [p for p in self.comm.allgather(mine) if p is not None]
             setattr(self, name, min(found, key=lambda p: p.x))  # the same on every rank
 
+    @property
+    def judges_compliance(self) -> bool:
+        """Whether the penetration is judged as a compliance too (E* known, not intended)."""
+        return self.contact_modulus is not None and not self.intended_compliance
+
     def messages(self) -> list[tuple[type[Warning], str]]:
         """The warnings of the run so far: (category, text) (the same on every rank)."""
         out: list[tuple[type[Warning], str]] = []
         on = f"on the interface {self.interface!r}: " if self._named else ""
         p = self.penetration
-        if p is not None and self.contact_modulus is not None:
-            es = self.contact_modulus
-            layer = es * p.value / p.f_n
-            tol = layer / p.ratio
-            out.append(
-                (
-                    logs.PenetrationWarning,
-                    (
-                        f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
-                        f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa). The interface is as "
-                        f"compliant as l = E* ubar_n / f_n = {layer:.3g} mm of the bodies "
-                        f"(E* = {es:.4g} MPa, their contact modulus), {p.ratio:.3g} times the "
-                        f"{tol:.3g} mm tolerated there, max(h, {PENETRATION_FRACTION:g} L) with "
-                        f"h = {p.h:.3g} mm the interface element and L = {self.size:.3g} mm the "
-                        "interface's size: the penalty spreads the contact pressure over about "
-                        f"l. Set alpha_n >= E*/{tol:.3g} mm = {es / tol:.3g} MPa/mm; "
-                        f"10 E*/h = {10 * es / self.h_min:.3g} MPa/mm makes the interface ten "
-                        "times stiffer than its smallest elements"
-                    ),
-                )
-            )
+        if p is not None:
+            out.append((logs.PenetrationWarning, self._penetration_text(p, on)))
         s = self.slide
         if s is not None:
             out.append(
@@ -229,12 +238,49 @@ class ValidityWatch:
                         "small-sliding: a slave point's traction still acts on the master point "
                         f"that faced it at the start, {s.value:.3g} mm away, which is right for a "
                         "uniformly loaded flat interface, not where the contact's state varies "
-                        "over that distance (e.g. at its edges). Coarser interface elements or a "
-                        "shorter slide keep it small"
+                        "over that distance (e.g. at its edges). Make the interface finite-sliding "
+                        "(Interface(..., kinematics='finite_sliding'); scene: interfaces.<name>."
+                        "kinematics: 'finite_sliding'), which pairs its points again as they "
+                        "slide, or keep the slide within a few interface elements"
                     ),
                 )
             )
         return out
+
+    def _penetration_text(self, p: WorstPoint, on: str) -> str:
+        """The penetration warning's text: the point, then each check it fails, with its remedy."""
+        frac = INTERPENETRATION_FRACTION
+        text = (
+            f"{on}large penetration: ubar_n up to {p.value:.3g} mm (at {_xy(p.x)}, "
+            f"t = {p.t:.6g} s, f_n = {p.f_n:.4g} MPa)."
+        )
+        overlap = p.value / p.h
+        if overlap > frac:
+            text += (
+                f" The bodies overlap by {overlap:.3g} of the interface element there (h = "
+                f"{p.h:.3g} mm; tolerated up to {frac:g} h, an overlap the mesh does not "
+                f"resolve): set alpha_n >= f_n / ({frac:g} h) = {p.f_n / (frac * p.h):.3g} "
+                "MPa/mm."
+            )
+        if self.judges_compliance:
+            es = float(self.contact_modulus)  # type: ignore[arg-type]
+            layer = es * p.value / p.f_n
+            tol = max(p.h, PENETRATION_FRACTION * self.size)
+            if layer > tol:
+                text += (
+                    f" The interface is as compliant as l = E* ubar_n / f_n = {layer:.3g} mm of "
+                    f"the bodies (E* = {es:.4g} MPa, their contact modulus), {layer / tol:.3g} "
+                    f"times the {tol:.3g} mm tolerated there, max(h, {PENETRATION_FRACTION:g} L) "
+                    f"with h = {p.h:.3g} mm the interface element and L = {self.size:.3g} mm the "
+                    "interface's size: the penalty spreads the contact pressure over about l. "
+                    f"Set alpha_n >= E*/{tol:.3g} mm = {es / tol:.3g} MPa/mm; 10 E*/h = "
+                    f"{10 * es / self.h_min:.3g} MPa/mm makes the interface ten times stiffer "
+                    "than its smallest elements; or, if this compliance is the model's on "
+                    "purpose (a soft layer, rough surfaces), declare it: Interface(..., "
+                    "intended_compliance=True) (scene: interfaces.<name>.intended_compliance: "
+                    "true)."
+                )
+        return text
 
     def warn(self) -> None:
         """Warn about what went beyond its tolerance, each kind once per watch.
@@ -268,6 +314,13 @@ def _interface_modulus(problem: Any, name: str) -> float | None:
             return None
         mats.append(min(given, key=lambda m: m.E / (1.0 - m.nu**2)))
     return contact_modulus({"master": mats[0], "slave": mats[1]})
+
+
+def _intended_compliance(problem: Any, name: str) -> bool:
+    """Whether the interface's spec declares its normal compliance intended."""
+    topo = getattr(problem, "topology", None)
+    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
+    return bool(getattr(spec, "intended_compliance", False))
 
 
 def _xy(x: tuple[float, ...]) -> str:

@@ -150,6 +150,7 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
                 kinematics=spec.kinematics,
                 search_radius=spec.search_radius,
                 reach=spec.reach,
+                intended_compliance=bool(spec.intended_compliance),
             )
             for name, spec in scene.interfaces.items()
         ]

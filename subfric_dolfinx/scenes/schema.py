@@ -290,6 +290,10 @@ class InterfaceSpec:
             secondary side faces the primary (mm, > 0); ``None``: twice the largest facet size.
         reach: Finite sliding only: how far a point may slide in one step (mm, > 0); ``None``:
             the largest facet size.
+        intended_compliance: ``true``: its normal penalty's compliance is the model's, chosen on
+            purpose (a soft layer, rough surfaces): its penetration is judged against the
+            interface element size only, not as a compliance (``PenetrationWarning``);
+            ``None``: judged on both.
     """
 
     primary: str | None = None
@@ -304,6 +308,9 @@ class InterfaceSpec:
     kinematics: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
     search_radius: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
     reach: float | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
+    intended_compliance: bool | None = dataclasses.field(
+        default=None, metadata={"omit_if_none": True}
+    )
 
     @property
     def sides(self) -> tuple[str | None, str | None]:

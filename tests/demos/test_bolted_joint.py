@@ -19,7 +19,6 @@ from mpi4py import MPI
 from demos import bolted_joint
 from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import PRESETS
-from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import cli
 from tests.helpers import everywhere, on_root
 
@@ -100,9 +99,6 @@ def test_the_builder_makes_two_plates_joined_over_the_overlap_minus_the_hole():
     assert group_area(comm, "bolt_head") == pytest.approx(group_area(comm, "bolt_nut"), rel=1e-3)
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning, reason="the demo's normal penalty on the test's coarse mesh"
-)
 def test_bolted_joint_clamps_saturates_and_is_the_same_on_every_rank(shared_tmp):
     comm = MPI.COMM_WORLD
     res = bolted_joint.main([*ARGV, "--out", str(shared_tmp)], comm)

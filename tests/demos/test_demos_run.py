@@ -6,7 +6,9 @@ The demos' physics is tested in-process on the suite's ranks (``test_fe_demos.py
 (``test_records.py``: the FE demos on 2); here each demo runs the way a user runs it:
 ``python3 demos/<name>.py`` (its ``__main__`` block, the command line, the exit code, the
 figures and files it writes, each CSV file's units), in a subprocess with a timeout; the
-numpy-only demos under ``mpirun -n 2``, where rank 0 alone computes and writes. Each demo's
+numpy-only demos under ``mpirun -n 2``, where rank 0 alone computes and writes; with the
+package's warnings as errors (``-W error::subfric_dolfinx.logs.SubfricWarning``: no demo leaves
+its model's validity; the default runs' records say the same, ``test_records.py``). Each demo's
 output stays within 30 lines; the quick calibration's fit lands within a few standard errors of
 the truth its curves were made from. The API demo (``two_bodies_api``) is also run in-process,
 on the suite's ranks, and checked for what its text says.
@@ -22,7 +24,6 @@ import pytest
 from mpi4py import MPI
 
 from demos import two_bodies_api
-from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import ROOT, everywhere, on_root, singleton_env
 
 # demo -> (small command line, files it must write into --out)
@@ -150,7 +151,8 @@ NUMPY_ONLY = ("calibration", "paper_figures")
 def test_the_demo_runs_as_a_program(tmp_path, name):
     args, files = SMALL[name]
     out = tmp_path / name
-    cmd = [sys.executable, f"demos/{name}.py", *args, "--out", str(out)]
+    strict = ["-W", "error::subfric_dolfinx.logs.SubfricWarning"]  # no validity warning either
+    cmd = [sys.executable, *strict, f"demos/{name}.py", *args, "--out", str(out)]
     if name in NUMPY_ONLY:  # rank 0 computes and writes, the other returns at once
         cmd = ["mpirun", "-n", "2", *cmd]
     p = subprocess.run(
@@ -174,11 +176,6 @@ def test_the_demo_runs_as_a_program(tmp_path, name):
         CHECKS[name](out, p.stdout)
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning,
-    SlideWarning,
-    reason="the API demo's normal penalty and its 1 mm slides on the 1 mm block",
-)
 def test_the_api_demo_shows_what_it_says(shared_tmp):
     """Peak, softening, recovery in the hold and a second peak; the hold in a few steps; the
     leading edge pressed harder than the trailing one; the outputs written."""

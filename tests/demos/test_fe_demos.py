@@ -21,7 +21,6 @@ from demos import block_on_base, lap_joint, pad_on_plate, punch
 from subfric_dolfinx import logs
 from subfric_dolfinx.constitutive import PRESETS, Status
 from subfric_dolfinx.driver import run_case
-from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 
 
 def test_the_main_demo_trusts_itself():
@@ -53,12 +52,9 @@ def test_the_main_demo_trusts_itself():
     assert change[1] == pytest.approx(5.0, abs=0.5), change
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning, reason="the demo's normal penalty (the paper's Sec. 7 set)"
-)
 def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):
     comm = MPI.COMM_WORLD
-    argv = ["--n", "3", "--holds", "0", "20", "5", "--amplitude", "1", "--dt", "0.05"]
+    argv = ["--n", "3", "--holds", "0", "20", "5", "--amplitude", "0.5", "--dt", "0.05"]
     argv += ["--fields", "vtx", "--out", str(shared_tmp), "--no-figures"]
     res = pad_on_plate.main(argv, comm)
     assert res.info["gdim"] == 3
@@ -77,11 +73,6 @@ def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):
     assert (shared_tmp / "fields" / "interface_points.xdmf").is_file()  # the quadrature points
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning,
-    SlideWarning,
-    reason="the demo slides the small-sliding punch 1 mm over 0.06 mm elements",
-)
 def test_punch_saturates_under_the_pressure_peak(shared_tmp):
     comm = MPI.COMM_WORLD
     argv = ["--n", "8", "--dt", "0.02", "--out", str(shared_tmp), "--no-figures"]
@@ -92,7 +83,7 @@ def test_punch_saturates_under_the_pressure_peak(shared_tmp):
     s, c = sub.snapshots[end], coul.snapshots[end]
     p_mean = sub.history[-1]["f_n"]
     assert 800.0 < p_mean < 1200.0
-    assert 0.05 < mu_c < 0.2
+    assert 0.05 < mu_c < 0.3  # mu softened little over the 0.08 mm slide
     # the stiff penalty keeps the pressure peak at the punch edges
     fn = s["f_n"]
     assert fn.max() > 1.4 * p_mean
@@ -117,9 +108,6 @@ def test_punch_saturates_under_the_pressure_peak(shared_tmp):
     np.testing.assert_allclose(c["f_t"][sliding, 0] / c["f_n"][sliding], mu_c, rtol=1e-8)
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning, reason="the demo's normal penalty on the 1 mm block"
-)
 def test_lap_joint_ratchets_with_this_law_not_with_coulomb(shared_tmp):
     comm = MPI.COMM_WORLD
     cycles = 4

@@ -223,6 +223,17 @@ def test_every_demo_has_its_records():
         assert rec["wall_s"] > 0, key
 
 
+@pytest.mark.serial
+def test_no_recorded_demo_run_warns_about_its_validity():
+    """Every recorded demo run (each demo's default run, its smallest one, the quoted variants)
+    ended without a warning of the package: a demo stays within its model's validity, finite
+    sliding where its slide is long, and declares a penalty compliance it chose
+    (``intended_compliance``). The re-runs above hold the smallest runs' warnings to these
+    records; ``test_demos_run.py`` runs them with the package's warnings as errors."""
+    warned = {key: rec["warnings"] for key, rec in RESULTS["demos"].items() if rec["warnings"]}
+    assert not warned, warned
+
+
 # --------------------------------------------------------------------------------------------
 # The report: material point
 

@@ -10,15 +10,9 @@ with ``bcs``), and the history is still the same.
 import pytest
 
 from demos import user_loop
-from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import everywhere
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning,
-    SlideWarning,
-    reason="the demo's normal penalty and its 0.5 mm slide on the 1 mm block",
-)
 @pytest.mark.parametrize("push", ["top", "slave_left"])
 def test_dolfinx_newton_and_a_hand_written_loop_give_the_solvers_history(comm, push):
     mine = user_loop.run(comm, 8, 0.1, push)

@@ -5,8 +5,11 @@
 * The penetration warning (:class:`~subfric_dolfinx.fem.validity.ValidityWatch`): tolerance
   ``max(h, L/10)`` of bodies' material, the deepest point beyond it (checked against the gap
   gathered at every step), the ``alpha_n`` that removes it; the same verdict once the mesh is
-  finer than L/10 (refining does not make it appear).
-* The slide warning: a slide beyond three interface elements, not below.
+  finer than L/10 (refining does not make it appear). An interface declaring its compliance
+  intended (``Interface(..., intended_compliance=True)``, the scene key) is judged on its
+  interpenetration only: ``ubar_n`` against a tenth of the interface element.
+* The slide warning: a slide beyond three interface elements, not below; its advice names
+  finite sliding.
 * A plain script (no logging set up) sees the warning on stderr, once under ``mpirun -n 2``,
   even when warnings go to ``logging`` (FFCx 0.9 routes them there when imported).
 * The log says what the interface does (pressing: sticking), a line per long segment only, and
@@ -23,7 +26,11 @@ from mpi4py import MPI
 from subfric_dolfinx import logs, meshing
 from subfric_dolfinx.fem import Dirichlet, FrictionSolver, InterfaceProblem, LoadStepper, Material
 from subfric_dolfinx.fem import stepping as stepping_mod
-from subfric_dolfinx.fem.validity import SLIDE_ELEMENTS, contact_modulus
+from subfric_dolfinx.fem.validity import (
+    INTERPENETRATION_FRACTION,
+    SLIDE_ELEMENTS,
+    contact_modulus,
+)
 from subfric_dolfinx.loading import LoadingProgram
 from tests.helpers import LAW, everywhere, leaves_validity, mpirun, prefix, raised_on_every_rank
 
@@ -75,11 +82,11 @@ def block(comm, n):
     return dom
 
 
-def run_block(comm, n, alpha_n, slide, watch_steps=None):
+def run_block(comm, n, alpha_n, slide, watch_steps=None, interfaces=None):
     """300 MPa on the 1 mm block (builder defaults), then its top moved by ``slide``.
 
     Returns the problem, the stepper's watch and the SubfricWarnings this rank saw;
-    ``watch_steps(prob)`` is called after every step.
+    ``watch_steps(prob)`` is called after every step; ``interfaces`` go to the problem.
     """
     from subfric_dolfinx.fem import Pressure
 
@@ -92,6 +99,7 @@ def run_block(comm, n, alpha_n, slide, watch_steps=None):
         program,
         bcs,
         [Pressure("top", 300.0, amplitude="press")],
+        interfaces=interfaces,
     )
     on_step = None if watch_steps is None else (lambda rec: watch_steps(prob))
     with warnings.catch_warnings(record=True) as seen:
@@ -139,6 +147,54 @@ def test_a_soft_penalty_is_warned_once_with_what_to_set(alpha, warned):
         assert f"alpha_n >= E*/0.125 mm = {E_STAR / 0.125:.3g} MPa/mm" in msg, msg
 
 
+@pytest.mark.parametrize(
+    ("alpha", "intended", "warned"),
+    [(1e5, False, "compliance"), (1e5, True, None), (1e4, True, "overlap")],
+    ids=["1e5", "1e5-intended", "1e4-intended"],
+)
+def test_an_intended_compliance_is_judged_on_its_overlap_only(alpha, intended, warned):
+    """8 elements of 0.125 mm, 300 MPa: alpha_n = 1e5 MPa/mm is a layer l = E*/alpha_n = 0.59
+    mm, beyond the 0.125 mm tolerated, but it sinks ubar_n = 3 um, 0.024 of an element: warned
+    as a compliance unless the interface declares it intended. 1e4 MPa/mm sinks 0.03 mm, 0.24 of
+    an element, beyond the tenth tolerated: warned as an overlap even when intended, with the
+    alpha_n = f_n / (0.1 h) that removes it."""
+    from subfric_dolfinx.fem import Interface
+
+    comm = MPI.COMM_WORLD
+    spec = [Interface("interface", intended_compliance=intended)]
+    _, watch, ours = run_block(comm, 8, alpha, 0.02, interfaces=spec)
+    assert watch.intended_compliance is intended
+    if warned is None:
+        assert everywhere(comm, watch.penetration is None and not ours)
+        return
+    assert everywhere(comm, len(ours) == (1 if comm.rank == 0 else 0)), [str(w) for w in ours]
+    pen = watch.penetration
+    assert pen.value == pytest.approx(pen.f_n / alpha, rel=1e-9)
+    overlap = pen.value / (INTERPENETRATION_FRACTION * 0.125)
+    compliance = E_STAR / alpha / 0.125
+    assert pen.ratio == pytest.approx(overlap if intended else compliance, rel=1e-6)
+    if comm.rank == 0:
+        msg = str(ours[0].message)
+        assert ours[0].category is logs.PenetrationWarning
+        assert ("compliant as l" in msg) is (warned == "compliance"), msg
+        assert ("intended_compliance" in msg) is (warned == "compliance"), msg
+        assert ("overlap by" in msg) is (warned == "overlap"), msg
+        if warned == "overlap":
+            need = pen.f_n / (INTERPENETRATION_FRACTION * 0.125)
+            assert f"alpha_n >= f_n / (0.1 h) = {need:.3g} MPa/mm" in msg, msg
+
+
+def test_an_intended_compliance_is_a_scene_key():
+    """``interfaces.<name>.intended_compliance`` reaches the problem's interface spec."""
+    from subfric_dolfinx.scenes import parse_scene
+    from tests.helpers import small_scene
+
+    raw = small_scene(short=True)
+    raw["interfaces"] = {"interface": {"intended_compliance": True}}
+    scene = parse_scene(raw)
+    assert scene.interfaces["interface"].intended_compliance is True
+
+
 def test_refining_below_a_tenth_of_the_interface_does_not_change_the_verdict():
     """Once the elements are shorter than L/10 the tolerance is L/10 whatever the mesh: the
     penetration's ratio to it (and the advice) is the same at 16 and 32 elements."""
@@ -168,7 +224,9 @@ def test_a_slide_beyond_three_elements_is_warned(slide, warned):
     assert everywhere(comm, len(ours) == (1 if comm.rank == 0 else 0))
     if comm.rank == 0:
         assert ours[0].category is logs.SlideWarning
-        assert f"{watch.slide.value / watch.slide.h:.3g} interface elements" in str(ours[0].message)
+        msg = str(ours[0].message)
+        assert f"{watch.slide.value / watch.slide.h:.3g} interface elements" in msg, msg
+        assert "kinematics='finite_sliding'" in msg, msg  # the advice: finite sliding
 
 
 def test_contact_modulus():
