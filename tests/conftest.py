@@ -65,14 +65,6 @@ E2E_FOLDERS = (TESTS / "demos", TESTS / "verification")
 """Every test in these folders is ``e2e``: demos run whole, the docs and the records, results
 against their references (see ``pytest_collection_modifyitems``)."""
 
-UNDECLARED = (
-    "tests/fem/interface/",
-    "tests/demos/test_records.py::test_the_fe_study_gives_its_record",
-)
-"""Tests (node-id prefixes) whose scenes do not say yet where they leave the model's validity
-(the interface tests, being restructured; the report's FE study re-run): the package's warnings
-there are shown in the warnings summary, not raised."""
-
 
 def pytest_addoption(parser):
     parser.addoption("--run-slow", action="store_true", default=False, help="run tests marked slow")
@@ -98,10 +90,6 @@ def pytest_collection_modifyitems(config, items):
         path = pathlib.Path(str(item.path))
         if any(path.is_relative_to(folder) for folder in E2E_FOLDERS):
             item.add_marker(pytest.mark.e2e)
-        if item.nodeid.startswith(UNDECLARED):
-            item.add_marker(
-                pytest.mark.filterwarnings("default::subfric_dolfinx.logs.SubfricWarning")
-            )
     skip_serial = pytest.mark.skip(reason=f"serial-only test, running on {size} ranks")
     skip_slow = pytest.mark.skip(reason="slow test: give --run-slow to run it")
     for item in items:

@@ -111,6 +111,8 @@ def leaves_validity(*categories: type[Warning]) -> Iterator[None]:
     ``MPI.COMM_WORLD`` and every rank asserts the same. Any other warning goes on as usual (an
     unexpected package warning still fails the test where it is issued).
     """
+    import ffcx  # noqa: F401  (its import replaces showwarning: logging.captureWarnings(True))
+
     comm = MPI.COMM_WORLD
     seen: set[type[Warning]] = set()
     with warnings.catch_warnings():
