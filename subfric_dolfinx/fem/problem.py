@@ -44,8 +44,9 @@ from .conditions import (
     channels,
 )
 from .interface import FrictionInterface, InterfaceError
-from .interface.friction import layout_of, stiffen_separated
+from .interface.base import stiffen_separated
 from .interface.kinds import make_interface
+from .interface.layout import layout_of
 from .kinematics import check_axisymmetric, check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 

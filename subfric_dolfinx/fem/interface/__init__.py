@@ -15,12 +15,13 @@
   :mod:`.segments`, :mod:`.transfer`, :mod:`.sliding`).
 """
 
+from .base import InterfaceError
 from .element import InterfaceElements
 from .finite import SlidingInterface
-from .friction import FrictionInterface, create_matrix
+from .friction import FrictionInterface
 from .geometry import coordinate_basis, frames, match_points, push_forward, quadrature_rule
-from .layout import ExtendedLayout
-from .pairing import InterfaceError, InterfacePairs, pair_interface
+from .layout import ExtendedLayout, create_matrix
+from .pairing import InterfacePairs, pair_interface
 
 __all__ = [
     "ExtendedLayout",

@@ -58,12 +58,11 @@ from ...constitutive import FrictionLaw, InterfaceState, StatePair
 from ...constitutive.result import Status
 from ...constitutive.state import LOCAL, TANGENTIAL
 from ..kinematics import point_weight
-from .element import _initial_gap
+from .base import InterfaceError, initial_gaps
 from .finite_assembly import SlidingAssembly
 from .finite_points import SlidingPoints
 from .geometry import frames, quadrature_rule
 from .layout import Couplings
-from .pairing import InterfaceError
 from .projection import facet_basis, normal_projection, parametric_normal
 from .reach import ReachSearch, _near, surface_size
 from .segments import overlap_points
@@ -203,7 +202,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         )
         npts = s.size * self.nq
         self.n_points = npts
-        self.g0 = _initial_gap(initial_gap, self.points, self.comm)
+        self.g0 = initial_gaps(initial_gap, self.points, self.comm)
         self.point_data = {"g0": self.g0}
         fdim = max(gdim - 1, 1)
         sizes = self.facet_weights.sum(axis=1) ** (1.0 / fdim) if s.size else np.zeros(0)

@@ -17,7 +17,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...compat import petsc_vector
-from .friction import stiffen_separated
+from .base import _bc_values, stiffen_separated
 from .transfer import transfer_tangent
 
 __all__ = ["SlidingAssembly"]
@@ -144,7 +144,7 @@ class SlidingAssembly:
         """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`~.friction.stiffen_separated`). ``frictionless``: the law's tangent
+        stiffness (:func:`~.base.stiffen_separated`). ``frictionless``: the law's tangent
         keeps only the normal traction's change with the normal gap (:func:`_frictionless`).
         ``keep_contact``: points without stiffness that were in contact at the step's start get
         their normal stiffness there (:attr:`start_normal`).
@@ -274,8 +274,6 @@ class SlidingAssembly:
 
     def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
         """Whether each local (extended) dof is constrained, per node (n, bs) (collective)."""
-        from .friction import _bc_values
-
         dofs, _ = _bc_values(self.V, bcs, None)
         m = petsc_vector(self.index_map, self.bs)
         m.array_w[dofs] = 1.0
@@ -297,8 +295,6 @@ class SlidingAssembly:
         With ``bcs`` the forces go to the free rows only, plus the lifting ``K (g - x)`` of the
         tangent's coupling to the constrained dofs (DOLFINx's Newton convention).
         """
-        from .friction import _bc_values
-
         self._ensure(x)
         f = self.forces()
         ba = b.array_w

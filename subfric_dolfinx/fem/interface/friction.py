@@ -40,12 +40,12 @@ from petsc4py import PETSc
 
 from ...compat import petsc_vector
 from ...constitutive import FrictionLaw
+from .base import InterfaceError, _bc_values, stiffen_separated
 from .element import InterfaceElements
-from .layout import ExtendedLayout, combined_index_map
-from .pairing import InterfaceError, pair_interface
+from .pairing import pair_interface
 from .regions import element_regions
 
-__all__ = ["FrictionInterface", "create_matrix"]
+__all__ = ["FrictionInterface"]
 
 
 class FrictionInterface:
@@ -378,72 +378,3 @@ class FrictionInterface:
             if v is not None:
                 v.destroy()
                 setattr(self, name, None)
-
-
-def _bc_values(
-    V: dolfinx.fem.FunctionSpace, bcs: Sequence[Any], x: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Owned constrained dofs of DOLFINx ``bcs`` (unrolled, sorted) and ``g - x`` there."""
-    bs = V.dofmap.bs
-    imap = V.dofmap.index_map
-    n_owned, n_all = imap.size_local * bs, (imap.size_local + imap.num_ghosts) * bs
-    dofs = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]
-    dofs = np.unique(np.concatenate(dofs)) if dofs else np.zeros(0, np.int32)
-    dofs = dofs[dofs < n_owned].astype(np.int32)
-    values = np.zeros(n_all)
-    x0 = np.zeros(n_all)
-    if x is not None:
-        x0[:n_owned] = x[:n_owned]
-    for bc in bcs:
-        bc.set(values, x0, 1.0)
-    return dofs, values[dofs]
-
-
-def create_matrix(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> PETSc.Mat:
-    """A matrix with every bulk cell's block and every interface's couplings preallocated.
-
-    Assemble the bulk into it with DOLFINx (``dolfinx.fem.petsc.assemble_matrix``) and the
-    interfaces with :meth:`FrictionInterface.assemble_jacobian`: neither allocates.
-    """
-    return layout_of(V, interfaces).create_matrix()
-
-
-def layout_of(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> ExtendedLayout:
-    """The :class:`~.layout.ExtendedLayout` of all interfaces on ``V`` (collective)."""
-    parts = [el.layout_parts() for el in interfaces]
-    if len(parts) == 1:
-        return ExtendedLayout(V, parts[0][2], parts[0][3])
-    imap, nodes = combined_index_map(
-        V, [(g, o) for g, o, _, _ in parts], [(m, nd) for _, _, m, nd in parts]
-    )
-    return ExtendedLayout(V, imap, nodes)
-
-
-def stiffen_separated(tangent: np.ndarray, law: FrictionLaw, fraction: float) -> np.ndarray:
-    """The tangent with ``fraction`` of the contact stiffness at points that have none.
-
-    A point separated beyond the contact band (or failed) has a zero tangent: where every point
-    of a body's interface is so, and no support holds the body in some direction, the Jacobian
-    is singular (a block pulled sideways without load may tip about its one touching point, then
-    a pressure finds it floating: a failed linear solve). A Newton step on a Jacobian where such
-    points keep ``fraction * diag(alpha_t, ..., alpha_n)`` exists, and leaves the undetermined
-    motions alone where nothing pushes them; the residual, hence the converged solution, is
-    unchanged. Used by :class:`~.stepping.LoadStepper` in the retry of a failed step
-    (:data:`~.stepping.RETRY_SEPARATED_STIFFNESS`).
-
-    Args:
-        tangent: Consistent tangents (N, m, m).
-        law: The law (its ``alpha_t``, ``alpha_n``; the largest over regions).
-        fraction: Fraction of the contact stiffness; 0 returns ``tangent`` itself.
-    """
-    if not fraction or tangent.shape[0] == 0:
-        return tangent
-    free = ~tangent.reshape(tangent.shape[0], -1).any(axis=1)
-    if not free.any():
-        return tangent
-    m = tangent.shape[-1]
-    diag = np.full(m, float(law.alpha_t))
-    diag[-1] = float(law.alpha_n)
-    out = tangent.copy()
-    out[free] = fraction * np.diag(diag)
-    return out

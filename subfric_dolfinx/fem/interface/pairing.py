@@ -30,13 +30,10 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from ...compat import create_submesh, ghosted_index_map
+from .base import InterfaceError
 from .geometry import basix_cell, push_forward
 
 __all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
-
-
-class InterfaceError(ValueError):
-    """A mesh whose interface is unusable (missing tags, unpaired facets, undivided nodes)."""
 
 
 @dataclasses.dataclass
