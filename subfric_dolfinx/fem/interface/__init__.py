@@ -1,27 +1,25 @@
-"""Zero-thickness interface elements for DOLFINx.
+"""Zero-thickness interface elements for DOLFINx: one contract, two kinds.
 
-* :mod:`.geometry`: quadrature on facets, push-forward, local frames, point matching.
-* :func:`pair_interface` (:mod:`.pairing`): master/slave facet pairs across ranks, extended
-  index map.
-* :class:`InterfaceElements` (:mod:`.element`): quadrature, frames, Quadrature-space state of the
-  law's declared variables, gap and assembly kernels.
-* :class:`ExtendedLayout` (:mod:`.layout`): ghosted vectors and a matrix with cross-interface
-  couplings.
-* :class:`FrictionInterface` (:mod:`.friction`): one interface as a building block of any DOLFINx
-  problem (its residual and tangent into the user's PETSc vector and matrix, commit/revert), and
-  :func:`create_matrix` for the matrix with every interface's couplings.
-* :class:`SlidingInterface` (:mod:`.finite`): the same with finite sliding on non-matching
-  meshes (pairing in the current configuration, :mod:`.search`, :mod:`.projection`,
-  :mod:`.segments`, :mod:`.transfer`, :mod:`.sliding`).
+* :mod:`.base`: what both kinds use (:class:`InterfaceError`, the Dirichlet dofs, the tangent's
+  stiffening, the initial gap, the exchange of rows between ranks); :mod:`.protocol`: what the
+  rest of the package reads of an interface (:class:`~.protocol.InterfaceKind`,
+  :class:`~.protocol.LawPoints`); :mod:`.kinds`: the kind of each interface from its
+  ``kinematics``.
+* :mod:`.small`: node-to-node small sliding, :class:`FrictionInterface` (pairs fixed at the
+  reference geometry, :func:`pair_interface`, :class:`InterfaceElements`).
+* :mod:`.finite`: finite sliding on non-matching meshes, :class:`SlidingInterface` (pairing in
+  the current configuration: search, projection, segments, transfer).
+* Shared by both: :mod:`.geometry` (quadrature on facets, push-forward, local frames, point
+  matching) and :mod:`.layout` (:class:`ExtendedLayout`: ghosted vectors and a matrix with the
+  cross-interface couplings; :func:`create_matrix` for the matrix with every interface's
+  couplings).
 """
 
 from .base import InterfaceError
-from .element import InterfaceElements
 from .finite import SlidingInterface
-from .friction import FrictionInterface
 from .geometry import coordinate_basis, frames, match_points, push_forward, quadrature_rule
 from .layout import ExtendedLayout, create_matrix
-from .pairing import InterfacePairs, pair_interface
+from .small import FrictionInterface, InterfaceElements, InterfacePairs, pair_interface
 
 __all__ = [
     "ExtendedLayout",

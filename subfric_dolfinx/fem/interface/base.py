@@ -6,19 +6,23 @@
 * :func:`stiffen_separated`: the tangent with a fraction of the contact stiffness at points
   that have none (the retry of a failed step).
 * :func:`initial_gaps`: the initial normal gap at the law's points.
+* :func:`exchange_rows`: rows of arrays sent to the ranks that need them (``MPI_Alltoallv``).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import dolfinx
 import numpy as np
+from mpi4py import MPI
 
 from ...constitutive import FrictionLaw
 
-__all__ = ["InterfaceError", "initial_gaps", "stiffen_separated"]
+__all__ = ["InterfaceError", "Received", "exchange_rows", "initial_gaps", "stiffen_separated"]
 
 
 class InterfaceError(ValueError):
@@ -100,3 +104,34 @@ def initial_gaps(
     if errors:
         raise InterfaceError(errors[0])
     return g
+
+
+@dataclasses.dataclass
+class Received:
+    """Rows received in an exchange, grouped by source rank (ascending)."""
+
+    source: np.ndarray
+    rows: list[np.ndarray]
+
+
+def exchange_rows(comm: MPI.Comm, dest: np.ndarray, arrays: list[np.ndarray]) -> Received:
+    """Send row ``i`` of each array to rank ``dest[i]`` (``MPI_Alltoallv``; collective).
+
+    Only the counts go to every rank; the rows go where they are needed.
+    """
+    order = np.argsort(dest, kind="stable")
+    counts = np.bincount(dest, minlength=comm.size).astype(np.int64)
+    recv_counts = np.empty_like(counts)
+    comm.Alltoall(counts, recv_counts)
+    n_recv = int(recv_counts.sum())
+    out = []
+    for a in arrays:
+        a = np.ascontiguousarray(a[order])
+        width = math.prod(a.shape[1:])
+        recv = np.empty((n_recv, *a.shape[1:]), dtype=a.dtype)
+        sc, rc = counts * width, recv_counts * width
+        sd = np.concatenate([[0], np.cumsum(sc)[:-1]])
+        rd = np.concatenate([[0], np.cumsum(rc)[:-1]])
+        comm.Alltoallv([a, (sc, sd)], [recv, (rc, rd)])
+        out.append(recv)
+    return Received(np.repeat(np.arange(comm.size, dtype=np.int32), recv_counts), out)

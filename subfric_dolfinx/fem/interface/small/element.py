@@ -32,11 +32,11 @@ import basix.ufl
 import dolfinx
 import numpy as np
 
-from ...compat import geometry_dofmap
-from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
-from ..kinematics import point_weight
-from .base import initial_gaps
-from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
+from ....compat import geometry_dofmap
+from ....constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
+from ...kinematics import point_weight
+from ..base import initial_gaps
+from ..geometry import coordinate_basis, frames, push_forward, quadrature_rule
 from .pairing import InterfacePairs
 
 __all__ = ["InterfaceElements"]

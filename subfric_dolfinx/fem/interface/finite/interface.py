@@ -1,7 +1,7 @@
 """A frictional interface with finite sliding on non-matching meshes (``docs/model.md`` §11-12).
 
 :class:`SlidingInterface` is the finite-sliding kind of interface beside the node-to-node
-small-sliding :class:`~.friction.FrictionInterface`: the same law, return map and state
+small-sliding :class:`~.small.interface.FrictionInterface`: the same law, return map and state
 handling, the same building-block methods (:meth:`~SlidingInterface.set_step`,
 :meth:`~SlidingInterface.update`, :meth:`~SlidingInterface.forces`,
 :meth:`~SlidingInterface.assemble_residual`, :meth:`~SlidingInterface.assemble_jacobian`,
@@ -53,16 +53,16 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...compat import create_submesh
-from ...constitutive import FrictionLaw, InterfaceState, StatePair
-from ...constitutive.result import Status
-from ...constitutive.state import LOCAL, TANGENTIAL
-from ..kinematics import point_weight
-from .base import InterfaceError, initial_gaps
-from .finite_assembly import SlidingAssembly
-from .finite_points import SlidingPoints
-from .geometry import frames, quadrature_rule
-from .layout import Couplings
+from ....compat import create_submesh
+from ....constitutive import FrictionLaw, InterfaceState, StatePair
+from ....constitutive.result import Status
+from ....constitutive.state import LOCAL, TANGENTIAL
+from ...kinematics import point_weight
+from ..base import InterfaceError, initial_gaps
+from ..geometry import frames, quadrature_rule
+from ..layout import Couplings
+from .assembly import SlidingAssembly
+from .points import SlidingPoints
 from .projection import facet_basis, normal_projection, parametric_normal
 from .reach import ReachSearch, _near, surface_size
 from .segments import overlap_points
@@ -325,7 +325,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         """
         import time
 
-        from ..timing import TIMER_INTERFACE, TIMER_PROJECTION, TIMER_RETURN_MAP
+        from ...timing import TIMER_INTERFACE, TIMER_PROJECTION, TIMER_RETURN_MAP
 
         owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
         gdim, nt = self.gdim, self.nt

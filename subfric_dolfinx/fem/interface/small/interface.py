@@ -38,9 +38,9 @@ import dolfinx
 import numpy as np
 from petsc4py import PETSc
 
-from ...compat import petsc_vector
-from ...constitutive import FrictionLaw
-from .base import InterfaceError, _bc_values, stiffen_separated
+from ....compat import petsc_vector
+from ....constitutive import FrictionLaw
+from ..base import InterfaceError, _bc_values, stiffen_separated
 from .element import InterfaceElements
 from .pairing import pair_interface
 from .regions import element_regions
@@ -202,7 +202,7 @@ class FrictionInterface:
             The :class:`~subfric_dolfinx.constitutive.ReturnMapResult` (``converged`` False if
             the return map failed at some point of this rank).
         """
-        from ..timing import TIMER_INTERFACE, TIMER_RETURN_MAP
+        from ...timing import TIMER_INTERFACE, TIMER_RETURN_MAP
 
         owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
         with self._time(TIMER_INTERFACE):
@@ -239,7 +239,7 @@ class FrictionInterface:
 
     def forces(self) -> np.ndarray:
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         with self._time(TIMER_INTERFACE):
             with self.b_ext.localForm() as bl:
@@ -253,7 +253,7 @@ class FrictionInterface:
         """The element tangents of the last iterate, (nf, n, n), node-blocked, primary first.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        stiffness (:func:`~.base.stiffen_separated`); 0: the exact tangent.
         """
         tangent = stiffen_separated(self.elements.last.tangent, self.law, separated_stiffness)
         return self.elements.element_matrices(tangent)
@@ -321,17 +321,17 @@ class FrictionInterface:
     ) -> None:
         """Add the consistent tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
-        ``A`` must hold the interface couplings (:func:`create_matrix`). With ``bcs`` the rows and
-        columns of constrained dofs are left out (their diagonal is the bulk assembly's).
+        ``A`` must hold the interface couplings (:func:`~.layout.create_matrix`). With ``bcs`` the
+        rows and columns of constrained dofs are left out (their diagonal is the bulk assembly's).
         ``separated_stiffness``: in this Jacobian only, points without stiffness (separated beyond
         the contact band, failed) get this fraction of the law's contact stiffness
-        (:func:`stiffen_separated`); 0: the exact tangent. ``frictionless`` and
+        (:func:`~.base.stiffen_separated`); 0: the exact tangent. ``frictionless`` and
         ``keep_contact`` are ignored: the finite-sliding interface's first-iteration tangents
-        (:meth:`~.finite.SlidingInterface.assemble_jacobian`), taken here so that every kind of
-        interface is called the same way (:class:`~.protocol.InterfaceKind`); a small-sliding
-        interface's tangent is the same with them.
+        (:meth:`~.finite.interface.SlidingInterface.assemble_jacobian`), taken here so that every
+        kind of interface is called the same way (:class:`~.protocol.InterfaceKind`); a
+        small-sliding interface's tangent is the same with them.
         """
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         self._ensure(x)
         with self._time(TIMER_INTERFACE):

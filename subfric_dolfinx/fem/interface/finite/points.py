@@ -1,6 +1,6 @@
-"""The law's points of a finite-sliding interface (a part of :class:`~.finite.SlidingInterface`).
+"""The law's points of a finite-sliding interface (a part of :class:`~.interface.SlidingInterface`).
 
-A :class:`~.finite.SlidingInterface` is its own :class:`~.protocol.LawPoints`: the quadrature
+A :class:`~.interface.SlidingInterface` is its own :class:`~.protocol.LawPoints`: the quadrature
 points of its slave facets, in the order of the cells of its slave submesh. This part gives the
 frames of the last iterate per facet, the state a checkpoint holds (the law's variables, the
 points' total tangential gap and their frames' normals) and the restart from it.
@@ -12,13 +12,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .geometry import frames
+from ..geometry import frames
 
 __all__ = ["SlidingPoints"]
 
 
 class SlidingPoints:
-    """The law's-points part of :class:`~.finite.SlidingInterface` (the interface's attributes)."""
+    """The law's-points part of :class:`~.interface.SlidingInterface` (its attributes)."""
 
     @property
     def law_points(self) -> SlidingPoints:

@@ -1,4 +1,4 @@
-"""Forces and tangent of a finite-sliding interface (a part of :class:`~.finite.SlidingInterface`).
+"""Forces and tangent of a finite-sliding interface (part of :class:`~.interface.SlidingInterface`).
 
 The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes ``-B t`` of the
 segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
@@ -16,15 +16,15 @@ from typing import Any
 import numpy as np
 from petsc4py import PETSc
 
-from ...compat import petsc_vector
-from .base import _bc_values, stiffen_separated
+from ....compat import petsc_vector
+from ..base import _bc_values, stiffen_separated
 from .transfer import transfer_tangent
 
 __all__ = ["SlidingAssembly"]
 
 
 class SlidingAssembly:
-    """The assembly part of :class:`~.finite.SlidingInterface` (the interface's attributes).
+    """The assembly part of :class:`~.interface.SlidingInterface` (the interface's attributes).
 
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
@@ -91,7 +91,7 @@ class SlidingAssembly:
 
     def forces(self) -> np.ndarray:
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         with self._time(TIMER_INTERFACE):
             s, nq, gdim = self.slave, self.nq, self.gdim
@@ -254,7 +254,7 @@ class SlidingAssembly:
         iteration of every step: an extrapolated start that opens a few points by a round-off of
         the base's moving indentation would otherwise let them go in the first Newton step).
         """
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         self._ensure(x)
         with self._time(TIMER_INTERFACE):
