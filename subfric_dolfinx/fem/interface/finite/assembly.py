@@ -10,14 +10,10 @@ whose columns are the point's slave facet nodes and its master facet's nodes:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
-
 import numpy as np
 from petsc4py import PETSc
 
-from ....compat import petsc_vector
-from ..base import _bc_values, stiffen_separated
+from ..base import stiffen_separated
 from .transfer import transfer_tangent
 
 __all__ = ["SlidingAssembly"]
@@ -230,96 +226,53 @@ class SlidingAssembly:
             )
         return out
 
-    def assemble_jacobian(
+    def _add_tangent(
         self,
         A: PETSc.Mat,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
+        constrained: np.ndarray | None,
         separated_stiffness: float = 0.0,
         frictionless: bool = False,
         keep_contact: bool = False,
     ) -> None:
-        """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
+        """Add the tangent of the last iterate to ``A``, block by block (:meth:`_blocks`).
 
         ``A`` must hold this interface's pattern (the problem's :meth:`create_matrix` after the
-        last :attr:`layout_version`). With ``bcs`` the rows and columns of constrained dofs are
-        left out. ``separated_stiffness``: in this Jacobian only, found points without stiffness
-        get this fraction of the law's contact stiffness (the retry of a failed step).
-        ``frictionless``: in this Jacobian only, the law's tangent without its tangential
-        stiffness (the first iteration of a step where the loading program turns:
-        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric
-        terms are kept. ``keep_contact``: in this Jacobian only, points separated here that were
-        in contact at the step's start keep their normal stiffness of the start (the first
+        last :attr:`layout_version`). The rows and columns of ``constrained`` dofs are left out.
+        ``separated_stiffness``: in this Jacobian only, found points without stiffness get this
+        fraction of the law's contact stiffness (the retry of a failed step). ``frictionless``:
+        in this Jacobian only, the law's tangent without its tangential stiffness (the first
+        iteration of a step where the loading program turns:
+        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric terms
+        are kept. ``keep_contact``: in this Jacobian only, points separated here that were in
+        contact at the step's start keep their normal stiffness of the start (the first
         iteration of every step: an extrapolated start that opens a few points by a round-off of
         the base's moving indentation would otherwise let them go in the first Newton step).
         """
-        from ...timing import TIMER_INTERFACE
+        mask = constrained.reshape(-1, self.bs) if constrained is not None else None
+        gl = self.index_map.local_to_global
+        for rows, cols, vals in self._blocks(separated_stiffness, frictionless, keep_contact):
+            if rows.shape[0] == 0:
+                continue
+            if mask is not None:
+                mr = mask[rows].reshape(rows.shape[0], -1)
+                mc = mask[cols].reshape(cols.shape[0], -1)
+                vals = vals.copy()
+                vals[mr[:, :, None] | mc[:, None, :]] = 0.0
+            R = gl(rows.ravel().astype(np.int32)).reshape(rows.shape).astype(PETSc.IntType)
+            Cc = gl(cols.ravel().astype(np.int32)).reshape(cols.shape).astype(PETSc.IntType)
+            A.setValuesBlockedRCV(R, Cc, vals, addv=PETSc.InsertMode.ADD_VALUES)
 
-        self._ensure(x)
-        with self._time(TIMER_INTERFACE):
-            mask = self._constrained(bcs) if bcs else None
-            gl = self.index_map.local_to_global
-            for rows, cols, vals in self._blocks(separated_stiffness, frictionless, keep_contact):
-                if rows.shape[0] == 0:
-                    continue
-                if mask is not None:
-                    mr = mask[rows].reshape(rows.shape[0], -1)
-                    mc = mask[cols].reshape(cols.shape[0], -1)
-                    vals = vals.copy()
-                    vals[mr[:, :, None] | mc[:, None, :]] = 0.0
-                R = gl(rows.ravel().astype(np.int32)).reshape(rows.shape).astype(PETSc.IntType)
-                Cc = gl(cols.ravel().astype(np.int32)).reshape(cols.shape).astype(PETSc.IntType)
-                A.setValuesBlockedRCV(R, Cc, vals, addv=PETSc.InsertMode.ADD_VALUES)
-
-    def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
-        """Whether each local (extended) dof is constrained, per node (n, bs) (collective)."""
-        dofs, _ = _bc_values(self.V, bcs, None)
-        m = petsc_vector(self.index_map, self.bs)
-        m.array_w[dofs] = 1.0
-        m.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with m.localForm() as ml:
-            out = ml.array_r.reshape(-1, self.bs) > 0.5
-        m.destroy()
-        return out
-
-    def assemble_residual(
-        self,
-        b: PETSc.Vec,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
-    ) -> bool:
-        """Add the interface forces at ``x`` to ``b`` (owned part; collective).
-
-        With ``bcs`` the forces go to the free rows only, plus the lifting ``K (g - x)`` of the
-        tangent's coupling to the constrained dofs (DOLFINx's Newton convention).
-        """
-        self._ensure(x)
-        f = self.forces()
-        ba = b.array_w
-        if not bcs:
-            ba += f
-            return bool(self.last.converged)
-        dofs, g_minus_x = _bc_values(self.V, bcs, self._x_at_update)
-        free = np.ones(self.n_owned, dtype=bool)
-        free[dofs] = False
-        w = petsc_vector(self.index_map, self.bs)
-        w.array_w[dofs] = g_minus_x
-        w.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with w.localForm() as wl:
-            we = wl.array_r.reshape(-1, self.bs)
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                acc = bl.array_w.reshape(-1, self.bs)
-                for rows, cols, vals in self._blocks():
-                    lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
-                    np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
-        w.destroy()
+    def _lifting(self, dofs: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """``K (g - x)`` over the constrained dofs (owned rows; collective), block by block."""
+        we = self._extended(dofs, values).reshape(-1, self.bs)
+        with self.b_ext.localForm() as bl:
+            bl.set(0.0)
+            acc = bl.array_w.reshape(-1, self.bs)
+            for rows, cols, vals in self._blocks():
+                lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
+                np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
         self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        lift = self.b_ext.array_r[: self.n_owned]
-        ba[free] += f[free] + lift[free]
-        return bool(self.last.converged)
+        return self.b_ext.array_r[: self.n_owned]
 
 
 def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:

@@ -156,13 +156,13 @@ class ReachSearch:
         self.pf_nodes = nodes.astype(np.int32)  # (npf, nfd_m), local in the extended map
         self.pf_global = pf_global
         self.pf_normals = cn[rows].copy()
-        for v in ("x_ext", "b_ext", "_mask_ext"):
+        for v in ("x_ext", "b_ext", "_work"):
             old = getattr(self, v)
             if old is not None:
                 old.destroy()
         self.x_ext = petsc_vector(self.index_map, self.bs)
         self.b_ext = petsc_vector(self.index_map, self.bs)
-        self._mask_ext = None
+        self._work = None
         # reference positions of the reach's master nodes: current minus displacement
         self.x_ext.array_w[: self.n_owned] = self._x_committed
         self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
