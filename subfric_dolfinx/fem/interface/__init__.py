@@ -1,8 +1,10 @@
 """Zero-thickness interface elements for DOLFINx: one contract, two kinds.
 
-* :mod:`.base`: what both kinds use (:class:`InterfaceError`, the Dirichlet dofs, the tangent's
-  stiffening, the initial gap, the exchange of rows between ranks); :mod:`.protocol`: what the
-  rest of the package reads of an interface (:class:`~.protocol.InterfaceKind`,
+* :class:`BaseInterface` (:mod:`.base`): the abstract base of both kinds, what they do alike
+  (the Dirichlet rows and columns of the residual and the tangent, the step, commit and revert,
+  ``destroy``), and the helpers both use (:class:`InterfaceError`, the tangent's stiffening, the
+  initial gap, the exchange of rows between ranks); :mod:`.protocol`: what the rest of the
+  package reads of an interface (:class:`~.protocol.InterfaceKind`,
   :class:`~.protocol.LawPoints`); :mod:`.kinds`: the kind of each interface from its
   ``kinematics``.
 * :mod:`.small`: node-to-node small sliding, :class:`FrictionInterface` (pairs fixed at the
@@ -15,13 +17,14 @@
   couplings).
 """
 
-from .base import InterfaceError
+from .base import BaseInterface, InterfaceError
 from .finite import SlidingInterface
 from .geometry import coordinate_basis, frames, match_points, push_forward, quadrature_rule
 from .layout import ExtendedLayout, create_matrix
 from .small import FrictionInterface, InterfaceElements, InterfacePairs, pair_interface
 
 __all__ = [
+    "BaseInterface",
     "ExtendedLayout",
     "FrictionInterface",
     "InterfaceElements",

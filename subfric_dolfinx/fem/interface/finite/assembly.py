@@ -269,6 +269,8 @@ class SlidingAssembly:
             bl.set(0.0)
             acc = bl.array_w.reshape(-1, self.bs)
             for rows, cols, vals in self._blocks():
+                if rows.shape[0] == 0:  # a rank without points or segments: nothing to add
+                    continue
                 lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
                 np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
         self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
