@@ -8,6 +8,8 @@
 * :func:`stiffen_separated`: the tangent with a fraction of the contact stiffness at points
   that have none (the retry of a failed step).
 * :func:`initial_gaps`: the initial normal gap at the law's points.
+* :func:`saved_law_state`, :func:`restore_law_state`: the law's committed variables out of and
+  back into a state pair (checkpoints).
 * :func:`exchange_rows`: rows of arrays sent to the ranks that need them (``MPI_Alltoallv``).
 """
 
@@ -17,7 +19,7 @@ import abc
 import contextlib
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import dolfinx
@@ -26,7 +28,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ...compat import petsc_vector
-from ...constitutive import FrictionLaw
+from ...constitutive import FrictionLaw, StatePair
 
 __all__ = [
     "BaseInterface",
@@ -34,6 +36,8 @@ __all__ = [
     "Received",
     "exchange_rows",
     "initial_gaps",
+    "restore_law_state",
+    "saved_law_state",
     "stiffen_separated",
 ]
 
@@ -287,6 +291,19 @@ def _bc_values(
     for bc in bcs:
         bc.set(values, x0, 1.0)
     return dofs, values[dofs]
+
+
+def saved_law_state(state: StatePair) -> dict[str, np.ndarray]:
+    """The committed internal variables of the law (what a restart needs), name -> array."""
+    return dict(state.old.items())
+
+
+def restore_law_state(state: StatePair, arrays: Mapping[str, np.ndarray]) -> None:
+    """Put the law's variables of ``arrays`` back as the committed and trial ``state``."""
+    st = state.old
+    for name in st.names:
+        st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
+    state.revert()
 
 
 def stiffen_separated(tangent: np.ndarray, law: FrictionLaw, fraction: float) -> np.ndarray:

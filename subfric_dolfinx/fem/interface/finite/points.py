@@ -12,6 +12,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..base import restore_law_state, saved_law_state
 from ..geometry import frames
 
 __all__ = ["SlidingPoints"]
@@ -42,7 +43,7 @@ class SlidingPoints:
         components) and the normals of their frames (``sliding_normal``; zero where a point never
         faced the master: its frame is still the identity, which no frame of a normal is).
         """
-        out = dict(self.state.old.items())
+        out = saved_law_state(self.state)
         out["sliding_ut"] = self.ut_old
         normal = -self.Q_old[:, -1, :]
         normal[np.all(self.Q_old == np.eye(self.gdim), axis=(1, 2))] = 0.0
@@ -51,10 +52,7 @@ class SlidingPoints:
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put :meth:`saved_state`'s arrays back (then :meth:`resume` from the displacement)."""
-        st = self.state.old
-        for name in st.names:
-            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
-        self.state.revert()
+        restore_law_state(self.state, arrays)
         self.ut_old = np.asarray(arrays["sliding_ut"], dtype=float).reshape(self.ut_old.shape)
         normal = np.asarray(arrays["sliding_normal"], dtype=float).reshape(-1, self.gdim)
         faced = np.linalg.norm(normal, axis=1) > 0.5

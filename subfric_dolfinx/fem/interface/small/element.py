@@ -35,7 +35,7 @@ import numpy as np
 from ....compat import geometry_dofmap
 from ....constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
 from ...kinematics import point_weight
-from ..base import initial_gaps
+from ..base import initial_gaps, restore_law_state, saved_law_state
 from ..geometry import coordinate_basis, frames, push_forward, quadrature_rule
 from .pairing import InterfacePairs
 
@@ -252,14 +252,11 @@ class InterfaceElements:
 
     def saved_state(self) -> dict[str, np.ndarray]:
         """The committed internal variables (what a restart needs), name -> array."""
-        return dict(self.state.old.items())
+        return saved_law_state(self.state)
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put the internal variables back as the committed and trial state."""
-        st = self.state.old
-        for name in st.names:
-            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
-        self.state.revert()
+        restore_law_state(self.state, arrays)
 
     def revert(self) -> None:
         """Reject the trial state."""

@@ -32,7 +32,7 @@ from ....compat import create_submesh, ghosted_index_map
 from ..base import InterfaceError, Received, exchange_rows
 from ..geometry import basix_cell, push_forward
 
-__all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
+__all__ = ["InterfacePairs", "pair_interface"]
 
 
 @dataclasses.dataclass
