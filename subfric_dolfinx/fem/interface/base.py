@@ -250,6 +250,18 @@ class BaseInterface(abc.ABC):
         with w.localForm() as wl:
             return wl.array_r.copy()
 
+    def _sum_to_owners(self, add: Callable[[np.ndarray], None]) -> np.ndarray:
+        """The owned sums of what ``add`` puts into the local values of the extended map.
+
+        ``add`` adds into the local values (owned and ghosts, zeroed first) of :attr:`b_ext`; the
+        ghosts' parts go to their owners (collective: a reverse scatter).
+        """
+        with self.b_ext.localForm() as bl:
+            bl.set(0.0)
+            add(bl.array_w)
+        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return self.b_ext.array_r[: self.n_owned].copy()
+
     def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
         """Whether each local dof of the extended map is constrained by ``bcs`` (collective)."""
         dofs, _ = _bc_values(self.V, bcs, None)

@@ -92,18 +92,18 @@ class SlidingAssembly:
         with self._time(TIMER_INTERFACE):
             s, nq, gdim = self.slave, self.nq, self.gdim
             tg = self._global_tractions().reshape(s.size, nq, gdim)
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                b = bl.array_w.reshape(-1, self.bs)
-                w = self.weights.reshape(s.size, nq)
+            w = self.weights.reshape(s.size, nq)
+
+            def add(local: np.ndarray) -> None:
+                b = local.reshape(-1, self.bs)
                 Rs = np.einsum("fq,qk,fqd->fkd", w, self.Ns[0], tg)
                 np.add.at(b[:, :gdim], s.nodes.ravel(), Rs.reshape(-1, gdim))
                 tr = self._transfer
                 if tr.slave.size:
                     Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.slave])
                     np.add.at(b[:, :gdim], self.pf_nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
-            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            self.force = self.b_ext.array_r[: self.n_owned].copy()
+
+            self.force = self._sum_to_owners(add)
             self.round_off = self._round_off(w)
         return self.force
 
@@ -117,9 +117,9 @@ class SlidingAssembly:
         s, nq, gdim = self.slave, self.nq, self.gdim
         D = np.abs(self.last.tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
         m = (D * (np.linalg.norm(self._xq, axis=1) + self.h)).reshape(s.size, nq)
-        with self.b_ext.localForm() as bl:
-            bl.set(0.0)
-            b = bl.array_w.reshape(-1, self.bs)
+
+        def add(local: np.ndarray) -> None:
+            b = local.reshape(-1, self.bs)
             Rs = np.einsum("fq,qk,fq->fk", w, np.abs(self.Ns[0]), m)
             np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), self.bs, axis=1))
             tr = self._transfer
@@ -128,8 +128,8 @@ class SlidingAssembly:
                 np.add.at(
                     b, self.pf_nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), self.bs, 1)
                 )
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self.b_ext.array_r[: self.n_owned].copy()
+
+        return self._sum_to_owners(add)
 
     def _blocks(
         self,
@@ -265,16 +265,16 @@ class SlidingAssembly:
     def _lifting(self, dofs: np.ndarray, values: np.ndarray) -> np.ndarray:
         """``K (g - x)`` over the constrained dofs (owned rows; collective), block by block."""
         we = self._extended(dofs, values).reshape(-1, self.bs)
-        with self.b_ext.localForm() as bl:
-            bl.set(0.0)
-            acc = bl.array_w.reshape(-1, self.bs)
+
+        def add(local: np.ndarray) -> None:
+            acc = local.reshape(-1, self.bs)
             for rows, cols, vals in self._blocks():
                 if rows.shape[0] == 0:  # a rank without points or segments: nothing to add
                     continue
                 lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
                 np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self.b_ext.array_r[: self.n_owned]
+
+        return self._sum_to_owners(add)
 
 
 def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:

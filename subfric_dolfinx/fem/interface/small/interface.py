@@ -211,11 +211,8 @@ class FrictionInterface(BaseInterface):
         from ...timing import TIMER_INTERFACE
 
         with self._time(TIMER_INTERFACE):
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                self.elements.add_residual(bl.array_w, self.elements.last.traction)
-            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            self.force = self.b_ext.array_r[: self.n_owned].copy()
+            traction = self.elements.last.traction
+            self.force = self._sum_to_owners(lambda b: self.elements.add_residual(b, traction))
         return self.force
 
     def element_matrices(self, separated_stiffness: float = 0.0) -> np.ndarray:
@@ -233,11 +230,7 @@ class FrictionInterface(BaseInterface):
         el = self.elements
         we = self._extended(dofs, values)[el.dofs]  # (nf, n)
         lift = np.einsum("cij,cj->ci", self.element_matrices(), we)
-        with self.b_ext.localForm() as bl:
-            bl.set(0.0)
-            np.add.at(bl.array_w, el.dofs.ravel(), lift.ravel())
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self.b_ext.array_r[: self.n_owned].copy()
+        return self._sum_to_owners(lambda b: np.add.at(b, el.dofs.ravel(), lift.ravel()))
 
     def _add_tangent(
         self,
