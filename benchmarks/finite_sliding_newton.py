@@ -41,7 +41,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
-from subfric_dolfinx.fem.interface import finite_assembly
+from subfric_dolfinx.fem.interface.finite import assembly as finite_assembly
 
 OUT = Path(__file__).resolve().parents[1] / "scratch" / "finite_sliding_newton"
 

@@ -5,7 +5,7 @@ and both pairings are run on it, alternately:
 
 * ``allgather``: the pairing as it was on main before issue 13 (``tests/reference_pairing.py``):
   every rank all-gathers the slave side, Python loops over the facets;
-* ``exchange``: the package's :func:`~subfric_dolfinx.fem.interface.pairing.pair_interface`
+* ``exchange``: the package's :func:`~subfric_dolfinx.fem.interface.small.pairing.pair_interface`
   (bounding boxes, ``Alltoallv`` of the slave facets a rank needs, k-d tree).
 
 Printed per implementation (max over ranks): wall time and CPU time per rank (best of

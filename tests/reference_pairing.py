@@ -1,10 +1,11 @@
 """The all-gather pairing of the interface sides as it was before issue 13 (test reference).
 
-A verbatim copy of ``subfric_dolfinx/fem/interface/pairing.py`` and of ``match_points`` at
-commit 4ba6b8b: every rank all-gathers the slave facets of the whole interface (midpoints, node
-numbers, owners and coordinates) and matches them with a grid hash and Python loops. The package's
-pairing exchanges only what each rank needs; ``tests/fem/interface/test_pairing.py`` checks that it
-gives the same pairs, in the same order, and ``benchmarks/pairing_scaling.py`` measures both.
+A verbatim copy of ``subfric_dolfinx/fem/interface/pairing.py`` (now ``.../small/pairing.py``) and
+of ``match_points`` at commit 4ba6b8b: every rank all-gathers the slave facets of the whole
+interface (midpoints, node numbers, owners and coordinates) and matches them with a grid hash and
+Python loops. The package's pairing exchanges only what each rank needs;
+``tests/fem/interface/test_pairing.py`` checks that it gives the same pairs, in the same order, and
+``benchmarks/pairing_scaling.py`` measures both.
 """
 
 from __future__ import annotations
@@ -15,8 +16,9 @@ import numpy as np
 from mpi4py import MPI
 
 from subfric_dolfinx.compat import create_submesh, ghosted_index_map
+from subfric_dolfinx.fem.interface.base import InterfaceError
 from subfric_dolfinx.fem.interface.geometry import basix_cell, push_forward
-from subfric_dolfinx.fem.interface.pairing import InterfaceError, InterfacePairs
+from subfric_dolfinx.fem.interface.small.pairing import InterfacePairs
 
 __all__ = ["match_points", "pair_interface"]
 

@@ -44,8 +44,9 @@ from .conditions import (
     channels,
 )
 from .interface import FrictionInterface, InterfaceError
-from .interface.friction import layout_of, stiffen_separated
+from .interface.base import stiffen_separated
 from .interface.kinds import make_interface
+from .interface.layout import layout_of
 from .kinematics import check_axisymmetric, check_mode, weight
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
@@ -56,6 +57,9 @@ logger = logging.getLogger(__name__)
 
 class InterfaceProblem:
     """Residual and Jacobian of bodies joined by frictional interfaces.
+
+    It owns PETSc matrices and vectors: :meth:`destroy` frees them, as leaving a ``with`` block
+    does (``with InterfaceProblem(...) as problem:``), like :class:`~.solver.FrictionSolver`.
 
     Args:
         domain: The bulk mesh with its tags, e.g. a :class:`~subfric_dolfinx.meshing.InterfaceMesh`
@@ -500,3 +504,29 @@ class InterfaceProblem:
     def create_vector(self) -> PETSc.Vec:
         """A solution/residual vector (the displacement space's own layout)."""
         return petsc_vector(self.V.dofmap.index_map, self.V.dofmap.bs)
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (safe to call more than once; the problem is unusable after).
+
+        The bulk stiffness (and its scale), the work and load vectors and every interface's
+        vectors; matrices and vectors handed out by :meth:`create_matrix` and
+        :meth:`create_vector` are the caller's.
+        """
+        if getattr(self, "K_scale", None) is getattr(self, "K", None):
+            self.K_scale = None  # the same matrix as K (a linear bulk)
+        for name in ("K", "K_scale", "_bulk_work"):
+            obj = getattr(self, name, None)
+            if obj is not None:
+                obj.destroy()
+                setattr(self, name, None)
+        for _, f in getattr(self, "loads", []):
+            f.destroy()
+        self.loads = []
+        for iface in getattr(self, "interfaces", {}).values():
+            iface.destroy()
+
+    def __enter__(self) -> InterfaceProblem:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.destroy()

@@ -14,12 +14,26 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from demos import block_on_base
-from subfric_dolfinx.fem import DEFAULT_OPTIONS, PETSC_ERROR_REASON, FrictionSolver, SolveResult
+from subfric_dolfinx.constitutive import CoulombLaw
+from subfric_dolfinx.fem import (
+    DEFAULT_OPTIONS,
+    PETSC_ERROR_REASON,
+    Dirichlet,
+    FrictionSolver,
+    Interface,
+    InterfaceProblem,
+    LoadStepper,
+    Material,
+    Pressure,
+    SolveResult,
+)
 from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS
 from subfric_dolfinx.fem.solver import _LIVE_PREFIXES
 from subfric_dolfinx.io import CheckpointError
+from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import parse_scene, run_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
+from tests.contact_meshes import tagged_blocks
 from tests.helpers import everywhere
 
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
@@ -123,6 +137,34 @@ def test_destroy_is_safe_and_releases_the_prefix(problem):
     del t
     gc.collect()
     assert "lc4_" not in _LIVE_PREFIXES  # a collected solver releases its prefix too
+
+
+@pytest.mark.parametrize("kind", ["small_sliding", "finite_sliding"])
+def test_the_problem_releases_its_petsc_objects(kind):
+    """Leaving an InterfaceProblem's ``with`` block frees its PETSc objects as FrictionSolver's
+    does: the bulk matrix, the load vectors and its interfaces' vectors (of either kind), after a
+    solved step; a second ``destroy`` is safe."""
+    comm = MPI.COMM_WORLD
+    dom = tagged_blocks(comm, n_base=(4, 2), n_block=(4, 2), split_x=0.5)
+    with InterfaceProblem(
+        dom,
+        CoulombLaw(alpha_t=1e7, alpha_n=1e7, mu_c=0.3),
+        {"base": Material(2.1e5, 0.3), "block": Material(2.1e5, 0.3)},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.0, 0)],
+        [Pressure("top", 100.0, amplitude="press")],
+        interfaces=[Interface("contact", "base", "block", kinematics=kind)],
+    ) as problem:
+        with FrictionSolver(problem, linear="lu") as solver:
+            records = LoadStepper(solver, 0.5).run()
+        assert records[-1].t == pytest.approx(1.0)
+        iface = problem.interfaces["contact"]
+        held = [problem.K, *(f for _, f in problem.loads), iface.x_ext, iface.b_ext]
+        assert all(obj.handle for obj in held)
+    assert not any(obj.handle for obj in held)
+    assert problem.K is None and problem.K_scale is None and problem.loads == []
+    assert iface.x_ext is None and iface.b_ext is None
+    problem.destroy()  # idempotent
 
 
 def test_automatic_prefixes_are_unique(problem):

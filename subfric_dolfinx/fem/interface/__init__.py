@@ -1,28 +1,30 @@
-"""Zero-thickness interface elements for DOLFINx.
+"""Zero-thickness interface elements for DOLFINx: one contract, two kinds.
 
-* :mod:`.geometry`: quadrature on facets, push-forward, local frames, point matching.
-* :func:`pair_interface` (:mod:`.pairing`): master/slave facet pairs across ranks, extended
-  index map.
-* :class:`InterfaceElements` (:mod:`.element`): quadrature, frames, Quadrature-space state of the
-  law's declared variables, gap and assembly kernels.
-* :class:`ExtendedLayout` (:mod:`.layout`): ghosted vectors and a matrix with cross-interface
-  couplings.
-* :class:`FrictionInterface` (:mod:`.friction`): one interface as a building block of any DOLFINx
-  problem (its residual and tangent into the user's PETSc vector and matrix, commit/revert), and
-  :func:`create_matrix` for the matrix with every interface's couplings.
-* :class:`SlidingInterface` (:mod:`.finite`): the same with finite sliding on non-matching
-  meshes (pairing in the current configuration, :mod:`.search`, :mod:`.projection`,
-  :mod:`.segments`, :mod:`.transfer`, :mod:`.sliding`).
+* :class:`BaseInterface` (:mod:`.base`): the abstract base of both kinds, what they do alike
+  (the Dirichlet rows and columns of the residual and the tangent, the step, commit and revert,
+  ``destroy``), and the helpers both use (:class:`InterfaceError`, the tangent's stiffening, the
+  initial gap, the exchange of rows between ranks); :mod:`.protocol`: what the rest of the
+  package reads of an interface (:class:`~.protocol.InterfaceKind`,
+  :class:`~.protocol.LawPoints`); :mod:`.kinds`: the kind of each interface from its
+  ``kinematics``.
+* :mod:`.small`: node-to-node small sliding, :class:`FrictionInterface` (pairs fixed at the
+  reference geometry, :func:`pair_interface`, :class:`InterfaceElements`).
+* :mod:`.finite`: finite sliding on non-matching meshes, :class:`SlidingInterface` (pairing in
+  the current configuration: search, projection, segments, transfer).
+* Shared by both: :mod:`.geometry` (quadrature on facets, push-forward, local frames, point
+  matching) and :mod:`.layout` (:class:`ExtendedLayout`: ghosted vectors and a matrix with the
+  cross-interface couplings; :func:`create_matrix` for the matrix with every interface's
+  couplings).
 """
 
-from .element import InterfaceElements
+from .base import BaseInterface, InterfaceError
 from .finite import SlidingInterface
-from .friction import FrictionInterface, create_matrix
 from .geometry import coordinate_basis, frames, match_points, push_forward, quadrature_rule
-from .layout import ExtendedLayout
-from .pairing import InterfaceError, InterfacePairs, pair_interface
+from .layout import ExtendedLayout, create_matrix
+from .small import FrictionInterface, InterfaceElements, InterfacePairs, pair_interface
 
 __all__ = [
+    "BaseInterface",
     "ExtendedLayout",
     "FrictionInterface",
     "InterfaceElements",

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from .base import InterfaceError
 from .finite import SlidingInterface
-from .friction import FrictionInterface
-from .pairing import InterfaceError
+from .small import FrictionInterface
 
 __all__ = ["KINEMATICS", "make_interface"]
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import dolfinx
 import numpy as np
@@ -21,7 +22,7 @@ from petsc4py import PETSc
 
 from ...compat import ghosted_index_map, petsc_vector
 
-__all__ = ["Couplings", "ExtendedLayout", "combined_index_map"]
+__all__ = ["Couplings", "ExtendedLayout", "combined_index_map", "create_matrix", "layout_of"]
 
 #: Explicit zeros set per call of :meth:`ExtendedLayout.create_matrix` (bounds its memory: 16 MiB)
 ZERO_ENTRIES = 1 << 21
@@ -182,3 +183,23 @@ class ExtendedLayout:
                 A.setValuesBlockedLocalRCV(r, c, zeros, addv=PETSc.InsertMode.ADD_VALUES)
         A.assemble()
         return A
+
+
+def create_matrix(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> PETSc.Mat:
+    """A matrix with every bulk cell's block and every interface's couplings preallocated.
+
+    Assemble the bulk into it with DOLFINx (``dolfinx.fem.petsc.assemble_matrix``) and the
+    interfaces with :meth:`FrictionInterface.assemble_jacobian`: neither allocates.
+    """
+    return layout_of(V, interfaces).create_matrix()
+
+
+def layout_of(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> ExtendedLayout:
+    """The :class:`~.layout.ExtendedLayout` of all interfaces on ``V`` (collective)."""
+    parts = [el.layout_parts() for el in interfaces]
+    if len(parts) == 1:
+        return ExtendedLayout(V, parts[0][2], parts[0][3])
+    imap, nodes = combined_index_map(
+        V, [(g, o) for g, o, _, _ in parts], [(m, nd) for _, _, m, nd in parts]
+    )
+    return ExtendedLayout(V, imap, nodes)

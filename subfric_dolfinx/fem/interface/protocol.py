@@ -6,10 +6,10 @@ kind:
 
 * :class:`LawPoints`: the points where the law is integrated, with their state, last result,
   frames, weights and fixed data, in one order per rank (``n_elements`` facets of ``nq`` points
-  each). A small-sliding :class:`~.friction.FrictionInterface` gives its
-  :class:`~.element.InterfaceElements` (the master facets' points); a finite-sliding
-  :class:`~.finite.SlidingInterface` gives itself (the slave facets' points, its facets in the
-  order of the cells of its :attr:`~LawPoints.submesh`).
+  each). A small-sliding :class:`~.small.interface.FrictionInterface` gives its
+  :class:`~.small.element.InterfaceElements` (the master facets' points); a finite-sliding
+  :class:`~.finite.interface.SlidingInterface` gives itself (the slave facets' points, its facets
+  in the order of the cells of its :attr:`~LawPoints.submesh`).
 * :class:`InterfaceKind`: the interface itself, with :attr:`~InterfaceKind.law_points`,
   :meth:`~InterfaceKind.resume` (after a restart put back the displacement and the state) and
   :meth:`~InterfaceKind.assemble_jacobian`, which

@@ -17,13 +17,13 @@ import basix
 import numpy as np
 import pytest
 
-from subfric_dolfinx.fem.interface.closest import closest_point
-from subfric_dolfinx.fem.interface.projection import (
+from subfric_dolfinx.fem.interface.finite.closest import closest_point
+from subfric_dolfinx.fem.interface.finite.projection import (
     facet_basis,
     normal_projection,
     projection_jacobian,
 )
-from subfric_dolfinx.fem.interface.search import Candidates, find_projections
+from subfric_dolfinx.fem.interface.finite.search import Candidates, find_projections
 
 pytestmark = pytest.mark.numpy_only  # no MPI: one rank is enough
 

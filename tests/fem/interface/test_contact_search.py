@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from subfric_dolfinx.fem.interface.search import exchange_facets, find_projections
-from subfric_dolfinx.fem.interface.surface import contact_surface, nodal_normals
+from subfric_dolfinx.fem.interface.finite.search import exchange_facets, find_projections
+from subfric_dolfinx.fem.interface.finite.surface import contact_surface, nodal_normals
 from tests.contact_meshes import CONTACT, MASTER, SLAVE, annuli, block_on_base, block_on_plate
 from tests.helpers import everywhere
 
@@ -184,7 +184,7 @@ def test_parallel_search_equals_the_serial_one(case, degree):
 def test_parallel_segments_equal_the_serial_ones(case):
     """The cut of the slave facets by the master facets, made on each slave facet's rank from
     its candidates, equals the cut of one process that has everything."""
-    from subfric_dolfinx.fem.interface.segments import overlap_points
+    from subfric_dolfinx.fem.interface.finite.segments import overlap_points
 
     if case == "annuli":
         bodies = annuli(COMM, n_inner=18, n_outer=25, split_x=0.1)

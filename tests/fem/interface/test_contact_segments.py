@@ -20,8 +20,8 @@ import basix
 import numpy as np
 import pytest
 
-from subfric_dolfinx.fem.interface.projection import facet_basis
-from subfric_dolfinx.fem.interface.segments import clip_to_reference, overlap_points
+from subfric_dolfinx.fem.interface.finite.projection import facet_basis
+from subfric_dolfinx.fem.interface.finite.segments import clip_to_reference, overlap_points
 
 pytestmark = pytest.mark.numpy_only  # no MPI: one rank is enough
 
@@ -238,7 +238,7 @@ def master_forces(tr, t, shape):
 
 @pytest.mark.parametrize("degree", [1, 2])
 def test_transfer_of_uniform_and_linear_tractions_on_non_matching_lines(degree):
-    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+    from subfric_dolfinx.fem.interface.finite.transfer import l2_projector, transfer_matrices
 
     xs, xm = np.linspace(0, 1, 4), np.linspace(0, 1, 3)  # 3 : 2
     S, M = line_facets(xs, 0.0, degree), line_facets(xm, 0.0, degree)
@@ -266,7 +266,7 @@ def test_transfer_of_uniform_and_linear_tractions_on_non_matching_lines(degree):
 
 @pytest.mark.parametrize(("cell", "degree"), [(INTERVAL, 1), (INTERVAL, 2), (TRIANGLE, 1)])
 def test_transfer_on_matching_facets_is_the_matching_element(cell, degree):
-    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+    from subfric_dolfinx.fem.interface.finite.transfer import l2_projector, transfer_matrices
 
     if cell == INTERVAL:
         M = line_facets(np.linspace(0, 1, 5), 0.0, degree)
@@ -303,7 +303,11 @@ def test_nodal_rule_transfer_is_the_lumped_element_and_the_slaves_forces(cell, d
     matching interface not the lumped element of the slave side, and on a non-matching one a
     field the slave does not carry (the contact's edge of ``demos/hertz.py --meshed-apart``).
     """
-    from subfric_dolfinx.fem.interface.transfer import facet_mass, l2_projector, transfer_matrices
+    from subfric_dolfinx.fem.interface.finite.transfer import (
+        facet_mass,
+        l2_projector,
+        transfer_matrices,
+    )
 
     if cell == INTERVAL:
         M = line_facets(np.linspace(0, 1, 5), 0.0, degree)
@@ -342,7 +346,7 @@ def test_nodal_rule_transfer_is_the_lumped_element_and_the_slaves_forces(cell, d
 
 
 def test_transfer_of_a_uniform_pressure_in_3d():
-    from subfric_dolfinx.fem.interface.transfer import l2_projector, transfer_matrices
+    from subfric_dolfinx.fem.interface.finite.transfer import l2_projector, transfer_matrices
 
     S = grid_facets((0, 0), (1, 1), (5, 4), TRIANGLE, 0.0, jitter=0.3, seed=1)
     M = grid_facets((-0.25, -0.3), (1.3, 1.2), (3, 4), QUAD, 0.0, jitter=0.3, seed=2)

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from subfric_dolfinx.fem.interface.finite.projection import facet_basis, normal_projection
+from subfric_dolfinx.fem.interface.finite.sliding import gap_operator, transport, transport_matrix
 from subfric_dolfinx.fem.interface.geometry import frames
-from subfric_dolfinx.fem.interface.projection import facet_basis, normal_projection
-from subfric_dolfinx.fem.interface.sliding import gap_operator, transport, transport_matrix
 from tests.fem.interface.test_contact_projection import polygon, sphere_facets
 
 pytestmark = pytest.mark.numpy_only  # no MPI: one rank is enough

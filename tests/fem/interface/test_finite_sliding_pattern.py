@@ -20,7 +20,7 @@ from petsc4py import PETSc
 
 from benchmarks import fe_scaling
 from subfric_dolfinx.fem import LoadStepper
-from subfric_dolfinx.fem.interface.finite import SlidingInterface
+from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
 from subfric_dolfinx.fem.interface.layout import Couplings, ExtendedLayout
 from subfric_dolfinx.io import interface_summary
 

@@ -39,8 +39,8 @@ from subfric_dolfinx.fem import (
     Material,
     Pressure,
 )
-from subfric_dolfinx.fem.interface import finite
-from subfric_dolfinx.fem.interface.finite_assembly import SlidingAssembly
+from subfric_dolfinx.fem.interface.finite import interface as finite
+from subfric_dolfinx.fem.interface.finite.assembly import SlidingAssembly
 from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import diagonal_slide_3d, tagged_blocks
 from tests.helpers import everywhere

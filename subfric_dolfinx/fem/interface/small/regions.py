@@ -12,9 +12,10 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ...compat import geometry_dofmap
-from .geometry import match_points
-from .pairing import InterfaceError, InterfacePairs
+from ....compat import geometry_dofmap
+from ..base import InterfaceError
+from ..geometry import match_points
+from .pairing import InterfacePairs
 
 __all__ = ["element_regions"]
 

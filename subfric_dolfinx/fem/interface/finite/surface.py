@@ -26,7 +26,7 @@ import dolfinx
 import dolfinx.la
 import numpy as np
 
-from .geometry import basix_cell, quadrature_rule
+from ..geometry import basix_cell, quadrature_rule
 from .projection import facet_basis, parametric_normal
 
 __all__ = ["ContactSurface", "contact_surface", "facet_measures", "nodal_normals"]

@@ -1,7 +1,7 @@
 """A frictional interface with finite sliding on non-matching meshes (``docs/model.md`` §11-12).
 
 :class:`SlidingInterface` is the finite-sliding kind of interface beside the node-to-node
-small-sliding :class:`~.friction.FrictionInterface`: the same law, return map and state
+small-sliding :class:`~.small.interface.FrictionInterface`: the same law, return map and state
 handling, the same building-block methods (:meth:`~SlidingInterface.set_step`,
 :meth:`~SlidingInterface.update`, :meth:`~SlidingInterface.forces`,
 :meth:`~SlidingInterface.assemble_residual`, :meth:`~SlidingInterface.assemble_jacobian`,
@@ -43,7 +43,6 @@ contact kinematics is finite.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -53,17 +52,16 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...compat import create_submesh
-from ...constitutive import FrictionLaw, InterfaceState, StatePair
-from ...constitutive.result import Status
-from ...constitutive.state import LOCAL, TANGENTIAL
-from ..kinematics import point_weight
-from .element import _initial_gap
-from .finite_assembly import SlidingAssembly
-from .finite_points import SlidingPoints
-from .geometry import frames, quadrature_rule
-from .layout import Couplings
-from .pairing import InterfaceError
+from ....compat import create_submesh
+from ....constitutive import FrictionLaw, InterfaceState, StatePair
+from ....constitutive.result import Status
+from ....constitutive.state import LOCAL, TANGENTIAL
+from ...kinematics import point_weight
+from ..base import BaseInterface, InterfaceError, initial_gaps
+from ..geometry import frames, quadrature_rule
+from ..layout import Couplings
+from .assembly import SlidingAssembly
+from .points import SlidingPoints
 from .projection import facet_basis, normal_projection, parametric_normal
 from .reach import ReachSearch, _near, surface_size
 from .segments import overlap_points
@@ -74,7 +72,7 @@ from .transfer import facet_mass, l2_projector, transfer_matrices
 __all__ = ["SlidingInterface"]
 
 
-class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
+class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints, BaseInterface):
     """One frictional interface with finite sliding between independently meshed bodies.
 
     Args:
@@ -115,7 +113,6 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
     kinematics = "finite_sliding"
     region_names = ("default",)  # no interface regions (summaries read it)
     pairs = None  # no fixed pairs: re-paired in the current configuration
-    round_off: np.ndarray | None = None  # the forces' round-off per dof, at the last forces()
 
     def __init__(
         self,
@@ -135,16 +132,12 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         search_radius: float | None = None,
         reach: float | None = None,
     ) -> None:
-        self.name = name
-        self.V = V
-        self.comm = V.mesh.comm
-        self.timings = timings
+        super().__init__(V, name, timings)
         self.law = law
         mesh = V.mesh
         gdim = mesh.geometry.dim
         self.gdim, self.nt, self.bs = gdim, gdim - 1, V.dofmap.bs
         self.imap0 = V.dofmap.index_map
-        self.n_owned = self.imap0.size_local * self.bs
         self.n_local0 = self.imap0.size_local + self.imap0.num_ghosts
         self.X0 = V.tabulate_dof_coordinates()[:, :gdim].copy()
         self.master = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(primary)))
@@ -203,7 +196,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         )
         npts = s.size * self.nq
         self.n_points = npts
-        self.g0 = _initial_gap(initial_gap, self.points, self.comm)
+        self.g0 = initial_gaps(initial_gap, self.points, self.comm)
         self.point_data = {"g0": self.g0}
         fdim = max(gdim - 1, 1)
         sizes = self.facet_weights.sum(axis=1) ** (1.0 / fdim) if s.size else np.zeros(0)
@@ -222,7 +215,6 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.tan_old = np.zeros((npts, gdim, self.nt))
         self._trial: dict[str, np.ndarray] = {}
         self.projection_found = np.zeros(npts, dtype=bool)
-        self.dt = 0.0
         self.last = None
         # d f_n / d g_n of every point at the step's first evaluation (its start: the last
         # converged configuration with the step's Dirichlet values), for ``keep_contact``
@@ -230,10 +222,8 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.last_gap = np.zeros((npts, gdim))
         self.layout_version = 0
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}
-        self.force = np.zeros(self.n_owned)
         self.index_map: dolfinx.common.IndexMap | None = None
-        self.x_ext = self.b_ext = self._mask_ext = None
-        self._x_at_update: np.ndarray | None = None
+        self.x_ext = self.b_ext = None
         self._x_committed = np.zeros(self.n_owned)
         self._owners0 = np.concatenate(
             [np.full(self.imap0.size_local, self.comm.rank, np.int32), self.imap0.owners]
@@ -248,9 +238,6 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         self.begin_step()
 
     # -- helpers ---------------------------------------------------------------------------------
-    def _time(self, name: str) -> Any:
-        return self.timings(name) if self.timings is not None else contextlib.nullcontext()
-
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
         """Current positions of the displacement space's local nodes (collective: ghost update)."""
         v = dolfinx.la.vector(self.imap0, self.bs)
@@ -264,8 +251,7 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
 
         Collective (the search). See :meth:`begin_step`.
         """
-        self.dt = float(dt)
-        self._x_at_update = None
+        super().set_step(dt)
         self.start_normal = None
         self.begin_step()
 
@@ -326,9 +312,9 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         """
         import time
 
-        from ..timing import TIMER_INTERFACE, TIMER_PROJECTION, TIMER_RETURN_MAP
+        from ...timing import TIMER_INTERFACE, TIMER_PROJECTION, TIMER_RETURN_MAP
 
-        owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
+        owned = self._owned(x)
         gdim, nt = self.gdim, self.nt
         with self._time(TIMER_INTERFACE):
             u = self._local_displacement(owned)
@@ -461,19 +447,10 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
                 st[name][:, : self.nt] = np.einsum("mab,mb->ma", T, st[name][:, : self.nt])
         return st
 
-    def _ensure(self, x: PETSc.Vec | np.ndarray | None) -> None:
-        if x is None:
-            if self.last is None:
-                raise RuntimeError(f"interface {self.name!r}: no iterate evaluated yet")
-            return
-        owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
-        if self._x_at_update is None or not np.array_equal(self._x_at_update, owned):
-            self.update(x)
-
     # -- state -----------------------------------------------------------------------------------
     def commit(self) -> None:
         """Accept the trial state and the points' kinematics; remember the configuration."""
-        self.state.commit()
+        super().commit()
         tr = self._trial
         if tr:
             found = tr["facet"] >= 0
@@ -484,19 +461,6 @@ class SlidingInterface(ReachSearch, SlidingAssembly, SlidingPoints):
         if self._x_at_update is not None:
             self._x_committed = self._x_at_update.copy()
 
-    def revert(self) -> None:
-        """Reject the trial state (after a failed step)."""
-        self.state.revert()
-        self._x_at_update = None
-
     def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
         """Extra ghosts, their owners, the extended index map and the pattern's couplings."""
         return self.extra_ghosts, self.extra_owners, self.index_map, self.couplings
-
-    def destroy(self) -> None:
-        """Free the PETSc vectors (safe to call more than once)."""
-        for name in ("x_ext", "b_ext", "_mask_ext"):
-            v = getattr(self, name, None)
-            if v is not None:
-                v.destroy()
-                setattr(self, name, None)

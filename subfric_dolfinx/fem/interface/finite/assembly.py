@@ -1,4 +1,4 @@
-"""Forces and tangent of a finite-sliding interface (a part of :class:`~.finite.SlidingInterface`).
+"""Forces and tangent of a finite-sliding interface (part of :class:`~.interface.SlidingInterface`).
 
 The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes ``-B t`` of the
 segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
@@ -10,21 +10,17 @@ whose columns are the point's slave facet nodes and its master facet's nodes:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
-
 import numpy as np
 from petsc4py import PETSc
 
-from ...compat import petsc_vector
-from .friction import stiffen_separated
+from ..base import stiffen_separated
 from .transfer import transfer_tangent
 
 __all__ = ["SlidingAssembly"]
 
 
 class SlidingAssembly:
-    """The assembly part of :class:`~.finite.SlidingInterface` (the interface's attributes).
+    """The assembly part of :class:`~.interface.SlidingInterface` (the interface's attributes).
 
     Attributes:
         transfer_in_tangent: Whether the tangent holds the transfer's change with the geometry,
@@ -91,23 +87,23 @@ class SlidingAssembly:
 
     def forces(self) -> np.ndarray:
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         with self._time(TIMER_INTERFACE):
             s, nq, gdim = self.slave, self.nq, self.gdim
             tg = self._global_tractions().reshape(s.size, nq, gdim)
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                b = bl.array_w.reshape(-1, self.bs)
-                w = self.weights.reshape(s.size, nq)
+            w = self.weights.reshape(s.size, nq)
+
+            def add(local: np.ndarray) -> None:
+                b = local.reshape(-1, self.bs)
                 Rs = np.einsum("fq,qk,fqd->fkd", w, self.Ns[0], tg)
                 np.add.at(b[:, :gdim], s.nodes.ravel(), Rs.reshape(-1, gdim))
                 tr = self._transfer
                 if tr.slave.size:
                     Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.slave])
                     np.add.at(b[:, :gdim], self.pf_nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
-            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            self.force = self.b_ext.array_r[: self.n_owned].copy()
+
+            self.force = self._sum_to_owners(add)
             self.round_off = self._round_off(w)
         return self.force
 
@@ -121,9 +117,9 @@ class SlidingAssembly:
         s, nq, gdim = self.slave, self.nq, self.gdim
         D = np.abs(self.last.tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
         m = (D * (np.linalg.norm(self._xq, axis=1) + self.h)).reshape(s.size, nq)
-        with self.b_ext.localForm() as bl:
-            bl.set(0.0)
-            b = bl.array_w.reshape(-1, self.bs)
+
+        def add(local: np.ndarray) -> None:
+            b = local.reshape(-1, self.bs)
             Rs = np.einsum("fq,qk,fq->fk", w, np.abs(self.Ns[0]), m)
             np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), self.bs, axis=1))
             tr = self._transfer
@@ -132,8 +128,8 @@ class SlidingAssembly:
                 np.add.at(
                     b, self.pf_nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), self.bs, 1)
                 )
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self.b_ext.array_r[: self.n_owned].copy()
+
+        return self._sum_to_owners(add)
 
     def _blocks(
         self,
@@ -144,7 +140,7 @@ class SlidingAssembly:
         """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`~.friction.stiffen_separated`). ``frictionless``: the law's tangent
+        stiffness (:func:`~.base.stiffen_separated`). ``frictionless``: the law's tangent
         keeps only the normal traction's change with the normal gap (:func:`_frictionless`).
         ``keep_contact``: points without stiffness that were in contact at the step's start get
         their normal stiffness there (:attr:`start_normal`).
@@ -230,100 +226,55 @@ class SlidingAssembly:
             )
         return out
 
-    def assemble_jacobian(
+    def _add_tangent(
         self,
         A: PETSc.Mat,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
+        constrained: np.ndarray | None,
         separated_stiffness: float = 0.0,
         frictionless: bool = False,
         keep_contact: bool = False,
     ) -> None:
-        """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
+        """Add the tangent of the last iterate to ``A``, block by block (:meth:`_blocks`).
 
         ``A`` must hold this interface's pattern (the problem's :meth:`create_matrix` after the
-        last :attr:`layout_version`). With ``bcs`` the rows and columns of constrained dofs are
-        left out. ``separated_stiffness``: in this Jacobian only, found points without stiffness
-        get this fraction of the law's contact stiffness (the retry of a failed step).
-        ``frictionless``: in this Jacobian only, the law's tangent without its tangential
-        stiffness (the first iteration of a step where the loading program turns:
-        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric
-        terms are kept. ``keep_contact``: in this Jacobian only, points separated here that were
-        in contact at the step's start keep their normal stiffness of the start (the first
+        last :attr:`layout_version`). The rows and columns of ``constrained`` dofs are left out.
+        ``separated_stiffness``: in this Jacobian only, found points without stiffness get this
+        fraction of the law's contact stiffness (the retry of a failed step). ``frictionless``:
+        in this Jacobian only, the law's tangent without its tangential stiffness (the first
+        iteration of a step where the loading program turns:
+        :class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s ``predictor``); the geometric terms
+        are kept. ``keep_contact``: in this Jacobian only, points separated here that were in
+        contact at the step's start keep their normal stiffness of the start (the first
         iteration of every step: an extrapolated start that opens a few points by a round-off of
         the base's moving indentation would otherwise let them go in the first Newton step).
         """
-        from ..timing import TIMER_INTERFACE
+        mask = constrained.reshape(-1, self.bs) if constrained is not None else None
+        gl = self.index_map.local_to_global
+        for rows, cols, vals in self._blocks(separated_stiffness, frictionless, keep_contact):
+            if rows.shape[0] == 0:
+                continue
+            if mask is not None:
+                mr = mask[rows].reshape(rows.shape[0], -1)
+                mc = mask[cols].reshape(cols.shape[0], -1)
+                vals = vals.copy()
+                vals[mr[:, :, None] | mc[:, None, :]] = 0.0
+            R = gl(rows.ravel().astype(np.int32)).reshape(rows.shape).astype(PETSc.IntType)
+            Cc = gl(cols.ravel().astype(np.int32)).reshape(cols.shape).astype(PETSc.IntType)
+            A.setValuesBlockedRCV(R, Cc, vals, addv=PETSc.InsertMode.ADD_VALUES)
 
-        self._ensure(x)
-        with self._time(TIMER_INTERFACE):
-            mask = self._constrained(bcs) if bcs else None
-            gl = self.index_map.local_to_global
-            for rows, cols, vals in self._blocks(separated_stiffness, frictionless, keep_contact):
-                if rows.shape[0] == 0:
+    def _lifting(self, dofs: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """``K (g - x)`` over the constrained dofs (owned rows; collective), block by block."""
+        we = self._extended(dofs, values).reshape(-1, self.bs)
+
+        def add(local: np.ndarray) -> None:
+            acc = local.reshape(-1, self.bs)
+            for rows, cols, vals in self._blocks():
+                if rows.shape[0] == 0:  # a rank without points or segments: nothing to add
                     continue
-                if mask is not None:
-                    mr = mask[rows].reshape(rows.shape[0], -1)
-                    mc = mask[cols].reshape(cols.shape[0], -1)
-                    vals = vals.copy()
-                    vals[mr[:, :, None] | mc[:, None, :]] = 0.0
-                R = gl(rows.ravel().astype(np.int32)).reshape(rows.shape).astype(PETSc.IntType)
-                Cc = gl(cols.ravel().astype(np.int32)).reshape(cols.shape).astype(PETSc.IntType)
-                A.setValuesBlockedRCV(R, Cc, vals, addv=PETSc.InsertMode.ADD_VALUES)
+                lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
+                np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
 
-    def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
-        """Whether each local (extended) dof is constrained, per node (n, bs) (collective)."""
-        from .friction import _bc_values
-
-        dofs, _ = _bc_values(self.V, bcs, None)
-        m = petsc_vector(self.index_map, self.bs)
-        m.array_w[dofs] = 1.0
-        m.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with m.localForm() as ml:
-            out = ml.array_r.reshape(-1, self.bs) > 0.5
-        m.destroy()
-        return out
-
-    def assemble_residual(
-        self,
-        b: PETSc.Vec,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
-    ) -> bool:
-        """Add the interface forces at ``x`` to ``b`` (owned part; collective).
-
-        With ``bcs`` the forces go to the free rows only, plus the lifting ``K (g - x)`` of the
-        tangent's coupling to the constrained dofs (DOLFINx's Newton convention).
-        """
-        from .friction import _bc_values
-
-        self._ensure(x)
-        f = self.forces()
-        ba = b.array_w
-        if not bcs:
-            ba += f
-            return bool(self.last.converged)
-        dofs, g_minus_x = _bc_values(self.V, bcs, self._x_at_update)
-        free = np.ones(self.n_owned, dtype=bool)
-        free[dofs] = False
-        w = petsc_vector(self.index_map, self.bs)
-        w.array_w[dofs] = g_minus_x
-        w.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with w.localForm() as wl:
-            we = wl.array_r.reshape(-1, self.bs)
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                acc = bl.array_w.reshape(-1, self.bs)
-                for rows, cols, vals in self._blocks():
-                    lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
-                    np.add.at(acc, rows.ravel(), lift.reshape(-1, self.bs))
-        w.destroy()
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        lift = self.b_ext.array_r[: self.n_owned]
-        ba[free] += f[free] + lift[free]
-        return bool(self.last.converged)
+        return self._sum_to_owners(add)
 
 
 def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:

@@ -38,17 +38,17 @@ import dolfinx
 import numpy as np
 from petsc4py import PETSc
 
-from ...compat import petsc_vector
-from ...constitutive import FrictionLaw
+from ....compat import petsc_vector
+from ....constitutive import FrictionLaw
+from ..base import BaseInterface, InterfaceError, stiffen_separated
 from .element import InterfaceElements
-from .layout import ExtendedLayout, combined_index_map
-from .pairing import InterfaceError, pair_interface
+from .pairing import pair_interface
 from .regions import element_regions
 
-__all__ = ["FrictionInterface", "create_matrix"]
+__all__ = ["FrictionInterface"]
 
 
-class FrictionInterface:
+class FrictionInterface(BaseInterface):
     """One frictional interface between two bodies: pairs, quadrature, frames, state, kernels.
 
     Args:
@@ -77,9 +77,7 @@ class FrictionInterface:
         dt: The step of the return map.
     """
 
-    kinematics = "small_sliding"
-    layout_version = 0  # the pairs, ghosts and pattern never change
-    round_off = None  # the forces' round-off is that of the displacement (convergence)
+    kinematics = "small_sliding"  # the pairs, ghosts and pattern never change (layout_version)
 
     def __init__(
         self,
@@ -99,10 +97,7 @@ class FrictionInterface:
         mode: str | None = None,
         timings: Any = None,
     ) -> None:
-        self.name = name
-        self.V = V
-        self.comm = V.mesh.comm
-        self.timings = timings
+        super().__init__(V, name, timings)
         self.pairs = pair_interface(V, cell_tags, facet_tags, tag, primary, secondary, name=name)
         by_region = None
         if regions:
@@ -112,21 +107,14 @@ class FrictionInterface:
         )
         self.law = self.elements.law
         bs = V.dofmap.bs
-        imap0 = V.dofmap.index_map
-        self.n_owned = imap0.size_local * bs
         self.index_map = self.pairs.index_map
         self.x_ext = petsc_vector(self.index_map, bs)
         self.b_ext = petsc_vector(self.index_map, bs)
-        self.force = np.zeros(self.n_owned)
-        self.dt = 0.0
-        self._x_at_update: np.ndarray | None = None
         self._global_nodes = (
             self.index_map.local_to_global(self.elements.nodes.ravel())
             .reshape(self.elements.nodes.shape)
             .astype(PETSc.IntType)
         )
-        self._mask_ext: PETSc.Vec | None = None
-        self._work: PETSc.Vec | None = None
 
     @classmethod
     def from_mesh(
@@ -183,16 +171,6 @@ class FrictionInterface:
         )
 
     # -- the step --------------------------------------------------------------------------------
-    def set_step(self, dt: float) -> None:
-        """Set the length of the step the return map integrates (the recovery at rest)."""
-        self.dt = float(dt)
-        self._x_at_update = None
-
-    def _time(self, name: str) -> Any:
-        import contextlib
-
-        return self.timings(name) if self.timings is not None else contextlib.nullcontext()
-
     def update(self, x: PETSc.Vec | np.ndarray) -> Any:
         """Evaluate the law at the displacement ``x`` (owned values, displacement layout).
 
@@ -202,9 +180,9 @@ class FrictionInterface:
             The :class:`~subfric_dolfinx.constitutive.ReturnMapResult` (``converged`` False if
             the return map failed at some point of this rank).
         """
-        from ..timing import TIMER_INTERFACE, TIMER_RETURN_MAP
+        from ...timing import TIMER_INTERFACE, TIMER_RETURN_MAP
 
-        owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
+        owned = self._owned(x)
         with self._time(TIMER_INTERFACE):
             self.x_ext.array_w[: self.n_owned] = owned
             self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -213,15 +191,6 @@ class FrictionInterface:
                 res = self.elements.update(xl.array_r, self.dt)
         self._x_at_update = np.array(owned, copy=True)
         return res
-
-    def _ensure(self, x: PETSc.Vec | np.ndarray | None) -> None:
-        if x is None:
-            if self.elements.last is None:
-                raise RuntimeError(f"interface {self.name!r}: no iterate evaluated yet")
-            return
-        owned = x.array_r if isinstance(x, PETSc.Vec) else np.asarray(x)[: self.n_owned]
-        if self._x_at_update is None or not np.array_equal(self._x_at_update, owned):
-            self.update(x)
 
     @property
     def last(self) -> Any:
@@ -239,211 +208,54 @@ class FrictionInterface:
 
     def forces(self) -> np.ndarray:
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""
-        from ..timing import TIMER_INTERFACE
+        from ...timing import TIMER_INTERFACE
 
         with self._time(TIMER_INTERFACE):
-            with self.b_ext.localForm() as bl:
-                bl.set(0.0)
-                self.elements.add_residual(bl.array_w, self.elements.last.traction)
-            self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            self.force = self.b_ext.array_r[: self.n_owned].copy()
+            traction = self.elements.last.traction
+            self.force = self._sum_to_owners(lambda b: self.elements.add_residual(b, traction))
         return self.force
 
     def element_matrices(self, separated_stiffness: float = 0.0) -> np.ndarray:
         """The element tangents of the last iterate, (nf, n, n), node-blocked, primary first.
 
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
-        stiffness (:func:`stiffen_separated`); 0: the exact tangent.
+        stiffness (:func:`~.base.stiffen_separated`); 0: the exact tangent.
         """
         tangent = stiffen_separated(self.elements.last.tangent, self.law, separated_stiffness)
         return self.elements.element_matrices(tangent)
 
     # -- into the user's vector and matrix -------------------------------------------------------
-    def assemble_residual(
-        self,
-        b: PETSc.Vec,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
-    ) -> bool:
-        """Add the interface forces at ``x`` to the residual ``b`` (owned part; collective).
-
-        Args:
-            b: The residual (displacement layout); its owned entries are added to.
-            x: The iterate (``None``: the last one evaluated); evaluated if new.
-            bcs: DOLFINx Dirichlet conditions: forces on free rows only, plus the lifting of the
-                tangent's coupling to the constrained dofs (module docstring).
-
-        Returns:
-            Whether the return map succeeded at every point of this rank.
-        """
-        self._ensure(x)
-        f = self.forces()
-        ba = b.array_w
-        if not bcs:
-            ba += f
-            return bool(self.elements.last.converged)
-        dofs, g_minus_x = _bc_values(self.V, bcs, self._x_at_update)
-        free = np.ones(self.n_owned, dtype=bool)
-        free[dofs] = False
-        lift = self._lifting(dofs, g_minus_x)
-        ba[free] += f[free] + lift[free]
-        return bool(self.elements.last.converged)
-
     def _lifting(self, dofs: np.ndarray, values: np.ndarray) -> np.ndarray:
         """``K (g - x)`` over the constrained dofs (owned rows; collective)."""
-        if self._work is None:
-            self._work = petsc_vector(self.index_map, self.V.dofmap.bs)
-        w = self._work
-        with w.localForm() as wl:
-            wl.set(0.0)
-        w.array_w[dofs] = values
-        w.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         el = self.elements
-        with w.localForm() as wl:
-            we = wl.array_r[el.dofs]  # (nf, n)
+        we = self._extended(dofs, values)[el.dofs]  # (nf, n)
         lift = np.einsum("cij,cj->ci", self.element_matrices(), we)
-        with self.b_ext.localForm() as bl:
-            bl.set(0.0)
-            np.add.at(bl.array_w, el.dofs.ravel(), lift.ravel())
-        self.b_ext.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return self.b_ext.array_r[: self.n_owned].copy()
+        return self._sum_to_owners(lambda b: np.add.at(b, el.dofs.ravel(), lift.ravel()))
 
-    def assemble_jacobian(
+    def _add_tangent(
         self,
         A: PETSc.Mat,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
-        separated_stiffness: float = 0.0,
-        frictionless: bool = False,
-        keep_contact: bool = False,
+        constrained: np.ndarray | None,
+        separated_stiffness: float,
+        frictionless: bool,
+        keep_contact: bool,
     ) -> None:
-        """Add the consistent tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
+        """Add the consistent tangent of the last iterate to ``A``, the element matrices.
 
-        ``A`` must hold the interface couplings (:func:`create_matrix`). With ``bcs`` the rows and
-        columns of constrained dofs are left out (their diagonal is the bulk assembly's).
-        ``separated_stiffness``: in this Jacobian only, points without stiffness (separated beyond
-        the contact band, failed) get this fraction of the law's contact stiffness
-        (:func:`stiffen_separated`); 0: the exact tangent. ``frictionless`` and
-        ``keep_contact`` are ignored: the finite-sliding interface's first-iteration tangents
-        (:meth:`~.finite.SlidingInterface.assemble_jacobian`), taken here so that every kind of
-        interface is called the same way (:class:`~.protocol.InterfaceKind`); a small-sliding
-        interface's tangent is the same with them.
+        ``A`` must hold the interface couplings (:func:`~.layout.create_matrix`).
+        ``frictionless`` and ``keep_contact`` are ignored: the finite-sliding interface's
+        first-iteration tangents (:meth:`~.finite.interface.SlidingInterface._add_tangent`); a
+        small-sliding interface's tangent is the same with them.
         """
-        from ..timing import TIMER_INTERFACE
-
-        self._ensure(x)
-        with self._time(TIMER_INTERFACE):
-            Ke = self.element_matrices(separated_stiffness)
-            if bcs:
-                mask = self._constrained(bcs)
-                Ke[mask[:, :, None] | mask[:, None, :]] = 0.0
-            nodes = self._global_nodes
-            if nodes.shape[0]:
-                A.setValuesBlockedRCV(nodes, nodes, Ke, addv=PETSc.InsertMode.ADD_VALUES)
-
-    def _constrained(self, bcs: Sequence[Any]) -> np.ndarray:
-        """Whether each element dof is constrained, (nf, n) (collective)."""
-        dofs, _ = _bc_values(self.V, bcs, None)
-        if self._mask_ext is None:
-            self._mask_ext = petsc_vector(self.index_map, self.V.dofmap.bs)
-        m = self._mask_ext
-        with m.localForm() as ml:
-            ml.set(0.0)
-        m.array_w[dofs] = 1.0
-        m.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with m.localForm() as ml:
-            return ml.array_r[self.elements.dofs] > 0.5
+        Ke = self.element_matrices(separated_stiffness)
+        if constrained is not None:
+            mask = constrained[self.elements.dofs]
+            Ke[mask[:, :, None] | mask[:, None, :]] = 0.0
+        nodes = self._global_nodes
+        if nodes.shape[0]:
+            A.setValuesBlockedRCV(nodes, nodes, Ke, addv=PETSc.InsertMode.ADD_VALUES)
 
     def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, np.ndarray]:
         """Extra ghosts, their owners, the extended index map and the element nodes in it."""
         p = self.pairs
         return p.extra_ghosts, p.extra_owners, self.index_map, self.elements.nodes
-
-    # -- state -----------------------------------------------------------------------------------
-    def commit(self) -> None:
-        """Accept the trial state (after a converged step)."""
-        self.elements.commit()
-
-    def revert(self) -> None:
-        """Reject the trial state (after a failed step)."""
-        self.elements.revert()
-        self._x_at_update = None
-
-    def destroy(self) -> None:
-        """Free the PETSc vectors (safe to call more than once)."""
-        for name in ("x_ext", "b_ext", "_mask_ext", "_work"):
-            v = getattr(self, name, None)
-            if v is not None:
-                v.destroy()
-                setattr(self, name, None)
-
-
-def _bc_values(
-    V: dolfinx.fem.FunctionSpace, bcs: Sequence[Any], x: np.ndarray | None
-) -> tuple[np.ndarray, np.ndarray]:
-    """Owned constrained dofs of DOLFINx ``bcs`` (unrolled, sorted) and ``g - x`` there."""
-    bs = V.dofmap.bs
-    imap = V.dofmap.index_map
-    n_owned, n_all = imap.size_local * bs, (imap.size_local + imap.num_ghosts) * bs
-    dofs = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]
-    dofs = np.unique(np.concatenate(dofs)) if dofs else np.zeros(0, np.int32)
-    dofs = dofs[dofs < n_owned].astype(np.int32)
-    values = np.zeros(n_all)
-    x0 = np.zeros(n_all)
-    if x is not None:
-        x0[:n_owned] = x[:n_owned]
-    for bc in bcs:
-        bc.set(values, x0, 1.0)
-    return dofs, values[dofs]
-
-
-def create_matrix(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> PETSc.Mat:
-    """A matrix with every bulk cell's block and every interface's couplings preallocated.
-
-    Assemble the bulk into it with DOLFINx (``dolfinx.fem.petsc.assemble_matrix``) and the
-    interfaces with :meth:`FrictionInterface.assemble_jacobian`: neither allocates.
-    """
-    return layout_of(V, interfaces).create_matrix()
-
-
-def layout_of(V: dolfinx.fem.FunctionSpace, interfaces: Sequence[Any]) -> ExtendedLayout:
-    """The :class:`~.layout.ExtendedLayout` of all interfaces on ``V`` (collective)."""
-    parts = [el.layout_parts() for el in interfaces]
-    if len(parts) == 1:
-        return ExtendedLayout(V, parts[0][2], parts[0][3])
-    imap, nodes = combined_index_map(
-        V, [(g, o) for g, o, _, _ in parts], [(m, nd) for _, _, m, nd in parts]
-    )
-    return ExtendedLayout(V, imap, nodes)
-
-
-def stiffen_separated(tangent: np.ndarray, law: FrictionLaw, fraction: float) -> np.ndarray:
-    """The tangent with ``fraction`` of the contact stiffness at points that have none.
-
-    A point separated beyond the contact band (or failed) has a zero tangent: where every point
-    of a body's interface is so, and no support holds the body in some direction, the Jacobian
-    is singular (a block pulled sideways without load may tip about its one touching point, then
-    a pressure finds it floating: a failed linear solve). A Newton step on a Jacobian where such
-    points keep ``fraction * diag(alpha_t, ..., alpha_n)`` exists, and leaves the undetermined
-    motions alone where nothing pushes them; the residual, hence the converged solution, is
-    unchanged. Used by :class:`~.stepping.LoadStepper` in the retry of a failed step
-    (:data:`~.stepping.RETRY_SEPARATED_STIFFNESS`).
-
-    Args:
-        tangent: Consistent tangents (N, m, m).
-        law: The law (its ``alpha_t``, ``alpha_n``; the largest over regions).
-        fraction: Fraction of the contact stiffness; 0 returns ``tangent`` itself.
-    """
-    if not fraction or tangent.shape[0] == 0:
-        return tangent
-    free = ~tangent.reshape(tangent.shape[0], -1).any(axis=1)
-    if not free.any():
-        return tangent
-    m = tangent.shape[-1]
-    diag = np.full(m, float(law.alpha_t))
-    diag[-1] = float(law.alpha_n)
-    out = tangent.copy()
-    out[free] = fraction * np.diag(diag)
-    return out

@@ -1,16 +1,15 @@
 """The per-step search of a finite-sliding interface: the reach of every slave facet.
 
 At the start of every step (the last converged configuration) :class:`ReachSearch` (a part of
-:class:`~.finite.SlidingInterface`) computes the master's averaged nodal normals, runs the parallel
-search (:func:`.search.exchange_facets`) and finds, for every slave facet, the master facets it
-may face during the step: the candidates within the slave facet's size plus ``reach``. The
-master facets of the reach travel with their nodes' global numbers and owners, which become
-extra ghosts of the displacement's index map; the matrix pattern couples every slave facet's
-nodes with those of its reach, and the master facets of a reach near enough to each other to
-meet in one row of the tangent (:meth:`ReachSearch._couple`). Both are rebuilt only when a
-slave facet needs a master facet outside its current reach (then with three times the reach, so
-that a sliding body rebuilds every couple of facets, not every step); :attr:`layout_version`
-counts the rebuilds.
+:class:`~.interface.SlidingInterface`) computes the master's averaged nodal normals, runs the
+parallel search (:func:`.search.exchange_facets`) and finds, for every slave facet, the master
+facets it may face during the step: the candidates within the slave facet's size plus ``reach``. The
+master facets of the reach travel with their nodes' global numbers and owners, which become extra
+ghosts of the displacement's index map; the matrix pattern couples every slave facet's nodes with
+those of its reach, and the master facets of a reach near enough to each other to meet in one row of
+the tangent (:meth:`ReachSearch._couple`). Both are rebuilt only when a slave facet needs a master
+facet outside its current reach (then with three times the reach, so that a sliding body rebuilds
+every couple of facets, not every step); :attr:`layout_version` counts the rebuilds.
 """
 
 from __future__ import annotations
@@ -21,9 +20,9 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ...compat import ghosted_index_map, petsc_vector
-from .geometry import frames
-from .layout import Couplings
+from ....compat import ghosted_index_map, petsc_vector
+from ..geometry import frames
+from ..layout import Couplings
 from .projection import facet_basis
 from .search import exchange_facets, near_pairs
 from .surface import facet_measures, nodal_normals
@@ -46,7 +45,7 @@ def _near(points, extent, X, Nn, radius) -> tuple[np.ndarray, np.ndarray]:
 
 
 class ReachSearch:
-    """The search part of :class:`~.finite.SlidingInterface` (the interface's attributes).
+    """The search part of :class:`~.interface.SlidingInterface` (the interface's attributes).
 
     Attributes:
         pattern_margin: The margin of the master facet pairs the pattern couples, in largest
@@ -64,7 +63,7 @@ class ReachSearch:
         Returns:
             Whether the layout was rebuilt (:attr:`layout_version` grew).
         """
-        from ..timing import TIMER_SEARCH
+        from ...timing import TIMER_SEARCH
 
         t0 = time.perf_counter()
         with self._time(TIMER_SEARCH):
@@ -157,13 +156,13 @@ class ReachSearch:
         self.pf_nodes = nodes.astype(np.int32)  # (npf, nfd_m), local in the extended map
         self.pf_global = pf_global
         self.pf_normals = cn[rows].copy()
-        for v in ("x_ext", "b_ext", "_mask_ext"):
+        for v in ("x_ext", "b_ext", "_work"):
             old = getattr(self, v)
             if old is not None:
                 old.destroy()
         self.x_ext = petsc_vector(self.index_map, self.bs)
         self.b_ext = petsc_vector(self.index_map, self.bs)
-        self._mask_ext = None
+        self._work = None
         # reference positions of the reach's master nodes: current minus displacement
         self.x_ext.array_w[: self.n_owned] = self._x_committed
         self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -193,7 +192,7 @@ class ReachSearch:
     def _couple(self, Ym: np.ndarray, diam: float) -> None:
         """The pattern's node couplings (:attr:`couplings`) and master facet pairs (:meth:`_holds`).
 
-        What the tangent can write (:mod:`.finite_assembly`) while the layout stands: slave
+        What the tangent can write (:mod:`.assembly`) while the layout stands: slave
         rows of a facet ``s`` x its own nodes and those of the master facets its points project
         on, now and at the step's start (both in ``s``'s reach); master rows of the facets ``a``
         of ``s``'s segments (in the reach) x ``s``'s nodes, and x the nodes of a master facet

@@ -30,7 +30,7 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-from .pairing import _exchange
+from ..base import exchange_rows
 from .projection import normal_projection
 
 __all__ = [
@@ -168,7 +168,7 @@ def exchange_facets(
         facet, rank = np.nonzero(per_rank)
     else:
         facet = rank = np.zeros(0, dtype=np.int64)
-    got = _exchange(
+    got = exchange_rows(
         comm,
         rank.astype(np.int32),
         [

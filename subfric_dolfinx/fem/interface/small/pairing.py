@@ -20,7 +20,6 @@ couplings (see :mod:`.layout`).
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 
 import basix
@@ -29,14 +28,11 @@ import numpy as np
 from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-from ...compat import create_submesh, ghosted_index_map
-from .geometry import basix_cell, push_forward
+from ....compat import create_submesh, ghosted_index_map
+from ..base import InterfaceError, Received, exchange_rows
+from ..geometry import basix_cell, push_forward
 
-__all__ = ["InterfaceError", "InterfacePairs", "pair_interface"]
-
-
-class InterfaceError(ValueError):
-    """A mesh whose interface is unusable (missing tags, unpaired facets, undivided nodes)."""
+__all__ = ["InterfacePairs", "pair_interface"]
 
 
 @dataclasses.dataclass
@@ -275,7 +271,7 @@ def pair_interface(
     # How many master facets took each slave facet: counted where matched, summed by its owner.
     times = np.bincount(match, minlength=c_mid.shape[0])
     taken = np.flatnonzero(times)
-    back = _exchange(comm, cand.source[taken], [c_index[taken], times[taken]])
+    back = exchange_rows(comm, cand.source[taken], [c_index[taken], times[taken]])
     used = np.zeros(s_facets.size, dtype=np.int64)
     np.add.at(used, back.rows[0], back.rows[1])
     n_none = comm.allreduce(int(np.sum(used == 0)))
@@ -337,44 +333,13 @@ def _show(tags: np.ndarray) -> str:
     return str(int(tags[0])) if tags.size == 1 else str(tags.tolist())
 
 
-@dataclasses.dataclass
-class _Received:
-    """Rows received in an exchange, grouped by source rank (ascending)."""
-
-    source: np.ndarray
-    rows: list[np.ndarray]
-
-
-def _exchange(comm: MPI.Comm, dest: np.ndarray, arrays: list[np.ndarray]) -> _Received:
-    """Send row ``i`` of each array to rank ``dest[i]`` (``MPI_Alltoallv``; collective).
-
-    Only the counts go to every rank; the rows go where they are needed.
-    """
-    order = np.argsort(dest, kind="stable")
-    counts = np.bincount(dest, minlength=comm.size).astype(np.int64)
-    recv_counts = np.empty_like(counts)
-    comm.Alltoall(counts, recv_counts)
-    n_recv = int(recv_counts.sum())
-    out = []
-    for a in arrays:
-        a = np.ascontiguousarray(a[order])
-        width = math.prod(a.shape[1:])
-        recv = np.empty((n_recv, *a.shape[1:]), dtype=a.dtype)
-        sc, rc = counts * width, recv_counts * width
-        sd = np.concatenate([[0], np.cumsum(sc)[:-1]])
-        rd = np.concatenate([[0], np.cumsum(rc)[:-1]])
-        comm.Alltoallv([a, (sc, sd)], [recv, (rc, rd)])
-        out.append(recv)
-    return _Received(np.repeat(np.arange(comm.size, dtype=np.int32), recv_counts), out)
-
-
 def _exchange_slave_facets(
     comm: MPI.Comm,
     m_mid: np.ndarray,
     s_mid: np.ndarray,
     data: list[np.ndarray],
     pad: float,
-) -> _Received:
+) -> Received:
     """Send each slave facet (midpoint and ``data`` rows) to the ranks that may pair it.
 
     Those are the ranks whose master facet midpoints have a bounding box that, grown by ``pad``,
@@ -395,7 +360,7 @@ def _exchange_slave_facets(
         axis=2,
     )
     facet, rank = np.nonzero(inside)
-    return _exchange(comm, rank.astype(np.int32), [s_mid[facet]] + [a[facet] for a in data])
+    return exchange_rows(comm, rank.astype(np.int32), [s_mid[facet]] + [a[facet] for a in data])
 
 
 def _nearest(

@@ -32,11 +32,12 @@ import basix.ufl
 import dolfinx
 import numpy as np
 
-from ...compat import geometry_dofmap
-from ...constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
-from ..kinematics import point_weight
-from .geometry import coordinate_basis, frames, push_forward, quadrature_rule
-from .pairing import InterfaceError, InterfacePairs
+from ....compat import geometry_dofmap
+from ....constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
+from ...kinematics import point_weight
+from ..base import initial_gaps, restore_law_state, saved_law_state
+from ..geometry import coordinate_basis, frames, push_forward, quadrature_rule
+from .pairing import InterfacePairs
 
 __all__ = ["InterfaceElements"]
 
@@ -174,7 +175,7 @@ class InterfaceElements:
         fn["g0"] = F(self.Qs, name="g0")
         self.functions = fn
         self.g0 = fn["g0"].x.array
-        self.g0[:] = _initial_gap(initial_gap, self.points.reshape(-1, gdim), sub.comm)
+        self.g0[:] = initial_gaps(initial_gap, self.points.reshape(-1, gdim), sub.comm)
         self.point_data: dict[str, np.ndarray] = {"g0": self.g0}
         if region is not None:
             self.point_data["region"] = region.astype(float)
@@ -251,43 +252,12 @@ class InterfaceElements:
 
     def saved_state(self) -> dict[str, np.ndarray]:
         """The committed internal variables (what a restart needs), name -> array."""
-        return dict(self.state.old.items())
+        return saved_law_state(self.state)
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put the internal variables back as the committed and trial state."""
-        st = self.state.old
-        for name in st.names:
-            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
-        self.state.revert()
+        restore_law_state(self.state, arrays)
 
     def revert(self) -> None:
         """Reject the trial state."""
         self.state.revert()
-
-
-def _initial_gap(
-    spec: float | Callable[[np.ndarray], np.ndarray] | None, x: np.ndarray, comm
-) -> np.ndarray:
-    """The initial gap at points ``x`` (n, gdim) (collective: a failure is raised on every rank).
-
-    Raises:
-        InterfaceError: The function failed, gave the wrong number of values or a value that is
-            not finite (the first such point is named).
-    """
-    n = x.shape[0]
-    error = None
-    g = np.zeros(n)
-    try:
-        if spec is not None:
-            vals = spec(x.T.copy()) if callable(spec) else spec
-            g = np.array(np.broadcast_to(np.asarray(vals, dtype=float), (n,)))
-            bad = np.flatnonzero(~np.isfinite(g))
-            if bad.size:
-                where = ", ".join(f"{v:.6g}" for v in x[bad[0]])
-                error = f"the initial gap is not finite at ({where}): {g[bad[0]]:g}"
-    except Exception as e:  # a function of the user's, or values of the wrong shape
-        error = f"the initial gap could not be evaluated: {type(e).__name__}: {e}"
-    errors = [m for m in comm.allgather(error) if m]
-    if errors:
-        raise InterfaceError(errors[0])
-    return g

@@ -1,6 +1,6 @@
-"""The law's points of a finite-sliding interface (a part of :class:`~.finite.SlidingInterface`).
+"""The law's points of a finite-sliding interface (a part of :class:`~.interface.SlidingInterface`).
 
-A :class:`~.finite.SlidingInterface` is its own :class:`~.protocol.LawPoints`: the quadrature
+A :class:`~.interface.SlidingInterface` is its own :class:`~.protocol.LawPoints`: the quadrature
 points of its slave facets, in the order of the cells of its slave submesh. This part gives the
 frames of the last iterate per facet, the state a checkpoint holds (the law's variables, the
 points' total tangential gap and their frames' normals) and the restart from it.
@@ -12,13 +12,14 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .geometry import frames
+from ..base import restore_law_state, saved_law_state
+from ..geometry import frames
 
 __all__ = ["SlidingPoints"]
 
 
 class SlidingPoints:
-    """The law's-points part of :class:`~.finite.SlidingInterface` (the interface's attributes)."""
+    """The law's-points part of :class:`~.interface.SlidingInterface` (its attributes)."""
 
     @property
     def law_points(self) -> SlidingPoints:
@@ -42,7 +43,7 @@ class SlidingPoints:
         components) and the normals of their frames (``sliding_normal``; zero where a point never
         faced the master: its frame is still the identity, which no frame of a normal is).
         """
-        out = dict(self.state.old.items())
+        out = saved_law_state(self.state)
         out["sliding_ut"] = self.ut_old
         normal = -self.Q_old[:, -1, :]
         normal[np.all(self.Q_old == np.eye(self.gdim), axis=(1, 2))] = 0.0
@@ -51,10 +52,7 @@ class SlidingPoints:
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put :meth:`saved_state`'s arrays back (then :meth:`resume` from the displacement)."""
-        st = self.state.old
-        for name in st.names:
-            st[name][...] = np.asarray(arrays[name]).reshape(st[name].shape)
-        self.state.revert()
+        restore_law_state(self.state, arrays)
         self.ut_old = np.asarray(arrays["sliding_ut"], dtype=float).reshape(self.ut_old.shape)
         normal = np.asarray(arrays["sliding_normal"], dtype=float).reshape(-1, self.gdim)
         faced = np.linalg.norm(normal, axis=1) > 0.5
