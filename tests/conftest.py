@@ -12,8 +12,9 @@
   (``./run test3``: parallel code paths on an odd partition, oversubscribed on these 2-core
   machines, correctness only). The suite is written for 1 and 2 ranks: on more, the tests of the
   other modules are deselected (reported as such).
-* ``@pytest.mark.two_ranks``: tests of records made on 2 ranks (``test_records.py``): run in the
-  2-rank leg only, deselected (reported as such) on 1 and 3 ranks.
+* ``@pytest.mark.two_ranks``: what only 2 ranks show (records made on 2 ranks, in
+  ``test_records.py``; a race between ranks): run in the 2-rank leg only, deselected (reported as
+  such) on 1 and 3 ranks.
 * ``@pytest.mark.e2e``: an end-to-end check (a program in a subprocess, an ``mpirun`` job, a pip
   install; every test in ``tests/demos`` and ``tests/verification``: whole demos, the docs, the
   records, results against their references). ``./run test-fast`` leaves them out: the unit

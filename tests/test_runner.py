@@ -12,6 +12,8 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
+import textwrap
 import time
 
 import pytest
@@ -337,3 +339,33 @@ def test_the_docs_command_fails_on_any_sphinx_warning(tmp_path):
     assert p.returncode == 0, p.stderr
     args = p.stdout.split()
     assert args[0] == "sphinx-build" and {"-W", "--keep-going", "-q"} <= set(args), args
+
+
+# The suite's own guard against a hang pytest-timeout cannot end (tests/conftest.py): its
+# thread needs the GIL, which a rank waiting inside PETSc's reductions holds; faulthandler's
+# watchdog, a C thread, ends the test's process past its timeout and a margin.
+HANGS = textwrap.dedent(
+    """
+    import re
+
+    import pytest
+
+
+    @pytest.mark.timeout(1)
+    def test_hangs_holding_the_gil():
+        re.match(r"(a+)+$", "a" * 60 + "b")  # C regex backtracking: years, the GIL held
+    """
+)
+
+
+@pytest.mark.serial
+def test_a_test_that_hangs_holding_the_gil_ends_its_process(tmp_path):
+    (tmp_path / "test_hangs.py").write_text(HANGS)
+    env = dict(os.environ, SUBFRIC_TEST_HANG_MARGIN="2")
+    cmd = [sys.executable, "-m", "pytest", "-p", "tests.conftest", "-p", "no:cacheprovider"]
+    cmd += ["--rootdir", str(tmp_path), "-c", os.devnull, "-o", "timeout_method=thread"]
+    cmd += ["-q", "test_hangs.py"]
+    run = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert run.returncode != 0, run.stdout + run.stderr
+    assert "Timeout (0:00:03)!" in run.stderr, run.stdout + run.stderr
+    assert "test_hangs.py" in run.stderr and "in test_hangs_holding_the_gil" in run.stderr

@@ -242,6 +242,7 @@ class _StopWatch:
         self._numbers = {int(s) for s in STOP_SIGNALS}
         self._previous: dict[signal.Signals, Any] = {}
         self._thread: threading.Thread | None = None
+        self.stopping = False  # the run was stopped: later signals change nothing
 
     def __enter__(self) -> _StopWatch:
         if threading.current_thread() is not threading.main_thread():
@@ -263,7 +264,7 @@ class _StopWatch:
             if not data:  # closed: the run is over
                 return
             for b in data:
-                if b in self._numbers and not guard_active():
+                if b in self._numbers and not guard_active() and not self.stopping:
                     self._stop(signal.Signals(b))
 
     def _stop(self, sig: signal.Signals) -> None:
@@ -281,8 +282,11 @@ class _StopWatch:
     def __exit__(self, *exc: object) -> None:
         if self._thread is None:
             return
+        # A stopped run's process is ending with EXIT_INTERRUPTED: a later stop signal is
+        # ignored (mpirun forwards a second one late; its default action, to end the process,
+        # would replace that exit code by the signal's)
         for s, h in self._previous.items():
-            signal.signal(s, h)
+            signal.signal(s, signal.SIG_IGN if self.stopping else h)
         signal.set_wakeup_fd(self._old_fd)
         os.close(self._w)  # the watcher reads the end of the pipe and returns
         self._thread.join()
@@ -323,13 +327,14 @@ def run_main(
     rank = MPI.COMM_WORLD.rank
     if prog is None:
         prog = (sys.argv[0].rsplit("/", 1)[-1] if sys.argv and sys.argv[0] else "") or "demo"
-    with _StopWatch(prog, rank):
+    with _StopWatch(prog, rank) as watch:
         try:
             main(argv)
         except Exception as e:
             code = _exit_code(e)
             if code is None:
                 raise
+            watch.stopping = code == EXIT_INTERRUPTED
             if rank == 0:
                 what = "" if code == EXIT_INTERRUPTED else "error: "
                 print(f"{prog}: {what}{e}", file=sys.stderr, flush=True)

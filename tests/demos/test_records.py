@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pytest
@@ -84,7 +84,34 @@ def _demo_results():
     return demo_results
 
 
-def differences(record: Any, now: Any, scale: float, path: str = "") -> list[str]:
+class Tolerance(NamedTuple):
+    """How far a re-run may be from its record: :data:`RTOL`, :data:`ATOL`, Newton counts."""
+
+    rtol: float = RTOL
+    atol: float = ATOL
+    newton: int = 1
+    only: tuple[str, ...] = ()  # the parts of the record re-checked (all if empty)
+
+
+DEFAULT = Tolerance()
+
+TOLERANCES = {
+    key: Tolerance(rtol=1e-5, atol=1e-8, only=("hertz",))
+    for key in ("hertz_apart_n4", "hertz_apart_n8")
+}
+"""Runs re-checked more loosely, and why. Hertz meshed apart (finite sliding, 2 ranks): its
+steps' Newton counts differ by up to two iterations from run to run with DOLFINx 0.11 and PETSc
+3.25 (MUMPS's parallel factorisation is not bit-reproducible, and the contact's search is redone
+at every iteration), and the stepper grows its step after easy steps: the step sequence differs
+(12 or 13 steps), the end state agrees to Newton's tolerance. Its quoted figures, the contact's
+size and pressure against Hertz at the end (``hertz``), are re-checked: each to 1e-5 of itself
+(the fitted ``p0`` moved by 1.2e-6) plus 1e-8 of the load (the relative errors, fractions such
+as 4e-4, to 2e-5)."""
+
+
+def differences(
+    record: Any, now: Any, scale: float, path: str = "", tol: Tolerance = DEFAULT
+) -> list[str]:
     """Where ``now`` differs from ``record`` beyond the tolerances (empty: it does not).
 
     Args:
@@ -92,6 +119,7 @@ def differences(record: Any, now: Any, scale: float, path: str = "") -> list[str
         now: The re-run's.
         scale: The record's largest number (for :data:`ATOL`).
         path: The place in the record (for messages).
+        tol: The tolerances.
     """
     if isinstance(record, dict):
         if not isinstance(now, dict):
@@ -105,9 +133,9 @@ def differences(record: Any, now: Any, scale: float, path: str = "") -> list[str
                 out.append(f"{where}: {'new' if k not in record else 'gone'}")
                 continue
             if NEWTON.match(str(k)):
-                out += _newton(record[k], now[k], where)
+                out += _newton(record[k], now[k], where, tol.newton)
                 continue
-            out += differences(record[k], now[k], scale, where)
+            out += differences(record[k], now[k], scale, where, tol)
         return out
     if isinstance(record, list):
         if not isinstance(now, list) or len(now) != len(record):
@@ -115,7 +143,7 @@ def differences(record: Any, now: Any, scale: float, path: str = "") -> list[str
             return [f"{path}: recorded {len(record)} values, now {n}"]
         out = []
         for i, (a, b) in enumerate(zip(record, now, strict=True)):
-            out += differences(a, b, scale, f"{path}[{i}]")
+            out += differences(a, b, scale, f"{path}[{i}]", tol)
         return out
     if isinstance(record, bool) or isinstance(record, str) or record is None:
         return [] if record == now else [f"{path}: recorded {record!r}, now {now!r}"]
@@ -125,7 +153,7 @@ def differences(record: Any, now: Any, scale: float, path: str = "") -> list[str
         if math.isnan(record) or math.isnan(now):
             same = math.isnan(record) and math.isnan(now)
             return [] if same else [f"{path}: recorded {record!r}, now {now!r}"]
-        if abs(now - record) <= RTOL * abs(record) + ATOL * scale:
+        if abs(now - record) <= tol.rtol * abs(record) + tol.atol * scale:
             return []
         return [f"{path}: recorded {record:.10g}, now {now:.10g} ({_rel(record, now)})"]
     return [f"{path}: unexpected value {record!r}"]
@@ -135,16 +163,16 @@ def _rel(a: float, b: float) -> str:
     return f"relative change {abs(b - a) / abs(a):.2e}" if a else f"change {abs(b - a):.2e}"
 
 
-def _newton(record: Any, now: Any, path: str) -> list[str]:
+def _newton(record: Any, now: Any, path: str, most: int = 1) -> list[str]:
     if isinstance(record, dict):  # a history's digest of its Newton column: max, min, last
         if not isinstance(now, dict) or set(now) != set(record):
             return [f"{path}: recorded {record!r}, now {now!r}"]
-        return [d for k in sorted(record) for d in _newton(record[k], now[k], f"{path}.{k}")]
+        return [d for k in sorted(record) for d in _newton(record[k], now[k], f"{path}.{k}", most)]
     a, b = np.asarray(record, dtype=float), np.asarray(now, dtype=float)
     if a.shape != b.shape:
         return [f"{path}: recorded {a.shape} Newton counts, now {b.shape}"]
     worst = float(np.abs(a - b).max()) if a.size else 0.0
-    return [] if worst <= 1 else [f"{path}: Newton counts differ by up to {worst:g} iterations"]
+    return [] if worst <= most else [f"{path}: Newton counts differ by up to {worst:g} iterations"]
 
 
 def largest(value: Any) -> float:
@@ -192,7 +220,11 @@ def _recheck(key: str, tmp) -> None:
     assert record is not None, f"docs/demo_results.json has no record {key!r}: ./run refresh"
     comm = None if dr.RUNS[key].demo in dr.NUMPY_ONLY else MPI.COMM_WORLD
     now = dr.measure(key, tmp / "files", comm)
-    diff = differences(record["numbers"], now["numbers"], largest(record["numbers"]))
+    tol = TOLERANCES.get(key, DEFAULT)
+    rec, got = record["numbers"], now["numbers"]
+    if tol.only:
+        rec, got = ({k: v for k, v in d.items() if k in tol.only} for d in (rec, got))
+    diff = differences(rec, got, largest(rec), tol=tol)
     assert not diff, (
         f"{' '.join(record['command'])} no longer gives its record (docs/demo_results.json, "
         f"{key}): " + "; ".join(diff[:8]) + (f"; and {len(diff) - 8} more" if diff[8:] else "")

@@ -382,6 +382,7 @@ def busy_cores(n=2):
 
 
 @pytest.mark.e2e
+@pytest.mark.two_ranks  # a race between ranks: one rank has none
 @pytest.mark.timeout(600)
 def test_every_rank_returns_with_the_directory_in_its_final_state_under_load(shared_tmp):
     """The CI race of issue 23: rank 0 removed the lock file after the other rank had returned

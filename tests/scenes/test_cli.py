@@ -113,6 +113,39 @@ def test_the_guard_turns_a_signal_into_a_request_every_rank_sees():
     assert everywhere(comm, all(checks)), checks
 
 
+LATE_SIGNAL = """
+import os, signal, sys
+from subfric_dolfinx.scenes import cli
+from subfric_dolfinx.scenes.signals import SceneInterrupted
+
+def main(argv):
+    raise SceneInterrupted("interrupted by SIGUSR1 after step 3", 3.0, None)
+
+code = cli.run_main(main, [], prog="late")
+os.kill(os.getpid(), signal.SIGUSR1)  # as mpirun forwards a second signal, late
+os.kill(os.getpid(), signal.SIGTERM)
+print("alive", code, flush=True)
+sys.exit(code)
+"""
+
+
+@pytest.mark.serial
+def test_a_signal_after_the_run_stopped_keeps_the_exit_code():
+    """A run stopped by a signal ends with exit code 75 even when another stop signal arrives
+    after the run, while the process ends: it is ignored (its default action ended the process
+    with the signal's code instead: a rank of a launcher's job, SIGINT 50 ms after SIGTERM)."""
+    p = subprocess.run(
+        [sys.executable, "-c", LATE_SIGNAL],
+        cwd=ROOT,
+        env=singleton_env(),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == cli.EXIT_INTERRUPTED, (p.returncode, p.stdout, p.stderr)
+    assert "alive 75" in p.stdout and "late: interrupted by SIGUSR1" in p.stderr, p.stderr
+
+
 def run(cmd, signal_at=None, sig=signal.SIGUSR1, timeout=180):
     """Run ``cmd`` from the repository root; send ``sig`` once a line starts with
     ``signal_at``. Returns (exit code, output)."""
