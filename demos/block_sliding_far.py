@@ -218,6 +218,10 @@ def report(result, slide: float, tr: Track) -> dict:
     sliding = t >= 1.0 + 0.2 * slide  # after the first fifth of the slide
     offset = found[sliding] - centre[sliding]
     mean_tr = np.array([r["F_t1"] / r["area"] for r in h])
+    # the force that pushes the block (its top's reaction) against the interface's friction
+    # force: equal in equilibrium; their difference is what the interface's transfer loses
+    push = np.array([r["R_top_x"] for r in h])
+    friction = np.array([r["F_t1"] for r in h])
     out = {
         "slide": slide,
         "steps": len(h),
@@ -226,6 +230,11 @@ def report(result, slide: float, tr: Track) -> dict:
         "compression_offset_max": float(np.abs(offset).max()),
         "F_n_end": float(h[-1]["F_n"]),
         "material_point_end": float(point[-1] / 300.0),
+        "push_end": float(push[-1]),
+        "friction_force_end": float(friction[-1]),
+        "push_minus_friction_max": float(
+            np.abs(push - friction).max() / max(np.abs(friction).max(), 1e-300)
+        ),
     }
     print(
         f"slid {slide:g} mm in {len(h)} steps (Newton <= {out['newton_max']} per step); "
@@ -233,6 +242,11 @@ def report(result, slide: float, tr: Track) -> dict:
         f"{out['material_point_end']:.4f}); the base's compression centre "
         f"within {out['compression_offset_max']:.3f} mm of the block's centre over the last "
         "four fifths of the slide"
+    )
+    print(
+        f"the push on the block's top {out['push_end']:.4f} N/mm, the interface's friction "
+        f"force {out['friction_force_end']:.4f} N/mm at the end; they differ by at most "
+        f"{out['push_minus_friction_max']:.2e} of the peak friction force over the run"
     )
     for tt in np.linspace(1.0 + 0.2 * slide, 1.0 + slide, 5):
         i = int(np.argmin(np.abs(t - tt)))
