@@ -281,6 +281,26 @@ def _records(d: Data) -> list[str]:
     return [d.stamp["commit"][:10], d.stamp["date"].split()[0], f"{d.stamp['load'][0]:.1f}"]
 
 
+def _later(d: Data) -> str:
+    """The runs recorded again since the last ``./run refresh``: names, commit, loads."""
+    groups: dict[str, list[tuple[str, float]]] = {}
+    for key, rec in d.demos.items():
+        st = rec.get("stamp") or d.stamp
+        if st["commit"] != d.stamp["commit"] and not key.endswith("_small"):
+            groups.setdefault(st["commit"][:10], []).append((key, st["load"][0]))
+    if not groups:
+        return "none"
+    parts = []
+    for commit, runs in sorted(groups.items(), key=lambda g: min(g[1])):
+        loads = sorted(load for _, load in runs)
+        span = (
+            f"{loads[0]:.1f}" if loads[-1] - loads[0] < 0.05 else f"{loads[0]:.1f}-{loads[-1]:.1f}"
+        )
+        names = ", ".join(f"`{k}`" for k, _ in sorted(runs))
+        parts.append(f"{names} at `{commit}` (load {span})")
+    return ", ".join(parts) + " (with their smallest runs)"
+
+
 def _cm(d: Data) -> dict[str, Any]:
     return d.demo("cattaneo_mindlin")["numbers"]
 
@@ -346,6 +366,9 @@ QUOTES: list[Quote] = [
         "The times and numbers quoted here were recorded at commit `{}` on {} (load {})"),
         _records),
     # docs/reference/demos.md: what each demo shows
+    Quote("runs recorded again since (README)", words(
+        "runs recorded again since, each at its own commit: {t}; "
+        "`tests/demos/test_readme.py` checks"), lambda d: [_later(d)]),
     Quote("the records' commit and date (demos)", words(
         "recorded at commit `{}` on {} (load {}) by `docs/demo_results.py`"),
         _records, page=DEMOS_PAGE),
