@@ -442,6 +442,13 @@ QUOTES: list[Quote] = [
         "{} steps, Newton up to {} iterations in a step"),
         lambda d: [str(d.demo("block_sliding_far")["numbers"]["steps"]),
                    str(d.demo("block_sliding_far")["numbers"]["newton_max"])], page=DEMOS_PAGE),
+    Quote("block_sliding_far: push against friction", words(
+        "The push on the block's top is not quite the interface's friction force: {} against {} "
+        "N/mm at the end, apart by up to {} of the peak friction force over the run"),
+        lambda d: [f2(d.demo("block_sliding_far")["numbers"]["push_end"]),
+                   f2(d.demo("block_sliding_far")["numbers"]["friction_force_end"]),
+                   f"{d.demo('block_sliding_far')['numbers']['push_minus_friction_max']:.2g}"],
+        page=DEMOS_PAGE),
     # docs/reference/accuracy.md: the report's headlines
     Quote("report: material point", words(
         "error {} of the peak at {} steps down to {} at {}, observed order {} on a 1-D path "
