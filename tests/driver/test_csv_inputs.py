@@ -149,37 +149,25 @@ def test_the_console_scripts_are_declared_and_work(tmp_path):
         assert shutil.which(name, path=where), (name, os.listdir(where))
     (tmp_path / "case.json").write_text(json.dumps(case(PATH)))
     env = python_env()
-    cmd = [os.path.join(where, "subfric-driver"), "case.json", "--out", "r.json"]
-    run = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+
+    def script(name, *args):
+        return subprocess.run(
+            [os.path.join(where, name), *args],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    run = script("subfric-driver", "case.json", "--out", "r.json")
     assert run.returncode == 0, run.stderr
     assert len(json.loads((tmp_path / "r.json").read_text())["samples"]["t"]) == 5
-    bad = subprocess.run(
-        [os.path.join(where, "subfric-calibrate"), "missing.json", "--out", "f.json"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    bad = script("subfric-calibrate", "missing.json", "--out", "f.json")
     assert bad.returncode == 2 and bad.stderr.startswith("error:"), bad.stderr
-    usage = subprocess.run(
-        [os.path.join(where, "subfric-calibrate"), "--help"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert usage.returncode == 0 and "usage: subfric-calibrate" in usage.stdout, usage.stdout
-    scene = subprocess.run(
-        [os.path.join(where, "subfric-scene"), "--help"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert scene.returncode == 0 and "usage: subfric-scene" in scene.stdout, scene.stdout
+    for name in ("subfric-calibrate", "subfric-scene"):
+        usage = script(name, "--help")
+        assert usage.returncode == 0 and f"usage: {name}" in usage.stdout, usage.stdout
 
 
 SECRET = "the first line of a file elsewhere\n"
