@@ -264,7 +264,7 @@ def repository_links(app: object, docname: str, source: list[str]) -> None:
         if re.match(r"^[a-z]+:|^#|^/", target):
             return m.group(0)
         path, _, anchor = target.partition("#")
-        full = (here / path).resolve()
+        full = Path(os.path.normpath(here / path))  # lexical: a linked entry stays in the tree
         if full.is_relative_to(HERE):
             return m.group(0)
         rel = full.relative_to(ROOT) if full.is_relative_to(ROOT) else None

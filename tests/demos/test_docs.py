@@ -17,6 +17,7 @@ build into ``docs/_build/html``), and the built pages are read back (HTML parsed
 """
 
 import re
+import shutil
 import subprocess
 import sys
 from html.parser import HTMLParser
@@ -80,12 +81,29 @@ class Page(HTMLParser):
 RAW_MATH = re.compile(r"\\\(|\\\[|\$\$|(?<![\w\\])\$[^\s$][^$\n]*[^\s$\\]\$(?!\w)")
 
 
+# what docs/conf.py writes into its source folder at every build (.gitignore lists them)
+GENERATED = ("_build", "api", "demos", "_mathjax", "readme.md", "__pycache__")
+
+
+def private_source(where):
+    """A source tree of the site's own for one build: ``docs/`` copied without what a build
+    generates, every other entry of the repository linked. conf.py writes its generated pages
+    (``api/``, ``demos/``, ``readme.md``, ``_mathjax/``) beside its sources: two builds at once
+    (the two stacks' legs of ``./run test`` side by side) in the repository's one ``docs/``
+    would remove each other's pages."""
+    shutil.copytree(DOCS, where / "docs", ignore=shutil.ignore_patterns(*GENERATED))
+    for entry in ROOT.iterdir():
+        if entry.name != "docs":
+            (where / entry.name).symlink_to(entry)
+    return where
+
+
 @pytest.fixture(scope="module")
 def site(tmp_path_factory):
     out = tmp_path_factory.mktemp("docs") / "html"
     p = subprocess.run(
         [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", "docs", out],
-        cwd=ROOT,
+        cwd=private_source(tmp_path_factory.mktemp("docs_source")),
         env=singleton_env(),
         capture_output=True,
         text=True,
@@ -266,7 +284,7 @@ def pages_site(tmp_path_factory):
     out = tmp_path_factory.mktemp("pages") / "html"
     p = subprocess.run(
         [sys.executable, "-m", "sphinx", "-t", "pages", "-q", "-b", "html", "docs", out],
-        cwd=ROOT,
+        cwd=private_source(tmp_path_factory.mktemp("pages_source")),
         env=singleton_env(),
         capture_output=True,
         text=True,
