@@ -98,12 +98,12 @@ def private_source(where):
     return where
 
 
-@pytest.fixture(scope="module")
-def site(tmp_path_factory):
-    out = tmp_path_factory.mktemp("docs") / "html"
+def build(tmp_path_factory, name, *options):
+    """The site built by Sphinx from a source tree of its own (``name``: the folders' stem)."""
+    out = tmp_path_factory.mktemp(name) / "html"
     p = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", "docs", out],
-        cwd=private_source(tmp_path_factory.mktemp("docs_source")),
+        [sys.executable, "-m", "sphinx", *options, "-q", "-b", "html", "docs", out],
+        cwd=private_source(tmp_path_factory.mktemp(f"{name}_source")),
         env=singleton_env(),
         capture_output=True,
         text=True,
@@ -111,6 +111,11 @@ def site(tmp_path_factory):
     )
     assert p.returncode == 0, p.stdout + p.stderr
     return out
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    return build(tmp_path_factory, "docs", "-W", "--keep-going")
 
 
 def pages(site):
@@ -281,17 +286,7 @@ def plain(text):
 @pytest.fixture(scope="module")
 def pages_site(tmp_path_factory):
     """The Markdown pages alone (no API, no demos: about 10 s)."""
-    out = tmp_path_factory.mktemp("pages") / "html"
-    p = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-t", "pages", "-q", "-b", "html", "docs", out],
-        cwd=private_source(tmp_path_factory.mktemp("pages_source")),
-        env=singleton_env(),
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert p.returncode == 0, p.stdout + p.stderr
-    return out
+    return build(tmp_path_factory, "pages", "-t", "pages")
 
 
 @pytest.mark.serial
