@@ -37,6 +37,7 @@ __all__ = [
     "FacetProjection",
     "facet_basis",
     "inside_reference",
+    "lagrange_element",
     "normal_projection",
     "parametric_normal",
     "projection_jacobian",
@@ -79,7 +80,8 @@ def _solve_small(A: np.ndarray, b: np.ndarray, det: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
-def _element(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
+def lagrange_element(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
+    """The facets' Lagrange element of ``degree`` on ``cell`` (GLL-warped points, cached)."""
     return basix.create_element(
         basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
     )
@@ -93,7 +95,7 @@ def facet_basis(cell: basix.CellType, degree: int, xi: np.ndarray, nderiv: int =
         derivatives along each reference direction (basix's order), then the second ones if
         ``nderiv == 2``; no points give an empty array of that shape (basix wants points).
     """
-    e = _element(cell, degree)
+    e = lagrange_element(cell, degree)
     xi = np.ascontiguousarray(xi, dtype=float)
     if xi.shape[0] == 0:
         fdim = len(basix.topology(cell)) - 1
