@@ -91,7 +91,12 @@ class BaseInterface(abc.ABC):
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings` to time the sections in.
 
     Attributes:
-        kinematics: ``"small_sliding"`` or ``"finite_sliding"``.
+        kinematics: ``"small_sliding"`` or ``"finite_sliding"`` (the kind's name, for messages
+            and outputs; nothing outside the kinds branches on it).
+        fixed_pairs: Whether the interface pairs its points once, at the reference geometry:
+            then a slip is valid only while small against its elements (the validity watch
+            judges it), where a kind that pairs again as the bodies move is not limited.
+        pairs: The fixed pairs (``None`` where the interface pairs again as the bodies move).
         layout_version: Grows when the ghosts and the matrix pattern change.
         round_off: The forces' round-off per dof at the last :meth:`forces`, beyond that of
             the displacement (``None``: none beyond it; a finite-sliding interface's gaps are
@@ -102,6 +107,8 @@ class BaseInterface(abc.ABC):
     """
 
     kinematics: str
+    fixed_pairs: bool
+    pairs: Any = None
     layout_version = 0
     round_off: np.ndarray | None = None
     last: Any

@@ -115,7 +115,7 @@ class SlidingInterface(BaseInterface):
     """
 
     kinematics = "finite_sliding"
-    pairs = None  # no fixed pairs: re-paired in the current configuration
+    fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
 
     def __init__(

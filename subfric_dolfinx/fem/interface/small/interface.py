@@ -78,6 +78,7 @@ class FrictionInterface(BaseInterface):
     """
 
     kinematics = "small_sliding"  # the pairs, ghosts and pattern never change (layout_version)
+    fixed_pairs = True
 
     def __init__(
         self,
