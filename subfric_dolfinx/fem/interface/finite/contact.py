@@ -104,6 +104,13 @@ class ContactGeometry:
     held_now: np.ndarray
     held_old: np.ndarray
 
+    def __post_init__(self) -> None:
+        """Make the arrays read-only too: the value is passed on, never changed."""
+        arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
+        for a in [*arrays, *(self.turn or ())]:
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+
     @property
     def found(self) -> np.ndarray:
         """Whether each point faces the master, (npts,)."""

@@ -7,10 +7,8 @@ methods (:meth:`~SlidingInterface.set_step`,
 :meth:`~SlidingInterface.update`, :meth:`~SlidingInterface.forces`,
 :meth:`~SlidingInterface.assemble_residual`, :meth:`~SlidingInterface.assemble_jacobian`,
 :meth:`~SlidingInterface.commit`, :meth:`~SlidingInterface.revert`), but the pairing is made in
-the current configuration with the geometry of §11:
+the current configuration with the geometry of §11.
 
-* The law's points are the quadrature points of the *slave* (secondary) facets, fixed material
-  points of the slave body that carry the internal variables. The two sides need not match.
 It is made of parts it holds, each with its own state: its :class:`~.sides.Sides` (the two
 surfaces, fixed), its law's points (:class:`~.points.SlidingPoints`), its search
 (:class:`~.reach.ReachSearch`), its transfer (:class:`~.transfer.SegmentTransfer`) and its assembly
@@ -18,6 +16,8 @@ surfaces, fixed), its law's points (:class:`~.points.SlidingPoints`), its search
 :class:`~.contact.ContactGeometry` that the return map, the forces, the tangent and the commit
 read.
 
+* The law's points are the quadrature points of the *slave* (secondary) facets, fixed material
+  points of the slave body that carry the internal variables. The two sides need not match.
 * **Per step** (:meth:`~SlidingInterface.begin_step`, collective, from the last converged
   configuration): averaged nodal normals of the master, the parallel search
   (:func:`.search.exchange_facets`), and for every slave facet the set of master facets it may
