@@ -52,6 +52,7 @@ contact kinematics is finite.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -157,9 +158,6 @@ class SlidingInterface(BaseInterface):
         self.geometry: ContactGeometry | None = None
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}
         self._x_committed = np.zeros(self.n_owned)
-        # d f_n / d g_n of every point at the step's first evaluation (its start: the last
-        # converged configuration with the step's Dirichlet values), for the first Jacobian
-        self._start_normal: np.ndarray | None = None
         self.start: StepStart = self.begin_step()
 
     # -- what the base reads ---------------------------------------------------------------------
@@ -200,7 +198,6 @@ class SlidingInterface(BaseInterface):
         Collective (the search). See :meth:`begin_step`.
         """
         super().set_step(dt)
-        self._start_normal = None
         self.start = self.begin_step()
 
     def begin_step(self) -> StepStart:
@@ -245,14 +242,15 @@ class SlidingInterface(BaseInterface):
             self.search_seconds.update(seconds)
             law_gap = g.gap.copy()
             law_gap[:, nt] -= pts.g0
-            start = pts.transported(g.transport) if nt == 2 else pts.state.old
+            committed = pts.transported(g.transport) if nt == 2 else pts.state.old
         with self._time(TIMER_RETURN_MAP):
-            res = self.law.return_map(law_gap, start, self.dt, out=pts.state.new)
+            res = self.law.return_map(law_gap, committed, self.dt, out=pts.state.new)
         with self._time(TIMER_INTERFACE):
             if np.any(g.slid_too_far):
                 res.status[g.slid_too_far] = Status.FAILED  # slid beyond the reach: cut the step
-            if self._start_normal is None:  # the step's first evaluation: its start
-                self._start_normal = res.tangent.reshape(-1, nt + 1, nt + 1)[:, nt, nt].copy()
+            if self.start.normal_stiffness is None:  # the step's first evaluation: its start
+                stiffness = res.tangent.reshape(-1, nt + 1, nt + 1)[:, nt, nt].copy()
+                self.start = dataclasses.replace(self.start, normal_stiffness=stiffness)
             pts.record(res, law_gap, g.Q)
             self.geometry = g
         self._x_at_update = np.array(owned, copy=True)
@@ -278,7 +276,7 @@ class SlidingInterface(BaseInterface):
         """The tangent's blocks of the last iterate (:meth:`.assembly.SlidingAssembly.blocks`)."""
         res = self.last
         D = self.assembly.law_tangent(
-            res.tangent, self.law, separated_stiffness, start, self._start_normal
+            res.tangent, self.law, separated_stiffness, start, self.start.normal_stiffness
         )
         return self.assembly.blocks(self.geometry, D, res.traction)
 

@@ -91,12 +91,16 @@ class StepStart:
         xi: Its reference coordinates there, (npts, nt).
         Q: The frames there; a point facing nothing keeps its committed one, (npts, gdim, gdim).
         tangents: The master's tangent basis there (where ``facet >= 0``), (npts, gdim, nt).
+        normal_stiffness: ``d f_n / d g_n`` of every point at the step's first evaluation (its
+            start: the last converged configuration with the step's Dirichlet values; ``None``
+            before it), for the step's first Jacobian.
     """
 
     facet: np.ndarray
     xi: np.ndarray
     Q: np.ndarray
     tangents: np.ndarray
+    normal_stiffness: np.ndarray | None = None
 
 
 class ReachSearch:
