@@ -448,7 +448,9 @@ def run_one(
         "rss_mib": rss,
         "nnz": nnz,
         "pattern_misses": (
-            comm.allreduce(problem.interface.pattern_misses) if finite else 0
+            comm.allreduce(next(iter(problem.interfaces.values())).search.pattern_misses)
+            if finite
+            else 0
         ),  # tangent entries beyond the finite-sliding pattern (left out, then rebuilt)
         "rss_setup_mib": comm.allreduce(rss_setup, op=MPI.MAX),
         "load": [load0[0], os.getloadavg()[0]],

@@ -2,7 +2,7 @@
 
 The largest term of the finite-sliding tangent beyond the law's and the projection's is the change
 of the master-side transfer ``B`` with the geometry, ``dB t`` (the master's nodal forces moving
-with the slave facets; ``SlidingAssembly.transfer_in_tangent``, on by default, 2-D and 3-D): the
+with the slave facets; ``SegmentTransfer.in_tangent``, on by default, 2-D and 3-D): the
 2-D tangent is then the residual's derivative, the 3-D one but for the frame's turn
 (``tests/fem/interface/test_finite_sliding_tangent.py``). The load stepper starts each step
 from the last one's extrapolated increment, and where the program turns (nothing to extrapolate)
@@ -41,7 +41,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper
-from subfric_dolfinx.fem.interface.finite import assembly as finite_assembly
+from subfric_dolfinx.fem.interface.finite.transfer import SegmentTransfer
 
 OUT = Path(__file__).resolve().parents[1] / "scratch" / "finite_sliding_newton"
 
@@ -64,12 +64,12 @@ def without_predictor() -> Iterator[None]:
 @contextlib.contextmanager
 def transfer_derivative(on: bool) -> Iterator[None]:
     """The tangent with (``on``) or without ``dB t`` in the block."""
-    before = finite_assembly.SlidingAssembly.transfer_in_tangent
-    finite_assembly.SlidingAssembly.transfer_in_tangent = on
+    before = SegmentTransfer.in_tangent
+    SegmentTransfer.in_tangent = on
     try:
         yield
     finally:
-        finite_assembly.SlidingAssembly.transfer_in_tangent = before
+        SegmentTransfer.in_tangent = before
 
 
 @contextlib.contextmanager
@@ -164,14 +164,14 @@ def main() -> None:
             with transfer_derivative(False):
                 attempt(f"{name}: without dB t", run)
             with transfer_derivative(True):
-                attempt(f"{name}: + dB t (transfer_in_tangent)", run)
+                attempt(f"{name}: + dB t (in_tangent)", run)
         else:
             with transfer_derivative(False), without_predictor():
                 attempt(f"{name}: without dB t, without predictor", run)
             with transfer_derivative(False):
                 attempt(f"{name}: without dB t", run)
             with transfer_derivative(True):
-                attempt(f"{name}: + dB t (transfer_in_tangent)", run)
+                attempt(f"{name}: + dB t (in_tangent)", run)
     if MPI.COMM_WORLD.rank == 0:
         print("\n".join(lines))
 

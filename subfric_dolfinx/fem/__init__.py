@@ -37,7 +37,7 @@ from .conditions import (
     Spring,
     Traction,
 )
-from .interface import FrictionInterface, InterfaceError, create_matrix
+from .interface import FrictionInterface, InterfaceError, NewtonStart, create_matrix
 from .plasticity import J2Bulk, PlasticityError
 from .problem import InterfaceProblem
 from .solver import (
@@ -67,6 +67,7 @@ __all__ = [
     "LinearElasticity",
     "LoadStepper",
     "Material",
+    "NewtonStart",
     "PlasticityError",
     "PointForce",
     "Pressure",

@@ -201,7 +201,7 @@ class ScaledConvergence:
             fabs += abs(a) * np.abs(f.array_r)
             reaction -= a * f.array_r
         r_int = p.interface_force[: s.size]
-        off = getattr(p, "interface_round_off", None)  # finite sliding: gaps from positions
+        off = p.interface_round_off  # the interfaces' own beyond |K| |u|
         if off is not None:
             s += off[: s.size]
         fabs += np.abs(r_int)

@@ -43,7 +43,7 @@ from .conditions import (
     Traction,
     channels,
 )
-from .interface import FrictionInterface, InterfaceError
+from .interface import BaseInterface, InterfaceError, NewtonStart
 from .interface.base import stiffen_separated
 from .interface.kinds import make_interface
 from .interface.layout import layout_of
@@ -93,10 +93,12 @@ class InterfaceProblem:
             carries ``2 pi r``: forces are totals over the revolution).
 
     Attributes:
-        interfaces: Interface name -> :class:`~.interface.FrictionInterface`.
+        interfaces: Interface name -> its interface, of either kind
+            (:class:`~.interface.BaseInterface`).
         interface: The first interface's law points (:class:`~.interface.protocol.LawPoints`: its
-            :class:`~.interface.InterfaceElements` with small sliding, the interface itself with
-            finite sliding), the only one of a two-body problem.
+            :class:`~.interface.InterfaceElements` with small sliding, its
+            :class:`~.interface.finite.points.SlidingPoints` with finite sliding), the only one
+            of a two-body problem.
         law: The first interface's law.
 
     Raises:
@@ -164,7 +166,7 @@ class InterfaceProblem:
         self.materials = topo.materials(materials)
 
         with self.timings(TIMER_SETUP):
-            self.interfaces: dict[str, FrictionInterface] = {}
+            self.interfaces: dict[str, BaseInterface] = {}
             groups = getattr(domain, "interface_groups", None) or {}
             for spec in topo.interfaces:
                 self.interfaces[spec.group] = make_interface(
@@ -245,7 +247,8 @@ class InterfaceProblem:
         self._bulk_fault: tuple[int, int] | None = None  # (non-finite entries, first) here
         self._bulk_fault_jacobian = False  # the bulk's Jacobian was not finite (every rank)
         self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
-        self.interface_round_off: np.ndarray | None = None  # finite sliding (convergence)
+        # the interfaces' forces' round-off beyond the displacement's (the convergence test)
+        self.interface_round_off: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------------------------------
@@ -367,19 +370,16 @@ class InterfaceProblem:
         x: PETSc.Vec,
         J: PETSc.Mat,
         separated_stiffness: float = 0.0,
-        frictionless: bool = False,
-        keep_contact: bool = False,
+        start: NewtonStart | None = None,
     ) -> None:
         """Assemble the Jacobian at ``x`` (reusing the tangent of the last residual there).
 
         ``separated_stiffness``: in this Jacobian only (not the residual), points without
         stiffness (separated beyond the contact band, failed) get this fraction of the law's
         contact stiffness (:func:`stiffen_separated`); 0: the exact tangent.
-        ``frictionless``: in this Jacobian only, the finite-sliding interfaces' law tangent keeps
-        its normal stiffness alone (the first iteration of a step where the program turns:
-        :class:`~.stepping.LoadStepper`'s ``predictor``); small-sliding interfaces are
-        unchanged. ``keep_contact``: in this Jacobian only, the finite-sliding interfaces' points
-        open here that were in contact at the step's start keep their normal stiffness there.
+        ``start``: the first Jacobian of a step, how its Newton iteration starts
+        (:class:`~.interface.NewtonStart`: each interface's kind decides what its tangent makes
+        of it; :class:`~.stepping.LoadStepper`'s ``predictor``); ``None``: a later iteration.
         """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update(x)
@@ -392,12 +392,7 @@ class InterfaceProblem:
                     self._bulk_fault_jacobian = True
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         for iface in self.interfaces.values():
-            iface.assemble_jacobian(
-                J,
-                separated_stiffness=separated_stiffness,
-                frictionless=frictionless,
-                keep_contact=keep_contact,
-            )
+            iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, start=start)
         J.assemble()
         J.zeroRows(self.bc_rows, diag=1.0)
 
@@ -405,11 +400,6 @@ class InterfaceProblem:
     def global_dofs(self) -> int:
         """The number of displacement dofs over all ranks (not collective: the index map's)."""
         return self.V.dofmap.index_map.size_global * self.V.dofmap.bs
-
-    @property
-    def finite_sliding(self) -> bool:
-        """Whether one of the interfaces is finite-sliding."""
-        return any(i.kinematics == "finite_sliding" for i in self.interfaces.values())
 
     def bulk_fault(self) -> str | None:
         """What the bulk model's residual or Jacobian gave that was not finite in this attempt.

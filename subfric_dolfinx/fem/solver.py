@@ -40,6 +40,7 @@ from petsc4py import PETSc
 
 from ._petsc import set_function_domain_error
 from .convergence import SNORM_SLACK, ScaledConvergence
+from .interface import NewtonStart
 from .linear import STRATEGY_OPTIONS, LinearStrategy, choose_strategy
 from .problem import InterfaceProblem
 from .timing import event_times
@@ -283,7 +284,7 @@ class FrictionSolver:
             raise
         self.failed_points: np.ndarray = np.zeros(0, dtype=np.int64)
         self.separated_stiffness = 0.0  # of the current solve (see solve)
-        self._start_next = (False, False)  # the next Jacobian's frictionless, keep_contact
+        self._start_next: NewtonStart | None = None  # the next Jacobian's (a step's first)
         self.interrupt: Callable[[], bool] | None = None
         """Asked at every residual evaluation, on every rank: ``True`` on any rank abandons
         the solve there (collectively, through a function-domain error; nothing is raised
@@ -334,8 +335,8 @@ class FrictionSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.linear.linear_done(snes)
-        (frictionless, keep), self._start_next = self._start_next, (False, False)
-        self.problem.jacobian(x, J, self.separated_stiffness, frictionless, keep)
+        start, self._start_next = self._start_next, None
+        self.problem.jacobian(x, J, self.separated_stiffness, start)
         self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference_norm)
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
@@ -352,8 +353,7 @@ class FrictionSolver:
         options: Mapping[str, Any] | None = None,
         separated_stiffness: float = 0.0,
         predictor: np.ndarray | None = None,
-        frictionless_start: bool = False,
-        keep_contact: bool = False,
+        start: NewtonStart | None = None,
     ) -> SolveResult:
         """Solve for the state at ``t`` after a step ``dt`` from the current (converged) one.
 
@@ -377,18 +377,13 @@ class FrictionSolver:
                 extrapolated guess is (an exact one has a residual of round-off, against which
                 no relative target is reachable), and the first iterate is not accepted at the
                 round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`).
-            frictionless_start: The first Newton iteration's Jacobian leaves out the
-                finite-sliding interfaces' tangential stiffness (the law's tangent keeps
-                ``d f_n / d g_n`` alone; :meth:`~.problem.InterfaceProblem.jacobian`): the
-                first iterate lets the interface slide instead of shearing the bodies on the
-                stick tangent of a zero slip increment. The later iterations, the residual and
-                the solution are unchanged. :class:`~.stepping.LoadStepper` asks for it where
-                the loading program turns.
-            keep_contact: In the first Newton iteration's Jacobian, the finite-sliding
-                interfaces' points open at the start that were in contact at the step's start
-                (the converged configuration with the new Dirichlet values) keep their normal
-                stiffness there (a contact-Newton safeguard: the first step does not let go of
-                points an extrapolated start opened by a hair). Only the Jacobian changes.
+            start: How the step's Newton iteration starts (:class:`~.interface.NewtonStart`:
+                the loading program turns here, the stepper extrapolates), for its first
+                Jacobian alone: each interface's kind decides what its tangent makes of it (a
+                finite-sliding interface's first iterate slides instead of shearing the bodies
+                where the program turns, and keeps in contact the points an extrapolated start
+                opened by a hair; ``docs/model.md`` §12). The later iterations, the residual and
+                the solution are unchanged. :class:`~.stepping.LoadStepper` gives it.
 
         Returns:
             A :class:`SolveResult` (its fields are the same on success, failure and a PETSc
@@ -417,7 +412,6 @@ class FrictionSolver:
         if options:
             self._configure(options)
         self.x.copy(self._x0)
-        start = (bool(frictionless_start), bool(keep_contact))
         self._start_next = start
         krylov = 0
         retried = False
@@ -453,7 +447,7 @@ class FrictionSolver:
                 error=str(e),
             )
         finally:
-            self._start_next = (False, False)
+            self._start_next = None
             if options:
                 self._configure()
         reason = self.snes.getConvergedReason()

@@ -44,6 +44,7 @@ from mpi4py import MPI
 from .. import logs
 from ..constitutive import Status
 from .attempts import SLIDING_FRACTION, AttemptReport, describe_attempt, interface_activity
+from .interface import NewtonStart
 from .solver import FrictionSolver, SolveResult
 from .validity import ValidityWatch
 
@@ -282,10 +283,11 @@ class LoadStepper:
             Newton needs about twice the iterations of the extrapolated start
             (``docs/model.md`` §12). With finite
             sliding, where the program turns (nothing to extrapolate: the slide's first step, a
-            reversal) the step's first Newton iteration is frictionless
-            (:meth:`FrictionSolver.solve`'s ``frictionless_start``), and the first Jacobian of
-            every step keeps the points that were in contact at the step's start in contact
-            (``keep_contact``), which saves the slide's first step a failed attempt.
+            reversal) the step's first Newton iteration is frictionless, and the first Jacobian
+            of every step keeps the points that were in contact at the step's start in contact,
+            which saves the slide's first step a failed attempt: every step's first Jacobian is
+            told how it starts (:class:`~.interface.NewtonStart`, :meth:`FrictionSolver.solve`'s
+            ``start``) and each interface's kind decides.
     """
 
     def __init__(
@@ -391,14 +393,14 @@ class LoadStepper:
         return forces > PREDICTOR_FORCE_RATIO * res
 
     def _turns(self, target: float) -> bool:
-        """Whether the step to ``target`` starts a new direction of the program (finite sliding).
+        """Whether the step to ``target`` starts a new direction of the program.
 
-        A finite-sliding problem, a last step whose increment is known (``predictor``) and a
-        channel that changes in this step: where :meth:`_predict` has nothing to extrapolate,
-        Newton's first iteration is frictionless (:meth:`FrictionSolver.solve`'s
-        ``frictionless_start``). The same on every rank: the program decides.
+        A last step whose increment is known (``predictor``) and a channel that changes in this
+        step: where :meth:`_predict` has nothing to extrapolate, the step's
+        :class:`~.interface.NewtonStart` says the program turns. The same on every rank: the
+        program decides.
         """
-        if not (self.predictor and self.problem.finite_sliding) or self.increment is None:
+        if not self.predictor or self.increment is None:
             return False
         change = self._channels(target) - self._channels(self.t)
         return bool(np.abs(change).max(initial=0.0) > 0.0)
@@ -510,8 +512,9 @@ class LoadStepper:
                 options=first,
                 separated_stiffness=stiff,
                 predictor=predicted,
-                frictionless_start=predicted is None and self._turns(target),
-                keep_contact=self.predictor,
+                start=NewtonStart(
+                    turns=predicted is None and self._turns(target), extrapolating=self.predictor
+                ),
             )
             self._check_interrupted(r, target)
             retried = first is not None

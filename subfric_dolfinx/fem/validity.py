@@ -151,7 +151,7 @@ class ValidityWatch:
         iface = ifaces[self.interface]
         el = self._elements = iface.law_points
         # the slide matters where the pairs stay; finite sliding re-pairs as the bodies move
-        self.slides_small = iface.kinematics == "small_sliding"
+        self.slides_small = iface.fixed_pairs
         self.gdim = el.gdim
         # length (2-D), area (3-D) per facet; not the axisymmetric weights' 2 pi r
         area = el.facet_weights.reshape(-1, el.nq).sum(axis=1)

@@ -10,8 +10,8 @@ ranks restarts on 1 or 2 (format version 2):
   :func:`~.gather.gather_interface` (points sorted by rounded coordinates); a finite-sliding
   interface adds its points' total tangential gap ``sliding_ut`` and frame normals
   ``sliding_normal``
-  (:meth:`~subfric_dolfinx.fem.interface.SlidingInterface.saved_state`: its points are the
-  slave facets', and the master facet each faces is found again from the displacement);
+  (:meth:`~subfric_dolfinx.fem.interface.finite.points.SlidingPoints.saved_state`: its points
+  are the slave facets', and the master facet each faces is found again from the displacement);
 * ``/increment`` (where the load stepper extrapolates its steps:
   :class:`~subfric_dolfinx.fem.LoadStepper`'s ``predictor``, on by default): the last converged
   step's displacement increment, laid out as ``/displacement``, its step length in the attribute

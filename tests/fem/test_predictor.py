@@ -6,11 +6,13 @@ reversal, a change of rate or a hold. The increment is in the checkpoint: a rest
 as the run that wrote it (the restart tests of ``test_checkpoint.py`` and
 ``test_finite_sliding_scenes.py``, with the predictor on by default). 1 and 2 ranks."""
 
+import itertools
+
 import numpy as np
 import pytest
 from mpi4py import MPI
 
-from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, NewtonStart
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning
@@ -92,26 +94,31 @@ def test_the_predictor_is_used_only_where_the_program_goes_straight_on():
 
 @pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
 def test_small_sliding_keeps_the_law_tangent_at_the_first_iteration():
-    """The finite-sliding start (a frictionless first iteration where the program turns, the
-    points in contact at the step's start kept so in the first Jacobian) leaves small sliding
-    alone: the stepper does not ask for the first, and the Jacobian with both is the same."""
+    """How a step starts (``NewtonStart``: the program turns, the stepper extrapolates), which
+    the stepper tells every step's first Jacobian whatever the interfaces' kinds, leaves a
+    small-sliding interface's Jacobian alone: the same with every start."""
     problem = block_problem(MPI.COMM_WORLD, program=PROGRAM)
     asked = []
     with FrictionSolver(problem, prefix("predj"), linear="lu") as solver:
         real = solver.solve
 
         def solve(*a, **k):
-            asked.append(bool(k.get("frictionless_start")))
+            asked.append(k.get("start"))
             return real(*a, **k)
 
         solver.solve = solve
         LoadStepper(solver, 0.1, dt_max=0.1).run(t_end=1.4)
         J, Js = problem.create_matrix(), problem.create_matrix()
         problem.jacobian(solver.x, J)
-        problem.jacobian(solver.x, Js, 0.0, True, True)
-        Js.axpy(-1.0, J)
-        diff, size = Js.norm(), J.norm()
+        diffs = []
+        for turns, extrapolating in itertools.product((False, True), repeat=2):
+            problem.jacobian(solver.x, Js, 0.0, NewtonStart(turns, extrapolating))
+            Js.axpy(-1.0, J)
+            diffs.append(Js.norm())
+        size = J.norm()
         J.destroy()
         Js.destroy()
-    assert not problem.finite_sliding and len(asked) > 10 and not any(asked), asked
-    assert diff == 0.0 and size > 0.0, (diff, size)
+    kinds = {i.kinematics for i in problem.interfaces.values()}
+    assert kinds == {"small_sliding"} and len(asked) > 10, (kinds, asked)
+    assert all(isinstance(s, NewtonStart) and s.extrapolating for s in asked), asked
+    assert diffs == [0.0] * 4 and size > 0.0, (diffs, size)

@@ -1,7 +1,10 @@
 """What both kinds of interface share: the abstract base, the error, the helpers.
 
 * :class:`BaseInterface`: the abstract base of both kinds: what they do alike (the Dirichlet rows
-  and columns of the residual and the tangent, the step, commit and revert, ``destroy``).
+  and columns of the residual and the tangent, the step, commit and revert, ``destroy``), and
+  what the problem, the outputs and the checkpoints read of an interface of either kind.
+* :class:`NewtonStart`: how a step's Newton iteration starts (the stepper's knowledge, no kind's),
+  which a kind's first Jacobian of the step may use.
 * :class:`InterfaceError`: an unusable interface (mesh, tags, settings), from either kind.
 * :func:`_bc_values`: the owned dofs of DOLFINx Dirichlet conditions and ``g - x`` there, for
   the Dirichlet rows and columns of an interface's residual and tangent.
@@ -33,6 +36,7 @@ from ...constitutive import FrictionLaw, StatePair
 __all__ = [
     "BaseInterface",
     "InterfaceError",
+    "NewtonStart",
     "Received",
     "exchange_rows",
     "initial_gaps",
@@ -44,6 +48,29 @@ __all__ = [
 
 class InterfaceError(ValueError):
     """A mesh whose interface is unusable (missing tags, unpaired facets, undivided nodes)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class NewtonStart:
+    """How a step's Newton iteration starts, as the stepper knows it (the loading program's doing).
+
+    :class:`~subfric_dolfinx.fem.stepping.LoadStepper` gives it to the first Jacobian of every
+    step (:meth:`~subfric_dolfinx.fem.solver.FrictionSolver.solve`); each kind decides what its
+    tangent makes of it. A finite-sliding interface's law tangent keeps its normal stiffness
+    alone where the program turns (the first iterate lets the interface slide instead of
+    shearing the bodies on the stick tangent of a zero slip increment), and where the stepper
+    extrapolates, its points open at the start that were in contact at the step's start keep
+    their normal stiffness there. A small-sliding interface's tangent is the same with it.
+
+    Attributes:
+        turns: The loading program turns at this step and the stepper has nothing to
+            extrapolate (a motion's first step, a reversal).
+        extrapolating: The stepper starts its steps from an extrapolated guess (its
+            ``predictor``).
+    """
+
+    turns: bool = False
+    extrapolating: bool = False
 
 
 class BaseInterface(abc.ABC):
@@ -64,16 +91,24 @@ class BaseInterface(abc.ABC):
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings` to time the sections in.
 
     Attributes:
-        kinematics: ``"small_sliding"`` or ``"finite_sliding"``.
+        kinematics: ``"small_sliding"`` or ``"finite_sliding"`` (the kind's name, for messages
+            and outputs; nothing outside the kinds branches on it).
+        fixed_pairs: Whether the interface pairs its points once, at the reference geometry:
+            then a slip is valid only while small against its elements (the validity watch
+            judges it), where a kind that pairs again as the bodies move is not limited.
+        pairs: The fixed pairs (``None`` where the interface pairs again as the bodies move).
         layout_version: Grows when the ghosts and the matrix pattern change.
-        round_off: The forces' round-off per dof at the last :meth:`forces` (``None``: that of
-            the displacement).
+        round_off: The forces' round-off per dof at the last :meth:`forces`, beyond that of
+            the displacement (``None``: none beyond it; a finite-sliding interface's gaps are
+            differences of positions), for the convergence test's floor.
         force: This rank's owned interface forces at the last residual (displacement layout).
         dt: The step of the return map.
         last: The return map's result at the last iterate (``None`` before the first).
     """
 
     kinematics: str
+    fixed_pairs: bool
+    pairs: Any = None
     layout_version = 0
     round_off: np.ndarray | None = None
     last: Any
@@ -128,8 +163,7 @@ class BaseInterface(abc.ABC):
         A: PETSc.Mat,
         constrained: np.ndarray | None,
         separated_stiffness: float,
-        frictionless: bool,
-        keep_contact: bool,
+        start: NewtonStart | None,
     ) -> None:
         """Add the tangent of the last iterate to ``A``, the ``constrained`` dofs left out.
 
@@ -138,8 +172,7 @@ class BaseInterface(abc.ABC):
             constrained: Whether each local dof of the extended map is constrained (``None``:
                 none is).
             separated_stiffness: As for :meth:`assemble_jacobian`.
-            frictionless: As for :meth:`assemble_jacobian`.
-            keep_contact: As for :meth:`assemble_jacobian`.
+            start: As for :meth:`assemble_jacobian`.
         """
 
     # -- the step --------------------------------------------------------------------------------
@@ -205,14 +238,12 @@ class BaseInterface(abc.ABC):
         *,
         bcs: Sequence[Any] | None = None,
         separated_stiffness: float = 0.0,
-        frictionless: bool = False,
-        keep_contact: bool = False,
+        start: NewtonStart | None = None,
     ) -> None:
         """Add the tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
 
         ``A`` must hold the interface's couplings (:func:`~.layout.create_matrix`, after the last
-        :attr:`layout_version`). Every kind takes every keyword; a kind that has no use for one
-        ignores it (:class:`~.protocol.InterfaceKind`).
+        :attr:`layout_version`).
 
         Args:
             A: The matrix.
@@ -222,18 +253,16 @@ class BaseInterface(abc.ABC):
             separated_stiffness: In this Jacobian only, points without stiffness (separated
                 beyond the contact band, failed) get this fraction of the law's contact
                 stiffness (:func:`stiffen_separated`); 0: the exact tangent.
-            frictionless: In this Jacobian only, the law's tangent keeps its normal stiffness
-                alone (finite sliding, the first iteration where the loading program turns).
-            keep_contact: In this Jacobian only, points open here that were in contact at the
-                step's start keep their normal stiffness there (finite sliding, the first
-                iteration of a step).
+            start: The first Jacobian of a step: how its Newton iteration starts
+                (:class:`NewtonStart`; each kind decides what its tangent makes of it);
+                ``None``: a later iteration.
         """
         from ..timing import TIMER_INTERFACE
 
         self._ensure(x)
         with self._time(TIMER_INTERFACE):
             mask = self._constrained(bcs) if bcs else None
-            self._add_tangent(A, mask, separated_stiffness, frictionless, keep_contact)
+            self._add_tangent(A, mask, separated_stiffness, start)
 
     def _extended(self, dofs: np.ndarray, values: np.ndarray | float) -> np.ndarray:
         """The local values of ``values`` at the owned ``dofs`` (0 elsewhere), ghosts updated.

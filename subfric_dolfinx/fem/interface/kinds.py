@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .base import InterfaceError
+from .base import BaseInterface, InterfaceError
 from .finite import SlidingInterface
 from .small import FrictionInterface
 
@@ -26,7 +26,7 @@ def make_interface(
     groups: Any,
     mode: str,
     timings: Any,
-) -> FrictionInterface | SlidingInterface:
+) -> BaseInterface:
     """The interface object of one resolved :class:`~..conditions.Interface` (its ``kinematics``).
 
     Raises:

@@ -1,30 +1,24 @@
-"""What both kinds of interface give the rest of the package: the law's points and the state.
+"""What both kinds of interface give the outputs of their law's points: :class:`LawPoints`.
 
 Outputs (history, fields, point clouds, interface histories), probes, checkpoints, the validity
-watch and the step's diagnostics read an interface through two small protocols, whatever its
-kind:
-
-* :class:`LawPoints`: the points where the law is integrated, with their state, last result,
-  frames, weights and fixed data, in one order per rank (``n_elements`` facets of ``nq`` points
-  each). A small-sliding :class:`~.small.interface.FrictionInterface` gives its
-  :class:`~.small.element.InterfaceElements` (the master facets' points); a finite-sliding
-  :class:`~.finite.interface.SlidingInterface` gives itself (the slave facets' points, its facets
-  in the order of the cells of its :attr:`~LawPoints.submesh`).
-* :class:`InterfaceKind`: the interface itself, with :attr:`~InterfaceKind.law_points`,
-  :meth:`~InterfaceKind.resume` (after a restart put back the displacement and the state) and
-  :meth:`~InterfaceKind.assemble_jacobian`, which
-  :meth:`~subfric_dolfinx.fem.InterfaceProblem.jacobian` calls the same way for every kind.
+watch and the step's diagnostics read an interface's law points through this small protocol,
+whatever its kind (the interface itself through its abstract base,
+:class:`~.base.BaseInterface`): the points where the law is integrated, with their state, last
+result, frames, weights and fixed data, in one order per rank (``n_elements`` facets of ``nq``
+points each). A small-sliding :class:`~.small.interface.FrictionInterface` gives its
+:class:`~.small.element.InterfaceElements` (the master facets' points); a finite-sliding
+:class:`~.finite.interface.SlidingInterface` its :class:`~.finite.points.SlidingPoints` (the
+slave facets' points, in the order of the cells of its :attr:`~LawPoints.submesh`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from petsc4py import PETSc
 
-__all__ = ["InterfaceKind", "LawPoints"]
+__all__ = ["LawPoints"]
 
 
 @runtime_checkable
@@ -79,60 +73,4 @@ class LawPoints(Protocol):
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put :meth:`saved_state`'s arrays back as the committed (and trial) state."""
-        ...
-
-
-@runtime_checkable
-class InterfaceKind(Protocol):
-    """One interface of a problem, of either kind.
-
-    Attributes:
-        name: Its facet group.
-        kinematics: ``"small_sliding"`` or ``"finite_sliding"``.
-        law: Its friction law.
-        layout_version: Grows when its ghosts and matrix pattern change.
-    """
-
-    name: str
-    kinematics: str
-    law: Any
-    layout_version: int
-
-    @property
-    def law_points(self) -> LawPoints: ...  # noqa: D102
-
-    @property
-    def last(self) -> Any: ...  # noqa: D102
-
-    def resume(self, x: np.ndarray) -> None:
-        """Continue from the owned displacement ``x`` with the committed state in place."""
-        ...
-
-    def assemble_jacobian(
-        self,
-        A: PETSc.Mat,
-        x: PETSc.Vec | None = None,
-        *,
-        bcs: Sequence[Any] | None = None,
-        separated_stiffness: float = 0.0,
-        frictionless: bool = False,
-        keep_contact: bool = False,
-    ) -> None:
-        """Add the interface's tangent at ``x`` to ``A`` (``ADD_VALUES``; call ``A.assemble()``).
-
-        Every kind takes every keyword; a kind that has no use for one ignores it.
-
-        Args:
-            A: A matrix with the interface's couplings in its pattern.
-            x: The displacement (owned values); ``None``: the last iterate's.
-            bcs: DOLFINx Dirichlet conditions: the rows and columns of their dofs are left out.
-            separated_stiffness: In this Jacobian only, points without stiffness (separated,
-                failed) get this fraction of the law's contact stiffness; 0: the exact tangent.
-            frictionless: In this Jacobian only, the law's tangent keeps its normal stiffness
-                alone (finite sliding, the first iteration where the loading program turns);
-                small sliding ignores it.
-            keep_contact: In this Jacobian only, points open here that were in contact at the
-                step's start keep their normal stiffness there (finite sliding, the first
-                iteration of a step); small sliding ignores it.
-        """
         ...

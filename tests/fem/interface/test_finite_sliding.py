@@ -100,7 +100,7 @@ def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree,
     problem, records, tr = pressed_patch(comm, cell, degree, n_base, n_block, p)
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)
-    assert tr.shape[0] == n_block[0] * iface.nq  # every slave point, once over the ranks
+    assert tr.shape[0] == n_block[0] * iface.law_points.nq  # every slave point, once over the ranks
     checks = {
         "f_n": np.abs(tr[:, 1] / p - 1.0).max() < 1e-6,
         "f_t": np.abs(tr[:, 0]).max() < 1e-6 * p,
@@ -179,7 +179,9 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
 
     def on_step(rec):
         s = interface_summary(problem)
-        z = iface.points[:, 1] + push * max(rec.t - 1.0, 0.0)  # the shaft moves rigidly in z
+        z = iface.law_points.points[:, 1] + push * max(
+            rec.t - 1.0, 0.0
+        )  # the shaft moves rigidly in z
         out = z > sf.L + 1e-6
         fn = iface.last.traction[:, 1]
         rows.append(
@@ -251,19 +253,19 @@ def run_slide(comm, problem, dt):
     iface = problem.interfaces["contact"]
     X = problem.V.tabulate_dof_coordinates()
     n_own = problem.V.dofmap.index_map.size_local
-    base_nodes = np.unique(iface.master.nodes)
+    base_nodes = np.unique(iface.sides.master.nodes)
     base_nodes = base_nodes[base_nodes < n_own]
     rows = []
 
     def on_step(rec):
-        tr, w = iface.last.traction, iface.weights
+        tr, w = iface.last.traction, iface.law_points.weights
         f = problem.interface_force.reshape(-1, 2)[base_nodes]
         sums = comm.allreduce(
             np.array(
                 [
                     w @ tr[:, 0],
                     w @ tr[:, 1],
-                    w @ iface.last_gap[:, 1],
+                    w @ iface.law_points.last_gap[:, 1],
                     w.sum(),
                     f[:, 1].sum(),
                     f[:, 1] @ X[base_nodes, 0],
@@ -418,8 +420,8 @@ def turn_hub(comm, geometry_degree, n_inner=48, n_outer=64, facets=3):
     def on_step(rec):
         tr = iface.last.traction
         fn = gather(comm, tr[:, 1])
-        r = np.linalg.norm(iface.points, axis=1)
-        T = comm.allreduce(float(iface.weights @ (tr[:, 0] * r)))
+        r = np.linalg.norm(iface.law_points.points, axis=1)
+        T = comm.allreduce(float(iface.law_points.weights @ (tr[:, 0] * r)))
         rows.append((rec.iterations, fn.min() / p, fn.max() / p, T / (2 * np.pi * R**2 * mu * p)))
 
     with FrictionSolver(problem, linear="lu") as solver:
@@ -515,9 +517,11 @@ def test_3d_block_slides_diagonally_like_a_material_point(comm):
     rows = []
 
     def on_step(rec):
-        w = iface.weights
-        tg = np.einsum("mji,mj->mi", iface._Q, iface.last.traction)  # on the plate, global
-        sums = comm.allreduce(np.concatenate([w @ tg, [w @ iface.last_gap[:, 2], w.sum()]]))
+        w = iface.law_points.weights
+        tg = np.einsum("mji,mj->mi", iface.geometry.Q, iface.last.traction)  # on the plate, global
+        sums = comm.allreduce(
+            np.concatenate([w @ tg, [w @ iface.law_points.last_gap[:, 2], w.sum()]])
+        )
         s = program.amplitude("slide", rec.t)
         rows.append((rec.dt, rec.iterations, *(sums[:3] / sums[4]), sums[3] / sums[4], s))
 
@@ -593,10 +597,10 @@ def test_the_reader_takes_sides_meshed_apart_for_finite_sliding(comm):
     )
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)  # the mesh's kinematics
-    sizes = comm.allreduce(np.array([iface.master.size, iface.slave.size]))
+    sizes = comm.allreduce(np.array([iface.sides.master.size, iface.sides.slave.size]))
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
-    Fn = comm.allreduce(float(iface.weights @ iface.last.traction[:, 1]))
+    Fn = comm.allreduce(float(iface.law_points.weights @ iface.last.traction[:, 1]))
     summary = interface_summary(problem)  # the history's columns
     checks = {
         "summary": abs(summary["F_n"] - Fn) < 1e-12 * p and summary["area"] == pytest.approx(1.0),

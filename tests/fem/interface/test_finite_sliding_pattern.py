@@ -2,7 +2,7 @@
 
 The pattern couples each slave facet's nodes with each other and with its reach's master nodes,
 and master facets of one reach only where they are near enough to meet in one row of the
-tangent (``ReachSearch._couple``): the all-pairs pattern of a reach (every slave facet's nodes
+tangent (``reach._couplings``): the all-pairs pattern of a reach (every slave facet's nodes
 with every master node of its reach, master with master) grows as the square of the reach's
 width and took 19.5 GB at 184k dofs. The matrices are created with ``NEW_NONZERO_ALLOCATION_ERR``:
 a tangent entry outside the pattern raises, so a sliding run over several facets that finishes
@@ -20,7 +20,7 @@ from petsc4py import PETSc
 
 from benchmarks import fe_scaling
 from subfric_dolfinx.fem import LoadStepper
-from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
+from subfric_dolfinx.fem.interface.finite.reach import ReachSearch
 from subfric_dolfinx.fem.interface.layout import Couplings, ExtendedLayout
 from subfric_dolfinx.io import interface_summary
 
@@ -34,9 +34,15 @@ def nnz(A: PETSc.Mat) -> int:
     return int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"])
 
 
+def interface_of(problem):
+    """The problem's only interface (finite-sliding)."""
+    (it,) = problem.interfaces.values()
+    return it
+
+
 def layout_nnz(problem, couplings) -> int:
     """Nonzeros of the bulk and ``couplings`` on the interface's index map."""
-    A = ExtendedLayout(problem.V, problem.interface.index_map, couplings).create_matrix()
+    A = ExtendedLayout(problem.V, interface_of(problem).index_map, couplings).create_matrix()
     try:
         return nnz(A)
     finally:
@@ -45,11 +51,11 @@ def layout_nnz(problem, couplings) -> int:
 
 def all_pairs(problem) -> np.ndarray:
     """The all-pairs pattern of the interface's current reach (the former one): element nodes."""
-    it = problem.interface
-    s = it.slave.nodes
+    it = interface_of(problem)
+    s, reach = it.sides.slave.nodes, it.search.reach
     elems = [
-        np.unique(np.concatenate([s[f], it.pf_nodes[it.reach_idx[a:b]].ravel()]))
-        for f, (a, b) in enumerate(zip(it.reach_ptr[:-1], it.reach_ptr[1:], strict=True))
+        np.unique(np.concatenate([s[f], reach.nodes[reach.idx[a:b]].ravel()]))
+        for f, (a, b) in enumerate(zip(reach.ptr[:-1], reach.ptr[1:], strict=True))
     ]
     width = max((e.size for e in elems), default=s.shape[1])
     padded = [np.pad(e, (0, width - e.size), mode="edge") for e in elems]
@@ -77,21 +83,21 @@ def run(comm: MPI.Comm):
         )
     finally:
         pad.solver.destroy()
-    return np.array(rows), pad.problem.interface, sizes
+    return np.array(rows), interface_of(pad.problem), sizes
 
 
 def test_the_pattern_is_what_the_tangent_writes(comm, monkeypatch):
     rows, it, (n_new, n_all) = run(comm)
     assert rows.shape == (STEPS, 4)
     assert it.layout_version >= 2  # the pad slid 0.5 mm both ways: beyond its first reach
-    assert comm.allreduce(it.pattern_misses) == 0  # no tangent entry left out (none raised)
+    assert comm.allreduce(it.search.pattern_misses) == 0  # no tangent entry left out (none raised)
     # n = 6: 194,706 against 311,814 (the reach is 3 x 0.2 mm + the facet on a 2 mm plate; the
     # all-pairs pattern grows as its square, this one as (reach + 2 facets)^2)
     assert n_new < 0.7 * n_all, (n_new, n_all)
     # no master facet pairs at all: the master rows' couplings are left out, then rebuilt
-    monkeypatch.setattr(SlidingInterface, "pattern_margin", -1e9)
+    monkeypatch.setattr(ReachSearch, "pattern_margin", -1e9)
     small, it_small, _ = run(comm)
-    assert comm.allreduce(it_small.pattern_misses) > 0
+    assert comm.allreduce(it_small.search.pattern_misses) > 0
     assert it_small.layout_version > it.layout_version
     peak = np.abs(rows[:, 1]).max()
     np.testing.assert_allclose(small[:, :3], rows[:, :3], rtol=0, atol=1e-6 * peak)

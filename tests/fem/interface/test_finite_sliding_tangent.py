@@ -9,7 +9,7 @@ slide, statuses inside their regimes). For a direction ``v`` of the size of the 
 interface), and the interface's own tangent with the central differences of its forces
 (relative errors, whole / interface):
 
-* 2-D, with the transfer's change (``SlidingAssembly.transfer_in_tangent``, the default): the
+* 2-D, with the transfer's change (``SegmentTransfer.in_tangent``, the default): the
   residual's derivative, O(e^2) down to round-off. Measured at e = 1e-4 and 1e-5 (1 rank):
   Coulomb P1 9.8e-12 and 6.9e-12 / 8.1e-11 and 1.4e-12; Sec. 7 P1 9.5e-9 and 9.6e-11 / 4.7e-8
   and 4.7e-10; Coulomb P2 5.0e-11 and 1.3e-11 / 9.8e-10 and 9.5e-12. Without it the transfer's
@@ -39,8 +39,8 @@ from subfric_dolfinx.fem import (
     Material,
     Pressure,
 )
-from subfric_dolfinx.fem.interface.finite import interface as finite
-from subfric_dolfinx.fem.interface.finite.assembly import SlidingAssembly
+from subfric_dolfinx.fem.interface.finite import transfer
+from subfric_dolfinx.fem.interface.finite.transfer import SegmentTransfer
 from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import diagonal_slide_3d, tagged_blocks
 from tests.helpers import everywhere
@@ -140,9 +140,9 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
         converged = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         v = direction(comm, problem, x)
-        monkeypatch.setattr(SlidingAssembly, "transfer_in_tangent", False)
+        monkeypatch.setattr(SegmentTransfer, "in_tangent", False)
         without = differences(comm, problem, x, v, [1e-5])[0]
-        monkeypatch.setattr(SlidingAssembly, "transfer_in_tangent", True)
+        monkeypatch.setattr(SegmentTransfer, "in_tangent", True)
         err = differences(comm, problem, x, v, [1e-4, 1e-5])
         counts = comm.allreduce(np.bincount(problem.interfaces["contact"].last.status, minlength=4))
         v.destroy()
@@ -164,7 +164,7 @@ def interface_rates(problem, x, v, eps, held=None):
     out = []
     with pytest.MonkeyPatch.context() as mp:
         if held is not None:
-            mp.setattr(finite, "transfer_matrices", lambda *a, **k: held)
+            mp.setattr(transfer, "transfer_matrices", lambda *a, **k: held)
         for e in eps:
             fs = []
             for sign in (1.0, -1.0):
@@ -209,9 +209,9 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
         F = problem.create_vector()
         problem.residual(x, F)
         F.destroy()
-        held = interface_rates(problem, x, v, eps, iface._transfer)
+        held = interface_rates(problem, x, v, eps, iface.geometry.transfer)
         on = interface_jv(problem, x, v)
-        monkeypatch.setattr(SlidingAssembly, "transfer_in_tangent", False)
+        monkeypatch.setattr(SegmentTransfer, "in_tangent", False)
         off = interface_jv(problem, x, v)
         without = differences(comm, problem, x, v, [1e-5])[0]
         monkeypatch.undo()

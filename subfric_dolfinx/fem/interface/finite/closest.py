@@ -11,16 +11,16 @@ import basix
 import numpy as np
 
 from .projection import (
-    _SINGULAR,
+    SINGULAR,
     FacetProjection,
-    _clip_reference,
-    _facet_size,
-    _geometry,
-    _planar_start,
-    _reference_vertices,
+    clip_reference,
     facet_basis,
+    facet_geometry,
+    facet_size,
     inside_reference,
     parametric_normal,
+    planar_start,
+    reference_vertices,
 )
 
 __all__ = ["closest_point"]
@@ -49,20 +49,20 @@ def closest_point(
     """
     m, gdim = x.shape
     fdim = gdim - 1
-    h = _facet_size(Y) if m else np.zeros(0)
-    xi = _planar_start(cell, x, Y) if m else np.zeros((0, fdim))
+    h = facet_size(Y) if m else np.zeros(0)
+    xi = planar_start(cell, x, Y) if m else np.zeros((0, fdim))
     xi, ok = _closest_newton(cell, degree, x, Y, xi, h, maxit)
     inside = ok & inside_reference(cell, xi, 0.0)
     best_xi = np.where(inside[:, None], xi, np.nan)
-    y, _, _, _ = _geometry(cell, degree, Y, None, np.where(inside[:, None], xi, 0.0), 0)
+    y, _, _, _ = facet_geometry(cell, degree, Y, None, np.where(inside[:, None], xi, 0.0), 0)
     best_d = np.where(inside, np.linalg.norm(x - y, axis=1), np.inf)
     # boundary: every edge of the reference cell (segments: its two vertices)
-    V = _reference_vertices(cell)
+    V = reference_vertices(cell)
     topo = basix.topology(cell)
     if fdim == 1:
         for v in V:
             cand = np.tile(v, (m, 1))
-            yc, _, _, _ = _geometry(cell, degree, Y, None, cand, 0)
+            yc, _, _, _ = facet_geometry(cell, degree, Y, None, cand, 0)
             d = np.linalg.norm(x - yc, axis=1)
             take = d < best_d
             best_d[take], best_xi[take] = d[take], cand[take]
@@ -70,11 +70,11 @@ def closest_point(
         for a, b in topo[1]:
             t = _edge_newton(cell, degree, x, Y, V[a], V[b], maxit)
             cand = V[a] + t[:, None] * (V[b] - V[a])
-            yc, _, _, _ = _geometry(cell, degree, Y, None, cand, 0)
+            yc, _, _, _ = facet_geometry(cell, degree, Y, None, cand, 0)
             d = np.linalg.norm(x - yc, axis=1)
             take = d < best_d
             best_d[take], best_xi[take] = d[take], cand[take]
-    y, dy, _, _ = _geometry(cell, degree, Y, None, best_xi, 1)
+    y, dy, _, _ = facet_geometry(cell, degree, Y, None, best_xi, 1)
     r = x - y
     dist = np.linalg.norm(r, axis=1)
     unit = r / np.where(dist > 0, dist, 1.0)[:, None]
@@ -128,13 +128,13 @@ def _closest_newton(cell, degree, x, Y, xi, h, maxit):
             pd = ev.min(axis=1) > 1e-8 * np.maximum(ev.max(axis=1), 1e-300)
             H[pd] = Hf[pd]
         det = np.linalg.det(H)
-        regular = np.abs(det) > _SINGULAR * np.maximum(np.abs(H).max(axis=(1, 2)) ** fdim, 1e-300)
+        regular = np.abs(det) > SINGULAR * np.maximum(np.abs(H).max(axis=(1, 2)) ** fdim, 1e-300)
         dxi = np.zeros((active.size, fdim))
         if np.any(regular):
             dxi[regular] = -np.linalg.solve(H[regular], g[regular][..., None])[..., 0]
         big = np.abs(dxi).max(axis=1)
         dxi *= np.where(big > 1.0, 1.0 / np.maximum(big, 1e-300), 1.0)[:, None]
-        xi[active] = _clip_reference(cell, xi[active] + dxi, 2.0)
+        xi[active] = clip_reference(cell, xi[active] + dxi, 2.0)
         done = regular & (np.abs(dxi).max(axis=1) <= 1e-12)
         ok[active[done]] = True
         active = active[regular & ~done]

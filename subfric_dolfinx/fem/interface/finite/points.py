@@ -1,30 +1,96 @@
-"""The law's points of a finite-sliding interface (a part of :class:`~.interface.SlidingInterface`).
+"""The law's points of a finite-sliding interface: the slave facets' quadrature points.
 
-A :class:`~.interface.SlidingInterface` is its own :class:`~.protocol.LawPoints`: the quadrature
-points of its slave facets, in the order of the cells of its slave submesh. This part gives the
-frames of the last iterate per facet, the state a checkpoint holds (the law's variables, the
-points' total tangential gap and their frames' normals) and the restart from it.
+:class:`SlidingPoints` is the :class:`~..protocol.LawPoints` of a
+:class:`~.interface.SlidingInterface`: the quadrature points of its slave facets, in the order of
+the cells of its slave submesh, fixed material points of the slave body that carry the law's
+internal variables. It holds their fixed data (reference positions, weights, initial gaps), the
+law's state, the kinematics committed with it (each point's master facet, total tangential gap and
+frame), the last iterate's result, and the state a checkpoint holds and the restart from it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
-from ..base import restore_law_state, saved_law_state
+from ....constitutive import FrictionLaw, InterfaceState, StatePair
+from ....constitutive.state import LOCAL, TANGENTIAL
+from ...kinematics import point_weight
+from ..base import initial_gaps, restore_law_state, saved_law_state
 from ..geometry import frames
+from .projection import parametric_normal
+from .sides import Sides
 
 __all__ = ["SlidingPoints"]
 
 
 class SlidingPoints:
-    """The law's-points part of :class:`~.interface.SlidingInterface` (its attributes)."""
+    """The law's points of one finite-sliding interface on this rank.
+
+    Args:
+        sides: The interface's sides.
+        law: The friction law.
+        initial_gap: An extra initial normal gap ``g0`` (as for the interface).
+        mode: The modelling mode (``"axisymmetric"``: the weights carry ``2 pi r``).
+
+    Attributes:
+        points: Reference positions of the points, (npts, gdim).
+        facet_weights: Their weights on the reference slave surface, (ns, nq).
+        weights: The same times ``2 pi r`` in axisymmetric mode, (npts,).
+        state: The law's committed and trial internal variables.
+        facet_old: The committed master facet of each point (global number; -1: none).
+        ut_old: The committed total tangential gap (local components), (npts, nt).
+        Q_old: The committed frames (the step's start ones once it began), (npts, gdim, gdim).
+        last: The return map's result at the last iterate (``None`` before the first).
+        last_gap: The law's input gap at the last iterate, (npts, gdim).
+    """
+
+    region_names = ("default",)  # no interface regions (summaries read it)
+
+    def __init__(
+        self,
+        sides: Sides,
+        law: FrictionLaw,
+        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None,
+        mode: str | None,
+    ) -> None:
+        s, gdim = sides.slave, sides.gdim
+        self.comm = sides.comm
+        self.gdim, self.nt, self.nq = gdim, sides.nt, sides.nq
+        self.n_elements = s.size
+        self.submesh = sides.submesh
+        self.w_ref = sides.w_ref
+        Ys0 = sides.X0[s.nodes]  # (ns, nfd, gdim)
+        self.points = np.einsum("qk,fkd->fqd", sides.Ns[0], Ys0).reshape(-1, gdim)
+        jac = np.linalg.norm(
+            parametric_normal(np.einsum("aqk,fkd->fqda", sides.Ns[1:], Ys0)), axis=-1
+        )
+        self.facet_weights = jac * sides.w_ref[None, :]  # (ns, nq)
+        pw = point_weight(self.points, mode or "3d").reshape(jac.shape)  # 2 pi r, or 1
+        self.weights = (self.facet_weights * pw).reshape(-1)
+        npts = sides.n_points
+        self.point_data = {"g0": initial_gaps(initial_gap, self.points, self.comm)}
+        fdim = max(gdim - 1, 1)
+        sizes = self.facet_weights.sum(axis=1) ** (1.0 / fdim) if s.size else np.zeros(0)
+        h_min = self.comm.allreduce(float(sizes.min(initial=np.inf)), op=MPI.MIN)
+        self.coordinate_tolerance = 1e-6 * h_min
+        init = law.initial_state(npts, self.nt)
+        self.state = StatePair(init.copy(), init.copy())
+        self._variables = {v.name: v.shape for v in law.variables}
+        self.facet_old = np.full(npts, -1, dtype=np.int64)
+        self.ut_old = np.zeros((npts, self.nt))
+        self.Q_old = np.zeros((npts, gdim, gdim))
+        self.last: Any = None
+        self.last_gap = np.zeros((npts, gdim))
+        self._Q_last: np.ndarray | None = None
 
     @property
-    def law_points(self) -> SlidingPoints:
-        """The law's points (:class:`~.protocol.LawPoints`): the slave facets' points, here."""
-        return self
+    def g0(self) -> np.ndarray:
+        """The initial gaps of the points, (npts,)."""
+        return self.point_data["g0"]
 
     @property
     def Q(self) -> np.ndarray:
@@ -33,8 +99,26 @@ class SlidingPoints:
         Rows ``(e1, [e2,] -n)`` with ``n`` the master's smooth normal at each point's projection;
         an open point keeps the frame it had.
         """
-        Q = self._Q if self.last is not None else self.Q_old
+        Q = self._Q_last if self.last is not None else self.Q_old
         return Q.reshape(self.n_elements, self.nq, self.gdim, self.gdim)
+
+    def record(self, result: Any, gap: np.ndarray, Q: np.ndarray) -> None:
+        """Keep an iterate's return-map ``result``, the law's input ``gap`` and the frames ``Q``."""
+        self.last, self.last_gap, self._Q_last = result, gap, Q
+
+    def commit_kinematics(self, facet: np.ndarray, ut: np.ndarray, Q: np.ndarray) -> None:
+        """Accept an iterate's master facets (global numbers), tangential gaps and frames."""
+        self.facet_old, self.ut_old, self.Q_old = facet, ut, Q
+
+    def transported(self, T: np.ndarray) -> InterfaceState:
+        """The committed state with its tangential components carried by ``T`` (3-D)."""
+        st = self.state.old.copy()
+        for name, shape in self._variables.items():
+            if shape == TANGENTIAL:
+                st[name][...] = np.einsum("mab,mb->ma", T, st[name])
+            elif shape == LOCAL:
+                st[name][:, : self.nt] = np.einsum("mab,mb->ma", T, st[name][:, : self.nt])
+        return st
 
     def saved_state(self) -> dict[str, np.ndarray]:
         """The committed state a restart needs, name -> (n, ...) array per point.
@@ -51,21 +135,10 @@ class SlidingPoints:
         return out
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
-        """Put :meth:`saved_state`'s arrays back (then :meth:`resume` from the displacement)."""
+        """Put :meth:`saved_state`'s arrays back (then the interface resumes from ``x``)."""
         restore_law_state(self.state, arrays)
         self.ut_old = np.asarray(arrays["sliding_ut"], dtype=float).reshape(self.ut_old.shape)
         normal = np.asarray(arrays["sliding_normal"], dtype=float).reshape(-1, self.gdim)
         faced = np.linalg.norm(normal, axis=1) > 0.5
         self.Q_old = np.broadcast_to(np.eye(self.gdim), self.Q_old.shape).copy()
         self.Q_old[faced] = frames(normal[faced])
-
-    def resume(self, x: np.ndarray) -> None:
-        """Continue from the owned displacement ``x`` (a restart).
-
-        The next step searches from it: the points' master facets and reference coordinates
-        there are found again (the facets are not in the checkpoint: their numbers depend on the
-        partition).
-        """
-        self._x_committed = np.array(np.asarray(x)[: self.n_owned], dtype=float)
-        self._x_at_update = None
-        self.last = None

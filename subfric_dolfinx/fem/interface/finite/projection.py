@@ -34,16 +34,24 @@ import basix
 import numpy as np
 
 __all__ = [
+    "SINGULAR",
     "FacetProjection",
+    "clip_reference",
     "facet_basis",
+    "facet_geometry",
+    "facet_size",
     "inside_reference",
+    "lagrange_element",
     "normal_projection",
     "parametric_normal",
+    "planar_start",
     "projection_jacobian",
     "ray_start",
+    "reference_vertices",
 ]
 
-_SINGULAR = 1e-14
+SINGULAR = 1e-14
+"""A Newton system whose determinant is below this (relative) is singular: the iteration stops."""
 
 
 def _det_small(A: np.ndarray) -> np.ndarray:
@@ -79,7 +87,8 @@ def _solve_small(A: np.ndarray, b: np.ndarray, det: np.ndarray) -> np.ndarray:
 
 
 @functools.cache
-def _element(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
+def lagrange_element(cell: basix.CellType, degree: int) -> basix.finite_element.FiniteElement:
+    """The facets' Lagrange element of ``degree`` on ``cell`` (GLL-warped points, cached)."""
     return basix.create_element(
         basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
     )
@@ -93,7 +102,7 @@ def facet_basis(cell: basix.CellType, degree: int, xi: np.ndarray, nderiv: int =
         derivatives along each reference direction (basix's order), then the second ones if
         ``nderiv == 2``; no points give an empty array of that shape (basix wants points).
     """
-    e = _element(cell, degree)
+    e = lagrange_element(cell, degree)
     xi = np.ascontiguousarray(xi, dtype=float)
     if xi.shape[0] == 0:
         fdim = len(basix.topology(cell)) - 1
@@ -102,7 +111,8 @@ def facet_basis(cell: basix.CellType, degree: int, xi: np.ndarray, nderiv: int =
     return e.tabulate(nderiv, xi)[..., 0]
 
 
-def _reference_vertices(cell: basix.CellType) -> np.ndarray:
+def reference_vertices(cell: basix.CellType) -> np.ndarray:
+    """The vertices of the reference ``cell``, (nv, fdim)."""
     return np.asarray(basix.geometry(cell), dtype=float)
 
 
@@ -113,7 +123,7 @@ def inside_reference(cell: basix.CellType, xi: np.ndarray, tol: float = 1e-10) -
     return np.all((xi >= -tol) & (xi <= 1.0 + tol), axis=1)
 
 
-def _clip_reference(cell: basix.CellType, xi: np.ndarray, margin: float) -> np.ndarray:
+def clip_reference(cell: basix.CellType, xi: np.ndarray, margin: float) -> np.ndarray:
     """Keep Newton iterates within ``margin`` of the reference cell (a box, or the triangle's)."""
     out = np.clip(xi, -margin, 1.0 + margin)
     if cell == basix.CellType.triangle:
@@ -154,7 +164,14 @@ def _derivatives(dB: np.ndarray, Y: np.ndarray) -> np.ndarray:
     return np.stack([np.einsum("mk,mkd->md", b, Y) for b in dB], axis=-1)
 
 
-def _geometry(cell, degree, Y, Nn, xi, nderiv):
+def facet_geometry(
+    cell: basix.CellType,
+    degree: int,
+    Y: np.ndarray,
+    Nn: np.ndarray | None,
+    xi: np.ndarray,
+    nderiv: int,
+) -> tuple[np.ndarray | None, ...]:
     """Position, normal field and their first derivatives at ``xi`` on each pair's facet."""
     B = facet_basis(cell, degree, xi, nderiv)
     y = np.einsum("mk,mkd->md", B[0], Y)
@@ -164,7 +181,7 @@ def _geometry(cell, degree, Y, Nn, xi, nderiv):
     return y, dy, n, dn
 
 
-def _facet_size(Y: np.ndarray) -> np.ndarray:
+def facet_size(Y: np.ndarray) -> np.ndarray:
     """A facet's size: the distance between its first two (vertex) nodes."""
     return np.linalg.norm(Y[:, 1] - Y[:, 0], axis=-1)
 
@@ -230,13 +247,13 @@ def ray_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray, n: np.ndarray)
     return lam[:, :fdim]
 
 
-def _planar_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray) -> np.ndarray:
+def planar_start(cell: basix.CellType, x: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """Reference coordinates of the closest point of the facet's vertex plane (a Newton start).
 
     The plane (line) through the nodes of the reference vertices 0, 1 (and 2), with the affine
     map of those vertices.
     """
-    V = _reference_vertices(cell)
+    V = reference_vertices(cell)
     fdim = V.shape[1]
     # affine map from vertices 0, 1 and (2-D) 2 of the reference cell
     P0 = Y[:, 0]
@@ -286,7 +303,7 @@ def normal_projection(
     """
     m, gdim = x.shape
     fdim = gdim - 1
-    h = _facet_size(Y) if m else np.zeros(0)
+    h = facet_size(Y) if m else np.zeros(0)
     xi = np.zeros((m, fdim))
     todo = np.ones(m, dtype=bool)
     if xi0 is not None:  # the given starts, where they are numbers
@@ -296,7 +313,7 @@ def normal_projection(
         if cell == basix.CellType.interval:
             xi[todo] = _segment_start(x[todo], Y[todo], Nn[todo])
         else:
-            xi[todo] = _planar_start(cell, x[todo], Y[todo])
+            xi[todo] = planar_start(cell, x[todo], Y[todo])
     xi, gamma, ok = _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin)
     # Fallback: restart the failures from a lattice of reference points, keeping the solution
     # nearest to the reference cell.
@@ -309,7 +326,7 @@ def normal_projection(
             )
             take = okb & (~ok[bad] | (_outside(cell, xb) < _outside(cell, xi[bad])))
             xi[bad[take]], gamma[bad[take]], ok[bad[take]] = xb[take], gb[take], True
-    y, _, n, _ = _geometry(cell, degree, Y, Nn, xi, 0)
+    y, _, n, _ = facet_geometry(cell, degree, Y, Nn, xi, 0)
     nrm = np.linalg.norm(n, axis=1)
     safe = np.where(nrm > 0, nrm, 1.0)
     unit = n / safe[:, None]
@@ -358,7 +375,7 @@ def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
             break
         xa = xi[active]
         xx = x[active]
-        y, dy, n, dn = _geometry(cell, degree, Y[active], Nn[active], xa, 1)
+        y, dy, n, dn = facet_geometry(cell, degree, Y[active], Nn[active], xa, 1)
         if it == 0:
             nn = np.einsum("md,md->m", n, n)
             gamma[:] = np.einsum("md,md->m", xx - y, n) / np.where(nn > 0, nn, 1.0)
@@ -369,14 +386,14 @@ def _normal_newton(cell, degree, x, Y, Nn, xi, h, maxit, margin):
         J[:, :, fdim] = n
         det = _det_small(J)
         scale = np.prod(np.sqrt(np.einsum("mij,mij->mj", J, J)), axis=1)
-        regular = np.abs(det) > _SINGULAR * np.where(scale > 0, scale, 1.0)
+        regular = np.abs(det) > SINGULAR * np.where(scale > 0, scale, 1.0)
         dz = np.zeros((active.size, gdim))
         if np.any(regular):
             dz[regular] = -_solve_small(J[regular], F[regular], det[regular])
         # damping: at most one reference cell per step
         big = np.abs(dz[:, :fdim]).max(axis=1)
         dz *= np.where(big > 1.0, 1.0 / np.maximum(big, 1e-300), 1.0)[:, None]
-        xi[active] = _clip_reference(cell, xa + dz[:, :fdim], margin)
+        xi[active] = clip_reference(cell, xa + dz[:, :fdim], margin)
         gamma[active] = ga + dz[:, fdim]
         # converged: a step of round-off size, or a residual at the round-off of evaluating
         # y(xi) (coordinates times the basis' size, which grows like |xi|^p outside the cell)

@@ -1,21 +1,24 @@
 """The per-step search of a finite-sliding interface: the reach of every slave facet.
 
-At the start of every step (the last converged configuration) :class:`ReachSearch` (a part of
-:class:`~.interface.SlidingInterface`) computes the master's averaged nodal normals, runs the
-parallel search (:func:`.search.exchange_facets`) and finds, for every slave facet, the master
-facets it may face during the step: the candidates within the slave facet's size plus ``reach``. The
-master facets of the reach travel with their nodes' global numbers and owners, which become extra
-ghosts of the displacement's index map; the matrix pattern couples every slave facet's nodes with
-those of its reach, and the master facets of a reach near enough to each other to meet in one row of
-the tangent (:meth:`ReachSearch._couple`). Both are rebuilt only when a slave facet needs a master
-facet outside its current reach (then with three times the reach, so that a sliding body rebuilds
-every couple of facets, not every step); :attr:`layout_version` counts the rebuilds.
+At the start of every step (the last converged configuration) :class:`ReachSearch` (the search
+part of :class:`~.interface.SlidingInterface`) computes the master's averaged nodal normals, runs
+the parallel search (:func:`.search.exchange_facets`) and finds, for every slave facet, the master
+facets it may face during the step: the candidates within the slave facet's size plus ``reach``.
+The master facets of the reach travel with their nodes' global numbers and owners, which become
+extra ghosts of the displacement's index map; the matrix pattern couples every slave facet's nodes
+with those of its reach, and the master facets of a reach near enough to each other to meet in one
+row of the tangent (:func:`_couplings`). Both are one :class:`Reach` value, rebuilt only when a
+slave facet needs a master facet outside its current reach (then with three times the reach, so
+that a sliding body rebuilds every couple of facets, not every step);
+:attr:`ReachSearch.layout_version` counts the rebuilds. Each step also gives the points'
+projections at its start (:class:`StepStart`), from which their slip of the step is measured.
 """
 
 from __future__ import annotations
 
-import time
+import dataclasses
 
+import dolfinx
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -23,70 +26,163 @@ from petsc4py import PETSc
 from ....compat import ghosted_index_map, petsc_vector
 from ..geometry import frames
 from ..layout import Couplings
+from .contact import current_positions, project
 from .projection import facet_basis
 from .search import exchange_facets, near_pairs
-from .surface import facet_measures, nodal_normals
+from .sides import Sides
+from .surface import nodal_normals
 
-__all__ = ["ReachSearch", "surface_size"]
-
-
-def surface_size(surface, x_nodes: np.ndarray, comm: MPI.Comm) -> float:
-    """The largest facet size (length, or the square root of the area) over every rank."""
-    fdim = x_nodes.shape[1] - 1
-    local = float(facet_measures(surface, x_nodes).max(initial=0.0)) ** (1.0 / fdim)
-    return comm.allreduce(local, op=MPI.MAX)
+__all__ = ["Reach", "ReachSearch", "StepStart"]
 
 
-def _near(points, extent, X, Nn, radius) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`.search.near_pairs`, also without points or facets."""
-    if points.shape[0] == 0 or X.shape[0] == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    return near_pairs(points, extent, X, Nn, radius)
+@dataclasses.dataclass(frozen=True)
+class Reach:
+    """The master facets the slave facets may face until the next rebuild, and the layout.
+
+    Attributes:
+        index_map: The displacement's index map with the reach's master nodes as extra ghosts.
+        extra_ghosts: The extra ghosts (global node numbers), (ne,).
+        extra_owners: Their owners, (ne,).
+        nodes: The reach's master facets' nodes, local in :attr:`index_map`, (npf, nfd_m).
+        facets: Their global facet numbers (sorted), (npf,).
+        X0: Their nodes' reference positions, (npf, nfd_m, gdim).
+        ptr: CSR offsets of each slave facet's reach in :attr:`idx`, (ns + 1,).
+        idx: The reach's master facets (indices in :attr:`facets`) of each slave facet.
+        pairs: The (slave facet, master facet global number) pairs of the reach.
+        keys: The master facet pairs the pattern couples (``a * npf + b``, sorted).
+        couplings: The pattern's node couplings (:class:`~..layout.Couplings`).
+    """
+
+    index_map: dolfinx.common.IndexMap
+    extra_ghosts: np.ndarray
+    extra_owners: np.ndarray
+    nodes: np.ndarray
+    facets: np.ndarray
+    X0: np.ndarray
+    ptr: np.ndarray
+    idx: np.ndarray
+    pairs: frozenset
+    keys: np.ndarray
+    couplings: Couplings
+
+    def holds(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Whether the pattern couples the nodes of master facets ``a`` and ``b`` (indices)."""
+        keys = np.asarray(a, dtype=np.int64) * max(self.facets.size, 1) + b
+        k = self.keys
+        pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
+        return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
+
+    def within(self, slave: np.ndarray, master: np.ndarray) -> np.ndarray:
+        """Whether each (slave facet, master facet index) pair is in the slave facet's reach."""
+        npf = max(self.facets.size, 1)
+        owner = np.repeat(np.arange(self.ptr.size - 1), np.diff(self.ptr))
+        return np.isin(slave * npf + master, owner * npf + self.idx)
+
+
+@dataclasses.dataclass(frozen=True)
+class StepStart:
+    """Each point's projection at the step's start (the last converged configuration).
+
+    The material point of the master each point faces there is where its slip of the step is
+    measured from (also for a point that was open and may close in the step).
+
+    Attributes:
+        facet: The master facet (index in the reach; -1: none), (npts,).
+        xi: Its reference coordinates there, (npts, nt).
+        Q: The frames there; a point facing nothing keeps its committed one, (npts, gdim, gdim).
+        tangents: The master's tangent basis there (where ``facet >= 0``), (npts, gdim, nt).
+        normal_stiffness: ``d f_n / d g_n`` of every point at the step's first evaluation (its
+            start: the last converged configuration with the step's Dirichlet values; ``None``
+            before it), for the step's first Jacobian.
+    """
+
+    facet: np.ndarray
+    xi: np.ndarray
+    Q: np.ndarray
+    tangents: np.ndarray
+    normal_stiffness: np.ndarray | None = None
 
 
 class ReachSearch:
-    """The search part of :class:`~.interface.SlidingInterface` (the interface's attributes).
+    """The search part of a :class:`~.interface.SlidingInterface`: its reach, layout and normals.
+
+    Args:
+        sides: The interface's sides.
 
     Attributes:
-        pattern_margin: The margin of the master facet pairs the pattern couples, in largest
-            facet sizes ``h`` (:meth:`_couple`).
+        reach: The current :class:`Reach` (``None`` before the first step).
+        normals: The step's nodal normals of the reach's master facets (held during the step),
+            (npf, nfd_m, gdim).
+        layout_version: Grows every time the pattern and ghosts are rebuilt.
+        pattern_misses: Master facet pairs the tangent needed beyond the pattern (run total).
+        x_ext: A vector of the extended layout (the displacement at the reach's nodes).
+        b_ext: A vector of the extended layout (contributions summed to their owners).
     """
 
+    #: The margin of the master facet pairs the pattern couples, in largest facet sizes ``h``.
     pattern_margin = 1.0
 
-    def begin_step(self) -> bool:
+    def __init__(self, sides: Sides) -> None:
+        self.sides = sides
+        imap0 = sides.imap0
+        self._owners0 = np.concatenate(
+            [np.full(imap0.size_local, sides.comm.rank, np.int32), imap0.owners]
+        )
+        self._global0 = imap0.local_to_global(np.arange(sides.n_local0, dtype=np.int32))
+        self.reach: Reach | None = None
+        self.normals = np.zeros((0, 0, sides.gdim))
+        self.layout_version = 0
+        self.pattern_misses = 0
+        # master facet pairs (global numbers) a tangent needed beyond the pattern since it was
+        # built (:meth:`record_misses`): the next search rebuilds with them
+        self._missed: set[tuple[int, int]] = set()
+        self.x_ext: PETSc.Vec | None = None
+        self.b_ext: PETSc.Vec | None = None
+
+    def displacement(self, owned: np.ndarray) -> np.ndarray:
+        """The displacement at every local node of the extended map (collective)."""
+        gdim, bs = self.sides.gdim, self.sides.bs
+        self.x_ext.array_w[: self.sides.n_owned] = owned
+        self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with self.x_ext.localForm() as xl:
+            return xl.array_r.reshape(-1, bs)[:, :gdim].copy()
+
+    def begin_step(
+        self, x_committed: np.ndarray, facet_old: np.ndarray, Q_old: np.ndarray
+    ) -> StepStart:
         """Search the master facets near the slave points at the last converged configuration.
 
         Collective. Rebuilds the pattern and ghosts where a slave facet needs a master facet
-        beyond its reach (all ranks together).
+        beyond its reach (all ranks together: :attr:`layout_version` grows).
+
+        Args:
+            x_committed: The committed displacement (owned values).
+            facet_old: The points' committed master facets (global numbers; -1: none).
+            Q_old: The points' committed frames.
 
         Returns:
-            Whether the layout was rebuilt (:attr:`layout_version` grew).
+            The points' projections at the step's start (their frames: ``Q_old`` where a point
+            faces nothing, the identity where it never faced the master).
         """
-        from ...timing import TIMER_SEARCH
+        self._search(x_committed, facet_old)
+        return self._start(x_committed, Q_old)
 
-        t0 = time.perf_counter()
-        with self._time(TIMER_SEARCH):
-            rebuild = self._search()
-        self.search_seconds["search"] = time.perf_counter() - t0
-        return rebuild
-
-    def _search(self) -> bool:
-        """:meth:`begin_step` without its timer."""
-        xs = self._positions0(self._x_committed)
-        m, s = self.master, self.slave
-        normals = nodal_normals(m, xs, self.imap0)
-        Ym = xs[m.nodes]
+    def _search(self, x_committed: np.ndarray, facet_old: np.ndarray) -> None:
+        """The search of :meth:`begin_step`: the reach and the step's nodal normals."""
+        sd = self.sides
+        xs = self._positions0(x_committed)
+        m, s = sd.master, sd.slave
+        normals = nodal_normals(m, xs, sd.imap0)
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
-        rs_max = float(self.comm.allreduce(rs.max(initial=0.0), MPI.MAX))  # over every rank
-        pad = self.radius + 3.0 * self.reach + rs_max
+        rs_max = float(sd.comm.allreduce(rs.max(initial=0.0), MPI.MAX))  # over every rank
+        pad = sd.radius + 3.0 * sd.reach + rs_max
         cand = exchange_facets(
-            self.comm,
+            sd.comm,
             cs,
             m.cell,
             m.degree,
-            Ym,
+            xs[m.nodes],
             normals[m.nodes],
             self._global0[m.nodes],
             self._owners0[m.nodes],
@@ -97,186 +193,222 @@ class ReachSearch:
         _, first = np.unique(cand.global_facets, return_index=True)
         cx, cn = cand.x[first], cand.normals[first]
         cg, co, cf = cand.global_nodes[first], cand.owners[first], cand.global_facets[first]
-        si, fi = _near(cs, rs + self.reach, cx, cn, self.radius)
+        si, fi = near_pairs(cs, rs + sd.reach, cx, cn, sd.radius)
         need = set(zip(si.tolist(), cf[fi].tolist(), strict=True))
-        need |= {(p // self.nq, f) for p, f in enumerate(self.facet_old.tolist()) if f >= 0}
-        have = self._pattern_pairs
-        rebuild = have is None or not need <= have or bool(self._missed)
-        rebuild = bool(self.comm.allreduce(rebuild, op=MPI.LOR))
-        if rebuild:
-            si, fi = _near(cs, rs + 3.0 * self.reach, cx, cn, self.radius)
+        need |= {(p // sd.nq, f) for p, f in enumerate(facet_old.tolist()) if f >= 0}
+        rebuild = self.reach is None or not need <= self.reach.pairs or bool(self._missed)
+        if sd.comm.allreduce(rebuild, op=MPI.LOR):
+            si, fi = near_pairs(cs, rs + 3.0 * sd.reach, cx, cn, sd.radius)
             known = set(cf.tolist())
             pairs = {
                 p
                 for p in set(zip(si.tolist(), cf[fi].tolist(), strict=True)) | need
                 if p[1] in known
             }
-            self._build(pairs, cx, cn, cg, co, cf, 2.0 * rs_max)
+            self._build(pairs, cx, cg, co, cf, x_committed, 2.0 * rs_max)
+            self.normals = np.zeros((self.reach.facets.size, *cn.shape[1:]))
         # the nodal normals of this step (held during it) on the reach's facets
         pos = {g: i for i, g in enumerate(cf.tolist())}
-        rows = np.array([pos.get(g, -1) for g in self.pf_global.tolist()], dtype=np.int64)
+        rows = np.array([pos.get(g, -1) for g in self.reach.facets.tolist()], dtype=np.int64)
         hit = rows >= 0
-        self.pf_normals[hit] = cn[rows[hit]]
-        self._begin_kinematics()
-        return rebuild
+        normals = self.normals.copy()
+        normals[hit] = cn[rows[hit]]
+        self.normals = normals
 
-    def _build(self, pairs, cx, cn, cg, co, cf, diam: float) -> None:
-        """Pattern, master facets of the reach and the extended ghosts (collective).
+    def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
+        """Current positions of the displacement space's local nodes (collective: ghost update)."""
+        sd = self.sides
+        v = dolfinx.la.vector(sd.imap0, sd.bs)
+        v.array[: sd.n_owned] = u_owned
+        v.scatter_forward()
+        return sd.X0 + v.array.reshape(-1, sd.bs)[:, : sd.gdim]
+
+    def _build(self, pairs, cx, cg, co, cf, x_committed: np.ndarray, diam: float) -> None:
+        """The reach of ``pairs``, its extended ghosts and vectors (collective).
 
         ``diam``: the largest slave facet diameter over every rank (twice its largest distance
         from a node to the facet's centre) in the configuration of the search.
         """
-        ns = self.slave.size
+        sd = self.sides
+        ns = sd.slave.size
         pf_global = np.array(sorted({f for _, f in pairs}), dtype=np.int64)
         row = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([row[g] for g in pf_global.tolist()], dtype=np.int64)
-        gnodes, owners = cg[rows], co[rows]
-        # extended ghosts: the master nodes that are not local
-        order = np.argsort(self._global0)
-        pos = np.searchsorted(self._global0, gnodes, sorter=order)
-        pos = np.minimum(pos, self._global0.size - 1)
-        local = order[pos] if self._global0.size else np.zeros_like(gnodes)
-        found = (
-            (self._global0[local] == gnodes)
-            if self._global0.size
-            else np.zeros(gnodes.shape, dtype=bool)
-        )
-        extra_g, inv = np.unique(gnodes[~found], return_inverse=True)
-        extra_o = np.zeros(extra_g.size, dtype=np.int32)
-        extra_o[inv] = owners[~found]
-        self.index_map = ghosted_index_map(
-            self.comm,
-            self.imap0.size_local,
-            np.concatenate([self.imap0.ghosts, extra_g]),
-            np.concatenate([self.imap0.owners, extra_o]),
-        )
-        self.extra_ghosts, self.extra_owners = extra_g, extra_o
-        nodes = np.where(found, local, 0).astype(np.int64)
-        nodes[~found] = self.n_local0 + inv
-        self.pf_nodes = nodes.astype(np.int32)  # (npf, nfd_m), local in the extended map
-        self.pf_global = pf_global
-        self.pf_normals = cn[rows].copy()
-        for v in ("x_ext", "b_ext", "_work"):
-            old = getattr(self, v)
-            if old is not None:
-                old.destroy()
-        self.x_ext = petsc_vector(self.index_map, self.bs)
-        self.b_ext = petsc_vector(self.index_map, self.bs)
-        self._work = None
+        index_map, extra_g, extra_o, nodes = self._extended_map(cg[rows], co[rows])
+        for v in (self.x_ext, self.b_ext):
+            if v is not None:
+                v.destroy()
+        self.x_ext = petsc_vector(index_map, sd.bs)
+        self.b_ext = petsc_vector(index_map, sd.bs)
         # reference positions of the reach's master nodes: current minus displacement
-        self.x_ext.array_w[: self.n_owned] = self._x_committed
-        self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with self.x_ext.localForm() as xl:
-            u = xl.array_r.reshape(-1, self.bs)[:, : self.gdim]
-            self.pf_X0 = cx[rows] - u[self.pf_nodes]
-        # the reach of each slave facet (CSR) and the pattern's element nodes
+        u = self.displacement(x_committed)
+        # the reach of each slave facet (CSR)
         fpos = {g: i for i, g in enumerate(pf_global.tolist())}
         by_s: list[list[int]] = [[] for _ in range(ns)]
         for sf, g in sorted(pairs):
             by_s[sf].append(fpos[g])
-        self.reach_ptr = np.concatenate([[0], np.cumsum([len(b) for b in by_s])]).astype(np.int64)
-        self.reach_idx = np.array([i for b in by_s for i in b], dtype=np.int64)
-        self._pattern_pairs = set(pairs)
-        self._couple(cx[rows], diam)
-        gl = self.index_map.local_to_global
-        self._global_slave = (
-            gl(self.slave.nodes.ravel().astype(np.int32))
-            .reshape(self.slave.nodes.shape)
-            .astype(PETSc.IntType)
+        ptr = np.concatenate([[0], np.cumsum([len(b) for b in by_s])]).astype(np.int64)
+        idx = np.array([i for b in by_s for i in b], dtype=np.int64)
+        keys, couplings = _couplings(
+            sd, ptr, idx, nodes, pf_global, index_map, cx[rows], diam, self._missed_pairs(fpos)
         )
-        self._global_pf = (
-            gl(self.pf_nodes.ravel()).reshape(self.pf_nodes.shape).astype(PETSc.IntType)
+        self._missed = set()
+        self.reach = Reach(
+            index_map=index_map,
+            extra_ghosts=extra_g,
+            extra_owners=extra_o,
+            nodes=nodes,
+            facets=pf_global,
+            X0=cx[rows] - u[nodes],
+            ptr=ptr,
+            idx=idx,
+            pairs=frozenset(pairs),
+            keys=keys,
+            couplings=couplings,
         )
         self.layout_version += 1
 
-    def _couple(self, Ym: np.ndarray, diam: float) -> None:
-        """The pattern's node couplings (:attr:`couplings`) and master facet pairs (:meth:`_holds`).
+    def _extended_map(
+        self, gnodes: np.ndarray, owners: np.ndarray
+    ) -> tuple[dolfinx.common.IndexMap, np.ndarray, np.ndarray, np.ndarray]:
+        """The index map with the master nodes ``gnodes`` that are not local as extra ghosts.
 
-        What the tangent can write (:mod:`.assembly`) while the layout stands: slave
-        rows of a facet ``s`` x its own nodes and those of the master facets its points project
-        on, now and at the step's start (both in ``s``'s reach); master rows of the facets ``a``
-        of ``s``'s segments (in the reach) x ``s``'s nodes, and x the nodes of a master facet
-        ``b`` of the reach: a projection facet of a point of ``s`` (now or at the step's start)
-        or another segment facet of ``s`` (the transfer's change with the geometry). ``a`` and
-        ``b`` then hold projections of points of ``s`` at most ``s``'s diameter apart, plus the
-        point's slip in the step (at most ``reach``, else the step fails). So the pattern couples
-        every slave facet's nodes with each other and with its reach's nodes (both ways), and
-        the nodes of the master facets ``a``, ``b`` of one reach whose bounding boxes (at the
-        rebuild) are at most ``reach + diam(s) + h`` apart (``h`` the largest facet size: the
-        deformation until the next rebuild and the turn of the normals). Not all pairs of the
-        reach (it is 3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D).
-        A pair the tangent needs beyond this (:meth:`_pattern_check`) is left out of it for
-        the step and forces a rebuild at the next step with the pair.
-
-        ``Ym``: the nodes' positions of the reach's master facets, (npf, nfd_m, gdim); ``diam``:
-        the largest slave facet diameter over every rank (:meth:`_search` reduced it already).
+        Returns:
+            The map, the extra ghosts and their owners, and ``gnodes`` as local nodes of the map.
         """
-        from scipy import sparse
-
-        s = self.slave
-        ns, npf = s.size, self.pf_global.size
-        n_nodes = self.index_map.size_local + self.index_map.num_ghosts
-        R = sparse.csr_matrix(
-            (np.ones(self.reach_idx.size), self.reach_idx, self.reach_ptr), shape=(ns, npf)
+        sd = self.sides
+        g0 = self._global0
+        order = np.argsort(g0)
+        pos = np.searchsorted(g0, gnodes, sorter=order)
+        pos = np.minimum(pos, g0.size - 1)
+        local = order[pos] if g0.size else np.zeros_like(gnodes)
+        found = (g0[local] == gnodes) if g0.size else np.zeros(gnodes.shape, dtype=bool)
+        extra_g, inv = np.unique(gnodes[~found], return_inverse=True)
+        extra_o = np.zeros(extra_g.size, dtype=np.int32)
+        extra_o[inv] = owners[~found]
+        index_map = ghosted_index_map(
+            sd.comm,
+            sd.imap0.size_local,
+            np.concatenate([sd.imap0.ghosts, extra_g]),
+            np.concatenate([sd.imap0.owners, extra_o]),
         )
-        nfs, nfm = s.nodes.shape[1], self.pf_nodes.shape[1]
-        S = sparse.csr_matrix(
-            (np.ones(ns * nfs), s.nodes.ravel(), np.arange(ns + 1) * nfs), shape=(ns, n_nodes)
-        )
-        P = sparse.csr_matrix(
-            (np.ones(npf * nfm), self.pf_nodes.ravel(), np.arange(npf + 1) * nfm),
-            shape=(npf, n_nodes),
-        )
-        # master facet pairs sharing a reach, within reach + diam(s) + h (bounding boxes)
-        C = (R.T @ R).tocoo()
-        a, b = C.row.astype(np.int64), C.col.astype(np.int64)
-        lo, hi = Ym.min(axis=1), Ym.max(axis=1)
-        gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a])), axis=1)
-        near = gap <= self.reach + diam + self.pattern_margin * self.h
-        a, b = a[near], b[near]
-        # pairs a step needed beyond it (:meth:`_pattern_check`), where both are in the reach
-        missed = self._missed
-        if missed:
-            fpos = {g: i for i, g in enumerate(self.pf_global.tolist())}
-            extra = [(fpos[x], fpos[y]) for x, y in missed if x in fpos and y in fpos]
-            if extra:
-                ea, eb = np.array(extra, dtype=np.int64).T
-                a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
-        self._missed = set()
-        self._pattern_keys = np.unique(a * max(npf, 1) + b)
-        # each master facet with itself (the transfer's change): all unless pattern_margin < 0
-        self._self_held = self._holds(np.arange(npf), np.arange(npf))
-        A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
-        SR = S + R @ P  # each slave facet's nodes and its reach's
-        G = (S.T @ SR + (P.T @ A) @ P).tocsr()
-        G = (G + G.T).tocsr()
-        G.sum_duplicates()
-        G.sort_indices()
-        self.couplings = Couplings.rows(G.indptr, G.indices)
+        nodes = np.where(found, local, 0).astype(np.int64)
+        nodes[~found] = sd.n_local0 + inv
+        return index_map, extra_g, extra_o, nodes.astype(np.int32)
 
-    def _holds(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Whether the pattern couples the nodes of master facets ``a`` and ``b`` (pf indices)."""
-        keys = np.asarray(a, dtype=np.int64) * max(self.pf_global.size, 1) + b
-        k = self._pattern_keys
-        pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
-        return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
+    def _missed_pairs(self, fpos: dict[int, int]) -> list[tuple[int, int]]:
+        """The pairs a step needed beyond the pattern (:meth:`record_misses`) within the reach."""
+        return [(fpos[x], fpos[y]) for x, y in self._missed if x in fpos and y in fpos]
 
-    def _begin_kinematics(self) -> None:
-        """Each point's projection at the step's start (the last converged configuration).
-
-        The material point of the master each point faces there is where its slip of the step
-        is measured from (also for a point that was open and may close in the step).
-        """
-        u = self._local_displacement(self._x_committed)
-        xq, Ym, _ = self._current(u)
-        pj = self._project(xq, Ym)
-        found = pj["facet"] >= 0
-        self.pf_old = pj["facet"]
-        self.xi_old = pj["xi"]
-        self.Q_old[found] = frames(pj["normal"][found])
-        unset = np.abs(self.Q_old).sum(axis=(1, 2)) == 0
-        self.Q_old[unset] = np.eye(self.gdim)[None]
+    def _start(self, x_committed: np.ndarray, Q_old: np.ndarray) -> StepStart:
+        """Each point's projection at the step's start (the last converged configuration)."""
+        sd = self.sides
+        u = self.displacement(x_committed)
+        xq, Ym, _ = current_positions(sd, self.reach, u)
+        pj = project(sd, self.reach, self.normals, xq, Ym)
+        found = pj.facet >= 0
+        Q = Q_old.copy()
+        Q[found] = frames(pj.normal[found])
+        unset = np.abs(Q).sum(axis=(1, 2)) == 0
+        Q[unset] = np.eye(sd.gdim)[None]
+        tangents = np.zeros((sd.n_points, sd.gdim, sd.nt))
         pf = np.flatnonzero(found)
-        m = self.master
-        B = facet_basis(m.cell, m.degree, self.xi_old[pf], 1)
-        self.tan_old[pf] = np.einsum("amk,mkd->mda", B[1:], Ym[self.pf_old[pf]])
+        m = sd.master
+        B = facet_basis(m.cell, m.degree, pj.xi[pf], 1)
+        tangents[pf] = np.einsum("amk,mkd->mda", B[1:], Ym[pj.facet[pf]])
+        return StepStart(pj.facet, pj.xi, Q, tangents)
+
+    def record_misses(self, a: np.ndarray, b: np.ndarray) -> None:
+        """Record the master facet pairs ``a``, ``b`` (indices) a tangent needed beyond the pattern.
+
+        The next :meth:`begin_step` rebuilds the layout with them.
+        """
+        g = self.reach.facets
+        new = set(zip(g[a].tolist(), g[b].tolist(), strict=True)) - self._missed
+        self.pattern_misses += len(new)
+        self._missed |= new
+
+    def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
+        """Extra ghosts, their owners, the extended index map and the pattern's couplings."""
+        r = self.reach
+        return r.extra_ghosts, r.extra_owners, r.index_map, r.couplings
+
+    def destroy(self) -> None:
+        """Free the PETSc vectors (safe to call more than once)."""
+        for v in (self.x_ext, self.b_ext):
+            if v is not None:
+                v.destroy()
+        self.x_ext = self.b_ext = None
+
+
+def _couplings(
+    sd: Sides,
+    ptr: np.ndarray,
+    idx: np.ndarray,
+    nodes: np.ndarray,
+    facets: np.ndarray,
+    index_map: dolfinx.common.IndexMap,
+    Ym: np.ndarray,
+    diam: float,
+    missed: list[tuple[int, int]],
+) -> tuple[np.ndarray, Couplings]:
+    """The master facet pairs the pattern couples (keys) and its node couplings.
+
+    What the tangent can write (:mod:`.assembly`) while the layout stands: slave rows of a facet
+    ``s`` x its own nodes and those of the master facets its points project on, now and at the
+    step's start (both in ``s``'s reach); master rows of the facets ``a`` of ``s``'s segments (in
+    the reach) x ``s``'s nodes, and x the nodes of a master facet ``b`` of the reach: a
+    projection facet of a point of ``s`` (now or at the step's start) or another segment facet of
+    ``s`` (the transfer's change with the geometry). ``a`` and ``b`` then hold projections of
+    points of ``s`` at most ``s``'s diameter apart, plus the point's slip in the step (at most
+    ``reach``, else the step fails). So the pattern couples every slave facet's nodes with each
+    other and with its reach's nodes (both ways), and the nodes of the master facets ``a``, ``b``
+    of one reach whose bounding boxes (at the rebuild) are at most ``reach + diam(s) + h`` apart
+    (``h`` the largest facet size: the deformation until the next rebuild and the turn of the
+    normals), and the ``missed`` pairs a step needed beyond it. Not all pairs of the reach (it is
+    3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D). A pair the
+    tangent needs beyond this (:meth:`.contact.ContactGeometry`'s hold) is left out of it for the
+    step and forces a rebuild at the next step with the pair.
+
+    Args:
+        sd: The sides.
+        ptr: The reach's CSR offsets per slave facet.
+        idx: The reach's master facets per slave facet.
+        nodes: The reach's master facets' nodes (local in ``index_map``).
+        facets: Their global numbers.
+        index_map: The extended index map.
+        Ym: The nodes' positions of the reach's master facets, (npf, nfd_m, gdim).
+        diam: The largest slave facet diameter over every rank.
+        missed: Master facet pairs (indices) a step needed beyond the last pattern.
+    """
+    from scipy import sparse
+
+    s = sd.slave
+    ns, npf = s.size, facets.size
+    n_nodes = index_map.size_local + index_map.num_ghosts
+    R = sparse.csr_matrix((np.ones(idx.size), idx, ptr), shape=(ns, npf))
+    nfs, nfm = s.nodes.shape[1], nodes.shape[1]
+    S = sparse.csr_matrix(
+        (np.ones(ns * nfs), s.nodes.ravel(), np.arange(ns + 1) * nfs), shape=(ns, n_nodes)
+    )
+    P = sparse.csr_matrix(
+        (np.ones(npf * nfm), nodes.ravel(), np.arange(npf + 1) * nfm), shape=(npf, n_nodes)
+    )
+    # master facet pairs sharing a reach, within reach + diam(s) + h (bounding boxes)
+    C = (R.T @ R).tocoo()
+    a, b = C.row.astype(np.int64), C.col.astype(np.int64)
+    lo, hi = Ym.min(axis=1), Ym.max(axis=1)
+    gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo[a] - hi[b], lo[b] - hi[a])), axis=1)
+    near = gap <= sd.reach + diam + ReachSearch.pattern_margin * sd.h
+    a, b = a[near], b[near]
+    if missed:
+        ea, eb = np.array(missed, dtype=np.int64).T
+        a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
+    keys = np.unique(a * max(npf, 1) + b)
+    A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
+    SR = S + R @ P  # each slave facet's nodes and its reach's
+    G = (S.T @ SR + (P.T @ A) @ P).tocsr()
+    G = (G + G.T).tocsr()
+    G.sum_duplicates()
+    G.sort_indices()
+    return keys, Couplings.rows(G.indptr, G.indices)

@@ -228,8 +228,10 @@ def near_pairs(
         radius: Largest normal distance.
 
     Returns:
-        The point and facet indices of the candidate pairs.
+        The point and facet indices of the candidate pairs (none without points or facets).
     """
+    if points.shape[0] == 0 or X.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     c = X.mean(axis=1)
     nf = Nn.sum(axis=1)
     nf /= np.maximum(np.linalg.norm(nf, axis=1, keepdims=True), 1e-300)

@@ -29,14 +29,122 @@ slave's (visibly off the small-sliding pressures on coinciding nodes in ``demos/
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 import basix
 import numpy as np
 
-from .projection import _element, facet_basis
-from .segments import Segments
+from ...kinematics import point_weight
+from .projection import facet_basis, lagrange_element
+from .segments import Segments, overlap_points
+from .sides import Sides
 
-__all__ = ["Transfer", "facet_mass", "l2_projector", "transfer_matrices", "transfer_tangent"]
+if TYPE_CHECKING:
+    from .points import SlidingPoints
+    from .reach import Reach
+
+__all__ = [
+    "SegmentTransfer",
+    "Transfer",
+    "facet_mass",
+    "l2_projector",
+    "transfer_matrices",
+    "transfer_tangent",
+]
+
+
+class SegmentTransfer:
+    """The transfer part of a :class:`~.interface.SlidingInterface` (the module docstring).
+
+    The slave tractions go to the master nodes through the segments of each slave facet's reach.
+
+    Args:
+        sides: The interface's sides.
+        points: Its law's points (their weights on the reference slave surface).
+        mode: The modelling mode. Axisymmetric: the field projected is the traction times
+            ``2 pi r`` at the points (the reference ``r``, as the slave weights), whose segment
+            integrals are the master's forces.
+
+    Attributes:
+        projector: ``P`` of :func:`l2_projector` for the slave facets, (ns, nfd_s, nq): the
+            master forces by the segments are those the slave nodes get by the rule (the exact
+            mass; with a nodal rule the dual basis, where the rule's lumped one gave the
+            consistent mass).
+        in_tangent: Whether the tangent holds the transfer's change with the geometry, ``dB t``
+            (2-D and 3-D): then the 2-D tangent is the residual's derivative, the 3-D one but
+            for the frame's turn within an iteration
+            (``tests/fem/interface/test_finite_sliding_tangent.py``), and Newton converges
+            quadratically at the end of a step (without it linearly). On by default: fewer
+            Newton iterations per sliding step (``benchmarks/finite_sliding_newton.py``).
+    """
+
+    in_tangent = True
+
+    def __init__(self, sides: Sides, points: SlidingPoints, mode: str | None) -> None:
+        s = sides.slave
+        self.sides = sides
+        self.slave_X0 = sides.X0[s.nodes]  # the positions that weigh the segments' points
+        pw = point_weight(points.points, mode or "3d").reshape(points.facet_weights.shape)
+        self.projector = (
+            l2_projector(
+                sides.Ns[0], points.facet_weights, facet_mass(s.cell, s.degree, self.slave_X0)
+            )
+            * pw[:, None, :]
+        )
+
+    def pairs(
+        self, Xs: np.ndarray, Ym: np.ndarray, normals: np.ndarray, reach: Reach
+    ) -> tuple[Segments, Transfer]:
+        """The segments of the slave facets within their reach and their transfer matrices.
+
+        Args:
+            Xs: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
+            Ym: Current positions of the reach's master facets' nodes, (npf, nfd_m, gdim).
+            normals: Their nodal normals (the step's), likewise.
+            reach: The step's reach: a pair beyond a slave facet's reach is left out.
+        """
+        s, m = self.sides.slave, self.sides.master
+        seg = overlap_points(
+            Xs,
+            s.cell,
+            s.degree,
+            Ym,
+            normals,
+            m.cell,
+            m.degree,
+            self.sides.radius,
+            slave_measure_x=self.slave_X0,
+            rates=self.in_tangent,
+        )
+        keep = seg.converged.copy()
+        if seg.size:
+            keep &= reach.within(seg.slave, seg.master)
+        seg = seg.take(keep)
+        return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
+
+    def tangent(
+        self,
+        segments: Segments,
+        tractions: np.ndarray,
+        Xs: np.ndarray,
+        Ym: np.ndarray,
+        normals: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The change of the master forces with the geometry (:func:`transfer_tangent`)."""
+        s, m = self.sides.slave, self.sides.master
+        return transfer_tangent(
+            segments,
+            self.projector,
+            tractions,
+            Xs,
+            self.slave_X0,
+            s.degree,
+            Ym,
+            normals,
+            m.degree,
+            s.cell,
+            m.cell,
+        )
 
 
 def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
@@ -137,7 +245,7 @@ def transfer_matrices(
     """
     nq = projector.shape[2]
     if segments.size == 0:
-        nfd_m = _element(master_cell, master_degree).dim
+        nfd_m = lagrange_element(master_cell, master_degree).dim
         z = np.zeros(0, dtype=np.int64)
         return Transfer(z, z.copy(), np.zeros((0, nfd_m, nq)))
     key = segments.slave.astype(np.int64) * (int(segments.master.max()) + 1) + segments.master

@@ -40,7 +40,7 @@ from petsc4py import PETSc
 
 from ....compat import petsc_vector
 from ....constitutive import FrictionLaw
-from ..base import BaseInterface, InterfaceError, stiffen_separated
+from ..base import BaseInterface, InterfaceError, NewtonStart, stiffen_separated
 from .element import InterfaceElements
 from .pairing import pair_interface
 from .regions import element_regions
@@ -78,6 +78,7 @@ class FrictionInterface(BaseInterface):
     """
 
     kinematics = "small_sliding"  # the pairs, ghosts and pattern never change (layout_version)
+    fixed_pairs = True
 
     def __init__(
         self,
@@ -237,15 +238,12 @@ class FrictionInterface(BaseInterface):
         A: PETSc.Mat,
         constrained: np.ndarray | None,
         separated_stiffness: float,
-        frictionless: bool,
-        keep_contact: bool,
+        start: NewtonStart | None,
     ) -> None:
         """Add the consistent tangent of the last iterate to ``A``, the element matrices.
 
-        ``A`` must hold the interface couplings (:func:`~.layout.create_matrix`).
-        ``frictionless`` and ``keep_contact`` are ignored: the finite-sliding interface's
-        first-iteration tangents (:meth:`~.finite.interface.SlidingInterface._add_tangent`); a
-        small-sliding interface's tangent is the same with them.
+        ``A`` must hold the interface couplings (:func:`~.layout.create_matrix`). ``start`` is
+        ignored: a small-sliding interface's tangent is the same at every iteration.
         """
         Ke = self.element_matrices(separated_stiffness)
         if constrained is not None:

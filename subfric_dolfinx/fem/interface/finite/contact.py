@@ -1,0 +1,393 @@
+"""The contact geometry of one Newton iterate of a finite-sliding interface, as one value.
+
+At every iterate (:meth:`~.interface.SlidingInterface.update`) each slave point is projected along
+the master's smooth normal on the facets of its reach in the current configuration (a point may
+change facet inside a step), which gives its frame, its normal gap ``-gamma |n~|`` and its
+convected slip from the material point it faced at the step's start (:class:`~.reach.StepStart`);
+the tangential state is transported (:func:`.sliding.transport_matrix`, the identity in 2-D). The
+tangent's pieces follow: the gap's derivative (:func:`.sliding.gap_operator`), in 2-D the frame's
+turn with the projection (:func:`.sliding.frame_rate`), and the segments and transfer
+(:class:`~.transfer.SegmentTransfer`). :func:`contact_geometry` computes them all into one frozen
+:class:`ContactGeometry`, which the return map, the forces, the tangent and the commit read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from contextlib import AbstractContextManager as ContextManager
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..geometry import frames
+from .projection import facet_basis, normal_projection
+from .search import near_pairs
+from .segments import Segments
+from .sides import Sides
+from .sliding import frame_rate, gap_operator, transport_matrix
+from .transfer import Transfer
+
+if TYPE_CHECKING:
+    from .reach import Reach, ReachSearch, StepStart
+    from .transfer import SegmentTransfer
+
+__all__ = ["ContactGeometry", "Projection", "contact_geometry", "current_positions", "project"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Projection:
+    """Every point's projection on the nearest facet of its reach it lands on.
+
+    Attributes:
+        facet: The master facet (index in the reach; -1: none), (npts,).
+        xi: Its reference coordinates there, (npts, nt).
+        normal: The smooth unit normal there, (npts, gdim).
+        distance: The signed normal distance (``radius`` where a point faces nothing), (npts,).
+        gamma: The distance along the interpolated (not unit) normal, (npts,).
+    """
+
+    facet: np.ndarray
+    xi: np.ndarray
+    normal: np.ndarray
+    distance: np.ndarray
+    gamma: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class ContactGeometry:
+    """The contact geometry of one iterate and the tangent's pieces (never changed once made).
+
+    Attributes:
+        reach: The :class:`~.reach.Reach` it was computed on (its facets' nodes and numbers).
+        normals: The step's nodal normals of the reach's facets, (npf, nfd_m, gdim).
+        xq: Current positions of the points, (npts, gdim).
+        Xs: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
+        Ym: Current positions of the reach's master facets' nodes, (npf, nfd_m, gdim).
+        facet: Each point's master facet (index in the reach; -1: none), (npts,).
+        Q: Each point's frame, rows ``(e1, [e2,] -n)`` (an open point keeps its old one).
+        gap: The geometric gap in the frame (tangential: the total, normal: > 0 on
+            penetration), without the initial gap, (npts, gdim).
+        transport: The tangential state's transport of the step, (npts, nt, nt).
+        slid_too_far: Points whose slip in the step exceeds the reach, (npts,).
+        old_facet: The master facet each moving point faced at the step's start (-1: none).
+        N_old: The master basis at that start point, (npts, nfd_m).
+        Nm: The master basis at the projection, (npts, nfd_m).
+        G: The gap's derivative (:func:`.sliding.gap_operator`), (npts, gdim, gdim).
+        turn: 2-D: the frame's turn with the projection, the rate ``a`` and ``d xi / d x`` of
+            each found point, ((nf, gdim), (nf, gdim)); ``None`` in 3-D.
+        segments: The segment points within each slave facet's reach.
+        transfer: The master-side transfer matrices of the segments.
+        held_now: Whether the pattern couples each segment pair's master facet with the facet
+            point ``q`` of its slave facet faces now, (nseg, nq).
+        held_old: Likewise with the facet it faced at the step's start, (nseg, nq).
+    """
+
+    reach: Reach
+    normals: np.ndarray
+    xq: np.ndarray
+    Xs: np.ndarray
+    Ym: np.ndarray
+    facet: np.ndarray
+    Q: np.ndarray
+    gap: np.ndarray
+    transport: np.ndarray
+    slid_too_far: np.ndarray
+    old_facet: np.ndarray
+    N_old: np.ndarray
+    Nm: np.ndarray
+    G: np.ndarray
+    turn: tuple[np.ndarray, np.ndarray] | None
+    segments: Segments
+    transfer: Transfer
+    held_now: np.ndarray
+    held_old: np.ndarray
+
+    def __post_init__(self) -> None:
+        """Make the arrays read-only too: the value is passed on, never changed."""
+        arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
+        for a in [*arrays, *(self.turn or ())]:
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+
+    @property
+    def found(self) -> np.ndarray:
+        """Whether each point faces the master, (npts,)."""
+        return self.facet >= 0
+
+    def turn_stiffness(self, traction: np.ndarray) -> np.ndarray:
+        """2-D: the forces' change ``d(Q^T f)`` with the frame's turn, (npts, gdim, gdim).
+
+        ``d e1 = (a_y, -a_x) dxi``, ``d(-n) = -a dxi``, with the tractions ``traction`` held
+        (zero in 3-D, where the frame's turn is not in the tangent).
+        """
+        K = np.zeros_like(self.G)
+        if self.turn is not None:
+            pf = np.flatnonzero(self.found)
+            a, r = self.turn
+            de1 = np.stack([a[:, 1], -a[:, 0]], axis=1)
+            f = traction[pf]
+            turn = de1 * f[:, :1] - a * f[:, 1:]
+            K[pf] = turn[:, :, None] * r[:, None, :]
+        return K
+
+
+def current_positions(
+    sd: Sides, reach: Reach, u: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points, master facets of the reach and slave facets' nodes at displacement ``u``."""
+    s = sd.slave
+    Xs = sd.X0[s.nodes] + u[s.nodes]  # (ns, nfd, gdim)
+    xq = np.einsum("qk,fkd->fqd", sd.Ns[0], Xs).reshape(-1, sd.gdim)
+    return xq, reach.X0 + u[reach.nodes], Xs
+
+
+def project(
+    sd: Sides, reach: Reach, normals: np.ndarray, xq: np.ndarray, Ym: np.ndarray
+) -> Projection:
+    """Every point along the smooth normal on the nearest facet of its reach it lands on."""
+    nq, nt, gdim, n = sd.nq, sd.nt, sd.gdim, sd.n_points
+    # the pairs that may project on each other (:func:`.search.near_pairs`) within the reach
+    pp, ff = near_pairs(xq, np.zeros(xq.shape[0]), Ym, normals, sd.radius)
+    keep = reach.within(pp // nq, ff)
+    pp, ff = pp[keep], ff[keep]
+    m = sd.master
+    pr = normal_projection(xq[pp], Ym[ff], normals[ff], m.cell, m.degree)
+    good = pr.inside & (np.abs(pr.distance) <= sd.radius)
+    idx = np.flatnonzero(good)
+    idx = idx[np.lexsort((np.abs(pr.distance[idx]), pp[idx]))]
+    first = np.ones(idx.size, dtype=bool)
+    first[1:] = pp[idx][1:] != pp[idx][:-1]
+    idx = idx[first]
+    p = pp[idx]
+    out = Projection(
+        facet=np.full(n, -1, dtype=np.int64),
+        xi=np.zeros((n, nt)),
+        normal=np.zeros((n, gdim)),
+        # a point facing nothing is open: beyond the radius on the outer side (a distance
+        # of -radius made it penetrate by the radius: pressed where it left the master)
+        distance=np.full(n, sd.radius),
+        gamma=np.zeros(n),
+    )
+    out.facet[p] = ff[idx]
+    out.xi[p] = pr.xi[idx]
+    out.normal[p] = pr.normal[idx]
+    out.distance[p] = pr.distance[idx]
+    out.gamma[p] = pr.gamma[idx]
+    return out
+
+
+def contact_geometry(
+    sd: Sides,
+    search: ReachSearch,
+    start: StepStart,
+    ut_old: np.ndarray,
+    u: np.ndarray,
+    transfer: SegmentTransfer,
+    timed: Callable[[str], ContextManager],
+) -> tuple[ContactGeometry, dict[str, float]]:
+    """The contact geometry at the displacement ``u`` (not collective).
+
+    Args:
+        sd: The sides.
+        search: The search part: the step's reach and nodal normals; it records the master
+            facet pairs the tangent needs beyond its pattern.
+        start: The points' projections at the step's start.
+        ut_old: The points' committed total tangential gaps, (npts, nt).
+        u: The displacement at the local nodes of the reach's index map, (n, gdim).
+        transfer: The transfer part (the segments and ``B``).
+        timed: A context manager per timer name (the interface's timings).
+
+    Returns:
+        The geometry, and the wall times of its projections and of its segments (the cost
+        tables; never in tests).
+    """
+    from ...timing import TIMER_PROJECTION
+
+    reach, normals = search.reach, search.normals
+    t0 = time.perf_counter()
+    xq, Ym, Xs = current_positions(sd, reach, u)
+    with timed(TIMER_PROJECTION):
+        pj = project(sd, reach, normals, xq, Ym)
+    found = pj.facet >= 0
+    seconds = {"projection": time.perf_counter() - t0}
+    Q = _frames(start.Q, pj.normal, found)
+    gap = np.zeros((sd.n_points, sd.gdim))
+    gap[:, sd.nt] = -pj.distance
+    # a distance within the coordinates' round-off is a closed gap (independent meshes of one
+    # surface meet at +-1e-17, which would tell contact from separation by chance)
+    gap[np.abs(gap[:, sd.nt]) <= 1e-12 * sd.h, sd.nt] = 0.0
+    moving = found & (start.facet >= 0)
+    ds, T, N_old = _slip(sd, start, pj, Q, Ym, normals, moving)
+    slid_too_far = np.linalg.norm(ds, axis=1) > sd.reach
+    gap[:, : sd.nt] = np.einsum("mab,mb->ma", T, ut_old) + np.einsum(
+        "mad,md->ma", Q[:, : sd.nt, :], ds
+    )
+    t1 = time.perf_counter()
+    G, Nm, turn = _gap_derivative(sd, pj, Q, xq, Ym, normals, ds, moving)
+    old_facet = np.where(moving, start.facet, -1)
+    with timed(TIMER_PROJECTION):
+        segments, tr = transfer.pairs(Xs, Ym, normals, reach)
+        held_now, held_old = _pattern_hold(sd, search, tr, pj.facet, old_facet, slid_too_far)
+    seconds["segments"] = time.perf_counter() - t1
+    geometry = ContactGeometry(
+        reach=reach,
+        normals=normals,
+        xq=xq,
+        Xs=Xs,
+        Ym=Ym,
+        facet=pj.facet,
+        Q=Q,
+        gap=gap,
+        transport=T,
+        slid_too_far=slid_too_far,
+        old_facet=old_facet,
+        N_old=N_old,
+        Nm=Nm,
+        G=G,
+        turn=turn,
+        segments=segments,
+        transfer=tr,
+        held_now=held_now,
+        held_old=held_old,
+    )
+    return geometry, seconds
+
+
+def _frames(Q_start: np.ndarray, normal: np.ndarray, found: np.ndarray) -> np.ndarray:
+    """The frames at the projections; an open point keeps its frame of the step's start."""
+    Q = Q_start.copy()
+    Q[found] = frames(normal[found])
+    unset = ~found & (np.abs(Q).sum(axis=(1, 2)) == 0)
+    if np.any(unset):
+        Q[unset] = np.eye(Q.shape[-1])[None]
+    return Q
+
+
+def _slip(
+    sd: Sides,
+    start: StepStart,
+    pj: Projection,
+    Q: np.ndarray,
+    Ym: np.ndarray,
+    normals: np.ndarray,
+    moving: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The convected slip of the step and the tangential state's transport.
+
+    The slip of a ``moving`` point (facing the master now and at the step's start) is its
+    projection now minus the material point of the master it faced at the start, where that
+    point is now; 3-D: the transport carries the tangential state from the start's frame to this
+    one (:func:`.sliding.transport_matrix`).
+
+    Returns:
+        The slip (npts, gdim), the transport (npts, nt, nt) and the master basis at the start
+        point (npts, nfd_m).
+    """
+    m, n, nt = sd.master, sd.n_points, sd.nt
+    N_old = np.zeros((n, Ym.shape[1]))
+    ds = np.zeros((n, sd.gdim))
+    T = np.broadcast_to(np.eye(nt), (n, nt, nt)).copy()
+    if not np.any(moving):
+        return ds, T, N_old
+    pm = np.flatnonzero(moving)
+    old = start.facet
+    B_old = facet_basis(m.cell, m.degree, start.xi[pm], 1)
+    N_old[pm] = B_old[0]
+    Yo = Ym[old[pm]]
+    y_old_now = np.einsum("mk,mkd->md", B_old[0], Yo)
+    B_new = facet_basis(m.cell, m.degree, pj.xi[pm], 0)
+    y_new = np.einsum("mk,mkd->md", B_new[0], Ym[pj.facet[pm]])
+    ds[pm] = y_new - y_old_now
+    if nt == 2:
+        tan_now = np.einsum("amk,mkd->mda", B_old[1:], Yo)
+        n_now = np.einsum("mk,mkd->md", B_old[0], normals[old[pm]])
+        n_now /= np.linalg.norm(n_now, axis=1, keepdims=True)
+        T[pm] = transport_matrix(start.Q[pm], Q[pm], start.tangents[pm], tan_now, n_now)
+    return ds, T, N_old
+
+
+def _gap_derivative(
+    sd: Sides,
+    pj: Projection,
+    Q: np.ndarray,
+    xq: np.ndarray,
+    Ym: np.ndarray,
+    normals: np.ndarray,
+    ds: np.ndarray,
+    moving: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+    """The gap's derivative ``G``, the master basis at the projections and the frame's turn.
+
+    2-D: the frame turns with the projection (``d e1 = (a_y, -a_x) dxi``): in the slip
+    ``e1 . ds`` (here, in ``G``) and in the forces ``Q^T f``
+    (:meth:`ContactGeometry.turn_stiffness`).
+    """
+    m, n, gdim, nt = sd.master, sd.n_points, sd.gdim, sd.nt
+    pf = np.flatnonzero(pj.facet >= 0)
+    G = np.zeros((n, gdim, gdim))
+    Nm = np.zeros((n, Ym.shape[1]))
+    if pf.size == 0:
+        return G, Nm, None
+    f = pj.facet[pf]
+    Gp, Nb, R = gap_operator(
+        xq[pf], Ym[f], normals[f], m.cell, m.degree, pj.xi[pf], pj.gamma[pf], Q[pf]
+    )
+    G[pf], Nm[pf] = Gp, Nb
+    # no slip measured where the point faced nothing at the step's start
+    G[~moving, :nt, :] = 0.0
+    if gdim != 2:
+        return G, Nm, None
+    a, r = frame_rate(normals[f], m.cell, m.degree, pj.xi[pf]), R[:, 0, :]
+    de1 = np.stack([a[:, 1], -a[:, 0]], axis=1)
+    G[pf, 0, :] += np.einsum("md,md->m", de1, ds[pf])[:, None] * r
+    return G, Nm, (a, r)
+
+
+def _pattern_hold(
+    sd: Sides,
+    search: ReachSearch,
+    tr: Transfer,
+    facet: np.ndarray,
+    old_facet: np.ndarray,
+    slid_too_far: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pattern's hold on this iterate's segment pairs; the pairs beyond it are recorded.
+
+    The master rows of a segment facet ``a`` of a slave facet take the columns of the projection
+    facets of its points (now and at the step's start) and of its other segment facets; the
+    pattern holds the pairs of one reach that are near each other (:func:`.reach._couplings`).
+    A pair beyond it is left out of the tangent (never a write outside the pattern), counted in
+    the search's ``pattern_misses``, and its next step rebuilds the layout with it (unless its
+    point slid farther than the reach: that step is cut anyway).
+
+    Returns:
+        For every segment pair of ``tr`` and point ``q`` of its slave facet, whether the pattern
+        couples the pair's master facet with the facet the point faces now (``facet``) and
+        faced at the step's start (``old_facet``), False where it faces none; (nseg, nq) each.
+    """
+    from scipy import sparse
+
+    reach, nq = search.reach, sd.nq
+    nseg = tr.slave.size
+    if nseg == 0:
+        return np.zeros((0, nq), dtype=bool), np.zeros((0, nq), dtype=bool)
+    p = (tr.slave[:, None] * nq + np.arange(nq)[None, :]).ravel()
+    a = np.repeat(tr.master, nq)
+    now, old = facet[p], old_facet[p]
+    held_now, held_old = np.zeros(p.size, dtype=bool), np.zeros(p.size, dtype=bool)
+    held_now[now >= 0] = reach.holds(a[now >= 0], now[now >= 0])
+    held_old[old >= 0] = reach.holds(a[old >= 0], old[old >= 0])
+    live = (facet[p] >= 0) & ~slid_too_far[p]
+    moved = live & (old >= 0)
+    npf = max(reach.facets.size, 1)
+    T = sparse.csr_matrix((np.ones(nseg), (tr.slave, tr.master)), shape=(sd.slave.size, npf))
+    TT = (T.T @ T).tocoo()  # segment facets of one slave facet with each other
+    ta, tb = TT.row.astype(np.int64), TT.col.astype(np.int64)
+    a = np.concatenate([a[live], a[moved], ta])
+    b = np.concatenate([now[live], old[moved], tb])
+    bad = ~np.concatenate([held_now[live], held_old[moved], reach.holds(ta, tb)])
+    if np.any(bad):
+        search.record_misses(a[bad], b[bad])
+    return held_now.reshape(nseg, nq), held_old.reshape(nseg, nq)
