@@ -120,6 +120,8 @@ def test_every_demo_is_a_notebook_whose_first_cell_is_its_docstring(name, capsys
         assert "(default: " in text, text
         assert len(text.splitlines()) <= 3 * options + 8, text  # a line or two per option
         assert module.__doc__.splitlines()[2] not in text  # the docstring's body is not the help
+        # each default once: argparse's "(default: ...)", not a number in the text before it too
+        assert not re.search(r"\([-+\d.e]+\) \(default:", " ".join(text.split())), text
 
 
 def check_calibration(out, text):
