@@ -166,14 +166,14 @@ def test_the_demo_runs_as_a_program(tmp_path, name):
     missing = [f for f in files if not (out / f).exists()]
     assert not missing, (missing, sorted(str(q.relative_to(out)) for q in out.rglob("*")))
     assert len(shown(text)) <= 30, text  # quiet by default: a line per program segment
-    for table in out.rglob("*.csv"):  # every CSV has its units (paper_figures: in its names)
-        if name == "paper_figures":
-            assert all("_" in c for c in table.read_text().splitlines()[0].split(",")[2:])
-            continue
+    for table in out.rglob("*.csv"):  # every CSV has its units (text columns: none)
         meta = json.loads(table.with_name(table.name + "-metadata.json").read_text())
-        units = {c["name"]: c["schema:unitText"] for c in meta["tableSchema"]["columns"]}
+        columns = meta["tableSchema"]["columns"]
+        units = {c["name"]: c["schema:unitText"] for c in columns}
         assert list(units) == table.read_text().splitlines()[0].split(","), table
         assert "?" not in units.values(), (table, units)
+        numbers = [c for c in columns if c.get("datatype", "number") == "number"]
+        assert numbers and all(c["schema:unitText"] for c in numbers), (table, columns)
     if name in CHECKS:
         CHECKS[name](out, p.stdout)
 
