@@ -166,6 +166,11 @@ def test_the_readme_is_a_quick_start_that_links_the_reference():
     (install,) = [ln for b in readme_blocks("bash") for ln in b.splitlines() if "pip install" in ln]
     assert "--no-build-isolation" in install  # offline: the environment's setuptools
     assert "these hosts" not in text
+    # the one call that turns on a line per step for library use, named where users look first
+    from subfric_dolfinx import logs
+
+    assert "logs.show_progress(MPI.COMM_WORLD)" in text and callable(logs.show_progress)
+    assert "python3 -m subfric_dolfinx.scenes" in text  # the scene command without installing
 
 
 @pytest.mark.timeout(300)
