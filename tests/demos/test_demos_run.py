@@ -174,6 +174,9 @@ def test_the_demo_runs_as_a_program(tmp_path, name):
         assert "?" not in units.values(), (table, units)
         numbers = [c for c in columns if c.get("datatype", "number") == "number"]
         assert numbers and all(c["schema:unitText"] for c in numbers), (table, columns)
+    for xdmf in out.rglob("*.xdmf"):  # every XDMF file says its functions' units
+        units = re.findall(r'<Information Name="unit" Value="([^"]*)"', xdmf.read_text())
+        assert units and "?" not in units, (xdmf, units)
     if name in CHECKS:
         CHECKS[name](out, p.stdout)
 
