@@ -266,10 +266,23 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
             s = PathBuilder(name, f_n, spm["sec6"], 1.0 / spm["sec6"], normal_leg=True)
             s = s.slide_to(3.0).run()
             ft = np.abs(s["f_t1"])
-            ax.plot(s["f_n"], ft, lw=1.3)
+            ax.plot(
+                s["f_n"],
+                ft,
+                lw=1.3,
+                label="stress paths (press, then slide)" if f_n == FN_SEC6[0] else None,
+            )
             k = int(np.argmax(ft))
             for series, i, color in (("peak", k, "r"), ("end", -1, "k")):
-                ax.plot([s["f_n"][i] - 120, s["f_n"][i] + 120], [ft[i], ft[i]], color=color, lw=3)
+                bar = {"peak": "the path's peak", "end": "its end (3 mm)"}[series]
+                first = f_n == FN_SEC6[0]  # one legend entry for each kind of bar
+                ax.plot(
+                    [s["f_n"][i] - 120, s["f_n"][i] + 120],
+                    [ft[i], ft[i]],
+                    color=color,
+                    lw=3,
+                    label=bar if first else None,
+                )
                 rows.append((name, f"{series} f_n={f_n:g}", float(s["f_n"][i]), float(ft[i])))
             rows += [(name, f"path f_n={f_n:g}", x, y) for x, y in zip(s["f_n"], ft, strict=True)]
         ax.set_title(label(name))
