@@ -136,7 +136,8 @@ class Progress:
     """A clock that says when the next progress line is due.
 
     A line ``interval`` s after the last one at the earliest, and not before the time elapsed at
-    the last line over :data:`PROGRESS_SPREAD`: lines at 10, 20, 30, 40, 53, 71, 95 ... s.
+    the last line over :data:`PROGRESS_SPREAD`: lines at 10, 20, 30, 40, 53, 71, 95 ... s (an
+    ``interval`` of 0: a line at every call).
 
     Args:
         interval: Seconds between two lines at least (default :data:`PROGRESS_SECONDS`).
@@ -149,7 +150,8 @@ class Progress:
     def due(self) -> bool:
         """True (and the clock restarts) when the next line's time has come."""
         now = time.monotonic()
-        gap = max(self.interval, (self.last - self.start) / PROGRESS_SPREAD)
+        spread = (self.last - self.start) / PROGRESS_SPREAD if self.interval > 0.0 else 0.0
+        gap = max(self.interval, spread)  # an interval of 0: a line at every call
         if now - self.last < gap:
             return False
         self.last = now

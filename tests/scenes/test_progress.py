@@ -57,3 +57,6 @@ def test_progress_lines_grow_with_the_logarithm_of_the_run(monkeypatch):
         count = sum(t <= seconds for t in lines)
         assert count <= 4 + math.log(seconds / 30.0) / math.log(spread), (seconds, count)
     assert sum(t <= 441.0 for t in lines) <= 12 and len(lines) <= 19
+    every = logs.Progress(0.0)  # no interval: every call a line, however long the run
+    now[0] += 1e4
+    assert all(every.due() for _ in range(5))
