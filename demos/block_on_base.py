@@ -94,6 +94,11 @@ GEOMETRY = {"base_width": 20.0, "base_height": 5.0, "block_width": 10.0, "block_
 
 
 # %%
+def snapshot_times(hold: float) -> list[float]:
+    """The interface profiles' times (s): pressed, the peak and end of each stroke, the hold."""
+    return [1.0, 1.25, 2.0, 4.0, 4.0 + hold, 4.0 + hold + 1.25, 6.0 + hold]
+
+
 def scene(
     n: int = 16,
     hold: float = 20.0,
@@ -103,7 +108,7 @@ def scene(
 ) -> dict:
     """The block-on-base scene with ``n`` elements along the interface."""
     t = [0.0, 1.0, 2.0, 4.0, 4.0 + hold, 6.0 + hold]
-    snapshots = [1.0, 1.25, 2.0, 4.0, 4.0 + hold, 4.0 + hold + 1.25, 6.0 + hold]
+    snapshots = snapshot_times(hold)
     return {
         "kind": "fe",
         "name": "block_on_base",
@@ -175,13 +180,32 @@ def figures(result, outdir, hold):
     fig.savefig(f1, dpi=120)
     plt.close(fig)
 
+    # each snapshot by its place in the program (snapshot_times); those after the hold dashed, so
+    # that the end of the return stroke shows under the end of the hold (the same f_t, f_n, slip)
+    phases = dict(
+        zip(
+            snapshot_times(hold),
+            [
+                "pressed",
+                "forward, at the peak",
+                "end of forward",
+                "end of back",
+                f"end of the {hold:g} s hold",
+                "again, at the peak",
+                "end",
+            ],
+            strict=True,
+        )
+    )
     fig, ax = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     for time_, s in sorted(result.snapshots.items()):
         x = s["x"][:, 0]
-        ax[0, 0].plot(x, s["f_t"][:, 0], label=f"t = {time_:g} s")
-        ax[0, 1].plot(x, s["f_n"])
-        ax[1, 0].plot(x, s["up"][:, 0])
-        ax[1, 1].plot(x, s["mu"])
+        phase = phases.get(time_, "")
+        style = {"ls": "--" if time_ > 4.0 else "-", "lw": 1.6}
+        ax[0, 0].plot(x, s["f_t"][:, 0], label=f"t = {time_:g} s: {phase}", **style)
+        ax[0, 1].plot(x, s["f_n"], **style)
+        ax[1, 0].plot(x, s["up"][:, 0], **style)
+        ax[1, 1].plot(x, s["mu"], **style)
     for a, name in zip(
         ax.ravel(), ["$f_t$ (MPa)", "$f_n$ (MPa)", "slip $u^p$ (mm)", r"$\mu$ (MPa)"], strict=True
     ):
@@ -189,7 +213,7 @@ def figures(result, outdir, hold):
         a.grid(True, alpha=0.3)
     for a in ax[1]:
         a.set_xlabel("x along the interface (mm)")
-    ax[0, 0].legend(fontsize=7)
+    ax[0, 0].legend(fontsize=7, ncol=2)
     fig.suptitle("Interface fields along the interface")
     fig.tight_layout()
     f2 = outdir / "interface_profiles.png"

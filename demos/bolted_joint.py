@@ -314,17 +314,15 @@ def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
     ap = cli.demo_parser(__doc__)
-    ap.add_argument("--n", type=int, default=8, help="elements across the plate width (8)")
-    ap.add_argument("--preload", type=float, default=30.0, help="bolt load in kN (30)")
+    ap.add_argument("--n", type=int, default=8, help="elements across the plate width")
+    ap.add_argument("--preload", type=float, default=30.0, help="bolt load in kN")
     ap.add_argument(
-        "--amplitude", type=float, default=0.25, help="end displacement amplitude in mm (0.25)"
+        "--amplitude", type=float, default=0.25, help="end displacement amplitude in mm"
     )
-    ap.add_argument("--cycles", type=int, default=3, help="shear cycles (3)")
+    ap.add_argument("--cycles", type=int, default=3, help="shear cycles")
+    ap.add_argument("--steps", type=int, default=20, help="load steps per stroke of 2 x amplitude")
     ap.add_argument(
-        "--steps", type=int, default=20, help="load steps per stroke of 2 x amplitude (20)"
-    )
-    ap.add_argument(
-        "--alpha", type=float, default=ALPHA, help="interface stiffness alpha_t = alpha_n (1e4)"
+        "--alpha", type=float, default=ALPHA, help="interface stiffness alpha_t = alpha_n"
     )
     ap.add_argument("--out", default="demos/output/bolted_joint", help="output directory")
     ap.add_argument("--no-figures", action="store_true", help="skip the PNG figures")

@@ -75,6 +75,7 @@ from subfric_dolfinx.calibrate import (
     synthetic_curves,
 )
 from subfric_dolfinx.calibrate.cli import plot_fit
+from subfric_dolfinx.calibrate.data import UNITS
 from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.logs import launcher_rank
@@ -152,12 +153,12 @@ def run_demo(
     (out / "FIT.json").write_text(json.dumps(fit_json, indent=1))
     plot_fit(data, res, out / "calibration.png", 50.0)
     head = ("true", "start", "fitted", "stderr", "off/stderr")
-    say(f"\n{'':8s} " + " ".join(f"{h:>10s}" for h in head))
+    say(f"\n{'':8s} " + " ".join(f"{h:>10s}" for h in head) + "  unit")
     for k in fitted:
         off = (res.params[k] - TRUE[k]) / res.stderr[k]
         say(
             f"{k:8s} {TRUE[k]:10.4g} {START[k]:10.4g} {res.params[k]:10.4g} "
-            f"{res.stderr[k]:10.2g} {off:10.2f}"
+            f"{res.stderr[k]:10.2g} {off:10.2f}  {UNITS[k]}"
         )
     say(
         f"rms {res.rms:.3f} MPa (noise {noise} MPa), {res.evaluations} driver runs, "

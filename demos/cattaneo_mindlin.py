@@ -352,7 +352,7 @@ def figure(cres, sres, cou: dict, mu_s: float, outdir) -> str:
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
     ap = cli.demo_parser(__doc__)
-    ap.add_argument("--n", type=int, default=8, help="elements per contact half-width (8)")
+    ap.add_argument("--n", type=int, default=8, help="elements per contact half-width")
     ap.add_argument("--slide", type=float, default=SLIDE, help="sideways displacement, mm")
     ap.add_argument("--out", default="demos/output/cattaneo_mindlin", help="output directory")
     ap.add_argument("--u-tilde", type=float, default=U_TILDE, help="the subloading law's u_tilde")

@@ -78,6 +78,7 @@ from petsc4py import PETSc
 
 from subfric_dolfinx.commandline import main_block, program_args, summary
 from subfric_dolfinx.compat import model_to_mesh
+from subfric_dolfinx.io.fields import annotate_xdmf
 from subfric_dolfinx.scenes.cli import HelpFormatter
 
 # Physical-group tags of the gmsh model: one for the surface, one for each loaded/clamped edge.
@@ -327,6 +328,9 @@ def main(argv=None) -> dict:
         with dolfinx.io.XDMFFile(comm, args.out / "u.xdmf", "w") as xdmf:
             xdmf.write_mesh(result["mesh"])
             xdmf.write_function(result["u"])
+        if comm.rank == 0:  # the unit into the closed files, as the package's field files have
+            annotate_xdmf(args.out / "u.xdmf", {"displacement": "mm"}, {"units": "MPa, mm, s"})
+        comm.Barrier()
 
     if comm.rank == 0:
         ux, uy = result["tip_displacement"]

@@ -459,6 +459,13 @@ def report(name: str, m: dict, detail: bool = False) -> str:
 
 
 # %%
+ZOOM = (1.4, 0.4)
+"""The strain panels' window (mm): |x| from the centre, depth below the surface (the plastic zone
+lies within 0.4 - 1.1 mm of the centre and 0.3 mm of the surface at the default size)."""
+DEPTH_SCALE = 2.0
+"""The strain panels' depth drawn this many times its length (the layer is thin)."""
+
+
 def figure(results: dict, cycles: int, outdir: Path) -> str:
     """Fretting loops, their opening, and the flat's plastic strain (one scale for both laws)."""
     import matplotlib
@@ -488,16 +495,21 @@ def figure(results: dict, cycles: int, outdir: Path) -> str:
             opening.plot(s, Q - k_sec * s, **style)
         pl = results[name]["plastic"][round(t_end, 9)]
         x, y = pl["x"][:, 0] - hertz.L, pl["x"][:, 1] - hertz.L
-        near = (np.abs(x) < 1.6) & (y > -0.8)
+        near = (np.abs(x) < ZOOM[0]) & (y > -ZOOM[1])  # the surface layer that yields
         fields[name] = (x[near], y[near], pl["p"][near])
     top = max(float(np.max(f[2])) if f[2].size else 0.0 for f in fields.values()) or 1.0
     panels = []
     for k, (name, (x, y, p)) in enumerate(fields.items()):
         a = fig.add_subplot(grid[k, 1])
-        sc = a.scatter(x, y, c=p, s=6, cmap="viridis", vmin=0.0, vmax=top)
-        a.set_title(f"{name}: the flat's plastic strain after {cycles} cycle(s)", fontsize=9)
+        sc = a.scatter(x, y, c=p, s=14, cmap="viridis", vmin=0.0, vmax=top)
+        a.set_title(
+            f"{name}: the flat's plastic strain after {cycles} cycle(s) (depth x{DEPTH_SCALE:g})",
+            fontsize=9,
+        )
         a.set_ylabel("depth y (mm)")
-        a.set_aspect("equal")
+        a.set_xlim(-ZOOM[0], ZOOM[0])
+        a.set_ylim(-ZOOM[1], 0.02)
+        a.set_aspect(DEPTH_SCALE)
         panels.append(a)
     panels[-1].set_xlabel("x from the contact's centre (mm)")
     fig.colorbar(sc, ax=panels, label="equivalent plastic strain p (same scale)", shrink=0.9)

@@ -446,7 +446,7 @@ def figure(result, key: dict, outdir) -> str:
 def parser() -> argparse.ArgumentParser:
     """The demo's command line (anything else on it goes to PETSc)."""
     ap = cli.demo_parser(__doc__)
-    ap.add_argument("--n", type=int, default=16, help="elements per contact half-width (16)")
+    ap.add_argument("--n", type=int, default=16, help="elements per contact half-width")
     ap.add_argument("--degree", type=int, default=2, choices=(1, 2), help="displacement degree")
     ap.add_argument(
         "--quadrature", default="nodal", choices=("nodal", "gauss"), help="interface quadrature"

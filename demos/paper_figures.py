@@ -79,6 +79,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import os
 import pathlib
@@ -191,12 +192,40 @@ def mu_steady(name: str) -> float:
     return (p.kappa * v * p.mu_k + p.xi * p.mu_s) / (p.kappa * v + p.xi)
 
 
+COLUMNS: dict[str, tuple[str, str, str]] = {
+    "panel": ("string", "", "the figure's panel: the preset of the law"),
+    "series": ("string", "", "the plotted series (its legend)"),
+    "t_s": ("number", "s", "time"),
+    "ubar_t_mm": ("number", "mm", "sliding displacement"),
+    "f_n_MPa": ("number", "MPa", "normal contact stress, > 0 in compression"),
+    "f_t_MPa": ("number", "MPa", "tangential contact stress"),
+    "mu_MPa": ("number", "MPa", "the hardening variable mu (a stress)"),
+    "cycle": ("number", "1", "the hold-slide cycle"),
+    "ratio": ("number", "1", "(f_t / f_n) over its value at 100 MPa"),
+}
+"""Each CSV column: its datatype, unit and meaning (the metadata file beside the CSV)."""
+
+
 def write_csv(path: pathlib.Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
+    """``path`` and its units and meanings in ``<path>-metadata.json`` (CSV on the Web)."""
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         for row in rows:
             w.writerow([f"{v:.9g}" if isinstance(v, float) else v for v in row])
+    columns = [
+        {"name": c, "titles": c, "datatype": COLUMNS[c][0], "schema:unitText": COLUMNS[c][1]}
+        | {"dc:description": COLUMNS[c][2]}
+        for c in header
+    ]
+    meta = {
+        "@context": ["http://www.w3.org/ns/csvw", {"@language": "en"}],
+        "url": path.name,
+        "dc:description": f"subfric-dolfinx paper_figures, {path.stem}: the plotted data, one "
+        "row per point; units MPa, mm, s (also in the column names)",
+        "tableSchema": {"columns": columns},
+    }
+    path.with_name(path.name + "-metadata.json").write_text(json.dumps(meta, indent=1) + "\n")
 
 
 def label(name: str) -> str:
@@ -237,10 +266,23 @@ def fig5(plt, out: pathlib.Path, spm: dict) -> dict:
             s = PathBuilder(name, f_n, spm["sec6"], 1.0 / spm["sec6"], normal_leg=True)
             s = s.slide_to(3.0).run()
             ft = np.abs(s["f_t1"])
-            ax.plot(s["f_n"], ft, lw=1.3)
+            ax.plot(
+                s["f_n"],
+                ft,
+                lw=1.3,
+                label="stress paths (press, then slide)" if f_n == FN_SEC6[0] else None,
+            )
             k = int(np.argmax(ft))
             for series, i, color in (("peak", k, "r"), ("end", -1, "k")):
-                ax.plot([s["f_n"][i] - 120, s["f_n"][i] + 120], [ft[i], ft[i]], color=color, lw=3)
+                bar = {"peak": "the path's peak", "end": "its end (3 mm)"}[series]
+                first = f_n == FN_SEC6[0]  # one legend entry for each kind of bar
+                ax.plot(
+                    [s["f_n"][i] - 120, s["f_n"][i] + 120],
+                    [ft[i], ft[i]],
+                    color=color,
+                    lw=3,
+                    label=bar if first else None,
+                )
                 rows.append((name, f"{series} f_n={f_n:g}", float(s["f_n"][i]), float(ft[i])))
             rows += [(name, f"path f_n={f_n:g}", x, y) for x, y in zip(s["f_n"], ft, strict=True)]
         ax.set_title(label(name))

@@ -229,6 +229,14 @@ def summary(sub, coul, mu_c: float, c_n: float, mu_s: float) -> dict:
 
 
 # %%
+def top_slide(t: np.ndarray) -> np.ndarray:
+    """The sideways displacement of the punch's top (mm) at the times ``t`` (s).
+
+    The scene's ``slide`` channel (0 until t = 1, then up to 1 at t = 1 + SLIDE) times ``SLIDE``.
+    """
+    return SLIDE * np.clip((np.asarray(t, dtype=float) - 1.0) / SLIDE, 0.0, 1.0)
+
+
 def figures(sub, coul, mu_c, c_n, mu_s, outdir):
     import matplotlib
 
@@ -306,7 +314,7 @@ def figures(sub, coul, mu_c, c_n, mu_s, outdir):
         h = res.history
         t = np.array([r["t"] for r in h])
         F = np.array([r["F_t1"] for r in h]) / h[-1]["area"]
-        ax.plot(np.clip(t - 1.0, 0.0, None) * SLIDE, F, color=col, label=label)
+        ax.plot(top_slide(t), F, color=col, marker=".", ms=4, label=label)
     ax.set_xlabel("sideways displacement of the punch top (mm)")
     ax.set_ylabel("mean tangential stress $F_t/A$ (MPa)")
     ax.set_title("Friction force of the punch")

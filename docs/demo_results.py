@@ -340,6 +340,8 @@ def main() -> int:
                 "main_s": measured["main_s"],
                 "warnings": measured["warnings"],
                 "numbers": measured["numbers"],
+                # what the user's terminal shows (the demo's lines and the launcher's, if any)
+                "output_lines": len((p.stdout + p.stderr).splitlines()),
                 "stamp": stamps.make(),
             }
             data["demos"][key] = record

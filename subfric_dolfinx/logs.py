@@ -13,7 +13,8 @@ load step, or :func:`configure` for another level::
     logs.configure(verbosity=0, comm=MPI.COMM_WORLD)   # -1 warnings, 0 info, 1 debug
 
 Levels: INFO for the run's size and summary, a line per long segment of the loading program and a
-progress line every :data:`PROGRESS_SECONDS`, DEBUG for one line per load step and per failed
+progress line every :data:`PROGRESS_SECONDS` (less often as a long run goes on:
+:data:`PROGRESS_SPREAD`), DEBUG for one line per load step and per failed
 attempt.
 
 **Warnings about the model's validity** (a penetration or a slide the small-sliding interface no
@@ -38,6 +39,7 @@ from typing import Any, TextIO
 __all__ = [
     "LOGGER_NAME",
     "PROGRESS_SECONDS",
+    "PROGRESS_SPREAD",
     "PenetrationWarning",
     "Progress",
     "SlideWarning",
@@ -124,12 +126,21 @@ PROGRESS_SECONDS = 10.0
 """A long run prints a progress line at most this often (wall seconds): the FE load stepping
 (INFO, when no other line came in between) and the material-point driver's command line."""
 
+PROGRESS_SPREAD = 3.0
+"""Later progress lines come further apart: the gap after a line is at least the time the run had
+taken at that line over ``PROGRESS_SPREAD`` (and :data:`PROGRESS_SECONDS`), so the number of
+progress lines grows with the logarithm of the run's length: 12 in 7 minutes, 19 in an hour."""
+
 
 class Progress:
-    """A clock that says when the next progress line is due (at most every ``interval`` s).
+    """A clock that says when the next progress line is due.
+
+    A line ``interval`` s after the last one at the earliest, and not before the time elapsed at
+    the last line over :data:`PROGRESS_SPREAD`: lines at 10, 20, 30, 40, 53, 71, 95 ... s (an
+    ``interval`` of 0: a line at every call).
 
     Args:
-        interval: Seconds between two lines (default :data:`PROGRESS_SECONDS`).
+        interval: Seconds between two lines at least (default :data:`PROGRESS_SECONDS`).
     """
 
     def __init__(self, interval: float | None = None) -> None:
@@ -137,9 +148,11 @@ class Progress:
         self.start = self.last = time.monotonic()
 
     def due(self) -> bool:
-        """True (and the clock restarts) when ``interval`` has passed since the last line."""
+        """True (and the clock restarts) when the next line's time has come."""
         now = time.monotonic()
-        if now - self.last < self.interval:
+        spread = (self.last - self.start) / PROGRESS_SPREAD if self.interval > 0.0 else 0.0
+        gap = max(self.interval, spread)  # an interval of 0: a line at every call
+        if now - self.last < gap:
             return False
         self.last = now
         return True

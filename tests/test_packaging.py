@@ -66,6 +66,18 @@ def test_the_dolfinx_in_use_is_a_supported_version_and_pyproject_says_which():
         assert any(Requirement(r).specifier == spec for r in req), req
 
 
+@pytest.mark.numpy_only
+def test_the_package_is_marked_typed():
+    """PEP 561: ``py.typed`` in the package the tests import (the installed one under ``./run
+    test``), declared as package data so that every install has it."""
+    assert (Path(subfric_dolfinx.__file__).parent / "py.typed").is_file()
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert "py.typed" in data["package-data"]["subfric_dolfinx"]
+    if INSTALLED:
+        files = [str(f) for f in importlib.metadata.files("subfric-dolfinx") or []]
+        assert "subfric_dolfinx/py.typed" in files, files
+
+
 def source_copy(tmp_path: Path) -> Path:
     """The files a ``pip install`` of the repository reads, copied (setuptools writes build/
     and *.egg-info beside the sources)."""
@@ -161,6 +173,7 @@ def test_pip_install_into_an_environment_with_dolfinx_touches_nothing_else(tmp_p
     else:
         assert pkg.is_relative_to((tmp_path / "venv").resolve()), pkg
     assert got["license"] == "MIT"
+    assert (pkg.parent / "py.typed").is_file()  # PEP 561: typed, in the installed package too
     # the command lines work from the installed package, and as console scripts
     r = run(py, "-m", "subfric_dolfinx.driver", "--help", cwd=tmp_path)
     assert r.returncode == 0 and "usage" in r.stdout.lower(), r.stdout + r.stderr

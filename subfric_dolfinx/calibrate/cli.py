@@ -19,7 +19,7 @@ import numpy as np
 from ..commandline import ArgumentError, ArgumentParser, error_line
 from ..driver.cli import check_out, program_name, write_atomically
 from ..logs import launcher_rank
-from .data import CalibrationData, CalibrationError, Curve, load_data
+from .data import UNITS, CalibrationData, CalibrationError, Curve, load_data
 from .fit import MAX_STEPS, STEPS_PER_MM, FitResult, fit, simulate
 
 __all__ = ["main", "plot_fit"]
@@ -54,7 +54,9 @@ def plot_fit(data: CalibrationData, result: FitResult, path: Path, steps_per_mm:
         ax.plot(d.slip, f, "-", color=col, label=f"{c.f_n:g} MPa, {c.velocity:g} mm/s")
     ax.set_xlabel(r"slip $\bar u_t$ (mm)")
     ax.set_ylabel(r"$f_t$ (MPa)")
-    fitted = ", ".join(f"{k} = {result.params[k]:.4g} ± {result.stderr[k]:.2g}" for k in result.fit)
+    fitted = ", ".join(
+        f"{k} = {result.params[k]:.4g} ± {result.stderr[k]:.2g} {UNITS[k]}" for k in result.fit
+    )
     ax.set_title(f"data (points) and fit (lines); rms {result.rms:.3g} MPa", fontsize=10)
     fig.text(0.01, 0.01, fitted, fontsize=7)
     ax.grid(True, alpha=0.3)
@@ -141,7 +143,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             plot_fit(data, result, plot, spm)
         except OSError as e:
             return error_line(f"cannot write {str(plot)!r}: {e.strerror or e}", 1)
-    fitted = ", ".join(f"{k} {result.params[k]:.6g} ± {result.stderr[k]:.2g}" for k in result.fit)
+    fitted = ", ".join(
+        f"{k} {result.params[k]:.6g} ± {result.stderr[k]:.2g} {UNITS[k]}" for k in result.fit
+    )
     if not result.converged:
         print(
             f"error: not converged ({result.message}); FIT.json holds the last values: {fitted}",

@@ -13,10 +13,29 @@ from ..constitutive import SubloadingLaw
 from ..driver.case import CaseError, field_number, read_json, read_table, table_spec
 from ..values import short_repr
 
-__all__ = ["NAMES", "CalibrationData", "CalibrationError", "Curve", "load_data", "parse_data"]
+__all__ = [
+    "NAMES",
+    "UNITS",
+    "CalibrationData",
+    "CalibrationError",
+    "Curve",
+    "load_data",
+    "parse_data",
+]
 
 NAMES = ("alpha_t", "alpha_n", "mu_s", "mu_k", "kappa", "xi", "u_tilde", "c_n")
 """The eight parameters of the subloading law, in the order of FIT.json's ``params``."""
+UNITS = {
+    "alpha_t": "MPa/mm",
+    "alpha_n": "MPa/mm",
+    "mu_s": "MPa",
+    "mu_k": "MPa",
+    "kappa": "1/mm",
+    "xi": "1/s",
+    "u_tilde": "1/mm",
+    "c_n": "1/MPa",
+}
+"""The unit of each parameter (as the law's parameters are documented)."""
 
 MAX_POINTS = 1_000_000  # data points in all; more is a mistake (or another tool's job)
 

@@ -13,6 +13,8 @@ writes any).
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -59,5 +61,24 @@ def run(argv: Sequence[str] | None = None, comm: Any = None) -> Any:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The console script ``subfric-scene``: its exit code."""
-    return cli.run_main(run, argv, prog="subfric-scene")
+    """The console script ``subfric-scene``: its exit code.
+
+    The package's warnings (a scene leaving the model's validity, ``mu_s`` given as a friction
+    coefficient) are shown as ``subfric-scene: warning: <Category>: <text>``: the line of Python
+    they would name otherwise is the launcher's (``<frozen runpy>`` under ``python3 -m``).
+    """
+    from ..logs import SubfricWarning
+
+    shown = warnings.showwarning
+
+    def show(message: Any, category: Any, filename: str, lineno: int, *rest: Any) -> None:
+        if isinstance(category, type) and issubclass(category, SubfricWarning):
+            print(f"subfric-scene: warning: {category.__name__}: {message}", file=sys.stderr)
+        else:
+            shown(message, category, filename, lineno, *rest)
+
+    warnings.showwarning = show
+    try:
+        return cli.run_main(run, argv, prog="subfric-scene")
+    finally:
+        warnings.showwarning = shown

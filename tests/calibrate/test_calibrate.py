@@ -4,6 +4,7 @@ in the catalogue, tests/bad_inputs/test_calibrate_data.py)."""
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -132,6 +133,7 @@ def test_command_line_writes_fit_and_plot(tmp_path):
     proc = module_cli("calibrate", src, "--out", out, "--plot", png, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr.splitlines()[-1].startswith("ok: mu_k")
+    assert re.search(r"mu_k [\d.]+ ± \S+ MPa, kappa [\d.]+ ± \S+ 1/mm", proc.stderr), proc.stderr
     assert "iteration 1: rms" in proc.stderr
     res = json.loads(out.read_text())
     assert {"params", "stderr", "correlation", "rms", "converged"} <= set(res)
@@ -141,6 +143,18 @@ def test_command_line_writes_fit_and_plot(tmp_path):
     assert abs(res["params"]["kappa"] / TRUE["kappa"] - 1) < 0.05
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data.json", "fit.json", "fit.png"]
+
+
+def test_each_parameter_has_the_unit_the_law_documents():
+    """The units the fit prints and plots beside its values: the law's documented ones."""
+    from subfric_dolfinx.calibrate.data import NAMES, UNITS
+    from subfric_dolfinx.constitutive.subloading import SubloadingLaw
+
+    documented = dict(
+        re.findall(r"^\s+(\w+): [^\n]*?, ([\w/]+), [<>]", SubloadingLaw.__doc__, re.M)
+    )
+    assert set(UNITS) == set(NAMES)
+    assert {k: documented[k] for k in NAMES} == UNITS
 
 
 def test_not_converged_exit_code_3_and_fit_written(tmp_path, capsys):

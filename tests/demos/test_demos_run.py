@@ -120,6 +120,8 @@ def test_every_demo_is_a_notebook_whose_first_cell_is_its_docstring(name, capsys
         assert "(default: " in text, text
         assert len(text.splitlines()) <= 3 * options + 8, text  # a line or two per option
         assert module.__doc__.splitlines()[2] not in text  # the docstring's body is not the help
+        # each default once: argparse's "(default: ...)", not a number in the text before it too
+        assert not re.search(r"\([-+\d.e]+\) \(default:", " ".join(text.split())), text
 
 
 def check_calibration(out, text):
@@ -164,14 +166,17 @@ def test_the_demo_runs_as_a_program(tmp_path, name):
     missing = [f for f in files if not (out / f).exists()]
     assert not missing, (missing, sorted(str(q.relative_to(out)) for q in out.rglob("*")))
     assert len(shown(text)) <= 30, text  # quiet by default: a line per program segment
-    for table in out.rglob("*.csv"):  # every CSV has its units (paper_figures: in its names)
-        if name == "paper_figures":
-            assert all("_" in c for c in table.read_text().splitlines()[0].split(",")[2:])
-            continue
+    for table in out.rglob("*.csv"):  # every CSV has its units (text columns: none)
         meta = json.loads(table.with_name(table.name + "-metadata.json").read_text())
-        units = {c["name"]: c["schema:unitText"] for c in meta["tableSchema"]["columns"]}
+        columns = meta["tableSchema"]["columns"]
+        units = {c["name"]: c["schema:unitText"] for c in columns}
         assert list(units) == table.read_text().splitlines()[0].split(","), table
         assert "?" not in units.values(), (table, units)
+        numbers = [c for c in columns if c.get("datatype", "number") == "number"]
+        assert numbers and all(c["schema:unitText"] for c in numbers), (table, columns)
+    for xdmf in out.rglob("*.xdmf"):  # every XDMF file says its functions' units
+        units = re.findall(r'<Information Name="unit" Value="([^"]*)"', xdmf.read_text())
+        assert units and "?" not in units, (xdmf, units)
     if name in CHECKS:
         CHECKS[name](out, p.stdout)
 

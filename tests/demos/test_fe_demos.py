@@ -73,6 +73,17 @@ def test_pad_on_plate_peak_grows_with_the_hold(shared_tmp):
     assert (shared_tmp / "fields" / "interface_points.xdmf").is_file()  # the quadrature points
 
 
+def test_punch_figure_plots_the_top_displacement_the_scene_imposes():
+    """The force-displacement figure's abscissa: the top's sideways displacement, from the
+    scene's own program (its ``slide`` channel times the Dirichlet value), 0 to SLIDE mm."""
+    sc = punch.scene(punch.subloading_law(), "p")
+    (bc,) = [d for d in sc["dirichlet"] if d.get("amplitude") == "slide"]
+    times, channel = sc["program"]["times"], sc["program"]["channels"]["slide"]
+    t = np.linspace(0.0, times[-1], 41)
+    np.testing.assert_allclose(punch.top_slide(t), bc["value"] * np.interp(t, times, channel))
+    assert punch.top_slide(np.array([times[-1]]))[0] == pytest.approx(punch.SLIDE)
+
+
 def test_punch_saturates_under_the_pressure_peak(shared_tmp):
     comm = MPI.COMM_WORLD
     argv = ["--n", "8", "--dt", "0.02", "--out", str(shared_tmp), "--no-figures"]

@@ -8,6 +8,9 @@
   README, the docs' pages or the report.
 * The quoting itself: a changed number is found and written back, a quote whose place is gone
   is reported.
+* Every image the README and the docs' pages show is a record: a figure of a demo's recorded run
+  (``docs/figures/<demo>/``, written by ``docs/demo_results.py``), never a copy that no script
+  rewrites (a stale figure beside current numbers).
 * The README is a quick start: at most :data:`README_LINES` lines, its Python example runs as
   written (on the suite's ranks, as ``mpirun -n 2 python3 example.py`` runs it), its install
   line works offline (``tests/test_packaging.py`` runs the same), and it links every page of
@@ -116,6 +119,32 @@ def test_a_changed_number_is_found_and_written_back():
     assert any("0 places" in d for d in rn.differences(gone, data, q.page))
 
 
+@SERIAL
+def test_every_image_shown_is_a_recorded_figure():
+    figures = (ROOT / "docs" / "figures").resolve()
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    pages = [p for p in pages if "_build" not in p.parts and p.name != "readme.md"]
+    shown = 0
+    for page in pages:
+        for target in re.findall(
+            r"!\[[^\]]*\]\(([^)\s]+)\)|<img src=\"([^\"]+)\"", page.read_text()
+        ):
+            target = next(t for t in target if t)
+            if re.match(r"^[a-z]+:", target):
+                continue
+            path = (page.parent / target).resolve()
+            assert path.is_relative_to(figures) and path.is_file(), (page.name, target)
+            shown += 1
+    assert shown >= 4
+    # no picture in docs/ outside the records (the site's build output aside)
+    stray = [
+        p.relative_to(ROOT)
+        for p in (ROOT / "docs").rglob("*.png")
+        if not p.resolve().is_relative_to(figures) and "_build" not in p.parts
+    ]
+    assert not stray, stray
+
+
 README_LINES = 300
 """The README's length at most: a quick start, the reference is the docs' (``docs/reference/``)."""
 
@@ -137,6 +166,11 @@ def test_the_readme_is_a_quick_start_that_links_the_reference():
     (install,) = [ln for b in readme_blocks("bash") for ln in b.splitlines() if "pip install" in ln]
     assert "--no-build-isolation" in install  # offline: the environment's setuptools
     assert "these hosts" not in text
+    # the one call that turns on a line per step for library use, named where users look first
+    from subfric_dolfinx import logs
+
+    assert "logs.show_progress(MPI.COMM_WORLD)" in text and callable(logs.show_progress)
+    assert "python3 -m subfric_dolfinx.scenes" in text  # the scene command without installing
 
 
 @pytest.mark.timeout(300)

@@ -257,6 +257,19 @@ def test_every_demo_has_its_records():
 
 
 @pytest.mark.serial
+def test_every_recorded_default_run_printed_at_most_30_lines():
+    """A demo's default run is quiet (issue 37): what its command printed, as recorded (runs
+    recorded before the count was kept have none)."""
+    dr = _demo_results()
+    counted = {
+        key: rec["output_lines"]
+        for key, rec in RESULTS["demos"].items()
+        if key in dr.DEMOS and "output_lines" in rec
+    }
+    assert all(n <= 30 for n in counted.values()), counted
+
+
+@pytest.mark.serial
 def test_no_recorded_demo_run_warns_about_its_validity():
     """Every recorded demo run (each demo's default run, its smallest one, the quoted variants)
     ended without a warning of the package: a demo stays within its model's validity, finite

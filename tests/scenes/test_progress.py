@@ -32,3 +32,31 @@ def test_show_progress_prints_a_line_per_step_on_rank_0():
         assert all("newton" in ln and " t = " in ln for ln in steps), steps
     else:
         assert lines == []
+
+
+def test_progress_lines_grow_with_the_logarithm_of_the_run(monkeypatch):
+    """A long run's progress lines: never closer than PROGRESS_SECONDS, each gap at least the
+    time elapsed over PROGRESS_SPREAD, so a 7-minute demo prints a dozen, an hour's run 19: a
+    demo's default output stays short however slow the machine (a clock stepped by hand)."""
+    import math
+
+    now = [0.0]
+    monkeypatch.setattr(logs.time, "monotonic", lambda: now[0])
+    clock = logs.Progress()
+    lines = []
+    while now[0] < 3600.0:
+        now[0] += 0.25
+        if clock.due():
+            lines.append(now[0])
+    gaps = [b - a for a, b in zip([0.0, *lines], lines, strict=False)]
+    assert lines[:3] == [10.0, 20.0, 30.0]
+    assert min(gaps) >= logs.PROGRESS_SECONDS
+    assert all(g >= a / logs.PROGRESS_SPREAD - 0.25 for a, g in zip(lines, gaps[1:], strict=False))
+    spread = 1.0 + 1.0 / logs.PROGRESS_SPREAD
+    for seconds in (441.0, 3600.0):  # bolt_clamped_joint's default run; an hour
+        count = sum(t <= seconds for t in lines)
+        assert count <= 4 + math.log(seconds / 30.0) / math.log(spread), (seconds, count)
+    assert sum(t <= 441.0 for t in lines) <= 12 and len(lines) <= 19
+    every = logs.Progress(0.0)  # no interval: every call a line, however long the run
+    now[0] += 1e4
+    assert all(every.due() for _ in range(5))

@@ -85,6 +85,18 @@ def test_the_command_exit_codes_and_one_line(tmp_path, change, args, code, words
 
 
 @pytest.mark.serial
+def test_the_command_names_itself_in_the_package_warnings(tmp_path):
+    """A scene with friction coefficients as mu_s, mu_k: the units warning, said by the command
+    (not by the launcher's frame, ``<frozen runpy>``), once; the run goes on."""
+    trap = {**SCENE, "law": {"params": {"preset": "sec7", "mu_s": 0.3, "mu_k": 0.2}}}
+    rc, text = run(command(scene_file(tmp_path, trap), "--out", tmp_path / "out"))
+    assert rc == 0, text
+    lines = [ln for ln in text.splitlines() if "UnitsWarning" in ln]
+    assert len(lines) == 1 and lines[0].startswith("subfric-scene: warning: UnitsWarning: "), text
+    assert "are stresses in MPa" in lines[0] and "runpy" not in text, text
+
+
+@pytest.mark.serial
 def test_a_signal_stops_the_command_after_its_step(tmp_path):
     rc, text = run(
         command(scene_file(tmp_path), "--out", tmp_path / "out", "-v"),
