@@ -141,7 +141,7 @@ def test_the_layers_are_what_ls_shows():
     top = sorted(p.name for p in PKG.iterdir() if not p.name.startswith(("_", ".")))
     assert top == sorted(
         ["commandline.py", "compat.py", "constitutive", "driver", "fem", "io", "loading.py"]
-        + ["logs.py", "meshing", "scenes", "values.py"]
+        + ["logs.py", "meshing", "py.typed", "scenes", "values.py"]
         + (["calibrate"] if (PKG / "calibrate").is_dir() else [])
     )
     for m in MODULES:
