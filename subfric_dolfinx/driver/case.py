@@ -266,6 +266,10 @@ def read_table(
 
 
 def _parse(obj: dict, base: str | Path | None = None) -> Case:
+    if obj.get("control") == "slider":  # the dynamic control (a SliderCase)
+        from .slider import parse_slider
+
+        return parse_slider(obj)  # type: ignore[return-value]
     allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
     unknown = sorted(set(obj) - allowed)
     if unknown:
@@ -276,7 +280,9 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         raise CaseError(str(e)) from None
     control = obj.get("control")
     if not isinstance(control, str) or control not in ("disp", "stress"):
-        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {short_repr(control)}")
+        raise CaseError(
+            f"field 'control' must be 'disp', 'stress' or 'slider', got {short_repr(control)}"
+        )
     nt = obj.get("n_tangential", 2)
     if isinstance(nt, bool) or not isinstance(nt, int | float) or nt not in (1, 2):
         raise CaseError(f"field 'n_tangential' must be 1 or 2, got {short_repr(nt)}")

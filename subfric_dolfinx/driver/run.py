@@ -372,6 +372,12 @@ def run_case(
     """
     if not isinstance(case, Case):
         case = parse_case(case)
+    if not isinstance(case, Case):  # a slider case (the dynamic control)
+        from .slider import run_slider
+
+        if steps_per_mm is not None:
+            raise CaseError("steps_per_mm does not apply to a slider case (its steps adapt)")
+        return run_slider(case, progress=progress)  # type: ignore[return-value]
     if on_instability not in ("stop", "continue"):
         raise ValueError(f"on_instability must be 'stop' or 'continue', got {on_instability!r}")
     spm = case.steps_per_mm if steps_per_mm is None else float(steps_per_mm)

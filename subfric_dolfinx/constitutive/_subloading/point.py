@@ -10,7 +10,8 @@ with one tangential component, operation for operation as the vectorised modules
 
 * a contact point with valid inputs (finite, ``r`` and ``mu`` in range), not touching;
 * no split of the elastic trial (no start traction; or a start traction whose segment gives no
-  cusp and loads from the start, ``h(0) >= 0``, see :mod:`.switch`);
+  cusp and no root of ``h``: ``h(0) >= 0``, or ``h(0) < 0`` and ``h(1) <= 0``, see
+  :mod:`.switch`);
 * elastic, or plastic with the predictor's root converged and certified smallest by the slope
   bound (no branch-and-bound scan, no fold).
 
@@ -120,8 +121,14 @@ def point_step(
                 mu_e = min(mu_c + (mu_s - mu_c) * -math.expm1(-b * 0.0), mu_s)
                 mr = (mu_s - mu_c) * math.exp(-b * 0.0) / mu_e
                 h = fw / (f0t * f0t) - L.cn * (1.0 - g0) * dfn / g0 - b * mr
-                if not h >= 0.0:
-                    return None  # possibly a root of h in the step: a split
+                if not h >= 0.0:  # r_el falls at the start: a split where h turns positive
+                    fs = f0t + 1.0 * w
+                    g1 = -math.expm1(-L.cn * (fn0 + 1.0 * dfn))
+                    mu_e = min(mu_c + (mu_s - mu_c) * -math.expm1(-b * 1.0), mu_s)
+                    mr = (mu_s - mu_c) * math.exp(-b * 1.0) / mu_e
+                    h1 = (fs * w) / (fs * fs) - L.cn * (1.0 - g1) * dfn / g1 - b * mr
+                    if not (h < 0.0 and not h1 > 0.0):
+                        return None  # h turns positive inside the step: a split
     # step 3: the loading test (.integrate._chunk)
     gm = g * mu_rec
     if not (A > 0.0 and A - gm * r_c > tol * gm):
