@@ -270,6 +270,11 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         from .slider import parse_slider
 
         return parse_slider(obj)  # type: ignore[return-value]
+    if "slider" in obj:
+        raise CaseError(
+            f"field 'control' must be 'slider' in a case with a 'slider' object, got "
+            f"{short_repr(obj.get('control'))}"
+        )
     allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
     unknown = sorted(set(obj) - allowed)
     if unknown:

@@ -181,7 +181,8 @@ def parse_slider(obj: dict[str, Any]) -> SliderCase:
         for i, t in enumerate(samples):
             if not 0.0 <= t <= t_end:
                 raise CaseError(
-                    f"field 't_samples[{i}]' = {t!r} lies outside [0, slider.t_end = {t_end!r}]"
+                    f"field 't_samples[{i}]' = {float(t)!r} lies outside [0, slider.t_end = "
+                    f"{t_end!r}]"
                 )
             if i and t < samples[i - 1]:
                 raise CaseError(f"field 't_samples[{i}]': sample times must not decrease")

@@ -30,9 +30,11 @@ from subfric_dolfinx.constitutive import (
     LawBase,
     ReturnMapResult,
     Status,
+    SubloadingLaw,
     Variable,
 )
-from subfric_dolfinx.driver import SliderCase, run_slider
+from subfric_dolfinx.driver import CaseError, SliderCase, parse_case, run_case, run_slider
+from tests.driver import slider_reference as ref
 
 pytestmark = pytest.mark.numpy_only
 
@@ -116,3 +118,190 @@ def test_slip_weakening_stick_slip_against_the_closed_form():
     assert slip == pytest.approx(ref_slip, rel=0.01)
     assert duration == pytest.approx(ref_dur, rel=0.01)
     assert t0 == pytest.approx((F_s - f0) / (k * V), rel=0.01)
+
+
+# --------------------------------------------------------------------------------------------
+# The subloading law: steady sliding and stick-slip
+
+LAW = SubloadingLaw(
+    alpha_t=5000.0,
+    alpha_n=5000.0,
+    mu_s=500.0,
+    mu_k=300.0,
+    kappa=20.0,
+    xi=2.0,
+    u_tilde=50.0,
+    c_n=2e-4,
+)
+FN, MASS = 300.0, 1.0  # MPa, tonne/mm^2
+
+
+def params(V: float) -> ref.Params:
+    names = ("alpha_t", "mu_s", "mu_k", "kappa", "xi", "u_tilde", "c_n")
+    return ref.Params(**{n: getattr(LAW, n) for n in names}, f_n=FN, mass=MASS, velocity=V)
+
+
+@pytest.mark.parametrize("k", [50.0, 200.0, 1000.0])
+def test_jacobian_of_steady_sliding_against_finite_differences(k):
+    p = params(0.1)
+    y = ref.steady(p, k)
+    np.testing.assert_allclose(ref.rates(p, k, y), 0.0, atol=1e-9)
+    J = ref.jacobian(p, k)
+    Jfd = np.zeros((4, 4))
+    for j in range(4):
+        h = 1e-6 * max(abs(y[j]), 1e-3)
+        yp, ym = y.copy(), y.copy()
+        yp[j] += h
+        ym[j] -= h
+        if j == 3:  # r <= 1: a one-sided difference of second order
+            yp, ym = y.copy(), y.copy()
+            ym[j] -= h
+            y2 = y.copy()
+            y2[j] -= 2 * h
+            Jfd[:, j] = 3 * ref.rates(p, k, y) - 4 * ref.rates(p, k, ym) + ref.rates(p, k, y2)
+            Jfd[:, j] /= 2 * h
+            continue
+        Jfd[:, j] = (ref.rates(p, k, yp) - ref.rates(p, k, ym)) / (2 * h)
+    np.testing.assert_allclose(J, Jfd, rtol=1e-5, atol=1e-6 * np.abs(J).max())
+
+
+def test_steady_sliding_is_unstable_at_every_stiffness():
+    """No finite critical stiffness: the growth rate is positive from 1 to 1e7 MPa/mm and falls
+    like 1 / k (the cubic's Routh-Hurwitz condition reduces to ``-g c1 > 0``)."""
+    p = params(0.1)
+    ks = np.logspace(0, 7, 29)
+    sig = np.array([ref.growth_rate(p, k) for k in ks])
+    print("k sigma:", list(zip(ks[::4].round(1), sig[::4])))
+    assert np.all(sig > 0.0)
+    tail = ks[-5:] * sig[-5:]
+    np.testing.assert_allclose(tail, tail[-1], rtol=1e-3)
+
+
+@pytest.mark.parametrize("k", [200.0, 1000.0])
+def test_growth_and_frequency_of_a_perturbation_against_the_eigenvalues(k):
+    """A small velocity perturbation of steady sliding grows as the Jacobian's eigenvalue says."""
+    V = 0.1
+    p = params(V)
+    ev = np.linalg.eigvals(ref.jacobian(p, k))
+    lam = ev[np.argmax(ev.real)]
+    mu = p.mu_steady()
+    ft = p.g * mu
+    st = InterfaceState(
+        {
+            "up": np.zeros((1, 1)),
+            "mu": np.array([mu]),
+            "r": np.array([1.0]),
+            "f": np.array([[ft, FN]]),
+        },
+        1,
+    )
+    u0 = ft / LAW.alpha_t
+    dt_max = 2 * np.pi * np.sqrt(MASS / k) / 100
+    case = SliderCase(LAW, MASS, k, V, FN, 6.0, x0=u0 + ft / k, v0=V * (1 + 1e-8), dt_max=dt_max)
+    res = run_slider(case, state=st)
+    t, v = res.samples["t"], res.samples["v"] - V
+    i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:])) + 1
+    i = i[t[i] > 1.0]  # after the decay of the other modes
+    sigma = np.polyfit(t[i], np.log(v[i]), 1)[0]
+    omega = 2 * np.pi / np.mean(np.diff(t[i]))
+    print(
+        f"k = {k}: growth {sigma:.6g} 1/s (eigenvalue {lam.real:.6g}), frequency "
+        f"{omega:.6g} rad/s ({lam.imag:.6g}); {i.size} peaks, largest {v[i].max():.3g} mm/s"
+    )
+    assert v[i].max() < 1e-3 * V  # still linear
+    assert sigma == pytest.approx(lam.real, rel=0.02)
+    assert omega == pytest.approx(lam.imag, rel=0.02)
+
+
+def cycle(t, v, f, V):
+    """(period, stress drop) of the last full cycle: between the last two velocity peaks."""
+    i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] > 2 * V)) + 1
+    a, b = i[-2], i[-1]
+    seg = slice(a, b + 1)
+    return t[b] - t[a], f[seg].max() - f[seg].min()
+
+
+@pytest.mark.parametrize(("V", "t_end"), [(0.1, 20.0), (0.3, 12.0)])
+def test_limit_cycle_against_the_rate_equations(V, t_end):
+    """Stick-slip from a rested contact: period and stress drop of the last cycle against
+    ``solve_ivp`` on the rate equations (k = 50 MPa/mm, below the slip-weakening stiffness)."""
+    k = 50.0
+    p = params(V)
+    dt_max = 2 * np.pi * np.sqrt(MASS / k) / 400
+    res = run_slider(SliderCase(LAW, MASS, k, V, FN, t_end, dt_max=dt_max, err_tol=1e-8))
+    s = res.samples
+    T, drop = cycle(s["t"], s["v"], s["f_t"], V)
+    o = ref.integrate_ode(p, k, t_end, max_step=0.01)
+    assert o.status == 0
+    T_ref, drop_ref = cycle(o.t, o.y[1], LAW.alpha_t * (o.y[0] - o.y[2]), V)
+    print(
+        f"V = {V}: period {T:.5g} s (rate equations {T_ref:.5g}), stress drop {drop:.5g} MPa "
+        f"({drop_ref:.5g}); {res.n_steps} steps"
+    )
+    assert T == pytest.approx(T_ref, rel=0.02)
+    assert drop == pytest.approx(drop_ref, rel=0.02)
+
+
+# --------------------------------------------------------------------------------------------
+# The case's JSON form and its errors
+
+GOOD = {
+    "law": "subloading",
+    "params": {"preset": "sec7"},
+    "control": "slider",
+    "slider": {"mass": 1e-3, "stiffness": 100.0, "velocity": 0.1, "f_n": 300.0, "t_end": 0.05},
+}
+
+
+def test_a_slider_case_through_run_case():
+    res = run_case(dict(GOOD, t_samples=[0.0, 0.025, 0.05]))
+    assert res.samples["t"].tolist() == [0.0, 0.025, 0.05]
+    assert res.complete and res.n_steps > 0
+    # spring force = k (V t - u); at rest at t = 0
+    s = res.samples
+    np.testing.assert_allclose(s["f_spring"], 100.0 * (0.1 * s["t"] - s["u"]), rtol=1e-12)
+    assert set(res.to_dict()) >= {"samples", "n_steps", "n_rejected", "map_calls"}
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"mass": 0.0}, "field 'slider.mass' must be > 0, got 0.0"),
+        ({"stiffness": -1.0}, "field 'slider.stiffness' must be > 0, got -1.0"),
+        ({"velocity": -0.1}, "field 'slider.velocity' must be >= 0, got -0.1"),
+        ({"f_n": "300"}, "field 'slider.f_n' must be a number, got '300'"),
+        ({"t_end": float("nan")}, "field 'slider.t_end' must be finite, got nan"),
+        ({"dt_max": 0}, "field 'slider.dt_max' must be > 0, got 0"),
+        ({"err_tol": True}, "field 'slider.err_tol' must be a number, got True"),
+        ({"x0": float("inf")}, "field 'slider.x0' must be finite, got inf"),
+        ({"damping": 1.0}, "field 'slider': unknown keys ['damping']"),
+        ({"t_end": 1e9}, "field 'slider.t_end' = 1000000000.0 needs at least"),
+    ],
+)
+def test_bad_slider_values_are_named(change, message):
+    case = dict(GOOD, slider=dict(GOOD["slider"], **change))
+    with pytest.raises(CaseError) as e:
+        parse_case(case)
+    assert message in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        (dict(GOOD, path=[[0, 0, 0, 0]]), "unknown field(s) ['path'] of a slider case"),
+        ({k: v for k, v in GOOD.items() if k != "slider"}, "field 'slider' must be an object"),
+        (dict(GOOD, slider={"mass": 1.0}), "field 'slider.stiffness' is missing"),
+        (dict(GOOD, t_samples=[0.0, 1.0]), "field 't_samples[1]' = 1.0 lies outside [0,"),
+        (dict(GOOD, t_samples=[0.02, 0.01]), "field 't_samples[1]': sample times must not"),
+        (dict(GOOD, control="slide"), "field 'control' must be 'slider' in a case with a 'sl"),
+    ],
+)
+def test_bad_slider_cases_are_named(case, message):
+    with pytest.raises(CaseError) as e:
+        parse_case(case)
+    assert message in str(e.value)
+
+
+def test_steps_per_mm_is_refused_for_a_slider_case():
+    with pytest.raises(CaseError, match="steps_per_mm does not apply to a slider case"):
+        run_case(GOOD, steps_per_mm=100.0)
