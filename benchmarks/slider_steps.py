@@ -1,4 +1,4 @@
-"""The spring-slider's cost per step, and one point through the float path against the vectorised map.
+"""The spring-slider's cost per step; one point through the float path and the vectorised map.
 
 Prints (thread CPU time, ``time.thread_time``, best of 3: the machine may be shared):
 
@@ -46,6 +46,7 @@ class VectorisedOnly(SubloadingLaw):
     """The law whose ``point_map`` calls the vectorised map on one point (the previous cost)."""
 
     def point_map(self, ubar_t, ubar_n, up, mu, r, f0, dt, **kw):
+        """The one-point step through ``return_map``."""
         arrays = {"up": np.array([[up]]), "mu": np.array([mu]), "r": np.array([r])}
         if f0 is not None:
             arrays["f"] = np.array([f0])

@@ -171,7 +171,7 @@ def test_steady_sliding_is_unstable_at_every_stiffness():
     p = params(0.1)
     ks = np.logspace(0, 7, 29)
     sig = np.array([ref.growth_rate(p, k) for k in ks])
-    print("k sigma:", list(zip(ks[::4].round(1), sig[::4])))
+    print("k sigma:", list(zip(ks[::4].round(1), sig[::4], strict=True)))
     assert np.all(sig > 0.0)
     tail = ks[-5:] * sig[-5:]
     np.testing.assert_allclose(tail, tail[-1], rtol=1e-3)
