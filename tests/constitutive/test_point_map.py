@@ -3,11 +3,16 @@
 One implementation of the algorithm is the rule; the float path runs the vectorised map's
 common one-point, 1-D cases operation for operation and hands every other case back
 (``None``). Every point it answers must give the vectorised map's traction, tangent and state
-to round-off and the same status and stability flag (the same iteration count, but for one
+to 1e-12 of each point's scale and the same status and stability flag (the same iteration count, but for one
 more or less in a long bisection, where a bracket test meets round-off), over
 
 * the fuzz batches of ``tests/fuzz_support.py`` (1-D, with and without start tractions, the
-  laws of the fuzz strategy, several ``dt``), and
+  laws of the fuzz strategy, several ``dt``);
+* the points the vectorised map is checked on against the independent reference
+  (``test_return_map_paths.random_points``: reversals, reloads, separation, touching; 1-D);
+* the material-point stability catalogue (``tests/stability``, the driver's 2-D runs along
+  ``x1``): each one-point call whose second tangential components are zero, as the 1-D point
+  it is; and
 * every one-point call made by spring-slider runs (stick-slip, steady sliding: the sequences a
   driver produces, with reloads slower than the recovery and back-slips).
 """
@@ -24,6 +29,7 @@ from subfric_dolfinx.constitutive import subloading as S
 from subfric_dolfinx.constitutive._subloading.point import point_step
 from subfric_dolfinx.constitutive.tolerances import CONTACT_TOL, LOAD_TOL
 from subfric_dolfinx.driver import SliderCase, run_slider
+from tests.constitutive.test_return_map_paths import random_points
 from tests.fuzz_support import contact_tols, fuzz_settings, make_batch, subloading_laws, time_steps
 
 pytestmark = [
@@ -53,7 +59,7 @@ def compare(law, gap, state, dt, contact_tol=CONTACT_TOL):
             float(state["mu"][i]),
             float(state["r"][i]),
             f0,
-            float(dt),
+            float(dt if np.ndim(dt) == 0 else dt[i]),
             LOAD_TOL,
             100,
             contact_tol,
@@ -70,7 +76,16 @@ def compare(law, gap, state, dt, contact_tol=CONTACT_TOL):
             res.state["mu"][i],
             res.state["r"][i],
         )
-        np.testing.assert_allclose(o[:7], want, rtol=RTOL, atol=0, err_msg=f"point {i}")
+        # each number to RTOL of its point's scale (as the map against the reference map,
+        # test_return_map_paths.assert_same): the tangent's (D_tt = alpha_t (1 - alpha_t / H)
+        # cancels), the traction's; the state to RTOL and 1e-14
+        sc_D = max(np.abs(res.tangent[i]).max(), 1e-300)
+        sc_f = max(np.abs(res.traction[i]).max(), 1e-300)
+        got, want = np.array(o[:7]), np.array(want)
+        err = np.abs(got - want)
+        bound = np.array([sc_f, sc_f, sc_D, sc_D, 0, 0, 0]) * RTOL
+        bound[4:] = RTOL * np.abs(want[4:]) + 1e-14
+        assert np.all(err <= bound), (i, got, want)
         assert res.tangent[i, 1, 0] == 0.0 and res.tangent[i, 1, 1] == law.alpha_n
         assert (o[7], o[8]) == (res.status[i], res.unstable[i]), i
         # the count of a long bisection may differ by one where a bracket test meets round-off
@@ -149,3 +164,73 @@ def test_float_path_equals_the_vectorised_map_on_slider_runs(law, k, V, t_end, m
         answered += compare(law, gap[idx], state, dt)[0]
     print(f"{len(rows)} calls compared, {answered} through the float path")
     assert answered > 0.9 * len(rows)
+
+
+@pytest.mark.parametrize("name", ["sec7", "sec6-mus10000", "sec7-literal"])
+def test_float_path_equals_the_vectorised_map_on_the_reference_points(name):
+    law = preset(name)
+    rng = np.random.default_rng(11)
+    n = 1500
+    gap, st = random_points(law, 1, n, rng, 5000.0 if name.startswith("sec6") else 600.0)
+    radial = InterfaceState({k: st[k] for k in ("up", "mu", "r")}, 1)
+    answered = 0
+    for state, dt in ((st, 0.05), (st, 30.0), (radial, 0.05), (st, rng.uniform(0, 2, n))):
+        answered += compare(law, gap, state, dt)[0]
+    print(f"{name}: {answered} of {4 * n} points through the float path")
+    assert answered > 0.2 * 4 * n
+
+
+def rest(state, i):
+    return state["mu"][i], state["r"][i]
+
+
+def test_float_path_equals_the_vectorised_map_on_the_stability_catalogue(monkeypatch):
+    from tests.stability import POINT_CASES
+
+    calls = []
+    orig = SubloadingLaw.return_map
+
+    def record(self, gap, state, dt, **kw):
+        g = np.asarray(gap, dtype=float)
+        if np.ndim(dt) == 0 and len(calls) < 400_000:
+            for i in range(g.shape[0]):
+                if g.shape[1] == 2:  # 1-D
+                    f = None if "f" not in state else tuple(state["f"][i])
+                    calls.append((self, g[i, 0], g[i, 1], state["up"][i, 0], *rest(state, i), f))
+                elif g[i, 1] == 0.0 and state["up"][i, 1] == 0.0:  # 2-D along x1
+                    f = None if "f" not in state else (state["f"][i, 0], state["f"][i, 2])
+                    if f is None or state["f"][i, 1] == 0.0:
+                        calls.append(
+                            (self, g[i, 0], g[i, 2], state["up"][i, 0], *rest(state, i), f)
+                        )
+                if calls and len(calls[-1]) == 7:
+                    calls[-1] = (*calls[-1], float(dt))
+        return orig(self, gap, state, dt, **kw)
+
+    monkeypatch.setattr(SubloadingLaw, "return_map", record)
+    for case in POINT_CASES:
+        try:
+            case.run(None)
+        except Exception:  # noqa: BLE001  (the catalogue's errors are its own tests' business)
+            pass
+    monkeypatch.undo()
+    assert len(calls) > 1000
+    rows = calls[:: max(1, len(calls) // 20000)]
+    answered = 0
+    groups: dict = {}
+    for a in rows:
+        groups.setdefault((id(a[0]), a[6] is None), []).append(a)
+    for (_, radial), items in groups.items():
+        law = items[0][0]
+        gap = np.array([[a[1], a[2]] for a in items])
+        arrays = {
+            "up": np.array([[a[3]] for a in items]),
+            "mu": np.array([a[4] for a in items]),
+            "r": np.array([a[5] for a in items]),
+        }
+        if not radial:
+            arrays["f"] = np.array([a[6] for a in items])
+        dts = np.array([a[7] for a in items])
+        answered += compare(law, gap, InterfaceState(arrays, 1), dts)[0]
+    print(f"stability catalogue: {len(rows)} calls compared, {answered} through the float path")
+    assert answered > 0.3 * len(rows)
