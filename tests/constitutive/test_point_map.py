@@ -3,8 +3,9 @@
 One implementation of the algorithm is the rule; the float path runs the vectorised map's
 common one-point, 1-D cases operation for operation and hands every other case back
 (``None``). Every point it answers must give the vectorised map's traction, tangent and state
-to 1e-12 of each point's scale and the same status and stability flag (the same iteration count, but for one
-more or less in a long bisection, where a bracket test meets round-off), over
+to 1e-12 of each point's scale and the same status and stability flag (the same iteration
+count, but for one more or less in a long bisection, where a bracket test meets round-off),
+over
 
 * the fuzz batches of ``tests/fuzz_support.py`` (1-D, with and without start tractions, the
   laws of the fuzz strategy, several ``dt``);
@@ -211,7 +212,7 @@ def test_float_path_equals_the_vectorised_map_on_the_stability_catalogue(monkeyp
     for case in POINT_CASES:
         try:
             case.run(None)
-        except Exception:  # noqa: BLE001  (the catalogue's errors are its own tests' business)
+        except Exception:  # (the catalogue's errors are its own tests' business)
             pass
     monkeypatch.undo()
     assert len(calls) > 1000
