@@ -21,6 +21,7 @@ from ..constitutive import (
 )
 from .case import MAX_TOTAL_STEPS, Case, CaseError, parse_case
 from .path import plan_steps
+from .slider import run_slider
 
 __all__ = ["DriverResult", "RunawayError", "fields", "run_case"]
 
@@ -373,8 +374,6 @@ def run_case(
     if not isinstance(case, Case):
         case = parse_case(case)
     if not isinstance(case, Case):  # a slider case (the dynamic control)
-        from .slider import run_slider
-
         if steps_per_mm is not None:
             raise CaseError("steps_per_mm does not apply to a slider case (its steps adapt)")
         return run_slider(case, progress=progress)  # type: ignore[return-value]
