@@ -331,7 +331,8 @@ def run_slider(
         u0: The slider's initial displacement (mm); default ``up + f_t / alpha_t`` of the
             state when it holds the start traction ``f`` (0 for the virgin state), else ``up``.
         max_steps: Limit of accepted steps (an error beyond).
-        progress: Called every 2000 steps as ``progress(steps_done, 0, t)``.
+        progress: Called every 2000 steps as ``progress(steps_done, steps_projected, t)``
+            (the steps so far scaled by ``t_end / t``).
 
     Returns:
         The sampled history (:data:`SLIDER_FIELDS`) and the step counts.
@@ -429,7 +430,7 @@ def run_slider(
         # (a step shortened to hit a sample time does not shorten the next one unless needed)
         dt = min(dt_max, h * grow if h >= dt or grow < 1.0 else max(h * grow, dt))
         if progress is not None and n_steps >= check:
-            progress(n_steps, 0, t)
+            progress(n_steps, max(n_steps, round(n_steps * t_end / t)), t)  # (projected)
             check += 2000
     names = [*SLIDER_FIELDS[:7], *pt.names]
     arr = np.array(rows).reshape(-1, len(names))
