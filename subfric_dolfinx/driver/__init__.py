@@ -53,9 +53,11 @@ The dynamic control ``"control": "slider"`` (a spring-slider: mass, spring, driv
 constant normal stress, integrated in time with adaptive steps) has its own case fields and
 result: :mod:`.slider`.
 
-Modules: :mod:`.case` (parsing and validation), :mod:`.path` (the plan of steps), :mod:`.run` (the
-step loop of one case), :mod:`.batch` (many cases through one vectorised loop), :mod:`.cli` (the
-command line: exit codes, ``--out`` checked up front and written atomically, progress).
+Modules: :mod:`.case` (parsing and validation), :mod:`.checks` (the case error and the check of
+a case's numbers), :mod:`.path` (the plan of steps), :mod:`.run` (the step loop of one case),
+:mod:`.batch` (many cases through one vectorised loop), :mod:`.slider` (the spring-slider: the
+dynamic control), :mod:`.cli` (the command line: exit codes, ``--out`` checked up front and
+written atomically, progress).
 
 May import: :mod:`subfric_dolfinx.constitutive`, the layer-0 modules (:mod:`subfric_dolfinx.logs`,
 :mod:`subfric_dolfinx.values`, :mod:`subfric_dolfinx.commandline`), numpy and the standard
@@ -68,10 +70,10 @@ from .case import (
     MAX_STEPS_PER_SEGMENT,
     MAX_TOTAL_STEPS,
     Case,
-    CaseError,
     load_case,
     parse_case,
 )
+from .checks import CaseError
 from .cli import main
 from .run import DriverResult, RunawayError, fields, run_case
 from .slider import SliderCase, SliderResult, parse_slider, run_slider

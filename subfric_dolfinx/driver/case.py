@@ -19,7 +19,7 @@ import numpy as np
 
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..values import short_repr
-from .fields import CaseError, field_number
+from .checks import CaseError, field_number
 from .slider import parse_slider
 
 __all__ = [
@@ -27,8 +27,6 @@ __all__ = [
     "MAX_STEPS_PER_SEGMENT",
     "MAX_TOTAL_STEPS",
     "Case",
-    "CaseError",
-    "field_number",
     "load_case",
     "parse_case",
     "read_json",

@@ -57,7 +57,7 @@ import numpy as np
 
 from ..constitutive import FrictionLaw, InterfaceState, LawError, Status, SubloadingLaw, build_law
 from ..values import short_repr
-from .fields import CaseError, field_number
+from .checks import CaseError, field_number
 
 __all__ = [
     "GROWTH",
