@@ -37,7 +37,7 @@ Case (JSON)::
         "t_end": 20.0,         # s, > 0
         "x0": 0.0,             # optional: the load point at t = 0 (mm)
         "v0": 0.0,             # optional: the slider's initial velocity (mm/s)
-        "dt_max": 0.01,        # optional (s): default 2 pi sqrt(m / k) / 40
+        "dt_max": 0.01,        # optional (s): default 2 pi sqrt(m / k) / 100
         "err_tol": 1e-7        # optional (mm): default 1e-5 g(f_n) mu / k (the law's
                                #   initial strength over k)
       },
@@ -70,7 +70,7 @@ __all__ = [
     "run_slider",
 ]
 
-STEPS_PER_PERIOD = 40.0  # the default dt_max: the scheme's period error is (2 pi / 40)^2 / 12
+STEPS_PER_PERIOD = 100.0  # the default dt_max (docs/reference/spring_slider.md: accuracy)
 GROWTH = 2.0  # largest ratio of two consecutive step lengths
 MAX_SLIDER_STEPS = 1e7  # accepted steps of one case (about 10 minutes); more is a mistake
 MIN_DT_RATIO = 1e-12  # a step cut below this times dt_max: the run stops (an error)
