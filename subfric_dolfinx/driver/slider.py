@@ -73,6 +73,7 @@ __all__ = [
 STEPS_PER_PERIOD = 100.0  # the default dt_max (docs/reference/spring_slider.md: accuracy)
 GROWTH = 2.0  # largest ratio of two consecutive step lengths
 MAX_SLIDER_STEPS = 1e7  # accepted steps of one case (about 10 minutes); more is a mistake
+_ULPS = 4.0 * 2.0**-52  # a Newton update below this times |u| is the rounding of u: converged
 MIN_DT_RATIO = 1e-12  # a step cut below this times dt_max: the run stops (an error)
 SLIDER_FIELDS = ("t", "u", "v", "a", "x_load", "f_t", "f_spring", "up", "mu", "r")
 """The sampled fields: time (s), the slider's displacement (mm), velocity (mm/s), acceleration
@@ -301,12 +302,14 @@ def _solve(
             lo = max(lo, u)
         J = M + k + D
         un = u - R / J if J > 0.0 and math.isfinite(J) else math.nan
+        if abs(un - u) <= _ULPS * abs(u):  # the Newton update is the rounding of u
+            return u, f, pend
         if not (lo < un < hi):
             if math.isfinite(lo) and math.isfinite(hi):
                 un = 0.5 * (lo + hi)
             else:  # no bracket yet: a step of the inertia alone, outward
                 un = u - R / (M + k)
-        if un == u or (math.isfinite(lo) and math.isfinite(hi) and hi - lo <= 4e-16 * abs(u)):
+        if math.isfinite(lo) and math.isfinite(hi) and hi - lo <= _ULPS * abs(u):
             return u, f, pend
         u = un
         f, D, pend = pt.trial(u, dt)
