@@ -3,19 +3,22 @@
 Per unit area of the interface (units MPa, mm, s; mass per unit area in tonne/mm^2, so that
 tonne/mm^2 times mm/s^2 is N/mm^2 = MPa)::
 
-    m u'' = k (x0 + V t - u) - f_t(u),        ubar_t = u,  ubar_n = f_n / alpha_n (constant)
+    m u'' = k (x0 + V t - u) - f_t(u) - eta u',     ubar_t = u,  ubar_n = f_n / alpha_n (constant)
 
 ``u`` is the slider's displacement (the tangential gap of the interface point), ``f_t`` the
 traction the law's return map gives for the step (the same map as the finite-element code's:
 :meth:`~subfric_dolfinx.constitutive.SubloadingLaw.point_map` for the subloading law, one
 point of ``return_map`` for any other law), ``k`` the spring stiffness per unit area (MPa/mm),
-``V`` the load point's velocity (mm/s), ``x0`` its initial position.
+``V`` the load point's velocity (mm/s), ``x0`` its initial position, ``eta`` an optional
+dashpot to the fixed base (MPa s/mm per unit area, default 0: undamped; e.g. the radiation
+damping ``G / (2 c_s)`` of quasi-dynamic fault models).
 
 Time integration: Newmark's average acceleration (trapezoidal rule, ``beta = 1/4``,
 ``gamma = 1/2``): implicit, unconditionally stable for a linear system, second order, without
 numerical damping (stick-slip is an undamped oscillation between events: a damping scheme would
 move the stability limit of steady sliding). Each step solves the scalar equilibrium
-``R(u) = (4 m / dt^2)(u - u_pred) + k (u - x_L) + f_t(u) = 0`` by Newton with the law's
+``R(u) = m a(u) + eta v(u) + k (u - x_L) + f_t(u) = 0`` (``a``, ``v`` Newmark's, linear in
+``u``) by Newton with the law's
 consistent tangent, safeguarded by a bracket and bisection.
 
 Adaptive steps resolve the slip events: the local error estimate of the scheme,
@@ -37,6 +40,7 @@ Case (JSON)::
         "t_end": 20.0,         # s, > 0
         "x0": 0.0,             # optional: the load point at t = 0 (mm)
         "v0": 0.0,             # optional: the slider's initial velocity (mm/s)
+        "damping": 0.0,        # optional: eta, MPa s/mm (>= 0)
         "dt_max": 0.01,        # optional (s): default 2 pi sqrt(m / k) / 100
         "err_tol": 1e-7        # optional (mm): default 1e-5 g(f_n) mu / k (the law's
                                #   initial strength over k)
@@ -88,6 +92,7 @@ _SLIDER_KEYS = {
     "t_end",
     "x0",
     "v0",
+    "damping",
     "dt_max",
     "err_tol",
 }
@@ -108,6 +113,7 @@ class SliderCase:
     dt_max: float | None = None
     err_tol: float | None = None
     t_samples: np.ndarray | None = None
+    damping: float = 0.0
 
     @property
     def period(self) -> float:
@@ -168,6 +174,7 @@ def parse_slider(obj: dict[str, Any]) -> SliderCase:
     t_end = _positive("slider.t_end", sl["t_end"])
     x0 = field_number("slider.x0", sl.get("x0", 0.0))
     v0 = field_number("slider.v0", sl.get("v0", 0.0))
+    eta = _positive("slider.damping", sl.get("damping", 0.0), allow_zero=True)
     dt_max = None if sl.get("dt_max") is None else _positive("slider.dt_max", sl["dt_max"])
     err_tol = None if sl.get("err_tol") is None else _positive("slider.err_tol", sl["err_tol"])
     for name in ("alpha_t", "alpha_n"):
@@ -187,7 +194,9 @@ def parse_slider(obj: dict[str, Any]) -> SliderCase:
                 )
             if i and t < samples[i - 1]:
                 raise CaseError(f"field 't_samples[{i}]': sample times must not decrease")
-    case = SliderCase(law, mass, stiffness, velocity, f_n, t_end, x0, v0, dt_max, err_tol, samples)
+    case = SliderCase(
+        law, mass, stiffness, velocity, f_n, t_end, x0, v0, dt_max, err_tol, samples, eta
+    )
     steps = t_end / case.step_limit()
     if steps > MAX_SLIDER_STEPS:
         raise CaseError(
@@ -285,15 +294,15 @@ class _Point:
 
 
 def _solve(
-    pt: _Point, u0: float, u_pred: float, M: float, k: float, x_load: float, dt: float
+    pt: _Point, u0: float, u_pred: float, M: float, k: float, b: float, dt: float
 ) -> tuple[float, float, Any] | None:
-    """Newton for ``M (u - u_pred) + k (u - x_load) + f_t(u) = 0``; None if not converged."""
+    """Newton for ``M (u - u_pred) + k u - b + f_t(u) = 0``; None if not converged."""
     u = u0
     f, D, pend = pt.trial(u, dt)
     lo, hi = -math.inf, math.inf
     for _ in range(60):
-        R = M * (u - u_pred) + k * (u - x_load) + f
-        scale = abs(f) + abs(k * (u - x_load)) + abs(M * (u - u_pred))
+        R = M * (u - u_pred) + (k * u - b) + f
+        scale = abs(f) + abs(k * u - b) + abs(M * (u - u_pred))
         if abs(R) <= 1e-12 * scale or R == 0.0:
             return u, f, pend
         if R > 0.0:
@@ -365,7 +374,8 @@ def run_slider(
     f, pend = got
     status, own = pt.accept(pend)
     v = case.v0
-    a = (k * (case.x0 - u) - f) / m
+    eta = case.damping
+    a = (k * (case.x0 - u) - f - eta * v) / m
     rows: list[list[float]] = []
     row_status: list[str] = []
     counts = [0] * len(Status)
@@ -400,11 +410,12 @@ def run_slider(
         if samples and t + h >= samples[0]:
             h = samples[0] - t
         t_new = t + h if t + h < t_end else t_end
-        M = 4.0 * m / (h * h)
+        # m a(u) + eta v(u) = M (u - u_pred) + eta v_pred (Newmark: a, v linear in u)
+        M = 4.0 * m / (h * h) + 2.0 * eta / h
         u_pred = u + h * v + 0.25 * h * h * a
         x_load = case.x0 + V * t_new
         try:
-            sol = _solve(pt, u_pred, u_pred, M, k, x_load, h)
+            sol = _solve(pt, u_pred, u_pred, M, k, k * x_load - eta * (v + 0.5 * h * a), h)
         except FloatingPointError:
             sol = None
         if sol is None:

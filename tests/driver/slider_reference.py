@@ -1,8 +1,8 @@
 """Independent references of the spring-slider (tests only; numpy and scipy, no package code).
 
 * :func:`rates`: the law's rate equations (``docs/model.md``, ``../shared/MODEL.md`` "Rate form")
-  with the mass and the spring, in the variables ``y = (delta, v, mu, r)`` (``delta = x_L - u``
-  the spring's stretch, ``v`` the slider's velocity) while the interface slides
+  with the mass, the spring and the optional dashpot, in the variables ``y = (delta, v, mu, r)``
+  (``delta = x_L - u`` the spring's stretch, ``v`` the slider's velocity) while the interface slides
   (``f_t = g r mu``, plastic loading), and :func:`jacobian`, their Jacobian at steady sliding
   derived by hand (checked against finite differences of :func:`rates` in the tests);
 * :func:`critical_stiffness`: the stiffness where the largest real part of the Jacobian's
@@ -36,6 +36,7 @@ class Params:
     f_n: float
     mass: float
     velocity: float
+    damping: float = 0.0  # the dashpot to the base, MPa s/mm
 
     @property
     def g(self) -> float:
@@ -65,7 +66,7 @@ def rates(p: Params, k: float, y: np.ndarray) -> np.ndarray:
     return np.array(
         [
             p.velocity - v,
-            (k * delta - g * r * mu) / p.mass,
+            (k * delta - g * r * mu - p.damping * v) / p.mass,
             -p.kappa * (mu - p.mu_k) * lam + p.xi * (p.mu_s - mu),
             U(p, r) * lam,
         ]
@@ -73,9 +74,9 @@ def rates(p: Params, k: float, y: np.ndarray) -> np.ndarray:
 
 
 def steady(p: Params, k: float) -> np.ndarray:
-    """Steady sliding at the driving velocity: ``(g mu_ss / k, V, mu_ss, 1)``."""
+    """Steady sliding at the driving velocity: ``((g mu_ss + eta V) / k, V, mu_ss, 1)``."""
     mu = p.mu_steady()
-    return np.array([p.g * mu / k, p.velocity, mu, 1.0])
+    return np.array([(p.g * mu + p.damping * p.velocity) / k, p.velocity, mu, 1.0])
 
 
 def jacobian(p: Params, k: float) -> np.ndarray:
@@ -90,6 +91,7 @@ def jacobian(p: Params, k: float) -> np.ndarray:
     J = np.zeros((4, 4))
     J[0, 1] = -1.0
     J[1, 0] = k / m
+    J[1, 1] = -p.damping / m
     J[1, 2] = -g / m
     J[1, 3] = -g * mu / m
     J[2, 1] = -p.kappa * dmu * lam_v
@@ -128,7 +130,7 @@ def integrate_ode(p: Params, k: float, t_end: float, x0: float = 0.0, max_step: 
         xl = x0 + p.velocity * t
         return [
             v,
-            (k * (xl - u) - ft) / p.mass,
+            (k * (xl - u) - ft - p.damping * v) / p.mass,
             lam,
             -p.kappa * (mu - p.mu_k) * lam + p.xi * (p.mu_s - mu),
         ]

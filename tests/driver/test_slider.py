@@ -5,10 +5,11 @@
 * The subloading law: the linear stability analysis of steady sliding (``slider_reference``:
   the rate equations with the mass and the spring, the Jacobian derived by hand and checked by
   finite differences, its eigenvalues by numpy) against the growth rate and the frequency of a
-  small perturbation in the simulation (2 %). The analysis finds no finite critical stiffness:
-  the characteristic cubic of steady sliding fails the Routh-Hurwitz condition for every ``k``
-  (the law has no direct velocity effect, like rate-and-state friction with ``a = 0``), so the
-  growth rate is positive at every stiffness and falls like ``1 / k``.
+  small perturbation in the simulation (2 %). Undamped, the analysis finds no finite critical
+  stiffness: the characteristic cubic of steady sliding fails the Routh-Hurwitz condition for
+  every ``k`` (the law has no direct velocity effect, like rate-and-state friction with
+  ``a = 0``), so the growth rate is positive at every stiffness and falls like ``1 / k``. With
+  a dashpot there is one: from the eigenvalues, against the onset found by simulation (2 %).
 * The limit cycle of stick-slip (period, stress drop) at two driving velocities against the
   rate equations integrated by ``scipy.integrate.solve_ivp`` (Radau) from the same start (2 %).
 * Bad cases: each bad value named.
@@ -235,6 +236,48 @@ def test_growth_and_frequency_of_a_perturbation_against_the_eigenvalues(k):
     assert omega == pytest.approx(lam.imag, rel=0.02, abs=1e-12)
 
 
+def measured_growth(k: float, p: ref.Params, t_end: float) -> tuple[float, float]:
+    """(growth rate, frequency) of a small perturbation of steady sliding in the simulation,
+    from the peaks of ``v - V`` after the first second (the other modes decayed)."""
+    V = p.velocity
+    st, ft = steady_state(p)
+    u0 = ft / LAW.alpha_t
+    x0 = u0 + (ft + p.damping * V) / k
+    dt_max = 2 * np.pi * np.sqrt(MASS / k) / 100
+    case = SliderCase(
+        LAW, MASS, k, V, FN, t_end, x0=x0, v0=V * (1 + 1e-8), dt_max=dt_max, damping=p.damping
+    )
+    res = run_slider(case, state=st)
+    t, v = res.samples["t"], res.samples["v"] - V
+    i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:])) + 1
+    i = i[t[i] > 1.0]
+    assert v[i].max() < 1e-3 * V  # still linear
+    return np.polyfit(t[i], np.log(v[i]), 1)[0], 2 * np.pi / np.mean(np.diff(t[i]))
+
+
+def test_critical_stiffness_with_a_dashpot_against_the_onset_by_simulation():
+    """With a dashpot (eta = 1 MPa s/mm) steady sliding has a critical stiffness: from the
+    eigenvalues (brentq on the largest real part), checked against the Routh-Hurwitz closed form
+    ``(m c2 + eta)(g c1 - eta c2) / eta``; the simulation's growth rates at 0.97 and 1.03 times
+    it change sign and their linear interpolation gives the onset within 2 %."""
+    p = dataclasses.replace(params(0.1), damping=1.0)
+    kc = ref.critical_stiffness(p, 100.0, 2000.0)
+    J = ref.jacobian(p, kc)
+    gc1, c2 = -J[2, 1] * (-J[1, 2] * MASS), -J[2, 2]
+    assert kc == pytest.approx((MASS * c2 + p.damping) * (gc1 - p.damping * c2) / p.damping)
+    ks = (0.97 * kc, 1.03 * kc)
+    (s1, w1), (s2, w2) = (measured_growth(k, p, 12.0) for k in ks)
+    eig = [np.linalg.eigvals(ref.jacobian(p, k)) for k in ks]
+    onset = ks[0] + (ks[1] - ks[0]) * s1 / (s1 - s2)
+    print(
+        f"critical stiffness {kc:.6g} MPa/mm (eigenvalues), onset by simulation {onset:.6g}; "
+        f"growth {s1:.4g}, {s2:.4g} 1/s (eigenvalues {max(e.real.max() for e in eig[:1]):.4g}, "
+        f"{eig[1].real.max():.4g}); frequency {w1:.5g}, {w2:.5g} rad/s"
+    )
+    assert s1 > 0.0 > s2  # unstable below, stable above
+    assert onset == pytest.approx(kc, rel=0.02)
+
+
 def cycle(t, v, f, V):
     """(period, stress drop) of the last full cycle: between the last two velocity peaks."""
     i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] > 2 * V)) + 1
@@ -296,7 +339,8 @@ def test_a_slider_case_through_run_case():
         ({"dt_max": 0}, "field 'slider.dt_max' must be > 0, got 0"),
         ({"err_tol": True}, "field 'slider.err_tol' must be a number, got True"),
         ({"x0": float("inf")}, "field 'slider.x0' must be finite, got inf"),
-        ({"damping": 1.0}, "field 'slider': unknown keys ['damping']"),
+        ({"damping": -1.0}, "field 'slider.damping' must be >= 0, got -1.0"),
+        ({"dashpot": 1.0}, "field 'slider': unknown keys ['dashpot']"),
         ({"t_end": 1e9}, "field 'slider.t_end' = 1000000000.0 needs at least"),
     ],
 )
