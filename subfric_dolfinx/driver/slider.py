@@ -295,8 +295,11 @@ class _Point:
 
 def _solve(
     pt: _Point, u0: float, u_pred: float, M: float, k: float, b: float, dt: float
-) -> tuple[float, float, Any] | None:
-    """Newton for ``M (u - u_pred) + k u - b + f_t(u) = 0``; None if not converged."""
+) -> tuple[float, float, float, Any] | None:
+    """Newton for ``M (u - u_pred) + k u - b + f_t(u) = 0`` from ``u0``; None if not converged.
+
+    Returns ``(u, f_t, df_t/du, pending)``.
+    """
     u = u0
     f, D, pend = pt.trial(u, dt)
     lo, hi = -math.inf, math.inf
@@ -304,7 +307,7 @@ def _solve(
         R = M * (u - u_pred) + (k * u - b) + f
         scale = abs(f) + abs(k * u - b) + abs(M * (u - u_pred))
         if abs(R) <= 1e-12 * scale or R == 0.0:
-            return u, f, pend
+            return u, f, D, pend
         if R > 0.0:
             hi = min(hi, u)
         else:
@@ -312,14 +315,14 @@ def _solve(
         J = M + k + D
         un = u - R / J if J > 0.0 and math.isfinite(J) else math.nan
         if abs(un - u) <= _ULPS * abs(u):  # the Newton update is the rounding of u
-            return u, f, pend
+            return u, f, D, pend
         if not (lo < un < hi):
             if math.isfinite(lo) and math.isfinite(hi):
                 un = 0.5 * (lo + hi)
             else:  # no bracket yet: a step of the inertia alone, outward
                 un = u - R / (M + k)
         if math.isfinite(lo) and math.isfinite(hi) and hi - lo <= _ULPS * abs(u):
-            return u, f, pend
+            return u, f, D, pend
         u = un
         f, D, pend = pt.trial(u, dt)
     return None
@@ -370,8 +373,7 @@ def run_slider(
     elif state is not None:
         f_start = float(state["f"][0, 0]) if "f" in state else 0.0
         u = float(state["up"][0, 0]) + f_start / float(law.alpha_t)  # type: ignore[attr-defined]
-    got = _solve_at(pt, u, 0.0)
-    f, pend = got
+    f, D_last, pend = _solve_at(pt, u, 0.0)
     status, own = pt.accept(pend)
     v = case.v0
     eta = case.damping
@@ -415,14 +417,19 @@ def run_slider(
         u_pred = u + h * v + 0.25 * h * h * a
         x_load = case.x0 + V * t_new
         try:
-            sol = _solve(pt, u_pred, u_pred, M, k, k * x_load - eta * (v + 0.5 * h * a), h)
+            b = k * x_load - eta * (v + 0.5 * h * a)
+            # the first iterate: Newton's step from the predictor on the last accepted tangent
+            J = M + k + D_last
+            R = k * u_pred - b + f + D_last * (u_pred - u)
+            u0 = u_pred - R / J if J > 0.0 and math.isfinite(R / J) else u_pred
+            sol = _solve(pt, u0, u_pred, M, k, b, h)
         except FloatingPointError:
             sol = None
         if sol is None:
             n_rej += 1
             dt = 0.25 * h
             continue
-        u_new, f_new, pend = sol
+        u_new, f_new, D_new, pend = sol
         a_new = 4.0 * (u_new - u_pred) / (h * h)
         e = h * h * abs(a_new - a) / 12.0
         if e > 2.0 * err and h > MIN_DT_RATIO * dt_max:
@@ -430,7 +437,7 @@ def run_slider(
             dt = h * max(0.2, 0.9 * math.sqrt(err / e))
             continue
         v = v + 0.5 * h * (a + a_new)
-        u, a, f, t = u_new, a_new, f_new, t_new
+        u, a, f, t, D_last = u_new, a_new, f_new, t_new, D_new
         status, own = pt.accept(pend)
         counts[status] += 1
         n_steps += 1
@@ -459,10 +466,9 @@ def run_slider(
     )
 
 
-def _solve_at(pt: _Point, u: float, dt: float) -> tuple[float, Any]:
-    """The traction at the gap ``u`` (the initial step)."""
+def _solve_at(pt: _Point, u: float, dt: float) -> tuple[float, float, Any]:
+    """The traction, its tangent and the pending state at the gap ``u`` (the initial step)."""
     try:
-        f, _, pend = pt.trial(u, dt)
+        return pt.trial(u, dt)
     except FloatingPointError:
         raise CaseError("the return map fails at the initial state of the slider") from None
-    return f, pend

@@ -211,9 +211,10 @@ def test_growth_and_frequency_of_a_perturbation_against_the_eigenvalues(k):
     st, ft = steady_state(p)
     u0 = ft / LAW.alpha_t
     if lam.imag == 0.0:  # 12 e-folds, the second half fitted (the other modes decayed)
-        t_end, dt_max, eps = 12.0 / lam.real, 6e-3 / lam.real, 1e-9
+        t_end, dt_max = 12.0 / lam.real, 6e-3 / lam.real
     else:
-        t_end, dt_max, eps = 6.0, 2 * np.pi * np.sqrt(MASS / k) / 100, 1e-8
+        t_end, dt_max = 6.0, 2 * np.pi * np.sqrt(MASS / k) / 100
+    eps = perturbation(lam.real, t_end)
     case = SliderCase(LAW, MASS, k, V, FN, t_end, x0=u0 + ft / k, v0=V * (1 + eps), dt_max=dt_max)
     res = run_slider(case, state=st)
     t, v = res.samples["t"], res.samples["v"] - V
@@ -236,6 +237,12 @@ def test_growth_and_frequency_of_a_perturbation_against_the_eigenvalues(k):
     assert omega == pytest.approx(lam.imag, rel=0.02, abs=1e-12)
 
 
+def perturbation(sigma: float, t_end: float) -> float:
+    """The relative velocity perturbation that grows to about 1e-5 at ``t_end`` (linear, and far
+    above the rounding and the Newton tolerance of the steps)."""
+    return min(max(1e-5 * math.exp(-sigma * t_end), 1e-12), 1e-5)
+
+
 def measured_growth(k: float, p: ref.Params, t_end: float) -> tuple[float, float]:
     """(growth rate, frequency) of a small perturbation of steady sliding in the simulation,
     from the peaks of ``v - V`` after the first second (the other modes decayed)."""
@@ -245,7 +252,16 @@ def measured_growth(k: float, p: ref.Params, t_end: float) -> tuple[float, float
     x0 = u0 + (ft + p.damping * V) / k
     dt_max = 2 * np.pi * np.sqrt(MASS / k) / 100
     case = SliderCase(
-        LAW, MASS, k, V, FN, t_end, x0=x0, v0=V * (1 + 1e-8), dt_max=dt_max, damping=p.damping
+        LAW,
+        MASS,
+        k,
+        V,
+        FN,
+        t_end,
+        x0=x0,
+        v0=V * (1 + perturbation(ref.growth_rate(p, k), t_end)),
+        dt_max=dt_max,
+        damping=p.damping,
     )
     res = run_slider(case, state=st)
     t, v = res.samples["t"], res.samples["v"] - V
