@@ -251,7 +251,10 @@ class SubloadingLaw(LawBase):
         L: Law = self._consts  # type: ignore[attr-defined]
         args = (float(ubar_t), float(ubar_n), float(up), float(mu), float(r))
         f = None if f0 is None else (float(f0[0]), float(f0[1]))
-        res = point_step(L, *args, f, dt, float(tol), int(max_iter), float(contact_tol))
+        try:
+            res = point_step(L, *args, f, dt, float(tol), int(max_iter), float(contact_tol))
+        except (ArithmeticError, ValueError):  # (a float path's corner: the numpy map decides)
+            res = None
         if res is not None:
             return res
         arrays = {"up": np.array([[args[2]]]), "mu": np.array([args[3]]), "r": np.array([args[4]])}

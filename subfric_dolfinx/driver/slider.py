@@ -421,8 +421,8 @@ def run_slider(
             # the first iterate: Newton's step from the predictor on the last accepted tangent
             J = M + k + D_last
             R = k * u_pred - b + f + D_last * (u_pred - u)
-            u0 = u_pred - R / J if J > 0.0 and math.isfinite(R / J) else u_pred
-            sol = _solve(pt, u0, u_pred, M, k, b, h)
+            u_first = u_pred - R / J if J > 0.0 and math.isfinite(R / J) else u_pred
+            sol = _solve(pt, u_first, u_pred, M, k, b, h)
         except FloatingPointError:
             sol = None
         if sol is None:

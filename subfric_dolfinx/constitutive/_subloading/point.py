@@ -127,7 +127,12 @@ def point_step(
                     g1 = -math.expm1(-L.cn * (fn0 + 1.0 * dfn))
                     mu_e = min(mu_c + (mu_s - mu_c) * -math.expm1(-b * 1.0), mu_s)
                     mr = (mu_s - mu_c) * math.exp(-b * 1.0) / mu_e
-                    h1 = (fs * w) / (fs * fs) - L.cn * (1.0 - g1) * dfn / g1 - b * mr
+                    q1 = fs * fs
+                    h1 = (
+                        (fs * w) / q1 - L.cn * (1.0 - g1) * dfn / g1 - b * mr
+                        if q1 > 0
+                        else math.nan
+                    )
                     if not (h < 0.0 and not h1 > 0.0):
                         return None  # h turns positive inside the step: a split
     # step 3: the loading test (.integrate._chunk)
