@@ -235,3 +235,45 @@ def test_float_path_equals_the_vectorised_map_on_the_stability_catalogue(monkeyp
         answered += compare(law, gap, InterfaceState(arrays, 1), dts)[0]
     print(f"stability catalogue: {len(rows)} calls compared, {answered} through the float path")
     assert answered > 0.3 * len(rows)
+
+
+def test_point_map_returns_the_vectorised_map_where_the_float_path_declines():
+    """``point_map`` itself: the float path's answer, else the numpy map's result unpacked (a
+    separated point, a touching one, a reversal through zero inside the step, a bad state)."""
+    law = preset("sec7")
+    un = 300.0 / law.alpha_n
+    f0 = (20.0, 300.0)
+    cases = [
+        (0.01, -0.1, 0.0, law.mu_s, 0.5, None),  # separated
+        (0.01, 1e-20, 0.0, law.mu_s, 0.5, None),  # touching
+        (-0.05, un, 0.0, 400.0, 0.9, f0),  # f_t from +20 MPa to about -25: a cusp split
+        (0.01, un, 0.0, 2 * law.mu_s, 0.5, None),  # mu out of range: FAILED
+        (0.05, un, 0.0, 400.0, 0.9, f0),  # plastic, on floats
+    ]
+    L = law._consts
+    for ut, ubn, up, mu, r, f in cases:
+        arrays = {"up": np.array([[up]]), "mu": np.array([mu]), "r": np.array([r])}
+        if f is not None:
+            arrays["f"] = np.array([f])
+        res = law.return_map(np.array([[ut, ubn]]), InterfaceState(arrays, 1), 0.01)
+        got = law.point_map(ut, ubn, up, mu, r, f, 0.01)
+        want = (
+            res.traction[0, 0],
+            res.traction[0, 1],
+            res.tangent[0, 0, 0],
+            res.tangent[0, 0, 1],
+            res.state["up"][0, 0],
+            res.state["mu"][0],
+            res.state["r"][0],
+            res.status[0],
+            res.unstable[0],
+            res.iterations[0],
+        )
+        floats = point_step(L, ut, ubn, up, mu, r, f, 0.01, LOAD_TOL, 100, CONTACT_TOL)
+        if floats is None:  # the numpy map's own numbers
+            assert got == tuple(type(g)(w) for g, w in zip(got, want, strict=True))
+        else:
+            assert got == floats
+            np.testing.assert_allclose(got[:7], want[:7], rtol=1e-12, atol=1e-14)
+    with pytest.raises(ValueError, match="dt"):
+        law.point_map(0.0, un, 0.0, law.mu_s, 0.0, None, -1.0)
