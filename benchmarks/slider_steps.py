@@ -45,12 +45,13 @@ LAW = SubloadingLaw(
 class VectorisedOnly(SubloadingLaw):
     """The law whose ``point_map`` calls the vectorised map on one point (the previous cost)."""
 
-    def point_map(self, ubar_t, ubar_n, up, mu, r, f0, dt, **kw):
+    def point_map(self, gap, state, dt, **kw):
         """The one-point step through ``return_map``."""
+        up, mu, r, f0 = state
         arrays = {"up": np.array([[up]]), "mu": np.array([mu]), "r": np.array([r])}
         if f0 is not None:
             arrays["f"] = np.array([f0])
-        v = self.return_map(np.array([[ubar_t, ubar_n]]), InterfaceState(arrays, 1), dt)
+        v = self.return_map(np.array([gap]), InterfaceState(arrays, 1), dt)
         tr, D, st = v.traction[0], v.tangent[0], v.state
         return (
             float(tr[0]),
@@ -83,9 +84,9 @@ def main() -> None:
     for name, gap, _, full, dt in call_cases():
         if gap.shape[1] != 2:
             continue
-        a = (gap[0, 0], gap[0, 1], full["up"][0, 0], full["mu"][0], full["r"][0])
-        f0 = tuple(full["f"][0])
-        fast = best_call(lambda a=a, f0=f0, dt=dt: P.point_map(*a, f0, dt))
+        g = (gap[0, 0], gap[0, 1])
+        st = (full["up"][0, 0], full["mu"][0], full["r"][0], tuple(full["f"][0]))
+        fast = best_call(lambda g=g, st=st, dt=dt: P.point_map(g, st, dt))
         vec = best_call(lambda gap=gap, full=full, dt=dt: P.return_map(gap, full, dt))
         path = "floats" if name != "reversal 1-D" else "vectorised (a cusp split)"
         print(f"   {name:14s} {fast * 1e6:8.1f} | {vec * 1e6:8.1f}   point_map through: {path}")

@@ -204,12 +204,8 @@ class SubloadingLaw(LawBase):
 
     def point_map(
         self,
-        ubar_t: float,
-        ubar_n: float,
-        up: float,
-        mu: float,
-        r: float,
-        f0: tuple[float, float] | None,
+        gap: tuple[float, float],
+        state: tuple[float, float, float, tuple[float, float] | None],
         dt: float,
         *,
         tol: float = LOAD_TOL,
@@ -225,12 +221,10 @@ class SubloadingLaw(LawBase):
         vectorised map for one point), the others through :func:`subloading_return_map`.
 
         Args:
-            ubar_t: Tangential gap at the end of the step (mm).
-            ubar_n: Normal gap at the end of the step (mm, > 0 in contact).
-            up: Plastic slip at the start of the step (mm).
-            mu: Hardening function at the start of the step (MPa).
-            r: Normal-yield ratio at the start of the step.
-            f0: The traction at its start ``(f_t, f_n)`` (the law's ``f``), or None.
+            gap: ``(ubar_t, ubar_n)`` at the end of the step (mm; ``ubar_n > 0`` in contact).
+            state: ``(up, mu, r, f0)`` at its start: plastic slip (mm), hardening function
+                (MPa), normal-yield ratio, and the start traction ``(f_t, f_n)`` (the law's
+                ``f``) or None.
             dt: Time increment (s), finite and >= 0.
             tol: As for :meth:`return_map`.
             max_iter: As for :meth:`return_map`.
@@ -249,36 +243,37 @@ class SubloadingLaw(LawBase):
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt = {dt!r} must be finite and >= 0")
         L: Law = self._consts  # type: ignore[attr-defined]
-        args = (float(ubar_t), float(ubar_n), float(up), float(mu), float(r))
+        g = (float(gap[0]), float(gap[1]))
+        f0 = state[3]
         f = None if f0 is None else (float(f0[0]), float(f0[1]))
+        st = (float(state[0]), float(state[1]), float(state[2]), f)
         try:
-            res = point_step(L, *args, f, dt, float(tol), int(max_iter), float(contact_tol))
+            res = point_step(L, g, st, dt, Settings(float(tol), int(max_iter), float(contact_tol)))
         except (ArithmeticError, ValueError):  # (a float path's corner: the numpy map decides)
             res = None
         if res is not None:
             return res
-        arrays = {"up": np.array([[args[2]]]), "mu": np.array([args[3]]), "r": np.array([args[4]])}
+        arrays = {"up": np.array([[st[0]]]), "mu": np.array([st[1]]), "r": np.array([st[2]])}
         if f is not None:
             arrays["f"] = np.array([f])
-        state = InterfaceState.wrap(arrays, 1, 1)
         v = subloading_return_map(
             self,
-            np.array([[args[0], args[1]]]),
-            state,
+            np.array([g]),
+            InterfaceState.wrap(arrays, 1, 1),
             dt,
             tol=tol,
             max_iter=max_iter,
             contact_tol=contact_tol,
         )
-        tr, D, st = v.traction[0], v.tangent[0], v.state
+        tr, D, out = v.traction[0], v.tangent[0], v.state
         return (
             float(tr[0]),
             float(tr[1]),
             float(D[0, 0]),
             float(D[0, 1]),
-            float(st["up"][0, 0]),
-            float(st["mu"][0]),
-            float(st["r"][0]),
+            float(out["up"][0, 0]),
+            float(out["mu"][0]),
+            float(out["r"][0]),
             int(v.status[0]),
             bool(v.unstable[0]),
             int(v.iterations[0]),

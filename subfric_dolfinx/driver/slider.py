@@ -271,8 +271,7 @@ class _Point:
         """``(f_t, df_t/du, pending)`` at the gap ``u`` after ``dt``; ``pending`` for accept."""
         self.calls += 1
         if self.fast:
-            up, mu, r, f0 = self.s
-            o = self.law.point_map(u, self.un, up, mu, r, f0, dt)  # type: ignore[attr-defined]
+            o = self.law.point_map((u, self.un), self.s, dt)  # type: ignore[attr-defined]
             if o[7] == int(Status.FAILED):
                 raise FloatingPointError
             return o[0], o[2], o

@@ -27,6 +27,7 @@ from hypothesis import strategies as st
 
 from subfric_dolfinx.constitutive import InterfaceState, SubloadingLaw, preset
 from subfric_dolfinx.constitutive import subloading as S
+from subfric_dolfinx.constitutive._subloading.common import Settings
 from subfric_dolfinx.constitutive._subloading.point import point_step
 from subfric_dolfinx.constitutive.tolerances import CONTACT_TOL, LOAD_TOL
 from subfric_dolfinx.driver import SliderCase, run_slider
@@ -48,23 +49,14 @@ def compare(law, gap, state, dt, contact_tol=CONTACT_TOL):
     """
     res = law.return_map(gap, state, dt, contact_tol=contact_tol)
     L = law._consts
+    cfg = Settings(LOAD_TOL, 100, contact_tol)
     has_f = "f" in state
     answered = 0
     for i in range(gap.shape[0]):
         f0 = (float(state["f"][i, 0]), float(state["f"][i, 1])) if has_f else None
-        o = point_step(
-            L,
-            float(gap[i, 0]),
-            float(gap[i, 1]),
-            float(state["up"][i, 0]),
-            float(state["mu"][i]),
-            float(state["r"][i]),
-            f0,
-            float(dt if np.ndim(dt) == 0 else dt[i]),
-            LOAD_TOL,
-            100,
-            contact_tol,
-        )
+        dt_i = float(dt if np.ndim(dt) == 0 else dt[i])
+        st = (float(state["up"][i, 0]), float(state["mu"][i]), float(state["r"][i]), f0)
+        o = point_step(L, (float(gap[i, 0]), float(gap[i, 1])), st, dt_i, cfg)
         if o is None:
             continue
         answered += 1
@@ -146,23 +138,22 @@ def test_float_path_equals_the_vectorised_map_on_slider_runs(law, k, V, t_end, m
     monkeypatch.undo()
     assert len(calls) > 100
     rows = calls[:: max(1, len(calls) // 3000)]
-    gap = np.array([[a[1], a[2]] for a in rows])
     by_dt: dict = {}
     for i, a in enumerate(rows):
-        by_dt.setdefault(a[7], []).append(i)
+        by_dt.setdefault(a[3], []).append(i)
     answered = 0
     for dt, idx in by_dt.items():
-        idx = np.array(idx)
+        gap = np.array([rows[i][1] for i in idx])
         state = InterfaceState(
             {
-                "up": np.array([[rows[i][3]] for i in idx]),
-                "mu": np.array([rows[i][4] for i in idx]),
-                "r": np.array([rows[i][5] for i in idx]),
-                "f": np.array([rows[i][6] for i in idx]),
+                "up": np.array([[rows[i][2][0]] for i in idx]),
+                "mu": np.array([rows[i][2][1] for i in idx]),
+                "r": np.array([rows[i][2][2] for i in idx]),
+                "f": np.array([rows[i][2][3] for i in idx]),
             },
             1,
         )
-        answered += compare(law, gap[idx], state, dt)[0]
+        answered += compare(law, gap, state, dt)[0]
     print(f"{len(rows)} calls compared, {answered} through the float path")
     assert answered > 0.9 * len(rows)
 
@@ -256,7 +247,7 @@ def test_point_map_returns_the_vectorised_map_where_the_float_path_declines():
         if f is not None:
             arrays["f"] = np.array([f])
         res = law.return_map(np.array([[ut, ubn]]), InterfaceState(arrays, 1), 0.01)
-        got = law.point_map(ut, ubn, up, mu, r, f, 0.01)
+        got = law.point_map((ut, ubn), (up, mu, r, f), 0.01)
         want = (
             res.traction[0, 0],
             res.traction[0, 1],
@@ -269,11 +260,12 @@ def test_point_map_returns_the_vectorised_map_where_the_float_path_declines():
             res.unstable[0],
             res.iterations[0],
         )
-        floats = point_step(L, ut, ubn, up, mu, r, f, 0.01, LOAD_TOL, 100, CONTACT_TOL)
+        cfg = Settings(LOAD_TOL, 100, CONTACT_TOL)
+        floats = point_step(L, (ut, ubn), (up, mu, r, f), 0.01, cfg)
         if floats is None:  # the numpy map's own numbers
             assert got == tuple(type(g)(w) for g, w in zip(got, want, strict=True))
         else:
             assert got == floats
             np.testing.assert_allclose(got[:7], want[:7], rtol=1e-12, atol=1e-14)
     with pytest.raises(ValueError, match="dt"):
-        law.point_map(0.0, un, 0.0, law.mu_s, 0.0, None, -1.0)
+        law.point_map((0.0, un), (0.0, law.mu_s, 0.0, None), -1.0)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from .common import ELASTIC, EPS, PLASTIC, ROT_HI, ROT_LO, S_SERIES, SPLIT_EPS, TINY, Law
+from .common import ELASTIC, EPS, PLASTIC, ROT_HI, ROT_LO, S_SERIES, SPLIT_EPS, TINY, Law, Settings
 
 __all__ = ["PointResult", "point_step"]
 
@@ -53,23 +53,28 @@ def _E_dE(s: float) -> tuple[float, float]:
 
 def point_step(
     L: Law,
-    ut: float,
-    un: float,
-    up: float,
-    mu: float,
-    r: float,
-    f0: tuple[float, float] | None,
+    gap: tuple[float, float],
+    state: tuple[float, float, float, tuple[float, float] | None],
     dt: float,
-    tol: float,
-    max_iter: int,
-    contact_tol: float,
+    cfg: Settings,
 ) -> PointResult | None:
-    """One step of one 1-D point (gap ``(ut, un)``, state ``up, mu, r``, start traction ``f0``).
+    """One step of one 1-D point.
+
+    Args:
+        L: The law's floats.
+        gap: ``(ubar_t, ubar_n)`` at the end of the step.
+        state: ``(up, mu, r, f0)`` at its start, ``f0`` the start traction ``(f_t, f_n)`` or
+            None.
+        dt: The time increment.
+        cfg: The consistency tolerance, iteration limit and contact band.
 
     Returns:
         The outputs (:data:`PointResult`), or ``None`` where the case is not covered (see the
         module docstring): then the vectorised map must be called.
     """
+    ut, un = gap
+    up, mu, r, f0 = state
+    tol, max_iter, contact_tol = cfg.tol, cfg.max_iter, cfg.contact_tol
     # step 1: the trial (.trial.Trial)
     mu_k, mu_s, at, an = L.mu_k, L.mu_s, L.at, L.an
     if not (
