@@ -66,6 +66,7 @@ import numpy.typing as npt
 
 from ._subloading.common import Inputs, Law, Outputs, Settings
 from ._subloading.integrate import integrate
+from ._subloading.point import PointResult, point_step
 from .protocol import LawBase, non_negative, positive, real, validate_fields
 from .result import ReturnMapResult
 from .state import LOCAL, SCALAR, TANGENTIAL, InterfaceState, Variable
@@ -199,6 +200,83 @@ class SubloadingLaw(LawBase):
         """Integrate the law over one step; see :func:`subloading_return_map`."""
         return subloading_return_map(
             self, gap, state, dt, out=out, tol=tol, max_iter=max_iter, contact_tol=contact_tol
+        )
+
+    def point_map(
+        self,
+        gap: tuple[float, float],
+        state: tuple[float, float, float, tuple[float, float] | None],
+        dt: float,
+        *,
+        tol: float = LOAD_TOL,
+        max_iter: int = 100,
+        contact_tol: float = CONTACT_TOL,
+    ) -> PointResult:
+        """The return map of ONE point with one tangential component, on floats.
+
+        The same step as :meth:`return_map` on the point ``gap = [[ubar_t, ubar_n]]`` with the
+        state ``up = [[up]], mu = [mu], r = [r]`` and the start traction ``f = [f0]`` (None: a
+        state without it); its common cases (contact, no split, elastic or a certified root)
+        run on Python floats (``_subloading.point``: some ten times cheaper than a call of the
+        vectorised map for one point), the others through :func:`subloading_return_map`.
+
+        Args:
+            gap: ``(ubar_t, ubar_n)`` at the end of the step (mm; ``ubar_n > 0`` in contact).
+            state: ``(up, mu, r, f0)`` at its start: plastic slip (mm), hardening function
+                (MPa), normal-yield ratio, and the start traction ``(f_t, f_n)`` (the law's
+                ``f``) or None.
+            dt: Time increment (s), finite and >= 0.
+            tol: As for :meth:`return_map`.
+            max_iter: As for :meth:`return_map`.
+            contact_tol: As for :meth:`return_map`.
+
+        Returns:
+            ``(f_t, f_n, D_tt, D_tn, up, mu, r, status, unstable, iterations)``: the traction,
+            the tangential row of the consistent tangent (its normal row is ``(0, alpha_n)``
+            in contact, zero otherwise: :meth:`return_map` gives it), the end state, the
+            status code (:class:`Status`), the stability flag and the root iterations.
+
+        Raises:
+            ValueError: A non-finite or negative ``dt``.
+        """
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt >= 0.0):
+            raise ValueError(f"dt = {dt!r} must be finite and >= 0")
+        L: Law = self._consts  # type: ignore[attr-defined]
+        g = (float(gap[0]), float(gap[1]))
+        f0 = state[3]
+        f = None if f0 is None else (float(f0[0]), float(f0[1]))
+        st = (float(state[0]), float(state[1]), float(state[2]), f)
+        try:
+            res = point_step(L, g, st, dt, Settings(float(tol), int(max_iter), float(contact_tol)))
+        except (ArithmeticError, ValueError):  # (a float path's corner: the numpy map decides)
+            res = None
+        if res is not None:
+            return res
+        arrays = {"up": np.array([[st[0]]]), "mu": np.array([st[1]]), "r": np.array([st[2]])}
+        if f is not None:
+            arrays["f"] = np.array([f])
+        v = subloading_return_map(
+            self,
+            np.array([g]),
+            InterfaceState.wrap(arrays, 1, 1),
+            dt,
+            tol=tol,
+            max_iter=max_iter,
+            contact_tol=contact_tol,
+        )
+        tr, D, out = v.traction[0], v.tangent[0], v.state
+        return (
+            float(tr[0]),
+            float(tr[1]),
+            float(D[0, 0]),
+            float(D[0, 1]),
+            float(out["up"][0, 0]),
+            float(out["mu"][0]),
+            float(out["r"][0]),
+            int(v.status[0]),
+            bool(v.unstable[0]),
+            int(v.iterations[0]),
         )
 
     def units_check(self, f_n: float) -> str | None:

@@ -49,9 +49,15 @@ stable quasi-static solution exists beyond (``on_instability="continue"`` goes o
 Under stress control, loading beyond what the interface can sustain raises :class:`RunawayError`
 at the time it happened.
 
-Modules: :mod:`.case` (parsing and validation), :mod:`.path` (the plan of steps), :mod:`.run` (the
-step loop of one case), :mod:`.batch` (many cases through one vectorised loop), :mod:`.cli` (the
-command line: exit codes, ``--out`` checked up front and written atomically, progress).
+The dynamic control ``"control": "slider"`` (a spring-slider: mass, spring, driving velocity,
+constant normal stress, integrated in time with adaptive steps) has its own case fields and
+result: :mod:`.slider`.
+
+Modules: :mod:`.case` (parsing and validation), :mod:`.checks` (the case error and the check of
+a case's numbers), :mod:`.path` (the plan of steps), :mod:`.run` (the step loop of one case),
+:mod:`.batch` (many cases through one vectorised loop), :mod:`.slider` (the spring-slider: the
+dynamic control), :mod:`.cli` (the command line: exit codes, ``--out`` checked up front and
+written atomically, progress).
 
 May import: :mod:`subfric_dolfinx.constitutive`, the layer-0 modules (:mod:`subfric_dolfinx.logs`,
 :mod:`subfric_dolfinx.values`, :mod:`subfric_dolfinx.commandline`), numpy and the standard
@@ -64,12 +70,13 @@ from .case import (
     MAX_STEPS_PER_SEGMENT,
     MAX_TOTAL_STEPS,
     Case,
-    CaseError,
     load_case,
     parse_case,
 )
+from .checks import CaseError
 from .cli import main
 from .run import DriverResult, RunawayError, fields, run_case
+from .slider import SliderCase, SliderResult, parse_slider, run_slider
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -79,10 +86,14 @@ __all__ = [
     "CaseError",
     "DriverResult",
     "RunawayError",
+    "SliderCase",
+    "SliderResult",
     "fields",
     "load_case",
     "main",
     "parse_case",
+    "parse_slider",
     "run_case",
     "run_cases",
+    "run_slider",
 ]

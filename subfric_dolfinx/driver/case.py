@@ -18,15 +18,15 @@ from typing import Any
 import numpy as np
 
 from ..constitutive import FrictionLaw, LawError, build_law
-from ..values import NotANumber, NotFinite, finite_float, short_repr
+from ..values import short_repr
+from .checks import CaseError, field_number
+from .slider import parse_slider
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
     "MAX_STEPS_PER_SEGMENT",
     "MAX_TOTAL_STEPS",
     "Case",
-    "CaseError",
-    "field_number",
     "load_case",
     "parse_case",
     "read_json",
@@ -41,10 +41,6 @@ MAX_CASE_BYTES = 1 << 30  # a case file larger than this is refused before it is
 MAX_JSON_DEPTH = 64  # arrays and objects nested deeper than this are refused
 
 
-class CaseError(ValueError):
-    """A malformed case; the message names the offending field."""
-
-
 @dataclasses.dataclass(frozen=True)
 class Case:
     """A validated material-point case (see the module docstring for the JSON form)."""
@@ -55,22 +51,6 @@ class Case:
     t_samples: np.ndarray
     n_tangential: int = 2
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
-
-
-def field_number(where: str, v: Any) -> float:
-    """The value of the field ``where`` as a float: a real number (not a boolean), finite.
-
-    The check of every number of a case and of calibration data (:mod:`subfric_dolfinx.values`).
-
-    Raises:
-        CaseError: Naming the field and the value (``field 'path[1][1]' must be finite, got nan``).
-    """
-    try:
-        return finite_float(v)
-    except NotANumber:
-        raise CaseError(f"field '{where}' must be a number, got {short_repr(v)}") from None
-    except NotFinite:
-        raise CaseError(f"field '{where}' must be finite, got {short_repr(v)}") from None
 
 
 def parse_case(obj: Any, base: str | Path | None = None) -> Case:
@@ -266,6 +246,13 @@ def read_table(
 
 
 def _parse(obj: dict, base: str | Path | None = None) -> Case:
+    if obj.get("control") == "slider":  # the dynamic control (a SliderCase)
+        return parse_slider(obj)  # type: ignore[return-value]
+    if "slider" in obj:
+        raise CaseError(
+            f"field 'control' must be 'slider' in a case with a 'slider' object, got "
+            f"{short_repr(obj.get('control'))}"
+        )
     allowed = {"law", "params", "control", "path", "t_samples", "n_tangential", "steps_per_mm"}
     unknown = sorted(set(obj) - allowed)
     if unknown:
@@ -276,7 +263,9 @@ def _parse(obj: dict, base: str | Path | None = None) -> Case:
         raise CaseError(str(e)) from None
     control = obj.get("control")
     if not isinstance(control, str) or control not in ("disp", "stress"):
-        raise CaseError(f"field 'control' must be 'disp' or 'stress', got {short_repr(control)}")
+        raise CaseError(
+            f"field 'control' must be 'disp', 'stress' or 'slider', got {short_repr(control)}"
+        )
     nt = obj.get("n_tangential", 2)
     if isinstance(nt, bool) or not isinstance(nt, int | float) or nt not in (1, 2):
         raise CaseError(f"field 'n_tangential' must be 1 or 2, got {short_repr(nt)}")

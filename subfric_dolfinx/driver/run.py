@@ -21,6 +21,7 @@ from ..constitutive import (
 )
 from .case import MAX_TOTAL_STEPS, Case, CaseError, parse_case
 from .path import plan_steps
+from .slider import SliderCase, SliderResult, run_slider
 
 __all__ = ["DriverResult", "RunawayError", "fields", "run_case"]
 
@@ -346,17 +347,19 @@ def _own_columns(law: FrictionLaw, nt: int) -> list[tuple[str, int | None]]:
 
 
 def run_case(
-    case: Case | dict[str, Any],
+    case: Case | SliderCase | dict[str, Any],
     *,
     steps_per_mm: float | None = None,
     on_instability: str = "stop",
     max_steps: float = MAX_TOTAL_STEPS,
     progress: Callable[[int, int, float], None] | None = None,
-) -> DriverResult:
+) -> DriverResult | SliderResult:
     """Run a material-point case.
 
     Args:
-        case: A :class:`Case` or its JSON-like dictionary.
+        case: A :class:`Case`, a :class:`~.slider.SliderCase` (``"control": "slider"``: then
+            :func:`~.slider.run_slider` runs it, ``steps_per_mm`` and ``on_instability`` do
+            not apply) or its JSON-like dictionary.
         steps_per_mm: Overrides the case's step density.
         on_instability: ``"stop"`` (default): stop at the first loss of stability, since no
             stable quasi-static solution exists beyond; ``"continue"``: go on, flagged.
@@ -364,14 +367,18 @@ def run_case(
         progress: Called every 2000 steps as ``progress(steps_done, steps_total, t)``.
 
     Returns:
-        The sampled history and the diagnostics.
+        The sampled history and the diagnostics (a :class:`~.slider.SliderResult` for a slider).
 
     Raises:
         CaseError: Invalid case, or more steps than the limits (per knot interval and total).
         RunawayError: Under stress control, the prescribed stress cannot be sustained.
     """
-    if not isinstance(case, Case):
+    if not isinstance(case, Case | SliderCase):
         case = parse_case(case)
+    if isinstance(case, SliderCase):  # the dynamic control
+        if steps_per_mm is not None:
+            raise CaseError("steps_per_mm does not apply to a slider case (its steps adapt)")
+        return run_slider(case, max_steps=max_steps, progress=progress)
     if on_instability not in ("stop", "continue"):
         raise ValueError(f"on_instability must be 'stop' or 'continue', got {on_instability!r}")
     spm = case.steps_per_mm if steps_per_mm is None else float(steps_per_mm)
