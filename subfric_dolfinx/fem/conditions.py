@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ..constitutive.j2 import LinearElastic
+
 __all__ = [
     "Dirichlet",
     "DirichletField",
@@ -27,18 +29,13 @@ __all__ = [
 ]
 
 
-@dataclasses.dataclass(frozen=True)
-class Material:
-    """Isotropic linear elasticity. ``E`` in MPa, ``nu`` in [0, 0.5)."""
+Material = LinearElastic
+"""Isotropic linear elasticity of a body: ``Material(E, nu)``, ``E`` in MPa (> 0), -1 < nu < 0.5.
 
-    E: float
-    nu: float
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.E) and self.E > 0):
-            raise ValueError(f"Young's modulus E = {self.E!r} must be finite and > 0")
-        if not (np.isfinite(self.nu) and 0.0 <= self.nu < 0.5):
-            raise ValueError(f"Poisson's ratio nu = {self.nu!r} must be in [0, 0.5)")
+The one elastic material of the package (:class:`~subfric_dolfinx.constitutive.LinearElastic`,
+under the name the problem's ``materials`` have always used): one class, one validation, for the
+built-in linear elasticity, the J2 bulk's elastic bodies and the scene parser alike.
+"""
 
 
 @dataclasses.dataclass(frozen=True)
