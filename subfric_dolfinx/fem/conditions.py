@@ -24,6 +24,7 @@ __all__ = [
     "Material",
     "PointForce",
     "Pressure",
+    "ProblemSettings",
     "Spring",
     "Traction",
 ]
@@ -141,8 +142,8 @@ class Interface:
     Attributes:
         group: The interface's facet group (both sides tagged; nodes duplicated).
         primary: The body (a body of the mesh, or a cell group) whose outward normal defines the
-            interface's local frame (the *master* of older codes); ``None``: as the mesh says.
-        secondary: The other body (the *slave*); ``None``: as the mesh says.
+            interface's local frame; ``None``: as the mesh says.
+        secondary: The other body; ``None``: as the mesh says.
         law: Its friction law; ``None``: the problem's ``law``.
         initial_gap: Its initial normal gap ``g0`` (mm, > 0 open): a number or a function of the
             coordinates ``x`` (gdim, n).
@@ -173,6 +174,25 @@ class Interface:
     search_radius: float | None = None
     reach: float | None = None
     intended_compliance: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class ProblemSettings:
+    """How a problem is discretised and modelled (:class:`~.problem.InterfaceProblem`).
+
+    Attributes:
+        degree: Displacement degree (1 or 2).
+        quadrature: Interface quadrature of every interface that does not give its own,
+            ``"gauss"`` or ``"nodal"``.
+        mode: ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
+            ``"axisymmetric"`` (coordinates (r, z); every integral, the interfaces' included,
+            carries ``2 pi r``: forces are totals over the revolution); ``None``: the mesh's
+            dimension's default.
+    """
+
+    degree: int = 1
+    quadrature: str = "gauss"
+    mode: str | None = None
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

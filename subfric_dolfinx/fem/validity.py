@@ -88,10 +88,13 @@ def contact_modulus(materials: Mapping[str, Any]) -> float:
     """``E*`` of the two bodies: ``1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2`` (MPa).
 
     Args:
-        materials: Body name -> :class:`~subfric_dolfinx.fem.Material`; ``master`` and
-            ``slave`` if given, otherwise the two most compliant.
+        materials: Body name -> :class:`~subfric_dolfinx.fem.Material`; ``primary`` and
+            ``secondary`` (or their input aliases ``master`` and ``slave``) if given, otherwise
+            the two most compliant.
     """
-    mats = [materials[k] for k in ("master", "slave") if k in materials]
+    mats = [materials[k] for k in ("primary", "secondary") if k in materials]
+    if len(mats) < 2:
+        mats = [materials[k] for k in ("master", "slave") if k in materials]
     if len(mats) < 2:
         mats = sorted(materials.values(), key=lambda m: m.E / (1.0 - m.nu**2))[:2]
         mats = (mats * 2)[:2]
@@ -298,28 +301,28 @@ def _interface_modulus(problem: Any, name: str) -> float | None:
     """``E*`` of the two bodies an interface joins, from the problem's materials.
 
     A body's material is given by its name or by one of its cell groups (the most compliant of
-    those given); the legacy ``master``/``slave`` keys are resolved by the problem. ``None`` when
-    either body has none (a user bulk law).
+    those given); the input aliases of the first interface's bodies are resolved by the
+    problem's topology. ``None`` when either body has none (a user bulk law).
     """
     materials = getattr(problem, "materials", None) or {}
     topo = getattr(problem, "topology", None)
-    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
-    if spec is None:  # not a problem of the model layer: its two bodies are the materials
+    sides = None if topo is None else topo.interfaces.get(name)
+    if sides is None:  # not a problem of the model layer: its two bodies are the materials
         return contact_modulus(materials) if materials else None
     mats = []
-    for body in (spec.primary, spec.secondary):
+    for body in (sides.primary, sides.secondary):
         keys = [body, *topo.bodies.get(body, ())]
         given = [materials[k] for k in keys if k in materials]
         if not given:
             return None
         mats.append(min(given, key=lambda m: m.E / (1.0 - m.nu**2)))
-    return contact_modulus({"master": mats[0], "slave": mats[1]})
+    return contact_modulus({"primary": mats[0], "secondary": mats[1]})
 
 
 def _intended_compliance(problem: Any, name: str) -> bool:
     """Whether the interface's spec declares its normal compliance intended."""
-    topo = getattr(problem, "topology", None)
-    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
+    specs = getattr(problem, "specs", None) or []
+    spec = next((s for s in specs if s.group == name), None)
     return bool(getattr(spec, "intended_compliance", False))
 
 

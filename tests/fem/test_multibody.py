@@ -30,6 +30,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
@@ -338,7 +339,7 @@ def test_a_body_of_two_groups_with_their_own_materials(comm):
         LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]}),
         [Dirichlet("ground", 0.0, component=1), Dirichlet("pin", 0.0, component=0)],
         [Pressure("lid", p, amplitude="press")],
-        mode="plane_stress",
+        settings=ProblemSettings(mode="plane_stress"),
     )
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
