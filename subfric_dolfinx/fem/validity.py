@@ -31,9 +31,9 @@ a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
     the scene key ``interfaces.<name>.intended_compliance``) is judged on its interpenetration
     only.
 
-* **Slide.** The traction at a slave point acts on the master point that faced it at the start:
-  a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it several
-  elements away from the point the slave really touches. Results stay those of that
+* **Slide.** The traction at a secondary point acts on the primary point that faced it at the
+  start: a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it
+  several elements away from the point the secondary body really touches. Results stay those of that
   idealisation (exact for a uniformly loaded flat interface, not where the contact's state
   varies over the slide, e.g. near its edges).
 
@@ -238,13 +238,13 @@ class ValidityWatch:
                         f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
                         f"t = {s.t:.6g} s), {s.value / s.h:.3g} interface elements "
                         f"(h = {s.h:.3g} mm; warned beyond {SLIDE_ELEMENTS:g}). The interface is "
-                        "small-sliding: a slave point's traction still acts on the master point "
-                        f"that faced it at the start, {s.value:.3g} mm away, which is right for a "
-                        "uniformly loaded flat interface, not where the contact's state varies "
-                        "over that distance (e.g. at its edges). Make the interface finite-sliding "
-                        "(Interface(..., kinematics='finite_sliding'); scene: interfaces.<name>."
-                        "kinematics: 'finite_sliding'), which pairs its points again as they "
-                        "slide, or keep the slide within a few interface elements"
+                        "small-sliding: a secondary point's traction still acts on the primary "
+                        f"point that faced it at the start, {s.value:.3g} mm away, which is right "
+                        "for a uniformly loaded flat interface, not where the contact's state "
+                        "varies over that distance (e.g. at its edges). Make the interface "
+                        "finite-sliding (Interface(..., kinematics='finite_sliding'); scene: "
+                        "interfaces.<name>.kinematics: 'finite_sliding'), which pairs its points "
+                        "again as they slide, or keep the slide within a few interface elements"
                     ),
                 )
             )
