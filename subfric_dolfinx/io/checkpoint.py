@@ -40,10 +40,11 @@ refused by every reader as incomplete; any failure is a
 
 Format version 2 (still read) stored the first interface apart, at ``/interface`` and
 ``/point_data`` (its points counted by the top-level attribute ``n_points``, its law the top-level
-``law``), and only the further ones under ``/interfaces/<name>``. A bulk
-model with state (:class:`~subfric_dolfinx.fem.bulk.BulkModel`) stores each array of its
-``state()`` under ``/bulk/<name>``, by original cell index: ``(n_cells, k, ...)`` for ``k`` values
-per cell, so that it restores on any partition.
+``law``), and only the further ones under ``/interfaces/<name>``.
+
+A bulk model with state (:class:`~subfric_dolfinx.fem.bulk.BulkModel`) stores each array of its
+``saved_state()`` under ``/bulk/<name>``, by original cell index: ``(n_cells, k, ...)`` for ``k``
+values per cell, so that it restores on any partition.
 
 Nothing in a checkpoint is trusted: reading checks the format and version, the type and range of
 every attribute, that the JSON attributes parse to objects, and the shape and dtype of every
@@ -750,7 +751,7 @@ class ExtraParts:
 def _bulk_state(problem: Any, n_cells_local: int) -> dict[str, np.ndarray]:
     """The bulk model's state, each array shaped (owned cells, k, ...)."""
     bulk = getattr(problem, "bulk", None)
-    state = bulk.state() if bulk is not None else {}
+    state = bulk.saved_state() if bulk is not None else {}
     out = {}
     for name, a in state.items():
         a = np.asarray(a, dtype=float)
@@ -906,7 +907,7 @@ def restore_bulk(
         a = pull(comm, cells, block, n_cells).reshape(mine.shape)
         restored[k] = a.reshape(-1, *mine.shape[2:])
     if restored:
-        problem.bulk.restore(restored)
+        problem.bulk.restore_state(restored)
 
 
 _POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}

@@ -184,10 +184,10 @@ class MaxStrain:
     def revert(self):
         self.new.x.array[:] = self.old.x.array
 
-    def state(self):
+    def saved_state(self):
         return {"emax": self.old.x.array[: self.n].copy()}
 
-    def restore(self, data):
+    def restore_state(self, data):
         self.old.x.array[: self.n] = data["emax"]
         self.old.x.scatter_forward()
         self.revert()
