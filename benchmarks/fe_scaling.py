@@ -361,7 +361,7 @@ def run_one(
     from petsc4py import PETSc
 
     from subfric_dolfinx import logs
-    from subfric_dolfinx.fem import LoadStepper, timing_breakdown
+    from subfric_dolfinx.fem import LoadStepper, StepControl, timing_breakdown
     from subfric_dolfinx.fem.timing import TIMER_PROJECTION, TIMER_SEARCH
     from subfric_dolfinx.io import interface_summary
 
@@ -390,7 +390,9 @@ def run_one(
             stopped[0] = f"time limit {time_limit:g} s: stopped after step {rec.step} (t {rec.t:g})"
             raise TimeLimit
 
-    stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, on_step=on_step, predictor=predictor)
+    stepper = LoadStepper(
+        solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step, predictor=predictor
+    )
     failure = None
     try:
         stepper.run()

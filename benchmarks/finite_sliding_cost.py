@@ -27,6 +27,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
 )
 from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import tagged_boxes
@@ -66,7 +67,7 @@ def main() -> None:
         interfaces=[
             Interface("contact", "base", "block", kinematics="finite_sliding", search_radius=1.5)
         ],
-        degree=a.degree,
+        settings=ProblemSettings(degree=a.degree),
     )
     setup = time.perf_counter() - t0
     iface = problem.interfaces["contact"]

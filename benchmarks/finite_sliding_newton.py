@@ -40,7 +40,7 @@ import numpy as np
 from mpi4py import MPI
 
 from subfric_dolfinx.constitutive import preset
-from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl
 from subfric_dolfinx.fem.interface.finite.transfer import SegmentTransfer
 
 OUT = Path(__file__).resolve().parents[1] / "scratch" / "finite_sliding_newton"
@@ -122,7 +122,7 @@ def diagonal_3d() -> tuple[list[int], list[int], list[int]]:
     law = dataclasses.replace(preset("sec7"), alpha_n=1e6)
     problem = diagonal_slide_3d(MPI.COMM_WORLD, law, 2.0)
     with counted_attempts() as seen, FrictionSolver(problem, linear="lu") as solver:
-        records = LoadStepper(solver, 0.0625, dt_max=0.0625).run()
+        records = LoadStepper(solver, 0.0625, control=StepControl(dt_max=0.0625)).run()
     rows = [r for r in records if r.t > 1.0 + 1e-9]
     total = all_attempts(seen, [r.t for r in rows])
     return [r.iterations for r in rows], [r.cuts for r in rows], total

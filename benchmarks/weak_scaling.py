@@ -173,7 +173,7 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
     """
     from petsc4py import PETSc
 
-    from subfric_dolfinx.fem import LoadStepper
+    from subfric_dolfinx.fem import LoadStepper, StepControl
     from subfric_dolfinx.io import write_checkpoint
     from subfric_dolfinx.scenes.outputs import interface_profile
 
@@ -197,7 +197,7 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
     problem, solver = pad.problem, pad.solver
     rss_setup = fe_scaling.peak_rss_mib()
     try:
-        stepper = LoadStepper(solver, dt=10.0, dt_max=10.0, predictor=True)
+        stepper = LoadStepper(solver, 10.0, control=StepControl(dt_max=10.0), predictor=True)
         stages["steps"].push()
         stepper.run()
         stages["steps"].pop()

@@ -70,6 +70,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Spring,
+    StepControl,
 )
 from subfric_dolfinx.io import interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
@@ -205,7 +206,7 @@ def problem(domain, cycles: int) -> InterfaceProblem:
             Dirichlet("upper_end", SHEAR, component=0, amplitude="shear"),
             Dirichlet("upper_end", 0.0, component=1),
         ],
-        springs=[Spring("head_top", [1e-2, 1e-2, 0.0])],
+        [Spring("head_top", [1e-2, 1e-2, 0.0])],
         interfaces=[
             Interface("head_face"),
             Interface("joint"),
@@ -251,7 +252,7 @@ def run(domain, cycles: int, dt: float) -> tuple[list[dict[str, float]], Interfa
         )
 
     with FrictionSolver(p, "bolt_", linear="lu") as solver:
-        LoadStepper(solver, dt, hold_dt=1.0, on_step=on_step).run()
+        LoadStepper(solver, dt, control=StepControl(hold_dt=1.0), on_step=on_step).run()
     return rows, p
 
 

@@ -55,9 +55,12 @@ from subfric_dolfinx.constitutive import CoulombLaw, preset
 from subfric_dolfinx.fem import (
     Dirichlet,
     FrictionSolver,
+    Interface,
     InterfaceProblem,
     LoadStepper,
     Material,
+    ProblemSettings,
+    StepControl,
 )
 from subfric_dolfinx.io import gather_interface, interface_summary, write_history_file
 from subfric_dolfinx.loading import LoadingProgram
@@ -130,7 +133,7 @@ def build(h: float):
 def problem(domain, law, push: float) -> InterfaceProblem:
     program = LoadingProgram([0.0, 1.0, 2.0], {"push": [0.0, 0.0, 1.0]})
     steel = Material(E, NU)
-    return InterfaceProblem(
+    return InterfaceProblem.two_bodies(
         domain,
         law,
         {"shaft": steel, "hub": steel},
@@ -140,9 +143,8 @@ def problem(domain, law, push: float) -> InterfaceProblem:
             Dirichlet("hub_ends", 0.0, component=1),
             Dirichlet("shaft", push, component=1, amplitude="push"),
         ],
-        degree=2,
-        initial_gap=-DELTA,
-        mode="axisymmetric",
+        interface=Interface("fit", initial_gap=-DELTA),
+        settings=ProblemSettings(degree=2, mode="axisymmetric"),
     )
 
 
@@ -166,7 +168,7 @@ def run(domain, law, steps: int, push: float) -> dict:
             fit.update(gather_interface(el, {"f_n": el.last.traction[:, el.nt]}))
 
     with FrictionSolver(p, linear="lu") as solver:
-        LoadStepper(solver, 1.0 / steps, hold_dt=1.0, on_step=on_step).run()
+        LoadStepper(solver, 1.0 / steps, control=StepControl(hold_dt=1.0), on_step=on_step).run()
     return {"history": rows, "fit": fit, "problem": p}
 
 

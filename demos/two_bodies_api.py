@@ -66,6 +66,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    StepControl,
     format_breakdown,
     timing_breakdown,
 )
@@ -277,7 +278,9 @@ def run(problem: InterfaceProblem, outdir: Path, dt: float, fields: str) -> dict
 
     try:
         with FrictionSolver(problem, "api_") as solver:
-            stepper = LoadStepper(solver, dt, dt_max=2.5 * dt, hold_dt=5.0, on_step=on_step)
+            stepper = LoadStepper(
+                solver, dt, control=StepControl(dt_max=2.5 * dt, hold_dt=5.0), on_step=on_step
+            )
             stepper.run(stops=FIELD_TIMES)
             timing = timing_breakdown(problem, solver.event_start)
     finally:

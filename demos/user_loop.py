@@ -193,6 +193,7 @@ def reference(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict
         LoadStepper,
         Material,
         Pressure,
+        StepControl,
     )
     from subfric_dolfinx.io import interface_summary
     from subfric_dolfinx.loading import LoadingProgram
@@ -220,7 +221,9 @@ def reference(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict
 
     options = {"snes_rtol": 0.1 * RTOL}  # its own test stops at the round-off floor
     with FrictionSolver(problem, "user_loop_ref_", options, linear="lu") as solver:
-        LoadStepper(solver, dt, grow=1.0, retry_options=None, on_step=on_step).run()
+        LoadStepper(
+            solver, dt, control=StepControl(grow=1.0), retry_options=None, on_step=on_step
+        ).run()
     return rows
 
 

@@ -367,7 +367,14 @@ def diagonal_slide_3d(
     The problem of ``tests/fem/interface/test_finite_sliding_tangent.py`` (``split_x`` 1.5: across
     the partition boundary) and of ``benchmarks/finite_sliding_newton.py``'s 3-D case.
     """
-    from subfric_dolfinx.fem import Dirichlet, Interface, InterfaceProblem, Material, Pressure
+    from subfric_dolfinx.fem import (
+        Dirichlet,
+        Interface,
+        InterfaceProblem,
+        Material,
+        Pressure,
+        ProblemSettings,
+    )
     from subfric_dolfinx.loading import LoadingProgram
 
     dom = tagged_boxes(
@@ -388,5 +395,5 @@ def diagonal_slide_3d(
         interfaces=[
             Interface("contact", "base", "block", kinematics="finite_sliding", search_radius=0.5)
         ],
-        degree=degree,
+        settings=ProblemSettings(degree=degree),
     )

@@ -5,16 +5,18 @@
   and :class:`FrictionInterface`, one interface as a building block of any DOLFINx problem.
 * :mod:`.conditions`: materials, prescribed displacements, loads, springs and interfaces (plain
   data); :mod:`.boundary`: the groups they act on, Dirichlet dofs, load vectors, spring forms;
-  :mod:`.bodies`: the bodies and interfaces of a problem.
+  :mod:`.bodies`: the interfaces of a problem on the mesh's topology.
 * :mod:`.bulk`: the bodies' law: the :class:`~.bulk.BulkModel` protocol (any UFL residual, with
   quadrature-point state committed and reverted with the step), :class:`UFLBulk`, and the
   built-in :class:`LinearElasticity` (the fast path); :mod:`.plasticity`: :class:`J2Bulk`, J2
   plasticity with its state at the quadrature points (a bulk model).
-* :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian.
+* :mod:`.problem`: :class:`InterfaceProblem`, the residual and consistent Jacobian (its settings:
+  :class:`ProblemSettings`; two bodies and one interface: :meth:`InterfaceProblem.two_bodies`).
 * :mod:`.solver`: :class:`FrictionSolver`, PETSc SNES with a clean options lifecycle, and
   :class:`SolveResult`, what one solve did;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
-* :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program;
+* :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program
+  (:class:`StepControl`: how its step adapts);
   :mod:`.validity`: the warnings when a run's penetration or slide goes beyond what the
   small-sliding penalty interface describes.
 * :mod:`.kinematics`: the small strain, elastic stress and weight of each modelling mode (3-D,
@@ -34,6 +36,7 @@ from .conditions import (
     Material,
     PointForce,
     Pressure,
+    ProblemSettings,
     Spring,
     Traction,
 )
@@ -47,7 +50,7 @@ from .solver import (
     SolveResult,
     SolverOptionError,
 )
-from .stepping import LoadStepper, StepFailure, StepInterrupted, StepRecord
+from .stepping import LoadStepper, StepControl, StepFailure, StepInterrupted, StepRecord
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
@@ -71,9 +74,11 @@ __all__ = [
     "PlasticityError",
     "PointForce",
     "Pressure",
+    "ProblemSettings",
     "SolveResult",
     "SolverOptionError",
     "Spring",
+    "StepControl",
     "StepFailure",
     "StepInterrupted",
     "StepRecord",

@@ -1,90 +1,55 @@
-"""Which bodies and interfaces a problem has: from the mesh, the user's names and settings.
+"""Which bodies and interfaces a problem has: the mesh's topology and the user's interfaces.
 
-A mesh read by :mod:`subfric_dolfinx.meshing` knows its bodies (body name -> its cell groups) and
-its interfaces (facet group -> primary and secondary body). A problem may name the groups of the
-classic two-body layout (``names={"master": ..., "slave": ..., "interface": ...}``), or give its
-interfaces one by one (:class:`~.conditions.Interface`). :func:`resolve_topology` turns all that
-into the bodies and the fully specified interfaces of the problem, naming what is missing.
+A mesh read by :mod:`subfric_dolfinx.meshing` carries its
+:class:`~subfric_dolfinx.meshing.Topology` (bodies, and interfaces with their primary and
+secondary bodies), resolved once by the reader. A problem takes it as it is, or the interfaces
+the user gives one by one (:class:`~.conditions.Interface`, whose sides default to the mesh's);
+:func:`resolve_interfaces` completes each interface's settings (law, quadrature, kinematics) and
+returns the problem's topology, the same kind of value, naming what is missing.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
-
-from .conditions import Interface, Material
+from ..meshing.groups import INTERFACE, MASTER, SLAVE
+from ..meshing.topology import InterfaceSides, Topology
+from .conditions import Interface
 from .interface import InterfaceError
 
-__all__ = ["DEFAULT_NAMES", "Topology", "resolve_topology"]
-
-DEFAULT_NAMES = {"interface": "interface", "master": "master", "slave": "slave"}
-"""The groups of the classic two-body layout (role -> group name)."""
+__all__ = ["resolve_interfaces"]
 
 
-@dataclasses.dataclass(frozen=True)
-class Topology:
-    """The bodies and interfaces of a problem.
-
-    Attributes:
-        bodies: Body name -> its cell groups.
-        interfaces: The interfaces, each with its group, sides, law and settings resolved.
-        tags: Body or cell-group name -> its cell tags.
-    """
-
-    bodies: dict[str, tuple[str, ...]]
-    interfaces: list[Interface]
-    tags: dict[str, tuple[int, ...]]
-
-    def materials(self, given: Mapping[str, Material]) -> dict[str, Material]:
-        """The materials by body and cell group.
-
-        The legacy keys ``master``/``slave`` name the first interface's primary and secondary.
-        """
-        out = dict(given)
-        if self.interfaces:
-            first = self.interfaces[0]
-            for role, body in (("master", first.primary), ("slave", first.secondary)):
-                if role in given and body not in given and body is not None:
-                    out[body] = given[role]
-        return out
-
-
-def resolve_topology(
+def resolve_interfaces(
     domain: Any,
     law: Any,
-    *,
-    names: Mapping[str, str] | None = None,
     interfaces: Sequence[Interface] | None = None,
-    initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
-    regions: Mapping[str, Any] | None = None,
     quadrature: str = "gauss",
-) -> Topology:
-    """The problem's bodies and interfaces (see the module docstring).
+) -> tuple[Topology, list[Interface]]:
+    """The problem's topology and its interfaces, every setting resolved.
+
+    Args:
+        domain: The mesh with its ``tags`` (and its ``topology``, if read by
+            :mod:`subfric_dolfinx.meshing`).
+        law: The friction law of every interface that does not give its own.
+        interfaces: The interfaces one by one; ``None``: the mesh's (or, on a mesh that knows
+            none, the classic layout's ``interface`` between ``master`` and ``slave``).
+        quadrature: The quadrature of every interface that does not give its own.
 
     Raises:
-        InterfaceError: A group or body that the mesh lacks, an interface without sides, a law,
-            initial gap or regions that do not say which interface they belong to.
+        InterfaceError: A group or body that the mesh lacks, an interface given twice or
+            without sides or law.
     """
     tags = dict(domain.tags)
-    mesh_bodies = dict(getattr(domain, "bodies", None) or {})
-    mesh_ifaces = dict(getattr(domain, "interfaces", None) or {})
-    nm = {**DEFAULT_NAMES, **(names or {})}
+    mesh = getattr(domain, "topology", None)
+    mesh = mesh if isinstance(mesh, Topology) else Topology()
     if interfaces is None:
-        if names or not mesh_ifaces:
-            specs = [Interface(nm["interface"], nm["master"], nm["slave"])]
+        if mesh.interfaces:
+            specs = [Interface(g) for g in mesh.interfaces]
         else:
-            specs = [Interface(g) for g in mesh_ifaces]
-        if len(specs) > 1 and (initial_gap is not None or regions):
-            raise InterfaceError(
-                f"the mesh has {len(specs)} interfaces {[s.group for s in specs]}: give the "
-                "initial gap and the regions per interface (interfaces=[Interface(...), ...])"
-            )
-        specs = [
-            dataclasses.replace(s, initial_gap=initial_gap, regions=regions or None) for s in specs
-        ]
+            specs = [Interface(INTERFACE, MASTER, SLAVE)]
     else:
         specs = list(interfaces)
         if not specs:
@@ -100,7 +65,7 @@ def resolve_topology(
         )
     resolved = []
     for s in specs:
-        known = mesh_ifaces.get(s.group)
+        known = mesh.interfaces.get(s.group)
         primary = s.primary or (known.primary if known else None)
         secondary = s.secondary or (known.secondary if known else None)
         if primary is None or secondary is None:
@@ -121,18 +86,12 @@ def resolve_topology(
                 kinematics=s.kinematics or getattr(known, "kinematics", None) or "small_sliding",
             )
         )
-    bodies = dict(mesh_bodies)
-    for s in resolved:
-        for b in (s.primary, s.secondary):
-            if b not in bodies:
-                bodies[b] = (b,)
-    absent = [g for gs in bodies.values() for g in gs if g not in tags]
+    topology = mesh.with_interfaces(
+        {s.group: InterfaceSides(s.primary, s.secondary, s.kinematics) for s in resolved}
+    )
+    absent = [g for gs in topology.bodies.values() for g in gs if g not in tags]
     if absent:
         raise InterfaceError(
             f"the mesh lacks the physical group(s) {sorted(set(absent))}; it has {sorted(tags)}"
         )
-    body_tags = {b: tuple(tags[g] for g in gs) for b, gs in bodies.items()}
-    for gs in bodies.values():
-        for g in gs:
-            body_tags.setdefault(g, (tags[g],))
-    return Topology(bodies, resolved, body_tags)
+    return topology, resolved

@@ -15,8 +15,9 @@ an object of the small protocol :class:`BulkModel`:
 * :meth:`BulkModel.commit` accepts the trial state when a step has converged,
   :meth:`BulkModel.revert` rejects it when a step failed (the load stepper calls them with the
   interfaces' own commit and revert);
-* :meth:`BulkModel.state` and :meth:`BulkModel.restore` give and take the committed state for
-  checkpoints: name -> array whose first axis runs over this rank's *owned cells*, cell by cell
+* :meth:`BulkModel.saved_state` and :meth:`BulkModel.restore_state` give and take the committed
+  state for checkpoints (the names the interfaces' law points use: one idiom for every holder of
+  state): name -> array whose first axis runs over this rank's *owned cells*, cell by cell
   (``n_owned_cells * k`` rows for ``k`` values per cell, in the mesh's local cell order: the layout
   of the owned part of a DOLFINx Quadrature function's array), so that a checkpoint stores it by
   original cell index and restores it on any partition.
@@ -119,12 +120,12 @@ class BulkModel(Protocol):
         """The step failed: reject the trial state."""
         ...
 
-    def state(self) -> dict[str, np.ndarray]:
+    def saved_state(self) -> dict[str, np.ndarray]:
         """This rank's committed state, by owned cell (module docstring)."""
         ...
 
-    def restore(self, data: dict[str, np.ndarray]) -> None:
-        """Take a committed state given as :meth:`state` gives it."""
+    def restore_state(self, data: dict[str, np.ndarray]) -> None:
+        """Take a committed state given as :meth:`saved_state` gives it."""
         ...
 
 
@@ -142,11 +143,11 @@ class _Stateless:
     def revert(self) -> None:
         """Nothing to revert."""
 
-    def state(self) -> dict[str, np.ndarray]:
+    def saved_state(self) -> dict[str, np.ndarray]:
         """No state."""
         return {}
 
-    def restore(self, data: dict[str, np.ndarray]) -> None:
+    def restore_state(self, data: dict[str, np.ndarray]) -> None:
         """No state: ``data`` must be empty."""
         if data:
             raise ValueError(f"this bulk model has no state, got {sorted(data)}")
@@ -380,7 +381,7 @@ def bulk_forms(bulk: Any, u: Any, v: Any, du: Any, ctx: BulkContext) -> tuple[An
     """
     missing = [
         m
-        for m in ("forms", "update", "commit", "revert", "state", "restore")
+        for m in ("forms", "update", "commit", "revert", "saved_state", "restore_state")
         if not callable(getattr(bulk, m, None))
     ]
     if missing:

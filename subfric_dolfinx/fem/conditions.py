@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ..constitutive.j2 import LinearElastic
+
 __all__ = [
     "Dirichlet",
     "DirichletField",
@@ -22,23 +24,19 @@ __all__ = [
     "Material",
     "PointForce",
     "Pressure",
+    "ProblemSettings",
     "Spring",
     "Traction",
 ]
 
 
-@dataclasses.dataclass(frozen=True)
-class Material:
-    """Isotropic linear elasticity. ``E`` in MPa, ``nu`` in [0, 0.5)."""
+Material = LinearElastic
+"""Isotropic linear elasticity of a body: ``Material(E, nu)``, ``E`` in MPa (> 0), -1 < nu < 0.5.
 
-    E: float
-    nu: float
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.E) and self.E > 0):
-            raise ValueError(f"Young's modulus E = {self.E!r} must be finite and > 0")
-        if not (np.isfinite(self.nu) and 0.0 <= self.nu < 0.5):
-            raise ValueError(f"Poisson's ratio nu = {self.nu!r} must be in [0, 0.5)")
+The one elastic material of the package (:class:`~subfric_dolfinx.constitutive.LinearElastic`,
+under the name the problem's ``materials`` have always used): one class, one validation, for the
+built-in linear elasticity, the J2 bulk's elastic bodies and the scene parser alike.
+"""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,8 +142,8 @@ class Interface:
     Attributes:
         group: The interface's facet group (both sides tagged; nodes duplicated).
         primary: The body (a body of the mesh, or a cell group) whose outward normal defines the
-            interface's local frame (the *master* of older codes); ``None``: as the mesh says.
-        secondary: The other body (the *slave*); ``None``: as the mesh says.
+            interface's local frame; ``None``: as the mesh says.
+        secondary: The other body; ``None``: as the mesh says.
         law: Its friction law; ``None``: the problem's ``law``.
         initial_gap: Its initial normal gap ``g0`` (mm, > 0 open): a number or a function of the
             coordinates ``x`` (gdim, n).
@@ -176,6 +174,25 @@ class Interface:
     search_radius: float | None = None
     reach: float | None = None
     intended_compliance: bool = False
+
+
+@dataclasses.dataclass(frozen=True)
+class ProblemSettings:
+    """How a problem is discretised and modelled (:class:`~.problem.InterfaceProblem`).
+
+    Attributes:
+        degree: Displacement degree (1 or 2).
+        quadrature: Interface quadrature of every interface that does not give its own,
+            ``"gauss"`` or ``"nodal"``.
+        mode: ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
+            ``"axisymmetric"`` (coordinates (r, z); every integral, the interfaces' included,
+            carries ``2 pi r``: forces are totals over the revolution); ``None``: the mesh's
+            dimension's default.
+    """
+
+    degree: int = 1
+    quadrature: str = "gauss"
+    mode: str | None = None
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

@@ -358,7 +358,7 @@ class J2Bulk:
         nc = self.n_components
         return vals.reshape(-1, nc, nc) if name == "tangent" else vals.copy()
 
-    def state(self) -> dict[str, np.ndarray]:
+    def saved_state(self) -> dict[str, np.ndarray]:
         """This rank's committed state (copies), for checkpoints, by owned cell.
 
         Returns:
@@ -371,8 +371,8 @@ class J2Bulk:
         old = self._arrays("_old")
         return {k: old[k][self._owned_points].copy() for k in STATE_NAMES}
 
-    def restore(self, data: Mapping[str, np.ndarray]) -> None:
-        """Set the committed and trial state from arrays laid out as :meth:`state` gives them.
+    def restore_state(self, data: Mapping[str, np.ndarray]) -> None:
+        """Set the committed and trial state from arrays laid out as :meth:`saved_state` gives them.
 
         Collective: an error is raised on every rank.
 

@@ -18,7 +18,7 @@ updated there too, and committed or reverted with the interfaces (:meth:`Interfa
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -27,11 +27,12 @@ import ufl
 from petsc4py import PETSc
 
 from ..compat import petsc_vector
-from ..constitutive import FrictionLaw
+from ..constitutive import FrictionLaw, J2Material
 from ..loading import LoadingProgram
-from .bodies import resolve_topology
+from ..meshing.topology import ROLES
+from .bodies import resolve_interfaces
 from .boundary import check_groups, dirichlet_dofs, load_vectors, spring_forms
-from .bulk import BulkContext, LinearElasticity, bulk_forms, bulk_name
+from .bulk import BulkContext, BulkModel, LinearElasticity, bulk_forms, bulk_name
 from .conditions import (
     Dirichlet,
     DirichletField,
@@ -39,6 +40,7 @@ from .conditions import (
     Material,
     PointForce,
     Pressure,
+    ProblemSettings,
     Spring,
     Traction,
     channels,
@@ -48,6 +50,7 @@ from .interface.base import stiffen_separated
 from .interface.kinds import make_interface
 from .interface.layout import layout_of
 from .kinematics import check_axisymmetric, check_mode, weight
+from .plasticity import J2Bulk
 from .timing import TIMER_BULK, TIMER_SETUP, Timings
 
 __all__ = ["InterfaceProblem", "stiffen_separated"]
@@ -60,39 +63,33 @@ class InterfaceProblem:
 
     It owns PETSc matrices and vectors: :meth:`destroy` frees them, as leaving a ``with`` block
     does (``with InterfaceProblem(...) as problem:``), like :class:`~.solver.FrictionSolver`.
+    Two bodies and the one interface between them: :meth:`two_bodies`.
 
     Args:
         domain: The bulk mesh with its tags, e.g. a :class:`~subfric_dolfinx.meshing.InterfaceMesh`
             (anything with ``mesh``, ``cell_tags``, ``facet_tags`` and ``tags``, name -> tag; a
-            mesh of :mod:`subfric_dolfinx.meshing` also knows its ``bodies`` and
-            ``interfaces``); its interface nodes must be duplicated.
+            mesh of :mod:`subfric_dolfinx.meshing` also knows its
+            :class:`~subfric_dolfinx.meshing.Topology`); its interface nodes must be duplicated.
         law: The friction law (a :class:`~subfric_dolfinx.constitutive.FrictionLaw`) of every
             interface that does not give its own.
-        materials: Body or cell-group name -> :class:`Material` (the built-in linear elasticity;
-            ``master``/``slave`` name the first interface's primary and secondary bodies).
+        materials: The bodies' law: body or cell-group name -> :class:`Material` (the built-in
+            linear elasticity) or :class:`~subfric_dolfinx.constitutive.J2Material` (a body
+            with J2 plasticity: the bodies then run through a :class:`~.plasticity.J2Bulk`); the
+            keys ``primary``/``secondary``, or their input aliases ``master``/``slave``, name
+            the first interface's bodies. Or a bulk model
+            (:mod:`.bulk`: a :class:`~.bulk.BulkModel`, e.g. a :class:`~.bulk.UFLBulk` or
+            :class:`~.plasticity.J2Bulk`).
         program: Loading program whose channels the conditions refer to.
         dirichlet: Prescribed displacements (on facet, cell or node groups).
-        loads: Tractions, pressures and point forces.
-        springs: Elastic supports (:class:`Spring`).
-        degree: Displacement degree (1 or 2).
-        quadrature: Interface quadrature, ``"gauss"`` or ``"nodal"``.
-        names: Group names of the classic layout's ``interface``, ``master`` and ``slave`` if not
-            these.
-        initial_gap: Initial normal gap ``g0`` of the (only) interface (mm, > 0 open): a number
-            or a function of the coordinates ``x`` (gdim, n) (see
-            :class:`~.interface.InterfaceElements`).
-        regions: Regions of the (only) interface: name of a subgroup of the interface (see
-            :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`) -> its law; ``law``
-            holds elsewhere.
+        loads: Tractions, pressures, point forces and elastic supports (:class:`Spring`).
         interfaces: The interfaces one by one (:class:`Interface`: group, sides, law, initial gap,
-            regions); ``None``: those of the mesh (or of ``names``) with ``law``.
-        bulk: The bodies' law (:mod:`.bulk`: a :class:`~.bulk.BulkModel`, e.g. a
-            :class:`~.bulk.UFLBulk`); ``None``: linear elasticity with ``materials``.
-        mode: ``"3d"``, ``"plane_strain"`` (the 2-D default), ``"plane_stress"`` or
-            ``"axisymmetric"`` (coordinates (r, z); every integral, the interfaces' included,
-            carries ``2 pi r``: forces are totals over the revolution).
+            regions); ``None``: those of the mesh with ``law``.
+        settings: Degree, interface quadrature and modelling mode (:class:`ProblemSettings`).
 
     Attributes:
+        topology: The problem's :class:`~subfric_dolfinx.meshing.Topology` (its bodies, and its
+            interfaces with their sides and kinds).
+        specs: The interfaces as given, every setting resolved (:class:`Interface`).
         interfaces: Interface name -> its interface, of either kind
             (:class:`~.interface.BaseInterface`).
         interface: The first interface's law points (:class:`~.interface.protocol.LawPoints`: its
@@ -109,21 +106,19 @@ class InterfaceProblem:
         self,
         domain,
         law: FrictionLaw | None,
-        materials: Mapping[str, Material],
+        materials: Mapping[str, Material] | BulkModel,
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),
-        loads: Sequence[Traction | Pressure | PointForce] = (),
+        loads: Sequence[Traction | Pressure | PointForce | Spring] = (),
         *,
-        springs: Sequence[Spring] = (),
-        degree: int = 1,
-        quadrature: str = "gauss",
-        names: Mapping[str, str] | None = None,
-        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
-        regions: Mapping[str, FrictionLaw] | None = None,
         interfaces: Sequence[Interface] | None = None,
-        bulk=None,
-        mode: str | None = None,
+        settings: ProblemSettings | None = None,
     ) -> None:
+        settings = settings or ProblemSettings()
+        springs = [c for c in loads if isinstance(c, Spring)]
+        loads = [c for c in loads if not isinstance(c, Spring)]
+        bulk = None if isinstance(materials, Mapping) else materials
+        given = materials if isinstance(materials, Mapping) else {}
         self.timings = Timings()
         mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
         self.domain = domain
@@ -132,19 +127,13 @@ class InterfaceProblem:
         self.program = program
         self.tags = dict(domain.tags)
         gdim = mesh.geometry.dim
-        self.mode = check_mode(mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
+        self.mode = check_mode(settings.mode or ("3d" if gdim == 3 else "plane_strain"), gdim)
         if self.mode == "axisymmetric":
             check_axisymmetric(mesh)  # r >= 0 everywhere (collective)
-        topo = resolve_topology(
-            domain,
-            law,
-            names=names,
-            interfaces=interfaces,
-            initial_gap=initial_gap,
-            regions=regions,
-            quadrature=quadrature,
+        self.topology, self.specs = resolve_interfaces(
+            domain, law, interfaces, quadrature=settings.quadrature
         )
-        self.topology = topo
+        body_tags = self.topology.body_tags(self.tags)
         needed = [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
         missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
         if missing:
@@ -156,6 +145,7 @@ class InterfaceProblem:
             for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
                 program.amplitude(ch, program.t_start)  # unknown channel -> LoadingError
         self.group_kinds = check_groups(domain, [*dirichlet, *loads, *springs])
+        degree = settings.degree
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
         tdim = mesh.topology.dim
@@ -163,20 +153,25 @@ class InterfaceProblem:
         V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (gdim,)))
         self.V = V
         self.u = dolfinx.fem.Function(V, name="displacement")
-        self.materials = topo.materials(materials)
+        self.materials = self.topology.materials(
+            given if bulk is None else getattr(bulk, "materials", {})
+        )
+        if bulk is None and any(isinstance(m, J2Material) for m in self.materials.values()):
+            known = set(body_tags) | set(self.topology.bodies)
+            bulk = J2Bulk({k: m for k, m in self.materials.items() if k in known or k not in ROLES})
 
         with self.timings(TIMER_SETUP):
             self.interfaces: dict[str, BaseInterface] = {}
             groups = getattr(domain, "interface_groups", None) or {}
-            for spec in topo.interfaces:
+            for spec in self.specs:
                 self.interfaces[spec.group] = make_interface(
                     spec,
                     V,
                     cell_tags,
                     facet_tags,
                     self.tags[spec.group],
-                    topo.tags[spec.primary],
-                    topo.tags[spec.secondary],
+                    body_tags[spec.primary],
+                    body_tags[spec.secondary],
                     groups,
                     self.mode,
                     self.timings,
@@ -195,7 +190,7 @@ class InterfaceProblem:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         self.bulk = bulk if bulk is not None else LinearElasticity(self.materials)
         self.bulk_context = BulkContext(
-            mesh=mesh, V=V, mode=self.mode, dx=dx, tags=dict(topo.tags), groups=topo.bodies
+            mesh=mesh, V=V, mode=self.mode, dx=dx, tags=body_tags, groups=self.topology.bodies
         )
         try:
             F_bulk, J_bulk = bulk_forms(self.bulk, self.u, v, du, self.bulk_context)
@@ -250,6 +245,57 @@ class InterfaceProblem:
         # the interfaces' forces' round-off beyond the displacement's (the convergence test)
         self.interface_round_off: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
+
+    @classmethod
+    def two_bodies(
+        cls,
+        domain,
+        law: FrictionLaw | None,
+        materials: Mapping[str, Material] | BulkModel,
+        program: LoadingProgram,
+        dirichlet: Sequence[Dirichlet | DirichletField] = (),
+        loads: Sequence[Traction | Pressure | PointForce | Spring] = (),
+        *,
+        interface: Interface | None = None,
+        settings: ProblemSettings | None = None,
+    ) -> InterfaceProblem:
+        """Two bodies joined by one interface.
+
+        Args:
+            domain: As in :class:`InterfaceProblem`.
+            law: The interface's friction law (unless ``interface`` gives its own).
+            materials: As in :class:`InterfaceProblem`.
+            program: As in :class:`InterfaceProblem`.
+            dirichlet: As in :class:`InterfaceProblem`.
+            loads: As in :class:`InterfaceProblem`.
+            interface: The interface: its group, sides (``None``: the mesh's) and own settings
+                (initial gap, regions, ...); ``None``: the mesh's only interface (a mesh that
+                knows none: the classic layout's group ``interface`` between the cell groups
+                ``master`` and ``slave``).
+            settings: As in :class:`InterfaceProblem`.
+
+        Raises:
+            InterfaceError: The mesh has several interfaces and ``interface`` names none.
+        """
+        if interface is None:
+            known = list(getattr(getattr(domain, "topology", None), "interfaces", None) or {})
+            if len(known) > 1:
+                raise InterfaceError(
+                    f"the mesh has {len(known)} interfaces {known}: name the one of the two "
+                    "bodies (two_bodies(..., interface=Interface(group))), or give them all "
+                    "(InterfaceProblem(..., interfaces=[Interface(...), ...]))"
+                )
+        interfaces = None if interface is None else [interface]
+        return cls(
+            domain,
+            law,
+            materials,
+            program,
+            dirichlet,
+            loads,
+            interfaces=interfaces,
+            settings=settings,
+        )
 
     # ------------------------------------------------------------------------------------------
     def _versions(self) -> tuple[int, ...]:

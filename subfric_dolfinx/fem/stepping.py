@@ -57,6 +57,7 @@ __all__ = [
     "SEGMENT_LINES",
     "SLIDING_FRACTION",
     "LoadStepper",
+    "StepControl",
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
@@ -233,18 +234,44 @@ class _Tally:
         )
 
 
+@dataclasses.dataclass(frozen=True)
+class StepControl:
+    """How :class:`LoadStepper`'s step length adapts: its bounds, cuts and growth.
+
+    Attributes:
+        dt_min: Smallest step before giving up; ``None``: ``dt * cut ** max_cuts``.
+        dt_max: Largest step; ``None``: the initial step.
+        cut: Factor applied to the step after a failure.
+        grow: Factor applied after ``easy_steps`` consecutive steps with at most
+            ``easy_iterations`` Newton iterations.
+        easy_iterations: See ``grow``.
+        easy_steps: See ``grow`` (and :class:`LoadStepper`'s ``sticky_retry``).
+        max_cuts: Consecutive cuts allowed before :class:`StepFailure`.
+        hold_dt: Step in the holds of the program (segments where every channel is constant),
+            instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
+            untouched); ``None``: holds are stepped like the rest.
+        max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
+            :class:`StepFailure` when it has made that many and is not at its end.
+    """
+
+    dt_min: float | None = None
+    dt_max: float | None = None
+    cut: float = 0.5
+    grow: float = 1.5
+    easy_iterations: int = 4
+    easy_steps: int = 2
+    max_cuts: int = 10
+    hold_dt: float | None = None
+    max_steps: int = MAX_STEPS
+
+
 class LoadStepper:
     """Adaptive load stepping through a loading program.
 
     Args:
         solver: The solver (its problem holds the program).
         dt: Initial step.
-        dt_min: Smallest step before giving up.
-        dt_max: Largest step.
-        cut: Factor applied to the step after a failure.
-        grow: Factor applied after ``easy_steps`` consecutive steps with at most
-            ``easy_iterations`` Newton iterations.
-        max_cuts: Consecutive cuts allowed before :class:`StepFailure`.
+        control: How the step length adapts (:class:`StepControl`); ``None``: its defaults.
         on_step: Called with the :class:`StepRecord` after each converged step (after commit).
         retry_options: Solver options of a second attempt at a failed step, before it is cut
             (default :data:`RETRY_OPTIONS`, a line search); ``None``: cut at once.
@@ -255,11 +282,6 @@ class LoadStepper:
             a line search costs Newton its quadratic rate (more iterations a step than
             ``easy_iterations``), so a segment kept on it would never let the step grow back
             after a cut.
-        hold_dt: Step in the holds of the program (segments where every channel is constant),
-            instead of the adaptive ``dt`` (cut on failure like any step; ``dt`` outside holds is
-            untouched); ``None``: holds are stepped like the rest.
-        max_steps: Converged steps at most (:data:`MAX_STEPS` by default): the run stops with
-            :class:`StepFailure` when it has made that many and is not at its end.
         keep_records: Keep every step's :class:`StepRecord` in :attr:`records` (under a kilobyte
             a step); ``False``: the last one only (a run that keeps its own history,
             as scenes do).
@@ -295,21 +317,17 @@ class LoadStepper:
         solver: FrictionSolver,
         dt: float,
         *,
-        dt_min: float | None = None,
-        dt_max: float | None = None,
-        cut: float = 0.5,
-        grow: float = 1.5,
-        easy_iterations: int = 4,
-        easy_steps: int = 2,
-        max_cuts: int = 10,
+        control: StepControl | None = None,
         on_step: Callable[[StepRecord], None] | None = None,
         retry_options: Mapping[str, Any] | None = RETRY_OPTIONS,
         sticky_retry: bool = True,
-        hold_dt: float | None = None,
-        max_steps: int = MAX_STEPS,
         keep_records: bool = True,
         predictor: bool = True,
     ) -> None:
+        c = control or StepControl()
+        dt_min, dt_max, cut, grow = c.dt_min, c.dt_max, c.cut, c.grow
+        easy_iterations, easy_steps, max_cuts = c.easy_iterations, c.easy_steps, c.max_cuts
+        hold_dt, max_steps = c.hold_dt, c.max_steps
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt = {dt!r} must be finite and > 0")
         if hold_dt is not None and not (math.isfinite(hold_dt) and hold_dt > 0):

@@ -31,9 +31,9 @@ a :class:`~subfric_dolfinx.logs.PenetrationWarning` or
     the scene key ``interfaces.<name>.intended_compliance``) is judged on its interpenetration
     only.
 
-* **Slide.** The traction at a slave point acts on the master point that faced it at the start:
-  a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it several
-  elements away from the point the slave really touches. Results stay those of that
+* **Slide.** The traction at a secondary point acts on the primary point that faced it at the
+  start: a slide ``|ubar_t|`` longer than :data:`SLIDE_ELEMENTS` interface elements puts it
+  several elements away from the point the secondary body really touches. Results stay those of that
   idealisation (exact for a uniformly loaded flat interface, not where the contact's state
   varies over the slide, e.g. near its edges).
 
@@ -88,10 +88,13 @@ def contact_modulus(materials: Mapping[str, Any]) -> float:
     """``E*`` of the two bodies: ``1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2`` (MPa).
 
     Args:
-        materials: Body name -> :class:`~subfric_dolfinx.fem.Material`; ``master`` and
-            ``slave`` if given, otherwise the two most compliant.
+        materials: Body name -> :class:`~subfric_dolfinx.fem.Material`; ``primary`` and
+            ``secondary`` (or their input aliases ``master`` and ``slave``) if given, otherwise
+            the two most compliant.
     """
-    mats = [materials[k] for k in ("master", "slave") if k in materials]
+    mats = [materials[k] for k in ("primary", "secondary") if k in materials]
+    if len(mats) < 2:
+        mats = [materials[k] for k in ("master", "slave") if k in materials]
     if len(mats) < 2:
         mats = sorted(materials.values(), key=lambda m: m.E / (1.0 - m.nu**2))[:2]
         mats = (mats * 2)[:2]
@@ -235,13 +238,13 @@ class ValidityWatch:
                         f"{on}long slide: |ubar_t| up to {s.value:.3g} mm (at {_xy(s.x)}, "
                         f"t = {s.t:.6g} s), {s.value / s.h:.3g} interface elements "
                         f"(h = {s.h:.3g} mm; warned beyond {SLIDE_ELEMENTS:g}). The interface is "
-                        "small-sliding: a slave point's traction still acts on the master point "
-                        f"that faced it at the start, {s.value:.3g} mm away, which is right for a "
-                        "uniformly loaded flat interface, not where the contact's state varies "
-                        "over that distance (e.g. at its edges). Make the interface finite-sliding "
-                        "(Interface(..., kinematics='finite_sliding'); scene: interfaces.<name>."
-                        "kinematics: 'finite_sliding'), which pairs its points again as they "
-                        "slide, or keep the slide within a few interface elements"
+                        "small-sliding: a secondary point's traction still acts on the primary "
+                        f"point that faced it at the start, {s.value:.3g} mm away, which is right "
+                        "for a uniformly loaded flat interface, not where the contact's state "
+                        "varies over that distance (e.g. at its edges). Make the interface "
+                        "finite-sliding (Interface(..., kinematics='finite_sliding'); scene: "
+                        "interfaces.<name>.kinematics: 'finite_sliding'), which pairs its points "
+                        "again as they slide, or keep the slide within a few interface elements"
                     ),
                 )
             )
@@ -298,28 +301,28 @@ def _interface_modulus(problem: Any, name: str) -> float | None:
     """``E*`` of the two bodies an interface joins, from the problem's materials.
 
     A body's material is given by its name or by one of its cell groups (the most compliant of
-    those given); the legacy ``master``/``slave`` keys are resolved by the problem. ``None`` when
-    either body has none (a user bulk law).
+    those given); the input aliases of the first interface's bodies are resolved by the
+    problem's topology. ``None`` when either body has none (a user bulk law).
     """
     materials = getattr(problem, "materials", None) or {}
     topo = getattr(problem, "topology", None)
-    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
-    if spec is None:  # not a problem of the model layer: its two bodies are the materials
+    sides = None if topo is None else topo.interfaces.get(name)
+    if sides is None:  # not a problem of the model layer: its two bodies are the materials
         return contact_modulus(materials) if materials else None
     mats = []
-    for body in (spec.primary, spec.secondary):
+    for body in (sides.primary, sides.secondary):
         keys = [body, *topo.bodies.get(body, ())]
         given = [materials[k] for k in keys if k in materials]
         if not given:
             return None
         mats.append(min(given, key=lambda m: m.E / (1.0 - m.nu**2)))
-    return contact_modulus({"master": mats[0], "slave": mats[1]})
+    return contact_modulus({"primary": mats[0], "secondary": mats[1]})
 
 
 def _intended_compliance(problem: Any, name: str) -> bool:
     """Whether the interface's spec declares its normal compliance intended."""
-    topo = getattr(problem, "topology", None)
-    spec = None if topo is None else next((s for s in topo.interfaces if s.group == name), None)
+    specs = getattr(problem, "specs", None) or []
+    spec = next((s for s in specs if s.group == name), None)
     return bool(getattr(spec, "intended_compliance", False))
 
 

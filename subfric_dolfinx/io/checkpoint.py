@@ -1,30 +1,32 @@
 """Checkpoint and restart of a load-stepped run, in one HDF5 file written and read in slabs.
 
 A checkpoint holds the whole solver state with partition-independent keys, so a run written on 2
-ranks restarts on 1 or 2 (format version 2):
+ranks restarts on 1 or 2 (format version 3; version 2 is still read):
 
 * ``/displacement``: values per (original cell index, cell-local dof, component), shape
   ``(n_cells, n_dofs_per_cell, gdim)``;
-* ``/interface/x`` and ``/interface/<v>`` for every internal variable ``v`` the law declares (e.g.
-  ``up``, ``mu``, ``r``): the committed interface state per quadrature point, in the order of
+* ``/interfaces/<name>``, every interface of the problem alike, with the attributes ``n_points``
+  and ``law`` (JSON): ``x`` and ``<v>`` for every internal variable ``v`` its law declares (e.g.
+  ``up``, ``mu``, ``r``), the committed state per quadrature point, in the order of
   :func:`~.gather.gather_interface` (points sorted by rounded coordinates); a finite-sliding
   interface adds its points' total tangential gap ``sliding_ut`` and frame normals
   ``sliding_normal``
   (:meth:`~subfric_dolfinx.fem.interface.finite.points.SlidingPoints.saved_state`: its points
-  are the slave facets', and the master facet each faces is found again from the displacement);
+  are the secondary facets', and the primary facet each faces is found again from the
+  displacement); ``point_data/<name>``: the fixed data of each point, in the order of ``x``: the
+  initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run restarts
+  only with the same initial gap and regions);
 * ``/increment`` (where the load stepper extrapolates its steps:
   :class:`~subfric_dolfinx.fem.LoadStepper`'s ``predictor``, on by default): the last converged
   step's displacement increment, laid out as ``/displacement``, its step length in the attribute
   ``dt``; a restart starts its first step from it as the uninterrupted run does;
-* ``/point_data/<name>``: the fixed data of each point, in the order of ``/interface/x``: the
-  initial gap ``g0`` and, with interface regions, ``region`` (compared on restart: a run
-  restarts only with the same initial gap and regions);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
-  counter of the stepper), ``law``, ``program`` and ``settings`` (JSON: what the runner passed,
-  e.g. the scene's materials, boundary conditions and loads), ``n_cells``, ``n_points``,
-  ``degree``, ``gdim``, and ``geometry``: the mesh's fingerprint (:func:`geometry_fingerprint`:
-  weighted sums over the cells of their nodes' coordinates, the same on any partition to
-  round-off; a checkpoint without it is of an earlier version and is not compared);
+  counter of the stepper), ``law`` (the first interface's), ``program`` and ``settings`` (JSON:
+  what the runner passed, e.g. the scene's materials, boundary conditions and loads),
+  ``n_cells``, ``degree``, ``gdim``, and ``geometry``: the mesh's fingerprint
+  (:func:`geometry_fingerprint`: weighted sums over the cells of their nodes' coordinates, the
+  same on any partition to round-off; a checkpoint without it is of an earlier version and is
+  not compared);
 * ``/history``: the rows of the history so far (column names in the attribute ``columns``).
 
 Every rank writes and reads its own contiguous slab of rows (:mod:`.slabs`) through h5py's MPI
@@ -36,12 +38,13 @@ refused by every reader as incomplete; any failure is a
 :class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
 :class:`~.collective.OutputError`), naming the file and the OS error.
 
-A problem with several interfaces stores the first at ``/interface`` (and ``/point_data``), as a
-problem with one, and each further interface ``<name>`` under ``/interfaces/<name>``: ``x``, every
-variable of its law, ``point_data/<k>``, with the attributes ``n_points`` and ``law`` (JSON). A bulk
-model with state (:class:`~subfric_dolfinx.fem.bulk.BulkModel`) stores each array of its
-``state()`` under ``/bulk/<name>``, by original cell index: ``(n_cells, k, ...)`` for ``k`` values
-per cell, so that it restores on any partition.
+Format version 2 (still read) stored the first interface apart, at ``/interface`` and
+``/point_data`` (its points counted by the top-level attribute ``n_points``, its law the top-level
+``law``), and only the further ones under ``/interfaces/<name>``.
+
+A bulk model with state (:class:`~subfric_dolfinx.fem.bulk.BulkModel`) stores each array of its
+``saved_state()`` under ``/bulk/<name>``, by original cell index: ``(n_cells, k, ...)`` for ``k``
+values per cell, so that it restores on any partition.
 
 Nothing in a checkpoint is trusted: reading checks the format and version, the type and range of
 every attribute, that the JSON attributes parse to objects, and the shape and dtype of every
@@ -75,6 +78,7 @@ __all__ = [
     "Checkpoint",
     "CheckpointError",
     "CheckpointWriteError",
+    "StoredInterface",
     "read_checkpoint",
     "restore_checkpoint",
     "write_checkpoint",
@@ -84,10 +88,14 @@ __all__ = [
 # -- The format and its validation on read
 
 FORMAT = "subfric-dolfinx checkpoint"
-VERSION = 2
+VERSION = 3
+READS = (2, 3)
+"""The format versions this code reads: 3 (every interface under ``/interfaces``) and 2."""
+V2_FIRST = ""
+"""The key of format 2's first interface (stored without its name) among the interfaces read."""
 
-INTS = {"step": 0, "easy": 0, "n_cells": 1, "n_points": 0, "degree": 1, "gdim": 2}
-"""Integer attributes and their smallest valid value."""
+INTS = {"step": 0, "easy": 0, "n_cells": 1, "degree": 1, "gdim": 2}
+"""Integer attributes and their smallest valid value (format 2 adds ``n_points``, >= 0)."""
 FLOATS = ("time", "dt")
 JSONS = ("law", "program", "settings")
 FINGERPRINT = 8
@@ -180,16 +188,17 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
             f"{name} is not a subfric-dolfinx checkpoint (format attribute {short_repr(fmt)})"
         )
     version = f.attrs.get("version")
-    if not isinstance(version, int | np.integer) or int(version) != VERSION:
+    if not isinstance(version, int | np.integer) or int(version) not in READS:
         raise CheckpointError(
-            f"checkpoint {name} has version {short_repr(version)}, this code reads version "
-            f"{VERSION}"
+            f"checkpoint {name} has version {short_repr(version)}, this code reads versions "
+            f"{' and '.join(str(v) for v in READS)}"
         )
-    missing = [k for k in (*INTS, *FLOATS, *JSONS) if k not in f.attrs]
+    ints = {**INTS, "n_points": 0} if int(version) == 2 else INTS
+    missing = [k for k in (*ints, *FLOATS, *JSONS) if k not in f.attrs]
     if missing:
         raise CheckpointError(f"checkpoint {name} lacks the attribute(s) {missing}")
     a: dict[str, Any] = {"format": fmt, "version": int(version)}
-    a.update({k: _int(name, k, f.attrs[k]) for k in INTS})
+    a.update({k: _int(name, k, f.attrs[k]) for k in ints})
     a.update({k: _float(name, k, f.attrs[k]) for k in FLOATS})
     a.update({k: _json(name, k, f.attrs[k]) for k in JSONS})
     if a["dt"] <= 0:
@@ -210,18 +219,13 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
         raise CheckpointError(
             f"checkpoint {name}: degree {a['degree']} / gdim {a['gdim']} out of range"
         )
-    nc, npt, gdim = a["n_cells"], a["n_points"], a["gdim"]
+    nc, gdim = a["n_cells"], a["gdim"]
     _dataset(f, name, "displacement", (nc, None, gdim))
-    _dataset(f, name, "interface/x", (npt, gdim))
-    for k in f["interface"]:
-        d = f["interface"][k]
-        shape = (npt,) if len(getattr(d, "shape", ())) == 1 else (npt, None)
-        d = _dataset(f, name, f"interface/{k}", shape)
-        if d.ndim == 2 and d.shape[1] not in (gdim - 1, gdim):
-            raise CheckpointError(
-                f"checkpoint {name}: 'interface/{k}' has {d.shape[1]} components per point "
-                f"(a {gdim}-D interface has {gdim - 1} or {gdim})"
-            )
+    groups = interface_groups(f, name, a)
+    if not groups:
+        raise CheckpointError(f"checkpoint {name} holds no interface")
+    for path, (npt, _) in groups.items():
+        _check_interface(f, name, path, npt, gdim)
     h = _dataset(f, name, "history", (a["step"], None))
     try:
         cols = json.loads(_text(h.attrs["columns"]))
@@ -240,12 +244,52 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
     return a, rows
 
 
+def interface_groups(f: Any, name: str, attrs: dict[str, Any]) -> dict[str, tuple[int, str]]:
+    """Where each interface of an open checkpoint is: group path -> (points, its key).
+
+    Format 3: ``interfaces/<name>`` -> (its ``n_points`` attribute, ``<name>``); format 2 adds
+    its first interface, ``interface`` -> (the file's ``n_points``, :data:`V2_FIRST`).
+
+    Raises:
+        CheckpointError: A group without a valid ``n_points`` (format 3).
+    """
+    out: dict[str, tuple[int, str]] = {}
+    if attrs["version"] == 2:
+        out["interface"] = (int(attrs["n_points"]), V2_FIRST)
+    for iname in f.get("interfaces", {}):
+        g = f["interfaces"][iname]
+        n = g.attrs.get("n_points")
+        if n is None or "x" not in g:
+            raise CheckpointError(f"checkpoint {name}: the interface {iname!r} is incomplete")
+        out[f"interfaces/{iname}"] = (_int(name, f"interfaces/{iname}/n_points", n), iname)
+    return out
+
+
+def _check_interface(f: Any, name: str, path: str, npt: int, gdim: int) -> None:
+    """The shapes and dtypes of one interface's datasets (format 2's first: ``/point_data``)."""
+    _dataset(f, name, f"{path}/x", (npt, gdim))
+    for k in f[path]:
+        if k == "point_data":
+            continue
+        d = f[path][k]
+        shape = (npt,) if len(getattr(d, "shape", ())) == 1 else (npt, None)
+        d = _dataset(f, name, f"{path}/{k}", shape)
+        if d.ndim == 2 and d.shape[1] not in (gdim - 1, gdim):
+            raise CheckpointError(
+                f"checkpoint {name}: '{path}/{k}' has {d.shape[1]} components per point "
+                f"(a {gdim}-D interface has {gdim - 1} or {gdim})"
+            )
+    pdata = "point_data" if path == "interface" else f"{path}/point_data"
+    for k in f.get(pdata, {}):
+        _dataset(f, name, f"{pdata}/{k}", (npt,))
+
+
 def check_blocks(name: str, displacement: np.ndarray, interface: dict[str, np.ndarray]) -> None:
-    """Refuse non-finite values in the slabs a rank read (NaN in ``mu``, inf in ``u``, ...)."""
-    for key, a in [
-        ("displacement", displacement),
-        *((f"interface/{k}", v) for k, v in interface.items()),
-    ]:
+    """Refuse non-finite values in the slabs a rank read (NaN in ``mu``, inf in ``u``, ...).
+
+    ``interface``: dataset path -> this rank's rows.
+    """
+    for key, a in [("displacement", displacement), *interface.items()]:
         if not np.all(np.isfinite(a)):
             raise CheckpointError(f"checkpoint {name}: {key!r} holds non-finite values (NaN/inf)")
 
@@ -373,8 +417,6 @@ def write_checkpoint(
     gdim = problem.gdim
     cells, dofs, n_cells = _cell_dofs(problem)
     u = problem.u.x.array.reshape(-1, gdim)
-    el = problem.interface
-    rows, n_points = interface_rows(el)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
     # the stepper's last increment where its predictor uses it (every rank has one or none)
@@ -387,12 +429,7 @@ def write_checkpoint(
         v.x.array[:] = du
         v.x.scatter_forward()
         iblock = push(comm, cells, v.x.array.reshape(-1, gdim)[dofs], n_cells)
-    pts = el.points.reshape(-1, gdim)
-    blocks = {"x": push(comm, rows, pts, n_points)}
-    for name, a in el.saved_state().items():
-        blocks[name] = push(comm, rows, a, n_points)
-    pblocks = {k: push(comm, rows, a, n_points) for k, a in el.point_data.items()}
-    extras = extra_parts(problem, cells, n_cells)  # more interfaces, the bulk state
+    extras = extra_parts(problem, cells, n_cells)  # every interface, the bulk state
     cols = list(history[0]) if history else []
     table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
         len(history), len(cols)
@@ -408,13 +445,11 @@ def write_checkpoint(
         program=json.dumps(problem.program.to_dict()),
         settings=json.dumps(jsonable(settings or {})),
         n_cells=int(n_cells),
-        n_points=int(n_points),
         degree=int(problem.V.ufl_element().embedded_superdegree),
         gdim=int(gdim),
         geometry=geometry_fingerprint(problem.mesh),
     )
     c0, c1 = slab(n_cells, comm.size, comm.rank)
-    p0, p1 = slab(n_points, comm.size, comm.rank)
 
     def create(f: Any) -> None:  # collective metadata calls, the same on every rank
         f.attrs.update({k: v for k, v in attrs.items() if k != "format"})  # format: at the end
@@ -423,14 +458,6 @@ def write_checkpoint(
         if iblock is not None:
             d = f.create_dataset("increment", (n_cells, *iblock.shape[1:]), **kw)
             d.attrs["dt"] = float(stepper.increment_dt)
-        g = f.create_group("interface")
-        g.create_dataset("x", (n_points, gdim), **kw)
-        for name, b in blocks.items():
-            if name != "x":
-                g.create_dataset(name, (n_points, *b.shape[1:]), **kw)
-        pd = f.create_group("point_data")
-        for name in pblocks:
-            pd.create_dataset(name, (n_points,), **kw)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
         write_extras(f, extras, comm, create=True)
@@ -440,11 +467,6 @@ def write_checkpoint(
             f["displacement"][c0:c1] = ublock
             if iblock is not None:
                 f["increment"][c0:c1] = iblock
-        if p1 > p0:
-            for name, b in blocks.items():
-                f["interface"][name][p0:p1] = b
-            for name, b in pblocks.items():
-                f["point_data"][name][p0:p1] = b
         if comm.rank == 0 and table.size:
             f["history"][...] = table
         write_extras(f, extras, comm, create=False)
@@ -456,11 +478,10 @@ def write_checkpoint(
         values = (
             (1 + (iblock is not None)) * n_cells * int(np.prod(ublock.shape[1:]))
             + (table.size)
-            + n_points * (sum(int(np.prod(b.shape[1:])) for b in blocks.values()) + len(pblocks))
             + extras.values()
         )
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
-            n_sets = len(blocks) + 4 + len(extras.bulk) + 8 * len(extras.interfaces)
+            n_sets = 4 + len(extras.bulk) + 8 * len(extras.interfaces)
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
@@ -492,6 +513,28 @@ def write_checkpoint(
 
 
 @dataclasses.dataclass
+class StoredInterface:
+    """One interface in a checkpoint, as read: this rank's slab of its rows.
+
+    Attributes:
+        n_points: Its number of points (over all ranks).
+        law: Its law (JSON).
+        rows: ``(lo, hi)``, this rank's rows.
+        x: This rank's points.
+        variables: Name -> this rank's rows of each saved variable.
+        point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
+            empty for a checkpoint written without them.
+    """
+
+    n_points: int
+    law: str
+    rows: tuple[int, int]
+    x: np.ndarray
+    variables: dict[str, np.ndarray]
+    point_data: dict[str, np.ndarray]
+
+
+@dataclasses.dataclass
 class Checkpoint:
     """The contents of a checkpoint file, as read.
 
@@ -501,13 +544,10 @@ class Checkpoint:
         attrs: The attributes (validated types).
         history: The history rows.
         cells: ``(lo, hi)``, this rank's rows of ``displacement``.
-        points: ``(lo, hi)``, this rank's rows of the interface datasets.
         displacement: ``(hi - lo, n_dofs_per_cell, gdim)``.
-        x: This rank's interface points.
-        interface: Name -> this rank's rows of every interface variable.
-        point_data: Name -> this rank's rows of the fixed point data (``g0``, ``region``);
-            empty for a checkpoint written without them.
-        extras: The further interfaces and the bulk state (:func:`read_extras`).
+        interfaces: Interface name -> its :class:`StoredInterface` (format 2's first interface,
+            stored without its name, under :data:`V2_FIRST`).
+        bulk: Name -> this rank's slab of each array of the bulk state (by original cell).
         increment: This rank's rows of the last step's displacement increment and its length
             (the load stepper's predictor), ``None`` in a checkpoint without it.
     """
@@ -515,13 +555,24 @@ class Checkpoint:
     attrs: dict[str, Any]
     history: list[dict[str, float]]
     cells: tuple[int, int]
-    points: tuple[int, int]
     displacement: np.ndarray
-    x: np.ndarray
-    interface: dict[str, np.ndarray]
-    point_data: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
-    extras: dict[str, Any] = dataclasses.field(default_factory=dict)
+    interfaces: dict[str, StoredInterface]
+    bulk: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     increment: tuple[np.ndarray, float] | None = None
+
+    @property
+    def interface(self) -> dict[str, np.ndarray]:
+        """The variables (this rank's rows) of the only interface (format 2: of the first).
+
+        Raises:
+            ValueError: The checkpoint holds several interfaces (format 3): name one in
+                :attr:`interfaces`.
+        """
+        if V2_FIRST in self.interfaces:
+            return self.interfaces[V2_FIRST].variables
+        if len(self.interfaces) != 1:
+            raise ValueError(f"the checkpoint holds the interfaces {sorted(self.interfaces)}")
+        return next(iter(self.interfaces.values())).variables
 
 
 def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
@@ -554,7 +605,6 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
     with ParallelH5(p, "r", comm, what, CheckpointError, hint) as h:
         attrs, history = h.call(lambda f: check_metadata(f, name))
         c0, c1 = slab(int(attrs["n_cells"]), comm.size, comm.rank)
-        p0, p1 = slab(int(attrs["n_points"]), comm.size, comm.rank)
 
         def read(f: Any) -> tuple[Any, ...]:
             u = f["displacement"][c0:c1]
@@ -574,28 +624,23 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                     raise CheckpointError(
                         f"checkpoint {name}: 'increment' holds non-finite values (NaN/inf)"
                     )
-            g = f["interface"]
-            iface = {k: g[k][p0:p1] for k in g}
-            pdata = {}
-            if "point_data" in f:
-                for k in f["point_data"]:
-                    d = f["point_data"][k]
-                    if getattr(d, "shape", None) != (int(attrs["n_points"]),):
-                        raise CheckpointError(
-                            f"checkpoint {name}: 'point_data/{k}' has shape "
-                            f"{getattr(d, 'shape', None)}, not ({attrs['n_points']},)"
-                        )
-                    pdata[k] = np.asarray(d[p0:p1], dtype=float)
-            check_blocks(name, u, iface)
-            for k, v in pdata.items():
-                if not np.all(np.isfinite(v)):
-                    raise CheckpointError(f"checkpoint {name}: 'point_data/{k}' holds NaN/inf")
-            extras = read_extras(f, name, comm, int(attrs["n_cells"]))
-            return u, iface, pdata, extras, inc
+            ifaces = {}
+            for path, (npt, key) in interface_groups(f, name, attrs).items():
+                p0, p1 = slab(npt, comm.size, comm.rank)
+                g = f[path]
+                data = {k: np.asarray(g[k][p0:p1], dtype=float) for k in g if k != "point_data"}
+                pd = "point_data" if path == "interface" else f"{path}/point_data"
+                pdata = {k: np.asarray(f[pd][k][p0:p1], dtype=float) for k in f.get(pd, {})}
+                check_blocks(name, u, {f"{path}/{k}": v for k, v in data.items()})
+                check_blocks(name, u, {f"{pd}/{k}": v for k, v in pdata.items()})
+                law = attrs["law"] if path == "interface" else _json(name, path, g.attrs["law"])
+                x = data.pop("x")
+                ifaces[key] = StoredInterface(npt, law, (p0, p1), x, data, pdata)
+            bulk = read_bulk(f, name, comm, int(attrs["n_cells"]))
+            return u, ifaces, bulk, inc
 
-        u, iface, pdata, extras, inc = h.call(read)
-    x = iface.pop("x")
-    return Checkpoint(attrs, history, (c0, c1), (p0, p1), u, x, iface, pdata, extras, inc)
+        u, ifaces, bulk, inc = h.call(read)
+    return Checkpoint(attrs, history, (c0, c1), u, ifaces, bulk, inc)
 
 
 def restore_checkpoint(
@@ -625,13 +670,10 @@ def restore_checkpoint(
     ck = read_checkpoint(path, comm)
     a = ck.attrs
     cells, dofs, n_cells = _cell_dofs(problem)
-    el = problem.interface
-    rows, n_points = interface_rows(el)
     here = {
         "n_cells": n_cells,
         "degree": problem.V.ufl_element().embedded_superdegree,
         "gdim": problem.gdim,
-        "n_points": n_points,
     }
     for k, v in here.items():
         if int(a[k]) != v:
@@ -657,37 +699,15 @@ def restore_checkpoint(
                 f"checkpoint {name} was written with {label or key} = {json.dumps(theirs)}, "
                 f"this run has {json.dumps(ours)}"
             )
-    saved = el.saved_state()
-    want = {v: (n_points, *a.shape[1:]) for v, a in saved.items()}
-    for v, shape in want.items():
-        got = ck.interface.get(v)
-        if got is None:
-            raise CheckpointError(f"checkpoint {name} lacks the interface variable {v!r}")
-        if (n_points, *got.shape[1:]) != shape:
-            raise CheckpointError(
-                f"checkpoint {name}: interface/{v} has shape {(n_points, *got.shape[1:])}, "
-                f"this run's law needs {shape}"
-            )
     gdim = problem.gdim
-    # the displacement by original cell index, the interface by global row
+    # the displacement by original cell index, the interfaces by global row
     u = problem.u.x.array.reshape(-1, gdim)
     u[dofs] = pull(comm, cells, ck.displacement, n_cells)
     problem.u.x.scatter_forward()
-    pts = el.points.reshape(-1, gdim)
-    x = pull(comm, rows, ck.x, n_points)
-    scale = comm.allreduce(float(np.abs(pts).max()) if pts.size else 0.0, op=MPI.MAX)
-    off = np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)
-    bad = comm.allreduce(int(np.count_nonzero(off)))
-    if bad:
-        raise CheckpointError(
-            f"{bad} interface points of this run are not in the checkpoint {name} "
-            "(another mesh or quadrature)"
-        )
-    compare_point_data(name, el, ck.point_data, rows, n_points, comm)
-    el.restore_state(
-        {v: pull(comm, rows, ck.interface[v], n_points).reshape(a.shape) for v, a in saved.items()}
-    )  # trial = committed
-    restore_extras(name, problem, ck.extras, cells, n_cells)
+    for i, (iname, iface) in enumerate(problem.interfaces.items()):
+        key = V2_FIRST if a["version"] == 2 and i == 0 else iname
+        restore_interface(name, iname, iface, ck.interfaces.get(key), comm)
+    restore_bulk(name, problem, ck.bulk, cells, n_cells)
     problem.resume()
     dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
     # every rank read the same file: all have the increment or none
@@ -701,12 +721,12 @@ def restore_checkpoint(
     return ck.history
 
 
-# -- The parts beyond the first interface: more interfaces and the bulk state
+# -- The interfaces and the bulk state
 
 
 @dataclasses.dataclass
 class ExtraParts:
-    """This rank's slabs of the extra interfaces and of the bulk state, ready to write.
+    """This rank's slabs of the interfaces and of the bulk state, ready to write.
 
     Attributes:
         interfaces: Name -> (n_points, law JSON, name -> slab (x and variables), point-data slabs).
@@ -731,7 +751,7 @@ class ExtraParts:
 def _bulk_state(problem: Any, n_cells_local: int) -> dict[str, np.ndarray]:
     """The bulk model's state, each array shaped (owned cells, k, ...)."""
     bulk = getattr(problem, "bulk", None)
-    state = bulk.state() if bulk is not None else {}
+    state = bulk.saved_state() if bulk is not None else {}
     out = {}
     for name, a in state.items():
         a = np.asarray(a, dtype=float)
@@ -747,11 +767,10 @@ def _bulk_state(problem: Any, n_cells_local: int) -> dict[str, np.ndarray]:
 
 
 def extra_parts(problem: Any, cells: np.ndarray, n_cells: int) -> ExtraParts:
-    """Collect this rank's slabs of the extra interfaces and the bulk state (collective)."""
+    """Collect this rank's slabs of every interface and of the bulk state (collective)."""
     comm = problem.comm
-    ifaces = list(getattr(problem, "interfaces", {}).items())[1:]
     out: dict[str, tuple[int, str, dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
-    for name, iface in ifaces:
+    for name, iface in problem.interfaces.items():
         el = iface.law_points
         rows, n_points = interface_rows(el)
         blocks = {"x": push(comm, rows, el.points.reshape(-1, el.gdim), n_points)}
@@ -792,25 +811,9 @@ def write_extras(f: Any, parts: ExtraParts, comm: Any, create: bool) -> None:
             f["bulk"][name][c0:c1] = b
 
 
-def read_extras(f: Any, name: str, comm: Any, n_cells: int) -> dict[str, Any]:
-    """This rank's slabs of the extra interfaces and the bulk state, validated."""
-    out: dict[str, Any] = {"interfaces": {}, "bulk": {}}
-    for iname in f.get("interfaces", {}):
-        g = f["interfaces"][iname]
-        n_points = int(g.attrs.get("n_points", -1))
-        if n_points < 0 or "x" not in g:
-            raise CheckpointError(f"checkpoint {name}: the interface {iname!r} is incomplete")
-        p0, p1 = slab(n_points, comm.size, comm.rank)
-        data = {k: np.asarray(g[k][p0:p1], dtype=float) for k in g if k != "point_data"}
-        pdata = {
-            k: np.asarray(g["point_data"][k][p0:p1], dtype=float) for k in g.get("point_data", {})
-        }
-        for k, a in [*data.items(), *pdata.items()]:
-            if a.shape[:1] != (p1 - p0,) or not np.all(np.isfinite(a)):
-                raise CheckpointError(f"checkpoint {name}: 'interfaces/{iname}/{k}' is damaged")
-        law = g.attrs.get("law", "{}")
-        law = law.decode() if isinstance(law, bytes) else str(law)
-        out["interfaces"][iname] = (n_points, law, data, pdata)
+def read_bulk(f: Any, name: str, comm: Any, n_cells: int) -> dict[str, np.ndarray]:
+    """This rank's slabs of the bulk state, validated."""
+    out: dict[str, np.ndarray] = {}
     c0, c1 = slab(n_cells, comm.size, comm.rank)
     for k in f.get("bulk", {}):
         d = f["bulk"][k]
@@ -819,65 +822,83 @@ def read_extras(f: Any, name: str, comm: Any, n_cells: int) -> dict[str, Any]:
         a = np.asarray(d[c0:c1], dtype=float)
         if not np.all(np.isfinite(a)):
             raise CheckpointError(f"checkpoint {name}: 'bulk/{k}' holds NaN/inf")
-        out["bulk"][k] = a
+        out[k] = a
     return out
 
 
-def restore_extras(
-    name: str, problem: Any, extras: dict[str, Any], cells: np.ndarray, n_cells: int
+def restore_interface(
+    name: str, iname: str, iface: Any, stored: StoredInterface | None, comm: Any
 ) -> None:
-    """Put the extra interfaces' state and the bulk state into ``problem`` (collective).
+    """Put one interface's stored state into ``iface`` (collective): every interface alike.
 
     Raises:
-        ~subfric_dolfinx.io.checkpoint.CheckpointError: An interface or bulk array missing, of
-            another law or shape (named).
+        ~subfric_dolfinx.io.checkpoint.CheckpointError: The interface missing, of another
+            number of points, law, points, point data or variables (named).
+    """
+    if stored is None:
+        raise CheckpointError(f"checkpoint {name} lacks the interface {iname!r}")
+    el = iface.law_points
+    rows, n_points = interface_rows(el)
+    if stored.n_points != n_points:
+        raise CheckpointError(
+            f"checkpoint {name}: the interface {iname!r} has {stored.n_points} points there, "
+            f"{n_points} in this run"
+        )
+    d = first_difference(json.loads(stored.law), law_description(iface.law))
+    if d is not None:
+        raise CheckpointError(
+            f"checkpoint {name} was written with another law on the interface {iname!r} "
+            f"({d[0] or 'law'}: {json.dumps(d[1])} there, {json.dumps(d[2])} here)"
+        )
+    saved = el.saved_state()
+    for v, mine in saved.items():
+        got = stored.variables.get(v)
+        if got is None:
+            raise CheckpointError(f"checkpoint {name} lacks the variable {v!r} of {iname!r}")
+        if got.shape[1:] != mine.shape[1:]:
+            raise CheckpointError(
+                f"checkpoint {name}: the variable {v!r} of {iname!r} has shape "
+                f"{(n_points, *got.shape[1:])}, this run's law needs {(n_points, *mine.shape[1:])}"
+            )
+    x = pull(comm, rows, stored.x, n_points)
+    pts = el.points.reshape(-1, el.gdim)
+    scale = comm.allreduce(float(np.abs(pts).max()) if pts.size else 0.0, op=MPI.MAX)
+    bad = comm.allreduce(
+        int(np.count_nonzero(np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)))
+    )
+    if bad:
+        raise CheckpointError(
+            f"{bad} points of the interface {iname!r} are not in the checkpoint {name} "
+            "(another mesh or quadrature)"
+        )
+    compare_point_data(name, el, stored.point_data, rows, n_points, comm)
+    el.restore_state(
+        {
+            v: pull(comm, rows, stored.variables[v], n_points).reshape(a.shape)
+            for v, a in saved.items()
+        }
+    )  # trial = committed
+
+
+def restore_bulk(
+    name: str, problem: Any, stored: dict[str, np.ndarray], cells: np.ndarray, n_cells: int
+) -> None:
+    """Put the bulk state into ``problem`` (collective).
+
+    Raises:
+        ~subfric_dolfinx.io.checkpoint.CheckpointError: A bulk array missing or of another
+            shape (named).
     """
     comm = problem.comm
-    ifaces = list(getattr(problem, "interfaces", {}).items())[1:]
-    for iname, iface in ifaces:
-        stored = extras["interfaces"].get(iname)
-        if stored is None:
-            raise CheckpointError(f"checkpoint {name} lacks the interface {iname!r}")
-        n_stored, law, data, pdata = stored
-        el = iface.law_points
-        rows, n_points = interface_rows(el)
-        if n_stored != n_points:
-            raise CheckpointError(
-                f"checkpoint {name}: the interface {iname!r} has {n_stored} points there, "
-                f"{n_points} in this run"
-            )
-        d = first_difference(json.loads(law), law_description(iface.law))
-        if d is not None:
-            raise CheckpointError(
-                f"checkpoint {name} was written with another law on the interface {iname!r} "
-                f"({d[0] or 'law'}: {json.dumps(d[1])} there, {json.dumps(d[2])} here)"
-            )
-        x = pull(comm, rows, data["x"], n_points)
-        pts = el.points.reshape(-1, el.gdim)
-        scale = comm.allreduce(float(np.abs(pts).max()) if pts.size else 0.0, op=MPI.MAX)
-        bad = comm.allreduce(
-            int(np.count_nonzero(np.linalg.norm(x - pts, axis=1) > 1e-9 * max(scale, 1.0)))
-        )
-        if bad:
-            raise CheckpointError(
-                f"{bad} points of the interface {iname!r} are not in the checkpoint {name}"
-            )
-        compare_point_data(name, el, pdata, rows, n_points, comm)
-        arrays = {}
-        for v, mine in el.saved_state().items():
-            if v not in data:
-                raise CheckpointError(f"checkpoint {name} lacks the variable {v!r} of {iname!r}")
-            arrays[v] = pull(comm, rows, data[v], n_points).reshape(mine.shape)
-        el.restore_state(arrays)
     state = _bulk_state(problem, cells.size)
-    if set(state) != set(extras["bulk"]):
+    if set(state) != set(stored):
         raise CheckpointError(
-            f"checkpoint {name} holds the bulk state {sorted(extras['bulk'])}, this run's bulk "
+            f"checkpoint {name} holds the bulk state {sorted(stored)}, this run's bulk "
             f"model has {sorted(state)}"
         )
     restored = {}
     for k, mine in state.items():
-        block = extras["bulk"][k]
+        block = stored[k]
         if block.shape[1:] != mine.shape[1:]:
             raise CheckpointError(
                 f"checkpoint {name}: the bulk state {k!r} has {block.shape[1:]} values per cell "
@@ -886,7 +907,7 @@ def restore_extras(
         a = pull(comm, cells, block, n_cells).reshape(mine.shape)
         restored[k] = a.reshape(-1, *mine.shape[2:])
     if restored:
-        problem.bulk.restore(restored)
+        problem.bulk.restore_state(restored)
 
 
 _POINT_DATA = {"g0": "initial gap g0 (mm)", "region": "interface region numbers"}

@@ -1,7 +1,7 @@
 """Displacement and interface fields over time for ParaView (VTX or XDMF).
 
 The interface fields, named as in every output (:mod:`.units`), are ``f_t1`` [``f_t2``] and
-``f_n`` (the traction's local components), ``traction_global`` (the traction on the master body
+``f_n`` (the traction's local components), ``traction_global`` (the traction on the primary body
 in global components, for glyphs), every output variable of the law (a scalar as it is, a vector
 by its local components ``up_t1`` ... and as ``<v>_global`` in global components) and the fixed
 point data (the initial gap ``g0``; ``region``, the region number, with interface regions), as

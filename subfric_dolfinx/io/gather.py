@@ -1,6 +1,6 @@
 """Interface values of all ranks in one deterministic, partition-independent order.
 
-The interface's quadrature points are owned by the ranks holding their master facets, in an order
+The interface's quadrature points are owned by the ranks holding their primary facets, in an order
 that depends on the partition. :func:`gather_interface` brings values from all ranks together and
 sorts the points lexicographically by their coordinates (first coordinate first), each coordinate
 rounded to the element's ``coordinate_tolerance`` (a millionth of the smallest interface facet)

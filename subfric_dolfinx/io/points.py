@@ -11,7 +11,7 @@ ParaView; a temporal collection of polyvertex grids) and its HDF5 heavy data
     /rank            (p,)        the rank owning the point
     /step_<k>        group, attribute ``time``, for the k-th written step (k = 0, 1, ...):
       f_t1 [f_t2], f_n         traction, local components (MPa; f_n > 0 in compression)
-      traction_global (p, 3)   traction on the master body in global components (glyphs)
+      traction_global (p, 3)   traction on the primary body in global components (glyphs)
       status         (p,)      return-map status (:class:`~subfric_dolfinx.constitutive.Status`)
       <v>, <v>_t1 .. <v>_n     every output variable of the law by its local components (e.g.
                                up_t1, mu, r), and a vector one as ``<v>_global`` (p, 3)

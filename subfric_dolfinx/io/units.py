@@ -8,7 +8,7 @@ elements, a JSON sidecar beside the VTX/XDMF fields, the W3C CSV-on-the-Web side
 
 * ``f_t``: tangential traction, local frame, components ``f_t1`` [``f_t2``] (MPa);
 * ``f_n``: normal traction, > 0 in compression (MPa);
-* ``traction_global``: the traction on the master body in global components (MPa);
+* ``traction_global``: the traction on the primary body in global components (MPa);
 * ``gap``: the gap the law sees, local frame: ``gap_t1`` [``gap_t2``], ``gap_n`` (``ubar_n -
   g0``, > 0 on approach) (mm); ``g0``: the initial normal gap, > 0 open (mm);
 * ``status``: the return-map status, an integer (legend: :func:`status_legend`);
@@ -17,7 +17,7 @@ elements, a JSON sidecar beside the VTX/XDMF fields, the W3C CSV-on-the-Web side
 
 Units MPa, mm, s; forces N (3-D, and the totals over the circumference of an axisymmetric model)
 or N/mm, per unit thickness (2-D plane strain and plane stress); areas mm² (3-D, axisymmetric) or
-mm (2-D). The local frame of a point is ``(e1, [e2,] n)``, ``n`` the master body's outward
+mm (2-D). The local frame of a point is ``(e1, [e2,] n)``, ``n`` the primary body's outward
 normal: :data:`FRAME`.
 """
 
@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 FRAME = (
-    "local components (t1[, t2], n) of each interface point: n the master body's outward normal "
+    "local components (t1[, t2], n) of each interface point: n the primary body's outward normal "
     "at the reference geometry, t1 [t2] tangential (the frames stay fixed: small sliding); "
     "'_global' names a vector in the global x, y[, z] components; f_n > 0 in compression, "
     "gap_n > 0 on approach"

@@ -1,7 +1,8 @@
 """Meshes of bodies joined by zero-thickness interfaces with duplicated nodes.
 
 * :mod:`.groups`: physical-group names and default tags, :class:`InterfaceMeshError`.
-* :mod:`.topology`: bodies and interfaces by the user's own group names (:class:`InterfaceSides`).
+* :mod:`.topology`: the topology, bodies and interfaces by the user's own group names, resolved
+  once by the reader (:class:`Topology`, :class:`InterfaceSides`).
 * :mod:`.crack`: :func:`duplicate_interface_nodes`, the node duplication of interface groups of
   a gmsh model or ``.msh`` file (readable by DOLFINx's own gmsh reader too).
 * :func:`gmsh_session`: a gmsh session and a fresh model for a builder of your own (removed,
@@ -59,7 +60,7 @@ from .groups import (
     gmsh_session,
 )
 from .joints import build_bolted_lap_joint
-from .topology import ROLES, InterfaceSides, mesh_topology
+from .topology import KINEMATICS, ROLES, InterfaceSides, Topology, mesh_topology
 
 _WITH_DOLFINX = {
     "NodeGroup": "nodes",
@@ -95,6 +96,7 @@ __all__ = [
     "BOUNDARY_GROUPS_2D",
     "BOUNDARY_GROUPS_3D",
     "INTERFACE",
+    "KINEMATICS",
     "MASTER",
     "MASTER_LEFT",
     "MASTER_RIGHT",
@@ -121,6 +123,7 @@ __all__ = [
     "InterfaceSides",
     "ModelInfo",
     "NodeGroup",
+    "Topology",
     "body_partitioner",
     "build_block_on_base",
     "build_bolted_lap_joint",

@@ -15,7 +15,7 @@ import numpy.typing as npt
 
 from .groups import BODIES, INTERFACE
 from .nodes import NodeGroup
-from .topology import InterfaceSides
+from .topology import InterfaceSides, Topology
 
 __all__ = ["InterfaceMesh"]
 
@@ -37,9 +37,8 @@ class InterfaceMesh:
             facet tags (nor in ``tags``): find their facets by centroid.
         node_groups: Node groups by name: the named physical groups of points of the file or
             model, and those added with :meth:`add_node_group`.
-        bodies: Body name -> its cell groups (:mod:`.topology`).
-        interfaces: Interface group -> its :class:`~.topology.InterfaceSides` (primary and
-            secondary bodies).
+        topology: Its bodies and interfaces (:class:`~.topology.Topology`, resolved by the
+            reader): read by the problem, the scenes and the outputs.
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -50,12 +49,21 @@ class InterfaceMesh:
     dims: dict[str, int] = dataclasses.field(default_factory=dict)
     interface_groups: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     node_groups: dict[str, NodeGroup] = dataclasses.field(default_factory=dict)
-    bodies: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
-    interfaces: dict[str, InterfaceSides] = dataclasses.field(default_factory=dict)
+    topology: Topology = dataclasses.field(default_factory=Topology)
     _sides: dict[str, dict[str, npt.NDArray[np.int32]]] = dataclasses.field(
         default_factory=dict, repr=False
     )
     _counts: dict[str, int] = dataclasses.field(default_factory=dict, repr=False)
+
+    @property
+    def bodies(self) -> dict[str, tuple[str, ...]]:
+        """Body name -> its cell groups (:attr:`topology`)."""
+        return self.topology.bodies
+
+    @property
+    def interfaces(self) -> dict[str, InterfaceSides]:
+        """Interface group -> its :class:`~.topology.InterfaceSides` (:attr:`topology`)."""
+        return self.topology.interfaces
 
     @property
     def gdim(self) -> int:

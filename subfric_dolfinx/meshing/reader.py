@@ -45,7 +45,7 @@ from .groups import (
 from .interface_mesh import InterfaceMesh
 from .nodes import NodeGroup, node_groups
 from .partitioners import Partitioner, body_partitioner
-from .topology import InterfaceSides, default_names, mesh_topology
+from .topology import InterfaceSides, Topology, default_names, mesh_topology
 
 __all__ = ["InterfaceMesh", "create_interface_mesh", "read_interface_mesh"]
 
@@ -76,11 +76,11 @@ def _inspect_current_model(
     required: Sequence[str] | None,
     what: str,
     topology: dict[str, Any],
-) -> tuple[dict[str, int], dict[str, tuple[str, ...]], dict[str, InterfaceSides]]:
+) -> tuple[dict[str, int], Topology]:
     """Check the current gmsh model (rank 0).
 
     Returns:
-        Name -> tag, the bodies and the interfaces (sides resolved).
+        Name -> tag, and the topology (every interface's sides resolved: the one place they are).
 
     Raises:
         InterfaceMeshError: Naming what is wrong.
@@ -183,7 +183,7 @@ def _inspect_current_model(
         # e.g. right after the Crack plugin: gmshio needs contiguous node tags
         gmsh.model.mesh.renumberNodes()
         gmsh.model.mesh.renumberElements()
-    return names, bodies, interfaces
+    return names, Topology(dict(bodies), interfaces)
 
 
 def _no_shared_facets(gdim: int, names: dict[str, int], ifaces: list[str], what: str) -> None:
@@ -266,7 +266,7 @@ def read_interface_mesh(
     counts: dict[str, tuple[int, int]] = {}  # name -> (dimension, number of elements)
     dims: dict[str, int] = {}  # name -> dimension, every named group
     nodes: dict[str, NodeGroup] = {}  # physical groups of points
-    found: tuple[dict, dict] = ({}, {})  # bodies, interfaces
+    found = Topology()
     subgroups: dict[str, np.ndarray] = {}
     model = None
     topology = {"names": names, "bodies": bodies, "interfaces": interfaces}
@@ -287,9 +287,11 @@ def read_interface_mesh(
                         gmsh.merge(name)
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
-                tags, b, i = _inspect_current_model(gdim, required, what, topology)
-                found = (b, i)
-                subgroups, withheld = withhold_interface_subgroups(gdim, tags, what, list(i))
+                tags, found = _inspect_current_model(gdim, required, what, topology)
+                b = found.bodies
+                subgroups, withheld = withhold_interface_subgroups(
+                    gdim, tags, what, list(found.interfaces)
+                )
                 stack.callback(restore_groups, withheld)
                 for name in subgroups:
                     tags.pop(name)
@@ -313,10 +315,10 @@ def read_interface_mesh(
         counts = comm.bcast(counts, root=0)
         dims = comm.bcast(dims, root=0)
         nodes = comm.bcast(nodes, root=0)
-        found_bodies, found_ifaces = comm.bcast(found, root=0)
+        found = comm.bcast(found, root=0)
         if isinstance(partitioner, str):
             partitioner = body_partitioner(
-                partitioner, ghost_mode, bodies=found_bodies, interfaces=list(found_ifaces)
+                partitioner, ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
             )
         elif partitioner is None and comm.size > 1:
             partitioner = default_partitioner(ghost_mode)
@@ -329,14 +331,13 @@ def read_interface_mesh(
         dims=dims,
         interface_groups=subgroups,
         node_groups=nodes,
-        bodies=found_bodies,
-        interfaces=found_ifaces,
+        topology=found,
     )
     _check_group_counts(imesh, counts, what)
-    for iface in found_ifaces:
+    for iface in found.interfaces:
         _find_sides(imesh, iface, what)
-    if found_ifaces:
-        first = next(iter(found_ifaces))
+    if found.interfaces:
+        first = next(iter(found.interfaces))
         imesh.num_interface_facets = imesh._counts[first]
     return imesh
 

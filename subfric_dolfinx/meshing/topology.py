@@ -1,10 +1,15 @@
-"""Bodies and interfaces of a mesh, by the user's own group names.
+"""The topology: bodies and interfaces of a mesh, by the user's own group names, resolved once.
+
+:class:`Topology` is the one value that says which bodies and interfaces there are and which two
+bodies each interface joins: the reader (:func:`~.reader.read_interface_mesh`) builds it
+(:attr:`~.interface_mesh.InterfaceMesh.topology`), and the problem
+(:class:`~subfric_dolfinx.fem.InterfaceProblem`), the scenes and the outputs read it.
 
 A mesh holds **bodies** (a body is one or several cell groups, e.g. a bolt's head and shank with
 their own materials) and **interfaces** (facet groups whose nodes are duplicated, each between two
 bodies: its *primary* body, whose outward normal defines the interface frame, and its *secondary*
-body; ``master``/``slave`` in older codes). :func:`mesh_topology` resolves them from the physical
-groups of a gmsh model and from what the user says:
+body). :func:`mesh_topology` reads them from the physical groups of a gmsh model and from what the
+user says:
 
 * nothing: the classic layout, cell groups ``master`` and ``slave`` and the facet group
   ``interface``; ``names={"master": "base", "slave": "block", "interface": "contact"}`` gives
@@ -17,6 +22,11 @@ groups of a gmsh model and from what the user says:
   independently, whose facets need not pair);
   a list of interface groups lets the sides be found: the two bodies whose cells the facets touch,
   the primary being the one whose first cell group has the smaller physical tag.
+
+**Input aliases.** ``master`` and ``slave`` (the names of older codes, and the classic layout's
+group names) are accepted for ``primary`` and ``secondary`` at this boundary only: as roles of
+``names=``, as keys of an interface's mapping, and as keys of a problem's materials
+(:meth:`Topology.materials`). Everything this package writes says ``primary``/``secondary``.
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ from typing import Any
 
 from .groups import INTERFACE, MASTER, SLAVE, InterfaceMeshError
 
-__all__ = ["ROLES", "InterfaceSides", "default_names", "mesh_topology"]
+__all__ = ["KINEMATICS", "ROLES", "InterfaceSides", "Topology", "default_names", "mesh_topology"]
 
 KINEMATICS = ("small_sliding", "finite_sliding")
 """The interface kinds (``docs/model.md`` §11-12): sides paired node to node, or meshed apart."""
@@ -41,8 +51,8 @@ class InterfaceSides:
     """The two bodies an interface joins.
 
     Attributes:
-        primary: The body whose outward normal defines the interface's local frame (master).
-        secondary: The other body (slave).
+        primary: The body whose outward normal defines the interface's local frame.
+        secondary: The other body.
         kinematics: ``"small_sliding"`` (the sides' nodes pair one to one) or
             ``"finite_sliding"`` (the sides are meshed independently: any numbers of facets).
     """
@@ -50,6 +60,69 @@ class InterfaceSides:
     primary: str
     secondary: str
     kinematics: str = "small_sliding"
+
+
+ALIASES = {"master": "primary", "slave": "secondary"}
+"""Input aliases of the sides' names (older codes'): accepted where the user names a side."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Topology:
+    """The bodies and interfaces of a mesh (or of a problem on it), resolved.
+
+    Attributes:
+        bodies: Body name -> its cell groups.
+        interfaces: Interface (facet) group -> its :class:`InterfaceSides`, in order (the first
+            is the interface of a two-body problem).
+    """
+
+    bodies: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    interfaces: dict[str, InterfaceSides] = dataclasses.field(default_factory=dict)
+
+    @property
+    def first(self) -> InterfaceSides | None:
+        """The sides of the first interface (``None``: no interface)."""
+        return next(iter(self.interfaces.values()), None)
+
+    def with_interfaces(self, interfaces: Mapping[str, InterfaceSides]) -> Topology:
+        """These interfaces instead of the mesh's.
+
+        A side that is no body is a body of its own cell group (the classic layout's ``master``
+        and ``slave``).
+        """
+        bodies = dict(self.bodies)
+        for sides in interfaces.values():
+            for b in (sides.primary, sides.secondary):
+                bodies.setdefault(b, (b,))
+        return Topology(bodies, dict(interfaces))
+
+    def body_tags(self, tags: Mapping[str, int]) -> dict[str, tuple[int, ...]]:
+        """Body or cell-group name -> its cell tags (``tags``: group name -> tag).
+
+        Raises:
+            KeyError: A body's cell group that ``tags`` lacks.
+        """
+        out = {b: tuple(tags[g] for g in gs) for b, gs in self.bodies.items()}
+        for gs in self.bodies.values():
+            for g in gs:
+                out.setdefault(g, (tags[g],))
+        return out
+
+    def materials(self, given: Mapping[str, Any]) -> dict[str, Any]:
+        """The materials by body and cell group, the sides' input aliases resolved.
+
+        The keys ``primary``/``secondary`` (and their aliases ``master``/``slave``) name the
+        first interface's bodies, where these bodies have no material of their own.
+        """
+        out = dict(given)
+        first = self.first
+        if first is None:
+            return out
+        for role, body in (("primary", first.primary), ("secondary", first.secondary)):
+            for key in (role, *(a for a, r in ALIASES.items() if r == role)):
+                if key in given and body not in given:
+                    out[body] = given[key]
+        return out
 
 
 def default_names(names: Mapping[str, str] | None) -> dict[str, str]:

@@ -10,16 +10,17 @@ from .. import meshing
 from ..fem import (
     Dirichlet,
     Interface,
+    InterfaceError,
     InterfaceProblem,
     Material,
     PointForce,
     Pressure,
+    ProblemSettings,
     Spring,
     Traction,
 )
-from ..fem.bodies import resolve_topology
 from ..fem.kinematics import ModeError
-from ..fem.plasticity import J2Bulk, PlasticityError
+from ..fem.plasticity import PlasticityError
 from ..fem.probes import require_near
 from .materials import scene_materials
 from .parser import scene_model
@@ -154,24 +155,22 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
             )
             for name, spec in scene.interfaces.items()
         ]
+    elif model.initial_gap is not None or model.regions:  # the scene's one interface's
+        interfaces = [
+            Interface(group, initial_gap=model.initial_gap, regions=model.regions or None)
+            for group in _only_interface(domain)
+        ]
     _check_material_names(scene, domain)
-    bulk = _j2_bulk(scene, domain, model.law, interfaces)
     try:
         return InterfaceProblem(
             domain,
             model.law,
-            materials,
+            scene_materials(scene) or materials,
             model.program,
             bcs,
-            loads,
-            springs=springs,
-            degree=scene.degree,
-            quadrature=scene.quadrature,
-            initial_gap=model.initial_gap,
-            regions=model.regions or None,
+            [*loads, *springs],
             interfaces=interfaces,
-            bulk=bulk,
-            mode=scene.mode,
+            settings=ProblemSettings(scene.degree, scene.quadrature, scene.mode),
         )
     except PlasticityError as e:
         raise SceneError(f"scene.materials: {e}") from None
@@ -179,19 +178,19 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
         raise SceneError(f"scene.mode: {e}") from None
 
 
-def _j2_bulk(scene: FEScene, domain: Any, law: Any, interfaces: Any) -> J2Bulk | None:
-    """The J2 bulk of a scene with a J2 body (``None``: all elastic, the built-in fast path).
+def _only_interface(domain: meshing.InterfaceMesh) -> list[str]:
+    """The group of the mesh's only interface (the classic layout's when it knows none).
 
-    The materials keyed ``master``/``slave`` go to the first interface's primary and secondary
-    bodies, as the problem's own materials do.
+    Raises:
+        InterfaceError: The mesh has several interfaces.
     """
-    mats = scene_materials(scene)
-    if mats is None:
-        return None
-    topo = resolve_topology(domain, law, interfaces=interfaces)  # as the problem resolves it
-    resolved = topo.materials(mats)  # type: ignore[arg-type]
-    known = set(topo.tags) | set(topo.bodies)
-    return J2Bulk({k: m for k, m in resolved.items() if k in known or k not in ("master", "slave")})
+    known = list(domain.interfaces) or [meshing.INTERFACE]
+    if len(known) > 1:
+        raise InterfaceError(
+            f"the mesh has {len(known)} interfaces {known}: give the initial gap and the regions "
+            "per interface (scene.interfaces.<name>.initial_gap, .regions)"
+        )
+    return known
 
 
 def _check_material_names(scene: FEScene, domain: meshing.InterfaceMesh) -> None:

@@ -31,6 +31,7 @@ from ..fem import (
     FrictionSolver,
     LoadStepper,
     SolverOptionError,
+    StepControl,
     StepFailure,
     StepInterrupted,
     format_breakdown,
@@ -226,12 +227,14 @@ def run_fe_scene(
         stepper = LoadStepper(
             solver,
             scene.solver.dt,
-            dt_max=scene.solver.dt_max,
-            dt_min=scene.solver.dt_min,
-            max_cuts=scene.solver.max_cuts,
-            hold_dt=scene.solver.hold_dt,
-            max_steps=scene.solver.max_steps,
-            keep_records=False,  # the history holds what a scene reports of each step
+            control=StepControl(
+                dt_max=scene.solver.dt_max,
+                dt_min=scene.solver.dt_min,
+                max_cuts=scene.solver.max_cuts,
+                hold_dt=scene.solver.hold_dt,
+                max_steps=scene.solver.max_steps,
+            ),
+            keep_records=False,
         )
         restart_time, restart_history = None, None
         if restart is not None:

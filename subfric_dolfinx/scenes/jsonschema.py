@@ -29,6 +29,7 @@ from typing import Any
 
 from ..commandline import ArgumentError, ArgumentParser, error_line
 from ..constitutive import LAWS, PRESETS
+from ..meshing.topology import KINEMATICS
 from . import schema
 
 __all__ = ["SCHEMA_ID", "main", "scene_schema"]
@@ -245,7 +246,7 @@ _SPECIAL = {  # fields typed Any or plain dicts in the dataclasses: what the par
     ("FEScene", "regions"): _regions,
     ("FEScene", "initial_gap"): _initial_gap,
     ("FEScene", "materials"): _materials,
-    ("InterfaceSpec", "kinematics"): lambda defs: {"enum": [*schema.KINEMATICS, None]},
+    ("InterfaceSpec", "kinematics"): lambda defs: {"enum": [*KINEMATICS, None]},
     ("InterfaceSpec", "search_radius"): lambda defs: _positive_or_null(),
     ("InterfaceSpec", "reach"): lambda defs: _positive_or_null(),
 }

@@ -12,9 +12,10 @@ from collections.abc import Callable
 from typing import Any
 
 from ..constitutive import FrictionLaw
+from ..meshing.topology import KINEMATICS
 from ..values import short_repr
 from .materials import check_materials_fit, parse_material
-from .schema import KINEMATICS, FEScene, SceneError
+from .schema import FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
 

@@ -63,11 +63,6 @@ def scene_number(value: Any, path: str) -> float:
         raise SceneError(f"{path}: expected a finite number, got {short_repr(value)}") from None
 
 
-KINEMATICS = ("small_sliding", "finite_sliding")
-"""The interface kinds of ``interfaces.<name>.kinematics`` (those of
-``subfric_dolfinx.fem.interface.kinds.KINEMATICS``, named here without importing it)."""
-
-
 BUILDER_GDIM = {"block_on_base": 2, "pad_on_plate": 3, "bolted_lap_joint": 3}
 """The mesh builders a scene may name, with the dimension of their meshes."""
 

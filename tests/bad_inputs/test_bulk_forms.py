@@ -16,7 +16,14 @@ import pytest
 import ufl
 from mpi4py import MPI
 
-from subfric_dolfinx.fem import FrictionSolver, InterfaceProblem, LoadStepper, StepFailure, UFLBulk
+from subfric_dolfinx.fem import (
+    FrictionSolver,
+    InterfaceProblem,
+    LoadStepper,
+    StepControl,
+    StepFailure,
+    UFLBulk,
+)
 from tests.fem.test_bulk import user_elasticity
 from tests.helpers import LAW, PROGRAM, block_problem, prefix, raised_on_every_rank
 
@@ -30,11 +37,10 @@ def problem(base, bulk):
     return InterfaceProblem(
         base.domain,
         LAW,
-        base.materials,
+        bulk,
         PROGRAM,
         [c for c, _, _ in base.dirichlet],
         [c.condition for c, _ in base.loads],
-        bulk=bulk,
     )
 
 
@@ -158,7 +164,7 @@ def nan_jacobian(u, v, ctx):
 def test_a_nan_of_the_bulk_form_is_reported_as_the_bulks(base, form, what):
     p = problem(base, UFLBulk(form))
     with FrictionSolver(p, prefix("nan"), linear="lu") as solver:
-        stepper = LoadStepper(solver, 0.5, max_cuts=1)
+        stepper = LoadStepper(solver, 0.5, control=StepControl(max_cuts=1))
         with raised_on_every_rank(
             StepFailure,
             f"the bulk model UFLBulk({form.__name__}) gave a {what} that is not finite",

@@ -52,19 +52,22 @@ def good():
         shutil.rmtree(d, ignore_errors=True)
 
 
+IFACE = "interfaces/interface"  # the classic scene's interface in a checkpoint (format 3)
+
+
 def replace(f, key, data):
     del f[key]
     f[key] = data
 
 
 def _shorter_up(f):  # a row missing: the IndexError on one rank of old
-    replace(f, "interface/up", f["interface/up"][:-1])
+    replace(f, IFACE + "/up", f[IFACE + "/up"][:-1])
 
 
 def _mu_nan(f):
-    mu = f["interface/mu"][()]
+    mu = f[IFACE + "/mu"][()]
     mu[-1] = np.nan  # on the last rank's slab
-    replace(f, "interface/mu", mu)
+    replace(f, IFACE + "/mu", mu)
 
 
 def _columns(f):
@@ -96,12 +99,12 @@ def _set(key, value):
 
 
 DAMAGED = {
-    "up one row short": (_shorter_up, "'interface/up' has shape (15, 1), expected (16, *)"),
+    "up one row short": (_shorter_up, f"'{IFACE}/up' has shape (15, 1), expected (16, *)"),
     "r of dtype int": (
-        lambda f: replace(f, "interface/r", f["interface/r"][()].astype(np.int64)),
-        "'interface/r' has dtype int64, not float",
+        lambda f: replace(f, IFACE + "/r", f[IFACE + "/r"][()].astype(np.int64)),
+        f"'{IFACE}/r' has dtype int64, not float",
     ),
-    "NaN in mu": (_mu_nan, "'interface/mu' holds non-finite values"),
+    "NaN in mu": (_mu_nan, f"'{IFACE}/mu' holds non-finite values"),
     "inf in u": (
         lambda f: f["displacement"].__setitem__((0, 0, 0), np.inf),
         "'displacement' holds non-finite values",
@@ -120,8 +123,12 @@ DAMAGED = {
     "negative dt": (_set("dt", -0.1), "attribute 'dt' = -0.1 is not > 0"),
     "law not JSON": (_set("law", "{subloading"), "attribute 'law' is not JSON"),
     "settings a list": (_set("settings", "[1, 2]"), "attribute 'settings' is not a JSON object"),
-    "more points claimed": (_set("n_points", 17), "'interface/x' has shape (16, 2), expected"),
-    "old version": (_set("version", 1), "has version 1, this code reads version 2"),
+    "more points claimed": (
+        lambda f: f[IFACE].attrs.__setitem__("n_points", 17),
+        f"'{IFACE}/x' has shape (16, 2), expected",
+    ),
+    "no interface": (lambda f: f.__delitem__("interfaces"), "holds no interface"),
+    "old version": (_set("version", 1), "has version 1, this code reads versions 2 and 3"),
     "geometry as text": (_set("geometry", "a mesh"), "'geometry' is not 9 finite numbers"),
     "geometry NaN": (_set("geometry", np.full(9, np.nan)), "'geometry' is not 9 finite numbers"),
     "history columns": (_columns, "1 history columns for"),

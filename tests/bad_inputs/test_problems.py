@@ -14,6 +14,7 @@ from subfric_dolfinx.fem import (
     InterfaceProblem,
     Material,
     Pressure,
+    ProblemSettings,
     Traction,
 )
 from subfric_dolfinx.loading import LoadingError, LoadingProgram
@@ -128,7 +129,7 @@ def test_an_axisymmetric_mesh_at_negative_radius_is_refused(shift, words):
             PROGRAM,
             bcs,
             [Pressure("top", 1.0, "press")],
-            mode="axisymmetric",
+            settings=ProblemSettings(mode="axisymmetric"),
         )
     dom.mesh.geometry.x[:, 0] -= shift + 1e-13  # on the axis up to round-off: accepted
     InterfaceProblem(
@@ -138,5 +139,5 @@ def test_an_axisymmetric_mesh_at_negative_radius_is_refused(shift, words):
         PROGRAM,
         bcs,
         [Pressure("top", 1.0, "press")],
-        mode="axisymmetric",
+        settings=ProblemSettings(mode="axisymmetric"),
     )

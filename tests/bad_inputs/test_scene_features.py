@@ -207,11 +207,11 @@ def test_a_node_group_not_at_a_vertex_and_a_spring_on_nodes_are_named():
     ):
         InterfaceProblem(dom, LAW, mats, PROGRAM, [Dirichlet("off", (0.0, 0.0))])
     with raised_on_every_rank(InterfaceError, "Spring condition on 'pin': a group of nodes"):
-        InterfaceProblem(dom, LAW, mats, PROGRAM, springs=[Spring("pin", 1.0)])
+        InterfaceProblem(dom, LAW, mats, PROGRAM, (), [Spring("pin", 1.0)])
     with raised_on_every_rank(ValueError, "a group named 'pin' exists already"):
         dom.add_node_group("pin", [[0.5, 1.0]])
     with raised_on_every_rank(ValueError, "spring on 'top': stiffness must be"):
-        InterfaceProblem(dom, LAW, mats, PROGRAM, springs=[Spring("top", (1.0, np.inf))])
+        InterfaceProblem(dom, LAW, mats, PROGRAM, (), [Spring("top", (1.0, np.inf))])
     with raised_on_every_rank(InterfaceError, "its nearest vertex (1.0, 0.5) is an interface node"):
         InterfaceProblem(dom, LAW, mats, PROGRAM, [], [PointForce((1.01, 0.5), (0.0, 1.0))])
     with raised_on_every_rank(InterfaceError, "point 'P' at (5.0, 5.0) is in no cell"):

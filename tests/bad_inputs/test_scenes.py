@@ -162,6 +162,10 @@ from tests.helpers import on_root, prefix, raised_on_every_rank, small_scene
             lambda s: s["materials"]["master"].update(nu=0.6),
             r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
         ),
+        (
+            lambda s: s["materials"]["slave"].update(nu=-1.0),
+            r"scene.materials.slave: parameter nu = -1.0 is out of range; allowed: -1 < nu < 0.5",
+        ),
         # issue 22: an interface's kind and the settings of finite sliding
         (
             lambda s: s.update(interfaces={"interface": {"kinematics": "large_sliding"}}),
@@ -222,6 +226,19 @@ def test_bad_scene_configs_are_named(mutate, pattern):
     mutate(s)
     with raised_on_every_rank(SceneError, match=pattern):
         parse_scene(s)
+
+
+def test_a_negative_poisson_ratio_is_a_material_like_any_other(shared_tmp):
+    """One elastic material, one validation (issue 34 item 5): ``-1 < nu < 0.5``, in the parser
+    and in the problem alike (an auxetic ``nu = -0.2`` once passed the parser and was refused
+    after the mesh was built). The block is pressed: the interface carries the pressure times
+    the 1 mm width."""
+    s = copy.deepcopy(small_scene(short=True))
+    s["materials"]["slave"]["nu"] = -0.2
+    s["program"] = {"times": [0, 1], "channels": {"press": [0, 1], "slide": [0, 0]}}
+    s["solver"]["prefix"] = prefix("nu")
+    run = run_scene(s, outdir=shared_tmp, comm=MPI.COMM_WORLD)
+    assert abs(run.history[-1]["F_n"] - 300.0) < 1e-8 * 300.0
 
 
 @pytest.mark.parametrize("name", ["../escaped", "/tmp/absolute", "sub/dir", "", "..", "a\x00"])

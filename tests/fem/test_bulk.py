@@ -29,6 +29,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
     UFLBulk,
 )
 from subfric_dolfinx.io import interface_summary, restore_checkpoint, write_checkpoint
@@ -62,7 +63,7 @@ def test_every_mode_against_uniaxial_stress(comm, mode):
         RAMP,
         bcs,
         [Pressure("top", P, amplitude="press")],
-        mode=mode,
+        settings=ProblemSettings(mode=mode),
     )
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
@@ -113,11 +114,10 @@ def with_bulk(comm, bulk, partitioner=None, base=None):
     return InterfaceProblem(
         p.domain,
         LAW,
-        p.materials,
+        bulk,
         PROGRAM,
         [c for c, _, _ in p.dirichlet],
         [c.condition for c, _ in p.loads],
-        bulk=bulk,
     )
 
 
@@ -184,10 +184,10 @@ class MaxStrain:
     def revert(self):
         self.new.x.array[:] = self.old.x.array
 
-    def state(self):
+    def saved_state(self):
         return {"emax": self.old.x.array[: self.n].copy()}
 
-    def restore(self, data):
+    def restore_state(self, data):
         self.old.x.array[: self.n] = data["emax"]
         self.old.x.scatter_forward()
         self.revert()
@@ -240,7 +240,7 @@ def test_a_bulk_with_state_is_updated_committed_reverted_and_checkpointed(comm, 
         "history": np.abs(np.array(rows) - ref).max() < 1e-10 * np.abs(ref).max(),
     }
     # the state restored into a problem partitioned otherwise (one body per rank), by cell
-    other = MaxStrain(problem.materials)
+    other = MaxStrain(bulk.elastic.materials)
     p3 = with_bulk(comm, other, partitioner="bodies")
     with FrictionSolver(p3) as s3:
         restore_checkpoint(shared_tmp / "ck.h5", p3, LoadStepper(s3, 0.25))

@@ -115,7 +115,7 @@ def test_the_gap_is_kept_in_outputs_and_on_restart(shared_tmp):
             x = f["x"][()]
             np.testing.assert_allclose(f["g0"][()], G0 + SLOPE * (x[:, 0] - X0), rtol=1e-14)
         with h5py.File(out / "checkpoint.h5") as f:
-            assert "g0" in f["point_data"]
+            assert "g0" in f["interfaces/interface/point_data"]
 
     on_root(comm, check_files)
     again = run_scene(scene(LINEAR), comm=comm, restart=out / "checkpoint.h5")

@@ -16,6 +16,8 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
+    StepControl,
     StepFailure,
 )
 from subfric_dolfinx.loading import LoadingProgram
@@ -78,7 +80,13 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
     bcs += [Dirichlet("top", s, component=i, amplitude="slide") for i, s in enumerate(top_value)]
     mats = {"master": Material(E, 0.0), "slave": Material(E, 0.0)}
     return InterfaceProblem(
-        dom, law, mats, PROGRAM, bcs, [Pressure("top", P, amplitude="press")], degree=degree
+        dom,
+        law,
+        mats,
+        PROGRAM,
+        bcs,
+        [Pressure("top", P, amplitude="press")],
+        settings=ProblemSettings(degree=degree),
     ), top_value
 
 
@@ -118,7 +126,7 @@ def test_patch_test_equals_the_material_point_driver(gdim, cell_type, degree):
         g = [global_spread(comm, gap[:, i])[1] for i in range(gdim)]
         hist.append((rec.t, row, g))
 
-    LoadStepper(solver, 0.125, dt_max=0.125, on_step=on_step).run()
+    LoadStepper(solver, 0.125, control=StepControl(dt_max=0.125), on_step=on_step).run()
     assert len(hist) == 40
     # the material-point driver along the same gap history, one step per FE step
     times = [0.0] + [h[0] for h in hist]
@@ -349,7 +357,7 @@ def test_too_many_cuts_raise_with_the_last_converged_state_intact():
         orig(t, dt)
 
     prob.set_step = set_step
-    stepper = LoadStepper(solver, 0.25, max_cuts=3)
+    stepper = LoadStepper(solver, 0.25, control=StepControl(max_cuts=3))
     snapshot = {}
 
     def on_step(rec):

@@ -366,7 +366,7 @@ def test_restore_of_state_continues_the_run():
     for f in (1.5, 3.0):
         nw.solve({"ra": f * u_y})
         bulk.commit()
-    saved, u_saved = bulk.state(), u.x.array.copy()
+    saved, u_saved = bulk.saved_state(), u.x.array.copy()
     mesh = u.function_space.mesh
     n_cells = mesh.topology.index_map(2).size_local
     nq = bulk.functions["p"].function_space.dofmap.list.shape[1]
@@ -379,16 +379,16 @@ def test_restore_of_state_continues_the_run():
     for f in (4.5, 6.0):
         nw.solve({"ra": f * u_y})
         bulk.commit()
-        run_a.append((pressure(nw), bulk.state()))
+        run_a.append((pressure(nw), bulk.saved_state()))
     _, bulk_b, nw_b, u_b = cylinder(comm, nr=10, nu=0.3, Hi=1e3)
-    bulk_b.restore(saved)
-    assert all(np.array_equal(v, saved[k]) for k, v in bulk_b.state().items())
+    bulk_b.restore_state(saved)
+    assert all(np.array_equal(v, saved[k]) for k, v in bulk_b.saved_state().items())
     u_b.x.array[:] = u_saved
     for (p_a, st_a), f in zip(run_a, (4.5, 6.0), strict=True):
         nw_b.solve({"ra": f * u_y})
         bulk_b.commit()
         assert pressure(nw_b) == pytest.approx(p_a, rel=1e-10)
-        st_b = bulk_b.state()
+        st_b = bulk_b.saved_state()
         for k in ("plastic_strain", "backstress", "p"):
             assert np.allclose(st_b[k], st_a[k], rtol=1e-10, atol=1e-10 * np.abs(st_a[k]).max())
 
@@ -396,23 +396,23 @@ def test_restore_of_state_continues_the_run():
 def test_restore_errors_are_raised_on_every_rank():
     comm = MPI.COMM_WORLD
     _, bulk, _, _ = cylinder(comm, nr=6, nu=0.3)
-    st = bulk.state()
+    st = bulk.saved_state()
     with raised_on_every_rank(PlasticityError, "missing: ['backstress']"):
-        bulk.restore({k: v for k, v in st.items() if k != "backstress"})
+        bulk.restore_state({k: v for k, v in st.items() if k != "backstress"})
     with raised_on_every_rank(PlasticityError, "unknown: ['x']"):
-        bulk.restore(st | {"x": np.zeros(3)})
+        bulk.restore_state(st | {"x": np.zeros(3)})
     with raised_on_every_rank(PlasticityError, "'plastic_strain' has shape"):
-        bulk.restore(st | {"plastic_strain": np.zeros((st["p"].size, 6))})
+        bulk.restore_state(st | {"plastic_strain": np.zeros((st["p"].size, 6))})
     # on rank 0 only: every rank raises
     bad = st["p"].copy()
     if comm.rank == 0:
         bad[:] = np.nan
     with raised_on_every_rank(PlasticityError, "non-finite"):
-        bulk.restore(st | {"p": bad})
+        bulk.restore_state(st | {"p": bad})
     short = {k: v[1:] if comm.rank == 0 else v for k, v in st.items()}
     with raised_on_every_rank(PlasticityError, "has shape"):
-        bulk.restore(short)
-    assert all(np.array_equal(v, st[k]) for k, v in bulk.state().items())  # untouched
+        bulk.restore_state(short)
+    assert all(np.array_equal(v, st[k]) for k, v in bulk.saved_state().items())  # untouched
 
 
 # ---------------------------------------------------------------------------------------------
@@ -473,7 +473,7 @@ def test_j2_body_beside_an_elastic_body():
         assert n1.reaction("x1") == pytest.approx(n2.reaction("x1"), rel=1e-10)
         assert n1.reaction("x1") == pytest.approx(n3.reaction("x1"), rel=1e-12)
         assert one.plastic_points > 0 or strain == 0.0
-        s1, s2 = one.state(), two.state()  # every owned cell: zeros in b's for `one`
+        s1, s2 = one.saved_state(), two.saved_state()  # every owned cell: zeros in b's for `one`
         for k in ("plastic_strain", "backstress", "p"):
             scale = np.abs(s1[k]).max(initial=0.0)
             assert np.allclose(s1[k], s2[k], rtol=1e-10, atol=1e-10 * scale)

@@ -27,6 +27,7 @@ from subfric_dolfinx.fem import (
     J2Bulk,
     LoadStepper,
     Pressure,
+    ProblemSettings,
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
@@ -59,7 +60,13 @@ def test_j2_bodies_in_a_problem_against_the_uniaxial_closed_form(comm, mode):
     dom, bcs = column(mode, comm)
     bulk = J2Bulk({"master": MAT, "slave": MAT})
     problem = InterfaceProblem(
-        dom, STICK, {}, PATH, bcs, [Pressure("top", P, amplitude="press")], bulk=bulk, mode=mode
+        dom,
+        STICK,
+        bulk,
+        PATH,
+        bcs,
+        [Pressure("top", P, amplitude="press")],
+        settings=ProblemSettings(mode=mode),
     )
     V, gdim = problem.V, problem.gdim
     n = V.dofmap.index_map.size_local

@@ -23,6 +23,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    StepControl,
 )
 from subfric_dolfinx.fem import linear as linear_module
 from subfric_dolfinx.fem.linear import STRATEGIES, rigid_modes
@@ -89,7 +90,7 @@ def run(problem, linear, options=None, dt=10.0, policy=None):
             its.append(rec.iterations)
             ft.append(interface_summary(problem)["F_t1"])
 
-        LoadStepper(solver, dt, dt_max=dt, on_step=on_step).run()
+        LoadStepper(solver, dt, control=StepControl(dt_max=dt), on_step=on_step).run()
         return its, np.array(ft), solver.linear.stats, results
 
 

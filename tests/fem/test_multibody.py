@@ -26,10 +26,12 @@ from subfric_dolfinx.fem import (
     Dirichlet,
     FrictionSolver,
     Interface,
+    InterfaceError,
     InterfaceProblem,
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
 )
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
@@ -101,6 +103,27 @@ def test_the_stack_mesh_knows_its_bodies_and_interfaces(comm):
     ]
     assert counts[0] == counts[1] > 0 and counts[2] == counts[3] > 0
     assert counts[0] > counts[2]  # the middle block is wider than the cap
+
+
+def test_two_bodies_on_a_mesh_of_several_interfaces_names_its_interface(comm):
+    """``InterfaceProblem.two_bodies`` is one interface: on the stack's mesh (two) it refuses to
+    guess (naming them), and takes the one it is given, with its sides from the mesh's
+    topology and the other body's cells outside any interface."""
+    dom = stack(comm)
+    steel = Material(2.1e5, 0.3)
+    args = (
+        dom,
+        CoulombLaw(alpha_t=1e5, alpha_n=1e5, mu_c=0.5),
+        {"base": steel, "middle": steel, "cap": steel},
+        LoadingProgram([0.0, 1.0], {"press": [0, 1]}),
+        [Dirichlet("ground", [0.0, 0.0])],
+    )
+    with raised_on_every_rank(InterfaceError, "the mesh has 2 interfaces"):
+        InterfaceProblem.two_bodies(*args)
+    with InterfaceProblem.two_bodies(*args, interface=Interface("high")) as problem:
+        assert list(problem.interfaces) == ["high"]
+        assert problem.topology.interfaces == {"high": meshing.InterfaceSides("middle", "cap")}
+        assert set(problem.topology.bodies) == {"base", "middle", "cap"}
 
 
 @pytest.mark.leaves_validity(
@@ -338,7 +361,7 @@ def test_a_body_of_two_groups_with_their_own_materials(comm):
         LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]}),
         [Dirichlet("ground", 0.0, component=1), Dirichlet("pin", 0.0, component=0)],
         [Pressure("lid", p, amplitude="press")],
-        mode="plane_stress",
+        settings=ProblemSettings(mode="plane_stress"),
     )
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from subfric_dolfinx.fem import FrictionSolver, LoadStepper, NewtonStart
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, NewtonStart, StepControl
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning
@@ -47,7 +47,9 @@ def run(predictor, rtol=1e-9):
             s = interface_summary(problem)
             rows.append((rec.t, rec.iterations, flags[-1], s["F_t1"], s["F_n"]))
 
-        LoadStepper(solver, 0.1, dt_max=0.1, predictor=predictor, on_step=on_step).run()
+        LoadStepper(
+            solver, 0.1, control=StepControl(dt_max=0.1), predictor=predictor, on_step=on_step
+        ).run()
     return rows
 
 
@@ -107,7 +109,7 @@ def test_small_sliding_keeps_the_law_tangent_at_the_first_iteration():
             return real(*a, **k)
 
         solver.solve = solve
-        LoadStepper(solver, 0.1, dt_max=0.1).run(t_end=1.4)
+        LoadStepper(solver, 0.1, control=StepControl(dt_max=0.1)).run(t_end=1.4)
         J, Js = problem.create_matrix(), problem.create_matrix()
         problem.jacobian(solver.x, J)
         diffs = []

@@ -17,6 +17,7 @@ from subfric_dolfinx.fem import (
     InterfaceProblem,
     LoadStepper,
     Material,
+    StepControl,
 )
 from subfric_dolfinx.fem.stepping import describe_attempt
 from subfric_dolfinx.io import interface_summary
@@ -103,7 +104,9 @@ def run_stepper(prob, scene, linear=None, **kwargs):
 
     sv = scene.solver
     with FrictionSolver(prob, prefix("retry"), linear=linear or sv.linear) as solver:
-        st = LoadStepper(solver, sv.dt, dt_max=sv.dt_max, max_cuts=sv.max_cuts, **kwargs)
+        st = LoadStepper(
+            solver, sv.dt, control=StepControl(dt_max=sv.dt_max, max_cuts=sv.max_cuts), **kwargs
+        )
         try:
             st.run()
         except StepFailure as e:
@@ -214,7 +217,7 @@ def test_a_step_failure_says_what_the_return_map_saw():
     prob = InterfaceProblem(block(comm), LAW, MATERIALS, program, bcs, loads)
     with FrictionSolver(prob, prefix("fail")) as solver:
         with pytest.raises(StepFailure) as e:
-            LoadStepper(solver, 0.1, max_cuts=4).run()
+            LoadStepper(solver, 0.1, control=StepControl(max_cuts=4)).run()
     att = e.value.attempt
     counts, worst = att.counts, att.worst
     n_points = comm.allreduce(prob.interface.n_elements * prob.interface.nq)
@@ -279,7 +282,7 @@ def test_a_segment_on_the_retry_tries_full_newton_steps_again(plain_fails_again)
             return r
 
         solver.solve = solve
-        st = LoadStepper(solver, sv.dt, dt_max=sv.dt_max, max_cuts=sv.max_cuts)
+        st = LoadStepper(solver, sv.dt, control=StepControl(dt_max=sv.dt_max, max_cuts=sv.max_cuts))
         st.run()
     slide = [rec for rec in st.records if rec.t > 1.0 + 1e-12]
     assert len(slide) >= 6
@@ -314,7 +317,9 @@ def test_an_unloaded_slide_then_a_press_repeats_and_extrapolates_no_noise():
         prob, scene = demo_problem("sec7", SLIDE_THEN_PRESS)
         out = []
         with FrictionSolver(prob, prefix("again"), linear="lu") as solver:
-            st = LoadStepper(solver, scene.solver.dt, dt_max=scene.solver.dt_max)
+            st = LoadStepper(
+                solver, scene.solver.dt, control=StepControl(dt_max=scene.solver.dt_max)
+            )
 
             def on_step(rec, st=st, prob=prob, out=out):
                 if rec.t <= 1.0:  # the unloaded slide: nothing to extrapolate

@@ -17,6 +17,7 @@ from subfric_dolfinx.fem import (
     Material,
     Pressure,
     Spring,
+    StepControl,
     StepFailure,
     Traction,
 )
@@ -63,8 +64,7 @@ def test_a_block_pulled_off_its_base_and_held_by_springs_moves_by_force_over_sti
         MATERIALS,
         program,
         [Dirichlet("master", (0.0, 0.0))],
-        [Traction("top", t, amplitude="pull")],
-        springs=[Spring("top", k, u0=u0, amplitude="end")],
+        [*[Traction("top", t, amplitude="pull")], *[Spring("top", k, u0=u0, amplitude="end")]],
     )
     rows = []
 
@@ -111,8 +111,13 @@ def test_spring_stiffness_is_in_the_jacobian():
         MATERIALS,
         program,
         [Dirichlet("bottom", (0.0, 0.0))],
-        [Pressure("top", 100.0, amplitude="press"), Traction("slave_left", (10.0, 0.0), "shear")],
-        springs=[Spring("slave_left", (2.0, 0.0)), Spring("slave_right", (2.0, 0.0))],
+        [
+            *[
+                Pressure("top", 100.0, amplitude="press"),
+                Traction("slave_left", (10.0, 0.0), "shear"),
+            ],
+            *[Spring("slave_left", (2.0, 0.0)), Spring("slave_right", (2.0, 0.0))],
+        ],
     )
     with FrictionSolver(prob, prefix("sjac")) as solver:
         stepper = LoadStepper(solver, 0.5)
@@ -151,8 +156,10 @@ def sheared_block(comm, q, springs=()):
         MATERIALS,
         program,
         [Dirichlet("bottom", (0.0, 0.0))],
-        [Pressure("top", 100.0, amplitude="press"), Traction("slave_left", (q, 0.0), "shear")],
-        springs=springs,
+        [
+            *[Pressure("top", 100.0, amplitude="press"), Traction("slave_left", (q, 0.0), "shear")],
+            *springs,
+        ],
     )
 
 
@@ -170,7 +177,7 @@ def test_a_sliding_block_has_an_equilibrium_only_with_springs():
     _, prob = sheared_block(comm, 70.0)
     with FrictionSolver(prob, prefix("nospring")) as solver:
         with pytest.raises(StepFailure):
-            LoadStepper(solver, 1.0, max_cuts=2).run()
+            LoadStepper(solver, 1.0, control=StepControl(max_cuts=2)).run()
     k = 2.0 / 0.5
     program, prob = sheared_block(
         comm, 70.0, [Spring("slave_left", (k, 0.0)), Spring("slave_right", (k, 0.0))]

@@ -21,7 +21,14 @@ from petsc4py import PETSc
 from subfric_dolfinx import meshing
 from subfric_dolfinx.compat import SNES_DIVERGED_NAN
 from subfric_dolfinx.constitutive import preset
-from subfric_dolfinx.fem import Dirichlet, FrictionSolver, InterfaceProblem, LoadStepper, Material
+from subfric_dolfinx.fem import (
+    Dirichlet,
+    FrictionSolver,
+    Interface,
+    InterfaceProblem,
+    LoadStepper,
+    Material,
+)
 from subfric_dolfinx.fem.convergence import EPS, SNORM_SLACK, ScaledConvergence
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
@@ -185,7 +192,14 @@ def test_a_clamped_shrink_fit_holds():
     program = LoadingProgram([0, 1, 4], {"c": [1, 1, 1]})
     bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", (0.0, 0.0))]
     law = preset("sec7").replace(alpha_n=1e5, alpha_t=1e5)
-    prob = InterfaceProblem(block(comm), law, MATERIALS, program, bcs, initial_gap=-0.002)
+    prob = InterfaceProblem.two_bodies(
+        block(comm),
+        law,
+        MATERIALS,
+        program,
+        bcs,
+        interface=Interface("interface", initial_gap=-0.002),
+    )
     records, xs = run(prob, 0.5)
     assert records[-1].t == pytest.approx(4.0) and all(r.cuts == 0 for r in records)
     assert all(r.iterations <= 1 for r in records[1:]), [r.iterations for r in records]

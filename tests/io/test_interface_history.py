@@ -119,10 +119,10 @@ def test_a_restart_into_a_broken_interface_history_fails_on_every_rank(shared_tm
 
 CHECKPOINT_ROWS = {
     "/displacement",
-    "/interface/x",
-    "/interface/up",
-    "/interface/mu",
-    "/interface/r",
+    "/interfaces/interface/x",
+    "/interfaces/interface/up",
+    "/interfaces/interface/mu",
+    "/interfaces/interface/r",
 }
 """Checkpoint datasets with one row per cell or interface point (axis 0)."""
 SERIES = {"/f_t", "/f_n", "/gap", "/status", "/up", "/mu", "/r"}

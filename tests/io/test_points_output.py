@@ -15,7 +15,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx.constitutive import Status
-from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl
 from subfric_dolfinx.io import InterfacePointsXDMF, PointCloudError, gather_interface
 from subfric_dolfinx.io.gather import interface_order
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
@@ -90,7 +90,7 @@ def test_quadrature_point_cloud_read_back_against_the_gathered_state(shared_tmp)
             writer.write(rec.t)
             expected.append((rec.t, gathered(prob)))
 
-        LoadStepper(solver, 0.25, dt_max=0.5, on_step=on_step).run(t_end=4.0)
+        LoadStepper(solver, 0.25, control=StepControl(dt_max=0.5), on_step=on_step).run(t_end=4.0)
     solver.destroy()
     p = comm.allreduce(el.n_elements * el.nq)
 

@@ -122,12 +122,12 @@ def test_a_program_of_1e9_steps_is_refused_when_parsed():
 def test_a_run_that_reaches_max_steps_stops_with_a_step_failure(comm):
     """A 1 s program at dt = 0.1 with max_steps = 3: the stepper stops after step 3 at t = 0.3
     with a StepFailure naming max_steps, every rank alike, the state of step 3 kept."""
-    from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepFailure
+    from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl, StepFailure
     from tests.helpers import block_problem, prefix
 
     prob = block_problem(comm)
     with FrictionSolver(prob, prefix("maxsteps")) as solver:
-        st = LoadStepper(solver, 0.1, max_steps=3)
+        st = LoadStepper(solver, 0.1, control=StepControl(max_steps=3))
         with raised_on_every_rank(StepFailure, "max_steps = 3", "t = 0.3"):
             st.run()
     assert st.step == 3 and st.t == pytest.approx(0.3)

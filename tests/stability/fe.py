@@ -48,6 +48,7 @@ def _fe_run(
         LoadStepper,
         Material,
         Pressure,
+        StepControl,
         StepFailure,
         Traction,
     )
@@ -117,10 +118,9 @@ def _fe_run(
     stepper = LoadStepper(
         solver,
         dt,
-        dt_max=dt_max,
-        max_cuts=max_cuts,
+        control=StepControl(dt_max=dt_max, max_cuts=max_cuts),
         on_step=on_step,
-        **({} if retry else {"retry_options": None}),
+        **{} if retry else {"retry_options": None},
     )
     error = None
     try:

@@ -4,15 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from ...meshing.topology import KINEMATICS
 from .base import BaseInterface, InterfaceError
 from .finite import SlidingInterface
 from .small import FrictionInterface
 
 __all__ = ["KINEMATICS", "make_interface"]
-
-
-KINEMATICS = ("small_sliding", "finite_sliding")
-"""The interface kinds: node-to-node small sliding, or finite sliding on non-matching meshes."""
 
 
 def make_interface(

@@ -39,6 +39,8 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
+    StepControl,
 )
 from subfric_dolfinx.fem.interface import InterfaceError, SlidingInterface
 from subfric_dolfinx.fem.validity import ValidityWatch
@@ -77,8 +79,7 @@ def pressed_patch(comm, cell, degree, n_base, n_block, p, mode=None):
                 "contact", "base", "block", kinematics="finite_sliding", intended_compliance=True
             )
         ],
-        degree=degree,
-        mode=mode,
+        settings=ProblemSettings(degree=degree, mode=mode),
     )
     with FrictionSolver(problem, linear="lu") as solver:
         records = LoadStepper(solver, 0.5).run()
@@ -161,8 +162,6 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
             Dirichlet("hub_ends", 0.0, component=1),
             Dirichlet("shaft", push, component=1, amplitude="push"),
         ],
-        degree=2,
-        mode="axisymmetric",
         interfaces=[
             Interface(
                 "fit",
@@ -174,6 +173,7 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
                 reach=2 * h,
             )
         ],
+        settings=ProblemSettings(degree=2, mode="axisymmetric"),
     )
     iface, p0, rows = problem.interfaces["fit"], sf.lame_pressure(), []
 
@@ -197,7 +197,7 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
         )
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, 0.5, hold_dt=1.0, on_step=on_step).run()
+        LoadStepper(solver, 0.5, control=StepControl(hold_dt=1.0), on_step=on_step).run()
     r = np.array(rows)
     pushed = r[:, 0] > 1.0 + 1e-9
     checks = {
@@ -279,7 +279,7 @@ def run_slide(comm, problem, dt):
         )
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, dt, dt_max=dt, on_step=on_step).run()
+        LoadStepper(solver, dt, control=StepControl(dt_max=dt), on_step=on_step).run()
     return np.array(rows)
 
 
@@ -408,7 +408,7 @@ def turn_hub(comm, geometry_degree, n_inner=48, n_outer=64, facets=3):
         interfaces=[
             Interface("contact", "shaft", "hub", kinematics="finite_sliding", initial_gap=-delta)
         ],
-        degree=2,
+        settings=ProblemSettings(degree=2),
     )
     # Lame: the hub ring with u(R) = delta - p / alpha (the penalty's share), u(r2) = 0
     lam, G = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
@@ -425,7 +425,7 @@ def turn_hub(comm, geometry_degree, n_inner=48, n_outer=64, facets=3):
         rows.append((rec.iterations, fn.min() / p, fn.max() / p, T / (2 * np.pi * R**2 * mu * p)))
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, 0.1, dt_max=0.1, on_step=on_step).run()
+        LoadStepper(solver, 0.1, control=StepControl(dt_max=0.1), on_step=on_step).run()
     return np.array(rows), iface
 
 
@@ -464,7 +464,7 @@ def test_nonmatching_patch_test_in_3d(comm, degree):
                 "contact", "base", "block", kinematics="finite_sliding", intended_compliance=True
             )
         ],
-        degree=degree,
+        settings=ProblemSettings(degree=degree),
     )
     iface = problem.interfaces["contact"]
     with FrictionSolver(problem, linear="lu") as solver:
@@ -526,7 +526,7 @@ def test_3d_block_slides_diagonally_like_a_material_point(comm):
         rows.append((rec.dt, rec.iterations, *(sums[:3] / sums[4]), sums[3] / sums[4], s))
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, 0.02, dt_max=0.02, on_step=on_step).run()
+        LoadStepper(solver, 0.02, control=StepControl(dt_max=0.02), on_step=on_step).run()
     rows = np.array(rows)
     state, ref = law.initial_state(1, 2), []
     for dt, _, _, _, _, gn, s in rows:

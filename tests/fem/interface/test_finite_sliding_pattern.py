@@ -19,7 +19,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from benchmarks import fe_scaling
-from subfric_dolfinx.fem import LoadStepper
+from subfric_dolfinx.fem import LoadStepper, StepControl
 from subfric_dolfinx.fem.interface.finite.reach import ReachSearch
 from subfric_dolfinx.fem.interface.layout import Couplings, ExtendedLayout
 from subfric_dolfinx.io import interface_summary
@@ -75,7 +75,7 @@ def run(comm: MPI.Comm):
         rows.append([rec.t, s["F_t1"], s["F_n"], rec.iterations])
 
     try:
-        LoadStepper(pad.solver, dt=10.0, dt_max=10.0, on_step=on_step).run()
+        LoadStepper(pad.solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
         bulk = layout_nnz(pad.problem, Couplings(()))
         sizes = (
             nnz(pad.solver.J) - bulk,

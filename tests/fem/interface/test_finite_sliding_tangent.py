@@ -38,6 +38,8 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    ProblemSettings,
+    StepControl,
 )
 from subfric_dolfinx.fem.interface.finite import transfer
 from subfric_dolfinx.fem.interface.finite.transfer import SegmentTransfer
@@ -66,13 +68,13 @@ def problem_2d(comm, law, degree):
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")],
         [Pressure("top", 300.0, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
-        degree=degree,
+        settings=ProblemSettings(degree=degree),
     )
 
 
 def mid_step(solver, t_stop, t, dt):
     """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``."""
-    LoadStepper(solver, 0.25, dt_max=0.25).run(t_end=t_stop)
+    LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=t_stop)
     return bool(solver.solve(t, dt).converged)
 
 

@@ -17,7 +17,7 @@ import pytest
 from mpi4py import MPI
 
 from benchmarks import fe_scaling
-from subfric_dolfinx.fem import LoadStepper
+from subfric_dolfinx.fem import LoadStepper, StepControl
 from subfric_dolfinx.io import interface_summary
 
 pytestmark = pytest.mark.three_ranks
@@ -35,7 +35,7 @@ def history(comm: MPI.Comm, kinematics: str) -> np.ndarray:
         rows.append([rec.t, s["F_t1"], s["F_n"], s["separated"], rec.iterations])
 
     try:
-        LoadStepper(pad.solver, dt=10.0, dt_max=10.0, on_step=on_step).run()
+        LoadStepper(pad.solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
     finally:
         pad.solver.destroy()
     return np.array(rows)
