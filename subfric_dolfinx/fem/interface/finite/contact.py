@@ -186,6 +186,7 @@ def contact_geometry(
     u: np.ndarray,
     transfer: SegmentTransfer,
     timed: Callable[[str], ContextManager],
+    normals: np.ndarray,
 ) -> tuple[ContactGeometry, dict[str, float]]:
     """The contact geometry at the displacement ``u`` (not collective).
 
@@ -198,6 +199,7 @@ def contact_geometry(
         u: The displacement at the local nodes of the reach's index map, (n, gdim).
         transfer: The transfer part (the segments and ``B``).
         timed: A context manager per timer name (the interface's timings).
+        normals: The nodal normals of the reach's facets: the step's (held) or the iterate's.
 
     Returns:
         The geometry, and the wall times of its projections and of its segments (the cost
@@ -205,7 +207,7 @@ def contact_geometry(
     """
     from ...timing import TIMER_PROJECTION
 
-    reach, normals = search.reach, search.normals
+    reach = search.reach
     t0 = time.perf_counter()
     xq, Ym, Xs = current_positions(sd, reach, u)
     with timed(TIMER_PROJECTION):

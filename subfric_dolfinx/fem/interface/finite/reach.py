@@ -215,6 +215,16 @@ class ReachSearch:
         normals[hit] = cn[rows[hit]]
         self.normals = normals
 
+    def current_normals(self, u: np.ndarray) -> np.ndarray:
+        """The nodal normals of the reach's facets at the displacement ``u`` (collective).
+
+        ``u``: the displacement at the local nodes of the reach's index map (:meth:`displacement`).
+        Returns (npf, nfd_m, gdim), like :attr:`normals`.
+        """
+        sd = self.sides
+        x = sd.X0 + u[: sd.n_local0]
+        return nodal_normals(sd.master, x, self.reach.index_map)[self.reach.nodes]
+
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
         """Current positions of the displacement space's local nodes (collective: ghost update)."""
         sd = self.sides
