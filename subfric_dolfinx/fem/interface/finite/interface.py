@@ -47,8 +47,9 @@ read.
   step's (held), so they have no derivative within it; with
   :attr:`~SlidingInterface.normals_per_iteration` they are those of every iterate (the current
   configuration: a slide's forces then do not depend on the step in 2-D,
-  ``tests/fem/interface/test_finite_sliding_normals.py``), still without their derivative in
-  the tangent.
+  ``tests/fem/interface/test_finite_sliding_normals.py``), in 2-D with their change with the
+  master's nodes in the tangent through the projection, the gap and the frame
+  (:mod:`.normals`), not yet through the transfer.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
@@ -123,7 +124,8 @@ class SlidingInterface(BaseInterface):
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
     #: Whether the master's nodal normals are those of every iterate (the current configuration)
-    #: rather than the step's, held (issue 35; their derivative is not in the tangent yet).
+    #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent but for
+    #: the transfer's change with them).
     normals_per_iteration = False
 
     def __init__(
@@ -257,6 +259,7 @@ class SlidingInterface(BaseInterface):
                 self.transfer,
                 self._time,
                 normals,
+                self.normals_per_iteration,
             )
             self.search_seconds.update(seconds)
             law_gap = g.gap.copy()
