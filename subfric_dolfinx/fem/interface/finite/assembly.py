@@ -144,11 +144,38 @@ class SlidingAssembly:
             out += self._point_blocks(g, mv, nodes[fo], -g.N_old[mv], Mt, g.held_old)
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
-            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals)
+            rates = g.normal_rates is not None
+            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals, rates)
             held = g.reach.holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
+            nxy = (s.nodes.shape[1] + nodes.shape[1]) * gdim
             if ps.size:
-                out.append((nodes[pm], np.concatenate([s.nodes[ps], nodes[pm]], 1), vb))
+                cols = np.concatenate([s.nodes[ps], nodes[pm]], 1)
+                out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
+            if rates and ps.size:
+                out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
+        return out
+
+    @staticmethod
+    def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
+        """2-D: the transfer's change with the master's nodes through its nodal normals.
+
+        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' master forces with the nodal
+        normals of their master facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        """
+        facets, Dn = g.normal_rates
+        nodes = g.reach.nodes
+        npair, nrow = vn.shape[:2]
+        vn = vn.reshape(npair, nrow, -1, 2)
+        out: list[Block] = []
+        for node in range(facets.shape[1]):
+            for a in range(facets.shape[2]):
+                fa = facets[pm, node, a]
+                ok = (fa >= 0) & g.reach.holds(pm, np.maximum(fa, 0))
+                if not ok.any():
+                    continue
+                vals = np.einsum("prx,pjxc->prjc", vn[ok, :, node, :], Dn[pm[ok], node, a])
+                out.append((nodes[pm[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
         return out
 
     def _normal_blocks(

@@ -48,8 +48,8 @@ read.
   :attr:`~SlidingInterface.normals_per_iteration` they are those of every iterate (the current
   configuration: a slide's forces then do not depend on the step in 2-D,
   ``tests/fem/interface/test_finite_sliding_normals.py``), in 2-D with their change with the
-  master's nodes in the tangent through the projection, the gap and the frame
-  (:mod:`.normals`), not yet through the transfer.
+  master's nodes in the tangent (:mod:`.normals`: through the projection, the gap, the frame
+  and the transfer), where the 2-D tangent is again the residual's derivative.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
@@ -124,8 +124,8 @@ class SlidingInterface(BaseInterface):
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
     #: Whether the master's nodal normals are those of every iterate (the current configuration)
-    #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent but for
-    #: the transfer's change with them).
+    #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent, not the
+    #: 3-D one).
     normals_per_iteration = False
 
     def __init__(
