@@ -19,17 +19,11 @@ import basix
 import numpy as np
 
 from ..geometry import quadrature_rule
-from .projection import facet_basis, parametric_normal
+from .projection import facet_basis, lagrange_element, parametric_normal
 
 __all__ = ["normal_rates"]
 
 _R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # p = R t: parametric_normal in 2-D
-
-
-def _element_points(cell: basix.CellType, degree: int) -> np.ndarray:
-    return basix.create_element(
-        basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
-    ).points
 
 
 def normal_rates(
@@ -57,7 +51,7 @@ def normal_rates(
         ``facets[f, l, a]``.
     """
     nfd, gdim = Y.shape[1:]
-    X = _element_points(cell, degree)
+    X = lagrange_element(cell, degree).points  # the nodes' reference points
     Bn = facet_basis(cell, degree, X, 1)  # at the nodes: (2, nfd, nfd)
     Xq, wq = quadrature_rule(cell, max(degree, 1), "gauss")
     Bq = facet_basis(cell, degree, Xq, 1)
