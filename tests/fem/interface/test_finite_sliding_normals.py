@@ -27,7 +27,7 @@ import pytest
 from mpi4py import MPI
 
 from demos import block_sliding_far as far
-from subfric_dolfinx.fem import FrictionSolver, LoadStepper
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl
 from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
 from subfric_dolfinx.scenes import run_scene
 from tests.fem.interface import test_finite_sliding_tangent as tangent
@@ -112,7 +112,7 @@ def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
         return np.sqrt(comm.allreduce(float(d @ d)) / comm.allreduce(float(ref @ ref)))
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, 0.25, dt_max=0.25).run(t_end=1.75)
+        LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=1.75)
         x = solver.x.copy()
         v = tangent.direction(comm, problem, x)
         F = problem.create_vector()
