@@ -130,6 +130,8 @@ class SlidingAssembly:
         cols = np.concatenate([s.nodes[f_of], nodes[g.facet[pts]]], axis=1)
         C = np.concatenate([sd.Ns[0][q_of], -g.Nm[pts]], axis=1)  # (np, nfs + nfm)
         out = self._point_blocks(g, pts, cols, C, M[pts], g.held_now)
+        if g.normal_rates is not None:  # the iterate's nodal normals move with the nodes
+            out += self._normal_blocks(g, D, traction, M)
         # the convected slip's own master nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
         # besides the projection's move (in G): the master stretched between the two points
         mv = np.flatnonzero(found & (g.old_facet >= 0))
@@ -142,11 +144,96 @@ class SlidingAssembly:
             out += self._point_blocks(g, mv, nodes[fo], -g.N_old[mv], Mt, g.held_old)
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
-            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals)
+            rates = g.normal_rates is not None
+            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals, rates)
             held = g.reach.holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
+            nxy = (s.nodes.shape[1] + nodes.shape[1]) * gdim
             if ps.size:
-                out.append((nodes[pm], np.concatenate([s.nodes[ps], nodes[pm]], 1), vb))
+                cols = np.concatenate([s.nodes[ps], nodes[pm]], 1)
+                out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
+            if rates and ps.size:
+                out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
+        return out
+
+    @staticmethod
+    def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
+        """2-D: the transfer's change with the master's nodes through its nodal normals.
+
+        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' master forces with the nodal
+        normals of their master facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        """
+        facets, Dn = g.normal_rates
+        nodes = g.reach.nodes
+        npair, nrow = vn.shape[:2]
+        vn = vn.reshape(npair, nrow, -1, 2)
+        out: list[Block] = []
+        for node in range(facets.shape[1]):
+            for a in range(facets.shape[2]):
+                fa = facets[pm, node, a]
+                ok = (fa >= 0) & g.reach.holds(pm, np.maximum(fa, 0))
+                if not ok.any():
+                    continue
+                vals = np.einsum("prx,pjxc->prjc", vn[ok, :, node, :], Dn[pm[ok], node, a])
+                out.append((nodes[pm[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
+        return out
+
+    def _normal_blocks(
+        self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+    ) -> list[Block]:
+        """2-D: the blocks of the iterate's nodal normals' change with the master's nodes."""
+        facets, Dn = g.normal_rates
+        pts = np.flatnonzero(g.found)
+        if pts.size == 0:
+            return []
+        Mw = _normal_sensitivity(g, pts, D, traction, M)
+        f0 = g.facet[pts]
+        out: list[Block] = []
+        for node in range(facets.shape[1]):
+            for a in range(facets.shape[2]):
+                fa = facets[f0, node, a]
+                ok = fa >= 0
+                if not ok.any():
+                    continue
+                E = g.Nm[pts[ok], node, None, None, None] * Dn[f0[ok], node, a]
+                cols = g.reach.nodes[fa[ok]]
+                out += self._matrix_blocks(g, pts[ok], cols, E, Mw[ok], fa[ok])
+        return out
+
+    def _matrix_blocks(
+        self,
+        g: ContactGeometry,
+        pts: np.ndarray,
+        cols: np.ndarray,
+        E: np.ndarray,
+        M: np.ndarray,
+        col_facet: np.ndarray,
+    ) -> list[Block]:
+        """Blocks of ``d t_p = M_p sum_j E_pj dX_j`` with matrix coefficients ``E`` (np, nc, 2, 2).
+
+        As :meth:`_point_blocks`; the columns' facet ``col_facet`` (per point) may be outside the
+        point's slave facet's reach, whose slave rows are then left out, and a segment pair's
+        master rows are left out where the pattern does not couple its master facet with it.
+        """
+        sd = self.sides
+        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        nodes = g.reach.nodes
+        nfs, nfm = s.nodes.shape[1], nodes.shape[1]
+        f_of, q_of = pts // nq, pts % nq
+        ncol = cols.shape[1] * gdim
+        vs = np.einsum("p,pk,pax,pjxc->pkajc", self.points.weights[pts], sd.Ns[0][q_of], M, E)
+        mine = g.reach.within(f_of, col_facet)
+        out = [(s.nodes[f_of[mine]], cols[mine], vs[mine].reshape(-1, nfs * gdim, ncol))]
+        tr = g.transfer
+        if tr.slave.size:
+            where = np.full(sd.n_points, -1, dtype=np.int64)
+            where[pts] = np.arange(pts.size)
+            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
+            at = where[tr.slave[pair] * nq + qq]
+            keep = g.reach.holds(tr.master[pair], col_facet[at])
+            pair, qq, at = pair[keep], qq[keep], at[keep]
+            vm = -np.einsum("pl,pax,pjxc->plajc", tr.B[pair, :, qq], M[at], E[at])
+            out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
     def _point_blocks(
@@ -188,6 +275,34 @@ class SlidingAssembly:
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
             out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
+
+
+_J = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e1 = J n (2-D frames)
+
+
+def _normal_sensitivity(
+    g: ContactGeometry, pts: np.ndarray, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+) -> np.ndarray:
+    """2-D: ``d t`` (global) of the points ``pts`` per ``w = sum_l N_l(xi) dn_l``, (np, 2, 2).
+
+    The projection moves as for ``dx = -gamma w`` (``M``: the tangent's ``Q^T D G + K``); the
+    normal gap changes by ``-gamma n . w`` besides; the frame turns by ``dn = (I - n n^T) w /
+    |n~|``, in the slip ``e1 . ds`` and in the forces ``Q^T f``.
+    """
+    f0 = g.facet[pts]
+    nt_ = np.einsum("pl,pld->pd", g.Nm[pts], g.normals[f0])
+    size = np.linalg.norm(nt_, axis=1)
+    n = nt_ / size[:, None]
+    P = np.eye(2)[None] - np.einsum("pa,pb->pab", n, n)
+    gam, ds, f = g.gamma[pts], g.slip[pts], traction[pts]
+    X = np.zeros((pts.size, 2, 2))
+    X[:, 0, :] = np.einsum("pa,ab,pbc->pc", ds, _J, P) / size[:, None]
+    X[:, 1, :] = -gam[:, None] * n
+    Kd = (np.einsum("ab,pbc->pac", _J, P) * f[:, 0, None, None] - P * f[:, 1, None, None]) / size[
+        :, None, None
+    ]
+    QDX = np.einsum("pai,pab,pbj->pij", g.Q[pts], D[pts], X)
+    return -gam[:, None, None] * M[pts] + QDX + Kd
 
 
 def _frictionless(D: np.ndarray, nt: int) -> np.ndarray:

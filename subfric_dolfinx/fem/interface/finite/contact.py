@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..geometry import frames
+from .normals import normal_rates
 from .projection import facet_basis, normal_projection
 from .search import near_pairs
 from .segments import Segments
@@ -82,6 +83,10 @@ class ContactGeometry:
         held_now: Whether the pattern couples each segment pair's master facet with the facet
             point ``q`` of its slave facet faces now, (nseg, nq).
         held_old: Likewise with the facet it faced at the step's start, (nseg, nq).
+        gamma: Each point's ``gamma`` (the distance along ``n~``), (npts,).
+        slip: Each point's convected slip of the step, (npts, gdim).
+        normal_rates: With the iterate's normals (2-D): :func:`.normals.normal_rates` of the
+            reach's facets; ``None``: the normals are the step's (no derivative).
     """
 
     reach: Reach
@@ -103,11 +108,14 @@ class ContactGeometry:
     transfer: Transfer
     held_now: np.ndarray
     held_old: np.ndarray
+    gamma: np.ndarray
+    slip: np.ndarray
+    normal_rates: tuple[np.ndarray, np.ndarray] | None
 
     def __post_init__(self) -> None:
         """Make the arrays read-only too: the value is passed on, never changed."""
         arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
-        for a in [*arrays, *(self.turn or ())]:
+        for a in [*arrays, *(self.turn or ()), *(self.normal_rates or ())]:
             if isinstance(a, np.ndarray):
                 a.flags.writeable = False
 
@@ -186,6 +194,8 @@ def contact_geometry(
     u: np.ndarray,
     transfer: SegmentTransfer,
     timed: Callable[[str], ContextManager],
+    normals: np.ndarray,
+    iterate: bool = False,
 ) -> tuple[ContactGeometry, dict[str, float]]:
     """The contact geometry at the displacement ``u`` (not collective).
 
@@ -198,6 +208,9 @@ def contact_geometry(
         u: The displacement at the local nodes of the reach's index map, (n, gdim).
         transfer: The transfer part (the segments and ``B``).
         timed: A context manager per timer name (the interface's timings).
+        normals: The nodal normals of the reach's facets: the step's (held) or the iterate's.
+        iterate: Whether ``normals`` are the iterate's: then (2-D) the geometry holds their
+            change with the master's nodes (:func:`.normals.normal_rates`) for the tangent.
 
     Returns:
         The geometry, and the wall times of its projections and of its segments (the cost
@@ -205,7 +218,7 @@ def contact_geometry(
     """
     from ...timing import TIMER_PROJECTION
 
-    reach, normals = search.reach, search.normals
+    reach = search.reach
     t0 = time.perf_counter()
     xq, Ym, Xs = current_positions(sd, reach, u)
     with timed(TIMER_PROJECTION):
@@ -251,6 +264,13 @@ def contact_geometry(
         transfer=tr,
         held_now=held_now,
         held_old=held_old,
+        gamma=pj.gamma,
+        slip=ds,
+        normal_rates=normal_rates(
+            sd.master.cell, sd.master.degree, reach.nodes, reach.node_facets, Ym, normals
+        )
+        if iterate and sd.gdim == 2
+        else None,
     )
     return geometry, seconds
 

@@ -44,7 +44,12 @@ read.
   (:func:`.sliding.frame_rate`) and, with ``SegmentTransfer.in_tangent`` (on by default), the
   transfer's change with the geometry (:func:`.transfer.transfer_tangent`): then the 2-D tangent
   is the residual's derivative, the 3-D one but for the frame's turn. The nodal normals are the
-  step's (held), so they have no derivative within it.
+  step's (held), so they have no derivative within it; with
+  :attr:`~SlidingInterface.normals_per_iteration` they are those of every iterate (the current
+  configuration: a slide's forces then do not depend on the step in 2-D,
+  ``tests/fem/interface/test_finite_sliding_normals.py``), in 2-D with their change with the
+  master's nodes in the tangent (:mod:`.normals`: through the projection, the gap, the frame
+  and the transfer), where the 2-D tangent is again the residual's derivative.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
@@ -118,6 +123,10 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
+    #: Whether the master's nodal normals are those of every iterate (the current configuration)
+    #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent, not the
+    #: 3-D one).
+    normals_per_iteration = False
 
     def __init__(
         self,
@@ -236,8 +245,21 @@ class SlidingInterface(BaseInterface):
         pts, nt = self._points, self.sides.nt
         with self._time(TIMER_INTERFACE):
             u = self.search.displacement(owned)
+            normals = (
+                self.search.current_normals(u)
+                if self.normals_per_iteration
+                else self.search.normals
+            )
             g, seconds = contact_geometry(
-                self.sides, self.search, self.start, pts.ut_old, u, self.transfer, self._time
+                self.sides,
+                self.search,
+                self.start,
+                pts.ut_old,
+                u,
+                self.transfer,
+                self._time,
+                normals,
+                self.normals_per_iteration,
             )
             self.search_seconds.update(seconds)
             law_gap = g.gap.copy()

@@ -51,6 +51,8 @@ class Reach:
         pairs: The (slave facet, master facet global number) pairs of the reach.
         keys: The master facet pairs the pattern couples (``a * npf + b``, sorted).
         couplings: The pattern's node couplings (:class:`~..layout.Couplings`).
+        node_facets: The number of master facets around each local node of :attr:`index_map`
+            (every rank's facets).
     """
 
     index_map: dolfinx.common.IndexMap
@@ -64,6 +66,7 @@ class Reach:
     pairs: frozenset
     keys: np.ndarray
     couplings: Couplings
+    node_facets: np.ndarray
 
     def holds(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Whether the pattern couples the nodes of master facets ``a`` and ``b`` (indices)."""
@@ -215,6 +218,16 @@ class ReachSearch:
         normals[hit] = cn[rows[hit]]
         self.normals = normals
 
+    def current_normals(self, u: np.ndarray) -> np.ndarray:
+        """The nodal normals of the reach's facets at the displacement ``u`` (collective).
+
+        ``u``: the displacement at the local nodes of the reach's index map (:meth:`displacement`).
+        Returns (npf, nfd_m, gdim), like :attr:`normals`.
+        """
+        sd = self.sides
+        x = sd.X0 + u[: sd.n_local0]
+        return nodal_normals(sd.master, x, self.reach.index_map)[self.reach.nodes]
+
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
         """Current positions of the displacement space's local nodes (collective: ghost update)."""
         sd = self.sides
@@ -265,6 +278,7 @@ class ReachSearch:
             pairs=frozenset(pairs),
             keys=keys,
             couplings=couplings,
+            node_facets=self._node_facets(index_map),
         )
         self.layout_version += 1
 
@@ -295,6 +309,15 @@ class ReachSearch:
         nodes = np.where(found, local, 0).astype(np.int64)
         nodes[~found] = sd.n_local0 + inv
         return index_map, extra_g, extra_o, nodes.astype(np.int32)
+
+    def _node_facets(self, index_map: dolfinx.common.IndexMap) -> np.ndarray:
+        """The number of master facets around each local node of ``index_map`` (collective)."""
+        v = dolfinx.la.vector(index_map, 1)
+        v.array[:] = 0.0
+        np.add.at(v.array, self.sides.master.nodes.ravel(), 1.0)
+        v.scatter_reverse(dolfinx.la.InsertMode.add)
+        v.scatter_forward()
+        return np.rint(v.array).astype(np.int64)
 
     def _missed_pairs(self, fpos: dict[int, int]) -> list[tuple[int, int]]:
         """The pairs a step needed beyond the pattern (:meth:`record_misses`) within the reach."""

@@ -129,6 +129,7 @@ class SegmentTransfer:
         Xs: np.ndarray,
         Ym: np.ndarray,
         normals: np.ndarray,
+        with_normals: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The change of the master forces with the geometry (:func:`transfer_tangent`)."""
         s, m = self.sides.slave, self.sides.master
@@ -144,6 +145,7 @@ class SegmentTransfer:
             m.degree,
             s.cell,
             m.cell,
+            with_normals=with_normals,
         )
 
 
@@ -273,6 +275,8 @@ def transfer_tangent(
     master_degree: int,
     slave_cell: basix.CellType = basix.CellType.interval,
     master_cell: basix.CellType = basix.CellType.interval,
+    *,
+    with_normals: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The change of the master nodal forces ``-B t`` with the geometry, the tractions held.
 
@@ -282,8 +286,9 @@ def transfer_tangent(
     polygons of those preimages clipped by the slave facet, cut into fan triangles), their points
     on the slave facet and their projections on the master facet (along the master's smooth
     normal), and their weights. Each is differentiated through
-    :func:`.projection.projection_jacobian` (the nodal normals are those of the step: held); an
-    end where the slave facet's own end cuts the piece does not move. 2-D reads the pieces'
+    :func:`.projection.projection_jacobian` (the nodal normals held, or in 2-D also their own
+    change with ``with_normals``); an end where the slave facet's own end cuts the piece does not
+    move. 2-D reads the pieces'
     ``bounds``; 3-D the segments' ``xi_rate`` and ``weight_rate`` (``overlap_points(...,
     rates=True)``).
 
@@ -300,18 +305,23 @@ def transfer_tangent(
         master_degree: The master facets' Lagrange degree.
         slave_cell: The slave facets' basix cell (3-D: triangle or quadrilateral).
         master_cell: The master facets' basix cell.
+        with_normals: 2-D: also the change with the master facet's nodal normals (the pieces'
+            ends are the vertices' preimages along them, the points are projected along their
+            interpolation): ``nfd_m`` more columns, ``d(-B t)/dn`` of the facet's nodes.
 
     Returns:
         Slave facet and master facet of each pair (the order of :func:`transfer_matrices`), and
-        the blocks ``d(-B t)/dX`` (npair, nfd_m * gdim, (nfd_s + nfd_m) * gdim): rows the master
-        facet's nodes, columns the slave facet's nodes then the master facet's (node-major).
+        the blocks ``d(-B t)/dX`` (npair, nfd_m * gdim, (nfd_s + nfd_m [+ nfd_m]) * gdim): rows
+        the master facet's nodes, columns the slave facet's nodes then the master facet's
+        (node-major) [then its nodal normals].
     """
     from .projection import projection_jacobian
 
     gdim = slave_x.shape[2]
     fdim = gdim - 1
     nfs, nfm = slave_x.shape[1], master_x.shape[1]
-    ncol = nfs + nfm
+    with_normals = with_normals and fdim == 1
+    ncol = nfs + nfm + (nfm if with_normals else 0)
     if segments.size == 0:
         z = np.zeros(0, dtype=np.int64)
         return z, z.copy(), np.zeros((0, nfm * gdim, ncol * gdim))
@@ -340,7 +350,9 @@ def transfer_tangent(
     Dm = Ainv[:, :fdim, :]  # (npt, fdim, gdim)
     dxm = np.zeros((npt, fdim, ncol, gdim))
     dxm[:, :, :nfs, :] = Bs[0][:, None, :, None] * Dm[:, :, None, :]
-    dxm[:, :, nfs:, :] = -Bm[0][:, None, :, None] * Dm[:, :, None, :]
+    dxm[:, :, nfs : nfs + nfm, :] = -Bm[0][:, None, :, None] * Dm[:, :, None, :]
+    if with_normals:  # A d(xi, gamma) = ... - sum_l N_l gamma dn_l
+        dxm[:, :, nfs + nfm :, :] = -(gam[:, None] * Bm[0])[:, None, :, None] * Dm[:, :, None, :]
     dxm += np.einsum("mad,mdb,mbce->mace", Dm, dy_xi, dxs)
     # the traction field at the point and its rate along the slave facet
     P = projector[sl]  # (npt, nfs, nq)
@@ -398,6 +410,8 @@ def _piece_rates_2d(
         D = Ainv[:, 0, :]  # d xi = D . (dx_v - sum_k N_k dX_k)
         dend[moving, e, :nfs, :] = -Ns[:, :, None] * D[:, None, :]
         dend[moving, e, nfs + v, :] += D
+        if ncol > nfs + Ym.shape[1]:  # along the vertex's normal: d xi = D . (-gamma dn_v)
+            dend[moving, e, nfs + Ym.shape[1] + v, :] += -gam[:, None] * D
     unit = segments.unit
     dxs = (1.0 - unit)[:, None, None] * dend[:, 0] + unit[:, None, None] * dend[:, 1]
     span = segments.bounds[:, 1] - segments.bounds[:, 0]

@@ -1,0 +1,106 @@
+"""The change of the master's averaged nodal normals with its nodes (2-D): for the tangent.
+
+The nodal normal at a node ``k`` is ``n_k = S_k / |S_k|`` with ``S_k = sum_f c_fk`` over the
+master facets ``f`` around ``k``, ``c_fk = o_f m_f p_f(xi_k) / |p_f(xi_k)|``
+(:func:`.surface.nodal_normals`: the facet's measure ``m_f`` times its unit outward normal at
+the node, ``p_f`` the parametric normal, ``o_f`` the orientation). Its derivative with respect to
+the nodes ``Y_j`` of those facets is ``dn_k = (I - n_k n_k^T) / |S_k| sum_f dc_fk``, with (2-D,
+``p = R y_,xi``) ``dc = o (p^ dm + m (I - p^ p^^T) R dy_,xi / |p|)`` and
+``dm = sum_q w_q p^_q . R dy_,xi(q)``.
+
+The facets around a node may be on other ranks: the derivative is taken from the facets of the
+reach (:class:`~.reach.Reach`), where they are all there (their number, over every rank, is the
+reach's ``node_facets``); elsewhere it is left out (the tangent then misses it at that node).
+"""
+
+from __future__ import annotations
+
+import basix
+import numpy as np
+
+from ..geometry import quadrature_rule
+from .projection import facet_basis, lagrange_element, parametric_normal
+
+__all__ = ["normal_rates"]
+
+_R = np.array([[0.0, 1.0], [-1.0, 0.0]])  # p = R t: parametric_normal in 2-D
+
+
+def normal_rates(
+    cell: basix.CellType,
+    degree: int,
+    nodes: np.ndarray,
+    node_facets: np.ndarray,
+    Y: np.ndarray,
+    normals: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The derivative of every reach facet's nodal normals with respect to the nodes around them.
+
+    Args:
+        cell: The master facets' basix cell (interval).
+        degree: Their Lagrange degree.
+        nodes: The reach's facets' nodes (local in its index map), (npf, nfd).
+        node_facets: The number of master facets around each local node (every rank's), (n,).
+        Y: The facets' nodes' current positions, (npf, nfd, 2).
+        normals: Their nodal normals (the iterate's), (npf, nfd, 2).
+
+    Returns:
+        ``facets`` (npf, nfd, A): for node ``l`` of facet ``f``, the facets around it (-1: none,
+        or the node's facets are not all in the reach), and ``D`` (npf, nfd, A, nfd, 2, 2): the
+        derivative of the nodal normal at node ``l`` of ``f`` with respect to node ``j`` of
+        ``facets[f, l, a]``.
+    """
+    nfd, gdim = Y.shape[1:]
+    X = lagrange_element(cell, degree).points  # the nodes' reference points
+    Bn = facet_basis(cell, degree, X, 1)  # at the nodes: (2, nfd, nfd)
+    Xq, wq = quadrature_rule(cell, max(degree, 1), "gauss")
+    Bq = facet_basis(cell, degree, Xq, 1)
+    dyn = np.einsum("ik,fkd->fid", Bn[1], Y)  # y_,xi at the nodes, (npf, nfd, 2)
+    pn = parametric_normal(dyn[..., None])  # (npf, nfd, 2)
+    dyq = np.einsum("qk,fkd->fqd", Bq[1], Y)
+    pq = parametric_normal(dyq[..., None])
+    lq = np.linalg.norm(pq, axis=-1)
+    m = lq @ wq  # (npf,)
+    # orientation: the parametric normal against the nodal normals
+    o = np.where(np.einsum("fd,fd->f", pn.mean(axis=1), normals.mean(axis=1)) < 0.0, -1.0, 1.0)
+    # dm / dY_j = sum_q w_q dN_j(q) (R^T p^_q), (npf, nfd, 2)
+    dm = np.einsum("q,qj,fqd->fjd", wq, Bq[1], (pq / lq[..., None]) @ _R)
+    ln = np.linalg.norm(pn, axis=-1)
+    ph = pn / ln[..., None]  # (npf, nfd_i, 2)
+    I2 = np.eye(gdim)
+    Pp = I2 - np.einsum("fia,fib->fiab", ph, ph)
+    # dc_i / dY_j = o (p^_i (x) dm_j + m dN_j(xi_i) (I - p^ p^T) R / |p_i|),
+    # (npf, nfd_i, nfd_j, 2, 2)
+    dc = np.einsum("fia,fjb->fijab", ph, dm) + np.einsum(
+        "f,ij,fiab,bc,fi->fijac", m, Bn[1], Pp, _R, 1.0 / ln
+    )
+    dc *= o[:, None, None, None, None]
+    c = o[:, None, None] * m[:, None, None] * ph  # (npf, nfd, 2)
+    # S_k from the reach's facets, and which nodes have all their facets here
+    n_nodes = max(int(nodes.max(initial=-1)) + 1, 0)
+    S = np.zeros((n_nodes, gdim))
+    np.add.at(S, nodes.ravel(), c.reshape(-1, gdim))
+    here = np.bincount(nodes.ravel(), minlength=n_nodes)
+    complete = here == node_facets[:n_nodes]
+    # the (facet, slot) pairs around each node, padded
+    A = int(here.max(initial=0))
+    order = np.argsort(nodes.ravel(), kind="stable")
+    flat_node = nodes.ravel()[order]
+    start = np.searchsorted(flat_node, np.arange(n_nodes))
+    rank = np.arange(order.size) - start[flat_node]
+    adj_f = np.full((n_nodes, max(A, 1)), -1, dtype=np.int64)
+    adj_i = np.zeros((n_nodes, max(A, 1)), dtype=np.int64)
+    adj_f[flat_node, rank] = order // nfd
+    adj_i[flat_node, rank] = order % nfd
+    adj_f[~complete] = -1
+    # dn_k / dY = (I - n n^T) / |S_k| dc, per node k and slot a
+    nk = S / np.maximum(np.linalg.norm(S, axis=1, keepdims=True), 1e-300)
+    Pk = (I2 - np.einsum("ka,kb->kab", nk, nk)) / np.maximum(np.linalg.norm(S, axis=1), 1e-300)[
+        :, None, None
+    ]
+    valid = adj_f >= 0
+    fa, ia = np.maximum(adj_f, 0), adj_i
+    Dk = np.einsum("kxy,ksjyz->ksjxz", Pk, dc[fa, ia]) * valid[:, :, None, None, None]
+    facets = adj_f[nodes]  # (npf, nfd, A)
+    D = Dk[nodes]  # (npf, nfd, A, nfd, 2, 2)
+    return facets, D

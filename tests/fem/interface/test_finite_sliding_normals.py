@@ -1,0 +1,149 @@
+"""The master's nodal normals of every Newton iterate (issue 35 item 1): a slide's forces do not
+depend on the step.
+
+``demos/block_sliding_far.py``'s block (meshed apart from its base, ``--n 4``) pressed and slid
+3 mm, at 0.5 and at 0.25 mm a step. With the step's normals held (``normals_per_iteration``
+off, the default today) the frames lag the base's deformation within a step, and the push on
+the block's top changes with the step by about 1e-3 of the friction force (first order in the
+step). With the normals of every iterate:
+
+* Coulomb (rate-independent, no time error of its own): the push and the friction force at the
+  common times of the two runs agree to 1e-6 of the peak friction force;
+* the paper's Sec. 7 law (its recovery integrates in time): the push changes with the step as
+  the friction force does, to 1e-6 of the peak: nothing beyond the law's own time error.
+
+1 and 2 ranks. In 2-D the tangent holds the normals' change with the master's nodes
+(:mod:`subfric_dolfinx.fem.interface.finite.normals`) through the projection, the gap, the frame
+and the transfer: the interface's tangent is the derivative of its forces (central differences,
+O(e^2)), as with the step's normals. Not in 3-D.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from demos import block_sliding_far as far
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl
+from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
+from subfric_dolfinx.scenes import run_scene
+from tests.fem.interface import test_finite_sliding_tangent as tangent
+from tests.helpers import everywhere
+
+N, SLIDE = 4, 3.0
+LAWS = {
+    "coulomb": {"law": "coulomb", "params": {"alpha_t": 1e6, "alpha_n": 1e6, "mu_c": 0.3}},
+    "sec7": {"law": "subloading", "params": {"preset": "sec7", "alpha_n": far.ALPHA_N}},
+}
+
+
+@pytest.fixture(scope="module")
+def mesh(tmp_path_factory) -> Path:
+    """The demo's mesh, slid 3 mm, written once for the module (collective)."""
+    comm = MPI.COMM_WORLD
+    root = Path(comm.bcast(str(tmp_path_factory.mktemp("normals")) if comm.rank == 0 else None))
+    path = root / "block.msh"
+    far.write_mesh(path, N, SLIDE, comm)
+    return path
+
+
+def history(comm: MPI.Comm, mesh: Path, law: str, dt: float) -> dict[float, np.ndarray]:
+    """Time -> (push on the block's top, friction force F_t1) of the slide at steps ``dt``."""
+    s = far.scene(mesh, N, SLIDE)
+    s.pop("points")
+    s["law"] = LAWS[law]
+    s["outputs"] = {"history": True}
+    s["solver"] = {"prefix": f"nrm{int(100 * dt)}_", "dt": dt, "dt_max": dt}
+    out = mesh.parent / f"{law}_{dt}"
+    rows = run_scene(s, outdir=out, comm=comm).history
+    return {round(r["t"], 9): np.array([r["R_top_x"], r["F_t1"]]) for r in rows}
+
+
+def halving(comm, mesh, law) -> tuple[np.ndarray, np.ndarray]:
+    """(push, friction) at the common times of the runs at 0.5 and at 0.25 mm a step."""
+    a, b = history(comm, mesh, law, 0.5), history(comm, mesh, law, 0.25)
+    common = [t for t in sorted(a) if t in b and t > 1.0]
+    return np.array([a[t] for t in common]), np.array([b[t] for t in common])
+
+
+@pytest.mark.parametrize("law", ["coulomb", "sec7"])
+def test_a_slide_does_not_depend_on_the_step(comm, mesh, monkeypatch, law):
+    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+    coarse, fine = halving(comm, mesh, law)
+    peak = np.abs(coarse[:, 1]).max()
+    assert len(coarse) >= 6 and peak > 0.0, (coarse, peak)
+    if law == "coulomb":
+        change = np.abs(coarse - fine).max() / peak
+    else:  # the push's change beyond the friction's (the law's own time error)
+        change = np.abs((coarse[:, 0] - coarse[:, 1]) - (fine[:, 0] - fine[:, 1])).max() / peak
+    assert change < 1e-6, change
+
+
+def test_held_normals_make_the_push_depend_on_the_step(comm, mesh):
+    """The reference of the test above: the step's normals held, the push changes with the
+    step (the frames lag the base's deformation within the step)."""
+    coarse, fine = halving(comm, mesh, "coulomb")
+    peak = np.abs(coarse[:, 1]).max()
+    assert np.abs(coarse[:, 0] - fine[:, 0]).max() > 1e-4 * peak, (coarse, fine)
+
+
+def slave_rows(problem, iface) -> np.ndarray:
+    """The owned dofs of the slave (secondary) facets' nodes."""
+    bs = problem.V.dofmap.bs
+    nodes = np.unique(iface.sides.slave.nodes)
+    nodes = nodes[nodes < problem.V.dofmap.index_map.size_local]
+    return (nodes[:, None] * bs + np.arange(bs)).ravel()
+
+
+@pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
+def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
+    """test_finite_sliding_tangent's 2-D block, slid to t = 1.75 with the iterate's normals: the
+    interface's tangent times a direction is its forces' central differences to O(e^2), its
+    slave rows alone (no transfer) and all of it."""
+    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+    problem = tangent.problem_2d(comm, tangent.law_of(law), degree)
+    iface = problem.interfaces["contact"]
+    rows = slave_rows(problem, iface)
+
+    def rel(d, ref):
+        return np.sqrt(comm.allreduce(float(d @ d)) / comm.allreduce(float(ref @ ref)))
+
+    with FrictionSolver(problem, linear="lu") as solver:
+        LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=1.75)
+        x = solver.x.copy()
+        v = tangent.direction(comm, problem, x)
+        F = problem.create_vector()
+        problem.residual(x, F)
+        J = problem.create_matrix()
+        J.zeroEntries()
+        iface.assemble_jacobian(J)
+        J.assemble()
+        Jv = x.duplicate()
+        J.mult(v, Jv)
+        jv = Jv.array_r.copy()
+        err = []
+        for e in (1e-4, 1e-5):
+            forces = []
+            for sign in (1.0, -1.0):
+                xs = x.copy()
+                xs.axpy(sign * e, v)
+                problem.residual(xs, F)
+                forces.append(problem.interface_force.copy())
+                xs.destroy()
+            d = (forces[0] - forces[1]) / (2 * e)
+            err.append((rel(d[rows] - jv[rows], jv[rows]), rel(d - jv, jv)))
+        counts = comm.allreduce(np.bincount(iface.last.status, minlength=4))
+        for w in (x, v, F, J, Jv):
+            w.destroy()
+    err = np.array(err)
+    checks = {
+        "in contact": counts[0] + counts[1] > 0,
+        "slave rows exact": err[1, 0] < 1e-8,
+        "O(e^2)": err[0, 0] > 30 * err[1, 0] or err[0, 0] < 1e-9,
+        "whole exact": err[1, 1] < 1e-8,
+        "whole O(e^2)": err[0, 1] > 30 * err[1, 1] or err[0, 1] < 1e-9,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, err, counts)
