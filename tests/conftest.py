@@ -172,10 +172,30 @@ def pytest_runtest_protocol(item, nextitem):
         faulthandler.cancel_dump_traceback_later()
 
 
+@pytest.hookimpl(wrapper=True)
 def pytest_runtest_teardown(item):
-    """Collective teardown: every rank collects garbage, then all meet at a barrier."""
+    """Collective teardown: every rank collects garbage, then all meet at a barrier.
+
+    After the test's fixtures are torn down, the ranks must have called
+    :func:`tests.helpers.prefix` equally often, or the test fails (at its teardown, on every
+    rank): a solver's prefix must be the same on every rank, and a test that called it on some
+    ranks only gave every later test different prefixes on different ranks (a scene's error
+    naming its prefix differed between the ranks). Every rank is put on the same count again,
+    so that the next test does not depend on this one."""
+    from tests.helpers import _PrefixCounter
+
     gc.collect()
     MPI.COMM_WORLD.Barrier()
+    try:
+        return (yield)
+    finally:
+        counts = MPI.COMM_WORLD.allgather(_PrefixCounter.given)
+        _PrefixCounter.given = max(counts)
+        if len(set(counts)) > 1:
+            raise AssertionError(
+                f"{item.nodeid} called tests.helpers.prefix() on some ranks only: the ranks' "
+                f"counts are {counts} (a solver's prefix must be the same on every rank)"
+            )
 
 
 @pytest.fixture

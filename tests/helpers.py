@@ -12,7 +12,6 @@ test module can use the MPI helpers without loading it.
 from __future__ import annotations
 
 import contextlib
-import itertools
 import os
 import re
 import subprocess
@@ -155,12 +154,25 @@ elements (the small-sliding interface's validity, fem/validity.py)."""
 # --------------------------------------------------------------------------------------------
 # Names and processes
 
-_prefixes = itertools.count()
+
+class _PrefixCounter:
+    """How many prefixes :func:`prefix` has given in this process.
+
+    A solver's prefix must be the same on every rank of its communicator (each rank reads its
+    options under its own prefix), so every rank must call :func:`prefix` as often as the others:
+    the suite's teardown (``tests/conftest.py``) checks that after every test, fails the test that
+    called it on some ranks only, and puts every rank on the same count again.
+    """
+
+    given = 0
 
 
 def prefix(name: str) -> str:
-    """A PETSc options prefix used by no other solver of this process."""
-    return f"t{next(_prefixes)}_{name}_"
+    """A PETSc options prefix used by no other solver of this process (the same on every rank
+    as long as every rank calls this as often: :class:`_PrefixCounter`)."""
+    n = _PrefixCounter.given
+    _PrefixCounter.given += 1
+    return f"t{n}_{name}_"
 
 
 def driver_cli(*args: Any, timeout: float = 120) -> subprocess.CompletedProcess:

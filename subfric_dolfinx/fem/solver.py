@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import itertools
 import math
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -107,26 +106,56 @@ class SolveResult:
 
 
 _LIVE_PREFIXES: set[str] = set()
-_AUTO_PREFIX = itertools.count()
 
 
-def _check_prefix(prefix: str | None) -> str:
-    if prefix is None:
-        prefix = f"subfric_{next(_AUTO_PREFIX)}_"
-        while prefix in _LIVE_PREFIXES:
-            prefix = f"subfric_{next(_AUTO_PREFIX)}_"
-        return prefix
+class _AutoPrefix:
+    """The next number of an automatic prefix ``subfric_<n>_`` in this process."""
+
+    next = 0
+
+
+def _local_prefix_problem(prefix: str) -> str | None:
+    """What is wrong with ``prefix`` on this rank (``None``: nothing)."""
     if not isinstance(prefix, str) or not prefix or not prefix.endswith("_"):
-        raise ValueError(
-            f"the options prefix must be a non-empty string ending in '_', got {prefix!r}"
-        )
+        return f"the options prefix must be a non-empty string ending in '_', got {prefix!r}"
     if any(ch.isspace() or ch == "-" for ch in prefix):
-        raise ValueError(f"the options prefix {prefix!r} must not contain spaces or '-'")
+        return f"the options prefix {prefix!r} must not contain spaces or '-'"
     if prefix in _LIVE_PREFIXES:
-        raise ValueError(
+        return (
             f"the options prefix {prefix!r} is already used by another live solver; "
             "give each solver its own prefix (or destroy the other one first)"
         )
+    return None
+
+
+def _check_prefix(prefix: str | None, comm: MPI.Comm) -> str:
+    """The solver's prefix, the same on every rank of ``comm`` (collective).
+
+    Each rank reads its options under its own prefix, so ranks with different prefixes would
+    configure one SNES differently (and part ways in a collective). An automatic prefix is
+    agreed over ``comm`` (a solver made on some ranks only, e.g. on ``COMM_SELF``, has moved
+    their count on); a given one must be the same on every rank.
+
+    Raises:
+        ValueError: On every rank: the ranks give different prefixes, or one is malformed or
+            used by a live solver on some rank.
+    """
+    if prefix is None:
+        n = comm.allreduce(_AutoPrefix.next, op=MPI.MAX)
+        while comm.allreduce(f"subfric_{n}_" in _LIVE_PREFIXES, op=MPI.LOR):
+            n += 1
+        _AutoPrefix.next = n + 1
+        return f"subfric_{n}_"
+    given = comm.allgather((prefix, _local_prefix_problem(prefix)))
+    prefixes = [p for p, _ in given]
+    if any(p != prefix for p in prefixes):
+        raise ValueError(
+            f"the options prefix differs between the ranks: {prefixes} (by rank); a solver's "
+            "prefix must be the same on every rank of its communicator"
+        )
+    problem = next((why for _, why in given if why is not None), None)
+    if problem is not None:
+        raise ValueError(problem)
     return prefix
 
 
@@ -222,8 +251,8 @@ class FrictionSolver:
 
     Args:
         problem: The problem.
-        prefix: PETSc options prefix, unique among live solvers (e.g. ``"block_"``); a unique
-            ``"subfric_<n>_"`` when omitted.
+        prefix: PETSc options prefix, the same on every rank, unique among live solvers (e.g.
+            ``"block_"``); a unique ``"subfric_<n>_"`` (agreed over the ranks) when omitted.
         options: Options under the prefix (they override the command line's for this solver,
             without changing the database).
         linear: The linear strategy, ``"auto"`` (default: chosen by the problem's size and
@@ -232,7 +261,8 @@ class FrictionSolver:
             chosen is :attr:`strategy`.
 
     Raises:
-        ValueError: Malformed prefix, one used by a live solver, or an unknown strategy.
+        ValueError: Malformed prefix, one used by a live solver, prefixes that differ between
+            the ranks, or an unknown strategy.
     """
 
     def __init__(
@@ -246,7 +276,7 @@ class FrictionSolver:
         linear = choose_strategy(linear, problem)
         self.strategy = linear
         """The linear strategy in use (``"auto"`` resolved)."""
-        self.prefix = _check_prefix(prefix)
+        self.prefix = _check_prefix(prefix, problem.comm)
         self.problem = problem
         self.options = dict(options or {})
         defaults = {**DEFAULT_OPTIONS, **STRATEGY_OPTIONS[linear]}

@@ -238,13 +238,14 @@ def test_probes_are_the_same_on_any_partition():
         ]
     }
 
-    def run_on(c):
+    def with_prefix():  # on every rank: the ranks' prefix counts stay equal (tests/conftest.py)
         scene = copy.deepcopy(s)
         scene["solver"]["prefix"] = prefix("part")
-        return run_scene(scene, comm=c).history
+        return scene
 
-    parallel = run_on(comm)
-    serial = on_root(comm, lambda: run_on(MPI.COMM_SELF))
+    parallel = run_scene(with_prefix(), comm=comm).history
+    alone = with_prefix()
+    serial = on_root(comm, lambda: run_scene(alone, comm=MPI.COMM_SELF).history)
     assert len(parallel) == len(serial)
     for a, b in zip(parallel, serial, strict=True):
         for k in a:

@@ -77,9 +77,10 @@ def test_each_region_slides_at_its_own_friction_coefficient():
     ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
     np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
     if comm.size > 1:  # the same on one rank, to round-off
+        alone = scene()  # on every rank: the ranks' prefix counts stay equal (tests/conftest.py)
 
         def serial():
-            one = run_scene(scene(), comm=MPI.COMM_SELF)
+            one = run_scene(alone, comm=MPI.COMM_SELF)
             keys = ["F_t1", "F_n", "rough.F_t1", "default.F_t1", "R_top_x"]
             a = np.array([[r[k] for k in keys] for r in one.history])
             b = np.array([[r[k] for k in keys] for r in res.history])

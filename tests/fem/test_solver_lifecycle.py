@@ -34,7 +34,7 @@ from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import parse_scene, run_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
 from tests.contact_meshes import tagged_blocks
-from tests.helpers import everywhere
+from tests.helpers import block_problem, everywhere, raised_on_every_rank
 
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
@@ -170,6 +170,38 @@ def test_the_problem_releases_its_petsc_objects(kind):
 def test_automatic_prefixes_are_unique(problem):
     with FrictionSolver(problem) as a, FrictionSolver(problem) as b:
         assert a.prefix != b.prefix and a.prefix.startswith("subfric_")
+
+
+def test_automatic_prefixes_agree_after_a_solver_on_one_rank(problem):
+    """A solver made on rank 0 alone (``COMM_SELF``) moves only that rank's automatic count on;
+    the next solver of every rank still has one prefix (the first version gave the ranks
+    different prefixes: each read its options under its own)."""
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        with FrictionSolver(block_problem(MPI.COMM_SELF)) as alone:
+            assert alone.alive
+    with FrictionSolver(problem) as solver:
+        assert len(set(comm.allgather(solver.prefix))) == 1, comm.allgather(solver.prefix)
+
+
+def test_prefixes_that_differ_between_ranks_are_refused_on_every_rank(problem):
+    """A given prefix that is not the same on every rank, or one that a live solver of some
+    rank holds, is one ValueError on every rank, before any option is read (the first version
+    raised on the rank that held it while the others went on into the collective SNES); then
+    the prefix is free again."""
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        names = str([f"lc7r{r}_" for r in range(comm.size)])
+        with raised_on_every_rank(ValueError, "differs between the ranks", names):
+            FrictionSolver(problem, f"lc7r{comm.rank}_")
+    held = FrictionSolver(block_problem(MPI.COMM_SELF), "lc7_") if comm.rank == 0 else None
+    with raised_on_every_rank(ValueError, "'lc7_' is already used by another live solver"):
+        FrictionSolver(problem, "lc7_")
+    if held is not None:
+        held.destroy()
+    assert not any(p.startswith("lc7") for p in _LIVE_PREFIXES)
+    with FrictionSolver(problem, "lc7_") as solver:
+        assert solver.alive
 
 
 def test_a_failed_restart_releases_the_prefix(shared_tmp):
