@@ -82,7 +82,12 @@ def compare(law, gap, state, dt, contact_tol=CONTACT_TOL):
         assert res.tangent[i, 1, 0] == 0.0 and res.tangent[i, 1, 1] == law.alpha_n
         assert (o[7], o[8]) == (res.status[i], res.unstable[i]), i
         # the count of a long bisection may differ by one where a bracket test meets round-off
-        assert abs(o[9] - res.iterations[i]) <= (1 if res.iterations[i] > 20 else 0), i
+        assert abs(o[9] - res.iterations[i]) <= (1 if res.iterations[i] > 20 else 0), (
+            i,
+            o[9],
+            res.iterations[i],
+            res.status[i],
+        )
     return answered, gap.shape[0]
 
 

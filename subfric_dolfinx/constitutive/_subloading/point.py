@@ -9,7 +9,8 @@ with one tangential component, operation for operation as the vectorised modules
 :mod:`math`, for the cases it covers:
 
 * a contact point with valid inputs (finite, ``r`` and ``mu`` in range), not touching, with a
-  saturation ``g(f_n)`` above ``ROT_LO`` (1e-100: no subnormal arithmetic);
+  saturation ``g(f_n)`` above ``ROT_LO`` and a time step 0 or above it (1e-100: no subnormal
+  arithmetic);
 * no split of the elastic trial (no start traction; or a start traction whose segment gives no
   cusp and no root of ``h``: ``h(0) >= 0``, or ``h(0) < 0`` and ``h(1) <= 0``, see
   :mod:`.switch`);
@@ -98,8 +99,8 @@ def point_step(
             return None  # touching
     elif un == 0.0:
         return None
-    if not (un > 0.0 and g > ROT_LO and math.isfinite(A)):
-        return None  # (also an underflowing saturation: the subnormal arithmetic is not ported)
+    if not (un > 0.0 and g > ROT_LO and math.isfinite(A)) or 0.0 < dt <= ROT_LO:
+        return None  # (also an underflowing saturation or step: subnormal arithmetic not ported)
     b = L.xi * dt
     mu_rec = min(mu_c + (mu_s - mu_c) * (-math.expm1(-b)), mu_s)
     # step 2: no split (.switch.split_point), else the vectorised map
