@@ -46,6 +46,7 @@ if TYPE_CHECKING:
 __all__ = [
     "SegmentTransfer",
     "Transfer",
+    "complete_transfer",
     "facet_mass",
     "l2_projector",
     "transfer_matrices",
@@ -84,6 +85,7 @@ class SegmentTransfer:
         s = sides.slave
         self.sides = sides
         self.slave_X0 = sides.X0[s.nodes]  # the positions that weigh the segments' points
+        self.weights = points.weights  # what the slave nodes receive of each point's traction
         pw = point_weight(points.points, mode or "3d").reshape(points.facet_weights.shape)
         self.projector = (
             l2_projector(
@@ -121,6 +123,20 @@ class SegmentTransfer:
             keep &= reach.within(seg.slave, seg.master)
         seg = seg.take(keep)
         return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
+
+    def complete(self, tr: Transfer, facet: np.ndarray, xi: np.ndarray) -> Transfer:
+        """The transfer with the share the segments miss given where the points project.
+
+        :func:`complete_transfer`: the master's forces are the slave's, whatever a slave
+        facet's overhang past the master surface.
+
+        Args:
+            tr: The segments' transfer (:meth:`pairs`).
+            facet: Each point's master facet (index in the reach; -1: none), (npts,).
+            xi: Its reference coordinates there, (npts, fdim).
+        """
+        m = self.sides.master
+        return complete_transfer(tr, self.weights, facet, xi, m.cell, m.degree)
 
     def tangent(
         self,
@@ -220,11 +236,74 @@ class Transfer:
         master: Master facet of each pair, (npair,).
         B: ``B_lq`` of each pair, (npair, nfd_m, nq): the master nodal force of the pair is
             ``-B t`` for the tractions ``t`` (nq, gdim) at the slave facet's points.
+        uncovered: The fraction of each slave facet's measure the segments do not cover (the
+            part beyond the master surface), (ns,); ``None`` until :func:`complete_transfer`.
+        complement: The number of pairs at the end that carry the complement of
+            :func:`complete_transfer` (one per point, ``B`` nonzero in its column only).
     """
 
     slave: np.ndarray
     master: np.ndarray
     B: np.ndarray
+    uncovered: np.ndarray | None = None
+    complement: int = 0
+
+
+def complete_transfer(
+    tr: Transfer,
+    weights: np.ndarray,
+    facet: np.ndarray,
+    xi: np.ndarray,
+    master_cell: basix.CellType,
+    master_degree: int,
+) -> Transfer:
+    """The transfer with each point's missing share given to the master where it projects.
+
+    The slave nodes receive ``w_q t_q`` of every point (``weights``); the segments give the
+    master ``sum_l B_lq t_q``, the integral of ``L_q`` over the part of the slave facet they
+    cover, which is ``w_q`` only where they cover the whole facet. Where a slave facet overhangs
+    the master surface (or a quadrature's round-off leaves a little), the rest ``c_q = w_q -
+    sum_l B_lq`` of a point that faces the master goes to the master facet it projects on, by
+    the master's basis there: ``B_lq += c_q N_l(xi_q)`` on that pair. Then the master's forces
+    are the slave's to round-off, whatever the overhang (a point facing nothing is open: no
+    traction). Not collective.
+
+    Args:
+        tr: The segments' transfer (:func:`transfer_matrices`).
+        weights: The points' weights (the slave's, ``2 pi r`` included), (ns * nq,).
+        facet: Each point's master facet (index in the master arrays; -1: none), (ns * nq,).
+        xi: Its reference coordinates there, (ns * nq, fdim).
+        master_cell: The master facets' basix cell.
+        master_degree: Their Lagrange degree.
+
+    Returns:
+        ``tr`` with one more pair per point that faces the master and whose share is not
+        all given (``complement`` of them, at the end), and the uncovered fractions.
+    """
+    nq = tr.B.shape[2]
+    ns = weights.size // nq
+    w = weights.reshape(ns, nq)
+    covered = np.zeros((ns, nq))
+    if tr.slave.size:
+        np.add.at(covered, tr.slave, tr.B.sum(axis=1))
+    c = w - covered
+    area = w.sum(axis=1)
+    uncovered = np.divide(c.sum(axis=1), area, out=np.zeros(ns), where=area > 0)
+    # a share below the round-off of the segments' sums is given already
+    pts = np.flatnonzero((facet >= 0) & (np.abs(c).reshape(-1) > 1e-13 * np.abs(w).reshape(-1)))
+    if pts.size == 0:
+        return dataclasses.replace(tr, uncovered=uncovered, complement=0)
+    f_of, q_of = pts // nq, pts % nq
+    N = facet_basis(master_cell, master_degree, xi[pts])[0]  # (np, nfd_m)
+    Bc = np.zeros((pts.size, N.shape[1], nq))
+    Bc[np.arange(pts.size), :, q_of] = c[f_of, q_of][:, None] * N
+    return Transfer(
+        np.concatenate([tr.slave, f_of]),
+        np.concatenate([tr.master, facet[pts]]),
+        np.concatenate([tr.B, Bc]),
+        uncovered,
+        int(pts.size),
+    )
 
 
 def transfer_matrices(
