@@ -13,6 +13,8 @@ slide:
   laws is refused; a region the mesh does not have is named with the ones it has.
 """
 
+import copy
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -112,3 +114,60 @@ def test_restart_with_regions(shared_tmp):
 def test_a_region_the_mesh_lacks_is_named():
     with raised_on_every_rank(InterfaceError, "['smooth']", "['rough']"):
         run_scene(scene(regions={"smooth": coulomb(0.3)}), comm=MPI.COMM_WORLD)
+
+
+SLIDE = 0.02  # mm: the end facet's last point (0.026 mm from its end) stays on the interface
+
+
+def slid(s):
+    """The scene slid :data:`SLIDE` only."""
+    s = copy.deepcopy(s)
+    s["dirichlet"][1]["value"] = SLIDE
+    return s
+
+
+def finite(s, regions=None):
+    """The scene with its interface finite-sliding, the regions given on it."""
+    s = slid(s)
+    regs = s.pop("regions")
+    s["interfaces"] = {
+        "interface": {
+            "kinematics": "finite_sliding",
+            "regions": regs if regions is None else regions,
+            "search_radius": 0.05,
+        }
+    }
+    return s
+
+
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SOFT_GAP)
+def test_regions_with_finite_sliding_each_point_its_own_law():
+    """The same scene, its interface finite-sliding: each secondary point slides at its region's
+    friction coefficient (F_t = mu F_n per region and per point, to round-off); the forces are the
+    small-sliding ones of the same slide (0.02 mm on facets of 0.125: the builder's interface is
+    the base's top under the block only, and the block's end facet slides 0.16 of it past its end,
+    its points still on it)."""
+    comm = MPI.COMM_WORLD
+    res = run_scene(finite(scene(name="regions_finite")), comm=comm)
+    small = run_scene(slid(scene(name="regions_small")), comm=comm)
+    end, ref = res.history[-1], small.history[-1]
+    for name in MU:
+        assert end[f"{name}.area"] == pytest.approx(0.5, rel=1e-12)
+        assert end[f"{name}.plastic"] == 1.0 and end[f"{name}.separated"] == 0.0
+        assert abs(end[f"{name}.F_t1"]) == pytest.approx(MU[name] * end[f"{name}.F_n"], rel=1e-9)
+        assert end[f"{name}.F_n"] == pytest.approx(ref[f"{name}.F_n"], rel=1e-3)
+    assert end["F_t1"] == pytest.approx(end["default.F_t1"] + end["rough.F_t1"], rel=1e-12)
+    assert end["F_t1"] == pytest.approx(ref["F_t1"], rel=1e-3)
+    # F_t1 is along the frame of the base's current normals, which the press tilts a little
+    assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-6)
+    snap = res.snapshots[2.0]
+    x = snap["x"][:, 0]
+    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
+    assert np.all(snap["status"] == Status.PLASTIC)
+    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
+    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+
+
+def test_a_finite_sliding_region_the_mesh_lacks_is_named():
+    with raised_on_every_rank(InterfaceError, "'interface'", "['smooth']", "['rough']"):
+        run_scene(finite(scene(), regions={"smooth": coulomb(0.3)}), comm=MPI.COMM_WORLD)

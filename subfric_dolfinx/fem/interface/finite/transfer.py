@@ -17,7 +17,9 @@ per slave facet ``s`` and master facet ``m``,
 A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``:
 the mass matrix's rows sum to the rule's integrals of the basis) and so is every traction of ``P_p``
 that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
-on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. With a nodal
+on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. Where the
+segments do not cover a slave facet (it overhangs the master surface), the share they miss goes
+to the master where each point projects (:func:`complete_transfer`). With a nodal
 rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
 delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
 Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
