@@ -171,3 +171,60 @@ def test_regions_with_finite_sliding_each_point_its_own_law():
 def test_a_finite_sliding_region_the_mesh_lacks_is_named():
     with raised_on_every_rank(InterfaceError, "'interface'", "['smooth']", "['rough']"):
         run_scene(finite(scene(), regions={"smooth": coulomb(0.3)}), comm=MPI.COMM_WORLD)
+
+
+@pytest.mark.parametrize(
+    "group, words",
+    [
+        ([[0.25, 0.0]], ("'contact'", "'r'", "none of its facets is a secondary facet")),
+        ([[0.6, 0.0]], ("'contact'", "'r'", "1 of its 1 facets are not facets of the interface")),
+    ],
+)
+def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
+    """A base wider than its block (4 facets under 2, meshed apart): a group of base facets only
+    has no point to give a law; a group of no facet of the interface is named."""
+    import dolfinx
+
+    from subfric_dolfinx.constitutive import CoulombLaw
+    from subfric_dolfinx.fem.interface import SlidingInterface
+    from tests.contact_meshes import tagged_blocks
+
+    comm = MPI.COMM_WORLD
+    dom = tagged_blocks(
+        comm, base=(0.0, 2.0, -1.0, 0.0), block=(0.5, 1.5, 0.0, 1.0), n_base=(4, 1), n_block=(2, 1)
+    )
+    V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", 1, (2,)))
+    law = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.2)
+    with raised_on_every_rank(InterfaceError, *words):
+        SlidingInterface(
+            V,
+            dom.cell_tags,
+            dom.facet_tags,
+            law,
+            tag=dom.tags["contact"],
+            primary=dom.tags["base"],
+            secondary=dom.tags["block"],
+            name="contact",
+            regions={"r": law},
+            groups={"r": np.array(group)},
+        )
+    # both sides' facets in one group (a mesh made apart): the block's facet gives the region
+    iface = SlidingInterface(
+        V,
+        dom.cell_tags,
+        dom.facet_tags,
+        law,
+        tag=dom.tags["contact"],
+        primary=dom.tags["base"],
+        secondary=dom.tags["block"],
+        name="contact",
+        regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
+        groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
+    )
+    pts = iface.law_points
+    left = pts.points[:, 0] < 1.0
+    assert np.array_equal(pts.point_data["region"], np.where(left, 1.0, 0.0))
+    assert pts.region_names == ("default", "r")
+    total = comm.allreduce(np.array([left.sum(), left.size]))
+    assert total[0] * 2 == total[1] > 0
+    iface.destroy()
