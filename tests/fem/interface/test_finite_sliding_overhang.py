@@ -20,6 +20,7 @@ from subfric_dolfinx.fem import (
     LoadStepper,
     Material,
     Pressure,
+    StepControl,
 )
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import OverhangWarning
@@ -67,7 +68,7 @@ def run(problem, dt, load):
         )
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, dt, dt_max=dt, on_step=on_step).run()
+        LoadStepper(solver, dt, control=StepControl(dt_max=dt), on_step=on_step).run()
     return np.array(rows)
 
 
