@@ -40,6 +40,7 @@ __all__ = [
     "LOGGER_NAME",
     "PROGRESS_SECONDS",
     "PROGRESS_SPREAD",
+    "OverhangWarning",
     "PenetrationWarning",
     "Progress",
     "SlideWarning",
@@ -177,6 +178,10 @@ class PenetrationWarning(SubfricWarning):
 
 class SlideWarning(SubfricWarning):
     """A slide longer than the small-sliding interface (pairs fixed at the reference) describes."""
+
+
+class OverhangWarning(SubfricWarning):
+    """A finite-sliding contact leaves its primary surface: a pressed secondary facet past it."""
 
 
 class UnitsWarning(SubfricWarning):

@@ -42,6 +42,15 @@ penalty layer too, and its penetration is judged the same way (``h`` its seconda
 slide is not: its points are paired again in the current configuration as they slide, so no
 traction acts where the bodies no longer touch.
 
+**Overhang** (finite sliding only). A secondary facet pressed while some of its points lie beyond
+the primary surface (a block slid past the end of its base, a shaft pushed out of its hub; or a
+block slid past the end of an interface that the mesh made only as long as the block): its
+points beyond are open, and the force of the others is given to the primary where they project,
+all of it (:func:`~subfric_dolfinx.fem.interface.finite.transfer.complete_transfer`: the forces
+balance), but the contact's edge is then resolved only to the secondary's facets. Warned where
+such a facet has more than :data:`OVERHANG_FRACTION` of it beyond, with an
+:class:`~subfric_dolfinx.logs.OverhangWarning` that names the interface.
+
 A problem of several interfaces has one watch per interface (the
 :class:`~subfric_dolfinx.fem.LoadStepper` keeps them all); each uses the contact modulus of its
 own two bodies and names its interface in its warnings. A user bulk law without
@@ -64,6 +73,7 @@ from .. import logs
 
 __all__ = [
     "INTERPENETRATION_FRACTION",
+    "OVERHANG_FRACTION",
     "PENETRATION_FRACTION",
     "SLIDE_ELEMENTS",
     "ValidityWatch",
@@ -82,6 +92,10 @@ whatever the interface declares."""
 
 SLIDE_ELEMENTS = 3.0
 """A slide ``|ubar_t|`` beyond this many interface element sizes is warned about."""
+
+OVERHANG_FRACTION = 1e-6
+"""A pressed secondary facet of a finite-sliding interface with points beyond the primary surface
+and more than this fraction of its measure beyond it is warned about (an overhang)."""
 
 
 def contact_modulus(materials: Mapping[str, Any]) -> float:
@@ -107,11 +121,12 @@ class WorstPoint:
 
     Attributes:
         ratio: The measure over its tolerance (> 1: warned).
-        value: The penetration ``ubar_n`` or the slide ``|ubar_t|`` there (mm).
+        value: The penetration ``ubar_n`` or the slide ``|ubar_t|`` there (mm), or the fraction
+            of its secondary facet beyond the primary surface (an overhang).
         h: The interface element size there (mm).
-        x: Coordinates of the point.
+        x: Coordinates of the point (an overhang's: where it is at ``t``).
         t: Time of the step.
-        f_n: Normal traction there (MPa).
+        f_n: Normal traction there (MPa; an overhang's: the largest of its facet).
     """
 
     ratio: float
@@ -136,6 +151,8 @@ class ValidityWatch:
         interface: The interface's name.
         penetration: The worst penetration beyond its tolerance so far, or ``None``.
         slide: The worst slide beyond :data:`SLIDE_ELEMENTS` elements so far, or ``None``.
+        overhang: The pressed secondary facet (finite sliding) most beyond the primary surface
+            so far (more than :data:`OVERHANG_FRACTION` of it), or ``None``.
         contact_modulus: ``E*`` of the interface's two bodies (MPa), ``None`` if unknown.
         intended_compliance: The interface declares its normal compliance intended: its
             penetration is judged against the element size only.
@@ -151,7 +168,7 @@ class ValidityWatch:
         if self.interface not in ifaces:
             raise KeyError(f"no interface {self.interface!r}; the problem has {list(ifaces)}")
         self._named = len(ifaces) > 1
-        iface = ifaces[self.interface]
+        iface = self._iface = ifaces[self.interface]
         el = self._elements = iface.law_points
         # the slide matters where the pairs stay; finite sliding re-pairs as the bodies move
         self.slides_small = iface.fixed_pairs
@@ -167,6 +184,7 @@ class ValidityWatch:
         self.tolerance = np.maximum(self.h, PENETRATION_FRACTION * self.size)
         self.penetration: WorstPoint | None = None
         self.slide: WorstPoint | None = None
+        self.overhang: WorstPoint | None = None
         self._said: set[type[Warning]] = set()
 
     def track(self, t: float) -> None:
@@ -190,9 +208,15 @@ class ValidityWatch:
             layer = np.where(pressed, es * un / np.where(pressed, f_n, 1.0), 0.0)
             pen = np.maximum(pen, layer / self.tolerance)
         slide = np.linalg.norm(gap[:, :nt], axis=1) if self.slides_small else np.zeros(n)
+        over, facet_fn = self._overhang(f_n)
         checks = {  # name -> (ratio, value, what selects the worst point)
             "penetration": (pen, un, np.where(pen > 1.0, un, -np.inf)),
             "slide": (slide / (SLIDE_ELEMENTS * self.h), slide, slide / self.h),
+            "overhang": (
+                over / OVERHANG_FRACTION,
+                over,
+                np.where(over > OVERHANG_FRACTION, over, -np.inf),
+            ),
         }
         local = np.array([key.max() if n else -np.inf for _, _, key in checks.values()])
         largest = np.zeros_like(local)
@@ -202,7 +226,7 @@ class ValidityWatch:
             if not np.isfinite(largest[k]):  # nothing beyond the tolerance
                 continue
             if known is not None:
-                floor = known.value if name == "penetration" else known.ratio * SLIDE_ELEMENTS
+                floor = known.ratio * SLIDE_ELEMENTS if name == "slide" else known.value
                 if not largest[k] > floor * (1.0 + 1e-3):  # details only when it grows
                     continue
             elif name == "slide" and not largest[k] > SLIDE_ELEMENTS:
@@ -210,12 +234,32 @@ class ValidityWatch:
             mine = None
             if n and local[k] == largest[k]:
                 i = int(np.argmax(key))
-                x = tuple(float(v) for v in el.points.reshape(-1, self.gdim)[i])
+                where, fn = el.points, f_n
+                if name == "overhang":  # where the facet is now, its largest pressure
+                    where, fn = self._iface.geometry.xq, facet_fn
+                x = tuple(float(v) for v in where.reshape(-1, self.gdim)[i])
                 mine = WorstPoint(
-                    float(ratio[i]), float(value[i]), float(self.h[i]), x, float(t), float(f_n[i])
+                    float(ratio[i]), float(value[i]), float(self.h[i]), x, float(t), float(fn[i])
                 )
             found = [p for p in self.comm.allgather(mine) if p is not None]
             setattr(self, name, min(found, key=lambda p: p.x))  # the same on every rank
+
+    def _overhang(self, f_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each point's facet's fraction beyond the primary surface, and its largest pressure.
+
+        The fraction where the facet is pressed and a point of it faces no primary facet; 0
+        elsewhere, and for a small-sliding interface.
+        """
+        n = self.h.size
+        geometry = getattr(self._iface, "geometry", None)
+        uncovered = None if geometry is None else geometry.transfer.uncovered
+        if self.slides_small or uncovered is None or n == 0:
+            return np.zeros(n), np.zeros(n)
+        nq = self._elements.nq
+        fn = f_n.reshape(-1, nq).max(axis=1)
+        beyond = ~geometry.found.reshape(-1, nq).all(axis=1)  # a point faces no primary facet
+        over = np.where((fn > 0.0) & beyond, np.abs(uncovered), 0.0)
+        return np.repeat(over, nq), np.repeat(fn, nq)
 
     @property
     def judges_compliance(self) -> bool:
@@ -245,6 +289,23 @@ class ValidityWatch:
                         "finite-sliding (Interface(..., kinematics='finite_sliding'); scene: "
                         "interfaces.<name>.kinematics: 'finite_sliding'), which pairs its points "
                         "again as they slide, or keep the slide within a few interface elements"
+                    ),
+                )
+            )
+        o = self.overhang
+        if o is not None:
+            out.append(
+                (
+                    logs.OverhangWarning,
+                    (
+                        f"contact leaves its primary surface on the interface {self.interface!r}: "
+                        f"a secondary facet pressed (f_n up to {o.f_n:.4g} MPa) with {o.value:.3g} "
+                        f"of it beyond the primary surface's end (near {_xy(o.x)}, t = {o.t:.6g} "
+                        "s). Its points beyond are open and the force of the others is given to "
+                        "the primary where they project (the forces balance), but the contact's "
+                        f"edge is resolved only to the secondary's facets there (h = {o.h:.3g} "
+                        "mm): refine the secondary near the primary's end, or extend the primary "
+                        "surface if the bodies should stay in contact"
                     ),
                 )
             )

@@ -68,8 +68,8 @@ def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
 
     Raises:
         SceneError: An unknown kind, a setting that is not a positive number, a finite-sliding
-            setting on a small-sliding interface (it would be ignored), or what finite sliding
-            does not have (regions, the axisymmetric mode), each naming its key path.
+            setting on a small-sliding interface (it would be ignored), each naming its key
+            path.
     """
     if spec.kinematics is not None and spec.kinematics not in KINEMATICS:
         raise SceneError(
@@ -88,11 +88,6 @@ def _check_kinematics(scene: FEScene, name: str, spec: Any, path: str) -> None:
             )
         if not value > 0:
             raise SceneError(f"{path}.{key}: must be > 0 (mm), got {short_repr(value)}")
-    if not finite:
-        return
-    if spec.regions or (len(scene.interfaces) == 1 and scene.regions):
-        where = f"{path}.regions" if spec.regions else "scene.regions"
-        raise SceneError(f"{where}: interface regions are not available with finite sliding")
 
 
 def check_topology(scene: FEScene) -> None:

@@ -208,11 +208,13 @@ from tests.helpers import everywhere, on_root, prefix, raised_on_every_rank, sma
         (
             lambda s: s.update(
                 interfaces={
-                    "interface": {"kinematics": "finite_sliding", "regions": {"left": s["law"]}}
+                    "interface": {
+                        "kinematics": "finite_sliding",
+                        "regions": {"left": {"law": "teapot", "params": {}}},
+                    }
                 }
             ),
-            r"scene.interfaces.interface.regions: interface regions are not available with "
-            r"finite sliding",
+            r"scene.interfaces.interface.regions.left: .*'law'",
         ),
         # a name is a plain file name
         *[

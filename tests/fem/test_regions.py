@@ -13,6 +13,8 @@ slide:
   laws is refused; a region the mesh does not have is named with the ones it has.
 """
 
+import copy
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -112,3 +114,117 @@ def test_restart_with_regions(shared_tmp):
 def test_a_region_the_mesh_lacks_is_named():
     with raised_on_every_rank(InterfaceError, "['smooth']", "['rough']"):
         run_scene(scene(regions={"smooth": coulomb(0.3)}), comm=MPI.COMM_WORLD)
+
+
+SLIDE = 0.02  # mm: the end facet's last point (0.026 mm from its end) stays on the interface
+
+
+def slid(s):
+    """The scene slid :data:`SLIDE` only."""
+    s = copy.deepcopy(s)
+    s["dirichlet"][1]["value"] = SLIDE
+    return s
+
+
+def finite(s, regions=None):
+    """The scene with its interface finite-sliding, the regions given on it."""
+    s = slid(s)
+    regs = s.pop("regions")
+    s["interfaces"] = {
+        "interface": {
+            "kinematics": "finite_sliding",
+            "regions": regs if regions is None else regions,
+            "search_radius": 0.05,
+        }
+    }
+    return s
+
+
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SOFT_GAP)
+def test_regions_with_finite_sliding_each_point_its_own_law():
+    """The same scene, its interface finite-sliding: each secondary point slides at its region's
+    friction coefficient (F_t = mu F_n per region and per point, to round-off); the forces are the
+    small-sliding ones of the same slide (0.02 mm on facets of 0.125: the builder's interface is
+    the base's top under the block only, and the block's end facet slides 0.16 of it past its end,
+    its points still on it)."""
+    comm = MPI.COMM_WORLD
+    res = run_scene(finite(scene(name="regions_finite")), comm=comm)
+    small = run_scene(slid(scene(name="regions_small")), comm=comm)
+    end, ref = res.history[-1], small.history[-1]
+    for name in MU:
+        assert end[f"{name}.area"] == pytest.approx(0.5, rel=1e-12)
+        assert end[f"{name}.plastic"] == 1.0 and end[f"{name}.separated"] == 0.0
+        assert abs(end[f"{name}.F_t1"]) == pytest.approx(MU[name] * end[f"{name}.F_n"], rel=1e-9)
+        assert end[f"{name}.F_n"] == pytest.approx(ref[f"{name}.F_n"], rel=1e-6)
+    assert end["F_t1"] == pytest.approx(end["default.F_t1"] + end["rough.F_t1"], rel=1e-12)
+    assert end["F_t1"] == pytest.approx(ref["F_t1"], rel=1e-6)
+    # F_t1 is along the frame of the base's current normals, which the press tilts a little
+    assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-6)
+    snap = res.snapshots[2.0]
+    x = snap["x"][:, 0]
+    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
+    assert np.all(snap["status"] == Status.PLASTIC)
+    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
+    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+
+
+def test_a_finite_sliding_region_the_mesh_lacks_is_named():
+    with raised_on_every_rank(InterfaceError, "'interface'", "['smooth']", "['rough']"):
+        run_scene(finite(scene(), regions={"smooth": coulomb(0.3)}), comm=MPI.COMM_WORLD)
+
+
+@pytest.mark.parametrize(
+    "group, words",
+    [
+        ([[0.25, 0.0]], ("'contact'", "'r'", "none of its facets is a secondary facet")),
+        ([[0.6, 0.0]], ("'contact'", "'r'", "1 of its 1 facets are not facets of the interface")),
+    ],
+)
+def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
+    """A base wider than its block (4 facets under 2, meshed apart): a group of base facets only
+    has no point to give a law; a group of no facet of the interface is named."""
+    import dolfinx
+
+    from subfric_dolfinx.constitutive import CoulombLaw
+    from subfric_dolfinx.fem.interface import SlidingInterface
+    from tests.contact_meshes import tagged_blocks
+
+    comm = MPI.COMM_WORLD
+    dom = tagged_blocks(
+        comm, base=(0.0, 2.0, -1.0, 0.0), block=(0.5, 1.5, 0.0, 1.0), n_base=(4, 1), n_block=(2, 1)
+    )
+    V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", 1, (2,)))
+    law = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.2)
+    with raised_on_every_rank(InterfaceError, *words):
+        SlidingInterface(
+            V,
+            dom.cell_tags,
+            dom.facet_tags,
+            law,
+            tag=dom.tags["contact"],
+            primary=dom.tags["base"],
+            secondary=dom.tags["block"],
+            name="contact",
+            regions={"r": law},
+            groups={"r": np.array(group)},
+        )
+    # both sides' facets in one group (a mesh made apart): the block's facet gives the region
+    iface = SlidingInterface(
+        V,
+        dom.cell_tags,
+        dom.facet_tags,
+        law,
+        tag=dom.tags["contact"],
+        primary=dom.tags["base"],
+        secondary=dom.tags["block"],
+        name="contact",
+        regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
+        groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
+    )
+    pts = iface.law_points
+    left = pts.points[:, 0] < 1.0
+    assert np.array_equal(pts.point_data["region"], np.where(left, 1.0, 0.0))
+    assert pts.region_names == ("default", "r")
+    total = comm.allreduce(np.array([left.sum(), left.size]))
+    assert total[0] * 2 == total[1] > 0
+    iface.destroy()

@@ -48,10 +48,6 @@ def make_interface(
             timings=timings,
         )
     if kind == "finite_sliding":
-        if spec.regions:
-            raise InterfaceError(
-                f"interface {spec.group!r}: regions are not available with finite sliding"
-            )
         return SlidingInterface(
             V,
             cell_tags,
@@ -67,6 +63,8 @@ def make_interface(
             timings=timings,
             search_radius=spec.search_radius,
             reach=spec.reach,
+            regions=spec.regions,
+            groups=groups,
         )
     raise InterfaceError(
         f"interface {spec.group!r}: kinematics {kind!r} is not one of {list(KINEMATICS)}"

@@ -144,9 +144,8 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     slides (``F = mu F_n``), the shaft's points beyond the hub separate, at most 5 Newton a
     step; before the push the fit's pressure is Lame's (0.5 %, as the small-sliding demo).
 
-    A facet a step: where a slave facet in contact overhangs the master surface's end, the
-    part of its traction field beyond the end reaches no master facet (measured: the hub's ends
-    1.05 % below the push force after 0.4 of a facet, 2e-11 after whole facets; docs/model.md)."""
+    A facet a step: no slave facet in contact straddles the hub's end at a step's end (where one
+    does, tests/fem/interface/test_finite_sliding_overhang.py; docs/model.md)."""
     from demos import shrink_fit as sf
     from subfric_dolfinx import meshing
 

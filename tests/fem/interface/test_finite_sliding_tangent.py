@@ -50,10 +50,10 @@ from tests.helpers import everywhere
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
-def problem_2d(comm, law, degree):
+def problem_2d(comm, law, degree, base_end=4.0):
     dom = tagged_blocks(
         comm,
-        base=(0.0, 4.0, -1.0, 0.0),
+        base=(0.0, base_end, -1.0, 0.0),
         block=(1.0, 2.0, 0.0, 1.0),
         n_base=(7, 2),
         n_block=(3, 2),
@@ -157,6 +157,32 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
         "without dB t": without[1] > 1e-5,
     }
     assert everywhere(comm, all(checks.values())), (checks, err, without, counts)
+
+
+def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
+    """The block's end facet overhangs the base's end (its points still on it): the complement
+    of the transfer (the share the segments miss, given where the points project) and its change
+    with the geometry are in the tangent, which is still the residual's derivative."""
+    problem = problem_2d(comm, law_of("coulomb"), 1, base_end=2.42)
+    iface = problem.interfaces["contact"]
+    with FrictionSolver(problem, linear="lu") as solver:
+        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        x = solver.x.copy()
+        v = direction(comm, problem, x)
+        err = differences(comm, problem, x, v, [1e-4, 1e-5])
+        monkeypatch.setattr(SegmentTransfer, "complement_tangent", lambda *a: [])
+        without = differences(comm, problem, x, v, [1e-5])[0]
+        v.destroy()
+        x.destroy()
+    complement = comm.allreduce(iface.geometry.transfer.complement)
+    checks = {
+        "converged": converged,
+        "overhangs": complement > 0,
+        "exact": err[1].max() < 1e-8,
+        "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
+        "without the complement's change": without[1] > 1e-6,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, err, without, complement)
 
 
 def interface_rates(problem, x, v, eps, held=None):

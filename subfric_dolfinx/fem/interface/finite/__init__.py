@@ -15,6 +15,8 @@ The geometry of ``docs/model.md`` §11-12.
 * The kinematics of a slave point on the master (gap, convected slip, transport of the state,
   their derivatives): :mod:`.sliding`.
 * The overlap of slave and master facets the transfer integrates on: :mod:`.segments`.
+* Interface regions, the region of every slave facet:
+  :mod:`~subfric_dolfinx.fem.interface.finite.regions`.
 """
 
 from .interface import SlidingInterface

@@ -154,6 +154,7 @@ class SlidingAssembly:
                 out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
             if rates and ps.size:
                 out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
+            out += self.transfer.complement_tangent(g, tg)  # where a facet overhangs
         return out
 
     @staticmethod

@@ -242,6 +242,7 @@ def contact_geometry(
     old_facet = np.where(moving, start.facet, -1)
     with timed(TIMER_PROJECTION):
         segments, tr = transfer.pairs(Xs, Ym, normals, reach)
+        tr = transfer.complete(tr, pj.facet, pj.xi)
         held_now, held_old = _pattern_hold(sd, search, tr, pj.facet, old_facet, slid_too_far)
     seconds["segments"] = time.perf_counter() - t1
     geometry = ContactGeometry(

@@ -37,7 +37,11 @@ read.
   farther than ``reach`` in one step makes the evaluation fail (the step is cut).
 * The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes the segment
   transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
-  exactly.
+  exactly; where a slave facet overhangs the master surface, the share the segments miss goes
+  to the master where each point projects (:func:`.transfer.complete_transfer`): action equals
+  reaction whatever the overhang.
+* With regions, each point takes the law of its slave facet's region
+  (:mod:`~subfric_dolfinx.fem.interface.finite.regions`).
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
   respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
   slip's own master nodes, in 2-D the frame's turn with the projection
@@ -59,14 +63,14 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import dolfinx
 import numpy as np
 from petsc4py import PETSc
 
-from ....constitutive import FrictionLaw
+from ....constitutive import FrictionLaw, RegionalLaw
 from ....constitutive.result import Status
 from ..base import BaseInterface, NewtonStart
 from ..layout import Couplings
@@ -74,6 +78,7 @@ from .assembly import Block, SlidingAssembly
 from .contact import ContactGeometry, contact_geometry
 from .points import SlidingPoints
 from .reach import ReachSearch, StepStart
+from .regions import secondary_regions
 from .sides import make_sides
 from .transfer import SegmentTransfer
 
@@ -107,6 +112,12 @@ class SlidingInterface(BaseInterface):
         reach: How far a point may slide in one step (mm); also the hysteresis of the pattern
             (rebuilt when a facet needs a master facet beyond it). Default: the largest facet
             size of either side.
+        regions: Region name -> its law; the regions are groups of interface facets given by
+            ``groups`` (name -> centroids of their facets): each secondary point takes the law
+            of the region that holds its secondary facet and keeps it as it slides
+            (:mod:`~subfric_dolfinx.fem.interface.finite.regions`);
+            the others ``law``.
+        groups: The interface's subgroups (``InterfaceMesh.interface_groups``).
 
     Attributes:
         sides: The two surfaces and the search distances (:class:`~.sides.Sides`).
@@ -145,9 +156,10 @@ class SlidingInterface(BaseInterface):
         timings: Any = None,
         search_radius: float | None = None,
         reach: float | None = None,
+        regions: Mapping[str, FrictionLaw] | None = None,
+        groups: Mapping[str, np.ndarray] | None = None,
     ) -> None:
         super().__init__(V, name, timings)
-        self.law = law
         self.sides = make_sides(
             V,
             cell_tags,
@@ -160,7 +172,14 @@ class SlidingInterface(BaseInterface):
             search_radius,
             reach,
         )
-        self._points = SlidingPoints(self.sides, law, initial_gap, mode)
+        region = None
+        if regions:
+            region = np.repeat(
+                secondary_regions(self.sides, groups or {}, list(regions), name), self.sides.nq
+            )
+            law = RegionalLaw(law, dict(regions), region)
+        self.law = law
+        self._points = SlidingPoints(self.sides, law, initial_gap, mode, region)
         self.search = ReachSearch(self.sides)
         self.transfer = SegmentTransfer(self.sides, self._points, mode)
         self.assembly = SlidingAssembly(self.sides, self._points, self.transfer)

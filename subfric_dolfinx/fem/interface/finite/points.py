@@ -35,6 +35,8 @@ class SlidingPoints:
         law: The friction law.
         initial_gap: An extra initial normal gap ``g0`` (as for the interface).
         mode: The modelling mode (``"axisymmetric"``: the weights carry ``2 pi r``).
+        region: The region of every point (``law`` is then a
+            :class:`~subfric_dolfinx.constitutive.RegionalLaw` on them), or ``None``.
 
     Attributes:
         points: Reference positions of the points, (npts, gdim).
@@ -46,9 +48,10 @@ class SlidingPoints:
         Q_old: The committed frames (the step's start ones once it began), (npts, gdim, gdim).
         last: The return map's result at the last iterate (``None`` before the first).
         last_gap: The law's input gap at the last iterate, (npts, gdim).
+        point_data: Fixed data per point, for outputs and checkpoints: ``g0`` and, with regions,
+            ``region`` (the region number, as floats; names in :attr:`region_names`).
+        region_names: ``("default", <regions>...)``; ``("default",)`` without regions.
     """
-
-    region_names = ("default",)  # no interface regions (summaries read it)
 
     def __init__(
         self,
@@ -56,6 +59,7 @@ class SlidingPoints:
         law: FrictionLaw,
         initial_gap: float | Callable[[np.ndarray], np.ndarray] | None,
         mode: str | None,
+        region: np.ndarray | None = None,
     ) -> None:
         s, gdim = sides.slave, sides.gdim
         self.comm = sides.comm
@@ -73,6 +77,9 @@ class SlidingPoints:
         self.weights = (self.facet_weights * pw).reshape(-1)
         npts = sides.n_points
         self.point_data = {"g0": initial_gaps(initial_gap, self.points, self.comm)}
+        self.region_names: tuple[str, ...] = getattr(law, "names", ("default",))
+        if region is not None:
+            self.point_data["region"] = np.asarray(region).astype(float)
         fdim = max(gdim - 1, 1)
         sizes = self.facet_weights.sum(axis=1) ** (1.0 / fdim) if s.size else np.zeros(0)
         h_min = self.comm.allreduce(float(sizes.min(initial=np.inf)), op=MPI.MIN)

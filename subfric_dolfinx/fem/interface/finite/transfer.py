@@ -17,7 +17,9 @@ per slave facet ``s`` and master facet ``m``,
 A uniform traction is then transmitted exactly (the non-matching patch test; ``sum_q L_q = 1``:
 the mass matrix's rows sum to the rule's integrals of the basis) and so is every traction of ``P_p``
 that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
-on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. With a nodal
+on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. Where the
+segments do not cover a slave facet (it overhangs the master surface), the share they miss goes
+to the master where each point projects (:func:`complete_transfer`). With a nodal
 rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
 delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
 Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
@@ -40,12 +42,14 @@ from .segments import Segments, overlap_points
 from .sides import Sides
 
 if TYPE_CHECKING:
+    from .contact import ContactGeometry
     from .points import SlidingPoints
     from .reach import Reach
 
 __all__ = [
     "SegmentTransfer",
     "Transfer",
+    "complete_transfer",
     "facet_mass",
     "l2_projector",
     "transfer_matrices",
@@ -84,6 +88,7 @@ class SegmentTransfer:
         s = sides.slave
         self.sides = sides
         self.slave_X0 = sides.X0[s.nodes]  # the positions that weigh the segments' points
+        self.weights = points.weights  # what the slave nodes receive of each point's traction
         pw = point_weight(points.points, mode or "3d").reshape(points.facet_weights.shape)
         self.projector = (
             l2_projector(
@@ -122,6 +127,20 @@ class SegmentTransfer:
         seg = seg.take(keep)
         return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
 
+    def complete(self, tr: Transfer, facet: np.ndarray, xi: np.ndarray) -> Transfer:
+        """The transfer with the share the segments miss given where the points project.
+
+        :func:`complete_transfer`: the master's forces are the slave's, whatever a slave
+        facet's overhang past the master surface.
+
+        Args:
+            tr: The segments' transfer (:meth:`pairs`).
+            facet: Each point's master facet (index in the reach; -1: none), (npts,).
+            xi: Its reference coordinates there, (npts, fdim).
+        """
+        m = self.sides.master
+        return complete_transfer(tr, self.weights, facet, xi, m.cell, m.degree)
+
     def tangent(
         self,
         segments: Segments,
@@ -147,6 +166,84 @@ class SegmentTransfer:
             m.cell,
             with_normals=with_normals,
         )
+
+    def complement_tangent(
+        self, g: ContactGeometry, tractions: np.ndarray
+    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The complement's change with the geometry, the tractions held (tangent blocks).
+
+        The complement of :func:`complete_transfer` puts ``-c_q N_l(xi_q) t_q`` on the master
+        facet point ``q`` projects on. Its change with the tractions is in the points' blocks
+        (its pairs are the transfer's); here the rest: ``-c_q t_q dN_l/dxi dxi_q``, with ``dxi_q``
+        the projection's (:func:`.projection.projection_jacobian`, the nodal normals held), and
+        ``-N_l(xi_q) dc_q t_q`` with ``dc_q = -sum_l dB_lq`` the segments' change
+        (:func:`transfer_tangent` of the point's traction alone, its rows summed). Only where
+        the share is more than a round-off of the segments' sums (``1e-9 w_q``).
+
+        Args:
+            g: The iterate's geometry (its transfer completed).
+            tractions: The points' tractions, global components, (ns, nq, gdim).
+
+        Returns:
+            Blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
+        """
+        from .projection import projection_jacobian
+
+        tr, sd = g.transfer, self.sides
+        s, m = sd.slave, sd.master
+        nq, gdim, fdim = sd.nq, sd.gdim, sd.gdim - 1
+        if tr.complement == 0 or tr.points is None:
+            return []
+        nodes, pattern = g.reach.nodes, g.reach.holds
+        big = np.abs(tr.share) > 1e-9 * self.weights[tr.points]
+        pts, xi, c = tr.points[big], tr.xi[big], tr.share[big]
+        if pts.size == 0:
+            return []
+        f_of, q_of = pts // nq, pts % nq
+        fm = g.facet[pts]
+        t = tractions[f_of, q_of]  # (k, gdim)
+        out = []
+        # -c t dN/dxi dxi, dxi = R (sum_k N_k(q) dX_k - sum_l N_l(xi) dY_l)
+        x, Y, Nn = g.xq[pts], g.Ym[fm], g.normals[fm]
+        B = facet_basis(m.cell, m.degree, xi, 1)
+        nt = np.einsum("mk,mkd->md", B[0], Nn)
+        gam = np.einsum("md,md->m", x - np.einsum("mk,mkd->md", B[0], Y), nt) / np.einsum(
+            "md,md->m", nt, nt
+        )
+        Ainv, N = projection_jacobian(x, Y, Nn, m.cell, m.degree, xi, gam)
+        R = Ainv[:, :fdim, :]
+        C = np.concatenate([sd.Ns[0][q_of], -N], axis=1)  # (k, nfs + nfm)
+        vals = -np.einsum("m,md,aml,mae,mj->mldje", c, t, B[1:], R, C)
+        keep = pattern(fm, fm)
+        k, nfm = int(np.count_nonzero(keep)), N.shape[1]
+        if k:
+            cols = np.concatenate([s.nodes[f_of], nodes[fm]], axis=1)[keep]
+            out.append((nodes[fm[keep]], cols, vals[keep].reshape(k, nfm * gdim, -1)))
+        # -N_l(xi) dc_q t_q: the segments of the points' slave facets, one point at a time
+        seg = g.segments.take(np.isin(g.segments.slave, f_of))
+        if seg.size == 0:
+            return out
+        for q in np.unique(q_of):
+            tq = np.zeros_like(tractions)
+            tq[:, q] = tractions[:, q]
+            ps, pm, vb = self.tangent(seg, tq, g.Xs, g.Ym, g.normals)
+            if ps.size == 0:
+                continue
+            dct = vb.reshape(ps.size, nfm, gdim, -1).sum(axis=1)  # d(c_q) t_q, (np, gdim, nc)
+            mine = np.flatnonzero(q_of == q)
+            order = np.argsort(ps, kind="stable")
+            lo = np.searchsorted(ps[order], f_of[mine], "left")
+            n = np.searchsorted(ps[order], f_of[mine], "right") - lo
+            i = np.repeat(mine, n)
+            j = order[np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n) + np.repeat(lo, n)]
+            held = pattern(fm[i], pm[j])
+            i, j = i[held], j[held]
+            if i.size == 0:
+                continue
+            v = -np.einsum("ml,mdc->mldc", N[i], dct[j]).reshape(i.size, nfm * gdim, -1)
+            cols = np.concatenate([s.nodes[ps[j]], nodes[pm[j]]], axis=1)
+            out.append((nodes[fm[i]], cols, v))
+        return out
 
 
 def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -> np.ndarray:
@@ -220,11 +317,85 @@ class Transfer:
         master: Master facet of each pair, (npair,).
         B: ``B_lq`` of each pair, (npair, nfd_m, nq): the master nodal force of the pair is
             ``-B t`` for the tractions ``t`` (nq, gdim) at the slave facet's points.
+        uncovered: The fraction of each slave facet's measure the segments do not cover (the
+            part beyond the master surface), (ns,); ``None`` until :func:`complete_transfer`.
+        points: The points of the pairs at the end that carry the complement of
+            :func:`complete_transfer`, one pair each (``B`` nonzero in the point's column only),
+            (nc,); ``None`` until then.
+        xi: Those points' reference coordinates on their master facets, (nc, fdim).
+        share: Their shares ``c_q`` given so, (nc,).
     """
 
     slave: np.ndarray
     master: np.ndarray
     B: np.ndarray
+    uncovered: np.ndarray | None = None
+    points: np.ndarray | None = None
+    xi: np.ndarray | None = None
+    share: np.ndarray | None = None
+
+    @property
+    def complement(self) -> int:
+        """The number of pairs at the end that carry the complement (0 before it)."""
+        return 0 if self.points is None else int(self.points.size)
+
+
+def complete_transfer(
+    tr: Transfer,
+    weights: np.ndarray,
+    facet: np.ndarray,
+    xi: np.ndarray,
+    master_cell: basix.CellType,
+    master_degree: int,
+) -> Transfer:
+    """The transfer with each point's missing share given to the master where it projects.
+
+    The slave nodes receive ``w_q t_q`` of every point (``weights``); the segments give the
+    master ``sum_l B_lq t_q``, the integral of ``L_q`` over the part of the slave facet they
+    cover, which is ``w_q`` only where they cover the whole facet. Where a slave facet overhangs
+    the master surface (or a quadrature's round-off leaves a little), the rest ``c_q = w_q -
+    sum_l B_lq`` of a point that faces the master goes to the master facet it projects on, by
+    the master's basis there: ``B_lq += c_q N_l(xi_q)`` on that pair. Then the master's forces
+    are the slave's to round-off, whatever the overhang (a point facing nothing is open: no
+    traction). Not collective.
+
+    Args:
+        tr: The segments' transfer (:func:`transfer_matrices`).
+        weights: The points' weights (the slave's, ``2 pi r`` included), (ns * nq,).
+        facet: Each point's master facet (index in the master arrays; -1: none), (ns * nq,).
+        xi: Its reference coordinates there, (ns * nq, fdim).
+        master_cell: The master facets' basix cell.
+        master_degree: Their Lagrange degree.
+
+    Returns:
+        ``tr`` with one more pair per point that faces the master and whose share is not
+        all given (:attr:`Transfer.complement` of them, at the end), and the uncovered fractions.
+    """
+    nq = tr.B.shape[2]
+    ns = weights.size // nq
+    w = weights.reshape(ns, nq)
+    covered = np.zeros((ns, nq))
+    if tr.slave.size:
+        np.add.at(covered, tr.slave, tr.B.sum(axis=1))
+    c = w - covered
+    area = w.sum(axis=1)
+    uncovered = np.divide(c.sum(axis=1), area, out=np.zeros(ns), where=area > 0)
+    # a share below the round-off of the segments' sums is given already
+    pts = np.flatnonzero((facet >= 0) & (np.abs(c).reshape(-1) > 1e-13 * np.abs(w).reshape(-1)))
+    f_of, q_of = pts // nq, pts % nq
+    share = c[f_of, q_of]
+    N = facet_basis(master_cell, master_degree, xi[pts])[0]  # (np, nfd_m)
+    Bc = np.zeros((pts.size, N.shape[1], nq))
+    Bc[np.arange(pts.size), :, q_of] = share[:, None] * N
+    return Transfer(
+        np.concatenate([tr.slave, f_of]),
+        np.concatenate([tr.master, facet[pts]]),
+        np.concatenate([tr.B, Bc]),
+        uncovered,
+        pts,
+        xi[pts].copy(),
+        share,
+    )
 
 
 def transfer_matrices(
