@@ -28,18 +28,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.driver_steps import best_call, call_cases
 from subfric_dolfinx.constitutive import InterfaceState, SubloadingLaw, preset
 from subfric_dolfinx.driver import SliderCase, run_slider
+from tests.driver.slider_reference import STICK_SLIP_LAW
 
 P = preset("sec7")
-LAW = SubloadingLaw(
-    alpha_t=5000.0,
-    alpha_n=5000.0,
-    mu_s=500.0,
-    mu_k=300.0,
-    kappa=20.0,
-    xi=2.0,
-    u_tilde=50.0,
-    c_n=2e-4,
-)
+LAW = SubloadingLaw(**STICK_SLIP_LAW)
 
 
 class VectorisedOnly(SubloadingLaw):

@@ -32,6 +32,7 @@ from subfric_dolfinx.constitutive._subloading.point import point_step
 from subfric_dolfinx.constitutive.tolerances import CONTACT_TOL, LOAD_TOL
 from subfric_dolfinx.driver import SliderCase, run_slider
 from tests.constitutive.test_return_map_paths import random_points
+from tests.driver.slider_reference import STICK_SLIP_LAW
 from tests.fuzz_support import contact_tols, fuzz_settings, make_batch, subloading_laws, time_steps
 
 pytestmark = [
@@ -114,16 +115,7 @@ def test_float_path_equals_the_vectorised_map_on_the_fuzz_batches(start):
     assert seen[0] > 0.3 * seen[1]
 
 
-LAW = SubloadingLaw(
-    alpha_t=5000.0,
-    alpha_n=5000.0,
-    mu_s=500.0,
-    mu_k=300.0,
-    kappa=20.0,
-    xi=2.0,
-    u_tilde=50.0,
-    c_n=2e-4,
-)
+LAW = SubloadingLaw(**STICK_SLIP_LAW)
 
 
 @pytest.mark.parametrize(

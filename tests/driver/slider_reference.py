@@ -21,6 +21,20 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+STICK_SLIP_LAW = {
+    "alpha_t": 5000.0,
+    "alpha_n": 5000.0,
+    "mu_s": 500.0,
+    "mu_k": 300.0,
+    "kappa": 20.0,
+    "xi": 2.0,
+    "u_tilde": 50.0,
+    "c_n": 2e-4,
+}
+"""The law of the stick-slip checks, the point map's slider calls and the slider benchmark
+(keyword arguments of ``SubloadingLaw``; plain numbers here, the reference takes them as
+:class:`Params`)."""
+
 
 @dataclasses.dataclass(frozen=True)
 class Params:

@@ -125,16 +125,7 @@ def test_slip_weakening_stick_slip_against_the_closed_form():
 # --------------------------------------------------------------------------------------------
 # The subloading law: steady sliding and stick-slip
 
-LAW = SubloadingLaw(
-    alpha_t=5000.0,
-    alpha_n=5000.0,
-    mu_s=500.0,
-    mu_k=300.0,
-    kappa=20.0,
-    xi=2.0,
-    u_tilde=50.0,
-    c_n=2e-4,
-)
+LAW = SubloadingLaw(**ref.STICK_SLIP_LAW)
 FN, MASS = 300.0, 1.0  # MPa, tonne/mm^2
 
 
