@@ -105,14 +105,16 @@ def test_float_path_equals_the_vectorised_map_on_the_fuzz_batches(start):
         seen[1] += n
 
     run()
+    assert seen[0] > 0, seen  # the drawn batches reach the float path
+    fixed = [0, 0]  # the presets' batches (a fixed seed): the share the float path answers
     for name in ("sec7", "sec7-literal", "sec6-mus10000", "sec6-mus10000-literal"):
         for dt in (0.0, 1e-3, 1.0):
             b = make_batch(preset(name), 1, dt, 7, 2000, start=start)
             a, n = compare(b.law, b.gap, b.state, b.dt)
-            seen[0] += a
-            seen[1] += n
-    print(f"start tractions {start}: {seen[0]} of {seen[1]} points through the float path")
-    assert seen[0] > 0.3 * seen[1]
+            fixed[0] += a
+            fixed[1] += n
+    print(f"start tractions {start}: drawn {seen}, presets {fixed} (answered, points)")
+    assert fixed[0] > 0.3 * fixed[1], fixed
 
 
 LAW = SubloadingLaw(**STICK_SLIP_LAW)
