@@ -72,6 +72,46 @@ def run(problem, dt, load):
     return np.array(rows)
 
 
+def pressed_and_slid(dom, program, dirichlet, p):
+    """The block (Coulomb, a stiff penalty) pressed by ``p`` on its top and slid by ``dirichlet``
+    on its base, their interface finite sliding."""
+    return InterfaceProblem(
+        dom,
+        CoulombLaw(alpha_t=1e6, alpha_n=1e6, mu_c=0.3),
+        {"base": STEEL, "block": STEEL},
+        program,
+        dirichlet,
+        [Pressure("top", p, amplitude="press")],
+        interfaces=[
+            Interface(
+                "contact",
+                "base",
+                "block",
+                kinematics="finite_sliding",
+                search_radius=0.05,
+                intended_compliance=True,
+            )
+        ],
+    )
+
+
+def assert_no_force_lost(problem, p, t_end):
+    """Steps of 0.1, each: action = reaction, supports = load and the interface carries it (1e-10
+    of the load), no cut step, Newton at most 5; the run reaches ``t_end``. On every rank."""
+    rows = run(problem, 0.1, p * 1.0)
+    pressed = rows[:, 0] > 0.1 - 1e-12
+    checks = {
+        "action = reaction": rows[:, 3].max() < 1e-10,
+        "support = load": rows[pressed, 4].max() < 1e-10,
+        "horizontal balance": rows[:, 5].max() < 1e-10,
+        "interface carries the load": np.abs(rows[pressed, 6] - 1.0).max() < 1e-10,
+        "no cut step": np.allclose(rows[:, 1], 0.1),
+        "newton": rows[:, 2].max() <= 5,
+        "slid": abs(rows[-1, 0] - t_end) < 1e-12,
+    }
+    assert everywhere(problem.comm, all(checks.values())), (checks, rows)
+
+
 @pytest.mark.leaves_validity(OverhangWarning, reason=OVERHANG)
 def test_block_slid_past_the_end_of_its_base_loses_no_force(comm):
     """2-D: a block of width 1 (4 facets) on a base of length 2 (12 facets), pressed, then slid
@@ -86,36 +126,9 @@ def test_block_slid_past_the_end_of_its_base_loses_no_force(comm):
         split_x=1.0,
     )
     program = LoadingProgram([0.0, 0.1, 1.3], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    problem = InterfaceProblem(
-        dom,
-        CoulombLaw(alpha_t=1e6, alpha_n=1e6, mu_c=0.3),
-        {"base": STEEL, "block": STEEL},
-        program,
-        [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("block", slide, 0, amplitude="slide")],
-        [Pressure("top", p, amplitude="press")],
-        interfaces=[
-            Interface(
-                "contact",
-                "base",
-                "block",
-                kinematics="finite_sliding",
-                search_radius=0.05,
-                intended_compliance=True,
-            )
-        ],
-    )
-    rows = run(problem, 0.1, p * 1.0)
-    pressed = rows[:, 0] > 0.1 - 1e-12
-    checks = {
-        "action = reaction": rows[:, 3].max() < 1e-10,
-        "support = load": rows[pressed, 4].max() < 1e-10,
-        "horizontal balance": rows[:, 5].max() < 1e-10,
-        "interface carries the load": np.abs(rows[pressed, 6] - 1.0).max() < 1e-10,
-        "no cut step": np.allclose(rows[:, 1], 0.1),
-        "newton": rows[:, 2].max() <= 5,
-        "slid": abs(rows[-1, 0] - 1.3) < 1e-12,
-    }
-    assert everywhere(comm, all(checks.values())), (checks, rows)
+    dirichlet = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("block", slide, 0, amplitude="slide")]
+    problem = pressed_and_slid(dom, program, dirichlet, p)
+    assert_no_force_lost(problem, p, t_end=1.3)
 
 
 @pytest.mark.leaves_validity(OverhangWarning, reason=OVERHANG)
@@ -127,37 +140,10 @@ def test_3d_block_slid_past_the_edge_of_its_plate_loses_no_force(comm):
         comm, n_base=(4, 4, 1), n_block=(2, 2, 1), base_size=1.5, block_at=0.25, split_x=0.75
     )
     program = LoadingProgram([0.0, 0.1, 0.7], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    problem = InterfaceProblem(
-        dom,
-        CoulombLaw(alpha_t=1e6, alpha_n=1e6, mu_c=0.3),
-        {"base": STEEL, "block": STEEL},
-        program,
-        [
-            Dirichlet("bottom", (0.0, 0.0, 0.0)),
-            Dirichlet("block", slide, 0, amplitude="slide"),
-            Dirichlet("block", 0.0, 1),
-        ],
-        [Pressure("top", p, amplitude="press")],
-        interfaces=[
-            Interface(
-                "contact",
-                "base",
-                "block",
-                kinematics="finite_sliding",
-                search_radius=0.05,
-                intended_compliance=True,
-            )
-        ],
-    )
-    rows = run(problem, 0.1, p * 1.0)
-    pressed = rows[:, 0] > 0.1 - 1e-12
-    checks = {
-        "action = reaction": rows[:, 3].max() < 1e-10,
-        "support = load": rows[pressed, 4].max() < 1e-10,
-        "horizontal balance": rows[:, 5].max() < 1e-10,
-        "interface carries the load": np.abs(rows[pressed, 6] - 1.0).max() < 1e-10,
-        "no cut step": np.allclose(rows[:, 1], 0.1),
-        "newton": rows[:, 2].max() <= 5,
-        "slid": abs(rows[-1, 0] - 0.7) < 1e-12,
-    }
-    assert everywhere(comm, all(checks.values())), (checks, rows)
+    dirichlet = [
+        Dirichlet("bottom", (0.0, 0.0, 0.0)),
+        Dirichlet("block", slide, 0, amplitude="slide"),
+        Dirichlet("block", 0.0, 1),
+    ]
+    problem = pressed_and_slid(dom, program, dirichlet, p)
+    assert_no_force_lost(problem, p, t_end=0.7)
