@@ -193,7 +193,14 @@ def test_the_api_lists_each_parameter_once_and_links_petsc(site):
     section = stepper.split('id="subfric_dolfinx.fem.stepping.LoadStepper"', 1)[1]
     section = section.split('id="subfric_dolfinx.fem.stepping.LoadStepper.restore"', 1)[0]
     text = re.sub(r"<[^>]+>", " ", section)
-    assert len(re.findall(r"\bdt_min\s+–", text)) == 1, text[:2000]  # one entry, documented
+    for name in ("dt", "control", "sticky_retry", "predictor"):  # one entry each, documented
+        assert len(re.findall(rf"\b{name}\s+–", text)) == 1, (name, text[:2000])
+    # the step's bounds are StepControl's fields: one documented entry each
+    for name in ("dt_min", "dt_max", "max_cuts"):
+        anchor = f'id="subfric_dolfinx.fem.stepping.StepControl.{name}"'
+        assert stepper.count(anchor) == 1, name
+        entry = re.sub(r"<[^>]+>", " ", stepper.split(anchor, 1)[1].split("</dd>", 1)[0])
+        assert re.search(r"[A-Z][a-z]+ \w+", entry), (name, entry)  # a sentence, not a bare name
     assert "LoadStepper.__init__" not in stepper
     for _, (url, inventory) in local_inventories().items():  # conf.py's intersphinx_mapping
         assert url.startswith("https://") and not str(inventory).startswith("http")
