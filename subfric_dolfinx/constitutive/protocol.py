@@ -208,7 +208,7 @@ def real(name: str, value: Any, ok: Callable[[float], bool], allowed: str) -> fl
     return v
 
 
-def validate_fields(obj: Any, rules: dict[str, tuple[Callable[[float], bool], str]]) -> None:
+def validate_fields(obj: Any, rules: Mapping[str, tuple[Callable[[float], bool], str]]) -> None:
     """Validate and convert fields of a frozen dataclass in place (``__post_init__``)."""
     for name, (ok, allowed) in rules.items():
         object.__setattr__(obj, name, real(name, getattr(obj, name), ok, allowed))

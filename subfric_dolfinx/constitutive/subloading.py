@@ -319,7 +319,7 @@ def subloading_return_map(
     params: SubloadingLaw,
     gap: npt.ArrayLike,
     state: InterfaceState,
-    dt: float,
+    dt: float | npt.ArrayLike,
     *,
     out: InterfaceState | None = None,
     tol: float = LOAD_TOL,
