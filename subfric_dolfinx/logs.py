@@ -33,6 +33,7 @@ import os
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -212,7 +213,7 @@ def warn(message: str, category: type[Warning] = SubfricWarning, comm: Any = Non
     if comm is not None and comm.rank != 0:
         return
     for w in caught:
-        show = warnings.showwarning
+        show: Callable[..., None] = warnings.showwarning
         if _swallowed():  # what showwarning was before logging took it over
             show = getattr(logging, "_warnings_showwarning", None) or _to_stderr
         show(w.message, w.category, w.filename, w.lineno, w.file, w.line)
