@@ -82,8 +82,17 @@ class FrictionLaw(Protocol):
 
     name: ClassVar[str]
     variables: ClassVar[tuple[Variable, ...]]
-    alpha_t: float
-    alpha_n: float
+
+    # read-only (a law is a frozen dataclass): properties in the protocol
+    @property
+    def alpha_t(self) -> float:
+        """Tangential penalty (elastic) modulus, MPa/mm."""
+        ...
+
+    @property
+    def alpha_n(self) -> float:
+        """Normal penalty modulus, MPa/mm."""
+        ...
 
     def parameters(self) -> dict[str, Any]:
         """The parameters as a plain (JSON-serialisable) dictionary."""
