@@ -106,7 +106,7 @@ class InterfaceProblem:
         self,
         domain,
         law: FrictionLaw | None,
-        materials: Mapping[str, Material] | BulkModel,
+        materials: Mapping[str, Material | J2Material] | BulkModel,
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),
         loads: Sequence[Traction | Pressure | PointForce | Spring] = (),
