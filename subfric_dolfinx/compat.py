@@ -236,12 +236,16 @@ def geometry_dofmap(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
 
     ``geometry.dofmap`` in 0.9, ``geometry.dofmaps[0]`` in 0.11 (``dofmap`` is deprecated there).
     """
-    return mesh.geometry.dofmaps[0] if _NEW else mesh.geometry.dofmap
+    if _NEW:  # (statements, not a conditional expression: mypy checks one stack's branch)
+        return mesh.geometry.dofmaps[0]
+    return mesh.geometry.dofmap
 
 
 def coordinate_element(mesh: dolfinx.mesh.Mesh):
     """The coordinate element of a mesh of one cell type (``geometry.cmap`` / ``cmaps[0]``)."""
-    return mesh.geometry.cmaps[0] if _NEW else mesh.geometry.cmap
+    if _NEW:
+        return mesh.geometry.cmaps[0]
+    return mesh.geometry.cmap
 
 
 def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
@@ -263,7 +267,7 @@ class DolfinxNewton:
     def __init__(
         self, solve: Callable[[], tuple[int, bool]], objects: list, petsc: Callable[[], list]
     ) -> None:
-        self._solve = solve
+        self._solve: Callable[[], tuple[int, bool]] | None = solve
         self._objects = objects  # kept alive with the solver
         self._petsc = petsc  # the PETSc objects destroy() frees
 
