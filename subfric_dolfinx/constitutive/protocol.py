@@ -81,9 +81,14 @@ class FrictionLaw(Protocol):
     """
 
     name: ClassVar[str]
-    variables: ClassVar[tuple[Variable, ...]]
 
-    # read-only (a law is a frozen dataclass): properties in the protocol
+    # read-only: properties in the protocol (a law is a frozen dataclass; its variables are
+    # its class's, or, for a RegionalLaw, its laws')
+    @property
+    def variables(self) -> tuple[Variable, ...]:
+        """The internal variables it declares, in storage order."""
+        ...
+
     @property
     def alpha_t(self) -> float:
         """Tangential penalty (elastic) modulus, MPa/mm."""
