@@ -66,6 +66,12 @@ def level_for(verbosity: int) -> int:
     return logging.INFO if verbosity == 0 else logging.DEBUG
 
 
+class _Handler(logging.StreamHandler):
+    """The package's own handler (:func:`configure` replaces it, and no other)."""
+
+    _subfric = True
+
+
 class _RankFilter(logging.Filter):
     def __init__(self, rank: int) -> None:
         super().__init__()
@@ -95,8 +101,7 @@ def configure(
     for h in list(logger.handlers):
         if getattr(h, "_subfric", False):
             logger.removeHandler(h)
-    handler = logging.StreamHandler(stream or sys.stdout)
-    handler._subfric = True  # type: ignore[attr-defined]
+    handler = _Handler(stream or sys.stdout)
     handler.setFormatter(logging.Formatter("%(message)s"))
     handler.addFilter(_RankFilter(0 if comm is None else comm.rank))
     logger.addHandler(handler)

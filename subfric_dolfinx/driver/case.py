@@ -20,7 +20,7 @@ import numpy as np
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..values import short_repr
 from .checks import CaseError, field_number
-from .slider import parse_slider
+from .slider import SliderCase, parse_slider
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -53,7 +53,7 @@ class Case:
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
 
 
-def parse_case(obj: Any, base: str | Path | None = None) -> Case:
+def parse_case(obj: Any, base: str | Path | None = None) -> Case | SliderCase:
     """Validate a case given as a JSON-like dictionary.
 
     Args:
@@ -246,9 +246,9 @@ def read_table(
     return out
 
 
-def _parse(obj: dict, base: str | Path | None = None) -> Case:
+def _parse(obj: dict, base: str | Path | None = None) -> Case | SliderCase:
     if obj.get("control") == "slider":  # the dynamic control (a SliderCase)
-        return parse_slider(obj)  # type: ignore[return-value]
+        return parse_slider(obj)
     if "slider" in obj:
         raise CaseError(
             f"field 'control' must be 'slider' in a case with a 'slider' object, got "
@@ -418,7 +418,7 @@ def _too_deep(obj: Any, limit: int) -> str | None:
     return None
 
 
-def load_case(path: str | Path) -> Case:
+def load_case(path: str | Path) -> Case | SliderCase:
     """Read and validate a CASE.json file.
 
     Raises:

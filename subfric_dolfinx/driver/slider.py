@@ -271,7 +271,8 @@ class _Point:
         """``(f_t, df_t/du, pending)`` at the gap ``u`` after ``dt``; ``pending`` for accept."""
         self.calls += 1
         if self.fast:
-            o = self.law.point_map((u, self.un), self.s, dt)  # type: ignore[attr-defined]
+            assert isinstance(self.law, SubloadingLaw)  # (fast: the subloading law's float path)
+            o = self.law.point_map((u, self.un), self.s, dt)
             if o[7] == int(Status.FAILED):
                 raise FloatingPointError
             return o[0], o[2], o

@@ -328,7 +328,8 @@ class ValidityWatch:
                 "MPa/mm."
             )
         if self.judges_compliance:
-            es = float(self.contact_modulus)  # type: ignore[arg-type]
+            assert self.contact_modulus is not None  # (judges_compliance: E* known)
+            es = float(self.contact_modulus)
             layer = es * p.value / p.f_n
             tol = max(p.h, PENETRATION_FRACTION * self.size)
             if layer > tol:

@@ -305,7 +305,7 @@ def _build(
     h: float,
     cell_type: str,
     model_name: str,
-    regions: list[tuple[str, float, float]] = (),  # type: ignore[assignment]
+    regions: Sequence[tuple[str, float, float]] = (),
     grading: tuple[float, float, Sequence[float] | None, float] | None = None,
 ) -> ModelInfo:
     gmsh = gmsh_module()
