@@ -109,12 +109,16 @@ class BaseInterface(abc.ABC):
     kinematics: str
     fixed_pairs: bool
     pairs: Any = None
-    layout_version = 0
     round_off: np.ndarray | None = None
     last: Any
     law: Any
     #: The PETSc vectors :meth:`destroy` frees (``None`` where not made yet).
     _petsc_vectors: tuple[str, ...] = ("x_ext", "b_ext", "_work")
+
+    @property
+    def layout_version(self) -> int:
+        """Grows when the ghosts and the matrix pattern change (a kind that re-pairs says so)."""
+        return 0
 
     if TYPE_CHECKING:  # what a kind gives: an attribute (small sliding) or a property (finite)
 
