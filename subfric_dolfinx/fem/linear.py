@@ -215,6 +215,7 @@ class LinearStrategy:
         if self.policy is not None:
             self.P = problem.create_matrix()
         if name == "gamg":
+            assert self.P is not None  # (gamg has a refresh policy: P is made above)
             self.nullspace = rigid_modes(problem)
             self.P.setNearNullSpace(self.nullspace)
         if self.policy is not None:
