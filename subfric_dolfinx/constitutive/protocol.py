@@ -72,12 +72,6 @@ class FrictionLaw(Protocol):
 
     Attributes:
         name: The law's name, as used in scenes and cases (``"subloading"``, ``"coulomb"``).
-        variables: The internal variables it declares, in storage order. A ``SCALAR`` variable
-            has one value per point, a ``TANGENTIAL`` one a component per tangential direction
-            (1 in 2-D, 2 in 3-D), a ``LOCAL`` one a vector in the local frame (the tangential
-            components, then the normal one).
-        alpha_t: Tangential penalty (elastic) modulus, MPa/mm.
-        alpha_n: Normal penalty modulus, MPa/mm.
     """
 
     name: ClassVar[str]
@@ -86,7 +80,12 @@ class FrictionLaw(Protocol):
     # its class's, or, for a RegionalLaw, its laws')
     @property
     def variables(self) -> tuple[Variable, ...]:
-        """The internal variables it declares, in storage order."""
+        """The internal variables it declares, in storage order.
+
+        A ``SCALAR`` variable has one value per point, a ``TANGENTIAL`` one a component per
+        tangential direction (1 in 2-D, 2 in 3-D), a ``LOCAL`` one a vector in the local frame
+        (the tangential components, then the normal one).
+        """
         ...
 
     @property

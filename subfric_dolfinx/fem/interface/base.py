@@ -97,7 +97,6 @@ class BaseInterface(abc.ABC):
             then a slip is valid only while small against its elements (the validity watch
             judges it), where a kind that pairs again as the bodies move is not limited.
         pairs: The fixed pairs (``None`` where the interface pairs again as the bodies move).
-        layout_version: Grows when the ghosts and the matrix pattern change.
         round_off: The forces' round-off per dof at the last :meth:`forces`, beyond that of
             the displacement (``None``: none beyond it; a finite-sliding interface's gaps are
             differences of positions), for the convergence test's floor.
