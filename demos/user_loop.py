@@ -268,10 +268,15 @@ def main(argv=None, comm=MPI.COMM_WORLD) -> dict:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         rows = [
-            {"t": r["t"], "F_t1": r["F_t1"], "F_n": r["F_n"], "newton": r["newton"],
-             "F_t1_reference": q["F_t1"]}
+            {
+                "t": r["t"],
+                "F_t1": r["F_t1"],
+                "F_n": r["F_n"],
+                "newton": r["newton"],
+                "F_t1_reference": q["F_t1"],
+            }
             for r, q in zip(mine, ref, strict=True)
-        ]  # fmt: skip
+        ]
         write_history_file(out / "history.csv", rows, extra=COLUMNS, gdim=2)  # and its units
         peak = max(abs(r["F_t1"]) for r in mine)
         print(

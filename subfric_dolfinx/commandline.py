@@ -29,7 +29,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 __all__ = [
     "EXIT_USAGE",
@@ -53,7 +53,7 @@ class ArgumentError(Exception):
 class ArgumentParser(argparse.ArgumentParser):
     """argparse whose usage errors raise :class:`ArgumentError` (the caller prints one line)."""
 
-    def error(self, message: str) -> None:  # type: ignore[override]
+    def error(self, message: str) -> NoReturn:
         """Raise the usage error instead of printing the usage and exiting.
 
         Raises:

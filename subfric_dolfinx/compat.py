@@ -53,6 +53,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Callable, Iterator
+from typing import cast
 
 import dolfinx
 import dolfinx.common
@@ -145,9 +146,18 @@ def model_to_mesh(
     ``MeshData`` also holds ridge and peak tags, not used here).
     """
     out = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
-    if _NEW:
-        return out.mesh, out.cell_tags, out.facet_tags
+    if _NEW:  # (0.11's MeshData: tags None without groups of that dimension: see _tags)
+        return out.mesh, _tags(out.cell_tags), _tags(out.facet_tags)
     return out
+
+
+def _tags(tags: dolfinx.mesh.MeshTags | None) -> dolfinx.mesh.MeshTags:
+    """Tags of DOLFINx 0.11's ``MeshData``, typed as 0.9's (always given there).
+
+    0.11 gives ``None`` where the model has no physical group of that dimension, 0.9 empty
+    tags: passed on as they are (the package's meshes have cell and facet groups).
+    """
+    return cast(dolfinx.mesh.MeshTags, tags)
 
 
 def read_from_msh(
@@ -158,8 +168,8 @@ def read_from_msh(
     ``io.gmshio.read_from_msh`` (0.9) or ``io.gmsh.read_from_msh`` (0.11, a ``MeshData``).
     """
     out = _gmsh_io.read_from_msh(str(path), comm, rank, gdim=gdim)
-    if _NEW:
-        return out.mesh, out.cell_tags, out.facet_tags
+    if _NEW:  # (0.11's MeshData: tags None without groups of that dimension: see _tags)
+        return out.mesh, _tags(out.cell_tags), _tags(out.facet_tags)
     return out
 
 
@@ -226,8 +236,8 @@ def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):
 
 def default_partitioner(ghost_mode: dolfinx.mesh.GhostMode) -> Callable:
     """DOLFINx's graph partitioner with the given ghost mode (facets shared by two cells)."""
-    if _NEW:
-        return dolfinx.mesh.create_cell_partitioner(ghost_mode, 2)
+    if _NEW:  # (DOLFINx's singledispatch: mypy sees the first signature only)
+        return dolfinx.mesh.create_cell_partitioner(ghost_mode, 2)  # type: ignore[call-arg]
     return dolfinx.mesh.create_cell_partitioner(ghost_mode)
 
 
@@ -236,18 +246,24 @@ def geometry_dofmap(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
 
     ``geometry.dofmap`` in 0.9, ``geometry.dofmaps[0]`` in 0.11 (``dofmap`` is deprecated there).
     """
-    return mesh.geometry.dofmaps[0] if _NEW else mesh.geometry.dofmap
+    if _NEW:  # (statements, not a conditional expression: mypy checks one stack's branch)
+        return mesh.geometry.dofmaps[0]
+    return mesh.geometry.dofmap
 
 
 def coordinate_element(mesh: dolfinx.mesh.Mesh):
     """The coordinate element of a mesh of one cell type (``geometry.cmap`` / ``cmaps[0]``)."""
-    return mesh.geometry.cmaps[0] if _NEW else mesh.geometry.cmap
+    if _NEW:
+        return mesh.geometry.cmaps[0]
+    return mesh.geometry.cmap
 
 
 def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """The reference interpolation points of ``V``'s element (for a ``dolfinx.fem.Expression``)."""
     pts = V.element.interpolation_points
-    return pts if _NEW else pts()
+    if _NEW:  # (a property from 0.10 on)
+        return pts
+    return pts()
 
 
 class DolfinxNewton:
@@ -263,7 +279,7 @@ class DolfinxNewton:
     def __init__(
         self, solve: Callable[[], tuple[int, bool]], objects: list, petsc: Callable[[], list]
     ) -> None:
-        self._solve = solve
+        self._solve: Callable[[], tuple[int, bool]] | None = solve
         self._objects = objects  # kept alive with the solver
         self._petsc = petsc  # the PETSc objects destroy() frees
 

@@ -17,8 +17,10 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
+from typing import cast
 
 import numpy as np
+import numpy.typing as npt
 
 __all__ = ["LoadingError", "LoadingProgram"]
 
@@ -40,14 +42,16 @@ class LoadingProgram:
             differs from the number of times; the message names the value.
     """
 
-    times: np.ndarray
-    channels: Mapping[str, np.ndarray]
+    times: npt.NDArray[np.float64]
+    channels: Mapping[str, npt.NDArray[np.float64]]
 
     def __init__(self, times: Sequence[float], channels: Mapping[str, Sequence[float]]) -> None:
         t = np.asarray(times, dtype=float)
         if t.ndim != 1 or t.size < 2:
             raise LoadingError(f"times must be a list of at least two breakpoints, got {times!r}")
-        for i, v in enumerate(t.tolist()):  # Python floats: messages show 1.0, not np.float64
+        for i, v in enumerate(
+            cast(list[float], t.tolist())
+        ):  # Python floats: messages show 1.0, not np.float64
             if not math.isfinite(v):
                 raise LoadingError(f"times[{i}] = {v!r} is not finite")
         for i in range(1, t.size):
@@ -56,14 +60,14 @@ class LoadingProgram:
                     f"times must increase strictly: times[{i}] = {float(t[i])!r} after "
                     f"times[{i - 1}] = {float(t[i - 1])!r}"
                 )
-        ch: dict[str, np.ndarray] = {}
+        ch: dict[str, npt.NDArray[np.float64]] = {}
         for name, vals in channels.items():
             a = np.asarray(vals, dtype=float)
             if a.shape != t.shape:
                 raise LoadingError(
                     f"channel {name!r} has {a.size} values for {t.size} breakpoint times"
                 )
-            for i, v in enumerate(a.tolist()):
+            for i, v in enumerate(cast(list[float], a.tolist())):
                 if not math.isfinite(v):
                     raise LoadingError(f"channel {name!r} value [{i}] = {v!r} is not finite")
             ch[name] = a
@@ -126,4 +130,8 @@ class LoadingProgram:
 
     def to_dict(self) -> dict[str, list[float]]:
         """JSON-ready form."""
-        return {"times": self.times.tolist(), **{k: v.tolist() for k, v in self.channels.items()}}
+        # (1-D arrays: lists of floats)
+        return {
+            "times": cast(list[float], self.times.tolist()),
+            **{k: cast(list[float], v.tolist()) for k, v in self.channels.items()},
+        }

@@ -33,6 +33,7 @@ import os
 import sys
 import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -65,6 +66,12 @@ def level_for(verbosity: int) -> int:
     return logging.INFO if verbosity == 0 else logging.DEBUG
 
 
+class _Handler(logging.StreamHandler):
+    """The package's own handler (:func:`configure` replaces it, and no other)."""
+
+    _subfric = True
+
+
 class _RankFilter(logging.Filter):
     def __init__(self, rank: int) -> None:
         super().__init__()
@@ -94,8 +101,7 @@ def configure(
     for h in list(logger.handlers):
         if getattr(h, "_subfric", False):
             logger.removeHandler(h)
-    handler = logging.StreamHandler(stream or sys.stdout)
-    handler._subfric = True  # type: ignore[attr-defined]
+    handler = _Handler(stream or sys.stdout)
     handler.setFormatter(logging.Formatter("%(message)s"))
     handler.addFilter(_RankFilter(0 if comm is None else comm.rank))
     logger.addHandler(handler)
@@ -212,7 +218,7 @@ def warn(message: str, category: type[Warning] = SubfricWarning, comm: Any = Non
     if comm is not None and comm.rank != 0:
         return
     for w in caught:
-        show = warnings.showwarning
+        show: Callable[..., None] = warnings.showwarning
         if _swallowed():  # what showwarning was before logging took it over
             show = getattr(logging, "_warnings_showwarning", None) or _to_stderr
         show(w.message, w.category, w.filename, w.lineno, w.file, w.line)

@@ -55,7 +55,9 @@ class NotAnInteger(NumberError):
     """Not an integer: a float (even ``2.0``), a boolean, a string, ..."""
 
 
-def _real_types(numpy: bool) -> tuple[type, ...]:
+def _real_types(
+    numpy: bool,
+) -> tuple[type[int] | type[float] | type[np.integer[Any]] | type[np.floating[Any]], ...]:
     return (int, float, np.integer, np.floating) if numpy else (int, float)
 
 

@@ -251,7 +251,8 @@ def test_a_stack_that_cannot_be_installed_says_which_and_why(tmp_path):
 SUMMARY = r"""
 unset SUBFRIC_ROOTFS
 source "$RUNNER"
-lint() { :; }
+lint_ruff() { :; }
+mypy_stack() { echo "mypy $STACK" >>"$LOG"; }
 ensure_rootfs_if_chroot() { [ "$STACK" != sid ] || [ -z "${SID_BROKEN:-}" ] || return 2; }
 pytest_ranks() { echo "pytest $STACK $1" >>"$LOG"; [ "$STACK:$1" != "trixie:2" ]; }
 test_all
@@ -276,7 +277,12 @@ def test_the_summary_names_the_stack_of_each_line(tmp_path, broken):
     ), r.stderr
     if broken:
         assert any("sid (Debian unstable, DOLFINx 0.11): NOT RUN" in ln for ln in lines)
-        assert log_lines(tmp_path) == ["pytest trixie 1", "pytest trixie 2", "pytest trixie 3"]
+        assert log_lines(tmp_path) == [
+            "mypy trixie",  # the type check of the stack that runs, first
+            "pytest trixie 1",
+            "pytest trixie 2",
+            "pytest trixie 3",
+        ]
     else:
         assert any(
             "sid (Debian unstable, DOLFINx 0.11): 1 rank passed, 2 ranks passed, 3 ranks passed"
@@ -284,8 +290,38 @@ def test_the_summary_names_the_stack_of_each_line(tmp_path, broken):
             for ln in lines
         ), r.stderr
         legs = log_lines(tmp_path)  # the 1-rank legs side by side, then 2 and 3 ranks in turn
+        assert legs[:2] == ["mypy trixie", "mypy sid"], legs  # each stack's type check first
+        legs = legs[2:]
         assert sorted(legs[:2]) == ["pytest sid 1", "pytest trixie 1"], legs
         assert legs[2:] == [f"pytest {s} {n}" for s in ("trixie", "sid") for n in (2, 3)], legs
+
+
+LINT = r"""
+unset SUBFRIC_ROOTFS
+source "$RUNNER"
+lint_ruff() { echo "ruff" >>"$LOG"; }
+mypy_stack() { echo "mypy $STACK" >>"$LOG"; [ "$STACK" != "${MYPY_FAILS:-}" ]; }
+lint
+"""
+
+
+@pytest.mark.parametrize("fails", ["", "trixie", "sid"], ids=["clean", "trixie-fails", "sid-fails"])
+def test_lint_is_ruff_then_mypy_on_each_stack(tmp_path, fails):
+    r = subprocess.run(
+        ["bash", "-c", LINT],
+        env=env(tmp_path, MYPY_FAILS=fails),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    ran = log_lines(tmp_path)
+    if not fails:
+        assert r.returncode == 0, (r.stdout, r.stderr)
+        assert ran == ["ruff", "mypy trixie", "mypy sid"]
+    else:
+        assert r.returncode != 0, (r.stdout, r.stderr)
+        assert ran == ["ruff", "mypy trixie", "mypy sid"][: 2 if fails == "trixie" else 3]
+        assert "FAILED: mypy on " + ("trixie" if fails == "trixie" else "sid") in r.stderr
 
 
 def test_rootfs_without_a_stack_is_refused_for_both_stacks(tmp_path):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -81,6 +81,14 @@ class CalibrationData:
     def n_points(self) -> int:
         """Number of measured points in all."""
         return sum(c.slip.size for c in self.curves)
+
+
+@overload
+def _num(where: str, v: Any, *, allow_none: Literal[False] = False) -> float: ...
+
+
+@overload
+def _num(where: str, v: Any, *, allow_none: bool) -> float | None: ...
 
 
 def _num(where: str, v: Any, *, allow_none: bool = False) -> float | None:

@@ -25,7 +25,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -203,7 +203,7 @@ class _Model:
 
     def jac(self, x: np.ndarray, hi: np.ndarray | None = None) -> np.ndarray:
         base = self.fun(x)
-        steps = np.full(x.size, _H)
+        steps: np.ndarray = np.full(x.size, _H)
         if hi is not None:
             steps = np.where(x + _H > hi, -_H, _H)  # stay within the upper bounds
         xs = []
@@ -405,7 +405,7 @@ def fit(
     return FitResult(
         params={k: p[k] for k in NAMES},
         stderr=stderr,
-        correlation=corr.tolist(),
+        correlation=cast(list[list[float]], corr.tolist()),
         rms=math.sqrt(float(r @ r) / m),
         converged=bool(sol.success),
         fit=list(names),

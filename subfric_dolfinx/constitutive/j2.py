@@ -74,11 +74,11 @@ def to_mandel(t: npt.ArrayLike) -> np.ndarray:
 
 def from_mandel(m: npt.ArrayLike) -> np.ndarray:
     """Symmetric 3 x 3 tensors (..., 3, 3) of Mandel vectors (..., 6)."""
-    m = np.asarray(m, dtype=float) / _FACTOR
-    t = np.empty((*m.shape[:-1], 3, 3))
+    v = np.asarray(m, dtype=float) / _FACTOR
+    t = np.empty((*v.shape[:-1], 3, 3))
     for k, (i, j) in enumerate(_PAIRS):
-        t[..., i, j] = m[..., k]
-        t[..., j, i] = m[..., k]
+        t[..., i, j] = v[..., k]
+        t[..., j, i] = v[..., k]
     return t
 
 

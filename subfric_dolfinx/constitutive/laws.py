@@ -18,7 +18,7 @@ from .subloading import SubloadingLaw
 
 __all__ = ["LAWS", "build_law", "law_description", "register_law"]
 
-LAWS: dict[str, type] = {SubloadingLaw.name: SubloadingLaw, CoulombLaw.name: CoulombLaw}
+LAWS: dict[str, type[Any]] = {SubloadingLaw.name: SubloadingLaw, CoulombLaw.name: CoulombLaw}
 """Registered law classes by name."""
 
 

@@ -72,18 +72,31 @@ class FrictionLaw(Protocol):
 
     Attributes:
         name: The law's name, as used in scenes and cases (``"subloading"``, ``"coulomb"``).
-        variables: The internal variables it declares, in storage order. A ``SCALAR`` variable
-            has one value per point, a ``TANGENTIAL`` one a component per tangential direction
-            (1 in 2-D, 2 in 3-D), a ``LOCAL`` one a vector in the local frame (the tangential
-            components, then the normal one).
-        alpha_t: Tangential penalty (elastic) modulus, MPa/mm.
-        alpha_n: Normal penalty modulus, MPa/mm.
     """
 
     name: ClassVar[str]
-    variables: ClassVar[tuple[Variable, ...]]
-    alpha_t: float
-    alpha_n: float
+
+    # read-only: properties in the protocol (a law is a frozen dataclass; its variables are
+    # its class's, or, for a RegionalLaw, its laws')
+    @property
+    def variables(self) -> tuple[Variable, ...]:
+        """The internal variables it declares, in storage order.
+
+        A ``SCALAR`` variable has one value per point, a ``TANGENTIAL`` one a component per
+        tangential direction (1 in 2-D, 2 in 3-D), a ``LOCAL`` one a vector in the local frame
+        (the tangential components, then the normal one).
+        """
+        ...
+
+    @property
+    def alpha_t(self) -> float:
+        """Tangential penalty (elastic) modulus, MPa/mm."""
+        ...
+
+    @property
+    def alpha_n(self) -> float:
+        """Normal penalty modulus, MPa/mm."""
+        ...
 
     def parameters(self) -> dict[str, Any]:
         """The parameters as a plain (JSON-serialisable) dictionary."""
@@ -208,7 +221,7 @@ def real(name: str, value: Any, ok: Callable[[float], bool], allowed: str) -> fl
     return v
 
 
-def validate_fields(obj: Any, rules: dict[str, tuple[Callable[[float], bool], str]]) -> None:
+def validate_fields(obj: Any, rules: Mapping[str, tuple[Callable[[float], bool], str]]) -> None:
     """Validate and convert fields of a frozen dataclass in place (``__post_init__``)."""
     for name, (ok, allowed) in rules.items():
         object.__setattr__(obj, name, real(name, getattr(obj, name), ok, allowed))

@@ -17,7 +17,8 @@ into new after a failed one (the pattern of MGIS's material data manager).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -198,7 +199,9 @@ class InterfaceState:
         for name, a in self._arrays.items():
             np.copyto(a, other[name])
 
-    def take(self, index: npt.ArrayLike) -> InterfaceState:
+    def take(
+        self, index: npt.NDArray[np.integer[Any]] | npt.NDArray[np.bool_] | Sequence[int] | slice
+    ) -> InterfaceState:
         """Return a copy of the state at some points."""
         return InterfaceState(
             {k: a[index] for k, a in self._arrays.items()}, self.n_tangential, copy=True

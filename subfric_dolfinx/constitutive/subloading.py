@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -138,6 +138,9 @@ class SubloadingLaw(LawBase):
             output=False,  # the traction f_t, f_n itself
         ),
     )
+
+    if TYPE_CHECKING:  # the map's floats, set by __post_init__ (no field at run time)
+        _consts: Law = dataclasses.field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         validate_fields(
@@ -242,7 +245,7 @@ class SubloadingLaw(LawBase):
         dt = float(dt)
         if not (math.isfinite(dt) and dt >= 0.0):
             raise ValueError(f"dt = {dt!r} must be finite and >= 0")
-        L: Law = self._consts  # type: ignore[attr-defined]
+        L = self._consts
         g = (float(gap[0]), float(gap[1]))
         f0 = state[3]
         f = None if f0 is None else (float(f0[0]), float(f0[1]))
@@ -319,7 +322,7 @@ def subloading_return_map(
     params: SubloadingLaw,
     gap: npt.ArrayLike,
     state: InterfaceState,
-    dt: float,
+    dt: float | npt.ArrayLike,
     *,
     out: InterfaceState | None = None,
     tol: float = LOAD_TOL,
@@ -365,7 +368,7 @@ def subloading_return_map(
         raise ValueError(f"tol = {tol!r} and contact_tol = {contact_tol!r} must be finite, >= 0")
     if out is state:
         raise ValueError("out must not be the input state (inputs are never mutated)")
-    L: Law = params._consts  # type: ignore[attr-defined]
+    L = params._consts
     has_f = "f" in state
     if out is not None:
         if out.n_points != n or out["up"].shape != up.shape:

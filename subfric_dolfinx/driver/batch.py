@@ -92,10 +92,10 @@ def run_cases(
             case = c if isinstance(c, Case) else parse_case(c)
         except CaseError as e:
             raise CaseError(f"case {i}: {e}") from None
-        if case.control != "disp":
+        if not isinstance(case, Case) or case.control != "disp":  # (a SliderCase has none)
             raise CaseError(
                 f"case {i}: the batch driver runs displacement control only; run "
-                "stress-controlled cases with run_case"
+                "stress-controlled and slider cases with run_case"
             )
         parsed.append(case)
     spms = []

@@ -13,14 +13,14 @@ import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ..constitutive import FrictionLaw, LawError, build_law
 from ..values import short_repr
 from .checks import CaseError, field_number
-from .slider import parse_slider
+from .slider import SliderCase, parse_slider
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -53,7 +53,7 @@ class Case:
     steps_per_mm: float = DEFAULT_STEPS_PER_MM
 
 
-def parse_case(obj: Any, base: str | Path | None = None) -> Case:
+def parse_case(obj: Any, base: str | Path | None = None) -> Case | SliderCase:
     """Validate a case given as a JSON-like dictionary.
 
     Args:
@@ -92,7 +92,8 @@ def _path_rows(raw: Any, nt: int, base: str | Path | None) -> list[list[float]]:
         if n < 2:
             raise CaseError(f"field 'path.csv': {raw['csv']!r} holds {n} row(s), need two")
         x2 = table.get("x2", np.zeros(n))
-        return np.column_stack([table["t"], table["x1"], x2, table["ubar_n"]]).tolist()
+        table_rows = np.column_stack([table["t"], table["x1"], x2, table["ubar_n"]])
+        return cast(list[list[float]], table_rows.tolist())
     if not isinstance(raw, list) or len(raw) < 2:
         raise CaseError(
             "field 'path' must be a list of at least two rows [t, x1, x2, ubar_n], or "
@@ -245,9 +246,9 @@ def read_table(
     return out
 
 
-def _parse(obj: dict, base: str | Path | None = None) -> Case:
+def _parse(obj: dict, base: str | Path | None = None) -> Case | SliderCase:
     if obj.get("control") == "slider":  # the dynamic control (a SliderCase)
-        return parse_slider(obj)  # type: ignore[return-value]
+        return parse_slider(obj)
     if "slider" in obj:
         raise CaseError(
             f"field 'control' must be 'slider' in a case with a 'slider' object, got "
@@ -317,7 +318,10 @@ def _object(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     if len(out) == len(pairs):
         return out
     seen: set[str] = set()
-    key = next(k for k, _ in pairs if k in seen or seen.add(k))
+    for key, _ in pairs:  # the first key given twice
+        if key in seen:
+            break
+        seen.add(key)
     marked = _Twice()
     for k, v in pairs:
         marked.setdefault(k, v)  # the first value of each key
@@ -339,7 +343,7 @@ def _find_twice(obj: Any, root: str) -> tuple[str, _Twice] | None:
     return None
 
 
-def read_json(path: str | Path, what: str = "case file", root: str = "") -> Any:
+def read_json(path: str | os.PathLike[str], what: str = "case file", root: str = "") -> Any:
     """Read a JSON file defensively: every malformed file gives one :class:`CaseError`.
 
     Args:
@@ -414,7 +418,7 @@ def _too_deep(obj: Any, limit: int) -> str | None:
     return None
 
 
-def load_case(path: str | Path) -> Case:
+def load_case(path: str | Path) -> Case | SliderCase:
     """Read and validate a CASE.json file.
 
     Raises:

@@ -6,7 +6,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -264,9 +264,10 @@ class _Runner:
 
     def run(self) -> bool:
         case, plan = self.case, self.plan
-        knots, values, counts = plan.knots, plan.values, plan.counts.tolist()
-        vals = [tuple(map(float, v)) for v in values]
-        kt = knots.tolist()
+        knots, values = plan.knots, plan.values
+        counts = cast(list[int], plan.counts.tolist())
+        vals = [(float(v[0]), float(v[1]), float(v[2])) for v in values]  # (K, 3)
+        kt = cast(list[float], knots.tolist())
         samples = list(case.t_samples)
         disp = case.control == "disp"
         t0 = kt[0]

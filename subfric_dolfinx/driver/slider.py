@@ -55,7 +55,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -271,7 +271,8 @@ class _Point:
         """``(f_t, df_t/du, pending)`` at the gap ``u`` after ``dt``; ``pending`` for accept."""
         self.calls += 1
         if self.fast:
-            o = self.law.point_map((u, self.un), self.s, dt)  # type: ignore[attr-defined]
+            assert isinstance(self.law, SubloadingLaw)  # (fast: the subloading law's float path)
+            o = self.law.point_map((u, self.un), self.s, dt)
             if o[7] == int(Status.FAILED):
                 raise FloatingPointError
             return o[0], o[2], o
@@ -361,7 +362,7 @@ def run_slider(
         case = parse_slider(case)
     law = case.law
     m, k, V = case.mass, case.stiffness, case.velocity
-    un = case.f_n / float(law.alpha_n)  # type: ignore[attr-defined]
+    un = case.f_n / float(law.alpha_n)
     dt_max, err = case.step_limit(), case.tolerance()
     pt = _Point(law, un, state)
     t0 = time.perf_counter()
@@ -371,7 +372,7 @@ def run_slider(
         u = field_number("u0", u0)
     elif state is not None:
         f_start = float(state["f"][0, 0]) if "f" in state else 0.0
-        u = float(state["up"][0, 0]) + f_start / float(law.alpha_t)  # type: ignore[attr-defined]
+        u = float(state["up"][0, 0]) + f_start / float(law.alpha_t)
     f, D_last, pend = _solve_at(pt, u, 0.0)
     status, own = pt.accept(pend)
     v = case.v0
@@ -381,7 +382,7 @@ def run_slider(
     row_status: list[str] = []
     counts = [0] * len(Status)
     counts[status] += 1
-    samples = None if case.t_samples is None else case.t_samples.tolist()
+    samples = None if case.t_samples is None else cast(list[float], case.t_samples.tolist())
 
     def record(t: float) -> None:
         x = case.x0 + V * t

@@ -59,7 +59,9 @@ def set_function_domain_error(snes: PETSc.SNES, F: PETSc.Vec) -> None:
         return
     if mode == "ctypes":
         F.set(0.0)
-        err = _library().SNESSetFunctionDomainError(ctypes.c_void_p(snes.handle))
+        lib = _library()
+        assert lib is not None  # (the mode is "ctypes": PETSc's library is found)
+        err = lib.SNESSetFunctionDomainError(ctypes.c_void_p(snes.handle))
         if err == 0:
             return
     F.set(float("nan"))

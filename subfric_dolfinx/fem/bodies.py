@@ -64,6 +64,7 @@ def resolve_interfaces(
             f"the mesh lacks the physical group(s) {missing}; it has {sorted(tags)}"
         )
     resolved = []
+    sides: dict[str, InterfaceSides] = {}
     for s in specs:
         known = mesh.interfaces.get(s.group)
         primary = s.primary or (known.primary if known else None)
@@ -76,6 +77,7 @@ def resolve_interfaces(
         the_law = s.law if s.law is not None else law
         if the_law is None:
             raise InterfaceError(f"interface {s.group!r}: no friction law (nor a problem law)")
+        kinematics = s.kinematics or getattr(known, "kinematics", None) or "small_sliding"
         resolved.append(
             dataclasses.replace(
                 s,
@@ -83,12 +85,11 @@ def resolve_interfaces(
                 secondary=secondary,
                 law=the_law,
                 quadrature=s.quadrature or quadrature,
-                kinematics=s.kinematics or getattr(known, "kinematics", None) or "small_sliding",
+                kinematics=kinematics,
             )
         )
-    topology = mesh.with_interfaces(
-        {s.group: InterfaceSides(s.primary, s.secondary, s.kinematics) for s in resolved}
-    )
+        sides[s.group] = InterfaceSides(primary, secondary, kinematics)
+    topology = mesh.with_interfaces(sides)
     absent = [g for gs in topology.bodies.values() for g in gs if g not in tags]
     if absent:
         raise InterfaceError(

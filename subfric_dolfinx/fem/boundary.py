@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, cast
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -158,9 +158,11 @@ def dirichlet_dofs(
     n_owned = V.dofmap.index_map.size_local * bs
     dim, entities = _entities(domain, c.group, kind)
     xdof = V.tabulate_dof_coordinates()
+    vals: np.ndarray
     if c.component is None:
         nodes = dolfinx.fem.locate_dofs_topological(V, dim, entities)
         dofs = (nodes[:, None] * bs + np.arange(bs)).ravel()
+        val: np.ndarray
         if callable(c.value):
             val = np.asarray(c.value(xdof[nodes].T), dtype=float).reshape(gdim, -1)
             vals = val.T.ravel()
@@ -179,7 +181,7 @@ def dirichlet_dofs(
         elif callable(c.value):
             vals = np.asarray(c.value(xdof[dofs // bs].T), dtype=float).reshape(-1)
         else:
-            vals = np.full(dofs.size, float(c.value))
+            vals = np.full(dofs.size, float(cast(float, c.value)))  # (a number with a component)
     keep = dofs < n_owned
     vals = vals[:, keep] if isinstance(c, DirichletField) else vals[keep]
     return dofs[keep].astype(np.int32), vals

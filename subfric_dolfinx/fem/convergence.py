@@ -186,6 +186,7 @@ class ScaledConvergence:
         Also sets :attr:`forces` (``Phi`` of the module docstring) at ``x``.
         """
         p = self.problem
+        assert p.K is not None and self.Kabs is not None  # (None once destroyed)
         x.copy(self._ua)
         self._ua.abs()
         self.Kabs.mult(self._ua, self._w)

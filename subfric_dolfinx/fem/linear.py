@@ -176,7 +176,7 @@ def rigid_modes(problem) -> PETSc.NullSpace:
     n = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:n, :gdim]
     x = x - problem.comm.allreduce(x.sum(axis=0)) / max(problem.comm.allreduce(n), 1)
-    vecs = []
+    vecs: list[PETSc.Vec] = []
     rotations = [(0, 1)] if gdim == 2 else [(1, 2), (2, 0), (0, 1)]
     for k in range(gdim + len(rotations)):
         v = problem.create_vector()
@@ -215,6 +215,7 @@ class LinearStrategy:
         if self.policy is not None:
             self.P = problem.create_matrix()
         if name == "gamg":
+            assert self.P is not None  # (gamg has a refresh policy: P is made above)
             self.nullspace = rigid_modes(problem)
             self.P.setNearNullSpace(self.nullspace)
         if self.policy is not None:
@@ -309,6 +310,7 @@ class LinearStrategy:
         if k == 0:
             eta = floor
         else:
+            assert self.policy is not None  # (forcing: a strategy with a policy)
             eta = max(min(_ETA_MAX, self.policy["c"] * fnorm / self._f0), floor)
         return min(max(eta, _ETA_MIN), _ETA_MAX)
 

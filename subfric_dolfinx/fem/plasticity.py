@@ -125,9 +125,9 @@ class J2Bulk:
         self.failed_points = 0
         self._bodies: list[_Body] = []
         self._exprs: dict[int, tuple[Any, dolfinx.fem.Expression]] = {}
-        self._mesh = None
+        self._mesh: dolfinx.mesh.Mesh | None = None  # (set by forms)
         self._mode = ""
-        self._X = np.zeros((0, 0))
+        self._X: np.ndarray = np.zeros((0, 0))
         self._comm = MPI.COMM_SELF
         self._n_owned_cells = 0
         self._owned_points = np.zeros(0, dtype=np.int32)
@@ -168,7 +168,9 @@ class J2Bulk:
                 F += ufl.inner(sig, strain(v, mode)) * wt * dxb
                 dsig = elastic_stress(strain(du, mode), mat.E, mat.nu, mode)
                 J += ufl.inner(dsig, strain(v, mode)) * wt * dxb
-        self._setup_points(ctx, {g: groups[g] for g in j2})
+        self._setup_points(
+            ctx, {g: (mat, ts) for g, (mat, ts) in groups.items() if isinstance(mat, J2Material)}
+        )
         if j2:
             fn = self.functions
             dxq = ctx.dx(tuple(t for g in j2 for t in groups[g][1]))
@@ -231,6 +233,7 @@ class J2Bulk:
         cname = mesh.topology.cell_name()
         deg = self._degree(ctx.V)
         X, w = basix.make_quadrature(basix.CellType[cname], deg)
+        X = np.asarray(X)  # (basix annotates an ArrayLike; it is an array: no copy)
         self._X = X
 
         def space(shape):
@@ -310,6 +313,7 @@ class J2Bulk:
             old, new = self._arrays("_old"), self._arrays("")
             stress = self.functions["stress"].x.array.reshape(-1, nc)
             tangent = self.functions["tangent"].x.array.reshape(-1, nc, nc)
+            assert self._mesh is not None  # (set with the bodies)
             for b in self._bodies:
                 eps = eval_expression(expr, self._mesh, b.cells, nc).reshape(-1, nc)
                 st = J2State(

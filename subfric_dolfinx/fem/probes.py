@@ -134,7 +134,9 @@ def require_near(domain: Any, x: Sequence[float], body: str | None, what: str) -
         tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=own)
         mid = dolfinx.geometry.create_midpoint_tree(mesh, tdim, own)
         c = np.asarray(dolfinx.geometry.compute_closest_entity(tree, mid, mesh, x3), np.int32)
-        d2 = dolfinx.geometry.squared_distance(mesh, tdim, c, x3)
+        # (DOLFINx 0.9 annotates the entities as a list, 0.11 as the int32 array the binding
+        # takes: the ignore is unused there)
+        d2 = dolfinx.geometry.squared_distance(mesh, tdim, c, x3)  # type: ignore[arg-type, unused-ignore]
         mine = (float(np.sqrt(max(float(d2[0]), 0.0))), float(mesh.h(tdim, c)[0]))
     found = [m for m in mesh.comm.allgather(mine) if m is not None]
     if not found:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
+from typing import cast
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -106,7 +107,7 @@ class InterfaceProblem:
         self,
         domain,
         law: FrictionLaw | None,
-        materials: Mapping[str, Material] | BulkModel,
+        materials: Mapping[str, Material | J2Material] | BulkModel,
         program: LoadingProgram,
         dirichlet: Sequence[Dirichlet | DirichletField] = (),
         loads: Sequence[Traction | Pressure | PointForce | Spring] = (),
@@ -116,7 +117,7 @@ class InterfaceProblem:
     ) -> None:
         settings = settings or ProblemSettings()
         springs = [c for c in loads if isinstance(c, Spring)]
-        loads = [c for c in loads if not isinstance(c, Spring)]
+        surface = [c for c in loads if not isinstance(c, Spring)]
         bulk = None if isinstance(materials, Mapping) else materials
         given = materials if isinstance(materials, Mapping) else {}
         self.timings = Timings()
@@ -134,17 +135,17 @@ class InterfaceProblem:
             domain, law, interfaces, quadrature=settings.quadrature
         )
         body_tags = self.topology.body_tags(self.tags)
-        needed = [c.body for c in loads if isinstance(c, PointForce) and c.body is not None]
+        needed = [c.body for c in surface if isinstance(c, PointForce) and c.body is not None]
         missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
         if missing:
             raise InterfaceError(
                 f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
             )
-        for c in [*dirichlet, *loads, *springs]:
+        for c in [*dirichlet, *surface, *springs]:
             n = gdim if isinstance(c, Traction | PointForce | Spring) else 1
             for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
                 program.amplitude(ch, program.t_start)  # unknown channel -> LoadingError
-        self.group_kinds = check_groups(domain, [*dirichlet, *loads, *springs])
+        self.group_kinds = check_groups(domain, [*dirichlet, *surface, *springs])
         degree = settings.degree
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
@@ -164,6 +165,7 @@ class InterfaceProblem:
             self.interfaces: dict[str, BaseInterface] = {}
             groups = getattr(domain, "interface_groups", None) or {}
             for spec in self.specs:
+                assert spec.primary is not None and spec.secondary is not None  # (resolved)
                 self.interfaces[spec.group] = make_interface(
                     spec,
                     V,
@@ -210,11 +212,12 @@ class InterfaceProblem:
         if not self.linear_bulk:
             self._F_form = dolfinx.fem.form(F_bulk)
             self._J_form = dolfinx.fem.form(J_bulk)
-        self.K = self.K_scale = None
+        self.K: PETSc.Mat | None = None  # (None once destroyed)
+        self.K_scale: PETSc.Mat | None = None
         with self.timings(TIMER_BULK):
             self._build_matrices()
             # Load vectors, one per condition and channel (scaled by the channel at run time).
-            self.loads = load_vectors(V, domain, loads, ds, w) + spring_loads
+            self.loads = load_vectors(V, domain, surface, ds, w) + spring_loads
 
         # Dirichlet dofs (owned, unrolled) with their reference values.
         mesh.topology.create_connectivity(tdim - 1, tdim)
@@ -313,6 +316,7 @@ class InterfaceProblem:
         self.K.assemble()
         self.K_scale = self.K  # |K_scale| |u|: the size of the bulk forces (convergence)
         if not self.linear_bulk:
+            assert self._J_form is not None  # (a nonlinear bulk's)
             self.K_scale = self.layout.create_matrix()
             self.bulk.update(self.u)  # the tangent at u (then reverted)
             dolfinx.fem.petsc.assemble_matrix(self.K_scale, self._J_form)
@@ -378,6 +382,7 @@ class InterfaceProblem:
     def residual(self, x: PETSc.Vec, F: PETSc.Vec) -> bool:
         """Assemble ``F(x)``; return False if a return map failed at some point of this rank."""
         ok = self._update(x)
+        assert self.K is not None  # (None once destroyed)
         with self.timings(TIMER_BULK):
             if self.linear_bulk:
                 self.K.mult(x, F)
@@ -386,8 +391,8 @@ class InterfaceProblem:
                     fl.set(0.0)
                 dolfinx.fem.petsc.assemble_vector(F, self._F_form)
                 F.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-                self.bulk_force = F.array_r.copy()
-                bad = ~np.isfinite(self.bulk_force)
+                self.bulk_force = bulk_force = F.array_r.copy()
+                bad = ~np.isfinite(bulk_force)
                 if bad.any() and np.isfinite(x.array_r).all():  # the bulk's own doing
                     self._bulk_fault = (int(bad.sum()), int(np.argmax(bad)))
                     ok = False
@@ -401,7 +406,7 @@ class InterfaceProblem:
             for iface in ifaces[1:]:
                 force += iface.forces()
         offs = [i.round_off for i in ifaces if i.round_off is not None]
-        self.interface_round_off = sum(offs) if offs else None
+        self.interface_round_off = cast(np.ndarray, sum(offs)) if offs else None
         self.interface_force = force
         Fa = F.array_w
         Fa += force
@@ -432,6 +437,7 @@ class InterfaceProblem:
         with self.timings(TIMER_BULK):
             J.zeroEntries()
             if not self.linear_bulk:
+                assert self._J_form is not None  # (a nonlinear bulk's)
                 dolfinx.fem.petsc.assemble_matrix(J, self._J_form)
                 J.assemble()
                 if not np.isfinite(J.norm()):  # collective: the bulk's tangent alone so far

@@ -31,7 +31,7 @@ import dataclasses
 import math
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from mpi4py import MPI
@@ -281,8 +281,12 @@ class FrictionSolver:
         self.options = dict(options or {})
         defaults = {**DEFAULT_OPTIONS, **STRATEGY_OPTIONS[linear]}
         self._defaults = {"?" + k: v for k, v in defaults.items()}
+        # (None before they are made and once destroyed)
         self.snes: PETSc.SNES | None = None
-        self.x = self.F = self.J = self._x0 = None
+        self.x: PETSc.Vec | None = None
+        self.F: PETSc.Vec | None = None
+        self.J: PETSc.Mat | None = None
+        self._x0: PETSc.Vec | None = None
         self.convergence: ScaledConvergence | None = None
         self.linear: LinearStrategy | None = None
         _LIVE_PREFIXES.add(self.prefix)
@@ -299,15 +303,19 @@ class FrictionSolver:
             self.snes = snes
             snes.setOptionsPrefix(self.prefix)
             # Module-level-style callbacks through a weak reference: the SNES does not keep the
-            # solver alive, and the solver's finalizer can run.
+            # solver alive, and the solver's finalizer can run (the SNES, and with it these
+            # callbacks, lives no longer than the solver: ref() is the solver when they run).
             ref = weakref.ref(self)
-            snes.setFunction(lambda s, x, F: ref()._residual(s, x, F), self.F)
+            snes.setFunction(lambda s, x, F: cast(FrictionSolver, ref())._residual(s, x, F), self.F)
             snes.setJacobian(
-                lambda s, x, J, P: ref()._jacobian(s, x, J, P), *self.linear.matrices(self.J)
+                lambda s, x, J, P: cast(FrictionSolver, ref())._jacobian(s, x, J, P),
+                *self.linear.matrices(self.J),
             )
             snes.setConvergenceHistory(length=200, reset=True)
             self.convergence = ScaledConvergence(problem)
-            self._converged = lambda s, it, norms: ref()._convergence_test(s, it, norms)
+            self._converged = lambda s, it, norms: cast(FrictionSolver, ref())._convergence_test(
+                s, it, norms
+            )
             self._configure()
         except BaseException:
             self.destroy()
@@ -325,12 +333,14 @@ class FrictionSolver:
 
     def _new_pattern(self) -> None:
         """New Jacobian matrices on the problem's new pattern (finite sliding re-paired)."""
+        assert self.J is not None and self.snes is not None and self.linear is not None  # (alive)
         self.J.destroy()
         self.J = self.problem.create_matrix()
         self.linear.new_pattern()
         ref = weakref.ref(self)
         self.snes.setJacobian(
-            lambda s, x, J, P: ref()._jacobian(s, x, J, P), *self.linear.matrices(self.J)
+            lambda s, x, J, P: cast(FrictionSolver, ref())._jacobian(s, x, J, P),
+            *self.linear.matrices(self.J),
         )
         self._layout_version = self.problem.layout_version
 
@@ -338,6 +348,7 @@ class FrictionSolver:
         db = PETSc.Options()
         given = {k for k in db.getAll() if k.startswith(self.prefix)}
         user = {k[len(self.prefix) :] for k in given} | set(self.options) | set(extra or {})
+        assert self.snes is not None and self.linear is not None  # (alive)
         with pushed_options(self.prefix, self._defaults, self.options, extra or {}):
             try:
                 self.snes.setFromOptions()
@@ -351,6 +362,7 @@ class FrictionSolver:
 
     # -- callbacks ------------------------------------------------------------------------------
     def _residual(self, snes: PETSc.SNES, x: PETSc.Vec, F: PETSc.Vec) -> None:
+        assert self.linear is not None  # (alive: the SNES calls back)
         self.linear.linear_done(snes)
         ok = self.problem.residual(x, F)
         if not ok:
@@ -364,6 +376,7 @@ class FrictionSolver:
             set_function_domain_error(snes, F)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
+        assert self.linear is not None and self.convergence is not None  # (alive)
         self.linear.linear_done(snes)
         start, self._start_next = self._start_next, None
         self.problem.jacobian(x, J, self.separated_stiffness, start)
@@ -372,6 +385,7 @@ class FrictionSolver:
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
             return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN
+        assert self.convergence is not None  # (alive)
         return self.convergence(snes, it, norms)
 
     # -- solving --------------------------------------------------------------------------------
@@ -421,6 +435,9 @@ class FrictionSolver:
         """
         if self.snes is None:
             raise RuntimeError("the solver has been destroyed")
+        # (all made with the SNES, and destroyed with it)
+        assert self.x is not None and self.F is not None and self._x0 is not None
+        assert self.convergence is not None and self.linear is not None
         p = self.problem
         if not (math.isfinite(separated_stiffness) and separated_stiffness >= 0.0):
             raise ValueError(f"separated_stiffness = {separated_stiffness!r} must be >= 0")

@@ -358,6 +358,7 @@ class LoadStepper:
         self.records: list[StepRecord] = []
         self.keep_records = keep_records
         self.easy = 0  # consecutive easy steps (drives the growth of dt)
+        assert solver.x is not None  # (a live solver: None once destroyed)
         self._x_converged = solver.x.copy()
         self.predictor = bool(predictor)
         # the last converged step's displacement increment and its length (the predictor's)
@@ -425,6 +426,7 @@ class LoadStepper:
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
+        assert self.solver.x is not None  # (a live solver)
         self.solver.x.array_w[:] = self._x_converged.array_r
         self.problem.revert()
 
@@ -444,6 +446,7 @@ class LoadStepper:
         """
         self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
         n = self.problem.layout.n_owned
+        assert self.solver.x is not None  # (a live solver)
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
         self.increment = None if increment is None else np.array(increment[:n], dtype=float)
@@ -511,7 +514,9 @@ class LoadStepper:
             breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
             nb = min(next_stop(self.t), t_end)
             hold = self.hold_dt is not None and self.program.is_hold(self.t)
-            size = (self._hold_step or self.hold_dt) if hold else self.dt
+            size = self.dt
+            if hold and self.hold_dt is not None:  # (hold: hold_dt is given)
+                size = self._hold_step or self.hold_dt
             target = min(self.t + size, nb)
             # do not leave a sliver before a breakpoint
             if nb - target < 0.25 * size:
@@ -606,8 +611,10 @@ class LoadStepper:
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
+            assert self.solver.x is not None  # (a live solver)
             if self.predictor:  # the increment, in one array kept from step to step
-                x, x0 = self.solver.x.array_r, self._x_converged.array_r
+                x: np.ndarray = self.solver.x.array_r
+                x0 = self._x_converged.array_r
                 if self.increment is None or self.increment.shape != x.shape:
                     self.increment = np.empty_like(x)
                 np.subtract(x, x0, out=self.increment)

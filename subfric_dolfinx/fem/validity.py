@@ -255,6 +255,7 @@ class ValidityWatch:
         uncovered = None if geometry is None else geometry.transfer.uncovered
         if self.slides_small or uncovered is None or n == 0:
             return np.zeros(n), np.zeros(n)
+        assert geometry is not None  # (uncovered is its transfer's)
         nq = self._elements.nq
         fn = f_n.reshape(-1, nq).max(axis=1)
         beyond = ~geometry.found.reshape(-1, nq).all(axis=1)  # a point faces no primary facet
@@ -327,7 +328,8 @@ class ValidityWatch:
                 "MPa/mm."
             )
         if self.judges_compliance:
-            es = float(self.contact_modulus)  # type: ignore[arg-type]
+            assert self.contact_modulus is not None  # (judges_compliance: E* known)
+            es = float(self.contact_modulus)
             layer = es * p.value / p.f_n
             tol = max(p.h, PENETRATION_FRACTION * self.size)
             if layer > tol:
@@ -370,6 +372,7 @@ def _interface_modulus(problem: Any, name: str) -> float | None:
     sides = None if topo is None else topo.interfaces.get(name)
     if sides is None:  # not a problem of the model layer: its two bodies are the materials
         return contact_modulus(materials) if materials else None
+    assert topo is not None  # (sides are its)
     mats = []
     for body in (sides.primary, sides.secondary):
         keys = [body, *topo.bodies.get(body, ())]

@@ -61,6 +61,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -390,7 +391,7 @@ def write_checkpoint(
     path: str | Path,
     problem: Any,
     stepper: Any,
-    history: list[dict],
+    history: Sequence[Mapping[str, float]],
     settings: dict[str, Any] | None = None,
 ) -> None:
     """Write the converged state of ``problem`` and the position of ``stepper`` (collective).

@@ -12,7 +12,7 @@ run give the same order, row by row.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -49,6 +49,18 @@ def interface_order(x: np.ndarray, tol: float) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     keys = np.round(x / tol).astype(np.int64)
     return np.lexsort(keys.T[::-1])
+
+
+@overload
+def gather_interface(
+    element: Any, values: Mapping[str, np.ndarray], *, root: None = None
+) -> dict[str, np.ndarray]: ...
+
+
+@overload
+def gather_interface(
+    element: Any, values: Mapping[str, np.ndarray], *, root: int
+) -> dict[str, np.ndarray] | None: ...
 
 
 def gather_interface(

@@ -48,7 +48,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import Any, TypeVar, overload
 
 from .collective import OutputError, collective, reason
 from .links import open_nofollow, refuse_links
@@ -64,11 +64,13 @@ SPARE = 64 << 10
 T = TypeVar("T")
 
 
+_fallocate: Callable[[int, int, int, int], int] | None
 try:
     _libc = ctypes.CDLL(None, use_errno=True)
-    _fallocate = _libc.fallocate
-    _fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong]
-    _fallocate.restype = ctypes.c_int
+    _fn = _libc.fallocate
+    _fn.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong]
+    _fn.restype = ctypes.c_int
+    _fallocate = _fn
 except (OSError, AttributeError):  # no Linux fallocate: no reservation
     _fallocate = None
 KEEP_SIZE = 1  # FALLOC_FL_KEEP_SIZE
@@ -200,6 +202,16 @@ class ParallelH5:
         except Exception as e:  # a bug, not an I/O error: still on every rank
             raise error(f"{what} failed: {reason(e)}") from None
 
+    @overload
+    def call(
+        self, fn: Callable[[Any], T], *, root: None = None, meta: bool = False, hint: str = ""
+    ) -> T: ...
+
+    @overload
+    def call(
+        self, fn: Callable[[Any], T], *, root: int, meta: bool = False, hint: str = ""
+    ) -> T | None: ...
+
     def call(
         self,
         fn: Callable[[Any], T],
@@ -207,7 +219,7 @@ class ParallelH5:
         root: int | None = None,
         meta: bool = False,
         hint: str = "",
-    ) -> T:
+    ) -> T | None:
         """Call ``fn(file)`` and agree on the outcome; after a failure anywhere, close and raise.
 
         Args:

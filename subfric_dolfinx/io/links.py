@@ -39,7 +39,7 @@ __all__ = [
 NOFOLLOW = os.O_NOFOLLOW | os.O_CLOEXEC
 
 
-def _refused(path: str | os.PathLike) -> OSError:
+def _refused(path: str | os.PathLike[str]) -> OSError:
     try:
         target = f" (to {os.readlink(path)!r})"
     except OSError:
@@ -56,7 +56,7 @@ def is_link_error(e: BaseException) -> bool:
     return isinstance(e, OSError) and e.errno == errno.ELOOP
 
 
-def refuse_links(*paths: str | os.PathLike) -> None:
+def refuse_links(*paths: str | os.PathLike[str]) -> None:
     """Raise ``OSError(ELOOP)`` naming the first of ``paths`` that is a symbolic link.
 
     For names a library will open (or create) for writing; a missing name is fine.
@@ -66,7 +66,7 @@ def refuse_links(*paths: str | os.PathLike) -> None:
             raise _refused(p)
 
 
-def open_nofollow(path: str | os.PathLike, flags: int, mode: int = 0o644) -> int:
+def open_nofollow(path: str | os.PathLike[str], flags: int, mode: int = 0o644) -> int:
     """``os.open`` that never follows a link at ``path`` (``O_NOFOLLOW``).
 
     Raises:

@@ -99,7 +99,7 @@ class InterfacePointsXDMF:
         self.arrays: list[tuple[str, str]] = []  # (name, "Scalar" or "Vector") per step
         self.units = interface_units(problem.law, el.gdim)
         self._f: Any = None
-        error = None
+        error: Exception | None = None
         if comm.rank == 0:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)

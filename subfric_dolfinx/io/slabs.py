@@ -131,6 +131,7 @@ def interface_rows(element: Any) -> tuple[np.ndarray, int]:
     comm.Gatherv(x, [allx, (counts * gdim, displ * gdim), MPI.DOUBLE] if root else None, root=0)
     rows_all = None
     if root:
+        assert allx is not None  # (allocated on the root)
         order = interface_order(allx, element.coordinate_tolerance)
         rows_all = np.empty(order.size, dtype=np.int64)
         rows_all[order] = np.arange(order.size)

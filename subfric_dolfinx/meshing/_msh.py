@@ -48,6 +48,7 @@ import stat
 import struct
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -58,6 +59,7 @@ from ._msh_read import (
     ELEMENTS,
     MAX_COORDINATE,
     TAG_SLACK,
+    ByteOrder,
     _Bad,
     _Binary,
     _Blocks,
@@ -214,7 +216,7 @@ def open_msh(path: Path) -> Iterator[str]:
 
 
 class _Mesh(_Sections):
-    def __init__(self, what: str, version: int, binary: bool, order: str) -> None:
+    def __init__(self, what: str, version: int, binary: bool, order: ByteOrder) -> None:
         self.what, self.version, self.binary, self.order = what, version, binary, order
         self.names: dict[tuple[int, int], str] = {}
         self.entities: dict[tuple[int, int], list[int]] | None = None  # v4: physical tags
@@ -274,10 +276,10 @@ class _Mesh(_Sections):
             declared = (total, lo, hi)
         else:
             if self.binary:
-                n = _ints(_numbers(f.line(), "Nodes"), "section $Nodes, its count")
-                if n.size != 1:
+                head = _ints(_numbers(f.line(), "Nodes"), "section $Nodes, its count")
+                if head.size != 1:
                     raise _Bad("section $Nodes: no count line")
-                total = int(n[0])
+                total = int(head[0])
                 raw = f.take(total * 28, "section $Nodes")
                 rec = np.frombuffer(
                     raw, dtype=np.dtype([("t", "i4"), ("x", "f8", 3)]).newbyteorder(self.order)
@@ -417,11 +419,11 @@ class _Mesh(_Sections):
         seen: dict[tuple[int, int], set[int]] = {}
         for dim, geo, _, _, _, phys in blocks:
             seen.setdefault((dim, geo), set()).update(int(p) for p in np.unique(phys))
-        for (dim, geo), ps in seen.items():
-            if len(ps) > 1:
+        for (dim, geo), groups in seen.items():
+            if len(groups) > 1:
                 raise _Bad(
                     f"the elements of the {dim}-D entity {geo} carry different physical tags "
-                    f"({sorted(ps)}): gmsh puts the whole entity in each group, and its "
+                    f"({sorted(groups)}): gmsh puts the whole entity in each group, and its "
                     "elements would be read more than once"
                 )
 
@@ -490,7 +492,7 @@ class _Mesh(_Sections):
             nodes = r.ints(k, "an element's nodes", lo=1, hi=_INT32)
             phys = int(extra[0]) if ntags > 0 else 0
             geo = int(extra[1]) if ntags > 1 else 0
-            by.setdefault((etype, geo), []).append((tag, nodes.tolist(), phys))
+            by.setdefault((etype, geo), []).append((tag, cast(list[int], nodes.tolist()), phys))
         r.done()
         self._blocks2(by)
 
@@ -518,7 +520,7 @@ class _Mesh(_Sections):
                 phys = int(row[1]) if ntags > 0 else 0
                 geo = int(row[2]) if ntags > 1 else 0
                 by.setdefault((etype, geo), []).append(
-                    (int(row[0]), row[1 + ntags :].tolist(), phys)
+                    (int(row[0]), cast(list[int], row[1 + ntags :].tolist()), phys)
                 )
             count += nb
         if f.line() != b"":
@@ -576,13 +578,13 @@ def check_msh(data: bytes | mmap.mmap, what: str) -> None:
         raise InterfaceMeshError(f"{what}: damaged mesh file: {e}") from None
 
 
-def _check(data: bytes, what: str) -> None:
+def _check(data: bytes | mmap.mmap, what: str) -> None:
     f = _File(data)
     f.line()  # $MeshFormat
     version_line = f.line().split()
     version = int(float(version_line[0]))
     binary = version_line[1] == b"1"
-    order = "<"
+    order: ByteOrder = "<"
     if binary:
         one = f.take(4, "the endianness integer")
         order = "<" if one == struct.pack("<i", 1) else ">"

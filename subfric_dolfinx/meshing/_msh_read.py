@@ -10,10 +10,14 @@ import mmap
 import re
 import warnings
 from collections.abc import Callable
+from typing import Literal, cast
 
 import numpy as np
 
 __all__ = ["ELEMENTS", "MAX_COORDINATE", "TAG_SLACK", "ZERO_SIZE", "element_problems"]
+
+ByteOrder = Literal["<", ">"]
+"""A binary file's byte order (numpy's notation)."""
 
 MAX_COORDINATE = 1e100
 """Largest coordinate magnitude accepted (beyond, products of coordinates overflow)."""
@@ -172,9 +176,6 @@ class _Numbers:
     def ints(self, n: int, what: str, lo: int = 0, hi: int = _MAX_INT - 1) -> np.ndarray:
         return _ints(self.floats(n, what), f"section ${self.section}, {what}", lo=lo, hi=hi)
 
-    def int(self, what: str, lo: int = 0, hi: int = _MAX_INT - 1) -> int:
-        return int(self.ints(1, what, lo, hi)[0])
-
     def floats(self, n: int, what: str) -> np.ndarray:
         if n < 0 or n > self.left():
             raise _Bad(
@@ -192,11 +193,15 @@ class _Numbers:
                 "counts declare (a count too small)"
             )
 
+    # (last: a method named int hides the builtin in the annotations that follow it)
+    def int(self, what: str, lo: int = 0, hi: int = _MAX_INT - 1) -> int:
+        return int(self.ints(1, what, lo, hi)[0])
+
 
 class _Binary:
     """Reading binary values (the file's byte order) from a :class:`_File`."""
 
-    def __init__(self, f: _File, order: str, section: str) -> None:
+    def __init__(self, f: _File, order: ByteOrder, section: str) -> None:
         self.f, self.order, self.section = f, order, section
 
     def array(self, n: int, kind: str, what: str) -> np.ndarray:
@@ -280,7 +285,7 @@ class _Sections:
     what: str
     version: int
     binary: bool
-    order: str
+    order: ByteOrder
     names: dict[tuple[int, int], str]
     entities: dict[tuple[int, int], list[int]] | None
 
@@ -380,7 +385,7 @@ def element_problems(
     if not blocks or not node_tags.size:
         return []
     top = max(b[0] for b in blocks)
-    flat = top == 2 and np.all(coords[:, 2] == coords[0, 2])
+    flat = top == 2 and bool(np.all(coords[:, 2] == coords[0, 2]))
     order = np.argsort(node_tags)
     sorted_tags = node_tags[order]
     problems: list[str] = []
@@ -391,13 +396,16 @@ def element_problems(
         for lo in range(0, max(len(conn), 1), CHUNK):
             x = coords[order[np.searchsorted(sorted_tags, conn[lo : lo + CHUNK])]]
             parts.append(_measure(etype, x, flat and dim == 2))
-        measure, kind, _ = parts[0]
-        if measure is None:
+        first, kind, first_corners = parts[0]
+        if first is None:
             continue
-        measure = np.concatenate([m for m, _, _ in parts])
+        # (every part of a block is of its type: all measured, all with corners or none)
+        measure = np.concatenate([cast(np.ndarray, m) for m, _, _ in parts])
         corners = None
-        if parts[0][2] is not None:  # the corners' signs only
-            corners = np.concatenate([np.sign(c).astype(np.int8) for _, _, c in parts])
+        if first_corners is not None:  # the corners' signs only
+            corners = np.concatenate(
+                [np.sign(cast(np.ndarray, c)).astype(np.int8) for _, _, c in parts]
+            )
         del parts
         size = np.abs(measure)
         mean = float(size.mean()) if size.size else 0.0

@@ -201,7 +201,7 @@ def build_block_on_base(
     master_box = ((0.0, 0.0), (base_width, base_height))
     slave_box = ((block_x, base_height), (block_x + block_width, base_height + block_height))
     grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
-    if grading is not None and refine_center is None:  # the interface's centre
+    if far_size is not None and refine_center is None:  # the interface's centre
         grading = (far_size, growth, (block_x + 0.5 * block_width, base_height), refine_radius)
     _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
@@ -281,7 +281,7 @@ def build_pad_on_plate(
     master_box = ((0.0, 0.0, 0.0), plate)
     slave_box = ((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2]))
     grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
-    if grading is not None and refine_center is None:  # the interface's centre
+    if far_size is not None and refine_center is None:  # the interface's centre
         centre = (ox + 0.5 * pad[0], oy + 0.5 * pad[1], plate[2])
         grading = (far_size, growth, centre, refine_radius)
     _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
@@ -305,7 +305,7 @@ def _build(
     h: float,
     cell_type: str,
     model_name: str,
-    regions: list[tuple[str, float, float]] = (),  # type: ignore[assignment]
+    regions: Sequence[tuple[str, float, float]] = (),
     grading: tuple[float, float, Sequence[float] | None, float] | None = None,
 ) -> ModelInfo:
     gmsh = gmsh_module()

@@ -98,7 +98,7 @@ def duplicate_interface_nodes(
     """
     if isinstance(interfaces, str):
         interfaces = [interfaces]
-    sides = (
+    sides: dict[str, tuple[Any, Any] | None] = (
         {k: v for k, v in interfaces.items()}
         if isinstance(interfaces, Mapping)
         else {k: None for k in interfaces}
@@ -202,7 +202,7 @@ def _named_groups() -> dict[str, tuple[int, int]]:
     return out
 
 
-def _cell_groups(value: Any, groups: dict[str, tuple[int, int]], gdim: int, what: str) -> list:
+def _cell_groups(value: Any, groups: dict[str, tuple[int, int]], gdim: int, what: str) -> list[str]:
     names = [value] if isinstance(value, str) else list(value)
     for n in names:
         if groups.get(n, (None,))[0] != gdim:
@@ -240,8 +240,8 @@ def _crack_one(
                 f"interface {iface!r}: its facets touch the cell groups {touch}, not two; give "
                 "its sides (interfaces={name: (primary, secondary)})"
             )
-        primary, secondary = sorted(touch, key=lambda n: groups[n][1])
-        primary, secondary = [primary], [secondary]
+        first, second = sorted(touch, key=lambda n: groups[n][1])
+        primary, secondary = [first], [second]
     else:
         if not (isinstance(given, Sequence) and not isinstance(given, str) and len(given) == 2):
             raise InterfaceMeshError(f"interface {iface!r}: sides must be (primary, secondary)")

@@ -33,7 +33,7 @@ reader share close the module.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -236,7 +236,9 @@ def side_counts(
     return counts[0], counts[1], counts[2]
 
 
-def touching_bodies(tdim: int, interface_tag: int, bodies: dict[str, Sequence[int]]) -> list[str]:
+def touching_bodies(
+    tdim: int, interface_tag: int, bodies: Mapping[str, Sequence[int]]
+) -> list[str]:
     """The bodies holding every node of some element of an interface group (in body order)."""
     conns = group_elements(tdim - 1, interface_tag)[1]
     out = []

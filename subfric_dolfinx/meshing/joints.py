@@ -181,7 +181,7 @@ def build_bolted_lap_joint(
     try:
         gmsh.model.mesh.generate(3)
     finally:
-        for option, value in saved.items():
-            gmsh.option.setNumber(option, value)
+        for key, value in saved.items():
+            gmsh.option.setNumber(key, value)
     _crack(3, tags[INTERFACE], groups[INTERFACE])
     return _model_info(model_name, 3, cell_type, tags, h)

@@ -10,6 +10,7 @@ import dolfinx.cpp
 import dolfinx.graph
 import dolfinx.mesh
 import numpy as np
+import numpy.typing as npt
 from mpi4py import MPI
 
 from ..compat import adjacency_list, default_partitioner
@@ -146,7 +147,7 @@ def body_partitioner(
         conn = np.asarray(cells[0], dtype=np.int64).reshape(-1, nv)
         if conn.shape[0] == 0:
             return adjacency_list(np.empty(0, dtype=np.int32), np.zeros(1, dtype=np.int32))
-        owner = np.zeros(conn.shape[0], dtype=np.int32)
+        owner: npt.NDArray[np.int32] = np.zeros(conn.shape[0], dtype=np.int32)
         if nparts > 1:
             tdim = dolfinx.mesh.cell_dim(cell_type)
             body, x, iface = _gmsh_node_data(tdim, the_bodies, the_interfaces)

@@ -459,6 +459,7 @@ def create_interface_mesh(
                 error = (type(e).__name__, f"{getattr(builder, '__name__', builder)}: {e}")
         _raise_collectively(comm, error)
         info = comm.bcast(info, root=0)
+        assert info is not None  # (the builder's, from the root)
         imesh = read_interface_mesh(
             None,
             comm,

@@ -211,6 +211,7 @@ def mesh_topology(
     """
     nm = default_names(names)
     cells = [n for n, (d, _) in groups.items() if d == gdim]
+    out_bodies: dict[str, tuple[str, ...]]
     if bodies is None:
         out_bodies = {n: (n,) for n in sorted(cells, key=lambda n: groups[n][1])}
     else:

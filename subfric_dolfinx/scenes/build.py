@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -131,9 +131,11 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
     springs, point_forces = _supports(scene, domain)
     bcs = [_dirichlet(d, gdim, f"scene.dirichlet[{i}]") for i, d in enumerate(scene.dirichlet)]
     loads = [
-        Pressure(ld.group, float(ld.value), ld.amplitude)  # type: ignore[arg-type]
+        # (parser.py: a pressure's value is a number and its amplitude one channel, a
+        # traction's a vector)
+        Pressure(ld.group, float(cast(float, ld.value)), cast(str | None, ld.amplitude))
         if ld.type == "pressure"
-        else Traction(ld.group, ld.value, ld.amplitude)  # type: ignore[arg-type]
+        else Traction(ld.group, cast(list[float], ld.value), ld.amplitude)
         for ld in scene.loads
     ] + point_forces
     materials = {k: Material(v["E"], v["nu"]) for k, v in scene.materials.items()}

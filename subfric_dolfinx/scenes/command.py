@@ -16,7 +16,7 @@ import argparse
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TextIO
 
 from . import cli
 
@@ -71,11 +71,18 @@ def main(argv: list[str] | None = None) -> int:
 
     shown = warnings.showwarning
 
-    def show(message: Any, category: Any, filename: str, lineno: int, *rest: Any) -> None:
+    def show(
+        message: Warning | str,
+        category: type[Warning],
+        filename: str,
+        lineno: int,
+        file: TextIO | None = None,
+        line: str | None = None,
+    ) -> None:
         if isinstance(category, type) and issubclass(category, SubfricWarning):
             print(f"subfric-scene: warning: {category.__name__}: {message}", file=sys.stderr)
         else:
-            shown(message, category, filename, lineno, *rest)
+            shown(message, category, filename, lineno, file, line)
 
     warnings.showwarning = show
     try:

@@ -134,6 +134,7 @@ def largest_pressure(scene: FEScene) -> float | None:
         if load.type != "pressure":
             continue
         amp = load.amplitude
+        assert not isinstance(load.value, list)  # (a pressure is a number: parser.py checks)
         scale = float(np.max(np.abs(channels[amp]))) if isinstance(amp, str) else 1.0
         found.append(abs(float(load.value)) * scale)
     return max(found) if found else None
@@ -213,6 +214,7 @@ def run_fe_scene(
         # first in, last out: a stop signal is a request until every file is closed (.signals)
         guard = stack.enter_context(StopSignals())
         if wants_files:
+            assert outdir is not None  # (checked above)
             stack.enter_context(OutputDirectory(outdir, comm, fresh=restart is None, files=planned))
         try:
             solver = stack.enter_context(
@@ -257,7 +259,12 @@ def run_fe_scene(
                 restart_history=restart_history,
                 settings=settings,
                 derived=DerivedOutputs(
-                    scene, problem, inside(outdir, "fields") if out.fields is not None else None
+                    scene,
+                    problem,
+                    # (fields are files: outdir given, checked above)
+                    inside(outdir, "fields")
+                    if out.fields is not None and outdir is not None
+                    else None,
                 ),
             )
         )

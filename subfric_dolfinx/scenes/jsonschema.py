@@ -86,7 +86,7 @@ def _type(tp: Any, defs: dict[str, Any]) -> dict[str, Any]:
     if origin is dict:
         _, value = typing.get_args(tp) or (str, Any)
         return {"type": "object", "additionalProperties": _type(value, defs)}
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         name = tp.__name__
         if name not in defs:
             defs[name] = {}  # (recursion guard)
@@ -131,7 +131,7 @@ def _plain(v: Any) -> bool:
 def _law_params(cls: type) -> dict[str, Any]:
     """The parameters of a law (its dataclass fields), with their descriptions (units)."""
     docs = _field_docs(cls)
-    props = {}
+    props: dict[str, dict[str, Any]] = {}
     for f in dataclasses.fields(cls):
         if f.init and not f.name.startswith("_"):
             props[f.name] = {"type": "number", "description": docs.get(f.name, f.name)}

@@ -218,11 +218,12 @@ class SceneOutputs:
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
         if np.any(hit):
             names = self.interface_names
-            self.snapshots[float(self._snaps[hit][0])] = (
-                interface_profile(self.problem)
-                if len(names) == 1
-                else {n: interface_profile(self.problem, n) for n in names}
-            )
+            snap: dict[str, Any]  # one interface's profile, or each interface's by name
+            if len(names) == 1:
+                snap = interface_profile(self.problem)
+            else:
+                snap = {n: interface_profile(self.problem, n) for n in names}
+            self.snapshots[float(self._snaps[hit][0])] = snap
         if self.checkpoint_path is None:
             return
         every = self.spec.checkpoint_every

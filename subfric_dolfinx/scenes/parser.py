@@ -126,7 +126,7 @@ def _convert(value: Any, tp: Any, path: str) -> Any:
         if value is None:
             return None
         raise SceneError(f"{path}: expected null, got {short_repr(value)}")
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
         return from_dict(tp, value, path)
     if origin is list:
         if not isinstance(value, list | tuple):

@@ -87,6 +87,7 @@ def _run_pointwise(scene: PointScene, outdir: str | Path | None) -> SceneResult:
             on_instability=scene.on_instability,
         )
     if scene.save:
+        assert outdir is not None  # (checked above)
         out = Path(outdir) / f"{scene.name}.json"
         out.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps({k: v.to_dict() for k, v in res.cases.items()}, indent=1)

@@ -454,3 +454,18 @@ def test_batch_driver_refuses_stress_control():
 
     with pytest.raises(CaseError, match="case 1: the batch driver runs displacement control"):
         run_cases([SEC7, stress_case([[0, 0, 0, UN], [10, 5.0, 0, UN]])])
+
+
+def test_batch_driver_refuses_a_slider_case():
+    """A slider case (parse_case gives a SliderCase, which has no control) is refused by name,
+    as a stress-controlled one is (it raised an AttributeError: found by mypy)."""
+    from subfric_dolfinx.driver import CaseError, run_cases
+
+    slider = {
+        "law": "subloading",
+        "params": {"preset": "sec7"},
+        "control": "slider",
+        "slider": {"mass": 1e-3, "stiffness": 100.0, "velocity": 0.1, "f_n": 300.0, "t_end": 0.05},
+    }
+    with pytest.raises(CaseError, match=r"case 1: .* stress-controlled and slider cases"):
+        run_cases([SEC7, slider])

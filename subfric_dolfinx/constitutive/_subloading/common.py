@@ -79,7 +79,7 @@ class Law:
         self.zc_cap = math.sqrt(KD_CAP / self.k)
         with np.errstate(over="ignore"):
             self.len_n = float(np.float64(1.0) / (np.float64(self.cn) * self.an))
-        self._diag = {}
+        self._diag: dict[int, np.ndarray] = {}
 
     def elastic_tangent(self, nt: int) -> np.ndarray:
         """The one-sided elastic tangent ``diag(alpha_t, .., alpha_n)`` (m, m), read-only."""

@@ -101,6 +101,8 @@ class Plastic:
     )
     _start = ("kind", "s", "f0t", "fn0", "f_s", "fn_s", "g_s", "rho_s")
 
+    root: Root | None
+
     def __init__(self, L: Law, t: Trial, st: Start, P: np.ndarray, tol: float) -> None:
         self.P = P
         sel = P if P.size < t.A.size else slice(None)  # (all: views, not copies)
@@ -127,12 +129,13 @@ class Plastic:
 
 def _plastic(L: Law, pl: Plastic, out: Outputs, max_iter: int) -> None:
     """Steps 4-6 for the plastic points of a chunk; their outputs."""
-    pl.root = smallest_root(pl.br, pl.tol, max_iter)  # step 4: the predictor
-    conv = pl.root.conv
+    pl.root = root0 = smallest_root(pl.br, pl.tol, max_iter)  # step 4: the predictor
+    conv = root0.conv
     rot = rotates(L, pl)
     i = (conv & ~rot).nonzero()[0]  # the traction along the trial direction
     if i.size:
         p = pl.take(i)
+        assert p.root is not None  # (taken from pl)
         tr, D = fixed_direction(L, p, start_derivatives(L, p))  # step 6
         P = p.P
         out.tr[P], out.tan[P] = tr, D
@@ -141,6 +144,7 @@ def _plastic(L: Law, pl: Plastic, out: Outputs, max_iter: int) -> None:
     q = rot.nonzero()[0]  # step 5: the rotation of the flow direction, the corrector
     if q.size:
         p = pl.take(q)
+        assert p.root is not None  # (taken from pl)
         sd = start_derivatives(L, p)
         dA = np.zeros((q.size, 3))
         dA[:, :2] = L.at * p.t
@@ -153,11 +157,11 @@ def _plastic(L: Law, pl: Plastic, out: Outputs, max_iter: int) -> None:
         _finish(L, out, p, root)
         conv = conv.copy()
         conv[q] = root.conv
-        pl.root.it[q] = root.it
+        root0.it[q] = root.it
     bad = (~conv).nonzero()[0]
     if bad.size:  # no converged root: the last state kept
         P = pl.P[bad]
-        out.fail(P, pl.up[bad], pl.mu_c[bad], pl.r_c[bad], pl.root.it[bad])
+        out.fail(P, pl.up[bad], pl.mu_c[bad], pl.r_c[bad], root0.it[bad])
 
 
 def _finish(L: Law, out: Outputs, p: Plastic, root: Root) -> None:

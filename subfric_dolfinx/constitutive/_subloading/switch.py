@@ -36,6 +36,7 @@ at a root (:func:`split_ds`).
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .branch import Branch, g_of
 from .common import EPS, ROT_HI, ROT_LO, SPLIT_EPS, Law, dot, norm_t
@@ -263,6 +264,20 @@ class Start:
         "rho_s",
         "s",
     )
+
+    kind: npt.NDArray[np.int8]
+    s: npt.NDArray[np.float64]
+    f0t: npt.NDArray[np.float64] | None
+    fn0: npt.NDArray[np.float64] | None
+    f_s: npt.NDArray[np.float64] | None
+    fn_s: npt.NDArray[np.float64] | None
+    g_s: npt.NDArray[np.float64] | None
+    rho_s: npt.NDArray[np.float64] | None
+    mu: npt.NDArray[np.float64]
+    r: npt.NDArray[np.float64]
+    d: npt.NDArray[np.float64]
+    b: npt.NDArray[np.float64]
+    mu_rec: npt.NDArray[np.float64]
 
 
 def start_state(L: Law, t: Trial, f0) -> Start:

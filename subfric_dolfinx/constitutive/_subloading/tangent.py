@@ -17,6 +17,7 @@ The exact derivative of what the step computes, so that FE Newton converges quad
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .branch import Branch, partials
 from .common import Law
@@ -35,6 +36,14 @@ class StartDerivatives:
     """
 
     __slots__ = ("db", "df_s", "dfn_s", "dg_s", "dmu0", "dr0", "drho_s")
+
+    db: npt.NDArray[np.float64]
+    df_s: npt.NDArray[np.float64]
+    dfn_s: npt.NDArray[np.float64]
+    dg_s: npt.NDArray[np.float64]
+    dmu0: npt.NDArray[np.float64]
+    dr0: npt.NDArray[np.float64]
+    drho_s: npt.NDArray[np.float64]
 
     def take(self, i) -> StartDerivatives:
         """Points ``i``."""

@@ -23,7 +23,7 @@ import contextlib
 import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import dolfinx
 import numpy as np
@@ -97,7 +97,6 @@ class BaseInterface(abc.ABC):
             then a slip is valid only while small against its elements (the validity watch
             judges it), where a kind that pairs again as the bodies move is not limited.
         pairs: The fixed pairs (``None`` where the interface pairs again as the bodies move).
-        layout_version: Grows when the ghosts and the matrix pattern change.
         round_off: The forces' round-off per dof at the last :meth:`forces`, beyond that of
             the displacement (``None``: none beyond it; a finite-sliding interface's gaps are
             differences of positions), for the convergence test's floor.
@@ -109,12 +108,28 @@ class BaseInterface(abc.ABC):
     kinematics: str
     fixed_pairs: bool
     pairs: Any = None
-    layout_version = 0
     round_off: np.ndarray | None = None
     last: Any
     law: Any
     #: The PETSc vectors :meth:`destroy` frees (``None`` where not made yet).
-    _petsc_vectors = ("x_ext", "b_ext", "_work")
+    _petsc_vectors: tuple[str, ...] = ("x_ext", "b_ext", "_work")
+
+    @property
+    def layout_version(self) -> int:
+        """Grows when the ghosts and the matrix pattern change (a kind that re-pairs says so)."""
+        return 0
+
+    if TYPE_CHECKING:  # what a kind gives: an attribute (small sliding) or a property (finite)
+
+        @property
+        def index_map(self) -> dolfinx.common.IndexMap:
+            """The index map of the interface's dofs: ``V``'s extended with its extra ghosts."""
+            ...
+
+        @property
+        def b_ext(self) -> PETSc.Vec | None:
+            """A work vector of :attr:`index_map` (``None`` once destroyed)."""
+            ...
 
     def __init__(self, V: dolfinx.fem.FunctionSpace, name: str, timings: Any) -> None:
         self.name = name
@@ -285,6 +300,7 @@ class BaseInterface(abc.ABC):
         ``add`` adds into the local values (owned and ghosts, zeroed first) of :attr:`b_ext`; the
         ghosts' parts go to their owners (collective: a reverse scatter).
         """
+        assert self.b_ext is not None  # (None once destroyed)
         with self.b_ext.localForm() as bl:
             bl.set(0.0)
             add(bl.array_w)
@@ -322,8 +338,8 @@ def _bc_values(
     bs = V.dofmap.bs
     imap = V.dofmap.index_map
     n_owned, n_all = imap.size_local * bs, (imap.size_local + imap.num_ghosts) * bs
-    dofs = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]
-    dofs = np.unique(np.concatenate(dofs)) if dofs else np.zeros(0, np.int32)
+    per_bc = [bc.dof_indices()[0][: bc.dof_indices()[1]] for bc in bcs]
+    dofs = np.unique(np.concatenate(per_bc)) if per_bc else np.zeros(0, np.int32)
     dofs = dofs[dofs < n_owned].astype(np.int32)
     values = np.zeros(n_all)
     x0 = np.zeros(n_all)

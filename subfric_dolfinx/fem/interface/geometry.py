@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import cast
+
 import basix
 import dolfinx
 import numpy as np
@@ -30,19 +32,21 @@ def quadrature_rule(cell: basix.CellType, degree: int, kind: str) -> tuple[np.nd
             basis exactly, i.e. a lumped scheme, as often preferred against traction oscillations
             of stiff penalty interfaces; degree 1 only on simplices).
     """
+    # (basix annotates its arrays as ArrayLike: they are float64 arrays)
     if kind == "gauss":
-        return basix.make_quadrature(cell, 2 * degree)
+        X, w = basix.make_quadrature(cell, 2 * degree)
+        return cast(np.ndarray, X), cast(np.ndarray, w)
     if kind == "nodal":
         e = basix.create_element(
             basix.ElementFamily.P, cell, degree, basix.LagrangeVariant.gll_warped
         )
         Xg, wg = basix.make_quadrature(cell, 2 * degree)
-        w = e.tabulate(0, Xg)[0, :, :, 0].T @ wg
+        w = cast(np.ndarray, e.tabulate(0, cast(np.ndarray, Xg)))[0, :, :, 0].T @ wg
         if np.any(w <= 0.0):
             raise ValueError(
                 f"nodal quadrature has non-positive weights for degree {degree} on {cell.name}"
             )
-        return e.points.copy(), w
+        return cast(np.ndarray, e.points).copy(), w
     raise ValueError(f"quadrature kind must be 'gauss' or 'nodal', got {kind!r}")
 
 
@@ -60,7 +64,7 @@ def coordinate_basis(sub: dolfinx.mesh.Mesh, X: np.ndarray, nderiv: int = 0) -> 
         cmap.degree,
         basix.LagrangeVariant(cmap.variant),
     )
-    return e.tabulate(nderiv, X)[..., 0]
+    return cast(np.ndarray, e.tabulate(nderiv, X))[..., 0]
 
 
 def push_forward(sub: dolfinx.mesh.Mesh, X: np.ndarray) -> np.ndarray:

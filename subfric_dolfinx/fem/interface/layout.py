@@ -12,6 +12,7 @@ allocates (checked with PETSc's malloc count in the tests).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -109,7 +110,7 @@ def combined_index_map(
             local[far] = n0 + sorter[np.searchsorted(extra_g, g, sorter=sorter)]
         return local.astype(np.int32)
 
-    out = [Couplings.of(nd).map(lambda a, m=m: remap(m, a)) for m, nd in nodes]
+    out = [Couplings.of(nd).map(functools.partial(remap, m)) for m, nd in nodes]
     return imap, out
 
 

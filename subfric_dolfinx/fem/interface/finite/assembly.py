@@ -164,6 +164,7 @@ class SlidingAssembly:
         ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' master forces with the nodal
         normals of their master facets ``pm`` (:func:`~.transfer.transfer_tangent`).
         """
+        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
         facets, Dn = g.normal_rates
         nodes = g.reach.nodes
         npair, nrow = vn.shape[:2]
@@ -183,6 +184,7 @@ class SlidingAssembly:
         self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray, M: np.ndarray
     ) -> list[Block]:
         """2-D: the blocks of the iterate's nodal normals' change with the master's nodes."""
+        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
         facets, Dn = g.normal_rates
         pts = np.flatnonzero(g.found)
         if pts.size == 0:

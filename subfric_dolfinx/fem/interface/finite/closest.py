@@ -80,6 +80,7 @@ def closest_point(
     unit = r / np.where(dist > 0, dist, 1.0)[:, None]
     on = dist <= 1e-14 * (h + 1e-300)
     if np.any(on):
+        assert dy is not None  # (asked for: nderiv 1)
         n = parametric_normal(dy[on])
         unit[on] = n / np.linalg.norm(n, axis=1, keepdims=True)
     return FacetProjection(

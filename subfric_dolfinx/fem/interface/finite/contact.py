@@ -219,6 +219,7 @@ def contact_geometry(
     from ...timing import TIMER_PROJECTION
 
     reach = search.reach
+    assert reach is not None  # (begin_step searched)
     t0 = time.perf_counter()
     xq, Ym, Xs = current_positions(sd, reach, u)
     with timed(TIMER_PROJECTION):
@@ -391,6 +392,7 @@ def _pattern_hold(
     from scipy import sparse
 
     reach, nq = search.reach, sd.nq
+    assert reach is not None  # (begin_step searched)
     nseg = tr.slave.size
     if nseg == 0:
         return np.zeros((0, nq), dtype=bool), np.zeros((0, nq), dtype=bool)

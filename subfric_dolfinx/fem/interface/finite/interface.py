@@ -200,13 +200,14 @@ class SlidingInterface(BaseInterface):
         return self._points.last
 
     @property
-    def layout_version(self) -> int:  # type: ignore[override]
+    def layout_version(self) -> int:
         """Grows every time the pattern and ghosts are rebuilt."""
         return self.search.layout_version
 
     @property
     def index_map(self) -> dolfinx.common.IndexMap:
         """The displacement's index map with the reach's master nodes as extra ghosts."""
+        assert self.search.reach is not None  # (searched when made)
         return self.search.reach.index_map
 
     @property
@@ -306,6 +307,7 @@ class SlidingInterface(BaseInterface):
         from ...timing import TIMER_INTERFACE
 
         g, res, part = self.geometry, self.last, self.assembly
+        assert g is not None  # (the last iterate's)
         with self._time(TIMER_INTERFACE):
             self.force = self._sum_to_owners(lambda b: part.add_forces(b, g, res.traction))
             self.round_off = self._sum_to_owners(lambda b: part.add_round_off(b, g, res.tangent))
@@ -319,6 +321,7 @@ class SlidingInterface(BaseInterface):
         D = self.assembly.law_tangent(
             res.tangent, self.law, separated_stiffness, start, self.start.normal_stiffness
         )
+        assert self.geometry is not None  # (the last iterate's)
         return self.assembly.blocks(self.geometry, D, res.traction)
 
     def _add_tangent(

@@ -15,6 +15,8 @@ reach's ``node_facets``); elsewhere it is left out (the tangent then misses it a
 
 from __future__ import annotations
 
+from typing import cast
+
 import basix
 import numpy as np
 
@@ -51,7 +53,8 @@ def normal_rates(
         ``facets[f, l, a]``.
     """
     nfd, gdim = Y.shape[1:]
-    X = lagrange_element(cell, degree).points  # the nodes' reference points
+    # the nodes' reference points (basix annotates an ArrayLike)
+    X = cast(np.ndarray, lagrange_element(cell, degree).points)
     Bn = facet_basis(cell, degree, X, 1)  # at the nodes: (2, nfd, nfd)
     Xq, wq = quadrature_rule(cell, max(degree, 1), "gauss")
     Bq = facet_basis(cell, degree, Xq, 1)

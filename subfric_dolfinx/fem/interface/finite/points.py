@@ -89,7 +89,7 @@ class SlidingPoints:
         self._variables = {v.name: v.shape for v in law.variables}
         self.facet_old = np.full(npts, -1, dtype=np.int64)
         self.ut_old = np.zeros((npts, self.nt))
-        self.Q_old = np.zeros((npts, gdim, gdim))
+        self.Q_old: np.ndarray = np.zeros((npts, gdim, gdim))
         self.last: Any = None
         self.last_gap = np.zeros((npts, gdim))
         self._Q_last: np.ndarray | None = None
@@ -107,6 +107,7 @@ class SlidingPoints:
         an open point keeps the frame it had.
         """
         Q = self._Q_last if self.last is not None else self.Q_old
+        assert Q is not None  # (recorded with the last result)
         return Q.reshape(self.n_elements, self.nq, self.gdim, self.gdim)
 
     def record(self, result: Any, gap: np.ndarray, Q: np.ndarray) -> None:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import cast
 
 import basix
 import numpy as np
@@ -108,7 +109,7 @@ def facet_basis(cell: basix.CellType, degree: int, xi: np.ndarray, nderiv: int =
         fdim = len(basix.topology(cell)) - 1
         count = math.comb(fdim + nderiv, nderiv)
         return np.zeros((count, 0, e.dim))
-    return e.tabulate(nderiv, xi)[..., 0]
+    return cast(np.ndarray, e.tabulate(nderiv, xi))[..., 0]  # (basix annotates an ArrayLike)
 
 
 def reference_vertices(cell: basix.CellType) -> np.ndarray:
@@ -171,8 +172,11 @@ def facet_geometry(
     Nn: np.ndarray | None,
     xi: np.ndarray,
     nderiv: int,
-) -> tuple[np.ndarray | None, ...]:
-    """Position, normal field and their first derivatives at ``xi`` on each pair's facet."""
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+    """Position, normal field and their first derivatives at ``xi`` on each pair's facet.
+
+    The derivatives are ``None`` for ``nderiv`` 0, the normal field's without ``Nn``.
+    """
     B = facet_basis(cell, degree, xi, nderiv)
     y = np.einsum("mk,mkd->md", B[0], Y)
     dy = _derivatives(B[1:], Y) if nderiv else None  # (m, gdim, fdim)
@@ -327,6 +331,7 @@ def normal_projection(
             take = okb & (~ok[bad] | (_outside(cell, xb) < _outside(cell, xi[bad])))
             xi[bad[take]], gamma[bad[take]], ok[bad[take]] = xb[take], gb[take], True
     y, _, n, _ = facet_geometry(cell, degree, Y, Nn, xi, 0)
+    assert n is not None  # (Nn given)
     nrm = np.linalg.norm(n, axis=1)
     safe = np.where(nrm > 0, nrm, 1.0)
     unit = n / safe[:, None]

@@ -17,6 +17,7 @@ projections at its start (:class:`StepStart`), from which their slip of the step
 from __future__ import annotations
 
 import dataclasses
+from typing import cast
 
 import dolfinx
 import numpy as np
@@ -33,6 +34,11 @@ from .sides import Sides
 from .surface import nodal_normals
 
 __all__ = ["Reach", "ReachSearch", "StepStart"]
+
+
+def _ints(a: np.ndarray) -> list[int]:
+    """An integer array's values as Python ints (numpy's stubs cannot know ``tolist``'s type)."""
+    return cast(list[int], a.tolist())
 
 
 @dataclasses.dataclass(frozen=True)
@@ -133,7 +139,7 @@ class ReachSearch:
         )
         self._global0 = imap0.local_to_global(np.arange(sides.n_local0, dtype=np.int32))
         self.reach: Reach | None = None
-        self.normals = np.zeros((0, 0, sides.gdim))
+        self.normals: np.ndarray = np.zeros((0, 0, sides.gdim))
         self.layout_version = 0
         self.pattern_misses = 0
         # master facet pairs (global numbers) a tangent needed beyond the pattern since it was
@@ -145,6 +151,7 @@ class ReachSearch:
     def displacement(self, owned: np.ndarray) -> np.ndarray:
         """The displacement at every local node of the extended map (collective)."""
         gdim, bs = self.sides.gdim, self.sides.bs
+        assert self.x_ext is not None  # (made with the reach; None once destroyed)
         self.x_ext.array_w[: self.sides.n_owned] = owned
         self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         with self.x_ext.localForm() as xl:
@@ -197,8 +204,8 @@ class ReachSearch:
         cx, cn = cand.x[first], cand.normals[first]
         cg, co, cf = cand.global_nodes[first], cand.owners[first], cand.global_facets[first]
         si, fi = near_pairs(cs, rs + sd.reach, cx, cn, sd.radius)
-        need = set(zip(si.tolist(), cf[fi].tolist(), strict=True))
-        need |= {(p // sd.nq, f) for p, f in enumerate(facet_old.tolist()) if f >= 0}
+        need: set[tuple[int, int]] = set(zip(_ints(si), _ints(cf[fi]), strict=True))
+        need |= {(p // sd.nq, f) for p, f in enumerate(_ints(facet_old)) if f >= 0}
         rebuild = self.reach is None or not need <= self.reach.pairs or bool(self._missed)
         if sd.comm.allreduce(rebuild, op=MPI.LOR):
             si, fi = near_pairs(cs, rs + 3.0 * sd.reach, cx, cn, sd.radius)
@@ -209,7 +216,9 @@ class ReachSearch:
                 if p[1] in known
             }
             self._build(pairs, cx, cg, co, cf, x_committed, 2.0 * rs_max)
+            assert self.reach is not None  # (built)
             self.normals = np.zeros((self.reach.facets.size, *cn.shape[1:]))
+        assert self.reach is not None  # (built above if there was none)
         # the nodal normals of this step (held during it) on the reach's facets
         pos = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([pos.get(g, -1) for g in self.reach.facets.tolist()], dtype=np.int64)
@@ -226,6 +235,7 @@ class ReachSearch:
         """
         sd = self.sides
         x = sd.X0 + u[: sd.n_local0]
+        assert self.reach is not None  # (searched)
         return nodal_normals(sd.master, x, self.reach.index_map)[self.reach.nodes]
 
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
@@ -246,7 +256,7 @@ class ReachSearch:
         ns = sd.slave.size
         pf_global = np.array(sorted({f for _, f in pairs}), dtype=np.int64)
         row = {g: i for i, g in enumerate(cf.tolist())}
-        rows = np.array([row[g] for g in pf_global.tolist()], dtype=np.int64)
+        rows = np.array([row[g] for g in _ints(pf_global)], dtype=np.int64)
         index_map, extra_g, extra_o, nodes = self._extended_map(cg[rows], co[rows])
         for v in (self.x_ext, self.b_ext):
             if v is not None:
@@ -256,7 +266,7 @@ class ReachSearch:
         # reference positions of the reach's master nodes: current minus displacement
         u = self.displacement(x_committed)
         # the reach of each slave facet (CSR)
-        fpos = {g: i for i, g in enumerate(pf_global.tolist())}
+        fpos = {g: i for i, g in enumerate(_ints(pf_global))}
         by_s: list[list[int]] = [[] for _ in range(ns)]
         for sf, g in sorted(pairs):
             by_s[sf].append(fpos[g])
@@ -327,6 +337,7 @@ class ReachSearch:
         """Each point's projection at the step's start (the last converged configuration)."""
         sd = self.sides
         u = self.displacement(x_committed)
+        assert self.reach is not None  # (searched)
         xq, Ym, _ = current_positions(sd, self.reach, u)
         pj = project(sd, self.reach, self.normals, xq, Ym)
         found = pj.facet >= 0
@@ -346,6 +357,7 @@ class ReachSearch:
 
         The next :meth:`begin_step` rebuilds the layout with them.
         """
+        assert self.reach is not None  # (searched)
         g = self.reach.facets
         new = set(zip(g[a].tolist(), g[b].tolist(), strict=True)) - self._missed
         self.pattern_misses += len(new)
@@ -354,6 +366,7 @@ class ReachSearch:
     def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
         """Extra ghosts, their owners, the extended index map and the pattern's couplings."""
         r = self.reach
+        assert r is not None  # (searched)
         return r.extra_ghosts, r.extra_owners, r.index_map, r.couplings
 
     def destroy(self) -> None:

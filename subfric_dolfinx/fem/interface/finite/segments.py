@@ -27,6 +27,7 @@ projected on their master facet.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any, cast
 
 import basix
 import numpy as np
@@ -80,7 +81,8 @@ class Segments:
 
     def take(self, keep: np.ndarray) -> Segments:
         """The points ``keep`` (a mask or indices) only."""
-        return Segments(*(None if v is None else v[keep] for v in dataclasses.astuple(self)))
+        values: list[Any] = [None if v is None else v[keep] for v in dataclasses.astuple(self)]
+        return Segments(*values)
 
 
 def _polygon_order(cell: basix.CellType) -> list[int]:
@@ -139,6 +141,7 @@ def clip_to_reference(
             keep_p = live & (dp >= 0)
             out[rows[keep_p], oc[keep_p]] = p[keep_p]
             if out_r is not None:
+                assert cur_r is not None  # (out_r is made with it)
                 out_r[rows[keep_p], oc[keep_p]] = cur_r[keep_p, i]
             oc += keep_p
             cross = live & ((dp >= 0) != (dq >= 0))
@@ -147,6 +150,7 @@ def clip_to_reference(
             x = p + t[:, None] * (q - p)
             out[rows[cross], oc[cross]] = x[cross]
             if out_r is not None and np.any(cross):
+                assert cur_r is not None  # (out_r is made with it)
                 c = np.flatnonzero(cross)
                 rp, rq = cur_r[c, i], cur_r[c, nxt[c]]  # (nc, 2, m)
                 ddp, ddq = np.einsum("a,nam->nm", a, rp), np.einsum("a,nam->nm", a, rq)
@@ -157,6 +161,12 @@ def clip_to_reference(
             oc += cross
         cur, cnt, cur_r = out, oc, out_r
     return (cur, cnt) if cur_r is None else (cur, cnt, cur_r)
+
+
+def _quadrature(cell: basix.CellType, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """The Gauss rule of basix: its points and weights (basix annotates them ArrayLike)."""
+    X, w = basix.make_quadrature(cell, degree)
+    return cast(np.ndarray, X), cast(np.ndarray, w)
 
 
 def overlap_points(
@@ -271,7 +281,7 @@ def overlap_points(
         )
         keep = hi - lo > 1e-12
         si, mi, lo, hi, vertex = si[keep], mi[keep], lo[keep], hi[keep], vertex[keep]
-        X, w = basix.make_quadrature(basix.CellType.interval, degree)
+        X, w = _quadrature(basix.CellType.interval, degree)
         xs = (lo[:, None] + (hi - lo)[:, None] * X[None, :, 0])[..., None]  # (npair, nq, 1)
         ws = (hi - lo)[:, None] * w[None, :]
         nq1 = X.shape[0]
@@ -289,7 +299,7 @@ def overlap_points(
             clipped, cnt, clipped_r = clip_to_reference(poly, count, slave_cell, poly_r)
         else:
             clipped, cnt = clip_to_reference(poly, count, slave_cell)
-        X, w = basix.make_quadrature(basix.CellType.triangle, degree)
+        X, w = _quadrature(basix.CellType.triangle, degree)
         xs_l, ws_l, pair_l, xr_l, wr_l = [], [], [], [], []
         for k in range(1, clipped.shape[1] - 1):  # fan triangle (0, k, k + 1)
             has = cnt >= k + 2

@@ -42,7 +42,7 @@ def gap_operator(
     xi: np.ndarray,
     gamma: np.ndarray,
     Q: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Derivative of the local gap of each point with respect to its motion relative to the master.
 
     ``d(gap) = G (dx - sum_l N_l(xi) dy_l)`` with ``gap = (Q_t . ds, ubar_n)``: the tangential

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from typing import cast
 
 import basix
 import dolfinx
@@ -203,6 +204,7 @@ def nodal_normals(
 
 
 def _element_points(surface: ContactSurface) -> np.ndarray:
-    return basix.create_element(
+    e = basix.create_element(
         basix.ElementFamily.P, surface.cell, surface.degree, basix.LagrangeVariant.gll_warped
-    ).points
+    )
+    return cast(np.ndarray, e.points)  # (basix annotates an ArrayLike)

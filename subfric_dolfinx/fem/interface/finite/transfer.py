@@ -31,7 +31,7 @@ slave's (visibly off the small-sliding pressures on coinciding nodes in ``demos/
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import basix
 import numpy as np
@@ -194,6 +194,7 @@ class SegmentTransfer:
         nq, gdim, fdim = sd.nq, sd.gdim, sd.gdim - 1
         if tr.complement == 0 or tr.points is None:
             return []
+        assert tr.share is not None and tr.xi is not None  # (given with the points)
         nodes, pattern = g.reach.nodes, g.reach.holds
         big = np.abs(tr.share) > 1e-9 * self.weights[tr.points]
         pts, xi, c = tr.points[big], tr.xi[big], tr.share[big]
@@ -303,6 +304,7 @@ def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
     from .projection import parametric_normal
 
     Xg, wg = basix.make_quadrature(cell, 2 * degree)
+    Xg, wg = cast(np.ndarray, Xg), cast(np.ndarray, wg)  # (basix annotates ArrayLikes)
     B = facet_basis(cell, degree, Xg, 1)
     jac = np.linalg.norm(parametric_normal(np.einsum("aqk,fkd->fqda", B[1:], X)), axis=-1)
     return np.einsum("fq,qk,qj->fkj", jac * wg[None, :], B[0], B[0])
@@ -504,6 +506,7 @@ def transfer_tangent(
     else:
         if segments.xi_rate is None:
             raise ValueError("transfer_tangent: 3-D segments need their rates (rates=True)")
+        assert segments.weight_rate is not None  # (made with xi_rate)
         dxs = segments.xi_rate.reshape(npt, fdim, ncol, gdim)
         dw = segments.weight_rate.reshape(npt, ncol, gdim)
     w = segments.weight
@@ -564,17 +567,19 @@ def _piece_rates_2d(
     cell = basix.CellType.interval
     npt, nfs, gdim = Xs.shape
     sl = segments.slave
+    bounds, bound_vertex, unit = segments.bounds, segments.bound_vertex, segments.unit
+    assert bounds is not None and bound_vertex is not None and unit is not None  # (2-D's)
     # the pieces' ends: d(end) = c . dX over the columns (npt, 2, ncol, gdim)
     dend = np.zeros((npt, 2, ncol, gdim))
     for e in (0, 1):
-        vert = segments.bound_vertex[:, e]
+        vert = bound_vertex[:, e]
         moving = np.flatnonzero(vert >= 0)
         if moving.size == 0:
             continue
         v = vert[moving]
         xv = Ym[moving, v]
         nv = np.repeat(Nm[moving, v][:, None, :], nfs, axis=1)
-        xi = segments.bounds[moving, e][:, None]
+        xi = bounds[moving, e][:, None]
         Ns = facet_basis(cell, slave_degree, xi)[0]
         gam = np.einsum("md,md->m", xv - np.einsum("mk,mkd->md", Ns, Xs[moving]), nv[:, 0])
         Ainv, Ns = projection_jacobian(xv, Xs[moving], nv, cell, slave_degree, xi, gam)
@@ -583,9 +588,8 @@ def _piece_rates_2d(
         dend[moving, e, nfs + v, :] += D
         if ncol > nfs + Ym.shape[1]:  # along the vertex's normal: d xi = D . (-gamma dn_v)
             dend[moving, e, nfs + Ym.shape[1] + v, :] += -gam[:, None] * D
-    unit = segments.unit
     dxs = (1.0 - unit)[:, None, None] * dend[:, 0] + unit[:, None, None] * dend[:, 1]
-    span = segments.bounds[:, 1] - segments.bounds[:, 0]
+    span = bounds[:, 1] - bounds[:, 0]
     # the point's weight: span * w * |X_ref,xi|(xi_s)
     Bs = facet_basis(cell, slave_degree, segments.xi_slave, 2)  # values, d/dxi, d2/dxi2
     t = np.einsum("mk,mkd->md", Bs[1], slave_ref_x[sl])

@@ -26,6 +26,7 @@ owned master facet), point ``q`` of cell ``c`` at index ``c * nq + q``; they are
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from typing import cast
 
 import basix
 import basix.ufl
@@ -33,7 +34,15 @@ import dolfinx
 import numpy as np
 
 from ....compat import geometry_dofmap
-from ....constitutive import LOCAL, SCALAR, FrictionLaw, InterfaceState, RegionalLaw, StatePair
+from ....constitutive import (
+    LOCAL,
+    SCALAR,
+    FrictionLaw,
+    InterfaceState,
+    RegionalLaw,
+    ReturnMapResult,
+    StatePair,
+)
 from ...kinematics import point_weight
 from ..base import initial_gaps, restore_law_state, saved_law_state
 from ..geometry import coordinate_basis, frames, push_forward, quadrature_rule
@@ -111,14 +120,15 @@ class InterfaceElements:
         region = None
         if regions is not None:
             region = np.repeat(np.asarray(regions[0], dtype=np.int64), self.nq)
-            law = RegionalLaw(law, regions[1], region)
-            self.region_names = law.names
+            regional = RegionalLaw(law, regions[1], region)
+            self.region_names = regional.names
+            law = regional
         self.law = law
 
         felem = basix.create_element(
             basix.ElementFamily.P, fcell, degree, basix.LagrangeVariant.gll_warped
         )
-        self.N = felem.tabulate(0, X)[0, :, :, 0]  # (nq, nfd)
+        self.N = cast(np.ndarray, felem.tabulate(0, X))[0, :, :, 0]  # (nq, nfd)
         self.nfd = self.N.shape[1]
 
         # Geometry: points, surface Jacobians, normals, frames.
@@ -193,7 +203,7 @@ class InterfaceElements:
             nf, 2 * self.nfd * self.bs
         )
         self.coordinate_tolerance = 1e-6 * pairs.h_min
-        self.last = None  # last ReturnMapResult
+        self.last: ReturnMapResult | None = None  # the last iterate's
         self.last_gap = np.zeros((nf * self.nq, gdim))
 
     # ----------------------------------------------------------------------------------------

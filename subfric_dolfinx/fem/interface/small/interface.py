@@ -79,6 +79,9 @@ class FrictionInterface(BaseInterface):
 
     kinematics = "small_sliding"  # the pairs, ghosts and pattern never change (layout_version)
     fixed_pairs = True
+    index_map: dolfinx.common.IndexMap
+    x_ext: PETSc.Vec | None  # (None once destroyed)
+    b_ext: PETSc.Vec | None
 
     def __init__(
         self,
@@ -184,6 +187,7 @@ class FrictionInterface(BaseInterface):
         from ...timing import TIMER_INTERFACE, TIMER_RETURN_MAP
 
         owned = self._owned(x)
+        assert self.x_ext is not None  # (None once destroyed)
         with self._time(TIMER_INTERFACE):
             self.x_ext.array_w[: self.n_owned] = owned
             self.x_ext.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -211,6 +215,7 @@ class FrictionInterface(BaseInterface):
         """The owned interface forces of the last iterate (collective: a reverse scatter)."""
         from ...timing import TIMER_INTERFACE
 
+        assert self.elements.last is not None  # (forces of an iterate: after update)
         with self._time(TIMER_INTERFACE):
             traction = self.elements.last.traction
             self.force = self._sum_to_owners(lambda b: self.elements.add_residual(b, traction))
@@ -222,6 +227,7 @@ class FrictionInterface(BaseInterface):
         ``separated_stiffness``: points without stiffness get this fraction of the law's contact
         stiffness (:func:`~.base.stiffen_separated`); 0: the exact tangent.
         """
+        assert self.elements.last is not None  # (after update)
         tangent = stiffen_separated(self.elements.last.tangent, self.law, separated_stiffness)
         return self.elements.element_matrices(tangent)
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from typing import cast
 
 import basix
 import dolfinx
@@ -199,15 +200,15 @@ def pair_interface(
     felem = basix.create_element(
         basix.ElementFamily.P, basix_cell(fcell), degree, basix.LagrangeVariant.gll_warped
     )
-    Xn = felem.points
+    Xn = cast(np.ndarray, felem.points)  # (basix annotates an ArrayLike)
     node_points = push_forward(sub, Xn)  # (nf, nfd, gdim)
     nfd = Xn.shape[0]
 
     # Facet sizes for the tolerance (global minimum)
     h_loc = np.inf
     for i in range(nfd if nf else 0):  # one pair of nodes at a time: memory O(nf)
-        for j in range(i + 1, nfd):
-            d_ij = np.linalg.norm(node_points[:, i] - node_points[:, j], axis=-1)
+        for i2 in range(i + 1, nfd):
+            d_ij = np.linalg.norm(node_points[:, i] - node_points[:, i2], axis=-1)
             h_loc = min(h_loc, float(d_ij.min()))
     h = comm.allreduce(h_loc, op=MPI.MIN)
     tol = rel_tol * (h if np.isfinite(h) else 1.0)
@@ -252,7 +253,7 @@ def pair_interface(
         2.0 * tol,
     )
     c_mid, c_x, c_glob, c_own, c_index = cand.rows
-    match = np.full(nf, -1, dtype=np.int64)
+    match: np.ndarray = np.full(nf, -1, dtype=np.int64)
     if nf and c_mid.shape[0]:
         d, k = cKDTree(c_mid).query(m_mid)
         match = np.where(d <= tol, k, -1)
