@@ -52,7 +52,7 @@ def pair(pairing, dom, degree):
 def differences(new, old) -> list[str]:
     """Names of the fields in which two pairings of this rank differ (empty: identical)."""
     bad = []
-    for name in ("facets", "master_cells", "reference_nodes", "master_nodes", "slave_nodes"):
+    for name in ("facets", "primary_cells", "reference_nodes", "primary_nodes", "secondary_nodes"):
         a, b = getattr(new, name), getattr(old, name)
         if a.shape != b.shape or not np.array_equal(a, b):
             bad.append(name)
