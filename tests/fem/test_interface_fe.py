@@ -53,7 +53,7 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
             n_interface=4,
             cell_type=cell_type,
         )
-        m_sides, s_sides = ["master_left", "master_right"], ["slave_left", "slave_right"]
+        m_sides, s_sides = ["primary_left", "primary_right"], ["secondary_left", "secondary_right"]
         top_value = slide[:1]
     else:
         dom, _ = meshing.create_interface_mesh(
@@ -65,8 +65,8 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
             n_interface=2,
             cell_type=cell_type,
         )
-        m_sides = [f"master_{s}" for s in ("xmin", "xmax", "ymin", "ymax")]
-        s_sides = [f"slave_{s}" for s in ("xmin", "xmax", "ymin", "ymax")]
+        m_sides = [f"primary_{s}" for s in ("xmin", "xmax", "ymin", "ymax")]
+        s_sides = [f"secondary_{s}" for s in ("xmin", "xmax", "ymin", "ymax")]
         top_value = slide
     v = gdim - 1
     ey = -P / E
@@ -78,7 +78,7 @@ def patch_problem(comm, gdim, cell_type, degree=1, partitioner=None, law=LAW, sl
         for g in s_sides
     ]
     bcs += [Dirichlet("top", s, component=i, amplitude="slide") for i, s in enumerate(top_value)]
-    mats = {"master": Material(E, 0.0), "slave": Material(E, 0.0)}
+    mats = {"primary": Material(E, 0.0), "secondary": Material(E, 0.0)}
     return InterfaceProblem(
         dom,
         law,

@@ -50,7 +50,7 @@ def pressed_block(V, domain):
     tdim = V.mesh.topology.dim
     V.mesh.topology.create_connectivity(tdim, tdim)
     block = np.zeros(X.shape[0], dtype=bool)
-    cells = domain.cell_tags.find(domain.tag("slave"))
+    cells = domain.cell_tags.find(domain.tag("secondary"))
     block[dolfinx.fem.locate_dofs_topological(V, tdim, cells)] = True
     u = np.zeros((X.shape[0], bs))
     u[block, 1] = -2e-3 * (1.0 + 0.1 * np.sin(X[block, 0]))
@@ -61,7 +61,7 @@ def pressed_block(V, domain):
 @pytest.mark.parametrize("kind", ["small_sliding", "finite_sliding"])
 def test_dirichlet_rows_follow_dolfinx_lifting_convention(kind):
     comm = MPI.COMM_WORLD
-    domain, V, _u, _F, _J, bcs, _p, slide = user_loop.model(comm, 4, push="slave_left")
+    domain, V, _u, _F, _J, bcs, _p, slide = user_loop.model(comm, 4, push="secondary_left")
     slide.x.array[:] = SLIDE
     iface = interface_of(kind, V, domain)
     iface.set_step(0.1)

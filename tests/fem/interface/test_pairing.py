@@ -46,7 +46,7 @@ def build(comm, gdim, cell_type, partitioner, **options):
 def pair(pairing, dom, degree):
     V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", degree, (dom.gdim,)))
     t = dom.tags
-    return pairing(V, dom.cell_tags, dom.facet_tags, t["interface"], t["master"], t["slave"])
+    return pairing(V, dom.cell_tags, dom.facet_tags, t["interface"], t["primary"], t["secondary"])
 
 
 def differences(new, old) -> list[str]:
