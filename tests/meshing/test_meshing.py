@@ -26,14 +26,14 @@ TOL = 1e-10
 
 @dataclass(frozen=True)
 class Boxes:
-    """Master and slave boxes (lower corner, upper corner) of a model."""
+    """Primary and secondary boxes (lower corner, upper corner) of a model."""
 
-    master: tuple[tuple[float, ...], tuple[float, ...]]
-    slave: tuple[tuple[float, ...], tuple[float, ...]]
+    primary: tuple[tuple[float, ...], tuple[float, ...]]
+    secondary: tuple[tuple[float, ...], tuple[float, ...]]
 
     @property
     def gdim(self):
-        return len(self.master[0])
+        return len(self.primary[0])
 
 
 BLOCK = Boxes(((0.0, 0.0), (2.0, 0.5)), ((0.5, 0.5), (1.5, 1.0)))
@@ -54,7 +54,7 @@ STORED = {
 # --- helpers --------------------------------------------------------------------------------------
 def expected_measures(b: Boxes) -> dict[str, float]:
     """Exact length/area of each facet group and area/volume of each body."""
-    (m0, m1), (s0, s1) = b.master, b.slave
+    (m0, m1), (s0, s1) = b.primary, b.secondary
     me = np.subtract(m1, m0)
     se = np.subtract(s1, s0)
     out = {
@@ -142,7 +142,7 @@ def gather_body_vertices(im, body):
 
 
 def ufl_measures(im):
-    """(master side, slave side, master volume, slave volume), assembled with ds/dx."""
+    """(primary side, secondary side, primary volume, secondary volume), assembled with ds/dx."""
     mesh = im.mesh
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=im.interface_side_tags())
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=im.cell_tags)
@@ -169,7 +169,7 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
     tdim = im.tdim
     assert im.gdim == tdim == boxes.gdim
     assert im.mesh.topology.cell_name() == cell_type
-    scale = max(np.max(boxes.master[1]), np.max(boxes.slave[1]))
+    scale = max(np.max(boxes.primary[1]), np.max(boxes.secondary[1]))
 
     # groups present, and nothing else
     expect = expected_measures(boxes)
@@ -363,8 +363,8 @@ def test_builder(comm, builder, kwargs, boxes):
     assert im.tags == info.tags
     assert info.num_interface_facets == im.num_interface_facets
     assert sum(info.num_cells.values()) == im.mesh.topology.index_map(im.tdim).size_global
-    assert info.interface_min == pytest.approx(boxes.slave[0])
-    assert info.interface_max[:-1] == pytest.approx(boxes.slave[1][:-1])
+    assert info.interface_min == pytest.approx(boxes.secondary[0])
+    assert info.interface_max[:-1] == pytest.approx(boxes.secondary[1][:-1])
 
 
 def test_builder_mesh_size_sets_interface_count(comm):
