@@ -241,7 +241,7 @@ def build_pad(
     finite = kinematics == "finite_sliding"
     t0 = time.perf_counter()
     if finite:
-        sides = {"primary": "master", "secondary": "slave", "kinematics": kinematics}
+        sides = {"primary": "primary", "secondary": "secondary", "kinematics": kinematics}
         dom, _ = meshing.create_interface_mesh(
             pad_apart, comm, interfaces={"interface": sides}, n=n
         )
@@ -263,11 +263,11 @@ def build_pad(
         Dirichlet("top", 1.0, component=0, amplitude="slide"),
         Dirichlet("top", 0.0, component=1),
     ]
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
     if finite and reach is None:
         reach = default_reach(n, steps)
     interfaces = (
-        [Interface("interface", "master", "slave", kinematics=kinematics, reach=reach)]
+        [Interface("interface", "primary", "secondary", kinematics=kinematics, reach=reach)]
         if finite
         else None
     )
@@ -298,7 +298,7 @@ def pad_apart(n: int) -> Any:
 
     The boxes of ``meshing.build_pad_on_plate`` (plate 2 x 2 x 0.5 mm, the pad 1 x 1 x 0.5 mm
     centred on it), each meshed on its own (structured hexahedra, ``n`` along the pad's side,
-    the element size of the plate the same): groups ``master`` and ``slave`` (cells),
+    the element size of the plate the same): groups ``primary`` and ``secondary`` (cells),
     ``interface`` (the plate's whole top and the pad's bottom), ``bottom``, ``top``. Its nodes
     and dofs are those of the joined mesh (:func:`dofs_of`); what differs is the master
     surface, which reaches past the pad's footprint.
@@ -334,8 +334,8 @@ def pad_apart(n: int) -> Any:
         top = PLATE_SIZE[2] + PAD_SIZE[2]
         key = "bottom" if z < 1e-6 else "top" if z > top - 1e-6 else "interface"
         faces[key].append(t)
-    gmsh.model.addPhysicalGroup(3, [plate], name="master")
-    gmsh.model.addPhysicalGroup(3, [pad], name="slave")
+    gmsh.model.addPhysicalGroup(3, [plate], name="primary")
+    gmsh.model.addPhysicalGroup(3, [pad], name="secondary")
     for name, ents in faces.items():
         gmsh.model.addPhysicalGroup(2, ents, name=name)
     gmsh.model.mesh.generate(3)

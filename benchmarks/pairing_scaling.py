@@ -4,16 +4,16 @@ For each size, one mesh is built and partitioned (DOLFINx's partitioner unless `
 and both pairings are run on it, alternately:
 
 * ``allgather``: the pairing as it was on main before issue 13 (``tests/reference_pairing.py``):
-  every rank all-gathers the slave side, Python loops over the facets;
+  every rank all-gathers the secondary side, Python loops over the facets;
 * ``exchange``: the package's :func:`~subfric_dolfinx.fem.interface.small.pairing.pair_interface`
-  (bounding boxes, ``Alltoallv`` of the slave facets a rank needs, k-d tree).
+  (bounding boxes, ``Alltoallv`` of the secondary facets a rank needs, k-d tree).
 
 Printed per implementation (max over ranks): wall time and CPU time per rank (best of
 ``--repeat``, without tracing; on a loaded machine the CPU time is the steadier one, though a rank
 waiting in MPI spins and counts), the peak of Python/numpy allocations during the pairing
 (``tracemalloc``, a separate run), the growth of the peak resident set during the pairing
 (VmHWM reset through ``/proc/self/clear_refs`` before it; 0 when the pairing stays below the
-memory the process had already touched), and the slave facets each rank received from others.
+memory the process had already touched), and the secondary facets each rank received from others.
 Timing on a shared machine is noisy: compare the two rows of one size (they ran alternately in
 one process), not runs made at different times.
 
@@ -87,7 +87,7 @@ def build(comm, case: str, n: int, partitioner: str | None):
 
 def run(fn, V, dom):
     t = dom.tags
-    return fn(V, dom.cell_tags, dom.facet_tags, t["interface"], t["master"], t["slave"])
+    return fn(V, dom.cell_tags, dom.facet_tags, t["interface"], t["primary"], t["secondary"])
 
 
 def measure(comm, impl: str, V, dom, repeat: int) -> dict:
@@ -112,18 +112,18 @@ def measure(comm, impl: str, V, dom, repeat: int) -> dict:
     _, traced = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     hwm = status_kib("VmHWM") - rss0 if hwm_ok else -1
-    n_slave_local = dom.interface_facets("slave", owned_only=True).size
+    n_secondary_local = dom.interface_facets("secondary", owned_only=True).size
     if impl == "exchange":
         received = pairs.n_received
-    else:  # the all-gather brings every other rank's slave facets
-        received = comm.allreduce(n_slave_local) - n_slave_local
+    else:  # the all-gather brings every other rank's secondary facets
+        received = comm.allreduce(n_secondary_local) - n_secondary_local
     return {
         "time": best,
         "cpu": comm.gather(best_cpu),
         "traced": comm.gather(traced / 2**20),
         "hwm": comm.gather(hwm / 1024.0),
         "received": comm.gather(received),
-        "masters": comm.gather(pairs.facets.size),
+        "primaries": comm.gather(pairs.facets.size),
     }
 
 
@@ -163,7 +163,8 @@ def main() -> None:
         print(
             "| n | dofs | interface facets | pairing | wall s | CPU s/rank (max) | "
             "traced peak MiB/rank (max) | "
-            "RSS peak growth MiB/rank (max) | slave facets received per rank | masters per rank |"
+            "RSS peak growth MiB/rank (max) | secondary facets received per rank | "
+            "primary facets per rank |"
         )
         print("|---|---|---|---|---|---|---|---|---|---|")
         for n, dofs, nf, impl, m, _ in rows:
@@ -172,7 +173,7 @@ def main() -> None:
                 f"{max(m['cpu']):.3f} | "
                 f"{max(m['traced']):.1f} | {max(m['hwm']):.1f} | "
                 f"{', '.join(str(r) for r in m['received'])} | "
-                f"{', '.join(str(r) for r in m['masters'])} |"
+                f"{', '.join(str(r) for r in m['primaries'])} |"
             )
 
 

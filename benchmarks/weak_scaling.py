@@ -18,7 +18,7 @@ short program (``--steps``, default 6: press, slide, back). Per run and rank:
   set-up (mesh, pairing, problem), the steps, one interface profile
   (``scenes.outputs.interface_profile``, what a scene's ``profile`` output gathers each output step)
   and one checkpoint;
-* the pairing's exchange (slave facets received, extra ghosts), GAMG's levels and coarse grid,
+* the pairing's exchange (secondary facets received, extra ghosts), GAMG's levels and coarse grid,
   Newton and Krylov iterations.
 
 Then per-part models are fitted (:func:`fit_models`) and extrapolated (:func:`extrapolate`) to 64
@@ -806,9 +806,10 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "Per rank, max over ranks unless said; `rss_others` = median peak RSS of ranks other than "
         "0 (rank 0's own with 1 rank), MiB; `rss_mesh_rank0` = rank 0's peak once the mesh is "
         "built; `jacobian`, `gamg` = PETSc storage (MiB) of the Jacobian and of GAMG's coarser "
-        "operators and interpolations; `checkpoint` = file (MiB); `pairing_received` = slave "
-        "facets a rank received to pair; `petsc_bytes_per_newton`, `petsc_reductions_per_newton`"
-        " = PETSc's logged message bytes and reductions in `SNESSolve` per Newton iteration; "
+        "operators and interpolations; `checkpoint` = file (MiB); `pairing_received` = "
+        "secondary facets a rank received to pair; `petsc_bytes_per_newton`, "
+        "`petsc_reductions_per_newton` = PETSc's logged message bytes and reductions in "
+        "`SNESSolve` per Newton iteration; "
         "`allreduce_calls_per_newton` = every `MPI_Allreduce` (PETSc's and the package's); "
         "`gather_bytes_per_step` = bytes of gathers, broadcasts and all-to-alls per step (none of "
         "PETSc's solve); `setup_gather_bytes` the same in the set-up; `profile_bytes` = what a "

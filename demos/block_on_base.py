@@ -118,8 +118,8 @@ def scene(
         },
         "law": {"law": "subloading", "params": {"preset": "sec7", "alpha_n": ALPHA_N}},
         "materials": {
-            "master": {"E": 2.1e5, "nu": 0.3},  # tool steel
-            "slave": {"E": 7.0e4, "nu": 0.33},  # aluminium
+            "primary": {"E": 2.1e5, "nu": 0.3},  # tool steel
+            "secondary": {"E": 7.0e4, "nu": 0.33},  # aluminium
         },
         "program": {
             "times": t,

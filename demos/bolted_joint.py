@@ -184,14 +184,14 @@ def scene(
             "law": "subloading",
             "params": {"preset": "sec7", "alpha_t": alpha, "alpha_n": alpha},
         },
-        "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 2.1e5, "nu": 0.3}},
+        "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 2.1e5, "nu": 0.3}},
         # the soft layer is the model's (see above): its penetration is judged as an overlap only
         "interfaces": {"interface": {"intended_compliance": True}},
         "program": {"times": times, "channels": channels},
         "dirichlet": [
-            {"group": "master_xmin", "value": [0.0, 0.0, 0.0]},
-            {"group": "slave_xmax", "component": 0, "value": 1.0, "amplitude": "shear"},
-            {"group": "slave_xmax", "component": 1, "value": 0.0},
+            {"group": "primary_xmin", "value": [0.0, 0.0, 0.0]},
+            {"group": "secondary_xmax", "component": 0, "value": 1.0, "amplitude": "shear"},
+            {"group": "secondary_xmax", "component": 1, "value": 0.0},
         ],
         "loads": [
             {"type": "pressure", "group": "bolt_head", "value": pressure, "amplitude": "clamp"},
@@ -206,7 +206,7 @@ def scene(
 """
 ## What the demo measures
 
-The shear force is the reaction on the upper plate's guided end (`R_slave_xmax_x` of the
+The shear force is the reaction on the upper plate's guided end (`R_secondary_xmax_x` of the
 history); the slip is the interface's mean plastic slip along the joint (`up_t1`), and the
 end displacement the prescribed one. For each stroke: the extreme of the shear force. The
 clamping resultant is the interface's normal resultant `F_n`.
@@ -217,7 +217,7 @@ clamping resultant is the interface's normal resultant `F_n`.
 def strokes(history, reversals):
     """Per stroke: (end time, extreme shear force in N: the max on a +stroke, the min on a -)."""
     t = np.array([r["t"] for r in history])
-    R = np.array([r["R_slave_xmax_x"] for r in history])
+    R = np.array([r["R_secondary_xmax_x"] for r in history])
     out, t0 = [], CLAMP_TIME
     for k, t1 in enumerate(reversals[:-1]):
         seg = (t > t0 + 1e-9) & (t <= t1 + 1e-9)
@@ -249,7 +249,7 @@ def figures(result, outdir, amplitude, cycles, steps_per_stroke, preload):
 
     h = result.history
     t = np.array([r["t"] for r in h])
-    R = 1e-3 * np.array([r["R_slave_xmax_x"] for r in h])  # kN
+    R = 1e-3 * np.array([r["R_secondary_xmax_x"] for r in h])  # kN
     up = np.array([r["up_t1"] for r in h])
     times, channels, reversals = program(amplitude, cycles, steps_per_stroke)
     end = np.interp(t, times, channels["shear"])

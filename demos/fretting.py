@@ -164,7 +164,7 @@ def scene(
 ) -> dict:
     """Hertz's scene (``n`` elements per half-width), the flat J2, the top moved cyclically."""
     sc = hertz.scene(n, law=law, name=name, slide=slide, steps=steps)
-    sc["materials"]["master"] = {
+    sc["materials"]["primary"] = {
         "model": "j2",
         "E": hertz.E,
         "nu": hertz.NU,

@@ -285,7 +285,7 @@ def scene(
         },
         "law": law
         or {"law": "coulomb", "params": {"alpha_t": ALPHA, "alpha_n": ALPHA, "mu_c": MU}},
-        "materials": {"master": {"E": E, "nu": NU}, "slave": {"E": E, "nu": NU}},
+        "materials": {"primary": {"E": E, "nu": NU}, "secondary": {"E": E, "nu": NU}},
         "initial_gap": {"parabola": {"R": R, "center": [L, L]}},
         "degree": degree,
         "quadrature": quadrature,

@@ -153,8 +153,8 @@ def scene(
         },
         "law": law,
         "materials": {
-            "master": {"E": 2.1e5, "nu": 0.3},  # tool steel base
-            "slave": {"E": 7.0e4, "nu": 0.33},  # aluminium block
+            "primary": {"E": 2.1e5, "nu": 0.3},  # tool steel base
+            "secondary": {"E": 7.0e4, "nu": 0.33},  # aluminium block
         },
         # the stiff-but-soft penalty is the model's (see above): its penetration is judged against
         # the interface element size only

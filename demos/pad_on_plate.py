@@ -196,8 +196,8 @@ def scene(
         # against the interface element size only
         "interfaces": {"interface": {"intended_compliance": True}},
         "materials": {
-            "master": {"E": 2.1e5, "nu": 0.3},  # tool steel
-            "slave": {"E": 7.0e4, "nu": 0.33},  # aluminium
+            "primary": {"E": 2.1e5, "nu": 0.3},  # tool steel
+            "secondary": {"E": 7.0e4, "nu": 0.33},  # aluminium
         },
         "program": {"times": times, "channels": channels},
         "dirichlet": [

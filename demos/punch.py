@@ -149,8 +149,8 @@ def scene(law: dict, name: str, n: int = 16, depth: float = DEPTH, dt: float = 0
         },
         "law": law,
         "materials": {
-            "master": {"E": 7.0e4, "nu": 0.33},  # aluminium base
-            "slave": {"E": 6.0e5, "nu": 0.22},  # cemented-carbide punch
+            "primary": {"E": 7.0e4, "nu": 0.33},  # aluminium base
+            "secondary": {"E": 6.0e5, "nu": 0.22},  # cemented-carbide punch
         },
         # the penalty's compliance is the model's (the table above): its penetration is judged
         # against the interface element size only

@@ -92,9 +92,9 @@ ALPHA = 1e5  # MPa/mm, a stiff interface (the paper's 500 MPa/mm is a soft layer
 #
 # Two rectangles meshed by gmsh on rank 0, each with its own nodes (not fragmented: the bodies
 # may slide along each other), written to a `.msh` file with its physical groups: the bodies
-# `master` (the base) and `slave` (the block), the `interface` (the base's whole top and the
+# `primary` (the base) and `secondary` (the block), the `interface` (the base's whole top and the
 # block's bottom: the block finds the base wherever it slides), and the boundary groups `bottom`,
-# `top` and `slave_left`. `meshing.read_interface_mesh` reads it into DOLFINx and distributes
+# `top` and `secondary_left`. `meshing.read_interface_mesh` reads it into DOLFINx and distributes
 # it; `interfaces=` names the interface's two bodies and its kind (finite sliding, whose sides
 # need not match). The result, a `meshing.InterfaceMesh`, carries the DOLFINx mesh, its cell
 # and facet tags and the names of the groups. (For an interface that slides a few of its
@@ -104,7 +104,9 @@ ALPHA = 1e5  # MPa/mm, a stiff interface (the paper's 500 MPa/mm is a soft layer
 
 # %%
 BASE = 3.0  # mm, the base's length: the block (from x = 0.5 mm) stays on it when pushed 1 mm
-CONTACT = {"interface": {"primary": "master", "secondary": "slave", "kinematics": "finite_sliding"}}
+CONTACT = {
+    "interface": {"primary": "primary", "secondary": "secondary", "kinematics": "finite_sliding"}
+}
 
 
 def write_mesh(path: Path, n: int, comm: MPI.Comm) -> None:
@@ -120,16 +122,16 @@ def write_mesh(path: Path, n: int, comm: MPI.Comm) -> None:
             block = occ.addRectangle(0.5, 0.5, 0.0, 1.0, 0.5)
             occ.synchronize()
             groups: dict[str, list[int]] = {g: [] for g in ("interface", "bottom", "top")}
-            groups["slave_left"] = []
+            groups["secondary_left"] = []
             for _, c in gmsh.model.getEntities(1):
                 x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, c)
                 if abs(y1 - y0) < 1e-6:  # horizontal: the base's bottom, the contact, the top
                     key = {0: "bottom", 1: "interface", 2: "top"}[round(2 * y0)]
                     groups[key].append(c)
                 elif abs(x1 - x0) < 1e-6 and abs(x0 - 0.5) < 1e-6 and y0 > 0.5 - 1e-6:
-                    groups["slave_left"].append(c)
-            gmsh.model.addPhysicalGroup(2, [base], name="master")
-            gmsh.model.addPhysicalGroup(2, [block], name="slave")
+                    groups["secondary_left"].append(c)
+            gmsh.model.addPhysicalGroup(2, [base], name="primary")
+            gmsh.model.addPhysicalGroup(2, [block], name="secondary")
             for name, curves in groups.items():
                 gmsh.model.addPhysicalGroup(1, curves, name=name)
             gmsh.option.setNumber("Mesh.MeshSizeMax", 1.0 / n)
@@ -206,12 +208,12 @@ def loading_program() -> LoadingProgram:
 def build_problem(domain: meshing.InterfaceMesh) -> InterfaceProblem:
     """The base held at its bottom, the block pressed on its top and pushed at its flank."""
     materials = {
-        "master": Material(E=2.1e5, nu=0.3),  # tool steel (the base)
-        "slave": Material(E=7.0e4, nu=0.33),  # aluminium (the block)
+        "primary": Material(E=2.1e5, nu=0.3),  # tool steel (the base)
+        "secondary": Material(E=7.0e4, nu=0.33),  # aluminium (the block)
     }
     dirichlet = [
         Dirichlet("bottom", (0.0, 0.0)),
-        Dirichlet("slave_left", PUSH, component=0, amplitude="push"),
+        Dirichlet("secondary_left", PUSH, component=0, amplitude="push"),
     ]
     loads = [Pressure("top", PRESSURE, amplitude="press")]
     contact = Interface("interface", kinematics="finite_sliding", intended_compliance=True)

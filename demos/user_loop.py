@@ -90,7 +90,7 @@ def model(comm: MPI.Comm, n: int, push: str = "top"):
     """Mesh, space, residual, Jacobian, boundary conditions and the load constants.
 
     ``push``: the facet group whose x-displacement slides the block (``"top"``; the block's left
-    flank ``"slave_left"`` holds an interface node: its condition reaches the interface's rows).
+    flank ``"secondary_left"`` holds an interface node: its condition reaches the interface's rows).
     """
     domain, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=n)
     mesh = domain.mesh
@@ -107,8 +107,8 @@ def model(comm: MPI.Comm, n: int, push: str = "top"):
     p = dolfinx.fem.Constant(mesh, 0.0)
     eps_v = ufl.sym(ufl.grad(v))
     F = (
-        ufl.inner(sigma(u, E_BASE, NU_BASE), eps_v) * dx(domain.tag("master"))
-        + ufl.inner(sigma(u, E_BLOCK, NU_BLOCK), eps_v) * dx(domain.tag("slave"))
+        ufl.inner(sigma(u, E_BASE, NU_BASE), eps_v) * dx(domain.tag("primary"))
+        + ufl.inner(sigma(u, E_BLOCK, NU_BLOCK), eps_v) * dx(domain.tag("secondary"))
         + p * ufl.dot(ufl.FacetNormal(mesh), v) * ds(domain.tag("top"))
     )
     J = ufl.derivative(F, u, du)
@@ -206,7 +206,7 @@ def reference(comm: MPI.Comm, n: int, dt: float, push: str = "top") -> list[dict
     problem = InterfaceProblem(
         domain,
         law(),
-        {"master": Material(E_BASE, NU_BASE), "slave": Material(E_BLOCK, NU_BLOCK)},
+        {"primary": Material(E_BASE, NU_BASE), "secondary": Material(E_BLOCK, NU_BLOCK)},
         program,
         [Dirichlet("bottom", [0.0, 0.0]), Dirichlet(push, 1.0, 0, amplitude="slide")],
         [Pressure("top", PRESSURE, amplitude="press")],

@@ -12,10 +12,10 @@ Deliberately broken meshes, for error tests:
 
 * ``broken_no_interface.msh``: the 2-D triangle mesh without its ``interface`` group;
 * ``broken_mismatch_count.msh``: base and block meshed separately, 8 interface facets on the
-  master side and 9 on the slave side (the reader rejects it: different facet counts);
-* ``broken_mismatch_coords.msh``: as above with 8 facets on each side, but the slave side graded
-  (progression 1.3), so the sides have equal counts and nodes that do not pair (the reader accepts
-  it; node-to-node pairing is checked by the interface layer).
+  primary side and 9 on the secondary side (the reader rejects it: different facet counts);
+* ``broken_mismatch_coords.msh``: as above with 8 facets on each side, but the secondary side
+  graded (progression 1.3), so the sides have equal counts and nodes that do not pair (the reader
+  accepts it; node-to-node pairing is checked by the interface layer).
 
 ``--outdir DIR`` writes elsewhere; ``--check`` regenerates into a temporary directory and compares
 with the stored files (exit code 1 on a difference): the same lines, integers and words, and every
@@ -64,11 +64,11 @@ def _no_interface() -> None:
     gmsh.model.removePhysicalName(meshing.INTERFACE)
 
 
-def _separate_bodies(n_master: int, n_slave: int, slave_progression: float) -> None:
+def _separate_bodies(n_primary: int, n_secondary: int, progression: float) -> None:
     """Base [0,1]x[0,0.5] and block [0,1]x[0.5,1] meshed independently (no shared entity).
 
-    Their interface curves are both put in the ``interface`` group, with ``n_master`` and
-    ``n_slave`` elements; the block's bottom curve is graded by ``slave_progression``.
+    Their interface curves are both put in the ``interface`` group, with ``n_primary`` and
+    ``n_secondary`` elements; the block's bottom curve is graded by ``progression``.
     """
     occ = gmsh.model.occ
     gmsh.model.add("separate_bodies")
@@ -76,7 +76,7 @@ def _separate_bodies(n_master: int, n_slave: int, slave_progression: float) -> N
     block = occ.addRectangle(0.0, 0.5, 0.0, 1.0, 0.5)
     occ.synchronize()
     groups: dict[str, list[int]] = {}
-    for body, surface in ((meshing.MASTER, base), (meshing.SLAVE, block)):
+    for body, surface in ((meshing.PRIMARY, base), (meshing.SECONDARY, block)):
         groups[body] = [surface]
         for _, curve in gmsh.model.getBoundary([(2, surface)], oriented=False):
             x0, y0, _, x1, y1, _ = gmsh.model.getBoundingBox(1, curve)
@@ -84,8 +84,8 @@ def _separate_bodies(n_master: int, n_slave: int, slave_progression: float) -> N
             horizontal = (x1 - x0) > (y1 - y0)
             if horizontal and abs(cy - 0.5) < 1e-6:
                 name = meshing.INTERFACE
-                n = n_master if body == meshing.MASTER else n_slave
-                p = 1.0 if body == meshing.MASTER else slave_progression
+                n = n_primary if body == meshing.PRIMARY else n_secondary
+                p = 1.0 if body == meshing.PRIMARY else progression
                 gmsh.model.mesh.setTransfiniteCurve(curve, n + 1, "Progression", p)
             else:
                 if horizontal:

@@ -331,8 +331,8 @@ def column(mode: str, comm):
             n_interface=2,
             cell_type="tetrahedron",
         )
-        dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "master")
-        dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "master")
+        dom.add_node_group("pin", [[0.0, 0.0, 0.0]], "primary")
+        dom.add_node_group("roll", [[1.0, 0.0, 0.0]], "primary")
         bcs = [
             Dirichlet("bottom", 0.0, component=2),
             Dirichlet("pin", [0.0, 0.0, 0.0]),
@@ -342,7 +342,7 @@ def column(mode: str, comm):
     dom, _ = meshing.create_interface_mesh(
         meshing.build_block_on_base, comm, base_width=1.0, block_width=1.0, n_interface=4
     )
-    dom.add_node_group("pin", [[0.0, 0.0]], "master")
+    dom.add_node_group("pin", [[0.0, 0.0]], "primary")
     return dom, [Dirichlet("bottom", 0.0, component=1), Dirichlet("pin", 0.0, component=0)]
 
 
@@ -374,7 +374,7 @@ def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program
             return -0.25 * program.amplitude("press", t) + program.amplitude("lift", t) * lift(x)
 
         bcs.append(DirichletField("top", vertical, component=1))
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
     return InterfaceProblem(dom, law, mats, program, bcs, loads)
 
 

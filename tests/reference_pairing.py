@@ -5,7 +5,8 @@ of ``match_points`` at commit 4ba6b8b: every rank all-gathers the slave facets o
 interface (midpoints, node numbers, owners and coordinates) and matches them with a grid hash and
 Python loops. The package's pairing exchanges only what each rank needs;
 ``tests/fem/interface/test_pairing.py`` checks that it gives the same pairs, in the same order, and
-``benchmarks/pairing_scaling.py`` measures both.
+``benchmarks/pairing_scaling.py`` measures both. Since then only the names of the pairs' fields
+and the messages' words changed (``primary``/``secondary`` became ``primary``/``secondary``).
 """
 
 from __future__ import annotations
@@ -192,11 +193,11 @@ def pair_interface(
     if n_unmatched or n_slave != comm.allreduce(nf):
         example = m_mid[unmatched[0]].tolist() if unmatched.size else None
         examples = [e for e in comm.allgather(example) if e is not None]
-        where = f", e.g. the master facet at {examples[0]}" if examples else ""
+        where = f", e.g. the primary facet at {examples[0]}" if examples else ""
         raise InterfaceError(
-            f"the interface sides do not pair node to node: {comm.allreduce(nf)} master and "
-            f"{n_slave} slave facets, {n_unmatched} master facets without a slave facet at the "
-            f"same place{where} (tolerance {tol:.3g})"
+            f"the interface sides do not pair node to node: {comm.allreduce(nf)} primary and "
+            f"{n_slave} secondary facets, {n_unmatched} primary facets without a secondary facet "
+            f"at the same place{where} (tolerance {tol:.3g})"
         )
     used = np.zeros(all_mid.shape[0], dtype=np.int64)
     np.add.at(used, match, 1)
@@ -204,9 +205,9 @@ def pair_interface(
     if np.any(used != 1):
         k = int(np.flatnonzero(used != 1)[0])
         raise InterfaceError(
-            f"the interface sides do not pair node to node: {int(np.sum(used == 0))} slave facets "
-            f"have no master partner and {int(np.sum(used > 1))} have several, e.g. the slave "
-            f"facet at {all_mid[k].tolist()}"
+            f"the interface sides do not pair node to node: {int(np.sum(used == 0))} secondary "
+            f"facets have no primary partner and {int(np.sum(used > 1))} have several, e.g. the "
+            f"secondary facet at {all_mid[k].tolist()}"
         )
 
     # Slave nodes ordered like the master's reference nodes.
@@ -246,11 +247,11 @@ def pair_interface(
     return InterfacePairs(
         submesh=sub,
         facets=m_facets,
-        master_cells=m_cells,
+        primary_cells=m_cells,
         reference_nodes=Xn,
         node_points=node_points,
-        master_nodes=master_nodes,
-        slave_nodes=slave_nodes,
+        primary_nodes=master_nodes,
+        secondary_nodes=slave_nodes,
         index_map=imap_ext,
         n_extra_ghosts=len(extra),
         n_split=n_split,

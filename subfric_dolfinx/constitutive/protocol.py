@@ -9,8 +9,8 @@ and implements :meth:`FrictionLaw.return_map` and :meth:`FrictionLaw.strength`. 
 cases (``{"law": "<name>", "params": {...}}``); a law object can also be given to the Python API
 directly.
 
-Conventions (all laws): local components ``(t1, [t2,] n)``; the gap ``ubar`` (slave minus master
-displacement) has ``ubar_n > 0`` on approach; the traction ``(f_t, f_n)`` has ``f_n > 0`` in
+Conventions (all laws): local components ``(t1, [t2,] n)``; the gap ``ubar`` (secondary minus
+primary displacement) has ``ubar_n > 0`` on approach; the traction ``(f_t, f_n)`` has ``f_n > 0`` in
 compression. Units MPa, mm, s.
 
 Example, Coulomb with linear slip weakening (a complete law)::

@@ -1,8 +1,9 @@
 """Round-off tolerances of the return maps: when a point touches, and when a trial loads.
 
 Both laws (:mod:`.subloading`, :mod:`.coulomb`) use them, so that a status never depends on the
-rounding of the gap a caller computed (in a finite-element model ``ubar = u_slave - u_master``
-carries a rounding of about ``eps |u|``, different on 1 and 2 MPI ranks).
+rounding of the gap a caller computed (in a finite-element model
+``ubar = u_secondary - u_primary`` carries a rounding of about ``eps |u|``, different on 1 and 2
+MPI ranks).
 
 **Contact band** (``CONTACT_TOL``, the ``contact_tol`` argument of the maps). A point *touches*
 when ``|ubar_n| <= contact_tol * L`` with the length

@@ -14,7 +14,7 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
-from ..meshing.groups import INTERFACE, MASTER, SLAVE
+from ..meshing.groups import INTERFACE, PRIMARY, SECONDARY
 from ..meshing.topology import InterfaceSides, Topology
 from .conditions import Interface
 from .interface import InterfaceError
@@ -35,7 +35,7 @@ def resolve_interfaces(
             :mod:`subfric_dolfinx.meshing`).
         law: The friction law of every interface that does not give its own.
         interfaces: The interfaces one by one; ``None``: the mesh's (or, on a mesh that knows
-            none, the classic layout's ``interface`` between ``master`` and ``slave``).
+            none, the classic layout's ``interface`` between ``primary`` and ``secondary``).
         quadrature: The quadrature of every interface that does not give its own.
 
     Raises:
@@ -49,7 +49,7 @@ def resolve_interfaces(
         if mesh.interfaces:
             specs = [Interface(g) for g in mesh.interfaces]
         else:
-            specs = [Interface(INTERFACE, MASTER, SLAVE)]
+            specs = [Interface(INTERFACE, PRIMARY, SECONDARY)]
     else:
         specs = list(interfaces)
         if not specs:

@@ -274,7 +274,7 @@ class InterfaceProblem:
             interface: The interface: its group, sides (``None``: the mesh's) and own settings
                 (initial gap, regions, ...); ``None``: the mesh's only interface (a mesh that
                 knows none: the classic layout's group ``interface`` between the cell groups
-                ``master`` and ``slave``).
+                ``primary`` and ``secondary``).
             settings: As in :class:`InterfaceProblem`.
 
         Raises:

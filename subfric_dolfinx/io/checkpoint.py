@@ -70,6 +70,7 @@ from mpi4py import MPI
 
 from ..compat import geometry_dofmap
 from ..constitutive import law_description
+from ..meshing.groups import canonical_names
 from ..values import NotAnInteger, NotANumber, NotFinite, finite_float, short_repr, strict_int
 from .collective import OutputError, collective
 from .h5 import ParallelH5
@@ -692,7 +693,10 @@ def restore_checkpoint(
     if settings is not None:
         compare.append(("settings", jsonable(settings)))
     for key, mine in compare:
-        d = first_difference(json.loads(a[key]), mine)
+        theirs = json.loads(a[key])
+        if key == "settings":  # an older run's names (master, slave_left, ...) as today's
+            theirs = canonical_names(theirs)
+        d = first_difference(theirs, mine)
         if d is not None:
             where, theirs, ours = d
             label = where if key == "settings" else f"{key}{'.' if where else ''}{where}"

@@ -4,15 +4,16 @@ The builders (:func:`build_block_on_base`, 2-D, :func:`build_pad_on_plate`, 3-D)
 model in the current gmsh session; call them on one rank (rank 0) only, or through
 :func:`~subfric_dolfinx.meshing.reader.create_interface_mesh`. The nodes are duplicated with
 gmsh's Crack plugin (with ``OpenBoundaryPhysicalGroup`` so that the interface ends come apart
-too), the interface mesh being oriented so that the slave side receives the new nodes; elements
-lying in the interface plane (the free part of the master's top face) keep the master's nodes.
+too), the interface mesh being oriented so that the secondary side receives the new nodes;
+elements lying in the interface plane (the free part of the primary's top face) keep the
+primary's nodes.
 The two bodies share no node: they are connected only through the interface elements.
 
 Options beyond two uniform boxes, interface regions and graded meshes:
 
 * Interface regions: strips ``x0 <= x <= x1`` of the interface, each a physical group of
   interface facets (a subgroup of ``interface``), e.g. two surface finishes with their own
-  friction laws. The master is cut at the strips' ends so that each strip is its own curve
+  friction laws. The primary is cut at the strips' ends so that each strip is its own curve
   (surface); the groups carry the tags ``REGION_TAG0 + i``.
 * Grading (triangles and tetrahedra): the element size is ``h`` within ``refine_radius`` of a
   point (by default the centre of the interface) and grows by ``growth`` per unit distance
@@ -35,21 +36,21 @@ from .groups import (
     BODIES,
     BOTTOM,
     INTERFACE,
-    MASTER,
-    MASTER_LEFT,
-    MASTER_RIGHT,
-    MASTER_TOP,
-    MASTER_XMAX,
-    MASTER_XMIN,
-    MASTER_YMAX,
-    MASTER_YMIN,
-    SLAVE,
-    SLAVE_LEFT,
-    SLAVE_RIGHT,
-    SLAVE_XMAX,
-    SLAVE_XMIN,
-    SLAVE_YMAX,
-    SLAVE_YMIN,
+    PRIMARY,
+    PRIMARY_LEFT,
+    PRIMARY_RIGHT,
+    PRIMARY_TOP,
+    PRIMARY_XMAX,
+    PRIMARY_XMIN,
+    PRIMARY_YMAX,
+    PRIMARY_YMIN,
+    SECONDARY,
+    SECONDARY_LEFT,
+    SECONDARY_RIGHT,
+    SECONDARY_XMAX,
+    SECONDARY_XMIN,
+    SECONDARY_YMAX,
+    SECONDARY_YMIN,
     TAGS,
     TOP,
     gmsh_module,
@@ -76,7 +77,7 @@ class ModelInfo:
         h: Element size along the interface.
         interface_min: Lower corner of the interface's bounding box.
         interface_max: Upper corner of the interface's bounding box.
-        num_cells: Number of cells per body, ``{"master": ..., "slave": ...}``.
+        num_cells: Number of cells per body, ``{"primary": ..., "secondary": ...}``.
         num_interface_facets: Number of interface facets on each side.
         num_interface_nodes: Number of interface nodes on each side.
     """
@@ -150,7 +151,7 @@ def build_block_on_base(
 ) -> ModelInfo:
     """Build the 2-D "block on a base" model in the current gmsh session (call on one rank).
 
-    The base (``master``) is ``[0, base_width] x [0, base_height]``; the block (``slave``) is
+    The base (``primary``) is ``[0, base_width] x [0, base_height]``; the block (``secondary``) is
     ``[block_x, block_x + block_width] x [base_height, base_height + block_height]``. The interface
     is the block's bottom edge. Every curve is divided uniformly into ``round(length / h)``
     elements with ``h = block_width / n_interface``; quadrilateral meshes are structured,
@@ -198,16 +199,16 @@ def build_block_on_base(
         )
     h = _interface_size(block_width, n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
-    master_box = ((0.0, 0.0), (base_width, base_height))
-    slave_box = ((block_x, base_height), (block_x + block_width, base_height + block_height))
+    primary_box = ((0.0, 0.0), (base_width, base_height))
+    secondary_box = ((block_x, base_height), (block_x + block_width, base_height + block_height))
     grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
     if far_size is not None and refine_center is None:  # the interface's centre
         grading = (far_size, growth, (block_x + 0.5 * block_width, base_height), refine_radius)
-    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
+    _check_size((primary_box, secondary_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=2,
-        master_box=master_box,
-        slave_box=slave_box,
+        primary_box=primary_box,
+        secondary_box=secondary_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,
@@ -233,8 +234,8 @@ def build_pad_on_plate(
 ) -> ModelInfo:
     """Build the 3-D "pad on a plate" model in the current gmsh session (call on one rank).
 
-    The plate (``master``) is ``[0, Lx] x [0, Ly] x [0, Lz]`` with ``plate_size = (Lx, Ly, Lz)``;
-    the pad (``slave``) is the box of size ``pad_size`` whose lower corner is
+    The plate (``primary``) is ``[0, Lx] x [0, Ly] x [0, Lz]`` with ``plate_size = (Lx, Ly, Lz)``;
+    the pad (``secondary``) is the box of size ``pad_size`` whose lower corner is
     ``(pad_origin[0], pad_origin[1], Lz)``. The interface is the pad's bottom face. Every curve is
     divided uniformly into ``length / h`` (rounded) elements with ``h = pad_size[0] / n_interface``;
     hexahedral meshes are structured, tetrahedral meshes unstructured inside.
@@ -278,17 +279,17 @@ def build_pad_on_plate(
             )
     h = _interface_size(pad[0], n_interface, mesh_size)
     check_grading(cell_type, far_size, growth, refine_center, h, refine_radius)
-    master_box = ((0.0, 0.0, 0.0), plate)
-    slave_box = ((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2]))
+    primary_box = ((0.0, 0.0, 0.0), plate)
+    secondary_box = ((ox, oy, plate[2]), (ox + pad[0], oy + pad[1], plate[2] + pad[2]))
     grading = None if far_size is None else (far_size, growth, refine_center, refine_radius)
     if far_size is not None and refine_center is None:  # the interface's centre
         centre = (ox + 0.5 * pad[0], oy + 0.5 * pad[1], plate[2])
         grading = (far_size, growth, centre, refine_radius)
-    _check_size((master_box, slave_box), h, cell_type, grading, n_interface, mesh_size)
+    _check_size((primary_box, secondary_box), h, cell_type, grading, n_interface, mesh_size)
     return _build(
         gdim=3,
-        master_box=master_box,
-        slave_box=slave_box,
+        primary_box=primary_box,
+        secondary_box=secondary_box,
         h=h,
         cell_type=cell_type,
         model_name=model_name,
@@ -300,8 +301,8 @@ def build_pad_on_plate(
 def _build(
     *,
     gdim: int,
-    master_box: tuple[Sequence[float], Sequence[float]],
-    slave_box: tuple[Sequence[float], Sequence[float]],
+    primary_box: tuple[Sequence[float], Sequence[float]],
+    secondary_box: tuple[Sequence[float], Sequence[float]],
     h: float,
     cell_type: str,
     model_name: str,
@@ -312,14 +313,14 @@ def _build(
     if not gmsh.isInitialized():
         raise RuntimeError("gmsh is not initialised: call gmsh.initialize() before a builder")
     occ = gmsh.model.occ
-    (m0, m1), (s0, s1) = master_box, slave_box
+    (m0, m1), (s0, s1) = primary_box, secondary_box
     z_if = m1[gdim - 1]  # interface height
     scale = max(max(m1) - min(m0), max(s1) - min(s0))
     tol = 1e-7 * scale
     gmsh.model.add(model_name)
 
-    # Master pieces: the master box cut along the slave's footprint, so that the interface is one
-    # face (curve) and every piece is a box (rectangle) for structured meshing.
+    # Primary pieces: the primary box cut along the secondary's footprint, so that the interface
+    # is one face (curve) and every piece is a box (rectangle) for structured meshing.
     xs = _segments(m0[0], m1[0], s0[0], s1[0], [x for r in regions for x in r[1:]])
     ys = _segments(m0[1], m1[1], s0[1], s1[1]) if gdim == 3 else [(m0[1], m1[1])]
     pieces = []
@@ -329,15 +330,15 @@ def _build(
         else:
             for y0, y1 in ys:
                 pieces.append((3, occ.addBox(x0, y0, m0[2], x1 - x0, y1 - y0, m1[2] - m0[2])))
-    # the slave cut at the regions' ends too (boxes with four-sided faces, for structured meshing)
-    slaves = []
+    # the secondary cut at the regions' ends too (boxes with four-sided faces, structured meshing)
+    secondaries = []
     for x0, x1 in _segments(s0[0], s1[0], s0[0], s1[0], [x for r in regions for x in r[1:]]):
         ext = [x1 - x0, *(b - a for a, b in zip(s0[1:], s1[1:], strict=True))]
         if gdim == 2:
-            slaves.append((2, occ.addRectangle(x0, s0[1], 0.0, *ext)))
+            secondaries.append((2, occ.addRectangle(x0, s0[1], 0.0, *ext)))
         else:
-            slaves.append((3, occ.addBox(x0, *s0[1:], *ext)))
-    occ.fragment(pieces, slaves)
+            secondaries.append((3, occ.addBox(x0, *s0[1:], *ext)))
+    occ.fragment(pieces, secondaries)
     occ.synchronize()
 
     def com(dim: int, tag: int) -> np.ndarray:
@@ -348,19 +349,19 @@ def _build(
         return np.asarray(b[3:])[:gdim] - np.asarray(b[:3])[:gdim]
 
     # cells
-    groups: dict[str, list[int]] = {MASTER: [], SLAVE: []}
+    groups: dict[str, list[int]] = {PRIMARY: [], SECONDARY: []}
     for _, tag in gmsh.model.getEntities(gdim):
-        groups[SLAVE if com(gdim, tag)[-1] > z_if else MASTER].append(tag)
-    if len(groups[SLAVE]) != len(slaves) or len(groups[MASTER]) != len(pieces):
+        groups[SECONDARY if com(gdim, tag)[-1] > z_if else PRIMARY].append(tag)
+    if len(groups[SECONDARY]) != len(secondaries) or len(groups[PRIMARY]) != len(pieces):
         raise RuntimeError(f"unexpected geometry after fragment: {groups}")
 
     # facets, by position and normal direction
     side_names = (
-        {0: (MASTER_LEFT, MASTER_RIGHT, SLAVE_LEFT, SLAVE_RIGHT)}
+        {0: (PRIMARY_LEFT, PRIMARY_RIGHT, SECONDARY_LEFT, SECONDARY_RIGHT)}
         if gdim == 2
         else {
-            0: (MASTER_XMIN, MASTER_XMAX, SLAVE_XMIN, SLAVE_XMAX),
-            1: (MASTER_YMIN, MASTER_YMAX, SLAVE_YMIN, SLAVE_YMAX),
+            0: (PRIMARY_XMIN, PRIMARY_XMAX, SECONDARY_XMIN, SECONDARY_XMAX),
+            1: (PRIMARY_YMIN, PRIMARY_YMAX, SECONDARY_YMIN, SECONDARY_YMAX),
         }
     )
     fdim = gdim - 1
@@ -376,7 +377,7 @@ def _build(
                 name = TOP
             elif abs(c[-1] - z_if) < tol:
                 inside = all(s0[i] - tol < c[i] < s1[i] + tol for i in range(gdim - 1))
-                name = INTERFACE if inside else MASTER_TOP
+                name = INTERFACE if inside else PRIMARY_TOP
         else:
             ax = normal_axis
             lower = c[-1] < z_if
@@ -429,19 +430,19 @@ def _build(
 
 
 def _crack(gdim: int, interface_tag: int, interface_entities: Sequence[int]) -> None:
-    """Duplicate the interface nodes; the slave side (above the interface) gets the new nodes."""
+    """Duplicate the interface nodes; the secondary side (above the interface) gets new nodes."""
     del interface_tag, interface_entities  # the groups are found by name
-    duplicate_interface_nodes(None, {INTERFACE: ([MASTER], [SLAVE])})
+    duplicate_interface_nodes(None, {INTERFACE: ([PRIMARY], [SECONDARY])})
 
 
 def _model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: float) -> ModelInfo:
     gmsh = gmsh_module()
-    master, slave = group_nodes(gdim, tags[MASTER]), group_nodes(gdim, tags[SLAVE])
-    shared = np.intersect1d(master, slave)
+    primary, secondary = group_nodes(gdim, tags[PRIMARY]), group_nodes(gdim, tags[SECONDARY])
+    shared = np.intersect1d(primary, secondary)
     if shared.size:
         raise RuntimeError(f"the bodies share {shared.size} nodes after Crack (expected none)")
     sides = interface_sides(gdim, tags)
-    if sides[MASTER] != sides[SLAVE] or sides["neither"]:
+    if sides[PRIMARY] != sides[SECONDARY] or sides["neither"]:
         raise RuntimeError(f"interface sides after Crack do not match: {sides}")
     iface = group_nodes(gdim - 1, tags[INTERFACE])
     _, coords = gmsh.model.mesh.getNodesForPhysicalGroup(gdim - 1, tags[INTERFACE])
@@ -456,7 +457,7 @@ def _model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: 
         interface_min=tuple(float(v) for v in xi.min(axis=0)),
         interface_max=tuple(float(v) for v in xi.max(axis=0)),
         num_cells=num_cells,
-        num_interface_facets=sides[MASTER],
+        num_interface_facets=sides[PRIMARY],
         num_interface_nodes=int(iface.size) // 2,
     )
 

@@ -13,7 +13,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-from .groups import BODIES, INTERFACE
+from .groups import BODIES, CLASSIC_ALIASES, INTERFACE
 from .nodes import NodeGroup
 from .topology import InterfaceSides, Topology
 
@@ -84,7 +84,11 @@ class InterfaceMesh:
         try:
             return self.tags[name]
         except KeyError:
-            raise KeyError(f"no physical group {name!r}; groups: {sorted(self.tags)}") from None
+            renamed = CLASSIC_ALIASES.get(name)
+            hint = f" ({name!r} is now {renamed!r})" if renamed in self.tags else ""
+            raise KeyError(
+                f"no physical group {name!r}{hint}; groups: {sorted(self.tags)}"
+            ) from None
 
     def body_tags(self, name: str) -> tuple[int, ...]:
         """The cell tags of a body (its cell groups) or of one cell group.
@@ -172,7 +176,7 @@ class InterfaceMesh:
         """Facet tags marking each local facet of an interface with its adjacent cell's tag.
 
         Use as ``ufl.Measure("ds", domain=mesh, subdomain_data=...)`` and integrate over one side
-        with ``ds(tag)`` of that side's body (its cell group), e.g. ``ds(tags["master"])``.
+        with ``ds(tag)`` of that side's body (its cell group), e.g. ``ds(tags["primary"])``.
         """
         name = self._interface(interface)
         sides = self._sides.get(name, {})

@@ -9,11 +9,11 @@ the upper plate, ``bolt_nut`` under the lower plate), where a scene applies the 
 Layout (x along the joint, z up; the plates are ``width`` wide in y)::
 
                                   bolt_head
-                          +---------==---==----------------------+ <- upper plate (slave)
-                          |          |   |                slave_xmax|
+                          +---------==---==----------------------+ <- upper plate (secondary)
+                          |          |   |         secondary_xmax|
     +---------------------+==========|   |===========+----------+
-    |master_xmin          |  interface (overlap,     |
-    +---------------------+---------==---==----------+ <- lower plate (master)
+    |primary_xmin         |  interface (overlap,     |
+    +---------------------+---------==---==----------+ <- lower plate (primary)
                                     bolt_nut
 """
 
@@ -27,10 +27,10 @@ from .groups import (
     BOLT_HEAD,
     BOLT_NUT,
     INTERFACE,
-    MASTER,
-    MASTER_XMIN,
-    SLAVE,
-    SLAVE_XMAX,
+    PRIMARY,
+    PRIMARY_XMIN,
+    SECONDARY,
+    SECONDARY_XMAX,
     TAGS,
     gmsh_module,
 )
@@ -53,13 +53,13 @@ def build_bolted_lap_joint(
 ) -> ModelInfo:
     """Build the 3-D bolted lap joint in the current gmsh session (call on one rank).
 
-    The lower plate (``master``) is ``[0, L] x [0, W] x [0, t]``, the upper plate (``slave``)
+    The lower plate (``primary``) is ``[0, L] x [0, W] x [0, t]``, the upper plate (``secondary``)
     ``[L - c, 2 L - c] x [0, W] x [t, 2 t]`` with ``L = plate_length``, ``W = width``,
     ``t = thickness`` and ``c = overlap``. A hole of radius ``hole_radius`` goes through both
     plates at the centre of the overlap; the interface is the overlap minus the hole. The annuli
     ``hole_radius < rho < washer_radius`` around the hole on the top of the upper plate and under
     the lower plate are the groups ``bolt_head`` and ``bolt_nut``; the plates' far ends are
-    ``master_xmin`` (x = 0) and ``slave_xmax`` (x = 2 L - c). The mesh is unstructured
+    ``primary_xmin`` (x = 0) and ``secondary_xmax`` (x = 2 L - c). The mesh is unstructured
     (tetrahedra) of size ``h = width / n_interface`` (finer around the hole, where the curvature
     asks for it).
 
@@ -134,11 +134,11 @@ def build_bolted_lap_joint(
 
     scale = 2.0 * L
     tol = 1e-7 * scale
-    groups: dict[str, list[int]] = {MASTER: [], SLAVE: []}
+    groups: dict[str, list[int]] = {PRIMARY: [], SECONDARY: []}
     for _, tag in gmsh.model.getEntities(3):
         z = occ.getCenterOfMass(3, tag)[2]
-        groups[SLAVE if z > t else MASTER].append(tag)
-    if len(groups[MASTER]) != 1 or len(groups[SLAVE]) != 1:
+        groups[SECONDARY if z > t else PRIMARY].append(tag)
+    if len(groups[PRIMARY]) != 1 or len(groups[SECONDARY]) != 1:
         raise RuntimeError(f"unexpected geometry after fragment: {groups}")
     for _, tag in gmsh.model.getEntities(2):
         b = np.asarray(gmsh.model.getBoundingBox(2, tag))
@@ -152,17 +152,17 @@ def build_bolted_lap_joint(
         elif flat_z and abs(lo[2] - 2 * t) < tol and hi[0] - lo[0] < 2 * R + tol:
             name = BOLT_HEAD
         elif hi[0] - lo[0] < tol and abs(lo[0]) < tol:
-            name = MASTER_XMIN
+            name = PRIMARY_XMIN
         elif hi[0] - lo[0] < tol and abs(lo[0] - (2 * L - c)) < tol:
-            name = SLAVE_XMAX
+            name = SECONDARY_XMAX
         if name is not None:
             groups.setdefault(name, []).append(tag)
-    for name in (INTERFACE, BOLT_NUT, BOLT_HEAD, MASTER_XMIN, SLAVE_XMAX):
+    for name in (INTERFACE, BOLT_NUT, BOLT_HEAD, PRIMARY_XMIN, SECONDARY_XMAX):
         if len(groups.get(name, [])) != 1:
             raise RuntimeError(f"expected one {name} surface, found {groups.get(name)}")
     tags: dict[str, int] = {}
     for name, ents in groups.items():
-        dim = 3 if name in (MASTER, SLAVE) else 2
+        dim = 3 if name in (PRIMARY, SECONDARY) else 2
         tags[name] = gmsh.model.addPhysicalGroup(dim, ents, TAGS[name], name=name)
 
     saved = {

@@ -107,7 +107,7 @@ def body_partitioner(
 
     * ``"default"``: DOLFINx's graph partitioner (``create_cell_partitioner(ghost_mode)``).
     * ``"bodies"``: the cells of body ``i`` on rank ``i % size``: with two bodies on 2 ranks the
-      first (``master``) on rank 0, the second on rank 1, so every interface pair is split across
+      first (``primary``) on rank 0, the second on rank 1, so every interface pair is split across
       ranks.
     * ``"together"``: cells are cut into slabs of equal cell count along x, a cell touching an
       interface with a facet being placed by that facet's smallest x, so that the two cells of an
@@ -121,7 +121,7 @@ def body_partitioner(
     Args:
         kind: One of :data:`PARTITIONER_KINDS`.
         ghost_mode: Ghosting of the partitioned mesh (``none`` or ``shared_facet``).
-        bodies: Body -> its cell groups, in order (default: ``master``, ``slave``);
+        bodies: Body -> its cell groups, in order (default: ``primary``, ``secondary``);
             :func:`~.reader.read_interface_mesh` passes the mesh's.
         interfaces: The interface groups (default: ``interface``).
 

@@ -31,14 +31,16 @@ from ._msh import open_msh
 from .builders import ModelInfo
 from .groups import (
     INTERFACE,
-    MASTER,
-    SLAVE,
+    PRIMARY,
+    SECONDARY,
     InterfaceMeshError,
     body_nodes,
     gmsh_module,
     gmsh_session,
     group_elements,
     remove_new_models,
+    rename_aliased_groups,
+    restore_group_names,
     side_counts,
     touching_bodies,
 )
@@ -114,7 +116,7 @@ def _inspect_current_model(
     nm = default_names(topology.get("names"))
     if required is None:  # the classic layout's groups, unless the bodies/interfaces are given
         given = topology.get("interfaces") is not None or topology.get("bodies") is not None
-        required = () if given else (MASTER, SLAVE, INTERFACE)
+        required = () if given else (PRIMARY, SECONDARY, INTERFACE)
     for n in required:
         n = nm.get(n, n)
         if n not in names:
@@ -122,7 +124,7 @@ def _inspect_current_model(
                 f"{what}: required physical group {n!r} not found; physical groups found: "
                 f"{_describe_groups(groups)}"
             )
-    for role in (MASTER, SLAVE, INTERFACE):
+    for role in (PRIMARY, SECONDARY, INTERFACE):
         n = nm[role]
         want = gdim - 1 if role == INTERFACE else gdim
         if n in by_name and by_name[n][0] != want:
@@ -224,7 +226,10 @@ def read_interface_mesh(
 ) -> InterfaceMesh:
     """Read bodies joined by duplicated-node interfaces into DOLFINx (collective).
 
-    Rank 0 reads and checks the gmsh data; every failure is raised on all ranks.
+    Rank 0 reads and checks the gmsh data; every failure is raised on all ranks. Groups named by
+    the built-in meshes' older names (``master``, ``slave``, ``slave_left``, ...: input aliases,
+    :data:`~.groups.CLASSIC_ALIASES`) are read under their names (``primary``, ``secondary``,
+    ``secondary_left``); a current gmsh model keeps its own names.
 
     Args:
         source: Path of an MSH file (format 2 or 4, ASCII or binary), or ``None`` for the
@@ -235,11 +240,11 @@ def read_interface_mesh(
         partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
             DOLFINx's default partitioner.
         ghost_mode: Ghost mode for the default partitioner or a :func:`body_partitioner` kind.
-        required: Physical groups that must be present (the roles ``master``, ``slave``,
+        required: Physical groups that must be present (the roles ``primary``, ``secondary``,
             ``interface`` stand for the groups ``names`` gives them); ``None``: the classic
             layout's three groups, unless ``bodies`` or ``interfaces`` are given.
-        names: The classic layout's roles -> the user's group names, e.g. ``{"master": "base",
-            "slave": "block", "interface": "contact"}`` (:mod:`.topology`).
+        names: The classic layout's roles -> the user's group names, e.g. ``{"primary": "base",
+            "secondary": "block", "interface": "contact"}`` (:mod:`.topology`).
         bodies: Body -> its cell group(s); default: every named cell group is a body.
         interfaces: Interface group -> (primary, secondary) bodies (or a dict with these keys),
             or a list of interface groups (the two bodies each touches; the primary is the one
@@ -287,6 +292,7 @@ def read_interface_mesh(
                         gmsh.merge(name)
                     except Exception as e:
                         raise InterfaceMeshError(f"gmsh could not read {path}: {e}") from e
+                stack.callback(restore_group_names, rename_aliased_groups(what))
                 tags, found = _inspect_current_model(gdim, required, what, topology)
                 b = found.bodies
                 subgroups, withheld = withhold_interface_subgroups(

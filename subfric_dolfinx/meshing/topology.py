@@ -11,10 +11,9 @@ bodies: its *primary* body, whose outward normal defines the interface frame, an
 body). :func:`mesh_topology` reads them from the physical groups of a gmsh model and from what the
 user says:
 
-* nothing: the classic layout, cell groups ``master`` and ``slave`` and the facet group
-  ``interface``; ``names={"master": "base", "slave": "block", "interface": "contact"}`` gives
-  these roles the user's own group names (``primary``/``secondary`` are accepted as the roles'
-  other names);
+* nothing: the classic layout, cell groups ``primary`` and ``secondary`` and the facet group
+  ``interface``; ``names={"primary": "base", "secondary": "block", "interface": "contact"}``
+  gives these roles the user's own group names;
 * ``bodies={"bolt": ["head", "shank"], "plate": "plate"}``: bodies made of cell groups (by
   default every named cell group is a body of its own);
 * ``interfaces={"contact": ("plate", "bolt"), ...}``: interfaces with (primary, secondary) bodies
@@ -24,9 +23,11 @@ user says:
   the primary being the one whose first cell group has the smaller physical tag.
 
 **Input aliases.** ``master`` and ``slave`` (the names of older codes, and the classic layout's
-group names) are accepted for ``primary`` and ``secondary`` at this boundary only: as roles of
-``names=``, as keys of an interface's mapping, and as keys of a problem's materials
-(:meth:`Topology.materials`). Everything this package writes says ``primary``/``secondary``.
+older group names) are accepted for ``primary`` and ``secondary`` at this boundary only: as roles
+of ``names=``, as keys of an interface's mapping, and as keys of a problem's materials
+(:meth:`Topology.materials`); the reader reads the classic layout's groups so named in a file as
+their ``primary``/``secondary`` names (:data:`~.groups.CLASSIC_ALIASES`). Everything this
+package writes says ``primary``/``secondary``.
 """
 
 from __future__ import annotations
@@ -35,15 +36,16 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .groups import INTERFACE, MASTER, SLAVE, InterfaceMeshError
+from .groups import INTERFACE, PRIMARY, SECONDARY, InterfaceMeshError
 
 __all__ = ["KINEMATICS", "ROLES", "InterfaceSides", "Topology", "default_names", "mesh_topology"]
 
 KINEMATICS = ("small_sliding", "finite_sliding")
 """The interface kinds (``docs/model.md`` §11-12): sides paired node to node, or meshed apart."""
 
-ROLES = ("master", "slave", "interface", "primary", "secondary")
-"""The roles ``names=`` may map to the user's group names (primary = master, secondary = slave)."""
+ROLES = ("primary", "secondary", "interface", "master", "slave")
+"""The roles ``names=`` may map to the user's group names (``master``, ``slave``: input aliases of
+``primary``, ``secondary``)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,8 +89,8 @@ class Topology:
     def with_interfaces(self, interfaces: Mapping[str, InterfaceSides]) -> Topology:
         """These interfaces instead of the mesh's.
 
-        A side that is no body is a body of its own cell group (the classic layout's ``master``
-        and ``slave``).
+        A side that is no body is a body of its own cell group (the classic layout's ``primary``
+        and ``secondary``).
         """
         bodies = dict(self.bodies)
         for sides in interfaces.values():
@@ -128,6 +130,9 @@ class Topology:
 def default_names(names: Mapping[str, str] | None) -> dict[str, str]:
     """The classic layout's group names with the user's ``names`` (role -> group name).
 
+    The result has the roles ``primary``, ``secondary`` and ``interface``, and the input aliases
+    ``master`` and ``slave`` for the first two.
+
     Raises:
         InterfaceMeshError: An unknown role, or a role given twice under both its names.
     """
@@ -135,15 +140,18 @@ def default_names(names: Mapping[str, str] | None) -> dict[str, str]:
     unknown = sorted(set(names) - set(ROLES))
     if unknown:
         raise InterfaceMeshError(f"names: unknown role(s) {unknown}; roles: {list(ROLES)}")
-    for a, b in (("master", "primary"), ("slave", "secondary")):
-        if a in names and b in names and names[a] != names[b]:
-            raise InterfaceMeshError(f"names: {a!r} and {b!r} name the same role differently")
-        if b in names:
-            names[a] = names.pop(b)
+    for alias, role in ALIASES.items():
+        if alias in names and role in names and names[alias] != names[role]:
+            raise InterfaceMeshError(
+                f"names: {role!r} and {alias!r} name the same role differently"
+            )
+        if alias in names:
+            names[role] = names.pop(alias)
     for role, value in names.items():
         if not isinstance(value, str) or not value:
             raise InterfaceMeshError(f"names.{role}: expected a group name, got {value!r}")
-    return {MASTER: MASTER, SLAVE: SLAVE, INTERFACE: INTERFACE, **names}
+    out = {PRIMARY: PRIMARY, SECONDARY: SECONDARY, INTERFACE: INTERFACE, **names}
+    return {**out, **{alias: out[role] for alias, role in ALIASES.items()}}
 
 
 def _sides(value: Any, name: str) -> InterfaceSides | None:
@@ -238,7 +246,7 @@ def mesh_topology(
     if interfaces is None:
         if nm[INTERFACE] in groups:
             out_ifaces: dict[str, InterfaceSides | None] = {
-                nm[INTERFACE]: InterfaceSides(nm[MASTER], nm[SLAVE])
+                nm[INTERFACE]: InterfaceSides(nm[PRIMARY], nm[SECONDARY])
             }
         else:
             out_ifaces = {}

@@ -196,13 +196,13 @@ def _only_interface(domain: meshing.InterfaceMesh) -> list[str]:
 
 
 def _check_material_names(scene: FEScene, domain: meshing.InterfaceMesh) -> None:
-    """Every material names a body or a cell group of the mesh (or master/slave).
+    """Every material names a body or a cell group of the mesh (or primary/secondary).
 
     Raises:
         SceneError: Naming the unknown keys and the bodies there are.
     """
     cells = {n for n, d in domain.dims.items() if d == domain.tdim}
-    known = set(domain.bodies) | cells | {"master", "slave"}
+    known = set(domain.bodies) | cells | {"primary", "secondary"}
     extra = sorted(set(scene.materials) - known)
     if extra:
         raise SceneError(

@@ -2,32 +2,105 @@
 
 Called by :func:`~.parser.parse_scene`; every error names its key path. The classic scene (a
 builder's mesh, no ``bodies``, ``interfaces`` or ``mesh.names``) has exactly the materials
-``master`` and ``slave``; otherwise materials are keyed by body or cell group, and what only the
-mesh can tell (that a group exists) is checked once it is read.
+``primary`` and ``secondary``; otherwise materials are keyed by body or cell group, and what only
+the mesh can tell (that a group exists) is checked once it is read.
+
+**Input aliases** (:func:`resolve_aliases`, the scene's boundary): ``master`` and ``slave`` are
+read as ``primary`` and ``secondary`` (materials' keys, an interface's sides, ``mesh.names``'
+roles), and the classic layout's older group names (``master_left``, ``slave_xmax``, ...:
+:data:`~subfric_dolfinx.meshing.groups.CLASSIC_ALIASES`) as their names wherever the scene names
+a group or a body (conditions, loads, springs, points, reaction frames, bodies): the outputs say
+``primary``/``secondary`` (e.g. the history's ``R_primary_xmin_x``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any
 
 from ..constitutive import FrictionLaw
-from ..meshing.topology import KINEMATICS
+from ..meshing.groups import canonical_group
+from ..meshing.topology import ALIASES, KINEMATICS
 from ..values import short_repr
 from .materials import check_materials_fit, parse_material
 from .schema import FEScene, SceneError
 
-__all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic"]
+__all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic", "resolve_aliases"]
 
 MODES = ("3d", "plane_strain", "plane_stress", "axisymmetric")
 """The modelling modes (``subfric_dolfinx.fem.kinematics.MODES``, named here without importing
 the finite-element layer)."""
-ROLES = ("master", "slave", "interface", "primary", "secondary")
-"""The roles ``mesh.names`` may give the file's own group names."""
+ROLES = ("primary", "secondary", "interface", "master", "slave")
+"""The roles ``mesh.names`` may give the file's own group names (``master``, ``slave``: input
+aliases of ``primary``, ``secondary``)."""
+
+
+def resolve_aliases(scene: FEScene) -> FEScene:
+    """The scene with its input aliases resolved (see the module docstring).
+
+    Raises:
+        SceneError: A key given under both its names (``master`` and ``primary``), naming its
+            path.
+    """
+
+    def g(name: Any) -> Any:
+        return canonical_group(name) if isinstance(name, str) else name
+
+    def keys(mapping: dict[str, Any], path: str) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for k, v in mapping.items():
+            if g(k) != k and g(k) in mapping:
+                raise SceneError(f"{path}: {k!r} and {g(k)!r} name the same key (an alias)")
+            out[g(k)] = v
+        return out
+
+    def sides(spec: Any) -> Any:
+        p, q = spec.sides
+        for a, b in (("primary", "master"), ("secondary", "slave")):
+            va, vb = getattr(spec, a), getattr(spec, b)
+            if va is not None and vb is not None and va != vb:
+                return spec  # check_topology names it
+        return dataclasses.replace(
+            spec,
+            primary=g(p),
+            secondary=g(q),
+            master=None,
+            slave=None,
+        )
+
+    def roles(names: dict[str, str]) -> dict[str, str]:
+        out: dict[str, str] = {}
+        for r, n in names.items():
+            role, value = ALIASES.get(r, r), g(n)
+            if role in out and out[role] != value:
+                raise SceneError(
+                    f"scene.mesh.names: {role!r} and {r!r} name the same role differently"
+                )
+            out[role] = value
+        return out
+
+    def body_groups(gs: Any) -> Any:
+        return [g(x) for x in gs] if isinstance(gs, list) else g(gs)
+
+    out = scene.outputs
+    frames = [dataclasses.replace(f, group=g(f.group)) for f in out.reaction_frames]
+    return dataclasses.replace(
+        scene,
+        mesh=dataclasses.replace(scene.mesh, names=roles(scene.mesh.names)),
+        materials=keys(scene.materials, "scene.materials"),
+        dirichlet=[dataclasses.replace(c, group=g(c.group)) for c in scene.dirichlet],
+        loads=[dataclasses.replace(c, group=g(c.group)) for c in scene.loads],
+        springs=[dataclasses.replace(c, group=g(c.group)) for c in scene.springs],
+        points={n: dataclasses.replace(p, body=g(p.body)) for n, p in scene.points.items()},
+        bodies={b: body_groups(gs) for b, gs in scene.bodies.items()},
+        interfaces={n: sides(spec) for n, spec in scene.interfaces.items()},
+        outputs=dataclasses.replace(out, reaction_frames=frames),
+    )
 
 
 def is_classic(scene: FEScene) -> bool:
-    """A two-body scene on a builder's mesh: the bodies are ``master`` and ``slave``."""
+    """A two-body scene on a builder's mesh: the bodies are ``primary`` and ``secondary``."""
     return (
         scene.mesh.builder is not None
         and not scene.bodies
@@ -153,13 +226,14 @@ def check_topology(scene: FEScene) -> None:
             "(scene.interfaces.<name>.initial_gap, .regions)"
         )
     _check_materials(scene, known)
-    allowed = ("master", "slave") if is_classic(scene) else None
+    allowed = ("primary", "secondary") if is_classic(scene) else None
     for name, pt in scene.points.items():
         if pt.body is None:
             continue
         if allowed is not None and pt.body not in allowed:
             raise SceneError(
-                f"scene.points.{name}.body: must be 'master', 'slave' or null, got {pt.body!r}"
+                f"scene.points.{name}.body: must be 'primary', 'secondary' (or their aliases "
+                f"'master', 'slave') or null, got {pt.body!r}"
             )
         if scene.bodies and pt.body not in known:
             raise SceneError(
@@ -173,17 +247,19 @@ def _check_materials(scene: FEScene, known: set[str]) -> None:
         parse_material(mat, f"scene.materials.{name}")
     check_materials_fit(scene)
     if is_classic(scene):
-        for body in ("master", "slave"):
+        for body in ("primary", "secondary"):
             if body not in scene.materials:
-                raise SceneError(f"scene.materials: missing key '{body}'")
-        extra = sorted(set(scene.materials) - {"master", "slave"})
+                alias = {"primary": "master", "secondary": "slave"}[body]
+                raise SceneError(f"scene.materials: missing key '{body}' (or its alias '{alias}')")
+        extra = sorted(set(scene.materials) - {"primary", "secondary"})
         if extra:
             raise SceneError(
-                f"scene.materials: unknown key(s) {extra}; allowed: ['master', 'slave']"
+                f"scene.materials: unknown key(s) {extra}; allowed: ['primary', 'secondary'] "
+                "(or their aliases 'master', 'slave')"
             )
         return
     if scene.bodies:
-        extra = sorted(set(scene.materials) - known - {"master", "slave"})
+        extra = sorted(set(scene.materials) - known - {"primary", "secondary"})
         if extra:
             raise SceneError(
                 f"scene.materials: {extra} are neither bodies of scene.bodies nor their cell "
@@ -195,10 +271,10 @@ def _check_materials(scene: FEScene, known: set[str]) -> None:
 def _every_body_has_a_material(scene: FEScene) -> None:
     """Each body of ``scene.bodies`` has a material.
 
-    Its own, one for each of its cell groups, or ``master``/``slave`` where it is the first
+    Its own, one for each of its cell groups, or ``primary``/``secondary`` where it is the first
     interface's primary/secondary side. Checked before the mesh is read where the scene tells
-    it (the first interface's sides given, or no ``master``/``slave`` key); otherwise once the
-    mesh is read.
+    it (the first interface's sides given, or no ``primary``/``secondary`` key); otherwise once
+    the mesh is read.
 
     Raises:
         SceneError: Naming the body without a material.
@@ -207,19 +283,22 @@ def _every_body_has_a_material(scene: FEScene) -> None:
     by_role: dict[str, str] = {}
     if scene.interfaces:
         p, q = next(iter(scene.interfaces.values())).sides
-        if p is None and ({"master", "slave"} & set(mats)):
-            return  # which body master/slave name is the mesh's to tell
+        if p is None and ({"primary", "secondary"} & set(mats)):
+            return  # which body primary/secondary name is the mesh's to tell
         owner = {
             g: b for b, gs in scene.bodies.items() for g in ([gs] if isinstance(gs, str) else gs)
         }
-        by_role = {"master": owner.get(p or "", p or ""), "slave": owner.get(q or "", q or "")}
-    elif {"master", "slave"} & set(mats):
+        by_role = {
+            "primary": owner.get(p or "", p or ""),
+            "secondary": owner.get(q or "", q or ""),
+        }
+    elif {"primary", "secondary"} & set(mats):
         return
     for body, groups in scene.bodies.items():
         groups = [groups] if isinstance(groups, str) else list(groups)
         if body in mats or all(g in mats for g in groups):
             continue
-        if any(by_role.get(role) == body for role in ("master", "slave") if role in mats):
+        if any(by_role.get(role) == body for role in ("primary", "secondary") if role in mats):
             continue
         raise SceneError(
             f"scene.materials: no material for the body {body!r} (give one for it, or for each "

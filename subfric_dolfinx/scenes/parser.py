@@ -23,7 +23,7 @@ from ..driver.case import read_json
 from ..loading import LoadingError, LoadingProgram
 from ..values import NotAnInteger, short_repr, strict_int, typed_repr
 from .interface_spec import gap_function, parse_initial_gap, parse_regions
-from .parse_bodies import check_topology, interface_laws
+from .parse_bodies import check_topology, interface_laws, resolve_aliases
 from .parse_features import check_features
 from .schema import (
     BUILDER_GDIM,
@@ -246,7 +246,7 @@ def parse_scene(obj: dict[str, Any] | FEScene | PointScene) -> FEScene | PointSc
                 raise SceneError(f"scene.cases.{name}: {e}") from None
         object.__setattr__(scene, "model", cases)  # (frozen: set once, here, as it is made)
         return scene
-    scene = from_dict(FEScene, obj, "scene")
+    scene = resolve_aliases(from_dict(FEScene, obj, "scene"))
     check_name(scene.name, "scene.name")
     _check_mesh(scene.mesh)
     _choice("scene.degree", scene.degree, (1, 2))

@@ -16,7 +16,7 @@ Example (the skeleton of the main demo)::
         "kind": "fe", "name": "block",
         "mesh": {"builder": "block_on_base", "options": {"n_interface": 16}},
         "law": {"params": {"preset": "sec7"}},
-        "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 2.1e5, "nu": 0.3}},
+        "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 2.1e5, "nu": 0.3}},
         "program": {"times": [0, 1, 2], "channels": {"press": [0, 1, 1], "slide": [0, 0, 1]}},
         "dirichlet": [{"group": "bottom", "value": [0, 0]},
                       {"group": "top", "component": 0, "value": 0.5, "amplitude": "slide"}],

@@ -78,9 +78,9 @@ class MeshSpec:
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
         partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
-        names: The classic layout's roles (``master``, ``slave``, ``interface``; or
-            ``primary``, ``secondary``) -> the file's own group names, e.g.
-            ``{"master": "base", "slave": "block", "interface": "contact"}``.
+        names: The classic layout's roles (``primary``, ``secondary``, ``interface``; or the
+            input aliases ``master``, ``slave``) -> the file's own group names, e.g.
+            ``{"primary": "base", "secondary": "block", "interface": "contact"}``.
     """
 
     builder: str | None = None
@@ -268,11 +268,11 @@ class InterfaceSpec:
     """One interface of a scene (a facet group of the mesh with duplicated nodes).
 
     Attributes:
-        primary: The body whose outward normal defines the interface frame (``master`` is
-            accepted as its other name); ``None``: the body the mesh gives.
-        secondary: The other body (``slave``).
-        master: Same as ``primary``.
-        slave: Same as ``secondary``.
+        primary: The body whose outward normal defines the interface frame; ``None``: the body
+            the mesh gives.
+        secondary: The other body.
+        master: Same as ``primary`` (an input alias, read as ``primary``).
+        slave: Same as ``secondary`` (an input alias, read as ``secondary``).
         law: Its friction law (``{"law": ..., "params": ...}``); ``None``: the scene's ``law``.
         initial_gap: Its initial gap (as the scene's ``initial_gap``).
         regions: Its regions (as the scene's ``regions``).
@@ -293,8 +293,10 @@ class InterfaceSpec:
 
     primary: str | None = None
     secondary: str | None = None
-    master: str | None = None
-    slave: str | None = None
+    # input aliases, resolved into primary/secondary when the scene is read: left out of a
+    # restart's settings (an older checkpoint's are read through the aliases)
+    master: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
+    slave: str | None = dataclasses.field(default=None, metadata={"omit_if_none": True})
     law: Any = None
     initial_gap: Any = None
     regions: dict[str, Any] = dataclasses.field(default_factory=dict)
@@ -360,7 +362,7 @@ class SceneModel:
 class FEScene:
     """A finite-element scene: bodies and frictional interfaces.
 
-    The classic scene has two bodies, ``master`` and ``slave``, and one ``interface`` with the
+    The classic scene has two bodies, ``primary`` and ``secondary``, and one ``interface`` with the
     scene's ``law``, ``initial_gap`` and ``regions``. ``bodies`` names bodies made of cell groups
     (e.g. ``{"bolt": ["head", "shank"]}``), ``interfaces`` the interfaces one by one, each with
     its own sides and law (:class:`InterfaceSpec`); ``materials`` are keyed by body or cell group.

@@ -152,12 +152,14 @@ def test_a_form_in_the_users_own_functions_of_another_space_is_refused(base):
 
 def nan_residual(u, v, ctx):
     """Elasticity plus a term that is NaN everywhere in a body (the root of a negative)."""
-    return user_elasticity(u, v, ctx) + ufl.sqrt(-1 - ufl.inner(u, u)) * v[0] * ctx.measure("slave")
+    return user_elasticity(u, v, ctx) + ufl.sqrt(-1 - ufl.inner(u, u)) * v[0] * ctx.measure(
+        "secondary"
+    )
 
 
 def nan_jacobian(u, v, ctx):
     """Elasticity plus ``|u|``: a finite residual, a Jacobian ``u / |u|`` NaN at ``u = 0``."""
-    return user_elasticity(u, v, ctx) + ufl.sqrt(ufl.inner(u, u)) * v[0] * ctx.measure("slave")
+    return user_elasticity(u, v, ctx) + ufl.sqrt(ufl.inner(u, u)) * v[0] * ctx.measure("secondary")
 
 
 @pytest.mark.parametrize(("form", "what"), [(nan_residual, "residual"), (nan_jacobian, "Jacobian")])

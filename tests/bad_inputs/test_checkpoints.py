@@ -155,8 +155,8 @@ def test_damaged_checkpoints_are_refused_on_every_rank(good, case):
         run_scene(scene(), comm=comm, restart=bad)
 
 
-def _slave_E(s):
-    s["materials"]["slave"]["E"] = 75000.0
+def _secondary_E(s):
+    s["materials"]["secondary"]["E"] = 75000.0
 
 
 def _pressure(s):
@@ -176,7 +176,7 @@ def _slide_channel(s):
 
 
 OTHER_SETTINGS = {
-    "Young's modulus": (_slave_E, "materials.slave.E = 70000.0, this run has 75000.0"),
+    "Young's modulus": (_secondary_E, "materials.secondary.E = 70000.0, this run has 75000.0"),
     "pressure": (_pressure, "loads[0].value = 300.0, this run has 250.0"),
     "slide amplitude": (_slide_value, "dirichlet[1].value = 1.0, this run has 0.8"),
     "boundary value": (_bottom_held, "dirichlet[0].value[1] = 0.0, this run has 0.01"),
@@ -197,7 +197,7 @@ def test_a_restart_with_other_settings_is_refused_naming_the_setting(good, case)
 def supported(**outputs):
     """The scene with a spring, a point force and a point held (issue 23, item 4)."""
     s = scene(**outputs)
-    s["springs"] = [{"group": "slave_left", "stiffness": [2.0, 0.0]}]
+    s["springs"] = [{"group": "secondary_left", "stiffness": [2.0, 0.0]}]
     s["points"] = {"A": {"x": [1.0, 0.75]}, "P": {"x": [0.0, 0.0]}}
     s["point_forces"] = [{"point": "A", "value": [0.0, -1.0], "amplitude": "press"}]
     s["dirichlet"].append({"group": "P", "value": [0.0, 0.0]})
@@ -229,7 +229,7 @@ def _held_moved(s):
 
 MODEL_INPUTS = {
     "spring x1e4": (_stiffer, "springs[0].stiffness[0] = 2.0, this run has 20000.0"),
-    "no spring": (lambda s: s.pop("springs"), 'springs = [{"group": "slave_left"'),
+    "no spring": (lambda s: s.pop("springs"), 'springs = [{"group": "secondary_left"'),
     "force x500": (_force, "point_forces[0].value[1] = -1.0, this run has -500.0"),
     "force moved": (_moved, "point_forces[0].at.x[0] = 1.0, this run has 1.2"),
     "no force": (lambda s: s.pop("point_forces"), "point_forces = [{"),

@@ -22,14 +22,14 @@ MESH_CASES = {
         2,
         meshing.InterfaceMeshError,
         # the groups found are listed
-        ["required physical group 'interface' not found", "'master'", "'slave'", "'bottom'"],
+        ["required physical group 'interface' not found", "'primary'", "'secondary'", "'bottom'"],
         None,
     ),
     "sides-count-differ": (
         "broken_mismatch_count.msh",
         2,
         meshing.InterfaceMeshError,
-        ["8 on the 'master' side, 9 on the 'slave' side"],
+        ["8 on the 'primary' side, 9 on the 'secondary' side"],
         None,
     ),
     "3d-mesh-read-as-2d-tet": (
@@ -73,9 +73,9 @@ def test_mesh_without_a_required_boundary_group():
 
 def test_mesh_without_two_required_boundary_groups():
     """Both missing groups are named, the first (in the order required) first."""
-    required = (*meshing.REQUIRED_GROUPS, meshing.MASTER_TOP, meshing.SLAVE_XMIN)
+    required = (*meshing.REQUIRED_GROUPS, meshing.PRIMARY_TOP, meshing.SECONDARY_XMIN)
     with raised_on_every_rank(
-        meshing.InterfaceMeshError, match=r"'slave_xmin' not found.*'master_top'"
+        meshing.InterfaceMeshError, match=r"'secondary_xmin' not found.*'primary_top'"
     ):
         meshing.read_interface_mesh(
             MESH_DIR / "block_on_base_tri.msh", MPI.COMM_WORLD, 2, required=required
@@ -188,7 +188,7 @@ def test_interface_sides_that_do_not_pair_node_to_node():
     """Equal facet counts (the reader accepts it) but nodes at different places."""
     path = MESH_DIR / "broken_mismatch_coords.msh"
     dom = meshing.read_interface_mesh(path, MPI.COMM_WORLD, 2)
-    mats = {"master": Material(2.0e4, 0.3), "slave": Material(2.0e4, 0.3)}
+    mats = {"primary": Material(2.0e4, 0.3), "secondary": Material(2.0e4, 0.3)}
     with raised_on_every_rank(
         InterfaceError, "do not pair node to node", "at [", match=r"do not pair node to node.*at \["
     ):
@@ -226,8 +226,8 @@ def test_bodies_that_share_nodes():
         b = gmsh.model.occ.addRectangle(0, 0.5, 0, 1, 0.5)
         gmsh.model.occ.fragment([(2, a)], [(2, b)])
         gmsh.model.occ.synchronize()
-        gmsh.model.addPhysicalGroup(2, [a], name=meshing.MASTER)
-        gmsh.model.addPhysicalGroup(2, [b], name=meshing.SLAVE)
+        gmsh.model.addPhysicalGroup(2, [a], name=meshing.PRIMARY)
+        gmsh.model.addPhysicalGroup(2, [b], name=meshing.SECONDARY)
         line = [t for _, t in gmsh.model.getEntitiesInBoundingBox(-1, 0.49, -1, 2, 0.51, 1, 1)]
         gmsh.model.addPhysicalGroup(1, line, name=meshing.INTERFACE)
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)

@@ -21,7 +21,7 @@ from subfric_dolfinx.loading import LoadingError, LoadingProgram
 from tests.helpers import MESH_DIR, block_problem, prefix, raised_on_every_rank
 
 PROGRAM = LoadingProgram([0.0, 1.0, 2.0, 3.0], {"press": [0, 1, 1, 1], "slide": [0, 0, 1, -1]})
-MATERIALS = {"master": Material(2.0e4, 0.3), "slave": Material(2.0e4, 0.3)}
+MATERIALS = {"primary": Material(2.0e4, 0.3), "secondary": Material(2.0e4, 0.3)}
 
 
 @pytest.fixture(scope="module")

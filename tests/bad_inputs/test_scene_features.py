@@ -17,8 +17,8 @@ from tests.helpers import LAW, PROGRAM, prefix, raised_on_every_rank, small_scen
 
 def scene():
     s = copy.deepcopy(small_scene())
-    s["springs"] = [{"group": "slave_left", "stiffness": [2.0, 0.0]}]
-    s["points"] = {"A": {"x": [1.0, 0.75]}, "C": {"x": [1.0, 0.5], "body": "slave"}}
+    s["springs"] = [{"group": "secondary_left", "stiffness": [2.0, 0.0]}]
+    s["points"] = {"A": {"x": [1.0, 0.75]}, "C": {"x": [1.0, 0.5], "body": "secondary"}}
     s["point_forces"] = [{"point": "A", "value": [0.0, -1.0], "amplitude": "press"}]
     s["outputs"] = {
         "probes": [{"point": "A", "fields": ["u", "von_mises"]}, {"point": "C", "fields": ["mu"]}],
@@ -68,7 +68,8 @@ def test_the_reference_scene_is_valid():
         (lambda s: s["points"]["A"].update(x=[1.0]), r"scene.points.A.x: expected a list of 2"),
         (
             lambda s: s["points"]["A"].update(body="base"),
-            r"scene.points.A.body: must be 'master', 'slave' or null, got 'base'",
+            r"scene.points.A.body: must be 'primary', 'secondary' \(or their aliases 'master', "
+            r"'slave'\) or null, got 'base'",
         ),
         (
             lambda s: s["points"].update({"a b": {"x": [0, 0]}}),
@@ -155,7 +156,7 @@ def test_a_probe_outside_its_body_is_named():
     """A point the scene probes in the block that is in the base: named with its coordinates."""
     s = scene()
     s["solver"]["prefix"] = prefix("outside")
-    s["points"]["C"] = {"x": [0.2, 0.2], "body": "slave"}
+    s["points"]["C"] = {"x": [0.2, 0.2], "body": "secondary"}
     s["outputs"]["probes"] = [{"point": "C", "fields": ["u"]}]
     with raised_on_every_rank(InterfaceError, "point 'C' at (0.2, 0.2) is in no cell of the body"):
         run_scene(s)
@@ -175,8 +176,10 @@ def test_a_point_force_or_a_held_point_outside_its_body_is_named():
         InterfaceError, "point force at 'A' (26.0, 0.75): (26.0, 0.75) is 24 away from the mesh"
     ):
         run_scene(s)
-    s["points"]["A"] = {"x": [0.2, 0.2], "body": "slave"}
-    with raised_on_every_rank(InterfaceError, "(0.2, 0.2) is 0.4243 away from the body 'slave'"):
+    s["points"]["A"] = {"x": [0.2, 0.2], "body": "secondary"}
+    with raised_on_every_rank(
+        InterfaceError, "(0.2, 0.2) is 0.4243 away from the body 'secondary'"
+    ):
         run_scene(s)
     s = scene()
     s["solver"]["prefix"] = prefix("held_outside")
@@ -189,7 +192,7 @@ def test_a_point_force_or_a_held_point_outside_its_body_is_named():
         run_scene(s)
     comm = MPI.COMM_WORLD
     dom, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=4)
-    mats = {"master": Material(2e4, 0.3), "slave": Material(2e4, 0.3)}
+    mats = {"primary": Material(2e4, 0.3), "secondary": Material(2e4, 0.3)}
     with raised_on_every_rank(InterfaceError, "point force at (-25.0, 0.5): (-25.0, 0.5) is 25 "):
         InterfaceProblem(dom, LAW, mats, PROGRAM, [], [PointForce((-25.0, 0.5), (0.0, 1.0))])
 
@@ -197,13 +200,13 @@ def test_a_point_force_or_a_held_point_outside_its_body_is_named():
 def test_a_node_group_not_at_a_vertex_and_a_spring_on_nodes_are_named():
     comm = MPI.COMM_WORLD
     dom, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=4)
-    dom.add_node_group("off", [[1.01, 0.8]], "slave")
-    dom.add_node_group("pin", [[0.5, 1.0]], "slave")
-    mats = {"master": Material(2e4, 0.3), "slave": Material(2e4, 0.3)}
+    dom.add_node_group("off", [[1.01, 0.8]], "secondary")
+    dom.add_node_group("pin", [[0.5, 1.0]], "secondary")
+    mats = {"primary": Material(2e4, 0.3), "secondary": Material(2e4, 0.3)}
     from subfric_dolfinx.fem import Dirichlet
 
     with raised_on_every_rank(
-        meshing.InterfaceMeshError, "node group 'off': no mesh vertex of the body 'slave'"
+        meshing.InterfaceMeshError, "node group 'off': no mesh vertex of the body 'secondary'"
     ):
         InterfaceProblem(dom, LAW, mats, PROGRAM, [Dirichlet("off", (0.0, 0.0))])
     with raised_on_every_rank(InterfaceError, "Spring condition on 'pin': a group of nodes"):

@@ -30,7 +30,10 @@ from tests.helpers import everywhere, on_root, prefix, raised_on_every_rank, sma
         ),
         (lambda s: s["dirichlet"][1].update(componnt=0), r"scene.dirichlet\[1\]: unknown key"),
         (lambda s: s["loads"][0].update(type="suction"), r"scene.loads\[0\].type: must be one of"),
-        (lambda s: s["materials"]["slave"].update(G=1.0), r"scene.materials.slave: keys must be"),
+        (
+            lambda s: s["materials"]["secondary"].update(G=1.0),
+            r"scene.materials.secondary: keys must be",
+        ),
         (lambda s: s["law"]["params"].update(kappa=-1.0), r"scene.law: .*kappa"),
         (
             lambda s: s["program"]["times"].__setitem__(2, 0.5),
@@ -84,8 +87,8 @@ from tests.helpers import everywhere, on_root, prefix, raised_on_every_rank, sma
             r"scene.mesh.options.n_interface: number out of range",
         ),
         (
-            lambda s: s["materials"]["master"].update(E=10**400),
-            r"scene.materials.master.E: expected a finite number",
+            lambda s: s["materials"]["primary"].update(E=10**400),
+            r"scene.materials.primary.E: expected a finite number",
         ),
         (
             lambda s: s["solver"].update(options={"snes_rtol": [1e-8, 1e-9]}),
@@ -155,16 +158,17 @@ from tests.helpers import everywhere, on_root, prefix, raised_on_every_rank, sma
             r"scene.loads\[1\].value: expected a list of 2 traction components",
         ),
         (
-            lambda s: s["materials"]["slave"].update(E=-1.0),
-            r"scene.materials.slave: parameter E = -1.0 is out of range; allowed: E > 0",
+            lambda s: s["materials"]["secondary"].update(E=-1.0),
+            r"scene.materials.secondary: parameter E = -1.0 is out of range; allowed: E > 0",
         ),
         (
-            lambda s: s["materials"]["master"].update(nu=0.6),
-            r"scene.materials.master: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
+            lambda s: s["materials"]["primary"].update(nu=0.6),
+            r"scene.materials.primary: parameter nu = 0.6 is out of range; allowed: -1 < nu < 0.5",
         ),
         (
-            lambda s: s["materials"]["slave"].update(nu=-1.0),
-            r"scene.materials.slave: parameter nu = -1.0 is out of range; allowed: -1 < nu < 0.5",
+            lambda s: s["materials"]["secondary"].update(nu=-1.0),
+            r"scene.materials.secondary: parameter nu = -1.0 is out of range; "
+            r"allowed: -1 < nu < 0.5",
         ),
         # issue 22: an interface's kind and the settings of finite sliding
         (
@@ -236,7 +240,7 @@ def test_a_negative_poisson_ratio_is_a_material_like_any_other(shared_tmp):
     after the mesh was built). The block is pressed: the interface carries the pressure times
     the 1 mm width."""
     s = copy.deepcopy(small_scene(short=True))
-    s["materials"]["slave"]["nu"] = -0.2
+    s["materials"]["secondary"]["nu"] = -0.2
     s["program"] = {"times": [0, 1], "channels": {"press": [0, 1], "slide": [0, 0]}}
     s["solver"]["prefix"] = prefix("nu")
     run = run_scene(s, outdir=shared_tmp, comm=MPI.COMM_WORLD)
@@ -323,8 +327,8 @@ def test_a_load_or_spring_on_a_cell_group_says_so():
     later as a step that does not converge (a Dirichlet condition on a cell group is a feature:
     every dof of the body is held, ``tests/fem/test_loads_constraints.py``)."""
     for key, entry in (
-        ("loads", {"type": "pressure", "group": "master", "value": 1.0}),
-        ("springs", {"group": "slave", "stiffness": 1.0}),
+        ("loads", {"type": "pressure", "group": "primary", "value": 1.0}),
+        ("springs", {"group": "secondary", "stiffness": 1.0}),
     ):
         s = small_scene()
         s["solver"]["prefix"] = prefix("cells")

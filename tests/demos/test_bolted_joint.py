@@ -38,12 +38,12 @@ COMPARED = [
     "f_n",
     "plastic",
     "separated",
-    "R_master_xmin_x",
-    "R_master_xmin_y",
-    "R_master_xmin_z",
-    "R_slave_xmax_x",
-    "R_slave_xmax_y",
-    "R_slave_xmax_z",
+    "R_primary_xmin_x",
+    "R_primary_xmin_y",
+    "R_primary_xmin_z",
+    "R_secondary_xmax_x",
+    "R_secondary_xmax_y",
+    "R_secondary_xmax_z",
 ]
 
 
@@ -69,11 +69,11 @@ def test_the_builder_makes_two_plates_joined_over_the_overlap_minus_the_hole():
     )
     assert info.h == pytest.approx(g["width"] / N)
     assert set(dom.tags) == {
-        "master",
-        "slave",
+        "primary",
+        "secondary",
         "interface",
-        "master_xmin",
-        "slave_xmax",
+        "primary_xmin",
+        "secondary_xmax",
         "bolt_head",
         "bolt_nut",
     }
@@ -88,12 +88,12 @@ def test_the_builder_makes_two_plates_joined_over_the_overlap_minus_the_hole():
         return comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * measure)))
 
     # the two sides of the interface: the same area, the overlap minus the (polygonal) hole
-    m, s = integral(ds(dom.tag("master"))), integral(ds(dom.tag("slave")))
+    m, s = integral(ds(dom.tag("primary"))), integral(ds(dom.tag("secondary")))
     assert m == pytest.approx(s, rel=1e-12)
     hole = np.pi * g["hole_radius"] ** 2
     assert c * W - hole < m < c * W - 0.9 * hole
     # each plate: its box minus the hole
-    for body in ("master", "slave"):
+    for body in ("primary", "secondary"):
         v = integral(dx(dom.tag(body)))
         assert L * W * t - hole * t < v < L * W * t - 0.9 * hole * t
     assert group_area(comm, "bolt_head") == pytest.approx(group_area(comm, "bolt_nut"), rel=1e-3)
@@ -117,10 +117,10 @@ def test_bolted_joint_clamps_saturates_and_is_the_same_on_every_rank(shared_tmp)
     assert 0.05 < h[-1]["separated"] < 0.6  # the pressure cone: the overlap's corners open
 
     # shear force: the interface's tangential resultant, returned by the lower plate's clamp
-    R = column(h, "R_slave_xmax_x")
+    R = column(h, "R_secondary_xmax_x")
     scale = np.abs(R).max()
     np.testing.assert_allclose(column(h, "F_t1"), R, rtol=0, atol=1e-6 * scale)
-    np.testing.assert_allclose(column(h, "R_master_xmin_x"), -R, rtol=0, atol=1e-6 * scale)
+    np.testing.assert_allclose(column(h, "R_primary_xmin_x"), -R, rtol=0, atol=1e-6 * scale)
     # below mu_s A g(F_b / A) always (with the applied load), above the kinetic strength at the
     # first stroke's peak: the joint slipped as a whole
     law = PRESETS["sec7"].law

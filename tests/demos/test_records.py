@@ -109,6 +109,21 @@ size and pressure against Hertz at the end (``hertz``), are re-checked: each to 
 as 4e-4, to 2e-5)."""
 
 
+OLDER_NAMES = re.compile(r"^([RS])_(master|slave)(?=_)")
+"""A reaction's or spring's column of a built-in mesh's group under its older name
+(``R_master_xmin_x``, ``S_slave_left_x``): records made before the groups were renamed
+(``primary``/``secondary``) are read through the alias, as the reader and the scenes read the
+older names: a record stands until its demo changes."""
+
+
+def today(key: Any) -> Any:
+    """A recorded column's name today (:data:`OLDER_NAMES`)."""
+    if not isinstance(key, str):
+        return key
+    new = {"master": "primary", "slave": "secondary"}
+    return OLDER_NAMES.sub(lambda m: f"{m.group(1)}_{new[m.group(2)]}", key)
+
+
 def differences(
     record: Any, now: Any, scale: float, path: str = "", tol: Tolerance = DEFAULT
 ) -> list[str]:
@@ -124,6 +139,7 @@ def differences(
     if isinstance(record, dict):
         if not isinstance(now, dict):
             return [f"{path}: recorded a mapping, now {type(now).__name__}"]
+        record = {today(k): v for k, v in record.items()}
         out = []
         for k in sorted(set(record) | set(now)):
             where = f"{path}.{k}" if path else str(k)

@@ -13,7 +13,7 @@ from demos import user_loop
 from tests.helpers import everywhere
 
 
-@pytest.mark.parametrize("push", ["top", "slave_left"])
+@pytest.mark.parametrize("push", ["top", "secondary_left"])
 def test_dolfinx_newton_and_a_hand_written_loop_give_the_solvers_history(comm, push):
     mine = user_loop.run(comm, 8, 0.1, push)
     ref = user_loop.reference(comm, 8, 0.1, push)

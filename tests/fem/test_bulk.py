@@ -59,7 +59,7 @@ def test_every_mode_against_uniaxial_stress(comm, mode):
     problem = InterfaceProblem(
         dom,
         STICK,
-        {"master": Material(E, NU), "slave": Material(E, NU)},
+        {"primary": Material(E, NU), "secondary": Material(E, NU)},
         RAMP,
         bcs,
         [Pressure("top", P, amplitude="press")],
@@ -71,7 +71,7 @@ def test_every_mode_against_uniaxial_stress(comm, mode):
     gdim = problem.gdim
     n = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:n]
-    upper_cells = dom.body_cells("slave")
+    upper_cells = dom.body_cells("secondary")
     upper = np.zeros(n, dtype=bool)
     owned = V.dofmap.list[upper_cells].ravel()
     upper[owned[owned < n]] = True
@@ -101,7 +101,7 @@ def history(problem, steps_to=None):
 def user_elasticity(u, v, ctx):
     """Plane-strain elasticity of the block problem's two bodies, as a user writes it."""
     out = 0
-    for body, (E_, nu) in {"master": (2.1e5, 0.3), "slave": (7.0e4, 0.33)}.items():
+    for body, (E_, nu) in {"primary": (2.1e5, 0.3), "secondary": (7.0e4, 0.33)}.items():
         lam, mu = E_ * nu / ((1 + nu) * (1 - 2 * nu)), E_ / (2 * (1 + nu))
         eps = ufl.sym(ufl.grad(u))
         sig = 2 * mu * eps + lam * ufl.tr(eps) * ufl.Identity(2)
@@ -206,7 +206,7 @@ def by_cell(problem, values):
 def test_a_bulk_with_state_is_updated_committed_reverted_and_checkpointed(comm, shared_tmp):
     import dolfinx
 
-    bulk = MaxStrain({"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)})
+    bulk = MaxStrain({"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)})
     problem = with_bulk(comm, bulk)
     V0 = bulk.old.function_space
     probe = dolfinx.fem.Function(V0)

@@ -29,7 +29,7 @@ def pressed_block(comm, n):
         meshing.build_block_on_base, comm, n_interface=n, cell_type="triangle"
     )
     program = LoadingProgram([0.0, 1.0, 2.0], {"press": [0, 1, 1 + TINY], "slide": [0, 0, 0]})
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
     bcs = [Dirichlet("bottom", [0.0, 0.0]), Dirichlet("top", 1.0, component=0, amplitude="slide")]
     loads = [Pressure("top", 300.0, "press")]
     return InterfaceProblem(dom, preset("sec7"), mats, program, bcs, loads)

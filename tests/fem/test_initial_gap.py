@@ -37,7 +37,7 @@ def scene(gap, name="gap", **outputs):
         "name": name,
         "mesh": {"builder": "block_on_base", "options": {"n_interface": 8}},
         "law": {"law": "coulomb", "params": {"alpha_t": ALPHA, "alpha_n": ALPHA, "mu_c": 0.3}},
-        "materials": {"master": {"E": 1e8, "nu": 0.3}, "slave": {"E": 1e8, "nu": 0.3}},
+        "materials": {"primary": {"E": 1e8, "nu": 0.3}, "secondary": {"E": 1e8, "nu": 0.3}},
         "program": {"times": [0, 1], "channels": {"press": [0, 1]}},
         "dirichlet": [
             {"group": "bottom", "value": [0, 0]},

@@ -58,7 +58,7 @@ def exact(x: np.ndarray, upper: np.ndarray, sigma: float, eps_p: float, gdim: in
 @pytest.mark.parametrize("mode", ["axisymmetric", "3d"])
 def test_j2_bodies_in_a_problem_against_the_uniaxial_closed_form(comm, mode):
     dom, bcs = column(mode, comm)
-    bulk = J2Bulk({"master": MAT, "slave": MAT})
+    bulk = J2Bulk({"primary": MAT, "secondary": MAT})
     problem = InterfaceProblem(
         dom,
         STICK,
@@ -72,7 +72,7 @@ def test_j2_bodies_in_a_problem_against_the_uniaxial_closed_form(comm, mode):
     n = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:n]
     upper = np.zeros(n, dtype=bool)
-    owned = V.dofmap.list[dom.body_cells("slave")].ravel()
+    owned = V.dofmap.list[dom.body_cells("secondary")].ravel()
     upper[owned[owned < n]] = True
     area = np.pi if mode == "axisymmetric" else 1.0
     worst = {"u": 0.0, "p": 0.0, "F_n": 0.0}
@@ -124,9 +124,9 @@ def column_scene(**outputs):
         },
         "mode": "axisymmetric",
         "law": {"law": "coulomb", "params": {"alpha_t": ALPHA, "alpha_n": ALPHA, "mu_c": 0.5}},
-        "materials": {"master": j2_entry(), "slave": j2_entry()},
+        "materials": {"primary": j2_entry(), "secondary": j2_entry()},
         "program": {"times": [0, 1, 2, 3], "channels": {"press": [0.0, 1.0, 0.85, 1.3]}},
-        "points": {"pin": {"x": [0.0, 0.0], "body": "master"}},
+        "points": {"pin": {"x": [0.0, 0.0], "body": "primary"}},
         "dirichlet": [
             {"group": "bottom", "component": 1, "value": 0.0},
             {"group": "pin", "component": 0, "value": 0.0},
@@ -177,10 +177,10 @@ def test_a_j2_scene_against_the_closed_form_and_its_restart(comm, shared_tmp):
 
 
 def test_a_j2_block_on_an_elastic_base_in_a_scene(comm, shared_tmp):
-    """The block (``slave``) J2, the base elastic (no ``model``): pressed beyond yield, the
+    """The block (``secondary``) J2, the base elastic (no ``model``): pressed beyond yield, the
     vertical reaction is the applied pressure's resultant, plastic points in the block only."""
     s = column_scene()
-    s["materials"]["master"] = {"E": E, "nu": NU}
+    s["materials"]["primary"] = {"E": E, "nu": NU}
     s["mode"] = "plane_strain"
     s["program"] = {"times": [0, 1], "channels": {"press": [0.0, 1.0]}}
     s["dirichlet"] = s["dirichlet"][:2]
@@ -193,7 +193,7 @@ def test_a_j2_block_on_an_elastic_base_in_a_scene(comm, shared_tmp):
     bulk = problem.bulk
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 0.25).run()
-    block = np.unique(problem.domain.body_cells("slave"))
+    block = np.unique(problem.domain.body_cells("secondary"))
     xs = bulk.points
     in_block = xs[:, 1] > 0.5 - 1e-12  # the base is 0.5 high
     p = bulk.at_points("p")
@@ -211,28 +211,28 @@ def test_a_j2_block_on_an_elastic_base_in_a_scene(comm, shared_tmp):
     "change, message",
     [
         (
-            lambda s: s["materials"]["slave"].update(model="j3"),
-            r"scene.materials.slave.model: must be one of \['elastic', 'j2'\], got 'j3'",
+            lambda s: s["materials"]["secondary"].update(model="j3"),
+            r"scene.materials.secondary.model: must be one of \['elastic', 'j2'\], got 'j3'",
         ),
         (
-            lambda s: s["materials"]["slave"].pop("sigma_y"),
-            r"scene.materials.slave: keys must be \['E', 'model', 'nu', 'sigma_y'\]",
+            lambda s: s["materials"]["secondary"].pop("sigma_y"),
+            r"scene.materials.secondary: keys must be \['E', 'model', 'nu', 'sigma_y'\]",
         ),
         (
-            lambda s: s["materials"]["slave"].update(sigma_y=-5.0),
-            r"scene.materials.slave: parameter sigma_y = -5.0 is out of range",
+            lambda s: s["materials"]["secondary"].update(sigma_y=-5.0),
+            r"scene.materials.secondary: parameter sigma_y = -5.0 is out of range",
         ),
         (
-            lambda s: s["materials"]["slave"].update(H_kin="hard"),
-            r"scene.materials.slave.H_kin: expected a number, got 'hard'",
+            lambda s: s["materials"]["secondary"].update(H_kin="hard"),
+            r"scene.materials.secondary.H_kin: expected a number, got 'hard'",
         ),
         (
-            lambda s: s["materials"]["master"].update(sigma_y=1.0, model="elastic"),
-            r"scene.materials.master: keys must be \['E', 'nu'\] \(optional: \['model'\]\)",
+            lambda s: s["materials"]["primary"].update(sigma_y=1.0, model="elastic"),
+            r"scene.materials.primary: keys must be \['E', 'nu'\] \(optional: \['model'\]\)",
         ),
         (
             lambda s: s.update(mode="plane_stress"),
-            r"scene.mode: J2 plasticity \(scene.materials \['master', 'slave'\]\)",
+            r"scene.mode: J2 plasticity \(scene.materials \['primary', 'secondary'\]\)",
         ),
         (
             lambda s: s["outputs"].update(stress=True),

@@ -64,7 +64,7 @@ def pad_problem(comm, n=4):
         Dirichlet("top", 1.0, component=0, amplitude="slide"),
         Dirichlet("top", 0.0, component=1),
     ]
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
     return InterfaceProblem(
         dom, preset("sec7"), mats, program, bcs, [Pressure("top", 300.0, "press")]
     )

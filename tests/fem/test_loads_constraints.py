@@ -25,7 +25,7 @@ from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import LAW, SEC7_PENALTY, everywhere, prefix, small_scene
 
-MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 PROGRAM = LoadingProgram([0, 1, 2, 3], {"press": [0, 1, 1, 1], "shear": [0, 0, 1, -1]})
 
 
@@ -117,7 +117,7 @@ def test_a_point_force_is_applied_once_and_equals_the_reaction():
         [Dirichlet("bottom", (0.0, 0.0))],
         [
             PointForce(x1[:2], F1, amplitude="f"),
-            PointForce((0.93, 0.871), F2, amplitude="f", body="slave"),
+            PointForce((0.93, 0.871), F2, amplitude="f", body="secondary"),
         ],
     )
     # each load vector's norm, a reduction, is the force's on every rank: the ranks without the
@@ -138,7 +138,7 @@ def test_a_dirichlet_condition_on_a_cell_group_holds_every_dof_of_the_body():
     interface's resultant."""
     comm = MPI.COMM_WORLD
     results = {}
-    for group in ("master", "bottom"):
+    for group in ("primary", "bottom"):
         prob = InterfaceProblem(
             block(comm),
             LAW,
@@ -147,17 +147,17 @@ def test_a_dirichlet_condition_on_a_cell_group_holds_every_dof_of_the_body():
             [Dirichlet(group, (0.0, 0.0))],
             [
                 Pressure("top", 300.0, amplitude="press"),
-                Traction("slave_left", (40.0, 0.0), "shear"),
+                Traction("secondary_left", (40.0, 0.0), "shear"),
             ],
         )
         run(prob, f"cells_{group}")
-        u = prob.u.x.array.reshape(-1, 2)[body_dofs(prob, "master")]
+        u = prob.u.x.array.reshape(-1, 2)[body_dofs(prob, "primary")]
         results[group] = (
             np.abs(u).max(initial=0.0),
             prob.reactions[group],
             interface_summary(prob),
         )
-    umax, r, s = results["master"]
+    umax, r, s = results["primary"]
     assert everywhere(comm, umax == 0.0)
     assert comm.allreduce(results["bottom"][0], op=MPI.MAX) > 1e-4  # held at the bottom, it moves
     assert r[1] == pytest.approx(s["F_n"], rel=1e-9)
@@ -189,8 +189,8 @@ def test_dirichlet_conditions_on_gmsh_physical_points():
     found at its vertex, in its body only (the other copy of ``ipin`` moves)."""
     comm = MPI.COMM_WORLD
     dom = block(comm, with_points)
-    assert dom.node_groups["pin"].bodies == ("slave",)
-    assert dom.node_groups["ipin"].bodies == ("master",)
+    assert dom.node_groups["pin"].bodies == ("secondary",)
+    assert dom.node_groups["ipin"].bodies == ("primary",)
     program = LoadingProgram([0, 1], {"p": [0, 1]})
     prob = InterfaceProblem(
         dom,
@@ -205,9 +205,9 @@ def test_dirichlet_conditions_on_gmsh_physical_points():
         [Pressure("top", 200.0, amplitude="p")],
     )
     run(prob, "pins", dt=0.5)
-    assert vertex_value(prob, (0.5, 1.0), "slave")[0] == 0.01
-    assert np.all(vertex_value(prob, (0.5, 0.5), "master") == 0.0)
-    assert np.abs(vertex_value(prob, (0.5, 0.5), "slave")).max() > 1e-5
+    assert vertex_value(prob, (0.5, 1.0), "secondary")[0] == 0.01
+    assert np.all(vertex_value(prob, (0.5, 0.5), "primary") == 0.0)
+    assert np.abs(vertex_value(prob, (0.5, 0.5), "secondary")).max() > 1e-5
     assert prob.reactions["pin"][1] == 0.0 and abs(prob.reactions["pin"][0]) > 0.1
 
 
@@ -219,10 +219,10 @@ def test_a_scene_with_general_loads_and_constraints():
     s["solver"]["prefix"] = prefix("scene_loads")
     s["program"] = {"times": [0, 1], "channels": {"press": [0, 1], "slide": [0, 1]}}
     s["dirichlet"] = [
-        {"group": "master", "value": [0.0, 0.0]},
+        {"group": "primary", "value": [0.0, 0.0]},
         {"group": "corner", "component": 0, "value": 0.0},
     ]
-    s["points"] = {"corner": {"x": [1.02, 1.01], "body": "slave"}, "A": {"x": [1.3, 0.8]}}
+    s["points"] = {"corner": {"x": [1.02, 1.01], "body": "secondary"}, "A": {"x": [1.3, 0.8]}}
     s["loads"] = [
         {"type": "traction", "group": "top", "value": [0.0, -100.0], "amplitude": [None, "press"]}
     ]
@@ -230,6 +230,6 @@ def test_a_scene_with_general_loads_and_constraints():
     res = run_scene(s, comm=MPI.COMM_WORLD)
     row = res.history[-1]
     width = 1.0
-    assert row["R_master_y"] + row["R_corner_y"] == pytest.approx(100.0 * width + 10.0, rel=1e-9)
-    assert row["R_master_x"] + row["R_corner_x"] == pytest.approx(-2.0, rel=1e-9, abs=1e-9)
+    assert row["R_primary_y"] + row["R_corner_y"] == pytest.approx(100.0 * width + 10.0, rel=1e-9)
+    assert row["R_primary_x"] + row["R_corner_x"] == pytest.approx(-2.0, rel=1e-9, abs=1e-9)
     assert row["R_corner_y"] == 0.0  # only component 0 is held there

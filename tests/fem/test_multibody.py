@@ -177,7 +177,7 @@ def renamed_block(**kw):
     import gmsh
 
     info = meshing.build_block_on_base(n_interface=8, **kw)
-    rename = {"master": "base", "slave": "block", "interface": "contact"}
+    rename = {"primary": "base", "secondary": "block", "interface": "contact"}
     for d, t in gmsh.model.getPhysicalGroups():
         name = gmsh.model.getPhysicalName(d, t)
         if name in rename:
@@ -208,14 +208,14 @@ def run_block(dom, materials):
     PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on the 1 mm block"
 )
 def test_user_group_names_read_and_run_as_the_classic_names(comm):
-    names = {"master": "base", "slave": "block", "interface": "contact"}
+    names = {"primary": "base", "secondary": "block", "interface": "contact"}
     dom, _ = meshing.create_interface_mesh(renamed_block, comm, names=names)
     assert dom.interfaces == {"contact": meshing.InterfaceSides("base", "block")}
-    assert "master" not in dom.tags and dom.num_interface_facets == 8
+    assert "primary" not in dom.tags and dom.num_interface_facets == 8
     steel, alu = Material(2.1e5, 0.3), Material(7e4, 0.33)
     mine = run_block(dom, {"base": steel, "block": alu})
     classic, _ = meshing.create_interface_mesh(meshing.build_block_on_base, comm, n_interface=8)
-    ref = run_block(classic, {"master": steel, "slave": alu})
+    ref = run_block(classic, {"primary": steel, "secondary": alu})
     assert everywhere(comm, np.abs(mine - ref).max() <= 1e-12 * np.abs(ref).max()), (mine, ref)
 
 

@@ -15,8 +15,8 @@ from subfric_dolfinx.logs import PenetrationWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import on_root, prefix, small_scene
 
-E = {"master": 2.1e5, "slave": 7.0e4}
-NU = {"master": 0.3, "slave": 0.33}
+E = {"primary": 2.1e5, "secondary": 7.0e4}
+NU = {"primary": 0.3, "secondary": 0.33}
 G = np.array([[1.0e-3, 2.0e-3], [-0.5e-3, -1.5e-3]])  # displacement gradient of both bodies
 D = np.array([0.001, -0.002])  # the block's extra translation: a gap across the interface
 COULOMB = {"law": "coulomb", "params": {"alpha_t": 1e4, "alpha_n": 1e4, "mu_c": 0.3}}
@@ -54,14 +54,19 @@ def affine_scene(degree):
     s["solver"] = {"prefix": prefix("affine"), "dt": 1.0}
     s["loads"] = []
     s["dirichlet"] = [
-        {"group": "master", "value": [0, 0], "gradient": G.ravel().tolist(), "amplitude": "a"},
-        {"group": "slave", "value": D.tolist(), "gradient": G.ravel().tolist(), "amplitude": "a"},
+        {"group": "primary", "value": [0, 0], "gradient": G.ravel().tolist(), "amplitude": "a"},
+        {
+            "group": "secondary",
+            "value": D.tolist(),
+            "gradient": G.ravel().tolist(),
+            "amplitude": "a",
+        },
     ]
     s["points"] = {
         "A": {"x": [1.13, 0.77]},  # inside the block, off the vertices
         "B": {"x": [0.31, 0.22]},  # inside the base
-        "Cs": {"x": [0.9, 0.5], "body": "slave"},  # on the interface, each side
-        "Cm": {"x": [0.9, 0.5], "body": "master"},
+        "Cs": {"x": [0.9, 0.5], "body": "secondary"},  # on the interface, each side
+        "Cm": {"x": [0.9, 0.5], "body": "primary"},
     }
     every = ["u", "sigma", "von_mises"]
     s["outputs"] = {
@@ -86,9 +91,9 @@ def test_probes_of_an_affine_field_and_its_stress(degree):
     |f_t| = mu f_n = 6 MPa (sliding)."""
     res = run_scene(affine_scene(degree), comm=MPI.COMM_WORLD)
     row = res.history[-1]
-    pts = {"A": ([1.13, 0.77], "slave"), "B": ([0.31, 0.22], "master")}
+    pts = {"A": ([1.13, 0.77], "secondary"), "B": ([0.31, 0.22], "primary")}
     for name, (x, body) in pts.items():
-        u = G @ np.array(x) + (D if body == "slave" else 0.0)
+        u = G @ np.array(x) + (D if body == "secondary" else 0.0)
         assert [row[f"{name}.u_x"], row[f"{name}.u_y"]] == pytest.approx(u, rel=1e-12, abs=1e-15)
         sigma = plane_strain_stress(G, E[body], NU[body])
         got = np.array(
@@ -118,15 +123,15 @@ def uniaxial_scene(degree=1, fields=None):
     s["program"] = {"times": [0, 1], "channels": {"press": [0, 1]}}
     s["solver"] = {"prefix": prefix("bar"), "dt": 0.5}
     s["dirichlet"] = [
-        {"group": "master", "value": [0.0, 0.0]},
+        {"group": "primary", "value": [0.0, 0.0]},
         {"group": "mid", "component": 0, "value": 0.0},  # the block's sideways rigid mode
     ]
     s["loads"] = [{"type": "pressure", "group": "top", "value": 120.0, "amplitude": "press"}]
-    s["points"] = {"mid": {"x": [1.0, 1.0], "body": "slave"}, "A": {"x": [1.21, 0.66]}}
+    s["points"] = {"mid": {"x": [1.0, 1.0], "body": "secondary"}, "A": {"x": [1.21, 0.66]}}
     s["outputs"] = {
         "probes": [{"point": "A", "fields": ["sigma", "von_mises"]}],
         "reaction_frames": [
-            {"group": "master", "normal": [0.6, 0.8], "tangent": [0.8, -0.6], "name": "tilted"}
+            {"group": "primary", "normal": [0.6, 0.8], "tangent": [0.8, -0.6], "name": "tilted"}
         ],
     }
     if fields:
@@ -143,7 +148,7 @@ def test_the_stress_of_a_bar_in_uniaxial_compression_is_force_over_area(shared_t
     cell of the block of the written stress field (DG0). The reaction of the base resolved in a
     frame turned by atan(3/4) equals the global reaction turned."""
     comm = MPI.COMM_WORLD
-    p, nu = 120.0, NU["slave"]
+    p, nu = 120.0, NU["secondary"]
     res = run_scene(uniaxial_scene(fields="vtx"), outdir=shared_tmp, comm=comm)
     row = res.history[-1]
     assert row["A.sigma_yy"] == pytest.approx(-p, rel=1e-7)
@@ -152,7 +157,7 @@ def test_the_stress_of_a_bar_in_uniaxial_compression_is_force_over_area(shared_t
     vm = np.sqrt(0.5 * (p**2 + (p * (1 - nu)) ** 2 + (nu * p) ** 2))
     assert row["A.von_mises"] == pytest.approx(vm, rel=1e-7)
     # the frame (t, n) = ((0.8, -0.6), (0.6, 0.8)): rows of the rotation
-    R = np.array([row["R_master_x"], row["R_master_y"]])
+    R = np.array([row["R_primary_x"], row["R_primary_y"]])
     assert R[1] == pytest.approx(p * 1.0, rel=1e-7)
     Q = np.array([[0.8, -0.6], [0.6, 0.8]])
     assert [row["R_tilted_t"], row["R_tilted_n"]] == pytest.approx(Q @ R, rel=1e-12, abs=1e-9)
@@ -196,7 +201,7 @@ def test_reactions_in_a_3d_frame_are_the_rotated_global_reactions():
         "name": "frame3d",
         "mesh": {"builder": "pad_on_plate", "options": {"n_interface": 2}},
         "law": COULOMB,
-        "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 7e4, "nu": 0.33}},
+        "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 7e4, "nu": 0.33}},
         "program": {"times": [0, 1], "channels": {"p": [0, 1]}},
         "dirichlet": [{"group": "bottom", "value": [0, 0, 0]}],
         "loads": [
@@ -227,8 +232,8 @@ def test_probes_are_the_same_on_any_partition():
     s["solver"] = {"dt": 0.25}
     s["points"] = {
         "V": {"x": [1.0, 1.0]},
-        "E": {"x": [1.0, 0.5625], "body": "slave"},
-        "I": {"x": [0.8, 0.5], "body": "slave"},
+        "E": {"x": [1.0, 0.5625], "body": "secondary"},
+        "I": {"x": [0.8, 0.5], "body": "secondary"},
     }
     s["outputs"] = {
         "probes": [

@@ -45,7 +45,7 @@ def scene(regions=None, name="regions", **outputs):
         },
         "law": coulomb(MU["default"]),
         "regions": {"rough": coulomb(MU["rough"])} if regions is None else regions,
-        "materials": {"master": {"E": 1e8, "nu": 0.3}, "slave": {"E": 1e8, "nu": 0.3}},
+        "materials": {"primary": {"E": 1e8, "nu": 0.3}, "secondary": {"E": 1e8, "nu": 0.3}},
         "program": {"times": [0, 1, 2], "channels": {"press": [0, 1, 1], "slide": [0, 0, 1]}},
         "dirichlet": [
             {"group": "bottom", "value": [0, 0]},

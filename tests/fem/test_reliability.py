@@ -28,7 +28,7 @@ from tests.helpers import LAW, block_problem, prefix
 # the cases below run the paper's soft normal penalty on purpose
 pytestmark = pytest.mark.filterwarnings("ignore::subfric_dolfinx.logs.PenetrationWarning")
 
-MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 
 
 def block(comm, n=8, **options):

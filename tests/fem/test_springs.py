@@ -26,7 +26,7 @@ from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 from tests.helpers import everywhere, prefix
 
-MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 COULOMB = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.3)
 
 
@@ -63,19 +63,19 @@ def test_a_block_pulled_off_its_base_and_held_by_springs_moves_by_force_over_sti
         COULOMB,
         MATERIALS,
         program,
-        [Dirichlet("master", (0.0, 0.0))],
+        [Dirichlet("primary", (0.0, 0.0))],
         [*[Traction("top", t, amplitude="pull")], *[Spring("top", k, u0=u0, amplitude="end")]],
     )
     rows = []
 
     def on_step(rec):
         forces = prob.spring_forces(prob.u.x.array, program, rec.t)
-        reactions = prob.reactions["master"].copy()
+        reactions = prob.reactions["primary"].copy()
         rows.append(
             (
                 rec,
-                displacement_of(prob, "slave"),
-                displacement_of(prob, "master"),
+                displacement_of(prob, "secondary"),
+                displacement_of(prob, "primary"),
                 forces,
                 reactions,
             )
@@ -114,9 +114,9 @@ def test_spring_stiffness_is_in_the_jacobian():
         [
             *[
                 Pressure("top", 100.0, amplitude="press"),
-                Traction("slave_left", (10.0, 0.0), "shear"),
+                Traction("secondary_left", (10.0, 0.0), "shear"),
             ],
-            *[Spring("slave_left", (2.0, 0.0)), Spring("slave_right", (2.0, 0.0))],
+            *[Spring("secondary_left", (2.0, 0.0)), Spring("secondary_right", (2.0, 0.0))],
         ],
     )
     with FrictionSolver(prob, prefix("sjac")) as solver:
@@ -157,7 +157,10 @@ def sheared_block(comm, q, springs=()):
         program,
         [Dirichlet("bottom", (0.0, 0.0))],
         [
-            *[Pressure("top", 100.0, amplitude="press"), Traction("slave_left", (q, 0.0), "shear")],
+            *[
+                Pressure("top", 100.0, amplitude="press"),
+                Traction("secondary_left", (q, 0.0), "shear"),
+            ],
             *springs,
         ],
     )
@@ -180,16 +183,18 @@ def test_a_sliding_block_has_an_equilibrium_only_with_springs():
             LoadStepper(solver, 1.0, control=StepControl(max_cuts=2)).run()
     k = 2.0 / 0.5
     program, prob = sheared_block(
-        comm, 70.0, [Spring("slave_left", (k, 0.0)), Spring("slave_right", (k, 0.0))]
+        comm, 70.0, [Spring("secondary_left", (k, 0.0)), Spring("secondary_right", (k, 0.0))]
     )
     with FrictionSolver(prob, prefix("withspring")) as solver:
         LoadStepper(solver, 1.0).run()
     s = interface_summary(prob)
     forces = prob.spring_forces(prob.u.x.array, program, 2.0)
-    assert forces["slave_left"][0] + forces["slave_right"][0] == pytest.approx(-5.0, rel=1e-8)
+    assert forces["secondary_left"][0] + forces["secondary_right"][0] == pytest.approx(
+        -5.0, rel=1e-8
+    )
     assert s["F_t1"] == pytest.approx(30.0, rel=1e-8)
     assert s["F_n"] == pytest.approx(100.0, rel=1e-8)
-    ux = displacement_of(prob, "slave")[:, 0]
+    ux = displacement_of(prob, "secondary")[:, 0]
     assert everywhere(comm, ux.size == 0 or ux.min() > 0.5)  # slid by about 5 N / 8 N/mm
 
 
@@ -206,13 +211,13 @@ def test_weak_springs_take_a_share_of_the_load_proportional_to_their_stiffness(k
     comm = MPI.COMM_WORLD
     q = 20.0
     program, prob = sheared_block(
-        comm, q, [Spring("slave_left", (k, k)), Spring("slave_right", (k, k))]
+        comm, q, [Spring("secondary_left", (k, k)), Spring("secondary_right", (k, k))]
     )
     with FrictionSolver(prob, prefix("weak")) as solver:
         LoadStepper(solver, 1.0).run()
     s = interface_summary(prob)
     forces = prob.spring_forces(prob.u.x.array, program, 2.0)
-    carried = abs(forces["slave_left"][0] + forces["slave_right"][0])
+    carried = abs(forces["secondary_left"][0] + forces["secondary_right"][0])
     Q = q * 0.5
     assert 1e-5 * k < carried / Q < 1e-3 * k
     assert abs(s["F_t1"] - Q) == pytest.approx(carried, rel=1e-3, abs=1e-12 * Q)

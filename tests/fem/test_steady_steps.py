@@ -36,7 +36,7 @@ from subfric_dolfinx.scenes import run_scene
 from tests.helpers import prefix
 
 R = PETSc.SNES.ConvergedReason
-MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 
 
 # --------------------------------------------------------------------------------------------
@@ -247,8 +247,8 @@ def ssnv503_b(pt):
     s["initial_gap"] = 2.0
     s["program"] = {"times": [0, 1], "channels": {"pn": [0, 1], "pt": [0, pt]}}
     s["springs"] = [
-        {"group": "slave_left", "stiffness": [k / ref.HEIGHT, 0.0]},
-        {"group": "slave_right", "stiffness": [k / ref.HEIGHT, 0.0]},
+        {"group": "secondary_left", "stiffness": [k / ref.HEIGHT, 0.0]},
+        {"group": "secondary_right", "stiffness": [k / ref.HEIGHT, 0.0]},
         {"group": "top", "stiffness": [0.0, k / ref.WIDTH]},
     ]
     s["outputs"] = {}
@@ -298,7 +298,7 @@ def test_ssnv503_b_both_loads_while_the_gap_is_open(sliding):
     row = h[-1]
     rel = 1e-7 if sliding else 1e-9
     assert row["F_n"] + row["S_top_y"] == pytest.approx(ref.PN * ref.WIDTH, rel=rel)
-    springs = row["S_slave_left_x"] + row["S_slave_right_x"]
+    springs = row["S_secondary_left_x"] + row["S_secondary_right_x"]
     assert row["F_t1"] - springs == pytest.approx(pt * ref.HEIGHT, rel=rel)
     if sliding:
         assert row["F_t1"] == pytest.approx(ref.MU * row["F_n"], rel=1e-9)

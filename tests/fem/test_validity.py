@@ -34,7 +34,7 @@ from subfric_dolfinx.fem.validity import (
 from subfric_dolfinx.loading import LoadingProgram
 from tests.helpers import LAW, everywhere, leaves_validity, mpirun, prefix, raised_on_every_rank
 
-MATERIALS = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 E_STAR = 1.0 / (0.91 / 2.1e5 + (1 - 0.33**2) / 7.0e4)
 
 
@@ -231,7 +231,7 @@ def test_a_slide_beyond_three_elements_is_warned(slide, warned):
 
 def test_contact_modulus():
     steel, alu = Material(2.1e5, 0.3), Material(7.0e4, 0.33)
-    assert contact_modulus({"master": steel, "slave": alu}) == pytest.approx(E_STAR, rel=1e-14)
+    assert contact_modulus({"primary": steel, "secondary": alu}) == pytest.approx(E_STAR, rel=1e-14)
     assert contact_modulus({"a": steel, "b": steel}) == pytest.approx(2.1e5 / 0.91 / 2)
 
 
@@ -244,7 +244,7 @@ run_scene({
     "kind": "fe", "name": "mine",
     "mesh": {"builder": "block_on_base", "options": {"n_interface": 4}},
     "law": {"law": "subloading", "params": {"preset": "sec7"}},
-    "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 7.0e4, "nu": 0.33}},
+    "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 7.0e4, "nu": 0.33}},
     "program": {"times": [0, 1], "channels": {"press": [0, 1]}},
     "dirichlet": [{"group": "bottom", "value": [0, 0]},
                   {"group": "top", "component": 0, "value": 0.0}],

@@ -27,7 +27,7 @@ def interface(comm, partitioner=None):
     V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", 1, (3,)))
     t = dom.tags
     pairs = pair_interface(
-        V, dom.cell_tags, dom.facet_tags, t["interface"], t["master"], t["slave"]
+        V, dom.cell_tags, dom.facet_tags, t["interface"], t["primary"], t["secondary"]
     )
     return InterfaceElements(pairs, V, preset("sec7"))
 

@@ -26,14 +26,14 @@ TOL = 1e-10
 
 @dataclass(frozen=True)
 class Boxes:
-    """Master and slave boxes (lower corner, upper corner) of a model."""
+    """Primary and secondary boxes (lower corner, upper corner) of a model."""
 
-    master: tuple[tuple[float, ...], tuple[float, ...]]
-    slave: tuple[tuple[float, ...], tuple[float, ...]]
+    primary: tuple[tuple[float, ...], tuple[float, ...]]
+    secondary: tuple[tuple[float, ...], tuple[float, ...]]
 
     @property
     def gdim(self):
-        return len(self.master[0])
+        return len(self.primary[0])
 
 
 BLOCK = Boxes(((0.0, 0.0), (2.0, 0.5)), ((0.5, 0.5), (1.5, 1.0)))
@@ -54,27 +54,27 @@ STORED = {
 # --- helpers --------------------------------------------------------------------------------------
 def expected_measures(b: Boxes) -> dict[str, float]:
     """Exact length/area of each facet group and area/volume of each body."""
-    (m0, m1), (s0, s1) = b.master, b.slave
+    (m0, m1), (s0, s1) = b.primary, b.secondary
     me = np.subtract(m1, m0)
     se = np.subtract(s1, s0)
     out = {
-        M.MASTER: float(np.prod(me)),
-        M.SLAVE: float(np.prod(se)),
+        M.PRIMARY: float(np.prod(me)),
+        M.SECONDARY: float(np.prod(se)),
         M.INTERFACE: float(np.prod(se[:-1])),
         M.BOTTOM: float(np.prod(me[:-1])),
         M.TOP: float(np.prod(se[:-1])),
     }
     free = np.prod(me[:-1]) - np.prod(se[:-1])
     if free > TOL:
-        out[M.MASTER_TOP] = float(free)
+        out[M.PRIMARY_TOP] = float(free)
     if b.gdim == 2:
-        out |= {M.MASTER_LEFT: me[1], M.MASTER_RIGHT: me[1], M.SLAVE_LEFT: se[1]}
-        out[M.SLAVE_RIGHT] = se[1]
+        out |= {M.PRIMARY_LEFT: me[1], M.PRIMARY_RIGHT: me[1], M.SECONDARY_LEFT: se[1]}
+        out[M.SECONDARY_RIGHT] = se[1]
     else:
-        out |= {M.MASTER_XMIN: me[1] * me[2], M.MASTER_XMAX: me[1] * me[2]}
-        out |= {M.MASTER_YMIN: me[0] * me[2], M.MASTER_YMAX: me[0] * me[2]}
-        out |= {M.SLAVE_XMIN: se[1] * se[2], M.SLAVE_XMAX: se[1] * se[2]}
-        out |= {M.SLAVE_YMIN: se[0] * se[2], M.SLAVE_YMAX: se[0] * se[2]}
+        out |= {M.PRIMARY_XMIN: me[1] * me[2], M.PRIMARY_XMAX: me[1] * me[2]}
+        out |= {M.PRIMARY_YMIN: me[0] * me[2], M.PRIMARY_YMAX: me[0] * me[2]}
+        out |= {M.SECONDARY_XMIN: se[1] * se[2], M.SECONDARY_XMAX: se[1] * se[2]}
+        out |= {M.SECONDARY_YMIN: se[0] * se[2], M.SECONDARY_YMAX: se[0] * se[2]}
     return {k: float(v) for k, v in out.items()}
 
 
@@ -142,12 +142,12 @@ def gather_body_vertices(im, body):
 
 
 def ufl_measures(im):
-    """(master side, slave side, master volume, slave volume), assembled with ds/dx."""
+    """(primary side, secondary side, primary volume, secondary volume), assembled with ds/dx."""
     mesh = im.mesh
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=im.interface_side_tags())
     dx = ufl.Measure("dx", domain=mesh, subdomain_data=im.cell_tags)
     c = fem.Constant(mesh, np.zeros(4, dtype=dolfinx.default_scalar_type))
-    m, s = im.tag(M.MASTER), im.tag(M.SLAVE)
+    m, s = im.tag(M.PRIMARY), im.tag(M.SECONDARY)
     form = fem.form(c[0] * ds(m) + c[1] * ds(s) + c[2] * dx(m) + c[3] * dx(s))
     out = []
     for i in range(4):
@@ -169,7 +169,7 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
     tdim = im.tdim
     assert im.gdim == tdim == boxes.gdim
     assert im.mesh.topology.cell_name() == cell_type
-    scale = max(np.max(boxes.master[1]), np.max(boxes.slave[1]))
+    scale = max(np.max(boxes.primary[1]), np.max(boxes.secondary[1]))
 
     # groups present, and nothing else
     expect = expected_measures(boxes)
@@ -185,7 +185,7 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
         assert size == pytest.approx(factor * value, rel=1e-12), name
         bodies = adjacent_bodies(im, f)
         if name != M.INTERFACE:
-            body = M.SLAVE if name == M.TOP or name.startswith(M.SLAVE) else M.MASTER
+            body = M.SECONDARY if name == M.TOP or name.startswith(M.SECONDARY) else M.PRIMARY
             assert everywhere(comm, np.all(bodies == im.tag(body))), name
         exterior = dolfinx.mesh.exterior_facet_indices(im.mesh.topology)
         assert everywhere(comm, np.all(np.isin(f, exterior))), name
@@ -200,8 +200,8 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
     m_side, s_side, m_vol, s_vol = ufl_measures(im)
     assert m_side == pytest.approx(expect[M.INTERFACE], rel=1e-12)
     assert s_side == pytest.approx(expect[M.INTERFACE], rel=1e-12)
-    assert m_vol == pytest.approx(expect[M.MASTER], rel=1e-12)
-    assert s_vol == pytest.approx(expect[M.SLAVE], rel=1e-12)
+    assert m_vol == pytest.approx(expect[M.PRIMARY], rel=1e-12)
+    assert s_vol == pytest.approx(expect[M.SECONDARY], rel=1e-12)
 
     # every interface vertex coordinate appears exactly twice: once per side, distinct nodes
     x, side, gi = gather_interface_vertices(im)
@@ -212,7 +212,7 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
     assert np.intersect1d(gi[side == 0], gi[side == 1]).size == 0
 
     # the bodies share no (topological) vertex, and every vertex is in a body
-    vm, vs = gather_body_vertices(im, M.MASTER), gather_body_vertices(im, M.SLAVE)
+    vm, vs = gather_body_vertices(im, M.PRIMARY), gather_body_vertices(im, M.SECONDARY)
     assert np.intersect1d(vm, vs).size == 0
     assert vm.size + vs.size == im.mesh.topology.index_map(0).size_global
 
@@ -227,7 +227,7 @@ def split_fraction(im):
         gathered = comm.allgather(mid)
         ranks = np.concatenate([np.full(len(m), r) for r, m in enumerate(gathered)])
         pts[side] = (np.vstack(gathered), ranks)
-    (xm, rm), (xs, rs) = pts[M.MASTER], pts[M.SLAVE]
+    (xm, rm), (xs, rs) = pts[M.PRIMARY], pts[M.SECONDARY]
     assert len(xm) == len(xs) > 0
     d = np.linalg.norm(xm[:, None, :] - xs[None, :, :], axis=2)
     j = d.argmin(axis=1)
@@ -256,7 +256,7 @@ def test_partitioner_split(comm, name, kind):
         assert frac == 0.0
     elif kind == "bodies":
         assert frac == 1.0
-        mine, other = (M.MASTER, M.SLAVE) if comm.rank == 0 else (M.SLAVE, M.MASTER)
+        mine, other = (M.PRIMARY, M.SECONDARY) if comm.rank == 0 else (M.SECONDARY, M.PRIMARY)
         assert everywhere(comm, n_owned[other] == 0 and n_owned[mine] > 0)
     elif kind == "together":
         assert frac == 0.0
@@ -363,8 +363,8 @@ def test_builder(comm, builder, kwargs, boxes):
     assert im.tags == info.tags
     assert info.num_interface_facets == im.num_interface_facets
     assert sum(info.num_cells.values()) == im.mesh.topology.index_map(im.tdim).size_global
-    assert info.interface_min == pytest.approx(boxes.slave[0])
-    assert info.interface_max[:-1] == pytest.approx(boxes.slave[1][:-1])
+    assert info.interface_min == pytest.approx(boxes.secondary[0])
+    assert info.interface_max[:-1] == pytest.approx(boxes.secondary[1][:-1])
 
 
 def test_builder_mesh_size_sets_interface_count(comm):

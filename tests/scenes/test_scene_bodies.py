@@ -9,6 +9,9 @@
   restart continues the run to round-off.
 * The classic two-body scene on a file whose groups have the user's names (``mesh.names``): the
   same history as on the classic names.
+* The built-in meshes' older group names (``master``, ``slave_left``, ...) in a mesh file and
+  in a scene: read as ``primary``, ``secondary_left``, ... (the input aliases), the run and its
+  columns those of the new names; a checkpoint whose settings say the older names restarts it.
 * Bad scenes: every new key checked, the path named.
 """
 
@@ -152,6 +155,81 @@ def test_a_classic_scene_on_a_file_with_the_users_names(comm, shared_tmp):
     ref = run_scene(classic(), comm=comm).history
     a, b = (np.array([r["F_t1"] for r in h]) for h in (mine, ref))
     assert everywhere(comm, np.abs(a - b).max() <= 1e-12 * np.abs(b).max())
+
+
+def older_names_block():
+    """The classic builder's model under its groups' older names (``master``, ``slave_left``)."""
+    import gmsh
+
+    from subfric_dolfinx import meshing
+
+    info = meshing.build_block_on_base(n_interface=8)
+    older = {new: old for old, new in meshing.CLASSIC_ALIASES.items()}
+    for d, t in gmsh.model.getPhysicalGroups():
+        name = gmsh.model.getPhysicalName(d, t)
+        if name in older:
+            gmsh.model.removePhysicalName(name)
+            gmsh.model.setPhysicalName(d, t, older[name])
+    return info
+
+
+def worst_of(rows, ref):
+    """The largest difference of two histories' values, relative to 1 + the reference's."""
+    return max(
+        abs(a[k] - b[k]) / (1.0 + abs(b[k])) for a, b in zip(rows, ref, strict=False) for k in b
+    )
+
+
+def named_so(mesh, primary, secondary):
+    """The classic scene on ``mesh``, its body held and a flank sprung under the given names."""
+    s = classic()
+    s["mesh"] = mesh
+    s["materials"] = {primary: s["materials"]["master"], secondary: s["materials"]["slave"]}
+    s["dirichlet"][0] = {"group": primary, "value": [0.0, 0.0]}
+    s["springs"] = [{"group": f"{secondary}_left", "stiffness": [1.0, 0.0]}]
+    return s
+
+
+@pytest.mark.leaves_validity(
+    PenetrationWarning, reason="a 1e5 MPa/mm Coulomb penalty on the 1 mm block"
+)
+def test_older_group_names_are_read_as_their_new_names(comm, shared_tmp):
+    """A mesh file whose groups have the built-in meshes' older names (``master``, ``slave``,
+    ``slave_left``, ...) and a scene naming them so: the reader reads them as ``primary``,
+    ``secondary``, ``secondary_left``, the scene's names are read alike, and the run is the one
+    of the builder's mesh under the new names, its columns named so (``R_primary_x``,
+    ``S_secondary_left_x``). A checkpoint whose settings say the older names restarts it."""
+    from subfric_dolfinx import meshing
+
+    path = shared_tmp / "older.msh"
+    on_root(comm, lambda: write_model(older_names_block, path))
+    dom = meshing.read_interface_mesh(path, comm, 2)
+    older = named_so({"file": str(path), "gdim": 2}, "master", "slave")
+    older["outputs"] = {"checkpoint_times": [1.5]}
+    ref = run_scene(named_so(classic()["mesh"], "primary", "secondary"), comm=comm).history
+    got = run_scene(older, outdir=shared_tmp / "older", comm=comm).history
+    columns = set(got[-1])
+    checks = {
+        "groups": {"primary", "secondary", "secondary_left", "primary_top"} <= set(dom.tags)
+        and not any(n.startswith(("master", "slave")) for n in dom.tags),
+        "columns": columns == set(ref[-1])
+        and {"R_primary_x", "S_secondary_left_x"} <= columns
+        and not any("master" in c or "slave" in c for c in columns),
+        "run": len(got) == len(ref) and worst_of(got, ref) < 1e-12,
+    }
+    assert everywhere(comm, all(checks.values())), checks
+
+    def older_settings():  # as a checkpoint of an older run stored them
+        with h5py.File(shared_tmp / "older/checkpoint.h5", "r+") as f:
+            text = f.attrs["settings"]
+            f.attrs["settings"] = text.replace("primary", "master").replace("secondary", "slave")
+            return "master" in f.attrs["settings"] and "slave_left" in f.attrs["settings"]
+
+    assert on_root(comm, older_settings)
+    again = run_scene(
+        older, outdir=shared_tmp / "again", comm=comm, restart=shared_tmp / "older/checkpoint.h5"
+    )
+    assert len(again.history) == len(got) and worst_of(again.history, got) < 1e-9
 
 
 BAD = [

@@ -30,7 +30,7 @@ SCENE = {
         },
     },
     "law": {"law": "subloading", "params": {"preset": "sec7", "alpha_n": 1e6}},
-    "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 7.0e4, "nu": 0.33}},
+    "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 7.0e4, "nu": 0.33}},
     "program": {"times": [0, 1, 2], "channels": {"press": [0, 1, 1], "slide": [0, 0, 1]}},
     "dirichlet": [
         {"group": "bottom", "value": [0, 0]},

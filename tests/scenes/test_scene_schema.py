@@ -93,7 +93,7 @@ BAD = {
     "unknown preset": (["law", "params", "preset"], "sec8", ""),
     "mu_s as text": (["law", "params", "mu_s"], "500 MPa", ""),
     "misspelt output": (["outputs", "histroy"], True, "Additional properties"),
-    "material without nu": (["materials", "slave"], {"E": 7e4}, "'nu' is a required property"),
+    "material without nu": (["materials", "secondary"], {"E": 7e4}, "'nu' is a required property"),
 }
 
 

@@ -72,7 +72,7 @@ def _fe_run(
             return -0.25 * program.amplitude("press", t) + program.amplitude("lift", t) * lift(x)
 
         bcs.append(DirichletField("top", vertical, component=1))
-    mats = {"master": Material(2.1e5, 0.3), "slave": Material(7.0e4, 0.33)}
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
     prob = InterfaceProblem(dom, law, mats, program, bcs, loads)
     solver = FrictionSolver(prob, f"stab{next(_prefixes)}_", options)
     el = prob.interface

@@ -64,26 +64,26 @@ def scene() -> dict:
             },
         },
         "law": {"law": "coulomb", "params": {"alpha_n": ALPHA, "alpha_t": ALPHA, "mu_c": MU}},
-        "materials": {"master": {"E": 2.1e5, "nu": 0.3}, "slave": {"E": 2.1e7, "nu": 0.3}},
+        "materials": {"primary": {"E": 2.1e5, "nu": 0.3}, "secondary": {"E": 2.1e7, "nu": 0.3}},
         # 0-1: the pressure; 1-2: the sticking shear; 2-3: on to the sliding shear
         "program": {
             "times": [0, 1, 2, 3],
             "channels": {"pn": [0, 1, 1, 1], "pt": [0, 0, PT_STICK, PT_SLIDE]},
         },
-        "dirichlet": [{"group": "master", "value": [0.0, 0.0]}],  # the frame, built in
+        "dirichlet": [{"group": "primary", "value": [0.0, 0.0]}],  # the frame, built in
         "loads": [
             {"type": "pressure", "group": "top", "value": PN, "amplitude": "pn"},
-            {"type": "traction", "group": "slave_left", "value": [1.0, 0.0], "amplitude": "pt"},
+            {"type": "traction", "group": "secondary_left", "value": [1.0, 0.0], "amplitude": "pt"},
         ],
         "springs": [
-            {"group": "slave_left", "stiffness": [K_LAT / HEIGHT, 0.0]},  # RES_LAT
-            {"group": "slave_right", "stiffness": [K_LAT / HEIGHT, 0.0]},  # RES_LAT
+            {"group": "secondary_left", "stiffness": [K_LAT / HEIGHT, 0.0]},  # RES_LAT
+            {"group": "secondary_right", "stiffness": [K_LAT / HEIGHT, 0.0]},  # RES_LAT
             {"group": "top", "stiffness": [0.0, 0.005 / WIDTH]},  # RES_HAUT
         ],
         "points": {
-            "A": {"x": [10.0, Y0], "body": "slave"},
-            "M": {"x": [30.0, Y0], "body": "slave"},
-            "B": {"x": [50.0, Y0], "body": "slave"},
+            "A": {"x": [10.0, Y0], "body": "secondary"},
+            "M": {"x": [30.0, Y0], "body": "secondary"},
+            "B": {"x": [50.0, Y0], "body": "secondary"},
         },
         "solver": {"prefix": prefix("ssnv503"), "dt": 0.25},
         "outputs": {
@@ -123,10 +123,10 @@ def test_sticking_at_099_mu(result):
     AB move by the joint's elastic compliance only (below 0.02 mm, against the 9 mm of the
     sliding load), and a stick zone (points that did not slip) remains at B."""
     row = at(result, 2.0)
-    assert row["F_t1"] - row["S_slave_left_x"] - row["S_slave_right_x"] == pytest.approx(
+    assert row["F_t1"] - row["S_secondary_left_x"] - row["S_secondary_right_x"] == pytest.approx(
         PT_STICK * HEIGHT, rel=1e-9
     )
-    assert abs(row["S_slave_left_x"] + row["S_slave_right_x"]) < 0.5
+    assert abs(row["S_secondary_left_x"] + row["S_secondary_right_x"]) < 0.5
     for p in "AMB":
         assert 0.0 < row[f"{p}.u_x"] < 0.02
     snap = result.snapshots[2.0]
@@ -140,7 +140,7 @@ def test_sliding_at_101_mu(result):
     (within 1e-5), the nodes of AB move by 36 N / 4 N/mm = 9 mm (within 1e-3: the tilt), the
     interface carries mu Fn at every point."""
     row = at(result, 3.0)
-    springs = row["S_slave_left_x"] + row["S_slave_right_x"]
+    springs = row["S_secondary_left_x"] + row["S_secondary_right_x"]
     assert springs == pytest.approx(-(PT_SLIDE * HEIGHT - MU * PN * WIDTH), rel=1e-5)
     assert row["F_t1"] == pytest.approx(MU * row["F_n"], rel=1e-9)
     for p in "AMB":

@@ -6,9 +6,9 @@ whatever its kind (the interface itself through its abstract base,
 :class:`~.base.BaseInterface`): the points where the law is integrated, with their state, last
 result, frames, weights and fixed data, in one order per rank (``n_elements`` facets of ``nq``
 points each). A small-sliding :class:`~.small.interface.FrictionInterface` gives its
-:class:`~.small.element.InterfaceElements` (the master facets' points); a finite-sliding
+:class:`~.small.element.InterfaceElements` (the primary facets' points); a finite-sliding
 :class:`~.finite.interface.SlidingInterface` its :class:`~.finite.points.SlidingPoints` (the
-slave facets' points, in the order of the cells of its :attr:`~LawPoints.submesh`).
+secondary facets' points, in the order of the cells of its :attr:`~LawPoints.submesh`).
 """
 
 from __future__ import annotations

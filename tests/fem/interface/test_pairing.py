@@ -2,9 +2,9 @@
 that follows each rank's own interface (1 and 2 ranks).
 
 The reference is the pairing as it was on main (``tests/reference_pairing.py``: every rank
-all-gathers the slave side and matches it with Python loops). The package's pairing must give
-exactly the same result on every rank: the same master facets in the same (submesh) order, the
-same node points, master and slave nodes, the same extra ghosts in the same order with the same
+all-gathers the secondary side and matches it with Python loops). The package's pairing must give
+exactly the same result on every rank: the same primary facets in the same (submesh) order, the
+same node points, primary and secondary nodes, the same extra ghosts in the same order with the same
 owners, the same split count and facet size. Both are run on the same mesh and partition.
 """
 
@@ -46,13 +46,13 @@ def build(comm, gdim, cell_type, partitioner, **options):
 def pair(pairing, dom, degree):
     V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", degree, (dom.gdim,)))
     t = dom.tags
-    return pairing(V, dom.cell_tags, dom.facet_tags, t["interface"], t["master"], t["slave"])
+    return pairing(V, dom.cell_tags, dom.facet_tags, t["interface"], t["primary"], t["secondary"])
 
 
 def differences(new, old) -> list[str]:
     """Names of the fields in which two pairings of this rank differ (empty: identical)."""
     bad = []
-    for name in ("facets", "master_cells", "reference_nodes", "master_nodes", "slave_nodes"):
+    for name in ("facets", "primary_cells", "reference_nodes", "primary_nodes", "secondary_nodes"):
         a, b = getattr(new, name), getattr(old, name)
         if a.shape != b.shape or not np.array_equal(a, b):
             bad.append(name)
@@ -118,8 +118,8 @@ def interface_on_rank_0(x_cut):
 @pytest.mark.parametrize("cell_type", ["hexahedron", "tetrahedron"])
 def test_a_rank_without_interface_receives_nothing(cell_type):
     """The pad at one end of a long plate, the cells near it on rank 0, the rest of the plate on
-    the last rank: that rank has no interface facet and receives no slave facet (the all-gather
-    pairing sent it the whole slave side), and rank 0 has both sides and receives nothing either
+    the last rank: that rank has no interface facet and receives no secondary facet (the all-gather
+    pairing sent it the whole secondary side), and rank 0 has both sides and receives nothing either
     (on 3 ranks the middle one holds no cell at all, and receives nothing)."""
     comm = MPI.COMM_WORLD
     dom = build(
@@ -148,20 +148,20 @@ def test_a_rank_without_interface_receives_nothing(cell_type):
 
 @pytest.mark.parametrize("kind", ["bodies", "together"])
 def test_what_each_rank_receives_is_its_own_interface(kind):
-    """ "bodies" (masters on rank 0, slaves on rank 1): rank 0 receives exactly the slave facets
-    of its masters, rank 1 (no master) nothing. "together" (each pair on one rank): no rank
-    receives anything, though each has half the interface."""
+    """ "bodies" (primaries on rank 0, secondaries on rank 1): rank 0 receives exactly the
+    secondary facets of its primary facets, rank 1 (no primary facet) nothing. "together" (each
+    pair on one rank): no rank receives anything, though each has half the interface."""
     comm = MPI.COMM_WORLD
     dom = build(comm, 3, "hexahedron", kind, n_interface=6)
     new = pair(pair_interface, dom, 1)
     received = comm.allgather(new.n_received)
-    masters = comm.allgather(new.facets.size)
+    primaries = comm.allgather(new.facets.size)
     if kind == "bodies" and comm.size > 1:
-        assert received == [masters[0], *[0] * (comm.size - 1)]
-        assert masters[0] == dom.num_interface_facets
+        assert received == [primaries[0], *[0] * (comm.size - 1)]
+        assert primaries[0] == dom.num_interface_facets
     else:
         assert received == [0] * comm.size
-        assert min(masters) > 0
+        assert min(primaries) > 0
 
 
 def test_the_same_error_as_the_all_gather_pairing():

@@ -4,7 +4,7 @@
   tangent into the user's PETSc vector and matrix, the step, commit and revert.
 * :class:`~.element.InterfaceElements` (:mod:`.element`): quadrature, frames, the law's state in
   Quadrature spaces, gap and assembly kernels (the kind's law points).
-* :func:`~.pairing.pair_interface` (:mod:`.pairing`): the master and slave facets paired across
+* :func:`~.pairing.pair_interface` (:mod:`.pairing`): the primary and secondary facets paired across
   ranks, the extended index map.
 * :func:`~.regions.element_regions` (:mod:`.regions`): interface regions with their own laws.
 """

@@ -1,17 +1,17 @@
 """Zero-thickness interface elements: quadrature, local frames, state, gap and assembly kernels.
 
-An interface element is a pair of coincident facets (master and slave) with ``nfd`` displacement
-nodes each. At its quadrature points the relative displacement is
+An interface element is a pair of coincident facets (primary and secondary) with ``nfd``
+displacement nodes each. At its quadrature points the relative displacement is
 
-    ubar = sum_k N_k (u_slave,k - u_master,k)
+    ubar = sum_k N_k (u_secondary,k - u_primary,k)
 
 and its local components are ``gap = Q ubar`` with ``Q`` the rows ``(e1, [e2,] -n)``: ``n`` is the
-master's outward normal, so ``gap_n = -n . ubar > 0`` on approach. The friction law returns the
-local traction ``(f_t, f_n)``; the traction on the master body in global components is
+primary's outward normal, so ``gap_n = -n . ubar > 0`` on approach. The friction law returns the
+local traction ``(f_t, f_n)``; the traction on the primary body in global components is
 ``f = Q^T (f_t, f_n) = f_t e - f_n n``. It is the derivative of the interface energy with respect
-to ``ubar``, so the interface adds ``+int N f`` to the slave rows of the residual and ``-int N f``
-to the master rows, and ``int N N Q^T D Q`` with the signs of ``[[1, -1], [-1, 1]]`` to the
-Jacobian (``D`` the consistent tangent of the law, not symmetric).
+to ``ubar``, so the interface adds ``+int N f`` to the secondary rows of the residual and
+``-int N f`` to the primary rows, and ``int N N Q^T D Q`` with the signs of ``[[1, -1], [-1, 1]]``
+to the Jacobian (``D`` the consistent tangent of the law, not symmetric).
 
 An initial gap ``g0`` (per point, > 0 where the interface starts open) enters the law's normal
 input as ``ubar_n - g0``: the bodies touch where ``ubar_n`` reaches ``g0``. Interface regions
@@ -20,7 +20,7 @@ give points their own law (a :class:`~subfric_dolfinx.constitutive.RegionalLaw`)
 Geometrically linear: small sliding, the pairs and frames are fixed at the reference geometry.
 
 The internal variables live in DOLFINx Quadrature functions on the interface submesh (one cell per
-owned master facet), point ``q`` of cell ``c`` at index ``c * nq + q``; they are not ghosted.
+owned primary facet), point ``q`` of cell ``c`` at index ``c * nq + q``; they are not ghosted.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ class InterfaceElements:
     Attributes:
         nq: Quadrature points per element.
         Q: Local frames, rows ``(e1, [e2,] -n)``, shape (nf, nq, gdim, gdim).
-        normal: Master outward normal, (nf, nq, gdim).
+        normal: Primary outward normal, (nf, nq, gdim).
         points: Physical quadrature points, (nf, nq, gdim).
         weights: Quadrature weight times surface Jacobian (times ``2 pi r`` in axisymmetric
             mode), (nf, nq): the integration weights of the interface forces.
@@ -143,9 +143,9 @@ class InterfaceElements:
             nvec = np.cross(J[..., 0], J[..., 1])
         detJ = np.linalg.norm(nvec, axis=-1)
         nvec = nvec / np.where(detJ > 0, detJ, 1.0)[..., None]
-        # Orient n outward from the master cell: away from the master cell's centroid.
+        # Orient n outward from the primary cell: away from the primary cell's centroid.
         mesh = V.mesh
-        cnodes = geometry_dofmap(mesh)[pairs.master_cells]
+        cnodes = geometry_dofmap(mesh)[pairs.primary_cells]
         centroid = mesh.geometry.x[cnodes][..., :gdim].mean(axis=1) if nf else np.zeros((0, gdim))
         out = np.einsum("cqd,cqd->cq", nvec, self.points - centroid[:, None, :])
         nvec *= np.where(out < 0.0, -1.0, 1.0)[..., None]
@@ -197,8 +197,8 @@ class InterfaceElements:
         self.state.old.assign(init)
         self.state.new.assign(init)
 
-        # Element node lists: master then slave nodes, as local indices of the extended map.
-        self.nodes = np.concatenate([pairs.master_nodes, pairs.slave_nodes], axis=1)
+        # Element node lists: primary then secondary nodes, as local indices of the extended map.
+        self.nodes = np.concatenate([pairs.primary_nodes, pairs.secondary_nodes], axis=1)
         self.dofs = (self.nodes[:, :, None] * self.bs + np.arange(self.bs)).reshape(
             nf, 2 * self.nfd * self.bs
         )
@@ -213,7 +213,7 @@ class InterfaceElements:
         From the local array of the extended vector.
         """
         U = u_local[self.dofs].reshape(self.n_elements, 2, self.nfd, self.bs)
-        jump = U[:, 1] - U[:, 0]  # slave - master, (nf, nfd, gdim)
+        jump = U[:, 1] - U[:, 0]  # secondary - primary, (nf, nfd, gdim)
         ubar = np.einsum("qk,ckd->cqd", self.N, jump)
         return np.einsum("cqij,cqj->cqi", self.Q, ubar).reshape(-1, self.gdim)
 
@@ -243,7 +243,7 @@ class InterfaceElements:
         np.add.at(b_local, self.dofs.ravel(), R.ravel())
 
     def element_matrices(self, tangent: np.ndarray) -> np.ndarray:
-        """Element matrices (nf, 2 nfd gdim, 2 nfd gdim), node-blocked, master nodes first."""
+        """Element matrices (nf, 2 nfd gdim, 2 nfd gdim), node-blocked, primary nodes first."""
         nf, nq, gdim, nfd = self.n_elements, self.nq, self.gdim, self.nfd
         D = tangent.reshape(nf, nq, gdim, gdim)
         Dg = np.einsum("cqai,cqab,cqbj->cqij", self.Q, D, self.Q)  # Q^T D Q

@@ -105,7 +105,8 @@ class FrictionInterface(BaseInterface):
         self.pairs = pair_interface(V, cell_tags, facet_tags, tag, primary, secondary, name=name)
         by_region = None
         if regions:
-            by_region = (element_regions(self.pairs, groups or {}, list(regions)), dict(regions))
+            numbers = element_regions(self.pairs, groups or {}, list(regions), name)
+            by_region = (numbers, dict(regions))
         self.elements = InterfaceElements(
             self.pairs, V, law, quadrature, initial_gap=initial_gap, regions=by_region, mode=mode
         )

@@ -2,16 +2,16 @@
 
 The interface facets carry one facet tag on both sides (the nodes are duplicated, so each side is an
 exterior facet of its own body); the side is told by the body tag of the adjacent cell. For every
-owned master facet this module finds the slave facet at the same place, possibly on another rank,
-and the slave facet's displacement nodes, ordered like the master's. Memory and communication are
-local: every rank all-gathers only the bounding box of its master facets (two points per rank) and
-sends each of its slave facets (midpoint, node numbers, owners and coordinates) to the ranks whose
-box holds it (``MPI_Alltoallv``); a rank thus receives the slave facets near its own master facets,
-never the whole interface. The midpoints are matched with a k-d tree (``scipy.spatial.cKDTree``),
-the nodes of a pair by vectorised nearest-point searches, and the owners learn how many master
-facets took each of their slave facets (each must be taken once).
+owned primary facet this module finds the secondary facet at the same place, possibly on another
+rank, and the secondary facet's displacement nodes, ordered like the primary's. Memory and
+communication are local: every rank all-gathers only the bounding box of its primary facets (two
+points per rank) and sends each of its secondary facets (midpoint, node numbers, owners and
+coordinates) to the ranks whose box holds it (``MPI_Alltoallv``); a rank thus receives the secondary
+facets near its own primary facets, never the whole interface. The midpoints are matched with a k-d
+tree (``scipy.spatial.cKDTree``), the nodes of a pair by vectorised nearest-point searches, and the
+owners learn how many primary facets took each of their secondary facets (each must be taken once).
 
-The displacement space's index map is then extended with the slave nodes that are not local as
+The displacement space's index map is then extended with the secondary nodes that are not local as
 extra ghosts, so that one ghost update brings the other side's values and one reverse update sends
 the interface contributions to their owners, and the matrix sparsity can include the cross-interface
 couplings (see :mod:`.layout`).
@@ -41,36 +41,35 @@ class InterfacePairs:
     """Paired interface facets owned by this rank, in the order of the submesh cells.
 
     Attributes:
-        submesh: Mesh of the owned master interface facets (the interface's own mesh).
+        submesh: Mesh of the owned primary interface facets (the interface's own mesh).
         facets: Parent facet of each submesh cell (local index in the bulk mesh).
-        master_cells: Master cell adjacent to each facet.
+        primary_cells: Primary cell adjacent to each facet.
         reference_nodes: Points of the facet Lagrange element (reference coordinates).
         node_points: Physical position of each reference node of each facet, (nf, nfd, gdim).
-        master_nodes: Local (block) indices of the master facet's displacement nodes, ordered
+        primary_nodes: Local (block) indices of the primary facet's displacement nodes, ordered
             like ``reference_nodes``, (nf, nfd).
-        slave_nodes: Same for the slave facet, as local indices in ``index_map``, (nf, nfd).
-        index_map: The displacement index map extended with the non-local slave nodes as ghosts.
+        secondary_nodes: Same for the secondary facet, as local indices in ``index_map``, (nf, nfd).
+        index_map: The displacement index map extended with the non-local secondary nodes as ghosts.
         n_extra_ghosts: Number of nodes added to the ghosts of the displacement index map.
-        n_split: Number of this rank's pairs whose slave facet is owned by another rank.
+        n_split: Number of this rank's pairs whose secondary facet is owned by another rank.
         h_min: Smallest distance between two nodes of an interface facet, over all ranks.
-        n_received: Number of slave facets this rank received from other ranks to pair its
-            master facets (the size of the exchange: the slave facets near this rank's master
+        n_received: Number of secondary facets this rank received from other ranks to pair its
+            primary facets (the size of the exchange: the secondary facets near this rank's primary
             facets that other ranks own).
         extra_ghosts: Global (block) numbers of the nodes added to the ghosts, in the order of
             ``index_map``'s extra ghosts.
         extra_owners: Their owning ranks.
 
-    The master side is the interface's *primary* side (its outward normal defines the frame),
-    the slave side the *secondary* one.
+    The primary side's outward normal defines the frame.
     """
 
     submesh: dolfinx.mesh.Mesh
     facets: np.ndarray
-    master_cells: np.ndarray
+    primary_cells: np.ndarray
     reference_nodes: np.ndarray
     node_points: np.ndarray
-    master_nodes: np.ndarray
-    slave_nodes: np.ndarray
+    primary_nodes: np.ndarray
+    secondary_nodes: np.ndarray
     index_map: dolfinx.common.IndexMap
     n_extra_ghosts: int
     n_split: int
@@ -102,13 +101,13 @@ def pair_interface(
     cell_tags: dolfinx.mesh.MeshTags,
     facet_tags: dolfinx.mesh.MeshTags,
     interface_tag: int,
-    master_tag: int | Sequence[int],
-    slave_tag: int | Sequence[int],
+    primary_tag: int | Sequence[int],
+    secondary_tag: int | Sequence[int],
     *,
     rel_tol: float = 1e-8,
     name: str = "interface",
 ) -> InterfacePairs:
-    """Pair the master and slave facets of an interface and extend the index map.
+    """Pair the primary and secondary facets of an interface and extend the index map.
 
     Collective on the mesh communicator.
 
@@ -117,9 +116,9 @@ def pair_interface(
         cell_tags: Cell tags with the two bodies.
         facet_tags: Facet tags with the interface (both sides tagged ``interface_tag``).
         interface_tag: Tag of the interface facets.
-        master_tag: Cell tag(s) of the master (primary) body: its outward normal defines the local
+        primary_tag: Cell tag(s) of the primary body: its outward normal defines the local
             frame. A body of several cell groups has several tags.
-        slave_tag: Cell tag(s) of the slave (secondary) body.
+        secondary_tag: Cell tag(s) of the secondary body.
         rel_tol: Matching tolerance relative to the smallest interface facet size.
         name: The interface's name, for messages.
 
@@ -163,12 +162,12 @@ def pair_interface(
         f"cells, e.g. at {_facet_midpoints(mesh, two[:1])[0].tolist()}: the interface nodes are "
         "not duplicated (each side must be an exterior facet of its own body)"
     )
-    m_tags, s_tags = _tags(master_tag), _tags(slave_tag)
-    master_cells_all = np.concatenate([cell_tags.find(t) for t in m_tags])
-    slave_cells_all = np.concatenate([cell_tags.find(t) for t in s_tags])
-    is_master = np.isin(cells, master_cells_all)
-    is_slave = np.isin(cells, slave_cells_all)
-    neither = ~(is_master | is_slave)
+    m_tags, s_tags = _tags(primary_tag), _tags(secondary_tag)
+    primary_cells_all = np.concatenate([cell_tags.find(t) for t in m_tags])
+    secondary_cells_all = np.concatenate([cell_tags.find(t) for t in s_tags])
+    is_primary = np.isin(cells, primary_cells_all)
+    is_secondary = np.isin(cells, secondary_cells_all)
+    neither = ~(is_primary | is_secondary)
     both = np.intersect1d(m_tags, s_tags)
     fail(
         None
@@ -183,10 +182,10 @@ def pair_interface(
         f"(tags {_show(m_tags)}, {_show(s_tags)}), e.g. at "
         f"{_facet_midpoints(mesh, tagged[neither][:1])[0].tolist()}"
     )
-    m_facets, m_cells = tagged[is_master], cells[is_master]
-    s_facets, s_cells = tagged[is_slave], cells[is_slave]
+    m_facets, m_cells = tagged[is_primary], cells[is_primary]
+    s_facets, s_cells = tagged[is_secondary], cells[is_secondary]
 
-    # The interface's own mesh: the owned master facets. Its cells define the parametrisation
+    # The interface's own mesh: the owned primary facets. Its cells define the parametrisation
     # (vertex order) used for the quadrature points, so everything below follows submesh order.
     sub, entity_map = create_submesh(mesh, tdim - 1, m_facets)
     sorter = np.argsort(m_facets)
@@ -217,14 +216,14 @@ def pair_interface(
     imap = V.dofmap.index_map
     dofs = V.dofmap.list
 
-    # Master facet nodes, ordered like the reference nodes (match within the adjacent cell).
+    # Primary facet nodes, ordered like the reference nodes (match within the adjacent cell).
     cell_nodes = dofs[m_cells]
     j, far = _nearest(dof_x[cell_nodes], node_points, tol)
-    master_nodes = np.take_along_axis(cell_nodes, j, axis=1).astype(np.int32)
+    primary_nodes = np.take_along_axis(cell_nodes, j, axis=1).astype(np.int32)
     lost = node_points[far[0]].tolist() if far.size else None
-    fail(None if lost is None else f"internal error: master facet nodes not found at {lost}")
+    fail(None if lost is None else f"internal error: primary facet nodes not found at {lost}")
 
-    # Slave facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
+    # Secondary facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
     vector_element = V.ufl_element().sub_elements[0].basix_element
     closure = np.asarray(vector_element.entity_closure_dofs[tdim - 1], dtype=np.int32)
     lfi = _local_facet_index(mesh, s_cells, s_facets) if s_facets.size else np.zeros(0, int)
@@ -238,9 +237,10 @@ def pair_interface(
     s_mid = s_x.mean(axis=1) if s_facets.size else np.zeros((0, gdim))
     m_mid = node_points.mean(axis=1) if nf else np.zeros((0, gdim))
 
-    # Each slave facet goes to the ranks whose master facets' bounding box (grown by the
-    # tolerance) holds its midpoint: a rank receives the slave facets near its own master facets.
-    cand = _exchange_slave_facets(
+    # Each secondary facet goes to the ranks whose primary facets' bounding box (grown by the
+    # tolerance) holds its midpoint: a rank receives the secondary facets near its own primary
+    # facets.
+    cand = _exchange_secondary_facets(
         comm,
         m_mid,
         s_mid,
@@ -259,17 +259,17 @@ def pair_interface(
         match = np.where(d <= tol, k, -1)
     unmatched = np.flatnonzero(match < 0)
     n_unmatched = comm.allreduce(unmatched.size)
-    n_slave = comm.allreduce(s_facets.size)
-    if n_unmatched or n_slave != comm.allreduce(nf):
+    n_secondary = comm.allreduce(s_facets.size)
+    if n_unmatched or n_secondary != comm.allreduce(nf):
         example = m_mid[unmatched[0]].tolist() if unmatched.size else None
         examples = [e for e in comm.allgather(example) if e is not None]
-        where = f", e.g. the master facet at {examples[0]}" if examples else ""
+        where = f", e.g. the primary facet at {examples[0]}" if examples else ""
         raise InterfaceError(
-            f"the {name} sides do not pair node to node: {comm.allreduce(nf)} master and "
-            f"{n_slave} slave facets, {n_unmatched} master facets without a slave facet at the "
-            f"same place{where} (tolerance {tol:.3g})"
+            f"the {name} sides do not pair node to node: {comm.allreduce(nf)} primary and "
+            f"{n_secondary} secondary facets, {n_unmatched} primary facets without a secondary "
+            f"facet at the same place{where} (tolerance {tol:.3g})"
         )
-    # How many master facets took each slave facet: counted where matched, summed by its owner.
+    # How many primary facets took each secondary facet: counted where matched, summed by its owner.
     times = np.bincount(match, minlength=c_mid.shape[0])
     taken = np.flatnonzero(times)
     back = exchange_rows(comm, cand.source[taken], [c_index[taken], times[taken]])
@@ -282,11 +282,11 @@ def pair_interface(
         example = s_mid[k[0]].tolist() if k.size else None
         examples = [e for e in comm.allgather(example) if e is not None]
         raise InterfaceError(
-            f"the {name} sides do not pair node to node: {n_none} slave facets have no master "
-            f"partner and {n_several} have several, e.g. the slave facet at {examples[0]}"
+            f"the {name} sides do not pair node to node: {n_none} secondary facets have no primary "
+            f"partner and {n_several} have several, e.g. the secondary facet at {examples[0]}"
         )
 
-    # Slave nodes ordered like the master's reference nodes.
+    # Secondary nodes ordered like the primary's reference nodes.
     j, far = _nearest(c_x[match], node_points, tol)
     twice = np.flatnonzero(np.any(np.diff(np.sort(j, axis=1), axis=1) == 0, axis=1))
     first = min(far[0] if far.size else nf, twice[0] if twice.size else nf)
@@ -296,26 +296,28 @@ def pair_interface(
         else f"the {name} sides do not pair node to node: the facet at "
         f"{node_points[first].tolist()} has a partner whose nodes are elsewhere"
     )
-    slave_glob = np.take_along_axis(c_glob[match], j, axis=1)
-    slave_own = np.take_along_axis(c_own[match], j, axis=1)
+    secondary_glob = np.take_along_axis(c_glob[match], j, axis=1)
+    secondary_own = np.take_along_axis(c_own[match], j, axis=1)
 
-    # Extend the index map: slave nodes that are not local become extra ghosts (in the order in
+    # Extend the index map: secondary nodes that are not local become extra ghosts (in the order in
     # which they first appear).
-    slave_nodes, extra_g, extra_o = _local_indices(imap, slave_glob.ravel(), slave_own.ravel())
+    secondary_nodes, extra_g, extra_o = _local_indices(
+        imap, secondary_glob.ravel(), secondary_own.ravel()
+    )
     ghosts = np.concatenate([imap.ghosts, extra_g])
     owners = np.concatenate([imap.owners, extra_o])
     imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
-    slave_nodes = slave_nodes.reshape(nf, nfd)
-    n_split = int(np.count_nonzero(np.any(slave_own != comm.rank, axis=1)))
+    secondary_nodes = secondary_nodes.reshape(nf, nfd)
+    n_split = int(np.count_nonzero(np.any(secondary_own != comm.rank, axis=1)))
 
     return InterfacePairs(
         submesh=sub,
         facets=m_facets,
-        master_cells=m_cells,
+        primary_cells=m_cells,
         reference_nodes=Xn,
         node_points=node_points,
-        master_nodes=master_nodes,
-        slave_nodes=slave_nodes,
+        primary_nodes=primary_nodes,
+        secondary_nodes=secondary_nodes,
         index_map=imap_ext,
         n_extra_ghosts=extra_g.size,
         n_split=n_split,
@@ -334,17 +336,17 @@ def _show(tags: np.ndarray) -> str:
     return str(int(tags[0])) if tags.size == 1 else str(tags.tolist())
 
 
-def _exchange_slave_facets(
+def _exchange_secondary_facets(
     comm: MPI.Comm,
     m_mid: np.ndarray,
     s_mid: np.ndarray,
     data: list[np.ndarray],
     pad: float,
 ) -> Received:
-    """Send each slave facet (midpoint and ``data`` rows) to the ranks that may pair it.
+    """Send each secondary facet (midpoint and ``data`` rows) to the ranks that may pair it.
 
-    Those are the ranks whose master facet midpoints have a bounding box that, grown by ``pad``,
-    holds the slave facet's midpoint (this rank included). Only the boxes are all-gathered (two
+    Those are the ranks whose primary facet midpoints have a bounding box that, grown by ``pad``,
+    holds the secondary facet's midpoint (this rank included). Only the boxes are all-gathered (two
     points per rank).
 
     Returns:

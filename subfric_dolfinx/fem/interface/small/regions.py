@@ -2,7 +2,7 @@
 
 A region is a named group of interface facets (see
 :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`: the centroids of its facets).
-An element belongs to the region whose group holds its master facet's centroid; elements in no
+An element belongs to the region whose group holds its primary facet's centroid; elements in no
 named region belong to region 0 (the default law).
 """
 
@@ -21,14 +21,18 @@ __all__ = ["element_regions"]
 
 
 def element_regions(
-    pairs: InterfacePairs, groups: Mapping[str, np.ndarray], names: Sequence[str]
+    pairs: InterfacePairs,
+    groups: Mapping[str, np.ndarray],
+    names: Sequence[str],
+    interface: str = "interface",
 ) -> np.ndarray:
     """Region number of every element of this rank: 0 (default) or ``1 + names.index(region)``.
 
     Args:
-        pairs: The interface pairs (master facets) of this rank.
+        pairs: The interface pairs (primary facets) of this rank.
         groups: Subgroup name -> centroids of its facets (n, gdim), the same on every rank.
         names: The regions, in the order of their numbers.
+        interface: The interface's name (messages).
 
     Raises:
         InterfaceError (on every rank): A region that is no subgroup of the interface (the
@@ -40,8 +44,8 @@ def element_regions(
     missing = [n for n in names if n not in groups]
     if missing:
         raise InterfaceError(
-            f"interface region(s) {missing} are not groups of interface facets of the mesh; its "
-            f"interface subgroups are {sorted(groups)}"
+            f"interface {interface!r}: region(s) {missing} are not groups of interface facets of "
+            f"the mesh; its interface subgroups are {sorted(groups)}"
         )
     gdim = sub.geometry.dim
     nv = {"interval": 2, "triangle": 3, "quadrilateral": 4}[sub.topology.cell_type.name]
@@ -64,12 +68,12 @@ def element_regions(
     clashes = [c for c in comm.allgather(clash) if c]
     if clashes:
         a, b = clashes[0]
-        raise InterfaceError(f"interface regions {a!r} and {b!r} share facets")
+        raise InterfaceError(f"interface {interface!r}: regions {a!r} and {b!r} share facets")
     for k, name in enumerate(names):
         n = np.asarray(groups[name]).reshape(-1, gdim).shape[0]
         if found[k] != n:
             raise InterfaceError(
-                f"interface region {name!r}: {n - int(found[k])} of its {n} facets are not "
-                "master facets of the interface"
+                f"interface {interface!r}, region {name!r}: {n - int(found[k])} of its {n} facets "
+                "are not primary facets of the interface"
             )
     return region
