@@ -352,32 +352,34 @@ class Inertia:
         """The interfaces' elastic energy and this step's plastic-slip work (collective).
 
         At their last evaluation; the plastic slip's increment from the committed state.
+        ``NaN`` where a law has no penalties or no ``up`` (the same on every rank: the laws are).
         """
         elastic = plastic = 0.0
+        known = True
         for iface in self.problem.interfaces.values():
             pts = iface.law_points
-            last = pts.last
-            if last is None:
-                continue
+            names = {v.name for v in iface.law.variables}
             w = np.asarray(pts.weights, dtype=float).reshape(-1)
-            t = np.asarray(last.traction, dtype=float).reshape(w.size, -1)
-            nt = t.shape[1] - 1
             pen = _penalties(iface.law, w.size)
-            if pen is None:
-                return math.nan, math.nan
+            if pen is None or "up" not in names:
+                known = False
+                continue
+            last = pts.last
+            if last is None or w.size == 0:
+                continue
+            nt = int(pts.nt)
+            t = np.asarray(last.traction, dtype=float).reshape(w.size, nt + 1)
             at, an = pen
             elastic += float(
                 np.sum(w * (np.sum(t[:, :nt] ** 2, axis=1) / (2 * at) + t[:, nt] ** 2 / (2 * an)))
             )
-            names = {v.name for v in iface.law.variables}
-            if "up" not in names:
-                return math.nan, math.nan
-            dup = np.asarray(pts.state.new["up"]).reshape(w.size, nt) - np.asarray(
-                pts.state.old["up"]
-            ).reshape(w.size, nt)
-            plastic += float(np.sum(w * np.sum(t[:, :nt] * dup, axis=1)))
-        comm = self.problem.comm
-        return comm.allreduce(elastic, op=MPI.SUM), comm.allreduce(plastic, op=MPI.SUM)
+            new = np.asarray(pts.state.new["up"], dtype=float).reshape(w.size, nt)
+            old = np.asarray(pts.state.old["up"], dtype=float).reshape(w.size, nt)
+            plastic += float(np.sum(w * np.sum(t[:, :nt] * (new - old), axis=1)))
+        total = self.problem.comm.allreduce(np.array([elastic, plastic]), op=MPI.SUM)
+        if not known:
+            return math.nan, math.nan
+        return float(total[0]), float(total[1])
 
     def _strain(self, x: np.ndarray) -> float:
         """The bodies' strain energy ``x K x / 2`` (a linear bulk), else the work done on them."""
