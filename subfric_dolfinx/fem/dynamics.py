@@ -80,7 +80,10 @@ from .kinematics import weight
 if TYPE_CHECKING:
     from .problem import InterfaceProblem
 
-__all__ = ["ENERGY_COLUMNS", "Dynamics", "Inertia", "coefficients"]
+__all__ = ["ENERGY_COLUMNS", "INTERFACE_FORCES", "Dynamics", "Inertia", "coefficients"]
+
+INTERFACE_FORCES = ("mixed", "end")
+"""How the interfaces' forces enter a step's equation (:attr:`Dynamics.interface_forces`)."""
 
 ENERGY_COLUMNS = (
     "E_kinetic",
@@ -112,6 +115,13 @@ class Dynamics:
             ``gdim`` components, mm/s); bodies not named start at rest.
         gravity: A body force ``rho g`` per unit volume, ``g`` (mm/s^2, ``gdim`` components),
             constant in time; ``None``: none.
+        interface_forces: ``"mixed"`` (the default): the interfaces' forces enter the step's
+            equation as the bodies' do, ``(1 - af) R(u_{n+1}) + af R(u_n)`` (average
+            acceleration conserves an elastic interface's energy exactly); ``"end"``: at the
+            step's end alone, ``R(u_{n+1})``, which never gains energy where a contact closes
+            or opens within a step (impacts, chatter: the mixed form's trapezoid there can
+            create energy without bound, ``D_numerical < 0``), at the price of dissipating an
+            elastic interface's energy by ``alpha du^2 / 2`` a step.
     """
 
     density: Mapping[str, float]
@@ -120,6 +130,7 @@ class Dynamics:
     alpha_k: float = 0.0
     initial_velocity: Mapping[str, Sequence[float]] = dataclasses.field(default_factory=dict)
     gravity: Sequence[float] | None = None
+    interface_forces: str = "mixed"
 
     def __post_init__(self) -> None:
         if not self.density:
@@ -129,6 +140,11 @@ class Dynamics:
                 raise ValueError(f"dynamics: the density of {name!r} must be > 0, got {rho!r}")
         if not (isinstance(self.rho_inf, int | float) and 0.0 <= self.rho_inf <= 1.0):
             raise ValueError(f"dynamics: rho_inf must be in [0, 1], got {self.rho_inf!r}")
+        if self.interface_forces not in INTERFACE_FORCES:
+            raise ValueError(
+                f"dynamics: interface_forces must be one of {list(INTERFACE_FORCES)}, got "
+                f"{self.interface_forces!r}"
+            )
         for key in ("alpha_m", "alpha_k"):
             v = getattr(self, key)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
@@ -189,6 +205,7 @@ class Inertia:
         self.problem = problem
         self.settings = settings
         self.am, self.af, self.beta, self.gamma = coefficients(float(settings.rho_inf))
+        self.at_end = settings.interface_forces == "end"
         V = problem.V
         mesh = problem.mesh
         ctx = problem.bulk_context
@@ -485,16 +502,24 @@ class Inertia:
         am, af = self.am, self.af
         Fa *= 1.0 - af
         Fa += af * self.force
+        if self.at_end:  # the interfaces' forces at the step's end alone
+            Fa += af * (self._f1 - self.interface_force)
         Fa += self._mult(self.M, (1.0 - am) * a1 + am * self.acceleration)
         if self.C is not None:
             Fa += self._mult(self.C, (1.0 - af) * v1 + af * self.velocity)
         self._rows_dirichlet = Fa[p.bc_dofs].copy()
 
+    def bulk_jacobian(self, J: PETSc.Mat) -> None:
+        """Scale the bodies' assembled Jacobian, before the interfaces add theirs (``"end"``)."""
+        if self.at_end:
+            J.scale(1.0 - self.af)
+
     def jacobian(self, J: PETSc.Mat) -> None:
         """Turn the assembled quasi-static Jacobian into the step's (before the Dirichlet rows)."""
         dt, b, g, am, af = self.dt, self.beta, self.gamma, self.am, self.af
         same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
-        J.scale(1.0 - af)
+        if not self.at_end:
+            J.scale(1.0 - af)
         J.axpy((1.0 - am) / (b * dt * dt), self.M, structure=same)
         if self.C is not None:
             J.axpy((1.0 - af) * g / (b * dt), self.C, structure=same)
@@ -528,7 +553,9 @@ class Inertia:
         if self.C is not None:
             damping = self._dot(du, self._mult(self.C, (1.0 - af) * v1 + af * self.velocity))
         w_bulk = self._dot(du, (1.0 - af) * bulk1 + af * bulk0)
-        w_if = self._dot(du, (1.0 - af) * self._f1 + af * self.interface_force)
+        w_if = self._dot(
+            du, self._f1 if self.at_end else (1.0 - af) * self._f1 + af * self.interface_force
+        )
         e_if1, friction = self._interface_energy()
         if p.linear_bulk:
             u_b0 = self.energy["E_strain"] - self._e_if

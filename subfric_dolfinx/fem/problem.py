@@ -454,6 +454,8 @@ class InterfaceProblem:
                 if not np.isfinite(J.norm()):  # collective: the bulk's tangent alone so far
                     self._bulk_fault_jacobian = True
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        if self.dynamics is not None:
+            self.dynamics.bulk_jacobian(J)
         for iface in self.interfaces.values():
             iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, start=start)
         J.assemble()

@@ -127,6 +127,10 @@ def scene_dynamics(scene: FEScene) -> dict[str, Any] | None:
     for key in ("alpha_m", "alpha_k"):
         if not scene_number(getattr(spec, key), f"{path}.{key}") >= 0.0:
             raise SceneError(f"{path}.{key}: must be >= 0, got {getattr(spec, key)!r}")
+    if spec.interface_forces not in ("mixed", "end"):
+        raise SceneError(
+            f"{path}.interface_forces: must be 'mixed' or 'end', got {spec.interface_forces!r}"
+        )
     gdim = scene.mesh.geometric_dim
     vectors = {f"{path}.initial_velocity.{k}": v for k, v in spec.initial_velocity.items()}
     if spec.gravity is not None:
@@ -143,6 +147,7 @@ def scene_dynamics(scene: FEScene) -> dict[str, Any] | None:
         "alpha_k": float(spec.alpha_k),
         "initial_velocity": {k: tuple(map(float, v)) for k, v in spec.initial_velocity.items()},
         "gravity": None if spec.gravity is None else tuple(map(float, spec.gravity)),
+        "interface_forces": spec.interface_forces,
     }
 
 

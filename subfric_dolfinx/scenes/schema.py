@@ -237,6 +237,8 @@ class DynamicsSpec:
         initial_velocity: Body (or cell group) -> its initial velocity (mm/s, one value per
             coordinate); the others start at rest.
         gravity: A constant body force ``rho g``: ``g`` (mm/s^2, one value per coordinate).
+        interface_forces: ``"mixed"`` or ``"end"`` (the interfaces' forces at the step's end
+            alone: no energy gained where contacts close or open within a step).
     """
 
     rho_inf: float = 1.0
@@ -244,6 +246,7 @@ class DynamicsSpec:
     alpha_k: float = 0.0
     initial_velocity: dict[str, list[float]] = dataclasses.field(default_factory=dict)
     gravity: list[float] | None = None
+    interface_forces: str = "mixed"
 
 
 @dataclasses.dataclass(frozen=True)

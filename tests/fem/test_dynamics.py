@@ -35,7 +35,7 @@ from subfric_dolfinx.fem import (
     StepControl,
     Traction,
 )
-from subfric_dolfinx.fem.dynamics import Dynamics, coefficients
+from subfric_dolfinx.fem.dynamics import ENERGY_COLUMNS, Dynamics, coefficients
 from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import tagged_blocks, tagged_boxes
 
@@ -191,44 +191,51 @@ def test_generalised_alpha_coefficients():
 
 
 # -- waves -------------------------------------------------------------------------------------
-def crossing(t: np.ndarray, v: np.ndarray, level: float) -> float:
-    """The first time ``v`` reaches ``level`` (linear interpolation between steps)."""
-    i = int(np.argmax(v >= level))
-    assert v[i] >= level and i > 0
-    return float(t[i - 1] + (level - v[i - 1]) * (t[i] - t[i - 1]) / (v[i] - v[i - 1]))
+def line(t: np.ndarray, u: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
+    """Slope and intercept of the least-squares line through ``u(t)`` on ``[t0, t1]``."""
+    m = (t >= t0) & (t <= t1)
+    slope, intercept = np.polyfit(t[m], u[m], 1)
+    return float(slope), float(intercept)
 
 
 @pytest.mark.parametrize("nu", [0.0, 0.3])
 def test_a_step_wave_in_a_bar(nu):
     """A strip of length L (two layers along it, their interface open: two bars side by side,
-    plane strain), a step traction sigma on its left end at t = 0, its right end free. Behind
-    the front the
-    velocity is ``v0 = sigma / (rho c)``; the front reaches the free end at ``L / c``, where
-    the velocity doubles (0 -> 2 v0, crossing v0), comes back and reaches the loaded end at
-    ``2 L / c`` (v0 -> 3 v0, crossing 2 v0). ``nu = 0``: ``c = sqrt(E / rho)`` (the bar's
-    speed, also the P-wave speed); ``nu = 0.3`` with every dof on rollers (uniaxial strain):
-    ``c = sqrt((lambda + 2 mu) / rho)``. Both times within 1 %."""
+    plane strain, one element across), a step traction sigma on its left end at t = 0, its right
+    end free. ``nu = 0``: ``c = sqrt(E / rho)`` (the bar's speed, also the P-wave speed);
+    ``nu = 0.3`` with every dof on rollers (uniaxial strain): ``c = sqrt((lambda + 2 mu) /
+    rho)``. In the 1-D solution the free end stays still until ``L / c`` and then moves at
+    ``2 v0`` (``v0 = sigma / (rho c)``); the loaded end moves at ``v0`` until the reflection
+    comes back at ``2 L / c``, then at ``3 v0``. Each time is where the lines fitted to the
+    end's displacement before and after it cross (the front, smeared over a few elements by the
+    mesh's dispersion, leaves these lines unchanged: momentum): both within 1 % of ``L / c``
+    and ``2 L / c``; behind the front the velocity is ``v0`` (2 %)."""
     comm = MPI.COMM_WORLD
     L, h, n = 40.0, 1.0, 80
     modulus = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))  # lambda + 2 mu (E when nu = 0)
     c = math.sqrt(modulus / RHO)
     sigma = 1.0
     v0 = sigma / (RHO * c)
-    dt = 0.25 * (L / n) / c
+    T = L / c
+    dt = 0.5 * (L / n) / c
     dom = tagged_blocks(
-        comm, base=(0.0, L, -h, 0.0), block=(0.0, L, 0.0, h), n_base=(n, 1), n_block=(n, 1)
+        comm,
+        base=(0.0, L, -h, 0.0),
+        block=(0.0, L, 0.0, h),
+        n_base=(n, 1),
+        n_block=(n, 1),
+        cell="quadrilateral",
     )
     bcs = []
     if nu:  # every dof on rollers: uniaxial strain
         bcs = [Dirichlet("base", 0.0, component=1), Dirichlet("block", 0.0, component=1)]
     loads = [Traction("block_left", (sigma, 0.0)), Traction("base_left", (sigma, 0.0))]
-    t_end = 2.3 * L / c
-    times, left, right = [], [], []
+    rows: list[tuple[float, float, float, float]] = []
     with InterfaceProblem(
         dom,
         GLUED,
         {"base": Material(E, nu), "block": Material(E, nu)},
-        program(t_end),
+        program(2.6 * T),
         bcs,
         loads,
         interfaces=[Interface("contact", "base", "block", initial_gap=0.01)],
@@ -238,26 +245,30 @@ def test_a_step_wave_in_a_bar(nu):
         comp = np.arange(x.shape[0]) % 2 == 0
         at_left = comp & np.isclose(x[:, 0], 0.0)
         at_right = comp & np.isclose(x[:, 0], L)
+        n_owned = problem.layout.n_owned
 
-        def mean(mask: np.ndarray) -> float:
-            v = problem.dynamics.velocity
-            s = comm.allreduce(float(v[mask].sum()))
+        def mean(values: np.ndarray, mask: np.ndarray) -> float:
+            s = comm.allreduce(float(values[mask].sum()))
             return s / comm.allreduce(int(mask.sum()))
 
         def on_step(rec) -> None:
-            times.append(rec.t)
-            left.append(mean(at_left))
-            right.append(mean(at_right))
+            u = problem.u.x.array[:n_owned]
+            v = problem.dynamics.velocity
+            rows.append((rec.t, mean(u, at_left), mean(u, at_right), mean(v, at_left)))
 
         run(problem, dt, on_step=on_step)
-    t, left, right = np.array(times), np.array(left), np.array(right)
-    arrival = crossing(t, right / v0, 1.0)
-    back = crossing(t, left / v0, 2.0)
-    assert arrival == pytest.approx(L / c, rel=1e-2)
-    assert back == pytest.approx(2 * L / c, rel=1e-2)
-    # between the fronts, the velocities of the 1-D solution
-    mid = (t > 0.5 * L / c) & (t < 0.9 * L / c)
-    assert np.median(left[mid]) / v0 == pytest.approx(1.0, rel=0.05)
+    t, left, right, v_left = (np.array(col) for col in zip(*rows, strict=True))
+    slope, intercept = line(t, right, 1.3 * T, 1.9 * T)
+    arrival = -intercept / slope
+    a0, b0 = line(t, left, 0.4 * T, 1.8 * T)
+    a1, b1 = line(t, left, 2.2 * T, 2.6 * T)
+    back = (b1 - b0) / (a0 - a1)
+    assert arrival == pytest.approx(T, rel=1e-2)
+    assert back == pytest.approx(2 * T, rel=1e-2)
+    assert slope / v0 == pytest.approx(2.0, rel=2e-2)
+    assert a0 / v0 == pytest.approx(1.0, rel=2e-2) and a1 / v0 == pytest.approx(3.0, rel=2e-2)
+    plateau = (t > 0.5 * T) & (t < 0.9 * T)
+    assert np.median(v_left[plateau]) / v0 == pytest.approx(1.0, rel=2e-2)
 
 
 # -- impact ------------------------------------------------------------------------------------
@@ -353,3 +364,78 @@ def test_a_restart_continues_the_run(shared_tmp):
         with FrictionSolver(static, linear="lu") as solver:
             with pytest.raises(CheckpointError, match="dynamic run"):
                 restore_checkpoint(path, static, LoadStepper(solver, dt))
+
+
+# -- stability (issue 38 item 6) -----------------------------------------------------------------
+def test_a_stiff_impact_cuts_its_steps_and_recovers():
+    """A block thrown onto a base held at its bottom, a stiff contact (alpha_n = 1e8 MPa/mm,
+    500 times the bodies' E / h), the interfaces' forces at the steps' ends: steps are cut where
+    the contact closes and the run recovers to its end; no NaN; the energy never exceeds the
+    initial one (no external work: the support is fixed; to 1e-9) and the accounts balance.
+    (The mixed form gains energy here: D_numerical < 0, the note's numbers.)"""
+    comm = MPI.COMM_WORLD
+    dom = tagged_blocks(comm, n_base=(2, 2), n_block=(2, 2), split_x=0.5)
+    law = CoulombLaw(alpha_t=1e8, alpha_n=1e8, mu_c=0.3)
+    dyn = Dynamics(
+        {"base": RHO, "block": RHO},
+        rho_inf=0.8,
+        initial_velocity={"block": (5.0, -200.0)},
+        interface_forces="end",
+    )
+    dt, t_end = 1e-5, 4e-4
+    with InterfaceProblem(
+        dom,
+        law,
+        {"base": Material(E, 0.3), "block": Material(E, 0.3)},
+        program(t_end),
+        [Dirichlet("bottom", (0.0, 0.0))],
+        interfaces=[
+            Interface("contact", "base", "block", initial_gap=2e-3, intended_compliance=True)
+        ],
+        settings=ProblemSettings(dynamics=dyn),
+    ) as problem:
+        records = run(problem, dt, retry_options=None)
+        e0 = problem.dynamics.e0
+    assert records[-1].t == pytest.approx(t_end)
+    assert sum(r.cuts for r in records) > 0
+    energy = np.array([[r.energy[k] for k in ENERGY_COLUMNS] for r in records])
+    assert np.all(np.isfinite(energy))
+    total = energy[:, 0] + energy[:, 1]
+    assert total.max() <= e0 * (1 + 1e-9)
+    assert np.abs(energy[:, -1]).max() <= 1e-8 * e0
+    assert max(r.energy["E_strain"] for r in records) > 0.05 * e0  # they did meet
+
+
+def test_grazing_layers_stay_bounded():
+    """Two layers of a bar touching along it (gap 0, stiff contact), a step load on their end:
+    the contact's points open and close as the waves pass. With the interfaces' forces at the
+    steps' ends, average acceleration stays bounded: the energy never exceeds the external work
+    by more than 1 % of it, and the accounts balance. (With the mixed form it grows without
+    bound here: the note's numbers.)"""
+    comm = MPI.COMM_WORLD
+    L, h, n = 20.0, 1.0, 40
+    c = math.sqrt(E / RHO)
+    dom = tagged_blocks(
+        comm, base=(0.0, L, -h, 0.0), block=(0.0, L, 0.0, h), n_base=(n, 1), n_block=(n, 1)
+    )
+    loads = [Traction("block_left", (1.0, 0.0)), Traction("base_left", (1.0, 0.0))]
+    dyn = Dynamics({"base": RHO, "block": RHO}, interface_forces="end")
+    with InterfaceProblem(
+        dom,
+        GLUED,
+        {"base": Material(E, 0.0), "block": Material(E, 0.0)},
+        program(2.5 * L / c),
+        [],
+        loads,
+        interfaces=[Interface("contact", "base", "block")],
+        settings=ProblemSettings(dynamics=dyn),
+    ) as problem:
+        records = run(problem, 0.5 * (L / n) / c)
+        e0 = problem.dynamics.e0
+    energy = np.array([[r.energy[k] for k in ENERGY_COLUMNS] for r in records])
+    assert np.all(np.isfinite(energy))
+    work = energy[:, 2]
+    assert work.max() > 0
+    gained = energy[:, 0] + energy[:, 1] - e0 - work
+    assert gained.max() <= 1e-2 * work.max()
+    assert np.abs(energy[:, -1]).max() <= 1e-8 * work.max()
