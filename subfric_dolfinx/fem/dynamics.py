@@ -442,6 +442,7 @@ class Inertia:
         if self.C is not None:
             rhs = rhs - self._mult(self.C, self.velocity)
         rhs[p.bc_dofs] = 0.0
+        assert self.M is not None  # built with the problem
         A = self.M.duplicate(copy=True)
         A.zeroRowsColumns(p.bc_rows, diag=1.0)
         ksp = PETSc.KSP().create(p.comm)
