@@ -329,8 +329,9 @@ class InterfaceProblem:
             self.K_scale.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.bulk.revert()
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
-        if getattr(self, "dynamics", None) is not None:
-            self.dynamics.build_matrices()
+        dynamics = getattr(self, "dynamics", None)  # (not made yet when the problem is built)
+        if dynamics is not None:
+            dynamics.build_matrices()
 
     def set_step(self, t: float, dt: float) -> None:
         """Set the time at the end of the step and the step length (drives recovery).
@@ -583,8 +584,9 @@ class InterfaceProblem:
         self.loads = []
         for iface in getattr(self, "interfaces", {}).values():
             iface.destroy()
-        if getattr(self, "dynamics", None) is not None:
-            self.dynamics.destroy()
+        dynamics = getattr(self, "dynamics", None)
+        if dynamics is not None:
+            dynamics.destroy()
 
     def __enter__(self) -> InterfaceProblem:
         return self
