@@ -439,3 +439,82 @@ def test_grazing_layers_stay_bounded():
     gained = energy[:, 0] + energy[:, 1] - e0 - work
     assert gained.max() <= 1e-2 * work.max()
     assert np.abs(energy[:, -1]).max() <= 1e-8 * work.max()
+
+
+# -- FE against the spring-slider (issue 38 item 4) ---------------------------------------------
+def test_a_block_pulled_through_a_spring_slips_as_the_slider():
+    """A stiff block (E = 1e8 MPa, 10 mm wide, 0.1 mm high: its tilting moment changes f_n by
+    0.3 %) of mass 1 tonne/mm^2 per unit interface area on a fixed base, the stick-slip law of
+    the material-point checks, pressed by 300 MPa (the initial overlap f_n / alpha_n: the normal
+    direction starts in equilibrium) and pulled at V = 0.3 mm/s through a spring of 50 MPa/mm per
+    unit interface area on its left end (Spring: 50 * 10 / 0.1 MPa/mm on the 0.1 mm end). Its
+    limit cycle (the last full cycle of 12 s from a rested contact, between velocity peaks)
+    against the spring-slider's rate equations integrated by solve_ivp
+    (tests/driver/slider_reference.py, independent of the package): period and stress drop
+    within 2 %. Average acceleration, the mixed interface term, dt = T_spring / 400, the
+    slider test's step."""
+    from subfric_dolfinx.constitutive import SubloadingLaw
+    from subfric_dolfinx.fem import Pressure, Spring
+    from tests.driver import slider_reference as ref
+
+    comm = MPI.COMM_WORLD
+    V, t_end, k, FN, MASS = 0.3, 12.0, 50.0, 300.0, 1.0
+    w, h = 10.0, 0.1
+    law = SubloadingLaw(**ref.STICK_SLIP_LAW)
+    dom = tagged_blocks(
+        comm,
+        base=(0.0, w, -h, 0.0),
+        block=(0.0, w, 0.0, h),
+        n_base=(4, 1),
+        n_block=(4, 1),
+        cell="quadrilateral",
+    )
+    spring = Spring("block_left", stiffness=(k * w / h, 0.0), u0=(1.0, 0.0), amplitude="drive")
+    rows: list[tuple[float, float, float]] = []
+    with InterfaceProblem(
+        dom,
+        law,
+        {"base": Material(1e8, 0.0), "block": Material(1e8, 0.0)},
+        LoadingProgram([0.0, t_end], {"drive": [0.0, V * t_end]}),
+        [Dirichlet("base", (0.0, 0.0))],
+        [Pressure("top", FN), spring],
+        interfaces=[
+            Interface(
+                "contact",
+                "base",
+                "block",
+                initial_gap=-FN / law.alpha_n,
+                intended_compliance=True,  # the slider's alpha_n, its normal compliance
+            )
+        ],
+        settings=ProblemSettings(dynamics=Dynamics({"base": 1.0, "block": MASS / h})),
+    ) as problem:
+        x = owned_coordinates(problem)
+        block = (np.arange(x.shape[0]) % 2 == 0) & (x[:, 1] > 1e-9)
+        pts = problem.interfaces["contact"].law_points
+        wts = np.asarray(pts.weights, dtype=float).reshape(-1)
+
+        def on_step(rec) -> None:
+            v = problem.dynamics.velocity
+            vs = comm.allreduce(float(v[block].sum())) / comm.allreduce(int(block.sum()))
+            last = pts.last.traction if pts.last is not None else np.zeros((0, 2))
+            tr = np.asarray(last, dtype=float).reshape(wts.size, 2)
+            ft = comm.allreduce(float(wts @ tr[:, 0])) / comm.allreduce(float(wts.sum()))
+            rows.append((rec.t, vs, abs(ft)))
+
+        run(problem, 2 * np.pi * np.sqrt(MASS / k) / 400, on_step=on_step)
+    t, v, f = (np.array(col) for col in zip(*rows, strict=True))
+
+    def cycle(t: np.ndarray, v: np.ndarray, f: np.ndarray) -> tuple[float, float]:
+        i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] > 2 * V)) + 1
+        a, b = i[-2], i[-1]
+        return float(t[b] - t[a]), float(f[a : b + 1].max() - f[a : b + 1].min())
+
+    names = ("alpha_t", "mu_s", "mu_k", "kappa", "xi", "u_tilde", "c_n")
+    p = ref.Params(**{n: getattr(law, n) for n in names}, f_n=FN, mass=MASS, velocity=V)
+    o = ref.integrate_ode(p, k, t_end, max_step=0.01)
+    assert o.status == 0
+    period_ref, drop_ref = cycle(o.t, o.y[1], law.alpha_t * (o.y[0] - o.y[2]))
+    period, drop = cycle(t, v, f)
+    assert period == pytest.approx(period_ref, rel=0.02)
+    assert drop == pytest.approx(drop_ref, rel=0.02)
