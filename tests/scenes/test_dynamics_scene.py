@@ -18,7 +18,7 @@ from subfric_dolfinx.fem.dynamics import ENERGY_COLUMNS
 from subfric_dolfinx.scenes import SceneError, parse_scene, run_scene
 from tests.helpers import small_scene
 
-DENSITIES = {"master": 7.85e-9, "slave": 2.7e-9}  # steel, aluminium (tonne/mm^3)
+DENSITIES = {"primary": 7.85e-9, "secondary": 2.7e-9}  # steel, aluminium (tonne/mm^3)
 
 
 def dynamic(scene: dict, **dynamics) -> dict:
@@ -55,7 +55,7 @@ def test_a_slow_dynamic_scene_runs_to_the_quasi_static_forces(shared_tmp):
 @pytest.mark.parametrize(
     ("change", "match"),
     [
-        (lambda s: s["materials"]["slave"].pop("density"), r"scene.materials: a density for"),
+        (lambda s: s["materials"]["secondary"].pop("density"), r"scene.materials: a density for"),
         (
             lambda s: [m.pop("density") for m in s["materials"].values()],
             r"scene.dynamics: a dynamic scene needs a density",
@@ -63,7 +63,7 @@ def test_a_slow_dynamic_scene_runs_to_the_quasi_static_forces(shared_tmp):
         (lambda s: s["dynamics"].update(rho_inf=1.5), r"scene.dynamics.rho_inf"),
         (lambda s: s["dynamics"].update(alpha_m=-1.0), r"scene.dynamics.alpha_m"),
         (lambda s: s["dynamics"].update(gravity=[0.0]), r"scene.dynamics.gravity"),
-        (lambda s: s["materials"]["master"].update(density=0.0), r"master.density"),
+        (lambda s: s["materials"]["primary"].update(density=0.0), r"primary.density"),
         (lambda s: s["dynamics"].update(unknown=1), r"scene.dynamics"),
     ],
 )
