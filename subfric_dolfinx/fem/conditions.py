@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..constitutive.j2 import LinearElastic
+from .dynamics import Dynamics
 
 __all__ = [
     "Dirichlet",
@@ -188,11 +189,15 @@ class ProblemSettings:
             ``"axisymmetric"`` (coordinates (r, z); every integral, the interfaces' included,
             carries ``2 pi r``: forces are totals over the revolution); ``None``: the mesh's
             dimension's default.
+        dynamics: Inertia of the bodies (:class:`~.dynamics.Dynamics`: densities, the
+            generalised-alpha integrator's ``rho_inf``, Rayleigh damping, initial velocities);
+            ``None``, the default: quasi-static.
     """
 
     degree: int = 1
     quadrature: str = "gauss"
     mode: str | None = None
+    dynamics: Dynamics | None = None
 
 
 def channels(amplitude: str | None | Sequence[str | None], n: int, what: str) -> list[str | None]:

@@ -46,6 +46,7 @@ from .conditions import (
     Traction,
     channels,
 )
+from .dynamics import Inertia
 from .interface import BaseInterface, InterfaceError, NewtonStart
 from .interface.base import stiffen_separated
 from .interface.kinds import make_interface
@@ -248,6 +249,10 @@ class InterfaceProblem:
         # the interfaces' forces' round-off beyond the displacement's (the convergence test)
         self.interface_round_off: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}
+        # the bodies' inertia (a dynamic problem), adding its terms to the residual and Jacobian
+        self.dynamics: Inertia | None = None
+        if settings.dynamics is not None:
+            self.dynamics = Inertia(self, settings.dynamics)
 
     @classmethod
     def two_bodies(
@@ -324,6 +329,9 @@ class InterfaceProblem:
             self.K_scale.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.bulk.revert()
         self.K.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
+        dynamics = getattr(self, "dynamics", None)  # (not made yet when the problem is built)
+        if dynamics is not None:
+            dynamics.build_matrices()
 
     def set_step(self, t: float, dt: float) -> None:
         """Set the time at the end of the step and the step length (drives recovery).
@@ -332,6 +340,8 @@ class InterfaceProblem:
         when one rebuilds its pattern, the layout and the bulk matrices are rebuilt and
         :attr:`layout_version` grows (a solver then re-creates its matrices).
         """
+        if self.dynamics is not None:  # the first step: the initial state's forces
+            self.dynamics.begin_step(t, dt)
         self.t, self.dt = float(t), float(dt)
         self._x_at_update = None
         self._bulk_fault = None
@@ -410,6 +420,8 @@ class InterfaceProblem:
         self.interface_force = force
         Fa = F.array_w
         Fa += force
+        if self.dynamics is not None:  # the step's equation of motion
+            self.dynamics.residual(x.array_r, Fa)
         # reactions: forces at Dirichlet dofs before the rows are replaced
         self.reactions = self._reactions(Fa)
         idx, val = self.dirichlet_values(self.t)
@@ -443,9 +455,13 @@ class InterfaceProblem:
                 if not np.isfinite(J.norm()):  # collective: the bulk's tangent alone so far
                     self._bulk_fault_jacobian = True
             J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        if self.dynamics is not None:
+            self.dynamics.bulk_jacobian(J)
         for iface in self.interfaces.values():
             iface.assemble_jacobian(J, separated_stiffness=separated_stiffness, start=start)
         J.assemble()
+        if self.dynamics is not None:
+            self.dynamics.jacobian(J)
         J.zeroRows(self.bc_rows, diag=1.0)
 
     @property
@@ -518,6 +534,8 @@ class InterfaceProblem:
 
         Collective.
         """
+        if self.dynamics is not None:  # before the interfaces: it reads their slip increment
+            self.dynamics.commit()
         for iface in self.interfaces.values():
             iface.commit()
         self.bulk.commit()
@@ -566,6 +584,9 @@ class InterfaceProblem:
         self.loads = []
         for iface in getattr(self, "interfaces", {}).values():
             iface.destroy()
+        dynamics = getattr(self, "dynamics", None)
+        if dynamics is not None:
+            dynamics.destroy()
 
     def __enter__(self) -> InterfaceProblem:
         return self

@@ -153,7 +153,11 @@ def _activity_text(sliding: float, open_: float) -> str:
 
 @dataclasses.dataclass
 class StepRecord:
-    """One converged step."""
+    """One converged step.
+
+    ``energy``: a dynamic problem's energy accounts at the step's end (mJ;
+    :data:`~.dynamics.ENERGY_COLUMNS`, :class:`~.dynamics.Inertia`), empty for a quasi-static one.
+    """
 
     step: int
     t: float
@@ -165,6 +169,7 @@ class StepRecord:
     retried: bool = False  # solved with the retry options (:data:`RETRY_OPTIONS`)
     sliding: float = 0.0  # fraction of the points sliding at the end (:func:`interface_activity`)
     open: float = 0.0  # fraction of the points open at the end
+    energy: dict[str, float] = dataclasses.field(default_factory=dict)
 
     @property
     def plastic_fraction(self) -> float:
@@ -376,8 +381,13 @@ class LoadStepper:
         """The increment added to Newton's start: the last step's, scaled to this one.
 
         Only if the program goes on as it went during the last step ``(t - increment_dt, t)``
-        (the same on every rank: the program decides); else ``None``.
+        (the same on every rank: the program decides); else ``None``. A dynamic problem's:
+        ``dt v + dt^2 a / 2`` from its committed velocity and acceleration
+        (:meth:`~.dynamics.Inertia.predicted_increment`), at every step but the first.
         """
+        dynamics = getattr(self.problem, "dynamics", None)
+        if self.predictor and dynamics is not None and dynamics.started:
+            return dynamics.predicted_increment(dt)  # the motion's own extrapolation
         if not self.predictor or self.increment is None or self.increment_dt <= 0.0:
             return None
         ratio = dt / self.increment_dt
@@ -608,6 +618,7 @@ class LoadStepper:
                 since.line_search += 1
                 self.retries += int(first is None)
             self.problem.commit()
+            dynamics = getattr(self.problem, "dynamics", None)
             for watch in self.watches.values():
                 watch.track(target)
             sliding, open_ = interface_activity(self.problem)
@@ -637,6 +648,7 @@ class LoadStepper:
                 retried,
                 sliding,
                 open_,
+                dict(dynamics.energy) if dynamics is not None else {},
             )
             if not self.keep_records:
                 self.records.clear()

@@ -20,6 +20,13 @@ ranks restarts on 1 or 2 (format version 3; version 2 is still read):
   :class:`~subfric_dolfinx.fem.LoadStepper`'s ``predictor``, on by default): the last converged
   step's displacement increment, laid out as ``/displacement``, its step length in the attribute
   ``dt``; a restart starts its first step from it as the uninterrupted run does;
+* ``/dynamics`` (a dynamic problem, :class:`~subfric_dolfinx.fem.dynamics.Inertia`): the
+  committed ``velocity``, ``acceleration``, the quasi-static residual ``force`` and the
+  interfaces' ``interface_force`` at the last converged step (the generalised-alpha method's
+  start of the next step), each laid out as ``/displacement``, and the energy accounts in the
+  attribute ``accounts`` (JSON); a dynamic run restarts only from a checkpoint with it, a
+  quasi-static one only from one without it (no new format version: a checkpoint without it
+  reads as before);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
   counter of the stepper), ``law`` (the first interface's), ``program`` and ``settings`` (JSON:
   what the runner passed, e.g. the scene's materials, boundary conditions and loads),
@@ -73,6 +80,7 @@ from ..constitutive import law_description
 from ..meshing.groups import canonical_names
 from ..values import NotAnInteger, NotANumber, NotFinite, finite_float, short_repr, strict_int
 from .collective import OutputError, collective
+from .dynamic_state import by_cell, from_cells, read_dynamics
 from .h5 import ParallelH5
 from .slabs import interface_rows, pull, push, slab
 
@@ -432,6 +440,13 @@ def write_checkpoint(
         v.x.scatter_forward()
         iblock = push(comm, cells, v.x.array.reshape(-1, gdim)[dofs], n_cells)
     extras = extra_parts(problem, cells, n_cells)  # every interface, the bulk state
+    dynamics = getattr(problem, "dynamics", None)  # a dynamic problem's velocity, acceleration
+    dblocks: dict[str, np.ndarray] = {}
+    accounts = "{}"
+    if dynamics is not None:
+        saved = dynamics.saved_state()
+        accounts = json.dumps(saved.pop("accounts"))
+        dblocks = {k: by_cell(problem, v, cells, n_cells) for k, v in saved.items()}
     cols = list(history[0]) if history else []
     table = np.array([[r[c] for c in cols] for r in history], dtype=float).reshape(
         len(history), len(cols)
@@ -462,6 +477,11 @@ def write_checkpoint(
             d.attrs["dt"] = float(stepper.increment_dt)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
+        if dblocks:
+            g = f.create_group("dynamics")
+            g.attrs["accounts"] = accounts
+            for k, b in dblocks.items():
+                g.create_dataset(k, (n_cells, *b.shape[1:]), **kw)
         write_extras(f, extras, comm, create=True)
 
     def fill(f: Any) -> None:  # independent transfers: each rank its own slab
@@ -469,6 +489,8 @@ def write_checkpoint(
             f["displacement"][c0:c1] = ublock
             if iblock is not None:
                 f["increment"][c0:c1] = iblock
+            for k, b in dblocks.items():
+                f["dynamics"][k][c0:c1] = b
         if comm.rank == 0 and table.size:
             f["history"][...] = table
         write_extras(f, extras, comm, create=False)
@@ -478,12 +500,12 @@ def write_checkpoint(
             comm, lambda: tmp.unlink(missing_ok=True), what, error=CheckpointWriteError, path=tmp
         )
         values = (
-            (1 + (iblock is not None)) * n_cells * int(np.prod(ublock.shape[1:]))
+            (1 + (iblock is not None) + len(dblocks)) * n_cells * int(np.prod(ublock.shape[1:]))
             + (table.size)
             + extras.values()
         )
         with ParallelH5(tmp, "w", comm, what, CheckpointWriteError) as h:
-            n_sets = 4 + len(extras.bulk) + 8 * len(extras.interfaces)
+            n_sets = 4 + len(dblocks) + len(extras.bulk) + 8 * len(extras.interfaces)
             h.reserve(8 * values + 4096 * n_sets)  # all the file will hold
             h.call(create, meta=True)
             h.call(fill)
@@ -552,6 +574,8 @@ class Checkpoint:
         bulk: Name -> this rank's slab of each array of the bulk state (by original cell).
         increment: This rank's rows of the last step's displacement increment and its length
             (the load stepper's predictor), ``None`` in a checkpoint without it.
+        dynamics: A dynamic run's vectors (name -> this rank's rows, laid out as
+            ``displacement``) and energy accounts; ``None`` in a checkpoint without them.
     """
 
     attrs: dict[str, Any]
@@ -561,6 +585,7 @@ class Checkpoint:
     interfaces: dict[str, StoredInterface]
     bulk: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
     increment: tuple[np.ndarray, float] | None = None
+    dynamics: tuple[dict[str, np.ndarray], dict[str, Any]] | None = None
 
     @property
     def interface(self) -> dict[str, np.ndarray]:
@@ -639,10 +664,10 @@ def read_checkpoint(path: str | Path, comm: Any) -> Checkpoint:
                 x = data.pop("x")
                 ifaces[key] = StoredInterface(npt, law, (p0, p1), x, data, pdata)
             bulk = read_bulk(f, name, comm, int(attrs["n_cells"]))
-            return u, ifaces, bulk, inc
+            return u, ifaces, bulk, inc, read_dynamics(f, name, c0, c1, CheckpointError)
 
-        u, ifaces, bulk, inc = h.call(read)
-    return Checkpoint(attrs, history, (c0, c1), u, ifaces, bulk, inc)
+        u, ifaces, bulk, inc, dyn = h.call(read)
+    return Checkpoint(attrs, history, (c0, c1), u, ifaces, bulk, inc, dyn)
 
 
 def restore_checkpoint(
@@ -722,6 +747,17 @@ def restore_checkpoint(
         v.x.array.reshape(-1, gdim)[dofs] = pull(comm, cells, ck.increment[0], n_cells)
         v.x.scatter_forward()
         increment, increment_dt = v.x.array.copy(), ck.increment[1]
+    dynamics = getattr(problem, "dynamics", None)
+    if (dynamics is None) != (ck.dynamics is None):
+        kinds = ("quasi-static", "dynamic") if dynamics is None else ("dynamic", "quasi-static")
+        raise CheckpointError(
+            f"checkpoint {name} was written by a {kinds[1]} run, this run is {kinds[0]}"
+        )
+    if dynamics is not None and ck.dynamics is not None:
+        vectors, accounts = ck.dynamics
+        dynamics.restore_state(
+            {k: from_cells(problem, b, cells, n_cells) for k, b in vectors.items()}, accounts
+        )
     stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]), increment, increment_dt)
     return ck.history
 

@@ -3,7 +3,8 @@
 A row holds the step (``step``, ``t``, ``dt``, ``newton``, ``cuts``), the interface summary
 (:func:`~.summary.interface_summary`: resultant forces, area-weighted means of the traction and of
 the law's internal variables, status fractions) and the reaction force of every Dirichlet group
-(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]), then the columns of ``columns()`` if given
+(``R_<group>_x``, ``R_<group>_y`` [, ``R_<group>_z``]), a dynamic problem's energy accounts
+(:data:`~subfric_dolfinx.fem.dynamics.ENERGY_COLUMNS`), then the columns of ``columns()`` if given
 (e.g. probes).
 
 Units: beside the CSV file, ``history.csv-metadata.json`` describes every column (its unit and
@@ -261,6 +262,7 @@ class HistoryCSV:
         for group, force in p.reactions.items():
             for i, f in enumerate(force):
                 row[f"R_{group}_{'xyz'[i]}"] = float(f)
+        row.update(getattr(record, "energy", None) or {})  # a dynamic problem's accounts
         if self.columns is not None:
             row.update(self.columns())
         self.rows.append(row)

@@ -109,6 +109,13 @@ _HISTORY = [  # (pattern, unit or a key of the dimension-dependent units, descri
     (r"R_\w+_[xyz]", "force", "reaction force of a Dirichlet group, global component"),
     (r"R_\w+_(?:t\d?|n)", "force", "reaction of a group in its local frame (reaction_frames)"),
     (r"S_\w+_[xyz]", "force", "force of a group's springs on the body, global component"),
+    (r"E_kinetic", "energy", "kinetic energy v M v / 2 (a dynamic problem)"),
+    (r"E_strain", "energy", "strain energy of the bodies and elastic energy of the interfaces"),
+    (r"W_external", "energy", "work of the loads and supports since the start"),
+    (r"D_friction", "energy", "work of the interfaces' plastic slip since the start"),
+    (r"D_damping", "energy", "work of the Rayleigh damping since the start"),
+    (r"D_numerical", "energy", "the time integrator's numerical dissipation since the start"),
+    (r"E_balance", "energy", "W_external - energy change - dissipations: Newton's residual"),
     (r"[\w.]+\.u_[xyz]", "mm", "probe: displacement"),
     (r"[\w.]+\.sigma_\w\w", "MPa", "probe: Cauchy stress component"),
     (r"[\w.]+\.von_mises", "MPa", "probe: von Mises stress"),
@@ -123,9 +130,10 @@ def column_unit(name: str, law: Any, gdim: int, mode: str | None = None) -> tupl
     (the problem's, e.g. ``"axisymmetric"``) decides the force and area units in 2-D.
     """
     force, area = _force_units(gdim, mode)
+    energy = "mJ" if force == "N" else "mJ/mm"  # N mm (per unit thickness in plane modes)
     for pattern, unit, what in _HISTORY:
         if re.fullmatch(pattern, name):
-            return {"force": force, "area": area}.get(unit, unit), what
+            return {"force": force, "area": area, "energy": energy}.get(unit, unit), what
     iface = interface_units(law, gdim)
     point, _, quantity = name.rpartition(".")
     if point and quantity in iface:

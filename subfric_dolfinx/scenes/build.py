@@ -19,10 +19,11 @@ from ..fem import (
     Spring,
     Traction,
 )
+from ..fem.dynamics import Dynamics
 from ..fem.kinematics import ModeError
 from ..fem.plasticity import PlasticityError
 from ..fem.probes import require_near
-from .materials import scene_materials
+from .materials import scene_dynamics, scene_materials
 from .parser import scene_model
 from .schema import DirichletSpec, FEScene, MeshSpec, SceneError
 
@@ -172,12 +173,18 @@ def build_problem(scene: FEScene, domain: meshing.InterfaceMesh) -> InterfacePro
             bcs,
             [*loads, *springs],
             interfaces=interfaces,
-            settings=ProblemSettings(scene.degree, scene.quadrature, scene.mode),
+            settings=ProblemSettings(scene.degree, scene.quadrature, scene.mode, _dynamics(scene)),
         )
     except PlasticityError as e:
         raise SceneError(f"scene.materials: {e}") from None
     except ModeError as e:
         raise SceneError(f"scene.mode: {e}") from None
+
+
+def _dynamics(scene: FEScene) -> Dynamics | None:
+    """The scene's inertia (:func:`~.materials.scene_dynamics`), ``None``: quasi-static."""
+    kwargs = scene_dynamics(scene)
+    return None if kwargs is None else Dynamics(**kwargs)
 
 
 def _only_interface(domain: meshing.InterfaceMesh) -> list[str]:

@@ -225,6 +225,11 @@ def _materials(defs: dict[str, Any]) -> dict[str, Any]:
                 "exclusiveMaximum": 0.5,
                 "description": "Poisson's ratio",
             },
+            "density": {
+                "type": "number",
+                "exclusiveMinimum": 0,
+                "description": "density (tonne/mm^3, steel 7.85e-9): a dynamic scene",
+            },
         },
         "required": ["E", "nu"],
         "additionalProperties": False,

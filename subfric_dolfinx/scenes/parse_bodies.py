@@ -23,7 +23,7 @@ from ..constitutive import FrictionLaw
 from ..meshing.groups import canonical_group
 from ..meshing.topology import ALIASES, KINEMATICS
 from ..values import short_repr
-from .materials import check_materials_fit, parse_material
+from .materials import check_materials_fit, parse_material, scene_dynamics
 from .schema import FEScene, SceneError
 
 __all__ = ["MODES", "ROLES", "check_topology", "interface_laws", "is_classic", "resolve_aliases"]
@@ -246,6 +246,7 @@ def _check_materials(scene: FEScene, known: set[str]) -> None:
     for name, mat in scene.materials.items():
         parse_material(mat, f"scene.materials.{name}")
     check_materials_fit(scene)
+    scene_dynamics(scene)  # densities on every material or none, scene.dynamics's values
     if is_classic(scene):
         for body in ("primary", "secondary"):
             if body not in scene.materials:

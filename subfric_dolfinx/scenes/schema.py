@@ -20,6 +20,7 @@ from ..values import NotANumber, NotFinite, finite_float, short_repr
 __all__ = [
     "LINEAR_STRATEGIES",
     "DirichletSpec",
+    "DynamicsSpec",
     "FEScene",
     "FrameSpec",
     "InterfaceModel",
@@ -222,6 +223,33 @@ class SolverSpec:
 
 
 @dataclasses.dataclass(frozen=True)
+class DynamicsSpec:
+    """The time integrator of a dynamic scene (one whose materials give a ``density``).
+
+    See :class:`~subfric_dolfinx.fem.dynamics.Dynamics` (units: MPa, mm, s; density in
+    tonne/mm^3, in ``scene.materials.<body>.density``).
+
+    Attributes:
+        rho_inf: Generalised-alpha's spectral radius at infinite frequency, in [0, 1] (1:
+            Newmark's average acceleration).
+        alpha_m: Rayleigh damping's mass coefficient (1/s).
+        alpha_k: Rayleigh damping's stiffness coefficient (s).
+        initial_velocity: Body (or cell group) -> its initial velocity (mm/s, one value per
+            coordinate); the others start at rest.
+        gravity: A constant body force ``rho g``: ``g`` (mm/s^2, one value per coordinate).
+        interface_forces: ``"mixed"`` or ``"end"`` (the interfaces' forces at the step's end
+            alone: no energy gained where contacts close or open within a step).
+    """
+
+    rho_inf: float = 1.0
+    alpha_m: float = 0.0
+    alpha_k: float = 0.0
+    initial_velocity: dict[str, list[float]] = dataclasses.field(default_factory=dict)
+    gravity: list[float] | None = None
+    interface_forces: str = "mixed"
+
+
+@dataclasses.dataclass(frozen=True)
 class OutputSpec:
     """What to produce; nothing by default.
 
@@ -398,6 +426,9 @@ class FEScene:
     bodies: dict[str, Any] = dataclasses.field(default_factory=dict)
     interfaces: dict[str, InterfaceSpec] = dataclasses.field(default_factory=dict)
     mode: str | None = None  # "3d", "plane_strain" (2-D default), "plane_stress", "axisymmetric"
+    # the bodies' inertia: with a "density" in every material (tonne/mm^3), the integrator's
+    # settings (None: its defaults, or quasi-static without densities)
+    dynamics: DynamicsSpec | None = None
     # what parse_scene made of law, program, initial_gap and regions (not a key of the scene;
     # None in a scene made otherwise, e.g. by dataclasses.replace: the problem's builder makes it)
     model: SceneModel | None = dataclasses.field(
