@@ -441,7 +441,10 @@ def test_grazing_layers_stay_bounded():
     assert np.abs(energy[:, -1]).max() <= 1e-8 * work.max()
 
 
-# -- FE against the spring-slider (issue 38 item 4) ---------------------------------------------
+# -- FE against the spring-slider -----------------------------------------------------------------
+# one rank: the costliest test of the file; the 2-rank leg checks the same integrator on the cases
+# above (closed forms on 2 ranks)
+@pytest.mark.serial
 def test_a_block_pulled_through_a_spring_slips_as_the_slider():
     """A stiff block (E = 1e8 MPa, 10 mm wide, 0.1 mm high: its tilting moment changes f_n by
     0.3 %) of mass 1 tonne/mm^2 per unit interface area on a fixed base, the stick-slip law of
