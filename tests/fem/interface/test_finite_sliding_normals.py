@@ -1,4 +1,4 @@
-"""The master's nodal normals of every Newton iterate (issue 35 item 1): a slide's forces do not
+"""The primary's nodal normals of every Newton iterate (issue 35 item 1): a slide's forces do not
 depend on the step.
 
 ``demos/block_sliding_far.py``'s block (meshed apart from its base, ``--n 4``) pressed and slid
@@ -12,7 +12,7 @@ step). With the normals of every iterate:
 * the paper's Sec. 7 law (its recovery integrates in time): the push changes with the step as
   the friction force does, to 1e-6 of the peak: nothing beyond the law's own time error.
 
-1 and 2 ranks. In 2-D the tangent holds the normals' change with the master's nodes
+1 and 2 ranks. In 2-D the tangent holds the normals' change with the primary's nodes
 (:mod:`subfric_dolfinx.fem.interface.finite.normals`) through the projection, the gap, the frame
 and the transfer: the interface's tangent is the derivative of its forces (central differences,
 O(e^2)), as with the step's normals. Not in 3-D.
@@ -90,10 +90,10 @@ def test_held_normals_make_the_push_depend_on_the_step(comm, mesh):
     assert np.abs(coarse[:, 0] - fine[:, 0]).max() > 1e-4 * peak, (coarse, fine)
 
 
-def slave_rows(problem, iface) -> np.ndarray:
-    """The owned dofs of the slave (secondary) facets' nodes."""
+def secondary_rows(problem, iface) -> np.ndarray:
+    """The owned dofs of the secondary facets' nodes."""
     bs = problem.V.dofmap.bs
-    nodes = np.unique(iface.sides.slave.nodes)
+    nodes = np.unique(iface.sides.secondary.nodes)
     nodes = nodes[nodes < problem.V.dofmap.index_map.size_local]
     return (nodes[:, None] * bs + np.arange(bs)).ravel()
 
@@ -102,11 +102,11 @@ def slave_rows(problem, iface) -> np.ndarray:
 def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
     """test_finite_sliding_tangent's 2-D block, slid to t = 1.75 with the iterate's normals: the
     interface's tangent times a direction is its forces' central differences to O(e^2), its
-    slave rows alone (no transfer) and all of it."""
+    secondary rows alone (no transfer) and all of it."""
     monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
     problem = tangent.problem_2d(comm, tangent.law_of(law), degree)
     iface = problem.interfaces["contact"]
-    rows = slave_rows(problem, iface)
+    rows = secondary_rows(problem, iface)
 
     def rel(d, ref):
         return np.sqrt(comm.allreduce(float(d @ d)) / comm.allreduce(float(ref @ ref)))
@@ -141,7 +141,7 @@ def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
     err = np.array(err)
     checks = {
         "in contact": counts[0] + counts[1] > 0,
-        "slave rows exact": err[1, 0] < 1e-8,
+        "secondary rows exact": err[1, 0] < 1e-8,
         "O(e^2)": err[0, 0] > 30 * err[1, 0] or err[0, 0] < 1e-9,
         "whole exact": err[1, 1] < 1e-8,
         "whole O(e^2)": err[0, 1] > 30 * err[1, 1] or err[0, 1] < 1e-9,

@@ -187,7 +187,7 @@ def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
 
 def interface_rates(problem, x, v, eps, held=None):
     """The interface forces' central differences ``(f(x + e v) - f(x - e v)) / 2e`` for each ``e``
-    (owned values); with ``held``, the master-side transfer ``B`` held at it."""
+    (owned values); with ``held``, the primary-side transfer ``B`` held at it."""
     F = problem.create_vector()
     out = []
     with pytest.MonkeyPatch.context() as mp:

@@ -1,9 +1,9 @@
 """Forces and tangent of a finite-sliding interface (the assembly part of its interface).
 
-The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes ``-B t`` of the
-segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
-(slave rows) and one per point and master facet of its slave facet's segments (master rows),
-whose columns are the point's slave facet nodes and its master facet's nodes:
+The secondary nodes receive ``int N_s t`` by the secondary facets' rule, the primary nodes ``-B t``
+of the segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
+(secondary rows) and one per point and primary facet of its secondary facet's segments (primary
+rows), whose columns are the point's secondary facet nodes and its primary facet's nodes:
 ``d t = Q^T D G (sum_k N_k du_k - sum_l N_l(xi) du_l)`` with ``G`` the gap's derivative
 (:func:`.sliding.gap_operator`). Everything of the iterate comes in one
 :class:`~.contact.ContactGeometry`.
@@ -32,7 +32,7 @@ class SlidingAssembly:
     Args:
         sides: The interface's sides.
         points: Its law's points (their weights).
-        transfer: Its transfer part (the master side and the transfer's change).
+        transfer: Its transfer part (the primary side and the transfer's change).
     """
 
     def __init__(self, sides: Sides, points: SlidingPoints, transfer: SegmentTransfer) -> None:
@@ -48,16 +48,16 @@ class SlidingAssembly:
     def add_forces(self, local: np.ndarray, g: ContactGeometry, traction: np.ndarray) -> None:
         """Add the forces of the tractions ``traction`` to the local values ``local``."""
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
         w = self.points.weights.reshape(s.size, nq)
         b = local.reshape(-1, sd.bs)
         Rs = np.einsum("fq,qk,fqd->fkd", w, sd.Ns[0], tg)
         np.add.at(b[:, :gdim], s.nodes.ravel(), Rs.reshape(-1, gdim))
         tr = g.transfer
-        if tr.slave.size:
-            Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.slave])
-            np.add.at(b[:, :gdim], g.reach.nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
+        if tr.secondary.size:
+            Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.secondary])
+            np.add.at(b[:, :gdim], g.reach.nodes[tr.primary].ravel(), -Rm.reshape(-1, gdim))
 
     def add_round_off(self, local: np.ndarray, g: ContactGeometry, tangent: np.ndarray) -> None:
         """Add, per dof, the size of the forces' round-off over ``EPS`` to ``local``.
@@ -67,7 +67,7 @@ class SlidingAssembly:
         test's floor must know (:class:`~subfric_dolfinx.fem.convergence.ScaledConvergence`).
         """
         sd = self.sides
-        s, nq, gdim, bs = sd.slave, sd.nq, sd.gdim, sd.bs
+        s, nq, gdim, bs = sd.secondary, sd.nq, sd.gdim, sd.bs
         w = self.points.weights.reshape(s.size, nq)
         D = np.abs(tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
         m = (D * (np.linalg.norm(g.xq, axis=1) + sd.h)).reshape(s.size, nq)
@@ -75,9 +75,9 @@ class SlidingAssembly:
         Rs = np.einsum("fq,qk,fq->fk", w, np.abs(sd.Ns[0]), m)
         np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), bs, axis=1))
         tr = g.transfer
-        if tr.slave.size:
-            Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.slave])
-            np.add.at(b, g.reach.nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), bs, 1))
+        if tr.secondary.size:
+            Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.secondary])
+            np.add.at(b, g.reach.nodes[tr.primary].ravel(), np.repeat(Rm.reshape(-1, 1), bs, 1))
 
     def law_tangent(
         self,
@@ -121,7 +121,7 @@ class SlidingAssembly:
             traction: The points' tractions (the frame's turn and the transfer's change).
         """
         sd = self.sides
-        s, nq, gdim, nt = sd.slave, sd.nq, sd.gdim, sd.nt
+        s, nq, gdim, nt = sd.secondary, sd.nq, sd.gdim, sd.nt
         found, nodes = g.found, g.reach.nodes
         # Q^T D G + the frame's turn (2-D), (npts, gdim, gdim)
         M = np.einsum("mai,mab,mbj->mij", g.Q, D, g.G) + g.turn_stiffness(traction)
@@ -132,8 +132,8 @@ class SlidingAssembly:
         out = self._point_blocks(g, pts, cols, C, M[pts], g.held_now)
         if g.normal_rates is not None:  # the iterate's nodal normals move with the nodes
             out += self._normal_blocks(g, D, traction, M)
-        # the convected slip's own master nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
-        # besides the projection's move (in G): the master stretched between the two points
+        # the convected slip's own primary nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
+        # besides the projection's move (in G): the primary stretched between the two points
         mv = np.flatnonzero(found & (g.old_facet >= 0))
         if mv.size:
             E = g.Q[mv].copy()
@@ -159,10 +159,10 @@ class SlidingAssembly:
 
     @staticmethod
     def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
-        """2-D: the transfer's change with the master's nodes through its nodal normals.
+        """2-D: the transfer's change with the primary's nodes through its nodal normals.
 
-        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' master forces with the nodal
-        normals of their master facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' primary forces with the nodal
+        normals of their primary facets ``pm`` (:func:`~.transfer.transfer_tangent`).
         """
         assert g.normal_rates is not None  # (2-D, with the iterate's normals)
         facets, Dn = g.normal_rates
@@ -183,7 +183,7 @@ class SlidingAssembly:
     def _normal_blocks(
         self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray, M: np.ndarray
     ) -> list[Block]:
-        """2-D: the blocks of the iterate's nodal normals' change with the master's nodes."""
+        """2-D: the blocks of the iterate's nodal normals' change with the primary's nodes."""
         assert g.normal_rates is not None  # (2-D, with the iterate's normals)
         facets, Dn = g.normal_rates
         pts = np.flatnonzero(g.found)
@@ -215,11 +215,12 @@ class SlidingAssembly:
         """Blocks of ``d t_p = M_p sum_j E_pj dX_j`` with matrix coefficients ``E`` (np, nc, 2, 2).
 
         As :meth:`_point_blocks`; the columns' facet ``col_facet`` (per point) may be outside the
-        point's slave facet's reach, whose slave rows are then left out, and a segment pair's
-        master rows are left out where the pattern does not couple its master facet with it.
+        point's secondary facet's reach, whose secondary rows are then left out, and a segment
+        pair's primary rows are left out where the pattern does not couple its primary facet
+        with it.
         """
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         nodes = g.reach.nodes
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
@@ -228,15 +229,15 @@ class SlidingAssembly:
         mine = g.reach.within(f_of, col_facet)
         out = [(s.nodes[f_of[mine]], cols[mine], vs[mine].reshape(-1, nfs * gdim, ncol))]
         tr = g.transfer
-        if tr.slave.size:
+        if tr.secondary.size:
             where = np.full(sd.n_points, -1, dtype=np.int64)
             where[pts] = np.arange(pts.size)
-            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
-            at = where[tr.slave[pair] * nq + qq]
-            keep = g.reach.holds(tr.master[pair], col_facet[at])
+            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.secondary] >= 0)
+            at = where[tr.secondary[pair] * nq + qq]
+            keep = g.reach.holds(tr.primary[pair], col_facet[at])
             pair, qq, at = pair[keep], qq[keep], at[keep]
             vm = -np.einsum("pl,pax,pjxc->plajc", tr.B[pair, :, qq], M[at], E[at])
-            out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
+            out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
     def _point_blocks(
@@ -250,16 +251,16 @@ class SlidingAssembly:
     ) -> list[Block]:
         """Blocks of ``d t_p = M_p sum_j C_pj dX_j`` (global traction of the points ``pts``).
 
-        Rows: the slave facet's nodes (``w N_k(q)``) and the master nodes of its segment pairs
+        Rows: the secondary facet's nodes (``w N_k(q)``) and the primary nodes of its segment pairs
         (``-B_lq``); columns ``cols`` (np, nc) with coefficients ``C`` (np, nc), which hold the
-        nodes of one master facet per point (and maybe the slave facet's); ``M`` (np, gdim,
-        gdim). ``held`` (nseg, nq): whether the pattern couples each segment pair's master facet
-        with the master facet of point ``q``'s columns (the geometry's ``held_now`` for the
+        nodes of one primary facet per point (and maybe the secondary facet's); ``M`` (np, gdim,
+        gdim). ``held`` (nseg, nq): whether the pattern couples each segment pair's primary facet
+        with the primary facet of point ``q``'s columns (the geometry's ``held_now`` for the
         facet it faces, ``held_old`` for the one it faced at the step's start); a segment pair's
-        master rows where it does not are left out.
+        primary rows where it does not are left out.
         """
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         nodes = g.reach.nodes
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
@@ -267,16 +268,16 @@ class SlidingAssembly:
         vs = np.einsum("p,pk,pj,pab->pkajb", self.points.weights[pts], sd.Ns[0][q_of], C, M)
         out = [(s.nodes[f_of], cols, vs.reshape(pts.size, nfs * gdim, ncol))]
         tr = g.transfer
-        if tr.slave.size:
-            # master rows of pair (s, f'): -B_lq C_j M for every point q of s in pts
+        if tr.secondary.size:
+            # primary rows of pair (s, f'): -B_lq C_j M for every point q of s in pts
             where = np.full(sd.n_points, -1, dtype=np.int64)
             where[pts] = np.arange(pts.size)
-            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
-            at = where[tr.slave[pair] * nq + qq]
+            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.secondary] >= 0)
+            at = where[tr.secondary[pair] * nq + qq]
             keep = held[pair, qq]
             pair, qq, at = pair[keep], qq[keep], at[keep]
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
-            out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
+            out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
 

@@ -1,8 +1,8 @@
 """The contact geometry of one Newton iterate of a finite-sliding interface, as one value.
 
-At every iterate (:meth:`~.interface.SlidingInterface.update`) each slave point is projected along
-the master's smooth normal on the facets of its reach in the current configuration (a point may
-change facet inside a step), which gives its frame, its normal gap ``-gamma |n~|`` and its
+At every iterate (:meth:`~.interface.SlidingInterface.update`) each secondary point is projected
+along the primary's smooth normal on the facets of its reach in the current configuration (a point
+may change facet inside a step), which gives its frame, its normal gap ``-gamma |n~|`` and its
 convected slip from the material point it faced at the step's start (:class:`~.reach.StepStart`);
 the tangential state is transported (:func:`.sliding.transport_matrix`, the identity in 2-D). The
 tangent's pieces follow: the gap's derivative (:func:`.sliding.gap_operator`), in 2-D the frame's
@@ -42,7 +42,7 @@ class Projection:
     """Every point's projection on the nearest facet of its reach it lands on.
 
     Attributes:
-        facet: The master facet (index in the reach; -1: none), (npts,).
+        facet: The primary facet (index in the reach; -1: none), (npts,).
         xi: Its reference coordinates there, (npts, nt).
         normal: The smooth unit normal there, (npts, gdim).
         distance: The signed normal distance (``radius`` where a point faces nothing), (npts,).
@@ -64,24 +64,24 @@ class ContactGeometry:
         reach: The :class:`~.reach.Reach` it was computed on (its facets' nodes and numbers).
         normals: The step's nodal normals of the reach's facets, (npf, nfd_m, gdim).
         xq: Current positions of the points, (npts, gdim).
-        Xs: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
-        Ym: Current positions of the reach's master facets' nodes, (npf, nfd_m, gdim).
-        facet: Each point's master facet (index in the reach; -1: none), (npts,).
+        Xs: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
+        Ym: Current positions of the reach's primary facets' nodes, (npf, nfd_m, gdim).
+        facet: Each point's primary facet (index in the reach; -1: none), (npts,).
         Q: Each point's frame, rows ``(e1, [e2,] -n)`` (an open point keeps its old one).
         gap: The geometric gap in the frame (tangential: the total, normal: > 0 on
             penetration), without the initial gap, (npts, gdim).
         transport: The tangential state's transport of the step, (npts, nt, nt).
         slid_too_far: Points whose slip in the step exceeds the reach, (npts,).
-        old_facet: The master facet each moving point faced at the step's start (-1: none).
-        N_old: The master basis at that start point, (npts, nfd_m).
-        Nm: The master basis at the projection, (npts, nfd_m).
+        old_facet: The primary facet each moving point faced at the step's start (-1: none).
+        N_old: The primary basis at that start point, (npts, nfd_m).
+        Nm: The primary basis at the projection, (npts, nfd_m).
         G: The gap's derivative (:func:`.sliding.gap_operator`), (npts, gdim, gdim).
         turn: 2-D: the frame's turn with the projection, the rate ``a`` and ``d xi / d x`` of
             each found point, ((nf, gdim), (nf, gdim)); ``None`` in 3-D.
-        segments: The segment points within each slave facet's reach.
-        transfer: The master-side transfer matrices of the segments.
-        held_now: Whether the pattern couples each segment pair's master facet with the facet
-            point ``q`` of its slave facet faces now, (nseg, nq).
+        segments: The segment points within each secondary facet's reach.
+        transfer: The primary-side transfer matrices of the segments.
+        held_now: Whether the pattern couples each segment pair's primary facet with the facet
+            point ``q`` of its secondary facet faces now, (nseg, nq).
         held_old: Likewise with the facet it faced at the step's start, (nseg, nq).
         gamma: Each point's ``gamma`` (the distance along ``n~``), (npts,).
         slip: Each point's convected slip of the step, (npts, gdim).
@@ -121,7 +121,7 @@ class ContactGeometry:
 
     @property
     def found(self) -> np.ndarray:
-        """Whether each point faces the master, (npts,)."""
+        """Whether each point faces the primary, (npts,)."""
         return self.facet >= 0
 
     def turn_stiffness(self, traction: np.ndarray) -> np.ndarray:
@@ -144,8 +144,8 @@ class ContactGeometry:
 def current_positions(
     sd: Sides, reach: Reach, u: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points, master facets of the reach and slave facets' nodes at displacement ``u``."""
-    s = sd.slave
+    """Points, primary facets of the reach and secondary facets' nodes at displacement ``u``."""
+    s = sd.secondary
     Xs = sd.X0[s.nodes] + u[s.nodes]  # (ns, nfd, gdim)
     xq = np.einsum("qk,fkd->fqd", sd.Ns[0], Xs).reshape(-1, sd.gdim)
     return xq, reach.X0 + u[reach.nodes], Xs
@@ -160,7 +160,7 @@ def project(
     pp, ff = near_pairs(xq, np.zeros(xq.shape[0]), Ym, normals, sd.radius)
     keep = reach.within(pp // nq, ff)
     pp, ff = pp[keep], ff[keep]
-    m = sd.master
+    m = sd.primary
     pr = normal_projection(xq[pp], Ym[ff], normals[ff], m.cell, m.degree)
     good = pr.inside & (np.abs(pr.distance) <= sd.radius)
     idx = np.flatnonzero(good)
@@ -174,7 +174,7 @@ def project(
         xi=np.zeros((n, nt)),
         normal=np.zeros((n, gdim)),
         # a point facing nothing is open: beyond the radius on the outer side (a distance
-        # of -radius made it penetrate by the radius: pressed where it left the master)
+        # of -radius made it penetrate by the radius: pressed where it left the primary)
         distance=np.full(n, sd.radius),
         gamma=np.zeros(n),
     )
@@ -201,7 +201,7 @@ def contact_geometry(
 
     Args:
         sd: The sides.
-        search: The search part: the step's reach and nodal normals; it records the master
+        search: The search part: the step's reach and nodal normals; it records the primary
             facet pairs the tangent needs beyond its pattern.
         start: The points' projections at the step's start.
         ut_old: The points' committed total tangential gaps, (npts, nt).
@@ -210,7 +210,7 @@ def contact_geometry(
         timed: A context manager per timer name (the interface's timings).
         normals: The nodal normals of the reach's facets: the step's (held) or the iterate's.
         iterate: Whether ``normals`` are the iterate's: then (2-D) the geometry holds their
-            change with the master's nodes (:func:`.normals.normal_rates`) for the tangent.
+            change with the primary's nodes (:func:`.normals.normal_rates`) for the tangent.
 
     Returns:
         The geometry, and the wall times of its projections and of its segments (the cost
@@ -269,7 +269,7 @@ def contact_geometry(
         gamma=pj.gamma,
         slip=ds,
         normal_rates=normal_rates(
-            sd.master.cell, sd.master.degree, reach.nodes, reach.node_facets, Ym, normals
+            sd.primary.cell, sd.primary.degree, reach.nodes, reach.node_facets, Ym, normals
         )
         if iterate and sd.gdim == 2
         else None,
@@ -298,16 +298,16 @@ def _slip(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The convected slip of the step and the tangential state's transport.
 
-    The slip of a ``moving`` point (facing the master now and at the step's start) is its
-    projection now minus the material point of the master it faced at the start, where that
+    The slip of a ``moving`` point (facing the primary now and at the step's start) is its
+    projection now minus the material point of the primary it faced at the start, where that
     point is now; 3-D: the transport carries the tangential state from the start's frame to this
     one (:func:`.sliding.transport_matrix`).
 
     Returns:
-        The slip (npts, gdim), the transport (npts, nt, nt) and the master basis at the start
+        The slip (npts, gdim), the transport (npts, nt, nt) and the primary basis at the start
         point (npts, nfd_m).
     """
-    m, n, nt = sd.master, sd.n_points, sd.nt
+    m, n, nt = sd.primary, sd.n_points, sd.nt
     N_old = np.zeros((n, Ym.shape[1]))
     ds = np.zeros((n, sd.gdim))
     T = np.broadcast_to(np.eye(nt), (n, nt, nt)).copy()
@@ -340,13 +340,13 @@ def _gap_derivative(
     ds: np.ndarray,
     moving: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-    """The gap's derivative ``G``, the master basis at the projections and the frame's turn.
+    """The gap's derivative ``G``, the primary basis at the projections and the frame's turn.
 
     2-D: the frame turns with the projection (``d e1 = (a_y, -a_x) dxi``): in the slip
     ``e1 . ds`` (here, in ``G``) and in the forces ``Q^T f``
     (:meth:`ContactGeometry.turn_stiffness`).
     """
-    m, n, gdim, nt = sd.master, sd.n_points, sd.gdim, sd.nt
+    m, n, gdim, nt = sd.primary, sd.n_points, sd.gdim, sd.nt
     pf = np.flatnonzero(pj.facet >= 0)
     G = np.zeros((n, gdim, gdim))
     Nm = np.zeros((n, Ym.shape[1]))
@@ -377,27 +377,27 @@ def _pattern_hold(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The pattern's hold on this iterate's segment pairs; the pairs beyond it are recorded.
 
-    The master rows of a segment facet ``a`` of a slave facet take the columns of the projection
-    facets of its points (now and at the step's start) and of its other segment facets; the
-    pattern holds the pairs of one reach that are near each other (:func:`.reach._couplings`).
+    The primary rows of a segment facet ``a`` of a secondary facet take the columns of the
+    projection facets of its points (now and at the step's start) and of its other segment facets;
+    the pattern holds the pairs of one reach that are near each other (:func:`.reach._couplings`).
     A pair beyond it is left out of the tangent (never a write outside the pattern), counted in
     the search's ``pattern_misses``, and its next step rebuilds the layout with it (unless its
     point slid farther than the reach: that step is cut anyway).
 
     Returns:
-        For every segment pair of ``tr`` and point ``q`` of its slave facet, whether the pattern
-        couples the pair's master facet with the facet the point faces now (``facet``) and
+        For every segment pair of ``tr`` and point ``q`` of its secondary facet, whether the pattern
+        couples the pair's primary facet with the facet the point faces now (``facet``) and
         faced at the step's start (``old_facet``), False where it faces none; (nseg, nq) each.
     """
     from scipy import sparse
 
     reach, nq = search.reach, sd.nq
     assert reach is not None  # (begin_step searched)
-    nseg = tr.slave.size
+    nseg = tr.secondary.size
     if nseg == 0:
         return np.zeros((0, nq), dtype=bool), np.zeros((0, nq), dtype=bool)
-    p = (tr.slave[:, None] * nq + np.arange(nq)[None, :]).ravel()
-    a = np.repeat(tr.master, nq)
+    p = (tr.secondary[:, None] * nq + np.arange(nq)[None, :]).ravel()
+    a = np.repeat(tr.primary, nq)
     now, old = facet[p], old_facet[p]
     held_now, held_old = np.zeros(p.size, dtype=bool), np.zeros(p.size, dtype=bool)
     held_now[now >= 0] = reach.holds(a[now >= 0], now[now >= 0])
@@ -405,8 +405,10 @@ def _pattern_hold(
     live = (facet[p] >= 0) & ~slid_too_far[p]
     moved = live & (old >= 0)
     npf = max(reach.facets.size, 1)
-    T = sparse.csr_matrix((np.ones(nseg), (tr.slave, tr.master)), shape=(sd.slave.size, npf))
-    TT = (T.T @ T).tocoo()  # segment facets of one slave facet with each other
+    T = sparse.csr_matrix(
+        (np.ones(nseg), (tr.secondary, tr.primary)), shape=(sd.secondary.size, npf)
+    )
+    TT = (T.T @ T).tocoo()  # segment facets of one secondary facet with each other
     ta, tb = TT.row.astype(np.int64), TT.col.astype(np.int64)
     a = np.concatenate([a[live], a[moved], ta])
     b = np.concatenate([now[live], old[moved], tb])

@@ -16,35 +16,35 @@ surfaces, fixed), its law's points (:class:`~.points.SlidingPoints`), its search
 :class:`~.contact.ContactGeometry` that the return map, the forces, the tangent and the commit
 read.
 
-* The law's points are the quadrature points of the *slave* (secondary) facets, fixed material
-  points of the slave body that carry the internal variables. The two sides need not match.
+* The law's points are the quadrature points of the *secondary* facets, fixed material
+  points of the secondary body that carry the internal variables. The two sides need not match.
 * **Per step** (:meth:`~SlidingInterface.begin_step`, collective, from the last converged
-  configuration): averaged nodal normals of the master, the parallel search
-  (:func:`.search.exchange_facets`), and for every slave facet the set of master facets it may
-  face during the step (its *reach*: the candidates within the slave facet's size plus
-  ``reach`` of it). The matrix pattern and the ghosts of the master nodes are those of the
-  reach; they are rebuilt only when a slave facet needs a master facet outside its current
+  configuration): averaged nodal normals of the primary, the parallel search
+  (:func:`.search.exchange_facets`), and for every secondary facet the set of primary facets it may
+  face during the step (its *reach*: the candidates within the secondary facet's size plus
+  ``reach`` of it). The matrix pattern and the ghosts of the primary nodes are those of the
+  reach; they are rebuilt only when a secondary facet needs a primary facet outside its current
   reach (:attr:`~SlidingInterface.layout_version` then grows and the problem re-creates its
   matrices). Per step rather than per Newton iteration because the search and the exchange are
   collective and change the ghosts and the pattern; the reach makes the step's iterations
   independent of them.
 * **Per Newton iteration** (:meth:`~SlidingInterface.update`, :func:`.contact.contact_geometry`):
   every point is projected along the
-  master's smooth normal on the facets of its reach in the current configuration (a point may
+  primary's smooth normal on the facets of its reach in the current configuration (a point may
   change facet inside a step), which gives the frame, the normal gap ``-gamma |n~|`` and the
   convected slip from the material point faced at the step's start; the tangential state is
   transported (:func:`.sliding.transport_matrix`, the identity in 2-D). A point that slides
   farther than ``reach`` in one step makes the evaluation fail (the step is cut).
-* The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes the segment
-  transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
-  exactly; where a slave facet overhangs the master surface, the share the segments miss goes
-  to the master where each point projects (:func:`.transfer.complete_transfer`): action equals
+* The secondary nodes receive ``int N_s t`` by the secondary facets' rule, the primary nodes the
+  segment transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
+  exactly; where a secondary facet overhangs the primary surface, the share the segments miss goes
+  to the primary where each point projects (:func:`.transfer.complete_transfer`): action equals
   reaction whatever the overhang.
-* With regions, each point takes the law of its slave facet's region
+* With regions, each point takes the law of its secondary facet's region
   (:mod:`~subfric_dolfinx.fem.interface.finite.regions`).
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
-  respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
-  slip's own master nodes, in 2-D the frame's turn with the projection
+  respect to the secondary point and the primary nodes (:func:`.sliding.gap_operator`), the
+  convected slip's own primary nodes, in 2-D the frame's turn with the projection
   (:func:`.sliding.frame_rate`) and, with ``SegmentTransfer.in_tangent`` (on by default), the
   transfer's change with the geometry (:func:`.transfer.transfer_tangent`): then the 2-D tangent
   is the residual's derivative, the 3-D one but for the frame's turn. The nodal normals are the
@@ -52,7 +52,7 @@ read.
   :attr:`~SlidingInterface.normals_per_iteration` they are those of every iterate (the current
   configuration: a slide's forces then do not depend on the step in 2-D,
   ``tests/fem/interface/test_finite_sliding_normals.py``), in 2-D with their change with the
-  master's nodes in the tangent (:mod:`.normals`: through the projection, the gap, the frame
+  primary's nodes in the tangent (:mod:`.normals`: through the projection, the gap, the frame
   and the transfer), where the 2-D tangent is again the residual's derivative.
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
@@ -95,22 +95,22 @@ class SlidingInterface(BaseInterface):
             need not match).
         law: The friction law.
         tag: The interface's facet tag.
-        primary: Cell tag(s) of the primary body (the master surface: its smooth outward normal
+        primary: Cell tag(s) of the primary body (the primary surface: its smooth outward normal
             defines the frame).
         secondary: Cell tag(s) of the secondary body (the law's points are on its facets).
         name: The interface's name (messages).
         quadrature: ``"gauss"`` or ``"nodal"`` on the secondary facets.
         initial_gap: An extra initial normal gap ``g0`` (mm, > 0 open), a number or a function
             of the reference coordinates of the points; the geometric gap is measured anyway.
-        mode: The modelling mode; ``"axisymmetric"``: the slave weights carry ``2 pi r`` and
+        mode: The modelling mode; ``"axisymmetric"``: the secondary weights carry ``2 pi r`` and
             the transfer projects the traction times ``2 pi r`` (forces are totals over the
             circumference).
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings`.
-        search_radius: The largest normal distance at which a point faces the master (mm);
+        search_radius: The largest normal distance at which a point faces the primary (mm);
             farther points are open (also where they penetrate farther: give more than the
             largest penetration). Default: twice the largest facet size of either side.
         reach: How far a point may slide in one step (mm); also the hysteresis of the pattern
-            (rebuilt when a facet needs a master facet beyond it). Default: the largest facet
+            (rebuilt when a facet needs a primary facet beyond it). Default: the largest facet
             size of either side.
         regions: Region name -> its law; the regions are groups of interface facets given by
             ``groups`` (name -> centroids of their facets): each secondary point takes the law
@@ -134,7 +134,7 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
-    #: Whether the master's nodal normals are those of every iterate (the current configuration)
+    #: Whether the primary's nodal normals are those of every iterate (the current configuration)
     #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent, not the
     #: 3-D one).
     normals_per_iteration = False
@@ -191,7 +191,7 @@ class SlidingInterface(BaseInterface):
     # -- what the base reads ---------------------------------------------------------------------
     @property
     def law_points(self) -> SlidingPoints:
-        """The law's points (:class:`~..protocol.LawPoints`): the slave facets' points."""
+        """The law's points (:class:`~..protocol.LawPoints`): the secondary facets' points."""
         return self._points
 
     @property
@@ -206,7 +206,7 @@ class SlidingInterface(BaseInterface):
 
     @property
     def index_map(self) -> dolfinx.common.IndexMap:
-        """The displacement's index map with the reach's master nodes as extra ghosts."""
+        """The displacement's index map with the reach's primary nodes as extra ghosts."""
         assert self.search.reach is not None  # (searched when made)
         return self.search.reach.index_map
 
@@ -230,7 +230,7 @@ class SlidingInterface(BaseInterface):
         self.start = self.begin_step()
 
     def begin_step(self) -> StepStart:
-        """Search the master facets near the slave points at the last converged configuration.
+        """Search the primary facets near the secondary points at the last converged configuration.
 
         Collective (:meth:`.reach.ReachSearch.begin_step`). Where the search rebuilds the layout,
         :attr:`layout_version` grows (the problem re-creates its matrices).
@@ -381,7 +381,7 @@ class SlidingInterface(BaseInterface):
     def resume(self, x: np.ndarray) -> None:
         """Continue from the owned displacement ``x`` (a restart).
 
-        The next step searches from it: the points' master facets and reference coordinates
+        The next step searches from it: the points' primary facets and reference coordinates
         there are found again (the facets are not in the checkpoint: their numbers depend on the
         partition).
         """

@@ -1,7 +1,7 @@
-"""The change of the master's averaged nodal normals with its nodes (2-D): for the tangent.
+"""The change of the primary's averaged nodal normals with its nodes (2-D): for the tangent.
 
 The nodal normal at a node ``k`` is ``n_k = S_k / |S_k|`` with ``S_k = sum_f c_fk`` over the
-master facets ``f`` around ``k``, ``c_fk = o_f m_f p_f(xi_k) / |p_f(xi_k)|``
+primary facets ``f`` around ``k``, ``c_fk = o_f m_f p_f(xi_k) / |p_f(xi_k)|``
 (:func:`.surface.nodal_normals`: the facet's measure ``m_f`` times its unit outward normal at
 the node, ``p_f`` the parametric normal, ``o_f`` the orientation). Its derivative with respect to
 the nodes ``Y_j`` of those facets is ``dn_k = (I - n_k n_k^T) / |S_k| sum_f dc_fk``, with (2-D,
@@ -39,10 +39,10 @@ def normal_rates(
     """The derivative of every reach facet's nodal normals with respect to the nodes around them.
 
     Args:
-        cell: The master facets' basix cell (interval).
+        cell: The primary facets' basix cell (interval).
         degree: Their Lagrange degree.
         nodes: The reach's facets' nodes (local in its index map), (npf, nfd).
-        node_facets: The number of master facets around each local node (every rank's), (n,).
+        node_facets: The number of primary facets around each local node (every rank's), (n,).
         Y: The facets' nodes' current positions, (npf, nfd, 2).
         normals: Their nodal normals (the iterate's), (npf, nfd, 2).
 

@@ -1,16 +1,16 @@
-"""Finite-sliding kinematics of a slave point on the master surface (``docs/model.md`` §11).
+"""Finite-sliding kinematics of a secondary point on the primary surface (``docs/model.md`` §11).
 
-A slave point ``x`` projects on the master surface at ``y(xi)`` along the smooth normal:
+A secondary point ``x`` projects on the primary surface at ``y(xi)`` along the smooth normal:
 ``x = y(xi) + gamma n~(xi)`` (:mod:`.projection`). With the unit normal ``n = n~ / |n~|`` and the
 frame ``Q = (e1, [e2,] -n)`` of :func:`.geometry.frames`:
 
 * the normal gap (penetration positive) is ``ubar_n = -gamma |n~| = -(x - y) . n``;
 * the tangential slip of a step is the convected one, ``ds = y_{n+1}(xi_{n+1}) - y_{n+1}(xi_n)``:
-  the path on the master surface in its current configuration from the material point the slave
+  the path on the primary surface in its current configuration from the material point the secondary
   point faced at the step's start to the one it faces now. A rigid motion of both bodies leaves
   ``xi`` unchanged and gives no slip (objective), whatever the gap;
 * tangent vectors of the internal state (total tangential gap, plastic slip) are convected with
-  the master surface at the material point they were attached to (their components on its
+  the primary surface at the material point they were attached to (their components on its
   tangent basis ``y_,a`` kept, the length kept), then carried to the tangent plane of the new
   projection by the smallest rotation between the two normals (:func:`transport_matrix`): a
   rigid motion of both bodies, spin about the normal included, leaves their local components in
@@ -18,8 +18,8 @@ frame ``Q = (e1, [e2,] -n)`` of :func:`.geometry.frames`:
   (``e1`` turns with ``n``).
 
 :func:`gap_operator` gives the derivative of the local gap (tangential slip and normal gap) with
-respect to the slave point and the master nodes, through the derivative of the projection, with
-the master's nodal normals held (their change is of the order of the gap times the facet's
+respect to the secondary point and the primary nodes, through the derivative of the projection, with
+the primary's nodal normals held (their change is of the order of the gap times the facet's
 rotation).
 """
 
@@ -43,23 +43,23 @@ def gap_operator(
     gamma: np.ndarray,
     Q: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Derivative of the local gap of each point with respect to its motion relative to the master.
+    """Derivative of the local gap of each point with respect to its motion relative to the primary.
 
     ``d(gap) = G (dx - sum_l N_l(xi) dy_l)`` with ``gap = (Q_t . ds, ubar_n)``: the tangential
     rows are the convected slip's ``Q_t y_,a dxi^a``, the normal row ``ubar_n = -gamma |n~|``'s.
 
     Args:
-        x: Slave points, (m, gdim).
-        Y: Nodes of each point's master facet, (m, nfd, gdim).
+        x: Secondary points, (m, gdim).
+        Y: Nodes of each point's primary facet, (m, nfd, gdim).
         Nn: Their nodal normals, (m, nfd, gdim).
-        cell: The master facets' basix cell.
+        cell: The primary facets' basix cell.
         degree: Their Lagrange degree.
         xi: The points' projections (reference coordinates), (m, fdim).
         gamma: Their ``gamma`` (:class:`.projection.FacetProjection`), (m,).
         Q: The frames at the projections, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
 
     Returns:
-        ``G`` (m, gdim, gdim), the master basis ``N_l(xi)`` (m, nfd) and the projection's
+        ``G`` (m, gdim, gdim), the primary basis ``N_l(xi)`` (m, nfd) and the projection's
         ``dxi`` rows ``R`` (m, fdim, gdim): ``dxi = R (dx - sum_l N_l(xi) dy_l)``
         (:func:`.projection.projection_jacobian`, the nodal normals held).
     """
@@ -92,8 +92,8 @@ def frame_rate(Nn: np.ndarray, cell: basix.CellType, degree: int, xi: np.ndarray
     (:func:`.geometry.frames`) turns with it.
 
     Args:
-        Nn: Nodal normals of each point's master facet, (m, nfd, 2).
-        cell: The master facets' basix cell (interval).
+        Nn: Nodal normals of each point's primary facet, (m, nfd, 2).
+        cell: The primary facets' basix cell (interval).
         degree: Their Lagrange degree.
         xi: The points' projections, (m, 1).
 
@@ -145,7 +145,7 @@ def transport_matrix(
     Args:
         Q_old: Frames at the step's start, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
         Q_new: Frames at the new projections, likewise.
-        tangents_old: Tangent basis ``y_,a`` of the master at the old projection, at the step's
+        tangents_old: Tangent basis ``y_,a`` of the primary at the old projection, at the step's
             start, (m, gdim, fdim).
         tangents_now: The same material point's tangent basis now, (m, gdim, fdim).
         normal_now: The unit normal there now, (m, gdim).
