@@ -123,15 +123,25 @@ class SlidingAssembly:
         sd = self.sides
         s, nq, gdim, nt = sd.secondary, sd.nq, sd.gdim, sd.nt
         found, nodes = g.found, g.reach.nodes
-        # Q^T D G + the frame's turn (2-D), (npts, gdim, gdim)
+        # Q^T D G + the frame's turn, (npts, gdim, gdim)
         M = np.einsum("mai,mab,mbj->mij", g.Q, D, g.G) + g.turn_stiffness(traction)
+        spin = None
+        if g.turn3 is not None:  # 3-D: + the transport's turn Q^T h dtheta/dz
+            spin = _transport_spin(g, D, traction)
+            M += np.einsum("mi,mc->mic", spin, g.turn3.theta_dz())
         pts = np.flatnonzero(found)
         f_of, q_of = pts // nq, pts % nq
         cols = np.concatenate([s.nodes[f_of], nodes[g.facet[pts]]], axis=1)
         C = np.concatenate([sd.Ns[0][q_of], -g.Nm[pts]], axis=1)  # (np, nfs + nfm)
         out = self._point_blocks(g, pts, cols, C, M[pts], g.held_now)
         if g.normal_rates is not None:  # the iterate's nodal normals move with the nodes
-            out += self._normal_blocks(g, D, traction, M)
+            Mw = _normal_sensitivity(g, pts, D, traction, M, spin)
+            out += self._normal_blocks(g, pts, g.facet[pts], g.Nm[pts], Mw)
+            mv = np.flatnonzero(found & (g.old_facet >= 0))
+            if spin is not None and mv.size:  # the transport's turn with the start's normal
+                assert g.turn3 is not None  # (3-D)
+                Mo = np.einsum("mi,mc->mic", spin[mv], g.turn3.theta_old_normal[mv])
+                out += self._normal_blocks(g, mv, g.old_facet[mv], g.N_old[mv], Mo)
         # the convected slip's own primary nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
         # besides the projection's move (in G): the primary stretched between the two points
         mv = np.flatnonzero(found & (g.old_facet >= 0))
@@ -142,6 +152,10 @@ class SlidingAssembly:
             fm, fo = g.facet[mv], g.old_facet[mv]
             out += self._point_blocks(g, mv, nodes[fm], g.Nm[mv], Mt, g.held_now)
             out += self._point_blocks(g, mv, nodes[fo], -g.N_old[mv], Mt, g.held_old)
+            if spin is not None:  # the transport's turn with the start point's tangents now
+                assert g.turn3 is not None  # (3-D)
+                E = g.turn3.theta_old[mv][:, :, None, :]
+                out += self._matrix_blocks(g, mv, nodes[fo], E, spin[mv][:, :, None], fo)
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
             rates = g.normal_rates is not None
@@ -159,16 +173,17 @@ class SlidingAssembly:
 
     @staticmethod
     def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
-        """2-D: the transfer's change with the primary's nodes through its nodal normals.
+        """The transfer's change with the primary's nodes through its nodal normals.
 
-        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' primary forces with the nodal
-        normals of their primary facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        ``vn`` (npair, nfm * gdim, nfm * gdim): the change of the pairs' primary forces with the
+        nodal normals of their primary facets ``pm`` (:func:`~.transfer.transfer_tangent`).
         """
         assert g.normal_rates is not None  # (2-D, with the iterate's normals)
         facets, Dn = g.normal_rates
         nodes = g.reach.nodes
         npair, nrow = vn.shape[:2]
-        vn = vn.reshape(npair, nrow, -1, 2)
+        gdim = g.Ym.shape[2]
+        vn = vn.reshape(npair, nrow, -1, gdim)
         out: list[Block] = []
         for node in range(facets.shape[1]):
             for a in range(facets.shape[2]):
@@ -181,24 +196,31 @@ class SlidingAssembly:
         return out
 
     def _normal_blocks(
-        self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+        self,
+        g: ContactGeometry,
+        pts: np.ndarray,
+        facet: np.ndarray,
+        N: np.ndarray,
+        Mw: np.ndarray,
     ) -> list[Block]:
-        """2-D: the blocks of the iterate's nodal normals' change with the primary's nodes."""
-        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
+        """Blocks of ``d t_p = Mw_p w_p`` with ``w_p = sum_l N_pl dn_l`` on the facet ``facet_p``.
+
+        The nodal normals ``n_l`` of the primary facet ``facet`` of each point ``pts`` (the one
+        it faces, or faced at the step's start) with the basis ``N`` (np, nfm) there, chained
+        with their change with the primary's nodes (:func:`.normals.normal_rates`).
+        """
+        assert g.normal_rates is not None  # (with the iterate's normals)
         facets, Dn = g.normal_rates
-        pts = np.flatnonzero(g.found)
         if pts.size == 0:
             return []
-        Mw = _normal_sensitivity(g, pts, D, traction, M)
-        f0 = g.facet[pts]
         out: list[Block] = []
         for node in range(facets.shape[1]):
             for a in range(facets.shape[2]):
-                fa = facets[f0, node, a]
+                fa = facets[facet, node, a]
                 ok = fa >= 0
                 if not ok.any():
                     continue
-                E = g.Nm[pts[ok], node, None, None, None] * Dn[f0[ok], node, a]
+                E = N[ok, node, None, None, None] * Dn[facet[ok], node, a]
                 cols = g.reach.nodes[fa[ok]]
                 out += self._matrix_blocks(g, pts[ok], cols, E, Mw[ok], fa[ok])
         return out
@@ -282,29 +304,62 @@ class SlidingAssembly:
 
 
 _J = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e1 = J n (2-D frames)
+# the turn of a 3-D frame's tangential components by d theta: (v1, v2, vn) -> (-v2, v1, 0)
+_SPIN = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+
+
+def _transport_spin(g: ContactGeometry, D: np.ndarray, traction: np.ndarray) -> np.ndarray:
+    """3-D: ``d t / d theta`` (global) of the transport's rotation by ``theta``, (npts, 3).
+
+    The committed state (total tangential gap and the law's tangential variables) is carried by
+    the rotation ``T(theta)`` (:func:`.sliding.transport_matrix`); the law being isotropic in
+    the tangent plane (``t(R g, R s) = R t(g, s)``), turning all of them by ``d theta`` turns
+    the traction but for the step's own slip ``Q_t ds``, which does not turn:
+    ``dt = (J f - D J (Q_t ds)) d theta`` in the frame, ``Q^T`` of it in global components.
+    """
+    local_slip = np.zeros_like(traction)
+    local_slip[:, :2] = np.einsum("mad,md->ma", g.Q[:, :2, :], g.slip)
+    h = np.einsum("ab,mb->ma", _SPIN, traction) - np.einsum("mab,bc,mc->ma", D, _SPIN, local_slip)
+    return np.einsum("mai,ma->mi", g.Q, h)
 
 
 def _normal_sensitivity(
-    g: ContactGeometry, pts: np.ndarray, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+    g: ContactGeometry,
+    pts: np.ndarray,
+    D: np.ndarray,
+    traction: np.ndarray,
+    M: np.ndarray,
+    spin: np.ndarray | None,
 ) -> np.ndarray:
-    """2-D: ``d t`` (global) of the points ``pts`` per ``w = sum_l N_l(xi) dn_l``, (np, 2, 2).
+    """``d t`` (global) of the points ``pts`` per ``w = sum_l N_l(xi) dn_l``, (np, gdim, gdim).
 
-    The projection moves as for ``dx = -gamma w`` (``M``: the tangent's ``Q^T D G + K``); the
+    The projection moves as for ``dx = -gamma w`` (``M``: the tangent's per ``dz``); the
     normal gap changes by ``-gamma n . w`` besides; the frame turns by ``dn = (I - n n^T) w /
-    |n~|``, in the slip ``e1 . ds`` and in the forces ``Q^T f``.
+    |n~|``, in the slip ``Q_t . ds`` and in the forces ``Q^T f``, and 3-D in the transport
+    (``spin``: :func:`_transport_spin`).
     """
     f0 = g.facet[pts]
-    nt_ = np.einsum("pl,pld->pd", g.Nm[pts], g.normals[f0])
-    size = np.linalg.norm(nt_, axis=1)
-    n = nt_ / size[:, None]
-    P = np.eye(2)[None] - np.einsum("pa,pb->pab", n, n)
     gam, ds, f = g.gamma[pts], g.slip[pts], traction[pts]
-    X = np.zeros((pts.size, 2, 2))
-    X[:, 0, :] = np.einsum("pa,ab,pbc->pc", ds, _J, P) / size[:, None]
-    X[:, 1, :] = -gam[:, None] * n
-    Kd = (np.einsum("ab,pbc->pac", _J, P) * f[:, 0, None, None] - P * f[:, 1, None, None]) / size[
-        :, None, None
-    ]
+    if g.turn3 is not None:
+        assert spin is not None  # (3-D)
+        t3 = g.turn3
+        P, dQ, n = t3.normal_map[pts], t3.dQ[pts], -g.Q[pts, 2, :]
+        X = np.zeros((pts.size, 3, 3))
+        X[:, :2, :] = np.einsum("pd,pbdk,pkc->pbc", ds, dQ[:, :2], P)
+        X[:, 2, :] = -gam[:, None] * n
+        Kd = np.einsum("pi,pijk,pkc->pjc", f, dQ, P)
+        Kd += np.einsum("pi,pk,pkc->pic", spin[pts], t3.theta_n[pts], P)
+    else:
+        nt_ = np.einsum("pl,pld->pd", g.Nm[pts], g.normals[f0])
+        size = np.linalg.norm(nt_, axis=1)
+        n = nt_ / size[:, None]
+        P = np.eye(2)[None] - np.einsum("pa,pb->pab", n, n)
+        X = np.zeros((pts.size, 2, 2))
+        X[:, 0, :] = np.einsum("pa,ab,pbc->pc", ds, _J, P) / size[:, None]
+        X[:, 1, :] = -gam[:, None] * n
+        Kd = (
+            np.einsum("ab,pbc->pac", _J, P) * f[:, 0, None, None] - P * f[:, 1, None, None]
+        ) / size[:, None, None]
     QDX = np.einsum("pai,pab,pbj->pij", g.Q[pts], D[pts], X)
     return -gam[:, None, None] * M[pts] + QDX + Kd
 

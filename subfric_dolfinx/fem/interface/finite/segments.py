@@ -91,6 +91,14 @@ def _polygon_order(cell: basix.CellType) -> list[int]:
     return [0, 1, 3, 2] if cell == basix.CellType.quadrilateral else [0, 1, 2]
 
 
+_ON_PLANE = 1e-12  # reference coordinates: a preimage's round-off is far below
+
+
+def _snap(d: np.ndarray) -> np.ndarray:
+    """Signed distances to a clipping plane, zero within round-off of it."""
+    return np.where(np.abs(d) <= _ON_PLANE, 0.0, d)
+
+
 def clip_to_reference(
     poly: np.ndarray,
     count: np.ndarray,
@@ -138,7 +146,9 @@ def clip_to_reference(
             nxt = (i + 1) % np.maximum(cnt, 1)
             p = cur[:, i]
             q = cur[rows, nxt]
-            dp, dq = p @ a - b, q @ a - b
+            # a vertex within round-off of the plane is on it: an edge along the plane (meshes
+            # whose edges coincide) crosses nowhere, else its cut's rate is a ratio of round-offs
+            dp, dq = _snap(p @ a - b), _snap(q @ a - b)
             keep_p = live & (dp >= 0)
             out[rows[keep_p], oc[keep_p]] = p[keep_p]
             if out_r is not None:
@@ -183,6 +193,7 @@ def overlap_points(
     degree: int | None = None,
     secondary_measure_x: np.ndarray | None = None,
     rates: bool = False,
+    normal_rates: bool = False,
 ) -> Segments:
     """Integration points of every secondary facet's overlap with the primary facets.
 
@@ -207,6 +218,8 @@ def overlap_points(
             secondary and primary nodes, through the preimages, the clipping and the fan triangles;
             the nodal normals and ``secondary_measure_x``, which must be given, held). 2-D
             segments carry their ``bounds`` instead (:func:`.transfer.transfer_tangent`).
+        normal_rates: 3-D with ``rates``: the rates also with the primary facet's nodal normals
+            (``nfd_m`` more columns after the primary's nodes: the preimages move along them).
     """
     ns, _, gdim = secondary_x.shape
     fdim = gdim - 1
@@ -309,6 +322,7 @@ def overlap_points(
                 secondary_degree,
                 order,
                 primary_x.shape[1],
+                normal_rates,
             )
             clipped, cnt, clipped_r = clip_to_reference(poly, count, secondary_cell, poly_r)
         else:
@@ -382,14 +396,15 @@ def overlap_points(
 
 
 def _preimage_rates(
-    pre_u, back, ok, xu, Ys, nu, secondary_cell, secondary_degree, order, nfd_m
+    pre_u, back, ok, xu, Ys, nu, secondary_cell, secondary_degree, order, nfd_m, normals=False
 ) -> np.ndarray:
     """Derivatives of the primary vertices' preimages on the secondary facets (3-D).
 
     ``d xi = A^-1 (dx_v - sum_k N_k dX_k)`` (:func:`.projection.projection_jacobian`, the
     vertex's normal held) for the projections ``pre_u`` (unique rows; ``back`` maps the
     (pair, vertex) rows to them, ``ok`` keeps the pairs). Returns (npair, nv, fdim, m), ``m``
-    the secondary facet's nodes then the primary facet's (``nfd_m``), ``gdim`` components each.
+    the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with ``normals``,
+    the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim`` components each.
     """
     from .projection import projection_jacobian
 
@@ -406,10 +421,13 @@ def _preimage_rates(
     )
     D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
     Nk = N[back].reshape(-1, nv, nfd_s)[ok]
-    R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m, gdim))
+    R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m * (2 if normals else 1), gdim))
     R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
+    gam = pre_u.gamma[back].reshape(-1, nv)[ok]
     for j, v in enumerate(order):
         R[:, j, :, nfd_s + v, :] += D[:, j]
+        if normals:  # along the vertex's normal: d xi = D (-gamma dn_v)
+            R[:, j, :, nfd_s + nfd_m + v, :] += -gam[:, j, None, None] * D[:, j]
     return R.reshape(D.shape[0], nv, fdim, -1)
 
 

@@ -99,15 +99,22 @@ class SegmentTransfer:
         )
 
     def pairs(
-        self, Xs: np.ndarray, Ym: np.ndarray, normals: np.ndarray, reach: Reach
+        self,
+        Xs: np.ndarray,
+        Ym: np.ndarray,
+        normals: np.ndarray,
+        reach: Reach,
+        normal_rates: bool = False,
     ) -> tuple[Segments, Transfer]:
         """The segments of the secondary facets within their reach and their transfer matrices.
 
         Args:
             Xs: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
             Ym: Current positions of the reach's primary facets' nodes, (npf, nfd_m, gdim).
-            normals: Their nodal normals (the step's), likewise.
+            normals: Their nodal normals (the step's or the iterate's), likewise.
             reach: The step's reach: a pair beyond a secondary facet's reach is left out.
+            normal_rates: Whether the tangent takes the normals' change (the iterate's): the
+                3-D segments' rates then have their columns too.
         """
         s, m = self.sides.secondary, self.sides.primary
         seg = overlap_points(
@@ -121,6 +128,7 @@ class SegmentTransfer:
             self.sides.radius,
             secondary_measure_x=self.secondary_X0,
             rates=self.in_tangent,
+            normal_rates=normal_rates,
         )
         keep = seg.converged.copy()
         if seg.size:
@@ -460,7 +468,7 @@ def transfer_tangent(
     polygons of those preimages clipped by the secondary facet, cut into fan triangles), their
     points on the secondary facet and their projections on the primary facet (along the primary's
     smooth normal), and their weights. Each is differentiated through
-    :func:`.projection.projection_jacobian` (the nodal normals held, or in 2-D also their own
+    :func:`.projection.projection_jacobian` (the nodal normals held, or also their own
     change with ``with_normals``); an end where the secondary facet's own end cuts the piece does
     not move. 2-D reads the pieces'
     ``bounds``; 3-D the segments' ``xi_rate`` and ``weight_rate`` (``overlap_points(...,
@@ -479,9 +487,10 @@ def transfer_tangent(
         primary_degree: The primary facets' Lagrange degree.
         secondary_cell: The secondary facets' basix cell (3-D: triangle or quadrilateral).
         primary_cell: The primary facets' basix cell.
-        with_normals: 2-D: also the change with the primary facet's nodal normals (the pieces'
+        with_normals: Also the change with the primary facet's nodal normals (the pieces'
             ends are the vertices' preimages along them, the points are projected along their
-            interpolation): ``nfd_m`` more columns, ``d(-B t)/dn`` of the facet's nodes.
+            interpolation): ``nfd_m`` more columns, ``d(-B t)/dn`` of the facet's nodes (3-D:
+            the segments' rates must have them, ``overlap_points(..., normal_rates=True)``).
 
     Returns:
         Secondary facet and primary facet of each pair (the order of :func:`transfer_matrices`), and
@@ -494,7 +503,6 @@ def transfer_tangent(
     gdim = secondary_x.shape[2]
     fdim = gdim - 1
     nfs, nfm = secondary_x.shape[1], primary_x.shape[1]
-    with_normals = with_normals and fdim == 1
     ncol = nfs + nfm + (nfm if with_normals else 0)
     if segments.size == 0:
         z = np.zeros(0, dtype=np.int64)
@@ -508,8 +516,11 @@ def transfer_tangent(
         if segments.xi_rate is None:
             raise ValueError("transfer_tangent: 3-D segments need their rates (rates=True)")
         assert segments.weight_rate is not None  # (made with xi_rate)
-        dxs = segments.xi_rate.reshape(npt, fdim, ncol, gdim)
-        dw = segments.weight_rate.reshape(npt, ncol, gdim)
+        # the rates may have the normals' columns the tangent does not take (at the end)
+        dxs = segments.xi_rate.reshape(npt, fdim, -1, gdim)[:, :, :ncol]
+        dw = segments.weight_rate.reshape(npt, -1, gdim)[:, :ncol]
+        if dxs.shape[2] < ncol:
+            raise ValueError("transfer_tangent: the segments' rates lack the normals' columns")
     w = segments.weight
     # the point's projection on the primary facet
     Bs = facet_basis(secondary_cell, secondary_degree, segments.xi_secondary, 1)  # values, d/dxi_a
