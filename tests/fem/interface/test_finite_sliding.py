@@ -204,9 +204,10 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     checks = {
         "Lame before the push": r[0, 6] < 5e-3,
         "balance": np.abs(r[:, 2] + r[:, 3]).max() < 1e-8 * np.abs(r[:, 2]).max(),
-        # gross sliding: F = mu F_n where every point slips (measured 7e-7 after one facet,
-        # 4e-4 below it after two: points at the overlap's ends)
-        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 1e-3,
+        # gross sliding: F = mu F_n where every point slips (F_n integrated in the points' frames,
+        # which follow the hub's deformed surface: measured 7.2e-4 below it after one facet,
+        # 1.1e-3 after two; with the step's normals 7e-7 and 4e-4)
+        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 2e-3,
         "out of the hub, open": r[:, 5].max() == 0,
         "pushed out": abs(r[-1, 0] - 2.0) < 1e-12,
         "newton": r[:, 1].max() <= 5,
@@ -602,11 +603,19 @@ def test_the_reader_takes_sides_meshed_apart_for_finite_sliding(comm):
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
     Fn = comm.allreduce(float(iface.law_points.weights @ iface.last.traction[:, 1]))
+    # the global force: the points' frames follow the base's deformed surface, whose slope
+    # tilts the local components (F_n is then p to 1e-5)
+    Fy = comm.allreduce(
+        float(
+            iface.law_points.weights
+            @ np.einsum("mj,mj->m", iface.geometry.Q[:, :, 1], iface.last.traction)
+        )
+    )
     summary = interface_summary(problem)  # the history's columns
     checks = {
         "summary": abs(summary["F_n"] - Fn) < 1e-12 * p and summary["area"] == pytest.approx(1.0),
         "non-matching": sizes[0] != sizes[1],
-        "load carried": abs(Fn - p) < 1e-9 * p,
+        "load carried": abs(abs(Fy) - p) < 1e-9 * p and abs(Fn - p) < 1e-5 * p,
         "reaction": abs(problem.reactions["bottom"][1] - p) < 1e-9 * p,
     }
-    assert everywhere(comm, all(checks.values())), (checks, sizes, Fn)
+    assert everywhere(comm, all(checks.values())), (checks, sizes, Fn, Fy)

@@ -135,9 +135,10 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
-    #: Whether the primary's nodal normals are those of every iterate (the current configuration)
-    #: rather than the step's, held (their derivative is in the tangent either way).
-    normals_per_iteration = False
+    #: Whether the primary's nodal normals are those of every iterate (the current configuration,
+    #: the default: a slide's forces then do not depend on the step) rather than the step's, held
+    #: (their derivative is in the tangent either way).
+    normals_per_iteration = True
 
     def __init__(
         self,
