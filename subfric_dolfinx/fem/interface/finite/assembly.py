@@ -247,7 +247,9 @@ class SlidingAssembly:
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
         ncol = cols.shape[1] * gdim
-        vs = np.einsum("p,pk,pax,pjxc->pkajc", self.points.weights[pts], sd.Ns[0][q_of], M, E)
+        ME = np.einsum("pax,pjxc->pajc", M, E)  # (two operands: a C loop, not a nested one)
+        wN = self.points.weights[pts, None] * sd.Ns[0][q_of]
+        vs = wN[:, :, None, None, None] * ME[:, None]
         mine = g.reach.within(f_of, col_facet)
         out = [(s.nodes[f_of[mine]], cols[mine], vs[mine].reshape(-1, nfs * gdim, ncol))]
         tr = g.transfer
@@ -258,7 +260,7 @@ class SlidingAssembly:
             at = where[tr.secondary[pair] * nq + qq]
             keep = g.reach.holds(tr.primary[pair], col_facet[at])
             pair, qq, at = pair[keep], qq[keep], at[keep]
-            vm = -np.einsum("pl,pax,pjxc->plajc", tr.B[pair, :, qq], M[at], E[at])
+            vm = -tr.B[pair, :, qq][:, :, None, None, None] * ME[at][:, None]
             out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 

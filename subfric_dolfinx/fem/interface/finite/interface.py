@@ -396,7 +396,7 @@ class SlidingInterface(BaseInterface):
         mask = constrained.reshape(-1, bs) if constrained is not None else None
         gl = self.index_map.local_to_global
         first, self._first_jacobian = self._first_jacobian, False
-        for rows, cols, vals in self._blocks(separated_stiffness, start, first):
+        for rows, cols, vals in _grouped(self._blocks(separated_stiffness, start, first)):
             if rows.shape[0] == 0:
                 continue
             if mask is not None:
@@ -461,3 +461,19 @@ class SlidingInterface(BaseInterface):
         """Free the PETSc vectors (safe to call more than once)."""
         super().destroy()
         self.search.destroy()
+
+
+def _grouped(blocks: list[Block]) -> list[Block]:
+    """The blocks of one shape stacked into one (fewer, larger insertions into the matrix)."""
+    by: dict[tuple[int, ...], list[Block]] = {}
+    for b in blocks:
+        if b[0].shape[0]:
+            by.setdefault((*b[0].shape[1:], *b[1].shape[1:]), []).append(b)
+    out: list[Block] = []
+    for group in by.values():
+        if len(group) == 1:
+            out.append(group[0])
+        else:
+            rows, cols, vals = zip(*group, strict=True)
+            out.append((np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)))
+    return out
