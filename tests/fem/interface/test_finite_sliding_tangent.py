@@ -44,7 +44,6 @@ from subfric_dolfinx.fem import (
     StepControl,
 )
 from subfric_dolfinx.fem.interface.finite import transfer
-from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
 from subfric_dolfinx.fem.interface.finite.transfer import SegmentTransfer
 from subfric_dolfinx.loading import LoadingProgram
 from tests.contact_meshes import diagonal_slide_3d, tagged_blocks
@@ -165,10 +164,8 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
 def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
     """The block's end facet overhangs the base's end (its points still on it): the complement
     of the transfer (the share the segments miss, given where the points project) and its change
-    with the geometry are in the tangent, which is still the residual's derivative. The step's
-    nodal normals held: the complement's change with the iterate's normals is not in the
-    tangent."""
-    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", False)
+    with the geometry (and with the iterate's nodal normals) are in the tangent, which is still
+    the residual's derivative."""
     problem = problem_2d(comm, law_of("coulomb"), 1, base_end=2.42)
     iface = problem.interfaces["contact"]
     with FrictionSolver(problem, linear="lu") as solver:

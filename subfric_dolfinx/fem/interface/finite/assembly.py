@@ -168,19 +168,28 @@ class SlidingAssembly:
                 out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
             if rates and ps.size:
                 out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
-            out += self.transfer.complement_tangent(g, tg)  # where a facet overhangs
+            normal_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = (
+                [] if rates else None
+            )
+            out += self.transfer.complement_tangent(g, tg, normal_parts)  # where it overhangs
+            for rf, nf, vn in normal_parts or []:
+                out += self._transfer_normal_blocks(g, nf, vn, rf)
         return out
 
     @staticmethod
-    def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
+    def _transfer_normal_blocks(
+        g: ContactGeometry, pm: np.ndarray, vn: np.ndarray, rows: np.ndarray | None = None
+    ) -> list[Block]:
         """The transfer's change with the primary's nodes through its nodal normals.
 
-        ``vn`` (npair, nfm * gdim, nfm * gdim): the change of the pairs' primary forces with the
-        nodal normals of their primary facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        ``vn`` (npair, nfm * gdim, nfm * gdim): the change of the pairs' primary forces (on the
+        nodes of the facets ``rows``, by default ``pm``) with the nodal normals of the primary
+        facets ``pm`` (:func:`~.transfer.transfer_tangent`, the complement's too).
         """
-        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
+        assert g.normal_rates is not None  # (with the iterate's normals)
         facets, Dn = g.normal_rates
         nodes = g.reach.nodes
+        rf = pm if rows is None else rows
         npair, nrow = vn.shape[:2]
         gdim = g.Ym.shape[2]
         vn = vn.reshape(npair, nrow, -1, gdim)
@@ -188,11 +197,11 @@ class SlidingAssembly:
         for node in range(facets.shape[1]):
             for a in range(facets.shape[2]):
                 fa = facets[pm, node, a]
-                ok = (fa >= 0) & g.reach.holds(pm, np.maximum(fa, 0))
+                ok = (fa >= 0) & g.reach.holds(rf, np.maximum(fa, 0))
                 if not ok.any():
                     continue
                 vals = np.einsum("prx,pjxc->prjc", vn[ok, :, node, :], Dn[pm[ok], node, a])
-                out.append((nodes[pm[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
+                out.append((nodes[rf[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
         return out
 
     def _normal_blocks(

@@ -177,7 +177,10 @@ class SegmentTransfer:
         )
 
     def complement_tangent(
-        self, g: ContactGeometry, tractions: np.ndarray
+        self,
+        g: ContactGeometry,
+        tractions: np.ndarray,
+        normal_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """The complement's change with the geometry, the tractions held (tangent blocks).
 
@@ -192,6 +195,10 @@ class SegmentTransfer:
         Args:
             g: The iterate's geometry (its transfer completed).
             tractions: The points' tractions, global components, (ns, nq, gdim).
+            normal_parts: With the iterate's normals, a list the change with the nodal normals
+                is appended to: ``(row facets, normal facets, d(forces)/dn)`` per pair
+                ((k,), (k,), (k, nfm * gdim, nfm * gdim)), chained with the normals' change by
+                the assembly.
 
         Returns:
             Blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
@@ -229,6 +236,9 @@ class SegmentTransfer:
         if k:
             cols = np.concatenate([s.nodes[f_of], nodes[fm]], axis=1)[keep]
             out.append((nodes[fm[keep]], cols, vals[keep].reshape(k, nfm * gdim, -1)))
+            if normal_parts is not None:  # dxi = R (-gamma sum_l N_l dn_l) besides
+                vn = -np.einsum("m,md,aml,mae,mj->mldje", c, t, B[1:], R, -gam[:, None] * N)
+                normal_parts.append((fm[keep], fm[keep], vn[keep].reshape(k, nfm * gdim, -1)))
         # -N_l(xi) dc_q t_q: the segments of the points' secondary facets, one point at a time
         seg = g.segments.take(np.isin(g.segments.secondary, f_of))
         if seg.size == 0:
@@ -236,10 +246,13 @@ class SegmentTransfer:
         for q in np.unique(q_of):
             tq = np.zeros_like(tractions)
             tq[:, q] = tractions[:, q]
-            ps, pm, vb = self.tangent(seg, tq, g.Xs, g.Ym, g.normals)
+            rates = normal_parts is not None
+            ps, pm, vb = self.tangent(seg, tq, g.Xs, g.Ym, g.normals, rates)
             if ps.size == 0:
                 continue
             dct = vb.reshape(ps.size, nfm, gdim, -1).sum(axis=1)  # d(c_q) t_q, (np, gdim, nc)
+            nxy = (s.nodes.shape[1] + nfm) * gdim
+            dct, dcn = dct[:, :, :nxy], dct[:, :, nxy:]
             mine = np.flatnonzero(q_of == q)
             order = np.argsort(ps, kind="stable")
             lo = np.searchsorted(ps[order], f_of[mine], "left")
@@ -253,6 +266,9 @@ class SegmentTransfer:
             v = -np.einsum("ml,mdc->mldc", N[i], dct[j]).reshape(i.size, nfm * gdim, -1)
             cols = np.concatenate([s.nodes[ps[j]], nodes[pm[j]]], axis=1)
             out.append((nodes[fm[i]], cols, v))
+            if normal_parts is not None:
+                vn = -np.einsum("ml,mdc->mldc", N[i], dcn[j]).reshape(i.size, nfm * gdim, -1)
+                normal_parts.append((fm[i], pm[j], vn))
         return out
 
 
