@@ -1,4 +1,4 @@
-"""The contact surface, its averaged nodal normals and the parallel search of the master facets,
+"""The contact surface, its averaged nodal normals and the parallel search of the primary facets,
 on independently meshed bodies (1 and 2 ranks).
 
 * Nodal normals: radial on a polygon inscribed in a circle (outward on the shaft, inward on the
@@ -36,8 +36,8 @@ def surfaces(V, bodies):
     return contact_surface(*args, MASTER), contact_surface(*args, SLAVE)
 
 
-def master_data(V, ms, x):
-    """What exchange_facets needs of this rank's master facets, at node positions x."""
+def primary_data(V, ms, x):
+    """What exchange_facets needs of this rank's primary facets, at node positions x."""
     imap = V.dofmap.index_map
     owners = np.concatenate([np.full(imap.size_local, COMM.rank), imap.owners]).astype(np.int32)
     nn = nodal_normals(ms, x, imap)
@@ -90,7 +90,7 @@ def test_search_follows_a_block_sliding_along_a_long_base(degree):
     V = space(bodies, degree)
     ms, ss = surfaces(V, bodies)
     x = V.tabulate_dof_coordinates()[:, :2]
-    data = master_data(V, ms, x)
+    data = primary_data(V, ms, x)
     nodes = np.unique(ss.nodes)
     ok, received, sizes = True, 0, []
     for s in (0.0, 2.3, 4.4, 6.1, 8.0):  # up to 8 block widths, across x = 5
@@ -144,10 +144,10 @@ def test_parallel_search_equals_the_serial_one(case, degree):
     gdim = bodies.mesh.geometry.dim
     ms, ss = surfaces(V, bodies)
     x = V.tabulate_dof_coordinates()[:, :gdim]
-    data = master_data(V, ms, x)
+    data = primary_data(V, ms, x)
     imap = V.dofmap.index_map
     nodes = np.unique(ss.nodes)
-    nodes = nodes[nodes < imap.size_local]  # owned slave nodes: each point on one rank
+    nodes = nodes[nodes < imap.size_local]  # owned secondary nodes: each point on one rank
     pts = move(x[nodes])
     cand = exchange_facets(COMM, pts, ms.cell, ms.degree, *data, radius)
     pr = find_projections(pts, cand, radius)
@@ -182,8 +182,8 @@ def test_parallel_search_equals_the_serial_one(case, degree):
 
 @pytest.mark.parametrize("case", ["annuli", "plate"])
 def test_parallel_segments_equal_the_serial_ones(case):
-    """The cut of the slave facets by the master facets, made on each slave facet's rank from
-    its candidates, equals the cut of one process that has everything."""
+    """The cut of the secondary facets by the primary facets, made on each secondary facet's rank
+    from its candidates, equals the cut of one process that has everything."""
     from subfric_dolfinx.fem.interface.finite.segments import overlap_points
 
     if case == "annuli":
@@ -204,22 +204,22 @@ def test_parallel_segments_equal_the_serial_ones(case):
     gdim = bodies.mesh.geometry.dim
     ms, ss = surfaces(V, bodies)
     x = V.tabulate_dof_coordinates()[:, :gdim]
-    data = master_data(V, ms, x)
-    slave_x = move(x[ss.nodes])
-    cand = exchange_facets(COMM, slave_x.reshape(-1, gdim), ms.cell, 1, *data, radius)
-    seg = overlap_points(slave_x, ss.cell, 1, cand.x, cand.normals, ms.cell, 1, radius)
+    data = primary_data(V, ms, x)
+    secondary_x = move(x[ss.nodes])
+    cand = exchange_facets(COMM, secondary_x.reshape(-1, gdim), ms.cell, 1, *data, radius)
+    seg = overlap_points(secondary_x, ss.cell, 1, cand.x, cand.normals, ms.cell, 1, radius)
 
-    def table(seg, slave_ids, master_ids):
-        key = np.stack([slave_ids[seg.slave], master_ids[seg.master]], axis=1)
-        rows = np.concatenate([key, seg.xi_slave, seg.xi_master, seg.weight[:, None]], axis=1)
+    def table(seg, secondary_ids, primary_ids):
+        key = np.stack([secondary_ids[seg.secondary], primary_ids[seg.primary]], axis=1)
+        rows = np.concatenate([key, seg.xi_secondary, seg.xi_primary, seg.weight[:, None]], axis=1)
         return rows[np.lexsort(rows.T[::-1])]
 
     mine = np.concatenate(COMM.allgather(table(seg, ss.global_facets, cand.global_facets)))
     mine = mine[np.lexsort(mine.T[::-1])]
-    all_slave = np.concatenate(COMM.allgather(slave_x))
+    all_secondary = np.concatenate(COMM.allgather(secondary_x))
     all_ids = np.concatenate(COMM.allgather(ss.global_facets))
     all_data = gathered(data)
-    serial = overlap_points(all_slave, ss.cell, 1, all_data[0], all_data[1], ms.cell, 1, radius)
+    serial = overlap_points(all_secondary, ss.cell, 1, all_data[0], all_data[1], ms.cell, 1, radius)
     ref = table(serial, all_ids, all_data[4])
     assert mine.shape == ref.shape
     np.testing.assert_allclose(mine, ref, atol=1e-13)
@@ -240,7 +240,7 @@ def test_a_curved_mesh_gives_a_round_contact():
         V = space(bodies, degree)
         ms, ss = surfaces(V, bodies)
         x = V.tabulate_dof_coordinates()[:, :2]
-        data = master_data(V, ms, x)
+        data = primary_data(V, ms, x)
         nodes = np.unique(ss.nodes)
         c, s = np.cos(0.2), np.sin(0.2)
         pts = 0.997 * x[nodes] @ np.array([[c, s], [-s, c]])

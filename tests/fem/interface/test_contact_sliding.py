@@ -42,7 +42,7 @@ def curved_case(cell, degree, seed=9):
 
 
 def local_gap(x, Y, N, cell, degree, xi0, Q):
-    """(Q_t . convected slip from xi0, ubar_n) at x for master nodes Y."""
+    """(Q_t . convected slip from xi0, ubar_n) at x for primary nodes Y."""
     pr = normal_projection(x, Y, N, cell, degree, xi0=xi0)
     y_new = np.einsum("mk,mkd->md", facet_basis(cell, degree, pr.xi)[0], Y)
     y_old = np.einsum("mk,mkd->md", facet_basis(cell, degree, xi0)[0], Y)

@@ -4,11 +4,11 @@
   same width, meshed 3 : 2 (and 4 : 6, quadrilaterals, P2) across the interface, pressed by a
   uniform pressure with friction: the exact solution is a uniform stress, the interface pressure
   is uniform and the tangential traction zero; the FE solution is exact when the interface
-  transmits a uniform pressure exactly (slave Gauss points, segment transfer to the master).
+  transmits a uniform pressure exactly (secondary Gauss points, segment transfer to the primary).
 * A block sliding ten times its width along a long base at constant pressure, re-paired as it
   goes (across the partition boundary on 2 ranks): the mean traction against slip equals the
   material-point integration of the law on the same gap path (each point's path), the base
-  carries the load where the block is (the centroid of the master nodal forces is the block's
+  carries the load where the block is (the centroid of the primary nodal forces is the block's
   centre), and Newton needs at most 5 iterations per step.
 * A rigid shaft turned in a shrink-fitted hub, meshed independently with P2 arcs: the pressure
   stays at Lame's at every point within 1 % (measured within 0.7 %), the torque reaches
@@ -101,7 +101,9 @@ def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree,
     problem, records, tr = pressed_patch(comm, cell, degree, n_base, n_block, p)
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)
-    assert tr.shape[0] == n_block[0] * iface.law_points.nq  # every slave point, once over the ranks
+    assert (
+        tr.shape[0] == n_block[0] * iface.law_points.nq
+    )  # every secondary point, once over the ranks
     checks = {
         "f_n": np.abs(tr[:, 1] / p - 1.0).max() < 1e-6,
         "f_t": np.abs(tr[:, 0]).max() < 1e-6 * p,
@@ -122,7 +124,7 @@ def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree,
 def test_axisymmetric_nonmatching_patch_test(comm, cell, degree, n_base, n_block):
     """Two discs (x = r) stacked, meshed apart, pressed: the exact solution is a uniform
     ``sigma_zz = -p`` (``u_r = nu p r / E``, in the FE space), the interface transmits it
-    exactly where the traction times ``2 pi r`` is projected (the slave's weights): the pressure
+    exactly where the traction times ``2 pi r`` is projected (the secondary's weights): the pressure
     uniform to 1e-6 although ``r`` varies along the interface, the bottom's reaction
     ``p pi R^2``."""
     p = 100.0
@@ -144,7 +146,7 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     slides (``F = mu F_n``), the shaft's points beyond the hub separate, at most 5 Newton a
     step; before the push the fit's pressure is Lame's (0.5 %, as the small-sliding demo).
 
-    A facet a step: no slave facet in contact straddles the hub's end at a step's end (where one
+    A facet a step: no secondary facet in contact straddles the hub's end at a step's end (where one
     does, tests/fem/interface/test_finite_sliding_overhang.py; docs/model.md)."""
     from demos import shrink_fit as sf
     from subfric_dolfinx import meshing
@@ -202,9 +204,10 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     checks = {
         "Lame before the push": r[0, 6] < 5e-3,
         "balance": np.abs(r[:, 2] + r[:, 3]).max() < 1e-8 * np.abs(r[:, 2]).max(),
-        # gross sliding: F = mu F_n where every point slips (measured 7e-7 after one facet,
-        # 4e-4 below it after two: points at the overlap's ends)
-        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 1e-3,
+        # gross sliding: F = mu F_n where every point slips (F_n integrated in the points' frames,
+        # which follow the hub's deformed surface: measured 7.2e-4 below it after one facet,
+        # 1.1e-3 after two; with the step's normals 7e-7 and 4e-4)
+        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 2e-3,
         "out of the hub, open": r[:, 5].max() == 0,
         "pushed out": abs(r[-1, 0] - 2.0) < 1e-12,
         "newton": r[:, 1].max() <= 5,
@@ -252,7 +255,7 @@ def run_slide(comm, problem, dt):
     iface = problem.interfaces["contact"]
     X = problem.V.tabulate_dof_coordinates()
     n_own = problem.V.dofmap.index_map.size_local
-    base_nodes = np.unique(iface.sides.master.nodes)
+    base_nodes = np.unique(iface.sides.primary.nodes)
     base_nodes = base_nodes[base_nodes < n_own]
     rows = []
 
@@ -596,15 +599,23 @@ def test_the_reader_takes_sides_meshed_apart_for_finite_sliding(comm):
     )
     iface = problem.interfaces["contact"]
     assert isinstance(iface, SlidingInterface)  # the mesh's kinematics
-    sizes = comm.allreduce(np.array([iface.sides.master.size, iface.sides.slave.size]))
+    sizes = comm.allreduce(np.array([iface.sides.primary.size, iface.sides.secondary.size]))
     with FrictionSolver(problem, linear="lu") as solver:
         LoadStepper(solver, 1.0).run()
     Fn = comm.allreduce(float(iface.law_points.weights @ iface.last.traction[:, 1]))
+    # the global force: the points' frames follow the base's deformed surface, whose slope
+    # tilts the local components (F_n is then p to 1e-5)
+    Fy = comm.allreduce(
+        float(
+            iface.law_points.weights
+            @ np.einsum("mj,mj->m", iface.geometry.Q[:, :, 1], iface.last.traction)
+        )
+    )
     summary = interface_summary(problem)  # the history's columns
     checks = {
         "summary": abs(summary["F_n"] - Fn) < 1e-12 * p and summary["area"] == pytest.approx(1.0),
         "non-matching": sizes[0] != sizes[1],
-        "load carried": abs(Fn - p) < 1e-9 * p,
+        "load carried": abs(abs(Fy) - p) < 1e-9 * p and abs(Fn - p) < 1e-5 * p,
         "reaction": abs(problem.reactions["bottom"][1] - p) < 1e-9 * p,
     }
-    assert everywhere(comm, all(checks.values())), (checks, sizes, Fn)
+    assert everywhere(comm, all(checks.values())), (checks, sizes, Fn, Fy)

@@ -39,7 +39,7 @@ def side_sums(problem, iface):
     n_own = problem.V.dofmap.index_map.size_local
     f = problem.interface_force.reshape(-1, gdim)
     out = []
-    for side in (iface.sides.master, iface.sides.slave):
+    for side in (iface.sides.primary, iface.sides.secondary):
         nodes = np.unique(side.nodes)
         out.append(comm.allreduce(f[nodes[nodes < n_own]].sum(axis=0)))
     return out

@@ -1,13 +1,13 @@
 """The matrix pattern of a finite-sliding interface holds what its tangent writes, not all pairs.
 
-The pattern couples each slave facet's nodes with each other and with its reach's master nodes,
-and master facets of one reach only where they are near enough to meet in one row of the
-tangent (``reach._couplings``): the all-pairs pattern of a reach (every slave facet's nodes
-with every master node of its reach, master with master) grows as the square of the reach's
+The pattern couples each secondary facet's nodes with each other and with its reach's primary nodes,
+and primary facets of one reach only where they are near enough to meet in one row of the
+tangent (``reach._couplings``): the all-pairs pattern of a reach (every secondary facet's nodes
+with every primary node of its reach, primary with primary) grows as the square of the reach's
 width and took 19.5 GB at 184k dofs. The matrices are created with ``NEW_NONZERO_ALLOCATION_ERR``:
 a tangent entry outside the pattern raises, so a sliding run over several facets that finishes
 shows the pattern covers the tangent, and ``pattern_misses`` that no entry was left out. A
-pattern made too small (no master facet pairs) must leave the entries out, rebuild and give the
+pattern made too small (no primary facet pairs) must leave the entries out, rebuild and give the
 same forces.
 """
 
@@ -52,7 +52,7 @@ def layout_nnz(problem, couplings) -> int:
 def all_pairs(problem) -> np.ndarray:
     """The all-pairs pattern of the interface's current reach (the former one): element nodes."""
     it = interface_of(problem)
-    s, reach = it.sides.slave.nodes, it.search.reach
+    s, reach = it.sides.secondary.nodes, it.search.reach
     elems = [
         np.unique(np.concatenate([s[f], reach.nodes[reach.idx[a:b]].ravel()]))
         for f, (a, b) in enumerate(zip(reach.ptr[:-1], reach.ptr[1:], strict=True))
@@ -94,7 +94,7 @@ def test_the_pattern_is_what_the_tangent_writes(comm, monkeypatch):
     # n = 6: 194,706 against 311,814 (the reach is 3 x 0.2 mm + the facet on a 2 mm plate; the
     # all-pairs pattern grows as its square, this one as (reach + 2 facets)^2)
     assert n_new < 0.7 * n_all, (n_new, n_all)
-    # no master facet pairs at all: the master rows' couplings are left out, then rebuilt
+    # no primary facet pairs at all: the primary rows' couplings are left out, then rebuilt
     monkeypatch.setattr(ReachSearch, "pattern_margin", -1e9)
     small, it_small, _ = run(comm)
     assert comm.allreduce(it_small.search.pattern_misses) > 0

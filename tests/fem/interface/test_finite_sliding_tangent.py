@@ -14,12 +14,14 @@ interface), and the interface's own tangent with the central differences of its 
   Coulomb P1 9.8e-12 and 6.9e-12 / 8.1e-11 and 1.4e-12; Sec. 7 P1 9.5e-9 and 9.6e-11 / 4.7e-8
   and 4.7e-10; Coulomb P2 5.0e-11 and 1.3e-11 / 9.8e-10 and 9.5e-12. Without it the transfer's
   part remains: 4.5e-5 / 3.7e-4, 4.2e-5 / 2.1e-4, 1.1e-4 / 2.1e-3;
-* 3-D, with the transfer's change (the default, through the clipped preimage polygons):
-  the transfer's part of the tangent (``J v`` with ``dB t`` minus without) against the
-  differences of the interface forces with ``B`` live minus with ``B`` held at ``x``: O(e^2),
-  measured 1.1e-6 and 1.1e-8 at e = 1e-4 and 1e-5 (Sec. 7 P1; Coulomb P1 3.5e-7 and 3.5e-9; Sec. 7
-  P2 4.3e-6 and 4.3e-8). The whole tangent: 1.9e-6 / 2.0e-5 (the frame's turn within an
-  iteration, 2-D only in the tangent); without ``dB t`` 5.7e-5 / 5.8e-4.
+* 3-D, with the transfer's change (the default, through the clipped preimage polygons) and
+  the frame's turn (its rows and the transport's rotation, ``contact.FrameTurn``): the residual's
+  derivative too, O(e^2) down to round-off: measured 2.0e-8, 2.0e-10 and 2.6e-11 of the whole
+  ``J v`` at e = 1e-4, 1e-5 and 1e-6 (Sec. 7 P1; the interface's 2.0e-7, 2.0e-9, 2.1e-11). The
+  transfer's part alone (``J v`` with ``dB t`` minus without, against the differences of the
+  interface forces with ``B`` live minus with ``B`` held at ``x``): O(e^2), 1.1e-6 and 1.1e-8
+  at e = 1e-4 and 1e-5 (Sec. 7 P1; Coulomb P1 3.5e-7 and 3.5e-9; Sec. 7 P2 4.3e-6 and 4.3e-8);
+  without ``dB t`` 5.7e-5 / 5.8e-4.
 
 ``benchmarks/finite_sliding_newton.py`` prints Newton's iterations with and without ``dB t``.
 """
@@ -162,7 +164,8 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
 def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
     """The block's end facet overhangs the base's end (its points still on it): the complement
     of the transfer (the share the segments miss, given where the points project) and its change
-    with the geometry are in the tangent, which is still the residual's derivative."""
+    with the geometry (and with the iterate's nodal normals) are in the tangent, which is still
+    the residual's derivative."""
     problem = problem_2d(comm, law_of("coulomb"), 1, base_end=2.42)
     iface = problem.interfaces["contact"]
     with FrictionSolver(problem, linear="lu") as solver:
@@ -187,7 +190,7 @@ def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
 
 def interface_rates(problem, x, v, eps, held=None):
     """The interface forces' central differences ``(f(x + e v) - f(x - e v)) / 2e`` for each ``e``
-    (owned values); with ``held``, the master-side transfer ``B`` held at it."""
+    (owned values); with ``held``, the primary-side transfer ``B`` held at it."""
     F = problem.create_vector()
     out = []
     with pytest.MonkeyPatch.context() as mp:
@@ -254,9 +257,9 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
         "converged": converged,
         "in contact": counts[0] + counts[1] > 0,
         "dB t exact": part[1] < 1e-6,
-        "O(e^2)": part[0] > 30 * part[1] or part[0] < 1e-9,
-        "whole": err[:, 0].max() < 1e-5,
-        "interface": err[:, 1].max() < 1e-4,
+        "dB t O(e^2)": part[0] > 30 * part[1] or part[0] < 1e-9,
+        "exact": err[1].max() < 1e-8,
+        "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without dB t": without[1] > 5 * err[-1, 1],
     }
     assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts)

@@ -1,11 +1,11 @@
 """The benchmark's 3-D pad with a finite-sliding interface (``benchmarks/fe_scaling.py``).
 
-The pad and the plate are meshed apart (``fe_scaling.pad_apart``): the master surface is the
+The pad and the plate are meshed apart (``fe_scaling.pad_apart``): the primary surface is the
 plate's whole top, so the pad slides onto plate facets it never touched. Reference: the same pad
 on the joined mesh with a small-sliding interface and the same (stiff) normal penalty, where
-every point keeps the master point it faced; over a slide of two facets (0.5 mm on 0.25 mm
+every point keeps the primary point it faced; over a slide of two facets (0.5 mm on 0.25 mm
 facets) forth and back the two agree closely (a uniform plate: what the small-sliding pairs miss
-is the plate's deformation following the pad). Before the bodies were meshed apart the master
+is the plate's deformation following the pad). Before the bodies were meshed apart the primary
 surface was only the pad's footprint: the leading points slid off it and separated from the
 first sliding steps (the tangential force 8 % below the reference by 0.05 mm).
 """
@@ -48,7 +48,7 @@ def test_the_pad_slides_onto_the_plate_beyond_its_footprint(comm):
     np.testing.assert_allclose(finite[:, 0], small[:, 0])
     peak = np.abs(small[:, 1]).max()
     assert peak > 10.0  # the pad slid (the static peak at 300 MPa is ~24 N on 1 mm^2)
-    assert np.all(finite[:, 3] == 0.0), finite[:, 3]  # no point left the master surface
+    assert np.all(finite[:, 3] == 0.0), finite[:, 3]  # no point left the primary surface
     # the pressure's force, in the finite frames that follow the plate's deformed surface
     np.testing.assert_allclose(finite[:, 2], small[:, 2], rtol=1e-4)
     assert np.abs(finite[:, 1] - small[:, 1]).max() < 0.01 * peak, (finite[:, 1], small[:, 1])

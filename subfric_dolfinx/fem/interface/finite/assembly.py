@@ -1,9 +1,9 @@
 """Forces and tangent of a finite-sliding interface (the assembly part of its interface).
 
-The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes ``-B t`` of the
-segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
-(slave rows) and one per point and master facet of its slave facet's segments (master rows),
-whose columns are the point's slave facet nodes and its master facet's nodes:
+The secondary nodes receive ``int N_s t`` by the secondary facets' rule, the primary nodes ``-B t``
+of the segment transfer (:mod:`.transfer`). The tangent is assembled as dense blocks, one per point
+(secondary rows) and one per point and primary facet of its secondary facet's segments (primary
+rows), whose columns are the point's secondary facet nodes and its primary facet's nodes:
 ``d t = Q^T D G (sum_k N_k du_k - sum_l N_l(xi) du_l)`` with ``G`` the gap's derivative
 (:func:`.sliding.gap_operator`). Everything of the iterate comes in one
 :class:`~.contact.ContactGeometry`.
@@ -32,7 +32,7 @@ class SlidingAssembly:
     Args:
         sides: The interface's sides.
         points: Its law's points (their weights).
-        transfer: Its transfer part (the master side and the transfer's change).
+        transfer: Its transfer part (the primary side and the transfer's change).
     """
 
     def __init__(self, sides: Sides, points: SlidingPoints, transfer: SegmentTransfer) -> None:
@@ -48,16 +48,16 @@ class SlidingAssembly:
     def add_forces(self, local: np.ndarray, g: ContactGeometry, traction: np.ndarray) -> None:
         """Add the forces of the tractions ``traction`` to the local values ``local``."""
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
         w = self.points.weights.reshape(s.size, nq)
         b = local.reshape(-1, sd.bs)
         Rs = np.einsum("fq,qk,fqd->fkd", w, sd.Ns[0], tg)
         np.add.at(b[:, :gdim], s.nodes.ravel(), Rs.reshape(-1, gdim))
         tr = g.transfer
-        if tr.slave.size:
-            Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.slave])
-            np.add.at(b[:, :gdim], g.reach.nodes[tr.master].ravel(), -Rm.reshape(-1, gdim))
+        if tr.secondary.size:
+            Rm = np.einsum("plq,pqd->pld", tr.B, tg[tr.secondary])
+            np.add.at(b[:, :gdim], g.reach.nodes[tr.primary].ravel(), -Rm.reshape(-1, gdim))
 
     def add_round_off(self, local: np.ndarray, g: ContactGeometry, tangent: np.ndarray) -> None:
         """Add, per dof, the size of the forces' round-off over ``EPS`` to ``local``.
@@ -67,7 +67,7 @@ class SlidingAssembly:
         test's floor must know (:class:`~subfric_dolfinx.fem.convergence.ScaledConvergence`).
         """
         sd = self.sides
-        s, nq, gdim, bs = sd.slave, sd.nq, sd.gdim, sd.bs
+        s, nq, gdim, bs = sd.secondary, sd.nq, sd.gdim, sd.bs
         w = self.points.weights.reshape(s.size, nq)
         D = np.abs(tangent).reshape(-1, gdim * gdim).max(axis=1, initial=0.0)
         m = (D * (np.linalg.norm(g.xq, axis=1) + sd.h)).reshape(s.size, nq)
@@ -75,9 +75,9 @@ class SlidingAssembly:
         Rs = np.einsum("fq,qk,fq->fk", w, np.abs(sd.Ns[0]), m)
         np.add.at(b, s.nodes.ravel(), np.repeat(Rs.reshape(-1, 1), bs, axis=1))
         tr = g.transfer
-        if tr.slave.size:
-            Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.slave])
-            np.add.at(b, g.reach.nodes[tr.master].ravel(), np.repeat(Rm.reshape(-1, 1), bs, 1))
+        if tr.secondary.size:
+            Rm = np.einsum("plq,pq->pl", np.abs(tr.B), m[tr.secondary])
+            np.add.at(b, g.reach.nodes[tr.primary].ravel(), np.repeat(Rm.reshape(-1, 1), bs, 1))
 
     def law_tangent(
         self,
@@ -121,19 +121,29 @@ class SlidingAssembly:
             traction: The points' tractions (the frame's turn and the transfer's change).
         """
         sd = self.sides
-        s, nq, gdim, nt = sd.slave, sd.nq, sd.gdim, sd.nt
+        s, nq, gdim, nt = sd.secondary, sd.nq, sd.gdim, sd.nt
         found, nodes = g.found, g.reach.nodes
-        # Q^T D G + the frame's turn (2-D), (npts, gdim, gdim)
+        # Q^T D G + the frame's turn, (npts, gdim, gdim)
         M = np.einsum("mai,mab,mbj->mij", g.Q, D, g.G) + g.turn_stiffness(traction)
+        spin = None
+        if g.turn3 is not None:  # 3-D: + the transport's turn Q^T h dtheta/dz
+            spin = _transport_spin(g, D, traction)
+            M += np.einsum("mi,mc->mic", spin, g.turn3.theta_dz())
         pts = np.flatnonzero(found)
         f_of, q_of = pts // nq, pts % nq
         cols = np.concatenate([s.nodes[f_of], nodes[g.facet[pts]]], axis=1)
         C = np.concatenate([sd.Ns[0][q_of], -g.Nm[pts]], axis=1)  # (np, nfs + nfm)
         out = self._point_blocks(g, pts, cols, C, M[pts], g.held_now)
         if g.normal_rates is not None:  # the iterate's nodal normals move with the nodes
-            out += self._normal_blocks(g, D, traction, M)
-        # the convected slip's own master nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
-        # besides the projection's move (in G): the master stretched between the two points
+            Mw = _normal_sensitivity(g, pts, D, traction, M, spin)
+            out += self._normal_blocks(g, pts, g.facet[pts], g.Nm[pts], Mw)
+            mv = np.flatnonzero(found & (g.old_facet >= 0))
+            if spin is not None and mv.size:  # the transport's turn with the start's normal
+                assert g.turn3 is not None  # (3-D)
+                Mo = np.einsum("mi,mc->mic", spin[mv], g.turn3.theta_old_normal[mv])
+                out += self._normal_blocks(g, mv, g.old_facet[mv], g.N_old[mv], Mo)
+        # the convected slip's own primary nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
+        # besides the projection's move (in G): the primary stretched between the two points
         mv = np.flatnonzero(found & (g.old_facet >= 0))
         if mv.size:
             E = g.Q[mv].copy()
@@ -142,6 +152,10 @@ class SlidingAssembly:
             fm, fo = g.facet[mv], g.old_facet[mv]
             out += self._point_blocks(g, mv, nodes[fm], g.Nm[mv], Mt, g.held_now)
             out += self._point_blocks(g, mv, nodes[fo], -g.N_old[mv], Mt, g.held_old)
+            if spin is not None:  # the transport's turn with the start point's tangents now
+                assert g.turn3 is not None  # (3-D)
+                E = g.turn3.theta_old[mv][:, :, None, :]
+                out += self._matrix_blocks(g, mv, nodes[fo], E, spin[mv][:, :, None], fo)
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
             rates = g.normal_rates is not None
@@ -154,51 +168,68 @@ class SlidingAssembly:
                 out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
             if rates and ps.size:
                 out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
-            out += self.transfer.complement_tangent(g, tg)  # where a facet overhangs
+            normal_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = (
+                [] if rates else None
+            )
+            out += self.transfer.complement_tangent(g, tg, normal_parts)  # where it overhangs
+            for rf, nf, vn in normal_parts or []:
+                out += self._transfer_normal_blocks(g, nf, vn, rf)
         return out
 
     @staticmethod
-    def _transfer_normal_blocks(g: ContactGeometry, pm: np.ndarray, vn: np.ndarray) -> list[Block]:
-        """2-D: the transfer's change with the master's nodes through its nodal normals.
+    def _transfer_normal_blocks(
+        g: ContactGeometry, pm: np.ndarray, vn: np.ndarray, rows: np.ndarray | None = None
+    ) -> list[Block]:
+        """The transfer's change with the primary's nodes through its nodal normals.
 
-        ``vn`` (npair, nfm * 2, nfm * 2): the change of the pairs' master forces with the nodal
-        normals of their master facets ``pm`` (:func:`~.transfer.transfer_tangent`).
+        ``vn`` (npair, nfm * gdim, nfm * gdim): the change of the pairs' primary forces (on the
+        nodes of the facets ``rows``, by default ``pm``) with the nodal normals of the primary
+        facets ``pm`` (:func:`~.transfer.transfer_tangent`, the complement's too).
         """
-        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
+        assert g.normal_rates is not None  # (with the iterate's normals)
         facets, Dn = g.normal_rates
         nodes = g.reach.nodes
+        rf = pm if rows is None else rows
         npair, nrow = vn.shape[:2]
-        vn = vn.reshape(npair, nrow, -1, 2)
+        gdim = g.Ym.shape[2]
+        vn = vn.reshape(npair, nrow, -1, gdim)
         out: list[Block] = []
         for node in range(facets.shape[1]):
             for a in range(facets.shape[2]):
                 fa = facets[pm, node, a]
-                ok = (fa >= 0) & g.reach.holds(pm, np.maximum(fa, 0))
+                ok = (fa >= 0) & g.reach.holds(rf, np.maximum(fa, 0))
                 if not ok.any():
                     continue
                 vals = np.einsum("prx,pjxc->prjc", vn[ok, :, node, :], Dn[pm[ok], node, a])
-                out.append((nodes[pm[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
+                out.append((nodes[rf[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
         return out
 
     def _normal_blocks(
-        self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+        self,
+        g: ContactGeometry,
+        pts: np.ndarray,
+        facet: np.ndarray,
+        N: np.ndarray,
+        Mw: np.ndarray,
     ) -> list[Block]:
-        """2-D: the blocks of the iterate's nodal normals' change with the master's nodes."""
-        assert g.normal_rates is not None  # (2-D, with the iterate's normals)
+        """Blocks of ``d t_p = Mw_p w_p`` with ``w_p = sum_l N_pl dn_l`` on the facet ``facet_p``.
+
+        The nodal normals ``n_l`` of the primary facet ``facet`` of each point ``pts`` (the one
+        it faces, or faced at the step's start) with the basis ``N`` (np, nfm) there, chained
+        with their change with the primary's nodes (:func:`.normals.normal_rates`).
+        """
+        assert g.normal_rates is not None  # (with the iterate's normals)
         facets, Dn = g.normal_rates
-        pts = np.flatnonzero(g.found)
         if pts.size == 0:
             return []
-        Mw = _normal_sensitivity(g, pts, D, traction, M)
-        f0 = g.facet[pts]
         out: list[Block] = []
         for node in range(facets.shape[1]):
             for a in range(facets.shape[2]):
-                fa = facets[f0, node, a]
+                fa = facets[facet, node, a]
                 ok = fa >= 0
                 if not ok.any():
                     continue
-                E = g.Nm[pts[ok], node, None, None, None] * Dn[f0[ok], node, a]
+                E = N[ok, node, None, None, None] * Dn[facet[ok], node, a]
                 cols = g.reach.nodes[fa[ok]]
                 out += self._matrix_blocks(g, pts[ok], cols, E, Mw[ok], fa[ok])
         return out
@@ -215,28 +246,31 @@ class SlidingAssembly:
         """Blocks of ``d t_p = M_p sum_j E_pj dX_j`` with matrix coefficients ``E`` (np, nc, 2, 2).
 
         As :meth:`_point_blocks`; the columns' facet ``col_facet`` (per point) may be outside the
-        point's slave facet's reach, whose slave rows are then left out, and a segment pair's
-        master rows are left out where the pattern does not couple its master facet with it.
+        point's secondary facet's reach, whose secondary rows are then left out, and a segment
+        pair's primary rows are left out where the pattern does not couple its primary facet
+        with it.
         """
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         nodes = g.reach.nodes
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
         ncol = cols.shape[1] * gdim
-        vs = np.einsum("p,pk,pax,pjxc->pkajc", self.points.weights[pts], sd.Ns[0][q_of], M, E)
+        ME = np.einsum("pax,pjxc->pajc", M, E)  # (two operands: a C loop, not a nested one)
+        wN = self.points.weights[pts, None] * sd.Ns[0][q_of]
+        vs = wN[:, :, None, None, None] * ME[:, None]
         mine = g.reach.within(f_of, col_facet)
         out = [(s.nodes[f_of[mine]], cols[mine], vs[mine].reshape(-1, nfs * gdim, ncol))]
         tr = g.transfer
-        if tr.slave.size:
+        if tr.secondary.size:
             where = np.full(sd.n_points, -1, dtype=np.int64)
             where[pts] = np.arange(pts.size)
-            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
-            at = where[tr.slave[pair] * nq + qq]
-            keep = g.reach.holds(tr.master[pair], col_facet[at])
+            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.secondary] >= 0)
+            at = where[tr.secondary[pair] * nq + qq]
+            keep = g.reach.holds(tr.primary[pair], col_facet[at])
             pair, qq, at = pair[keep], qq[keep], at[keep]
-            vm = -np.einsum("pl,pax,pjxc->plajc", tr.B[pair, :, qq], M[at], E[at])
-            out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
+            vm = -tr.B[pair, :, qq][:, :, None, None, None] * ME[at][:, None]
+            out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
     def _point_blocks(
@@ -250,16 +284,16 @@ class SlidingAssembly:
     ) -> list[Block]:
         """Blocks of ``d t_p = M_p sum_j C_pj dX_j`` (global traction of the points ``pts``).
 
-        Rows: the slave facet's nodes (``w N_k(q)``) and the master nodes of its segment pairs
+        Rows: the secondary facet's nodes (``w N_k(q)``) and the primary nodes of its segment pairs
         (``-B_lq``); columns ``cols`` (np, nc) with coefficients ``C`` (np, nc), which hold the
-        nodes of one master facet per point (and maybe the slave facet's); ``M`` (np, gdim,
-        gdim). ``held`` (nseg, nq): whether the pattern couples each segment pair's master facet
-        with the master facet of point ``q``'s columns (the geometry's ``held_now`` for the
+        nodes of one primary facet per point (and maybe the secondary facet's); ``M`` (np, gdim,
+        gdim). ``held`` (nseg, nq): whether the pattern couples each segment pair's primary facet
+        with the primary facet of point ``q``'s columns (the geometry's ``held_now`` for the
         facet it faces, ``held_old`` for the one it faced at the step's start); a segment pair's
-        master rows where it does not are left out.
+        primary rows where it does not are left out.
         """
         sd = self.sides
-        s, nq, gdim = sd.slave, sd.nq, sd.gdim
+        s, nq, gdim = sd.secondary, sd.nq, sd.gdim
         nodes = g.reach.nodes
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
@@ -267,43 +301,76 @@ class SlidingAssembly:
         vs = np.einsum("p,pk,pj,pab->pkajb", self.points.weights[pts], sd.Ns[0][q_of], C, M)
         out = [(s.nodes[f_of], cols, vs.reshape(pts.size, nfs * gdim, ncol))]
         tr = g.transfer
-        if tr.slave.size:
-            # master rows of pair (s, f'): -B_lq C_j M for every point q of s in pts
+        if tr.secondary.size:
+            # primary rows of pair (s, f'): -B_lq C_j M for every point q of s in pts
             where = np.full(sd.n_points, -1, dtype=np.int64)
             where[pts] = np.arange(pts.size)
-            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.slave] >= 0)
-            at = where[tr.slave[pair] * nq + qq]
+            pair, qq = np.nonzero(where.reshape(s.size, nq)[tr.secondary] >= 0)
+            at = where[tr.secondary[pair] * nq + qq]
             keep = held[pair, qq]
             pair, qq, at = pair[keep], qq[keep], at[keep]
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
-            out.append((nodes[tr.master[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
+            out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
 
 _J = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e1 = J n (2-D frames)
+# the turn of a 3-D frame's tangential components by d theta: (v1, v2, vn) -> (-v2, v1, 0)
+_SPIN = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+
+
+def _transport_spin(g: ContactGeometry, D: np.ndarray, traction: np.ndarray) -> np.ndarray:
+    """3-D: ``d t / d theta`` (global) of the transport's rotation by ``theta``, (npts, 3).
+
+    The committed state (total tangential gap and the law's tangential variables) is carried by
+    the rotation ``T(theta)`` (:func:`.sliding.transport_matrix`); the law being isotropic in
+    the tangent plane (``t(R g, R s) = R t(g, s)``), turning all of them by ``d theta`` turns
+    the traction but for the step's own slip ``Q_t ds``, which does not turn:
+    ``dt = (J f - D J (Q_t ds)) d theta`` in the frame, ``Q^T`` of it in global components.
+    """
+    local_slip = np.zeros_like(traction)
+    local_slip[:, :2] = np.einsum("mad,md->ma", g.Q[:, :2, :], g.slip)
+    h = np.einsum("ab,mb->ma", _SPIN, traction) - np.einsum("mab,bc,mc->ma", D, _SPIN, local_slip)
+    return np.einsum("mai,ma->mi", g.Q, h)
 
 
 def _normal_sensitivity(
-    g: ContactGeometry, pts: np.ndarray, D: np.ndarray, traction: np.ndarray, M: np.ndarray
+    g: ContactGeometry,
+    pts: np.ndarray,
+    D: np.ndarray,
+    traction: np.ndarray,
+    M: np.ndarray,
+    spin: np.ndarray | None,
 ) -> np.ndarray:
-    """2-D: ``d t`` (global) of the points ``pts`` per ``w = sum_l N_l(xi) dn_l``, (np, 2, 2).
+    """``d t`` (global) of the points ``pts`` per ``w = sum_l N_l(xi) dn_l``, (np, gdim, gdim).
 
-    The projection moves as for ``dx = -gamma w`` (``M``: the tangent's ``Q^T D G + K``); the
+    The projection moves as for ``dx = -gamma w`` (``M``: the tangent's per ``dz``); the
     normal gap changes by ``-gamma n . w`` besides; the frame turns by ``dn = (I - n n^T) w /
-    |n~|``, in the slip ``e1 . ds`` and in the forces ``Q^T f``.
+    |n~|``, in the slip ``Q_t . ds`` and in the forces ``Q^T f``, and 3-D in the transport
+    (``spin``: :func:`_transport_spin`).
     """
     f0 = g.facet[pts]
-    nt_ = np.einsum("pl,pld->pd", g.Nm[pts], g.normals[f0])
-    size = np.linalg.norm(nt_, axis=1)
-    n = nt_ / size[:, None]
-    P = np.eye(2)[None] - np.einsum("pa,pb->pab", n, n)
     gam, ds, f = g.gamma[pts], g.slip[pts], traction[pts]
-    X = np.zeros((pts.size, 2, 2))
-    X[:, 0, :] = np.einsum("pa,ab,pbc->pc", ds, _J, P) / size[:, None]
-    X[:, 1, :] = -gam[:, None] * n
-    Kd = (np.einsum("ab,pbc->pac", _J, P) * f[:, 0, None, None] - P * f[:, 1, None, None]) / size[
-        :, None, None
-    ]
+    if g.turn3 is not None:
+        assert spin is not None  # (3-D)
+        t3 = g.turn3
+        P, dQ, n = t3.normal_map[pts], t3.dQ[pts], -g.Q[pts, 2, :]
+        X = np.zeros((pts.size, 3, 3))
+        X[:, :2, :] = np.einsum("pd,pbdk,pkc->pbc", ds, dQ[:, :2], P)
+        X[:, 2, :] = -gam[:, None] * n
+        Kd = np.einsum("pi,pijk,pkc->pjc", f, dQ, P)
+        Kd += np.einsum("pi,pk,pkc->pic", spin[pts], t3.theta_n[pts], P)
+    else:
+        nt_ = np.einsum("pl,pld->pd", g.Nm[pts], g.normals[f0])
+        size = np.linalg.norm(nt_, axis=1)
+        n = nt_ / size[:, None]
+        P = np.eye(2)[None] - np.einsum("pa,pb->pab", n, n)
+        X = np.zeros((pts.size, 2, 2))
+        X[:, 0, :] = np.einsum("pa,ab,pbc->pc", ds, _J, P) / size[:, None]
+        X[:, 1, :] = -gam[:, None] * n
+        Kd = (
+            np.einsum("ab,pbc->pac", _J, P) * f[:, 0, None, None] - P * f[:, 1, None, None]
+        ) / size[:, None, None]
     QDX = np.einsum("pai,pab,pbj->pij", g.Q[pts], D[pts], X)
     return -gam[:, None, None] * M[pts] + QDX + Kd
 

@@ -16,44 +16,45 @@ surfaces, fixed), its law's points (:class:`~.points.SlidingPoints`), its search
 :class:`~.contact.ContactGeometry` that the return map, the forces, the tangent and the commit
 read.
 
-* The law's points are the quadrature points of the *slave* (secondary) facets, fixed material
-  points of the slave body that carry the internal variables. The two sides need not match.
+* The law's points are the quadrature points of the *secondary* facets, fixed material
+  points of the secondary body that carry the internal variables. The two sides need not match.
 * **Per step** (:meth:`~SlidingInterface.begin_step`, collective, from the last converged
-  configuration): averaged nodal normals of the master, the parallel search
-  (:func:`.search.exchange_facets`), and for every slave facet the set of master facets it may
-  face during the step (its *reach*: the candidates within the slave facet's size plus
-  ``reach`` of it). The matrix pattern and the ghosts of the master nodes are those of the
-  reach; they are rebuilt only when a slave facet needs a master facet outside its current
+  configuration): averaged nodal normals of the primary, the parallel search
+  (:func:`.search.exchange_facets`), and for every secondary facet the set of primary facets it may
+  face during the step (its *reach*: the candidates within the secondary facet's size plus
+  ``reach`` of it). The matrix pattern and the ghosts of the primary nodes are those of the
+  reach; they are rebuilt only when a secondary facet needs a primary facet outside its current
   reach (:attr:`~SlidingInterface.layout_version` then grows and the problem re-creates its
   matrices). Per step rather than per Newton iteration because the search and the exchange are
   collective and change the ghosts and the pattern; the reach makes the step's iterations
   independent of them.
 * **Per Newton iteration** (:meth:`~SlidingInterface.update`, :func:`.contact.contact_geometry`):
-  every point is projected along the
-  master's smooth normal on the facets of its reach in the current configuration (a point may
-  change facet inside a step), which gives the frame, the normal gap ``-gamma |n~|`` and the
-  convected slip from the material point faced at the step's start; the tangential state is
-  transported (:func:`.sliding.transport_matrix`, the identity in 2-D). A point that slides
-  farther than ``reach`` in one step makes the evaluation fail (the step is cut).
-* The slave nodes receive ``int N_s t`` by the slave facets' rule, the master nodes the segment
-  transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
-  exactly; where a slave facet overhangs the master surface, the share the segments miss goes
-  to the master where each point projects (:func:`.transfer.complete_transfer`): action equals
+  the primary's averaged nodal normals of the iterate (:meth:`.reach.ReachSearch.current_normals`,
+  collective; :attr:`~SlidingInterface.normals_per_iteration`), then every point is projected
+  along the primary's smooth normal on the facets of its reach in the current configuration (a
+  point may change facet inside a step), which gives the frame, the normal gap ``-gamma |n~|``
+  and the convected slip from the material point faced at the step's start; the tangential
+  state is transported (:func:`.sliding.transport_matrix`, the identity in 2-D). A point that
+  slides farther than ``reach`` in one step makes the evaluation fail (the step is cut).
+* The secondary nodes receive ``int N_s t`` by the secondary facets' rule, the primary nodes the
+  segment transfer ``-B t`` (:mod:`.transfer`): a uniform traction crosses a non-matching interface
+  exactly; where a secondary facet overhangs the primary surface, the share the segments miss goes
+  to the primary where each point projects (:func:`.transfer.complete_transfer`): action equals
   reaction whatever the overhang.
-* With regions, each point takes the law of its slave facet's region
+* With regions, each point takes the law of its secondary facet's region
   (:mod:`~subfric_dolfinx.fem.interface.finite.regions`).
 * The tangent holds the law's consistent tangent through the derivative of the local gap with
-  respect to the slave point and the master nodes (:func:`.sliding.gap_operator`), the convected
-  slip's own master nodes, in 2-D the frame's turn with the projection
-  (:func:`.sliding.frame_rate`) and, with ``SegmentTransfer.in_tangent`` (on by default), the
-  transfer's change with the geometry (:func:`.transfer.transfer_tangent`): then the 2-D tangent
-  is the residual's derivative, the 3-D one but for the frame's turn. The nodal normals are the
-  step's (held), so they have no derivative within it; with
-  :attr:`~SlidingInterface.normals_per_iteration` they are those of every iterate (the current
-  configuration: a slide's forces then do not depend on the step in 2-D,
-  ``tests/fem/interface/test_finite_sliding_normals.py``), in 2-D with their change with the
-  master's nodes in the tangent (:mod:`.normals`: through the projection, the gap, the frame
-  and the transfer), where the 2-D tangent is again the residual's derivative.
+  respect to the secondary point and the primary nodes (:func:`.sliding.gap_operator`), the
+  convected slip's own primary nodes, the frame's turn with the projection (2-D
+  :func:`.sliding.frame_rate`; 3-D :class:`~.contact.FrameTurn`: the frame's rows and the
+  transport's rotation, :func:`.sliding.frame_jacobian`, :func:`.sliding.transport_angle_rates`),
+  the nodal normals' change with the primary's nodes (:mod:`.normals`: through the projection,
+  the gap, the frame, the transport and the transfer) and, with ``SegmentTransfer.in_tangent``
+  (on by default), the transfer's change with the geometry (:func:`.transfer.transfer_tangent`):
+  the Jacobian is the residual's derivative, 2-D and 3-D
+  (``tests/fem/interface/test_finite_sliding_tangent.py``,
+  ``tests/fem/interface/test_finite_sliding_normals.py``), but where a secondary facet overhangs
+  the primary surface (the complement's change with the normals is left out).
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
@@ -95,22 +96,22 @@ class SlidingInterface(BaseInterface):
             need not match).
         law: The friction law.
         tag: The interface's facet tag.
-        primary: Cell tag(s) of the primary body (the master surface: its smooth outward normal
+        primary: Cell tag(s) of the primary body (the primary surface: its smooth outward normal
             defines the frame).
         secondary: Cell tag(s) of the secondary body (the law's points are on its facets).
         name: The interface's name (messages).
         quadrature: ``"gauss"`` or ``"nodal"`` on the secondary facets.
         initial_gap: An extra initial normal gap ``g0`` (mm, > 0 open), a number or a function
             of the reference coordinates of the points; the geometric gap is measured anyway.
-        mode: The modelling mode; ``"axisymmetric"``: the slave weights carry ``2 pi r`` and
+        mode: The modelling mode; ``"axisymmetric"``: the secondary weights carry ``2 pi r`` and
             the transfer projects the traction times ``2 pi r`` (forces are totals over the
             circumference).
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings`.
-        search_radius: The largest normal distance at which a point faces the master (mm);
+        search_radius: The largest normal distance at which a point faces the primary (mm);
             farther points are open (also where they penetrate farther: give more than the
             largest penetration). Default: twice the largest facet size of either side.
         reach: How far a point may slide in one step (mm); also the hysteresis of the pattern
-            (rebuilt when a facet needs a master facet beyond it). Default: the largest facet
+            (rebuilt when a facet needs a primary facet beyond it). Default: the largest facet
             size of either side.
         regions: Region name -> its law; the regions are groups of interface facets given by
             ``groups`` (name -> centroids of their facets): each secondary point takes the law
@@ -134,10 +135,10 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
-    #: Whether the master's nodal normals are those of every iterate (the current configuration)
-    #: rather than the step's, held (issue 35; their derivative is in the 2-D tangent, not the
-    #: 3-D one).
-    normals_per_iteration = False
+    #: Whether the primary's nodal normals are those of every iterate (the current configuration,
+    #: the default: a slide's forces then do not depend on the step) rather than the step's, held
+    #: (their derivative is in the tangent either way).
+    normals_per_iteration = True
 
     def __init__(
         self,
@@ -186,12 +187,17 @@ class SlidingInterface(BaseInterface):
         self.geometry: ContactGeometry | None = None
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}
         self._x_committed = np.zeros(self.n_owned)
+        # the committed return map's statuses, tangents and law gaps, and the step's points that
+        # continue to slip from there (:meth:`_continuing`)
+        self._committed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._continuing: tuple[np.ndarray, np.ndarray] | None = None
+        self._first_jacobian = True
         self.start: StepStart = self.begin_step()
 
     # -- what the base reads ---------------------------------------------------------------------
     @property
     def law_points(self) -> SlidingPoints:
-        """The law's points (:class:`~..protocol.LawPoints`): the slave facets' points."""
+        """The law's points (:class:`~..protocol.LawPoints`): the secondary facets' points."""
         return self._points
 
     @property
@@ -206,7 +212,7 @@ class SlidingInterface(BaseInterface):
 
     @property
     def index_map(self) -> dolfinx.common.IndexMap:
-        """The displacement's index map with the reach's master nodes as extra ghosts."""
+        """The displacement's index map with the reach's primary nodes as extra ghosts."""
         assert self.search.reach is not None  # (searched when made)
         return self.search.reach.index_map
 
@@ -228,9 +234,11 @@ class SlidingInterface(BaseInterface):
         """
         super().set_step(dt)
         self.start = self.begin_step()
+        self._first_jacobian = True
+        self._continuing = None
 
     def begin_step(self) -> StepStart:
-        """Search the master facets near the slave points at the last converged configuration.
+        """Search the primary facets near the secondary points at the last converged configuration.
 
         Collective (:meth:`.reach.ReachSearch.begin_step`). Where the search rebuilds the layout,
         :attr:`layout_version` grows (the problem re-creates its matrices).
@@ -293,6 +301,8 @@ class SlidingInterface(BaseInterface):
             if self.start.normal_stiffness is None:  # the step's first evaluation: its start
                 stiffness = res.tangent.reshape(-1, nt + 1, nt + 1)[:, nt, nt].copy()
                 self.start = dataclasses.replace(self.start, normal_stiffness=stiffness)
+            if self._first_jacobian:  # the evaluation the step's first Jacobian takes
+                self._continuing = self._continuing_points(res, law_gap)
             pts.record(res, law_gap, g.Q)
             self.geometry = g
         self._x_at_update = np.array(owned, copy=True)
@@ -313,16 +323,61 @@ class SlidingInterface(BaseInterface):
             self.round_off = self._sum_to_owners(lambda b: part.add_round_off(b, g, res.tangent))
         return self.force
 
+    def _continuing_points(self, res: Any, law_gap: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The points that slipped in the last converged step and are at its gap still.
+
+        At the step's first evaluation a point that slipped and has not moved since (a start
+        without a predictor, or a zero one: only the Dirichlet values are the step's; a step
+        whose last one's forces were not resolved keeps a zero increment) is at its strength with a
+        zero increment, which the return map calls elastic (stick): the tangent of a stick
+        there shears the bodies by the whole step's slide and the next iterates lift the block
+        off its base. Continuing the loading it slips: its committed (slip) tangent is the
+        one-sided derivative the step's first Jacobian takes (:meth:`_blocks`).
+
+        Returns:
+            The points and their committed tangents, (k,) and (k, gdim, gdim).
+        """
+        gdim = self.sides.gdim
+        if self._committed is None:
+            return np.zeros(0, dtype=np.int64), np.zeros((0, gdim, gdim))
+        status, tangent, gap = self._committed
+        still = np.all(np.abs(law_gap - gap) <= 1e-12 * (np.abs(gap) + self.sides.h), axis=1)
+        slipped = np.isin(status, (Status.PLASTIC, Status.JUMP))
+        idx = np.flatnonzero(still & slipped & (res.status == Status.ELASTIC))
+        return idx, tangent.reshape(-1, gdim, gdim)[idx]
+
     def _blocks(
-        self, separated_stiffness: float = 0.0, start: NewtonStart | None = None
+        self,
+        separated_stiffness: float = 0.0,
+        start: NewtonStart | None = None,
+        first: bool = False,
     ) -> list[Block]:
-        """The tangent's blocks of the last iterate (:meth:`.assembly.SlidingAssembly.blocks`)."""
+        """The tangent's blocks of the last iterate (:meth:`.assembly.SlidingAssembly.blocks`).
+
+        ``first``: the step's first Jacobian; unless its ``start`` turns, the points that
+        continue to slip take their slip tangent (:meth:`_continuing_points`: a start that did
+        not move them, without a predictor or with a zero one).
+        Where it turns, the tangent is a frictionless contact's
+        (:meth:`.assembly.SlidingAssembly.law_tangent`), its geometric terms too: the frame's
+        turn, the transport's and the transfer's change take the normal tractions alone (with
+        the tangential ones and no tangential stiffness, the first iterate of the 3-D pad's first
+        sliding step flung it off the plate).
+        """
         res = self.last
         D = self.assembly.law_tangent(
             res.tangent, self.law, separated_stiffness, start, self.start.normal_stiffness
         )
         assert self.geometry is not None  # (the last iterate's)
-        return self.assembly.blocks(self.geometry, D, res.traction)
+        plain = start is None or not start.turns
+        if first and plain and self._continuing is not None and self._continuing[0].size:
+            idx, Dc = self._continuing
+            D = D.copy()
+            D[idx] = Dc
+        traction = res.traction
+        if start is not None and start.turns:  # a frictionless contact's: f_t held out too
+            traction = traction.copy()
+            traction[:, : self.sides.nt] = 0.0
+        return self.assembly.blocks(self.geometry, D, traction)
 
     def _add_tangent(
         self,
@@ -340,7 +395,8 @@ class SlidingInterface(BaseInterface):
         bs = self.sides.bs
         mask = constrained.reshape(-1, bs) if constrained is not None else None
         gl = self.index_map.local_to_global
-        for rows, cols, vals in self._blocks(separated_stiffness, start):
+        first, self._first_jacobian = self._first_jacobian, False
+        for rows, cols, vals in _grouped(self._blocks(separated_stiffness, start, first)):
             if rows.shape[0] == 0:
                 continue
             if mask is not None:
@@ -371,6 +427,13 @@ class SlidingInterface(BaseInterface):
     def commit(self) -> None:
         """Accept the trial state and the points' kinematics; remember the configuration."""
         super().commit()
+        res = self.last
+        if res is not None:
+            self._committed = (
+                res.status.copy(),
+                np.array(res.tangent, copy=True),
+                self._points.last_gap.copy(),
+            )
         g = self.geometry
         if g is not None:
             facet = np.where(g.found, g.reach.facets[np.maximum(g.facet, 0)], -1)
@@ -381,13 +444,14 @@ class SlidingInterface(BaseInterface):
     def resume(self, x: np.ndarray) -> None:
         """Continue from the owned displacement ``x`` (a restart).
 
-        The next step searches from it: the points' master facets and reference coordinates
+        The next step searches from it: the points' primary facets and reference coordinates
         there are found again (the facets are not in the checkpoint: their numbers depend on the
         partition).
         """
         self._x_committed = np.array(np.asarray(x)[: self.n_owned], dtype=float)
         self._x_at_update = None
         self._points.last = None
+        self._committed = None
 
     def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
         """Extra ghosts, their owners, the extended index map and the pattern's couplings."""
@@ -397,3 +461,19 @@ class SlidingInterface(BaseInterface):
         """Free the PETSc vectors (safe to call more than once)."""
         super().destroy()
         self.search.destroy()
+
+
+def _grouped(blocks: list[Block]) -> list[Block]:
+    """The blocks of one shape stacked into one (fewer, larger insertions into the matrix)."""
+    by: dict[tuple[int, ...], list[Block]] = {}
+    for b in blocks:
+        if b[0].shape[0]:
+            by.setdefault((*b[0].shape[1:], *b[1].shape[1:]), []).append(b)
+    out: list[Block] = []
+    for group in by.values():
+        if len(group) == 1:
+            out.append(group[0])
+        else:
+            rows, cols, vals = zip(*group, strict=True)
+            out.append((np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)))
+    return out

@@ -1,11 +1,11 @@
-"""The law's points of a finite-sliding interface: the slave facets' quadrature points.
+"""The law's points of a finite-sliding interface: the secondary facets' quadrature points.
 
 :class:`SlidingPoints` is the :class:`~..protocol.LawPoints` of a
-:class:`~.interface.SlidingInterface`: the quadrature points of its slave facets, in the order of
-the cells of its slave submesh, fixed material points of the slave body that carry the law's
-internal variables. It holds their fixed data (reference positions, weights, initial gaps), the
-law's state, the kinematics committed with it (each point's master facet, total tangential gap and
-frame), the last iterate's result, and the state a checkpoint holds and the restart from it.
+:class:`~.interface.SlidingInterface`: the quadrature points of its secondary facets, in the order
+of the cells of its secondary submesh, fixed material points of the secondary body that carry the
+law's internal variables. It holds their fixed data (reference positions, weights, initial gaps),
+the law's state, the kinematics committed with it (each point's primary facet, total tangential gap
+and frame), the last iterate's result, and the state a checkpoint holds and the restart from it.
 """
 
 from __future__ import annotations
@@ -40,10 +40,10 @@ class SlidingPoints:
 
     Attributes:
         points: Reference positions of the points, (npts, gdim).
-        facet_weights: Their weights on the reference slave surface, (ns, nq).
+        facet_weights: Their weights on the reference secondary surface, (ns, nq).
         weights: The same times ``2 pi r`` in axisymmetric mode, (npts,).
         state: The law's committed and trial internal variables.
-        facet_old: The committed master facet of each point (global number; -1: none).
+        facet_old: The committed primary facet of each point (global number; -1: none).
         ut_old: The committed total tangential gap (local components), (npts, nt).
         Q_old: The committed frames (the step's start ones once it began), (npts, gdim, gdim).
         last: The return map's result at the last iterate (``None`` before the first).
@@ -61,7 +61,7 @@ class SlidingPoints:
         mode: str | None,
         region: np.ndarray | None = None,
     ) -> None:
-        s, gdim = sides.slave, sides.gdim
+        s, gdim = sides.secondary, sides.gdim
         self.comm = sides.comm
         self.gdim, self.nt, self.nq = gdim, sides.nt, sides.nq
         self.n_elements = s.size
@@ -103,7 +103,7 @@ class SlidingPoints:
     def Q(self) -> np.ndarray:
         """The frames of the last iterate (the committed ones after a step), (nf, nq, gdim, gdim).
 
-        Rows ``(e1, [e2,] -n)`` with ``n`` the master's smooth normal at each point's projection;
+        Rows ``(e1, [e2,] -n)`` with ``n`` the primary's smooth normal at each point's projection;
         an open point keeps the frame it had.
         """
         Q = self._Q_last if self.last is not None else self.Q_old
@@ -115,7 +115,7 @@ class SlidingPoints:
         self.last, self.last_gap, self._Q_last = result, gap, Q
 
     def commit_kinematics(self, facet: np.ndarray, ut: np.ndarray, Q: np.ndarray) -> None:
-        """Accept an iterate's master facets (global numbers), tangential gaps and frames."""
+        """Accept an iterate's primary facets (global numbers), tangential gaps and frames."""
         self.facet_old, self.ut_old, self.Q_old = facet, ut, Q
 
     def transported(self, T: np.ndarray) -> InterfaceState:
@@ -133,7 +133,7 @@ class SlidingPoints:
 
         The law's variables, and the points' total tangential gap (``sliding_ut``, local
         components) and the normals of their frames (``sliding_normal``; zero where a point never
-        faced the master: its frame is still the identity, which no frame of a normal is).
+        faced the primary: its frame is still the identity, which no frame of a normal is).
         """
         out = saved_law_state(self.state)
         out["sliding_ut"] = self.ut_old

@@ -1,15 +1,15 @@
-"""The per-step search of a finite-sliding interface: the reach of every slave facet.
+"""The per-step search of a finite-sliding interface: the reach of every secondary facet.
 
 At the start of every step (the last converged configuration) :class:`ReachSearch` (the search
-part of :class:`~.interface.SlidingInterface`) computes the master's averaged nodal normals, runs
-the parallel search (:func:`.search.exchange_facets`) and finds, for every slave facet, the master
-facets it may face during the step: the candidates within the slave facet's size plus ``reach``.
-The master facets of the reach travel with their nodes' global numbers and owners, which become
-extra ghosts of the displacement's index map; the matrix pattern couples every slave facet's nodes
-with those of its reach, and the master facets of a reach near enough to each other to meet in one
-row of the tangent (:func:`_couplings`). Both are one :class:`Reach` value, rebuilt only when a
-slave facet needs a master facet outside its current reach (then with three times the reach, so
-that a sliding body rebuilds every couple of facets, not every step);
+part of :class:`~.interface.SlidingInterface`) computes the primary's averaged nodal normals, runs
+the parallel search (:func:`.search.exchange_facets`) and finds, for every secondary facet, the
+primary facets it may face during the step: the candidates within the secondary facet's size plus
+``reach``. The primary facets of the reach travel with their nodes' global numbers and owners, which
+become extra ghosts of the displacement's index map; the matrix pattern couples every secondary
+facet's nodes with those of its reach, and the primary facets of a reach near enough to each other
+to meet in one row of the tangent (:func:`_couplings`). Both are one :class:`Reach` value, rebuilt
+only when a secondary facet needs a primary facet outside its current reach (then with three times
+the reach, so that a sliding body rebuilds every couple of facets, not every step);
 :attr:`ReachSearch.layout_version` counts the rebuilds. Each step also gives the points'
 projections at its start (:class:`StepStart`), from which their slip of the step is measured.
 """
@@ -43,21 +43,21 @@ def _ints(a: np.ndarray) -> list[int]:
 
 @dataclasses.dataclass(frozen=True)
 class Reach:
-    """The master facets the slave facets may face until the next rebuild, and the layout.
+    """The primary facets the secondary facets may face until the next rebuild, and the layout.
 
     Attributes:
-        index_map: The displacement's index map with the reach's master nodes as extra ghosts.
+        index_map: The displacement's index map with the reach's primary nodes as extra ghosts.
         extra_ghosts: The extra ghosts (global node numbers), (ne,).
         extra_owners: Their owners, (ne,).
-        nodes: The reach's master facets' nodes, local in :attr:`index_map`, (npf, nfd_m).
+        nodes: The reach's primary facets' nodes, local in :attr:`index_map`, (npf, nfd_m).
         facets: Their global facet numbers (sorted), (npf,).
         X0: Their nodes' reference positions, (npf, nfd_m, gdim).
-        ptr: CSR offsets of each slave facet's reach in :attr:`idx`, (ns + 1,).
-        idx: The reach's master facets (indices in :attr:`facets`) of each slave facet.
-        pairs: The (slave facet, master facet global number) pairs of the reach.
-        keys: The master facet pairs the pattern couples (``a * npf + b``, sorted).
+        ptr: CSR offsets of each secondary facet's reach in :attr:`idx`, (ns + 1,).
+        idx: The reach's primary facets (indices in :attr:`facets`) of each secondary facet.
+        pairs: The (secondary facet, primary facet global number) pairs of the reach.
+        keys: The primary facet pairs the pattern couples (``a * npf + b``, sorted).
         couplings: The pattern's node couplings (:class:`~..layout.Couplings`).
-        node_facets: The number of master facets around each local node of :attr:`index_map`
+        node_facets: The number of primary facets around each local node of :attr:`index_map`
             (every rank's facets).
     """
 
@@ -75,31 +75,31 @@ class Reach:
     node_facets: np.ndarray
 
     def holds(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Whether the pattern couples the nodes of master facets ``a`` and ``b`` (indices)."""
+        """Whether the pattern couples the nodes of primary facets ``a`` and ``b`` (indices)."""
         keys = np.asarray(a, dtype=np.int64) * max(self.facets.size, 1) + b
         k = self.keys
         pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
         return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
 
-    def within(self, slave: np.ndarray, master: np.ndarray) -> np.ndarray:
-        """Whether each (slave facet, master facet index) pair is in the slave facet's reach."""
+    def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
+        """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
         npf = max(self.facets.size, 1)
         owner = np.repeat(np.arange(self.ptr.size - 1), np.diff(self.ptr))
-        return np.isin(slave * npf + master, owner * npf + self.idx)
+        return np.isin(secondary * npf + primary, owner * npf + self.idx)
 
 
 @dataclasses.dataclass(frozen=True)
 class StepStart:
     """Each point's projection at the step's start (the last converged configuration).
 
-    The material point of the master each point faces there is where its slip of the step is
+    The material point of the primary each point faces there is where its slip of the step is
     measured from (also for a point that was open and may close in the step).
 
     Attributes:
-        facet: The master facet (index in the reach; -1: none), (npts,).
+        facet: The primary facet (index in the reach; -1: none), (npts,).
         xi: Its reference coordinates there, (npts, nt).
         Q: The frames there; a point facing nothing keeps its committed one, (npts, gdim, gdim).
-        tangents: The master's tangent basis there (where ``facet >= 0``), (npts, gdim, nt).
+        tangents: The primary's tangent basis there (where ``facet >= 0``), (npts, gdim, nt).
         normal_stiffness: ``d f_n / d g_n`` of every point at the step's first evaluation (its
             start: the last converged configuration with the step's Dirichlet values; ``None``
             before it), for the step's first Jacobian.
@@ -120,15 +120,15 @@ class ReachSearch:
 
     Attributes:
         reach: The current :class:`Reach` (``None`` before the first step).
-        normals: The step's nodal normals of the reach's master facets (held during the step),
+        normals: The step's nodal normals of the reach's primary facets (held during the step),
             (npf, nfd_m, gdim).
         layout_version: Grows every time the pattern and ghosts are rebuilt.
-        pattern_misses: Master facet pairs the tangent needed beyond the pattern (run total).
+        pattern_misses: Primary facet pairs the tangent needed beyond the pattern (run total).
         x_ext: A vector of the extended layout (the displacement at the reach's nodes).
         b_ext: A vector of the extended layout (contributions summed to their owners).
     """
 
-    #: The margin of the master facet pairs the pattern couples, in largest facet sizes ``h``.
+    #: The margin of the primary facet pairs the pattern couples, in largest facet sizes ``h``.
     pattern_margin = 1.0
 
     def __init__(self, sides: Sides) -> None:
@@ -142,7 +142,7 @@ class ReachSearch:
         self.normals: np.ndarray = np.zeros((0, 0, sides.gdim))
         self.layout_version = 0
         self.pattern_misses = 0
-        # master facet pairs (global numbers) a tangent needed beyond the pattern since it was
+        # primary facet pairs (global numbers) a tangent needed beyond the pattern since it was
         # built (:meth:`record_misses`): the next search rebuilds with them
         self._missed: set[tuple[int, int]] = set()
         self.x_ext: PETSc.Vec | None = None
@@ -160,19 +160,19 @@ class ReachSearch:
     def begin_step(
         self, x_committed: np.ndarray, facet_old: np.ndarray, Q_old: np.ndarray
     ) -> StepStart:
-        """Search the master facets near the slave points at the last converged configuration.
+        """Search the primary facets near the secondary points at the last converged configuration.
 
-        Collective. Rebuilds the pattern and ghosts where a slave facet needs a master facet
+        Collective. Rebuilds the pattern and ghosts where a secondary facet needs a primary facet
         beyond its reach (all ranks together: :attr:`layout_version` grows).
 
         Args:
             x_committed: The committed displacement (owned values).
-            facet_old: The points' committed master facets (global numbers; -1: none).
+            facet_old: The points' committed primary facets (global numbers; -1: none).
             Q_old: The points' committed frames.
 
         Returns:
             The points' projections at the step's start (their frames: ``Q_old`` where a point
-            faces nothing, the identity where it never faced the master).
+            faces nothing, the identity where it never faced the primary).
         """
         self._search(x_committed, facet_old)
         return self._start(x_committed, Q_old)
@@ -181,7 +181,7 @@ class ReachSearch:
         """The search of :meth:`begin_step`: the reach and the step's nodal normals."""
         sd = self.sides
         xs = self._positions0(x_committed)
-        m, s = sd.master, sd.slave
+        m, s = sd.primary, sd.secondary
         normals = nodal_normals(m, xs, sd.imap0)
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
@@ -236,7 +236,7 @@ class ReachSearch:
         sd = self.sides
         x = sd.X0 + u[: sd.n_local0]
         assert self.reach is not None  # (searched)
-        return nodal_normals(sd.master, x, self.reach.index_map)[self.reach.nodes]
+        return nodal_normals(sd.primary, x, self.reach.index_map)[self.reach.nodes]
 
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
         """Current positions of the displacement space's local nodes (collective: ghost update)."""
@@ -249,11 +249,11 @@ class ReachSearch:
     def _build(self, pairs, cx, cg, co, cf, x_committed: np.ndarray, diam: float) -> None:
         """The reach of ``pairs``, its extended ghosts and vectors (collective).
 
-        ``diam``: the largest slave facet diameter over every rank (twice its largest distance
+        ``diam``: the largest secondary facet diameter over every rank (twice its largest distance
         from a node to the facet's centre) in the configuration of the search.
         """
         sd = self.sides
-        ns = sd.slave.size
+        ns = sd.secondary.size
         pf_global = np.array(sorted({f for _, f in pairs}), dtype=np.int64)
         row = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([row[g] for g in _ints(pf_global)], dtype=np.int64)
@@ -263,9 +263,9 @@ class ReachSearch:
                 v.destroy()
         self.x_ext = petsc_vector(index_map, sd.bs)
         self.b_ext = petsc_vector(index_map, sd.bs)
-        # reference positions of the reach's master nodes: current minus displacement
+        # reference positions of the reach's primary nodes: current minus displacement
         u = self.displacement(x_committed)
-        # the reach of each slave facet (CSR)
+        # the reach of each secondary facet (CSR)
         fpos = {g: i for i, g in enumerate(_ints(pf_global))}
         by_s: list[list[int]] = [[] for _ in range(ns)]
         for sf, g in sorted(pairs):
@@ -295,7 +295,7 @@ class ReachSearch:
     def _extended_map(
         self, gnodes: np.ndarray, owners: np.ndarray
     ) -> tuple[dolfinx.common.IndexMap, np.ndarray, np.ndarray, np.ndarray]:
-        """The index map with the master nodes ``gnodes`` that are not local as extra ghosts.
+        """The index map with the primary nodes ``gnodes`` that are not local as extra ghosts.
 
         Returns:
             The map, the extra ghosts and their owners, and ``gnodes`` as local nodes of the map.
@@ -321,10 +321,10 @@ class ReachSearch:
         return index_map, extra_g, extra_o, nodes.astype(np.int32)
 
     def _node_facets(self, index_map: dolfinx.common.IndexMap) -> np.ndarray:
-        """The number of master facets around each local node of ``index_map`` (collective)."""
+        """The number of primary facets around each local node of ``index_map`` (collective)."""
         v = dolfinx.la.vector(index_map, 1)
         v.array[:] = 0.0
-        np.add.at(v.array, self.sides.master.nodes.ravel(), 1.0)
+        np.add.at(v.array, self.sides.primary.nodes.ravel(), 1.0)
         v.scatter_reverse(dolfinx.la.InsertMode.add)
         v.scatter_forward()
         return np.rint(v.array).astype(np.int64)
@@ -347,13 +347,13 @@ class ReachSearch:
         Q[unset] = np.eye(sd.gdim)[None]
         tangents = np.zeros((sd.n_points, sd.gdim, sd.nt))
         pf = np.flatnonzero(found)
-        m = sd.master
+        m = sd.primary
         B = facet_basis(m.cell, m.degree, pj.xi[pf], 1)
         tangents[pf] = np.einsum("amk,mkd->mda", B[1:], Ym[pj.facet[pf]])
         return StepStart(pj.facet, pj.xi, Q, tangents)
 
     def record_misses(self, a: np.ndarray, b: np.ndarray) -> None:
-        """Record the master facet pairs ``a``, ``b`` (indices) a tangent needed beyond the pattern.
+        """Record the primary facet pairs ``a``, ``b`` (indices) a tangent needed beyond it.
 
         The next :meth:`begin_step` rebuilds the layout with them.
         """
@@ -388,38 +388,38 @@ def _couplings(
     diam: float,
     missed: list[tuple[int, int]],
 ) -> tuple[np.ndarray, Couplings]:
-    """The master facet pairs the pattern couples (keys) and its node couplings.
+    """The primary facet pairs the pattern couples (keys) and its node couplings.
 
-    What the tangent can write (:mod:`.assembly`) while the layout stands: slave rows of a facet
-    ``s`` x its own nodes and those of the master facets its points project on, now and at the
-    step's start (both in ``s``'s reach); master rows of the facets ``a`` of ``s``'s segments (in
-    the reach) x ``s``'s nodes, and x the nodes of a master facet ``b`` of the reach: a
+    What the tangent can write (:mod:`.assembly`) while the layout stands: secondary rows of a facet
+    ``s`` x its own nodes and those of the primary facets its points project on, now and at the
+    step's start (both in ``s``'s reach); primary rows of the facets ``a`` of ``s``'s segments (in
+    the reach) x ``s``'s nodes, and x the nodes of a primary facet ``b`` of the reach: a
     projection facet of a point of ``s`` (now or at the step's start) or another segment facet of
     ``s`` (the transfer's change with the geometry). ``a`` and ``b`` then hold projections of
     points of ``s`` at most ``s``'s diameter apart, plus the point's slip in the step (at most
-    ``reach``, else the step fails). So the pattern couples every slave facet's nodes with each
-    other and with its reach's nodes (both ways), and the nodes of the master facets ``a``, ``b``
+    ``reach``, else the step fails). So the pattern couples every secondary facet's nodes with each
+    other and with its reach's nodes (both ways), and the nodes of the primary facets ``a``, ``b``
     of one reach whose bounding boxes (at the rebuild) are at most ``reach + diam(s) + h`` apart
     (``h`` the largest facet size: the deformation until the next rebuild and the turn of the
     normals), and the ``missed`` pairs a step needed beyond it. Not all pairs of the reach (it is
-    3 reaches + the facet wide: hundreds of master nodes per slave facet in 3-D). A pair the
+    3 reaches + the facet wide: hundreds of primary nodes per secondary facet in 3-D). A pair the
     tangent needs beyond this (:meth:`.contact.ContactGeometry`'s hold) is left out of it for the
     step and forces a rebuild at the next step with the pair.
 
     Args:
         sd: The sides.
-        ptr: The reach's CSR offsets per slave facet.
-        idx: The reach's master facets per slave facet.
-        nodes: The reach's master facets' nodes (local in ``index_map``).
+        ptr: The reach's CSR offsets per secondary facet.
+        idx: The reach's primary facets per secondary facet.
+        nodes: The reach's primary facets' nodes (local in ``index_map``).
         facets: Their global numbers.
         index_map: The extended index map.
-        Ym: The nodes' positions of the reach's master facets, (npf, nfd_m, gdim).
-        diam: The largest slave facet diameter over every rank.
-        missed: Master facet pairs (indices) a step needed beyond the last pattern.
+        Ym: The nodes' positions of the reach's primary facets, (npf, nfd_m, gdim).
+        diam: The largest secondary facet diameter over every rank.
+        missed: Primary facet pairs (indices) a step needed beyond the last pattern.
     """
     from scipy import sparse
 
-    s = sd.slave
+    s = sd.secondary
     ns, npf = s.size, facets.size
     n_nodes = index_map.size_local + index_map.num_ghosts
     R = sparse.csr_matrix((np.ones(idx.size), idx, ptr), shape=(ns, npf))
@@ -430,7 +430,7 @@ def _couplings(
     P = sparse.csr_matrix(
         (np.ones(npf * nfm), nodes.ravel(), np.arange(npf + 1) * nfm), shape=(npf, n_nodes)
     )
-    # master facet pairs sharing a reach, within reach + diam(s) + h (bounding boxes)
+    # primary facet pairs sharing a reach, within reach + diam(s) + h (bounding boxes)
     C = (R.T @ R).tocoo()
     a, b = C.row.astype(np.int64), C.col.astype(np.int64)
     lo, hi = Ym.min(axis=1), Ym.max(axis=1)
@@ -442,7 +442,7 @@ def _couplings(
         a, b = np.concatenate([a, ea, eb]), np.concatenate([b, eb, ea])
     keys = np.unique(a * max(npf, 1) + b)
     A = sparse.csr_matrix((np.ones(a.size), (a, b)), shape=(npf, npf))
-    SR = S + R @ P  # each slave facet's nodes and its reach's
+    SR = S + R @ P  # each secondary facet's nodes and its reach's
     G = (S.T @ SR + (P.T @ A) @ P).tocsr()
     G = (G + G.T).tocsr()
     G.sum_duplicates()

@@ -2,10 +2,10 @@
 
 A region is a named group of interface facets (see
 :attr:`~subfric_dolfinx.meshing.InterfaceMesh.interface_groups`: the centroids of its facets).
-With finite sliding the law's points are the secondary (slave) facets' points, material points of
+With finite sliding the law's points are the secondary facets' points, material points of
 the secondary body that keep their internal variables as they slide: a point takes the law of the
 region whose group holds its *secondary* facet's centroid, and keeps it wherever it slides (the
-small-sliding interface reads its master facets instead:
+small-sliding interface reads its primary facets instead:
 :mod:`~subfric_dolfinx.fem.interface.small.regions`). Secondary facets in no named region belong
 to region 0 (the default law). A group may hold primary facets too (a group of both sides, as a
 mesh made apart gives it): those are left aside.
@@ -27,7 +27,7 @@ __all__ = ["secondary_regions"]
 
 def _centroids(sd: Sides, side: str) -> np.ndarray:
     """The centroids of one side's facets on this rank (their vertex nodes), (nf, gdim)."""
-    surface = sd.master if side == "primary" else sd.slave
+    surface = sd.primary if side == "primary" else sd.secondary
     nv = {"interval": 2, "triangle": 3, "quadrilateral": 4}[surface.cell.name]
     if surface.size == 0:
         return np.zeros((0, sd.gdim))
@@ -61,7 +61,7 @@ def secondary_regions(
         )
     tol = 1e-6 * sd.h
     secondary, primary = _centroids(sd, "secondary"), _centroids(sd, "primary")
-    region = np.zeros(sd.slave.size, dtype=np.int64)
+    region = np.zeros(sd.secondary.size, dtype=np.int64)
     clash = None
     counts = []
     for k, name in enumerate(names, start=1):

@@ -1,13 +1,13 @@
-"""Search of the master facets that slave points project on (current configuration, MPI ranks).
+"""Search of the primary facets that secondary points project on (current configuration, MPI ranks).
 
-Each rank has its slave points (those of the slave facets it owns) and owns some master facets;
-a point may project on a facet of another rank, and as the bodies slide that changes. Every step
-(``docs/model.md`` §11):
+Each rank has its secondary points (those of the secondary facets it owns) and owns some primary
+facets; a point may project on a facet of another rank, and as the bodies slide that changes. Every
+step (``docs/model.md`` §11):
 
 1. :func:`exchange_facets`: every rank covers its points with a few boxes (a k-d split of the
    points, at most ``max_boxes`` leaves, each grown by the search radius) and all-gathers only the
-   boxes (``2 gdim max_boxes`` numbers per rank). Every rank sends each of its master facets whose
-   bounding box meets a rank's box to that rank (``MPI_Alltoallv``): a rank receives the master
+   boxes (``2 gdim max_boxes`` numbers per rank). Every rank sends each of its primary facets whose
+   bounding box meets a rank's box to that rank (``MPI_Alltoallv``): a rank receives the primary
    facets near its own points, never the whole surface. A facet travels with its nodes' current
    positions and nodal normals, their global numbers and owners (to ghost their displacements)
    and the facet's global number.
@@ -45,7 +45,7 @@ __all__ = [
 
 @dataclasses.dataclass
 class Candidates:
-    """Master facets that may be reached by this rank's points (its own and received ones).
+    """Primary facets that may be reached by this rank's points (its own and received ones).
 
     Attributes:
         cell: The facets' basix cell.
@@ -123,14 +123,14 @@ def exchange_facets(
     *,
     max_boxes: int = 16,
 ) -> Candidates:
-    """Bring to every rank the master facets near its points (collective).
+    """Bring to every rank the primary facets near its points (collective).
 
     Args:
         comm: The mesh communicator.
-        points: This rank's slave points, current positions (m, gdim).
-        cell: The master facets' basix cell.
+        points: This rank's secondary points, current positions (m, gdim).
+        cell: The primary facets' basix cell.
         degree: Their Lagrange degree.
-        x: Current positions of the nodes of this rank's master facets, (nf, nfd, gdim).
+        x: Current positions of the nodes of this rank's primary facets, (nf, nfd, gdim).
         normals: Their nodal normals, (nf, nfd, gdim).
         global_nodes: Their global node numbers, (nf, nfd).
         owners: Their owners, (nf, nfd).
@@ -218,7 +218,7 @@ def near_pairs(
     the facet's centre ``c`` and mean normal ``n_f``, within the facet's in-plane extent plus
     ``radius`` times the sine of the largest angle of its nodal normals to ``n_f`` along ``n_f``'s
     plane, and within its out-of-plane extent plus ``radius`` along ``n_f``; ``extent`` grows
-    both for objects of that size (a slave facet's nodes around its centre).
+    both for objects of that size (a secondary facet's nodes around its centre).
 
     Args:
         points: Positions (m, gdim).

@@ -1,27 +1,27 @@
-"""Integration points on the overlap of slave facets with the master facets they face.
+"""Integration points on the overlap of secondary facets with the primary facets they face.
 
-A slave facet of a non-matching interface faces pieces of several master facets. Integrals of a
-slave field against the master's shape functions, ``int_slave lambda(x) N_m(pi(x)) dA`` with
-``pi`` the normal projection on the master (:mod:`.projection`), are exact only if the slave facet
-is cut where ``pi`` crosses from one master facet to the next (a Gauss rule across the kink of
-``N_m o pi`` makes an error of the order of a percent of the master nodal forces on a 3 : 2 mesh,
-and a patch test then fails). This module makes the cut (``docs/model.md`` §11):
+A secondary facet of a non-matching interface faces pieces of several primary facets. Integrals of a
+secondary field against the primary's shape functions, ``int_secondary lambda(x) N_m(pi(x)) dA``
+with ``pi`` the normal projection on the primary (:mod:`.projection`), are exact only if the
+secondary facet is cut where ``pi`` crosses from one primary facet to the next (a Gauss rule across
+the kink of ``N_m o pi`` makes an error of the order of a percent of the primary nodal forces on a 3
+: 2 mesh, and a patch test then fails). This module makes the cut (``docs/model.md`` §11):
 
-* The preimage of a master vertex ``k`` is where the line ``x_k + s n_k`` (its nodal normal) meets
-  the slave facet; it is found by the same normal projection, of ``x_k`` on the slave facet with
-  the constant normal ``n_k``.
-* 2-D: the preimages of a master segment's two vertices bound an interval of the slave facet's
-  reference coordinate; clipped to ``[0, 1]``, it is exactly the part of the slave facet that
-  projects on that master segment (the master vertices' normals are shared by the neighbouring
-  segments: the intervals tile the slave facet).
-* 3-D: the preimages of a master facet's vertices make a polygon in the slave facet's reference
+* The preimage of a primary vertex ``k`` is where the line ``x_k + s n_k`` (its nodal normal) meets
+  the secondary facet; it is found by the same normal projection, of ``x_k`` on the secondary facet
+  with the constant normal ``n_k``.
+* 2-D: the preimages of a primary segment's two vertices bound an interval of the secondary facet's
+  reference coordinate; clipped to ``[0, 1]``, it is exactly the part of the secondary facet that
+  projects on that primary segment (the primary vertices' normals are shared by the neighbouring
+  segments: the intervals tile the secondary facet).
+* 3-D: the preimages of a primary facet's vertices make a polygon in the secondary facet's reference
   coordinates, clipped by the reference cell (Sutherland-Hodgman, all pairs at once) and cut into
   triangles from its first vertex. Exact for flat surfaces; on curved ones the preimage of a
-  master edge is a slightly curved line, replaced by its chord (as the auxiliary-plane segmentation
+  primary edge is a slightly curved line, replaced by its chord (as the auxiliary-plane segmentation
   of mortar methods does).
 
 Every piece gets a Gauss rule (exact for ``N_s N_m`` products of flat facets), whose points are
-projected on their master facet.
+projected on their primary facet.
 """
 
 from __future__ import annotations
@@ -40,32 +40,33 @@ __all__ = ["Segments", "clip_to_reference", "overlap_points"]
 
 @dataclasses.dataclass
 class Segments:
-    """Integration points of the overlaps of slave facets with master facets.
+    """Integration points of the overlaps of secondary facets with primary facets.
 
     Attributes:
-        slave: Slave facet of each point (index into the slave arrays given), (np,).
-        master: Master facet of each point (index into the master arrays given), (np,).
-        xi_slave: Reference coordinates on the slave facet, (np, fdim).
-        xi_master: Reference coordinates of the point's projection on the master facet.
-        weight: Quadrature weight times the slave facet's surface Jacobian (the points integrate
-            over the slave surface, current or reference, see :func:`overlap_points`), (np,).
-        converged: Whether the projection on the master facet was found.
-        bounds: 2-D only (else ``None``): the ends ``(lo, hi)`` of the point's piece of its slave
-            facet (reference coordinate), (np, 2); the point is at ``lo + unit (hi - lo)``.
-        bound_vertex: 2-D only: the master facet's vertex (0 or 1) whose preimage makes each
-            end, or -1 where the slave facet's own end does, (np, 2).
+        secondary: Secondary facet of each point (index into the secondary arrays given), (np,).
+        primary: Primary facet of each point (index into the primary arrays given), (np,).
+        xi_secondary: Reference coordinates on the secondary facet, (np, fdim).
+        xi_primary: Reference coordinates of the point's projection on the primary facet.
+        weight: Quadrature weight times the secondary facet's surface Jacobian (the points integrate
+            over the secondary surface, current or reference, see :func:`overlap_points`), (np,).
+        converged: Whether the projection on the primary facet was found.
+        bounds: 2-D only (else ``None``): the ends ``(lo, hi)`` of the point's piece of its
+            secondary facet (reference coordinate), (np, 2); the point is at
+            ``lo + unit (hi - lo)``.
+        bound_vertex: 2-D only: the primary facet's vertex (0 or 1) whose preimage makes each
+            end, or -1 where the secondary facet's own end does, (np, 2).
         unit: 2-D only: the point's coordinate on its piece, in [0, 1], (np,).
-        xi_rate: 3-D with ``rates`` only (else ``None``): the derivative of ``xi_slave`` with
-            respect to the slave facet's nodes then the master facet's (node-major, ``gdim``
+        xi_rate: 3-D with ``rates`` only (else ``None``): the derivative of ``xi_secondary`` with
+            respect to the secondary facet's nodes then the primary facet's (node-major, ``gdim``
             components each), the measure's nodes held, (np, fdim, (nfd_s + nfd_m) gdim).
         weight_rate: 3-D with ``rates`` only: the derivative of ``weight``, likewise,
             (np, (nfd_s + nfd_m) gdim).
     """
 
-    slave: np.ndarray
-    master: np.ndarray
-    xi_slave: np.ndarray
-    xi_master: np.ndarray
+    secondary: np.ndarray
+    primary: np.ndarray
+    xi_secondary: np.ndarray
+    xi_primary: np.ndarray
     weight: np.ndarray
     converged: np.ndarray
     bounds: np.ndarray | None = None
@@ -77,7 +78,7 @@ class Segments:
     @property
     def size(self) -> int:
         """Number of points."""
-        return int(self.slave.size)
+        return int(self.secondary.size)
 
     def take(self, keep: np.ndarray) -> Segments:
         """The points ``keep`` (a mask or indices) only."""
@@ -88,6 +89,14 @@ class Segments:
 def _polygon_order(cell: basix.CellType) -> list[int]:
     """Vertex indices of a reference cell in cyclic order (basix's quadrilateral is a tensor)."""
     return [0, 1, 3, 2] if cell == basix.CellType.quadrilateral else [0, 1, 2]
+
+
+_ON_PLANE = 1e-12  # reference coordinates: a preimage's round-off is far below
+
+
+def _snap(d: np.ndarray) -> np.ndarray:
+    """Signed distances to a clipping plane, zero within round-off of it."""
+    return np.where(np.abs(d) <= _ON_PLANE, 0.0, d)
 
 
 def clip_to_reference(
@@ -137,7 +146,9 @@ def clip_to_reference(
             nxt = (i + 1) % np.maximum(cnt, 1)
             p = cur[:, i]
             q = cur[rows, nxt]
-            dp, dq = p @ a - b, q @ a - b
+            # a vertex within round-off of the plane is on it: an edge along the plane (meshes
+            # whose edges coincide) crosses nowhere, else its cut's rate is a ratio of round-offs
+            dp, dq = _snap(p @ a - b), _snap(q @ a - b)
             keep_p = live & (dp >= 0)
             out[rows[keep_p], oc[keep_p]] = p[keep_p]
             if out_r is not None:
@@ -170,49 +181,56 @@ def _quadrature(cell: basix.CellType, degree: int) -> tuple[np.ndarray, np.ndarr
 
 
 def overlap_points(
-    slave_x: np.ndarray,
-    slave_cell: basix.CellType,
-    slave_degree: int,
-    master_x: np.ndarray,
-    master_normals: np.ndarray,
-    master_cell: basix.CellType,
-    master_degree: int,
+    secondary_x: np.ndarray,
+    secondary_cell: basix.CellType,
+    secondary_degree: int,
+    primary_x: np.ndarray,
+    primary_normals: np.ndarray,
+    primary_cell: basix.CellType,
+    primary_degree: int,
     radius: float,
     *,
     degree: int | None = None,
-    slave_measure_x: np.ndarray | None = None,
+    secondary_measure_x: np.ndarray | None = None,
     rates: bool = False,
+    normal_rates: bool = False,
 ) -> Segments:
-    """Integration points of every slave facet's overlap with the master facets (not collective).
+    """Integration points of every secondary facet's overlap with the primary facets.
+
+    Not collective.
 
     Args:
-        slave_x: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
-        slave_cell: Their basix cell.
-        slave_degree: Their Lagrange degree.
-        master_x: Current positions of the master facets' nodes (e.g. the candidates of
+        secondary_x: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
+        secondary_cell: Their basix cell.
+        secondary_degree: Their Lagrange degree.
+        primary_x: Current positions of the primary facets' nodes (e.g. the candidates of
             :func:`.search.exchange_facets`), (nm, nfd_m, gdim).
-        master_normals: Their nodal normals, (nm, nfd_m, gdim).
-        master_cell: Their basix cell.
-        master_degree: Their Lagrange degree.
+        primary_normals: Their nodal normals, (nm, nfd_m, gdim).
+        primary_cell: Their basix cell.
+        primary_degree: Their Lagrange degree.
         radius: Largest distance between the surfaces at which a pair is considered.
         degree: Degree of the Gauss rule on each piece; default ``2 p`` (simplices) or ``4 p``
             (quadrilaterals, whose ``N_s N_m`` products are of degree ``2 p`` per direction).
-        slave_measure_x: Node positions whose surface Jacobian weighs the points, e.g. the
-            reference ones, so that the pieces of a slave facet sum to the measure its own
-            quadrature uses (geometrically linear bodies); default ``slave_x``.
+        secondary_measure_x: Node positions whose surface Jacobian weighs the points, e.g. the
+            reference ones, so that the pieces of a secondary facet sum to the measure its own
+            quadrature uses (geometrically linear bodies); default ``secondary_x``.
         rates: 3-D: also the points' ``xi_rate`` and ``weight_rate`` (their change with the
-            slave and master nodes, through the preimages, the clipping and the fan triangles;
-            the nodal normals and ``slave_measure_x``, which must be given, held). 2-D
+            secondary and primary nodes, through the preimages, the clipping and the fan triangles;
+            the nodal normals and ``secondary_measure_x``, which must be given, held). 2-D
             segments carry their ``bounds`` instead (:func:`.transfer.transfer_tangent`).
+        normal_rates: 3-D with ``rates``: the rates also with the primary facet's nodal normals
+            (``nfd_m`` more columns after the primary's nodes: the preimages move along them).
     """
-    ns, _, gdim = slave_x.shape
+    ns, _, gdim = secondary_x.shape
     fdim = gdim - 1
     rates = bool(rates) and fdim == 2
-    if rates and slave_measure_x is None:
-        raise ValueError("overlap_points: rates need slave_measure_x (the measure's nodes held)")
-    p = max(slave_degree, master_degree)
+    if rates and secondary_measure_x is None:
+        raise ValueError(
+            "overlap_points: rates need secondary_measure_x (the measure's nodes held)"
+        )
+    p = max(secondary_degree, primary_degree)
     if degree is None:
-        degree = 4 * p if slave_cell == basix.CellType.quadrilateral else 2 * p
+        degree = 4 * p if secondary_cell == basix.CellType.quadrilateral else 2 * p
     empty = Segments(
         *(np.zeros(0, dtype=np.int64),) * 2,
         np.zeros((0, fdim)),
@@ -220,22 +238,22 @@ def overlap_points(
         np.zeros(0),
         np.zeros(0, dtype=bool),
     )
-    nm = master_x.shape[0]
+    nm = primary_x.shape[0]
     if ns == 0 or nm == 0:
         return empty
-    # candidate pairs: the slave facets' centres near the master facets
-    cs = slave_x.mean(axis=1)
-    rs = np.linalg.norm(slave_x - cs[:, None], axis=-1).max(axis=1) * 1.1
-    si, mi = near_pairs(cs, rs, master_x, master_normals, radius)
+    # candidate pairs: the secondary facets' centres near the primary facets
+    cs = secondary_x.mean(axis=1)
+    rs = np.linalg.norm(secondary_x - cs[:, None], axis=-1).max(axis=1) * 1.1
+    si, mi = near_pairs(cs, rs, primary_x, primary_normals, radius)
     if si.size == 0:
         return empty
-    # preimages of the master vertices on the slave facet (along the vertices' normals)
-    order = _polygon_order(master_cell) if fdim == 2 else [0, 1]
+    # preimages of the primary vertices on the secondary facet (along the vertices' normals)
+    order = _polygon_order(primary_cell) if fdim == 2 else [0, 1]
     nv = len(order)
-    xv = master_x[mi][:, order].reshape(-1, gdim)
-    nvv = master_normals[mi][:, order].reshape(-1, gdim)
-    nfd_s = slave_x.shape[1]
-    # a master vertex is shared by the candidate facets around it: project each (slave facet,
+    xv = primary_x[mi][:, order].reshape(-1, gdim)
+    nvv = primary_normals[mi][:, order].reshape(-1, gdim)
+    nfd_s = secondary_x.shape[1]
+    # a primary vertex is shared by the candidate facets around it: project each (secondary facet,
     # vertex position and normal) once (row by row, the same numbers)
     sv = np.repeat(si, nv)
     _, first, back = np.unique(
@@ -245,16 +263,16 @@ def overlap_points(
         return_inverse=True,
     )
     back = back.reshape(-1)
-    xu, nu, Ys = xv[first], nvv[first], slave_x[sv[first]]
-    # preimages may lie far outside a slave facet much smaller than the master's: start from
-    # the line's intersection with the slave vertices' line (plane), let Newton go anywhere
+    xu, nu, Ys = xv[first], nvv[first], secondary_x[sv[first]]
+    # preimages may lie far outside a secondary facet much smaller than the primary's: start from
+    # the line's intersection with the secondary vertices' line (plane), let Newton go anywhere
     pre_u = normal_projection(
         xu,
         Ys,
         np.repeat(nu[:, None, :], nfd_s, axis=1),
-        slave_cell,
-        slave_degree,
-        xi0=ray_start(slave_cell, xu, Ys, nu),
+        secondary_cell,
+        secondary_degree,
+        xi0=ray_start(secondary_cell, xu, Ys, nu),
         margin=np.inf,
     )
     pre = dataclasses.replace(
@@ -294,11 +312,21 @@ def overlap_points(
         count = np.full(poly.shape[0], nv)
         if rates:
             poly_r = _preimage_rates(
-                pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order, master_x.shape[1]
+                pre_u,
+                back,
+                ok,
+                xu,
+                Ys,
+                nu,
+                secondary_cell,
+                secondary_degree,
+                order,
+                primary_x.shape[1],
+                normal_rates,
             )
-            clipped, cnt, clipped_r = clip_to_reference(poly, count, slave_cell, poly_r)
+            clipped, cnt, clipped_r = clip_to_reference(poly, count, secondary_cell, poly_r)
         else:
-            clipped, cnt = clip_to_reference(poly, count, slave_cell)
+            clipped, cnt = clip_to_reference(poly, count, secondary_cell)
         X, w = _quadrature(basix.CellType.triangle, degree)
         xs_l, ws_l, pair_l, xr_l, wr_l = [], [], [], [], []
         for k in range(1, clipped.shape[1] - 1):  # fan triangle (0, k, k + 1)
@@ -336,31 +364,31 @@ def overlap_points(
     nq = xs.shape[1]
     si_q, mi_q = np.repeat(si, nq), np.repeat(mi, nq)
     xi_s = xs.reshape(-1, fdim)
-    B = facet_basis(slave_cell, slave_degree, xi_s, 1)
-    Ys = slave_x[si_q]
+    B = facet_basis(secondary_cell, secondary_degree, xi_s, 1)
+    Ys = secondary_x[si_q]
     y = np.einsum("mk,mkd->md", B[0], Ys)
-    Yj = Ys if slave_measure_x is None else slave_measure_x[si_q]
+    Yj = Ys if secondary_measure_x is None else secondary_measure_x[si_q]
     jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
     if rates:
         m = xr_l[0].shape[-1]
         xi_rate = np.concatenate(xr_l).reshape(-1, fdim, m)
         ws_rate = np.concatenate(wr_l).reshape(-1, m)
-        grad = _measure_rate(slave_cell, slave_degree, xi_s, Yj)  # d jac / d xi, (np, fdim)
+        grad = _measure_rate(secondary_cell, secondary_degree, xi_s, Yj)  # d jac / d xi, (np, fdim)
         extra = {
             "xi_rate": xi_rate,
             "weight_rate": ws_rate * jac[:, None]
             + ws.reshape(-1, 1) * np.einsum("ma,mac->mc", grad, xi_rate),
         }
-    # start from the ray along the master facet's mean normal through its vertex plane (exact
+    # start from the ray along the primary facet's mean normal through its vertex plane (exact
     # on flat facets)
-    Ym, Nm = master_x[mi_q], master_normals[mi_q]
-    start = ray_start(master_cell, y, Ym, Nm.sum(axis=1))
-    proj = normal_projection(y, Ym, Nm, master_cell, master_degree, xi0=start)
+    Ym, Nm = primary_x[mi_q], primary_normals[mi_q]
+    start = ray_start(primary_cell, y, Ym, Nm.sum(axis=1))
+    proj = normal_projection(y, Ym, Nm, primary_cell, primary_degree, xi0=start)
     return Segments(
-        slave=si_q,
-        master=mi_q,
-        xi_slave=xi_s,
-        xi_master=proj.xi,
+        secondary=si_q,
+        primary=mi_q,
+        xi_secondary=xi_s,
+        xi_primary=proj.xi,
         weight=ws.reshape(-1) * jac,
         converged=proj.converged,
         **extra,
@@ -368,14 +396,15 @@ def overlap_points(
 
 
 def _preimage_rates(
-    pre_u, back, ok, xu, Ys, nu, slave_cell, slave_degree, order, nfd_m
+    pre_u, back, ok, xu, Ys, nu, secondary_cell, secondary_degree, order, nfd_m, normals=False
 ) -> np.ndarray:
-    """Derivatives of the master vertices' preimages on the slave facets (3-D).
+    """Derivatives of the primary vertices' preimages on the secondary facets (3-D).
 
     ``d xi = A^-1 (dx_v - sum_k N_k dX_k)`` (:func:`.projection.projection_jacobian`, the
     vertex's normal held) for the projections ``pre_u`` (unique rows; ``back`` maps the
     (pair, vertex) rows to them, ``ok`` keeps the pairs). Returns (npair, nv, fdim, m), ``m``
-    the slave facet's nodes then the master facet's (``nfd_m``), ``gdim`` components each.
+    the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with ``normals``,
+    the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim`` components each.
     """
     from .projection import projection_jacobian
 
@@ -385,17 +414,20 @@ def _preimage_rates(
         xu,
         Ys,
         np.repeat(nu[:, None, :], nfd_s, axis=1),
-        slave_cell,
-        slave_degree,
+        secondary_cell,
+        secondary_degree,
         pre_u.xi,
         pre_u.gamma,
     )
     D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
     Nk = N[back].reshape(-1, nv, nfd_s)[ok]
-    R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m, gdim))
+    R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m * (2 if normals else 1), gdim))
     R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
+    gam = pre_u.gamma[back].reshape(-1, nv)[ok]
     for j, v in enumerate(order):
         R[:, j, :, nfd_s + v, :] += D[:, j]
+        if normals:  # along the vertex's normal: d xi = D (-gamma dn_v)
+            R[:, j, :, nfd_s + nfd_m + v, :] += -gam[:, j, None, None] * D[:, j]
     return R.reshape(D.shape[0], nv, fdim, -1)
 
 

@@ -1,7 +1,7 @@
 """The two sides of a finite-sliding interface, fixed at its construction: what every part reads.
 
-:class:`Sides` holds the master (primary) and slave (secondary) contact surfaces
-(:mod:`.surface`), the slave facets' points' reference rule, the displacement space's nodes, the
+:class:`Sides` holds the primary and secondary contact surfaces
+(:mod:`.surface`), the secondary facets' points' reference rule, the displacement space's nodes, the
 largest facet size and the two distances of the search (``radius``, ``reach``). The parts of a
 :class:`~.interface.SlidingInterface` (its search, its law's points, its transfer, its assembly)
 each read it; none changes it.
@@ -32,22 +32,23 @@ class Sides:
 
     Attributes:
         comm: The interface's communicator.
-        master: The primary body's facets (its smooth normal defines the frame).
-        slave: The secondary body's facets, in the order of the cells of :attr:`submesh`.
-        submesh: A mesh with one cell per slave facet (cell averages in field outputs).
+        primary: The primary body's facets (its smooth normal defines the frame).
+        secondary: The secondary body's facets, in the order of the cells of :attr:`submesh`.
+        submesh: A mesh with one cell per secondary facet (cell averages in field outputs).
         imap0: The displacement space's index map (without the interface's extra ghosts).
         bs: The displacement's block size.
         X0: Reference positions of the displacement space's local nodes, (n_local0, gdim).
-        Ns: The slave facets' basis and its derivatives at the law's points, (1 + fdim, nq, nfd).
+        Ns: The secondary facets' basis and its derivatives at the law's points,
+            (1 + fdim, nq, nfd).
         w_ref: The reference rule's weights, (nq,).
         h: The largest facet size of either side, over every rank.
-        radius: The largest normal distance at which a point faces the master.
+        radius: The largest normal distance at which a point faces the primary.
         reach: How far a point may slide in one step (and the pattern's hysteresis).
     """
 
     comm: MPI.Comm
-    master: ContactSurface
-    slave: ContactSurface
+    primary: ContactSurface
+    secondary: ContactSurface
     submesh: Any
     imap0: dolfinx.common.IndexMap
     bs: int
@@ -70,13 +71,13 @@ class Sides:
 
     @property
     def nq(self) -> int:
-        """Points per slave facet."""
+        """Points per secondary facet."""
         return int(self.Ns.shape[1])
 
     @property
     def n_points(self) -> int:
         """The law's points on this rank."""
-        return self.slave.size * self.nq
+        return self.secondary.size * self.nq
 
     @property
     def n_owned(self) -> int:
@@ -120,41 +121,41 @@ def make_sides(
     comm = mesh.comm
     gdim = mesh.geometry.dim
     X0 = V.tabulate_dof_coordinates()[:, :gdim].copy()
-    master = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(primary)))
-    slave = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(secondary)))
-    # the slave facets' own mesh (cell averages in field output): the facets in its order
-    submesh, parents = create_submesh(mesh, mesh.topology.dim - 1, slave.facets)
-    sorter = np.argsort(slave.facets)
-    perm = sorter[np.searchsorted(slave.facets, parents, sorter=sorter)]
-    slave = dataclasses.replace(
-        slave,
-        facets=slave.facets[perm],
-        cells=slave.cells[perm],
-        nodes=slave.nodes[perm],
-        orientation=slave.orientation[perm],
-        global_facets=slave.global_facets[perm],
+    prim = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(primary)))
+    sec = contact_surface(V, cell_tags, facet_tags, tag, list(np.atleast_1d(secondary)))
+    # the secondary facets' own mesh (cell averages in field output): the facets in its order
+    submesh, parents = create_submesh(mesh, mesh.topology.dim - 1, sec.facets)
+    sorter = np.argsort(sec.facets)
+    perm = sorter[np.searchsorted(sec.facets, parents, sorter=sorter)]
+    sec = dataclasses.replace(
+        sec,
+        facets=sec.facets[perm],
+        cells=sec.cells[perm],
+        nodes=sec.nodes[perm],
+        orientation=sec.orientation[perm],
+        global_facets=sec.global_facets[perm],
     )
-    counts = comm.allreduce(np.array([master.size, slave.size]))
+    counts = comm.allreduce(np.array([prim.size, sec.size]))
     if counts.min() == 0:
         side = "primary" if counts[0] == 0 else "secondary"
         raise InterfaceError(
             f"interface {name!r} (tag {tag}): its {side} body has no facet with the tag"
         )
-    h = max(surface_size(master, X0, comm), surface_size(slave, X0, comm))
+    h = max(surface_size(prim, X0, comm), surface_size(sec, X0, comm))
     radius = float(search_radius) if search_radius is not None else 2.0 * h
     reach = float(reach) if reach is not None else h
     if not (radius > 0 and reach > 0):
         raise InterfaceError(f"interface {name!r}: search_radius and reach must be > 0")
-    X, w = quadrature_rule(slave.cell, slave.degree, quadrature)
+    X, w = quadrature_rule(sec.cell, sec.degree, quadrature)
     return Sides(
         comm=comm,
-        master=master,
-        slave=slave,
+        primary=prim,
+        secondary=sec,
         submesh=submesh,
         imap0=V.dofmap.index_map,
         bs=V.dofmap.bs,
         X0=X0,
-        Ns=facet_basis(slave.cell, slave.degree, X, 1),
+        Ns=facet_basis(sec.cell, sec.degree, X, 1),
         w_ref=w,
         h=h,
         radius=radius,

@@ -1,16 +1,16 @@
-"""Finite-sliding kinematics of a slave point on the master surface (``docs/model.md`` §11).
+"""Finite-sliding kinematics of a secondary point on the primary surface (``docs/model.md`` §11).
 
-A slave point ``x`` projects on the master surface at ``y(xi)`` along the smooth normal:
+A secondary point ``x`` projects on the primary surface at ``y(xi)`` along the smooth normal:
 ``x = y(xi) + gamma n~(xi)`` (:mod:`.projection`). With the unit normal ``n = n~ / |n~|`` and the
 frame ``Q = (e1, [e2,] -n)`` of :func:`.geometry.frames`:
 
 * the normal gap (penetration positive) is ``ubar_n = -gamma |n~| = -(x - y) . n``;
 * the tangential slip of a step is the convected one, ``ds = y_{n+1}(xi_{n+1}) - y_{n+1}(xi_n)``:
-  the path on the master surface in its current configuration from the material point the slave
+  the path on the primary surface in its current configuration from the material point the secondary
   point faced at the step's start to the one it faces now. A rigid motion of both bodies leaves
   ``xi`` unchanged and gives no slip (objective), whatever the gap;
 * tangent vectors of the internal state (total tangential gap, plastic slip) are convected with
-  the master surface at the material point they were attached to (their components on its
+  the primary surface at the material point they were attached to (their components on its
   tangent basis ``y_,a`` kept, the length kept), then carried to the tangent plane of the new
   projection by the smallest rotation between the two normals (:func:`transport_matrix`): a
   rigid motion of both bodies, spin about the normal included, leaves their local components in
@@ -18,8 +18,8 @@ frame ``Q = (e1, [e2,] -n)`` of :func:`.geometry.frames`:
   (``e1`` turns with ``n``).
 
 :func:`gap_operator` gives the derivative of the local gap (tangential slip and normal gap) with
-respect to the slave point and the master nodes, through the derivative of the projection, with
-the master's nodal normals held (their change is of the order of the gap times the facet's
+respect to the secondary point and the primary nodes, through the derivative of the projection, with
+the primary's nodal normals held (their change is of the order of the gap times the facet's
 rotation).
 """
 
@@ -30,7 +30,14 @@ import numpy as np
 
 from .projection import facet_basis, projection_jacobian
 
-__all__ = ["frame_rate", "gap_operator", "transport", "transport_matrix"]
+__all__ = [
+    "frame_jacobian",
+    "frame_rate",
+    "gap_operator",
+    "transport",
+    "transport_angle_rates",
+    "transport_matrix",
+]
 
 
 def gap_operator(
@@ -43,23 +50,23 @@ def gap_operator(
     gamma: np.ndarray,
     Q: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Derivative of the local gap of each point with respect to its motion relative to the master.
+    """Derivative of the local gap of each point with respect to its motion relative to the primary.
 
     ``d(gap) = G (dx - sum_l N_l(xi) dy_l)`` with ``gap = (Q_t . ds, ubar_n)``: the tangential
     rows are the convected slip's ``Q_t y_,a dxi^a``, the normal row ``ubar_n = -gamma |n~|``'s.
 
     Args:
-        x: Slave points, (m, gdim).
-        Y: Nodes of each point's master facet, (m, nfd, gdim).
+        x: Secondary points, (m, gdim).
+        Y: Nodes of each point's primary facet, (m, nfd, gdim).
         Nn: Their nodal normals, (m, nfd, gdim).
-        cell: The master facets' basix cell.
+        cell: The primary facets' basix cell.
         degree: Their Lagrange degree.
         xi: The points' projections (reference coordinates), (m, fdim).
         gamma: Their ``gamma`` (:class:`.projection.FacetProjection`), (m,).
         Q: The frames at the projections, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
 
     Returns:
-        ``G`` (m, gdim, gdim), the master basis ``N_l(xi)`` (m, nfd) and the projection's
+        ``G`` (m, gdim, gdim), the primary basis ``N_l(xi)`` (m, nfd) and the projection's
         ``dxi`` rows ``R`` (m, fdim, gdim): ``dxi = R (dx - sum_l N_l(xi) dy_l)``
         (:func:`.projection.projection_jacobian`, the nodal normals held).
     """
@@ -92,8 +99,8 @@ def frame_rate(Nn: np.ndarray, cell: basix.CellType, degree: int, xi: np.ndarray
     (:func:`.geometry.frames`) turns with it.
 
     Args:
-        Nn: Nodal normals of each point's master facet, (m, nfd, 2).
-        cell: The master facets' basix cell (interval).
+        Nn: Nodal normals of each point's primary facet, (m, nfd, 2).
+        cell: The primary facets' basix cell (interval).
         degree: Their Lagrange degree.
         xi: The points' projections, (m, 1).
 
@@ -145,7 +152,7 @@ def transport_matrix(
     Args:
         Q_old: Frames at the step's start, rows ``(e1, [e2,] -n)``, (m, gdim, gdim).
         Q_new: Frames at the new projections, likewise.
-        tangents_old: Tangent basis ``y_,a`` of the master at the old projection, at the step's
+        tangents_old: Tangent basis ``y_,a`` of the primary at the old projection, at the step's
             start, (m, gdim, fdim).
         tangents_now: The same material point's tangent basis now, (m, gdim, fdim).
         normal_now: The unit normal there now, (m, gdim).
@@ -171,3 +178,126 @@ def transport_matrix(
     cols = [transport(W[:, :, k], normal_now, -Q_new[:, nt, :]) for k in range(nt)]
     R = np.stack(cols, axis=-1)  # (m, gdim, nt)
     return np.einsum("mbd,mdk->mbk", Q_new[:, :nt, :], R)
+
+
+_STEP = 1e-30  # the complex step: derivatives to round-off (no difference is taken)
+
+
+def _frames_3d(n: np.ndarray) -> np.ndarray:
+    """:func:`.geometry.frames` in 3-D, for complex ``n`` too (the complex-step derivatives).
+
+    The same frames for real ``n``: the axis chosen by the real part, the norms without
+    ``abs``.
+    """
+    ax = np.zeros_like(n)
+    use_y = np.abs(n[..., 0].real) > 0.9
+    ax[..., 0] = np.where(use_y, 0.0, 1.0)
+    ax[..., 1] = np.where(use_y, 1.0, 0.0)
+    e1 = ax - np.sum(ax * n, axis=-1, keepdims=True) * n
+    e1 = e1 / np.sqrt(np.sum(e1 * e1, axis=-1, keepdims=True))
+    return np.stack([e1, np.cross(n, e1), -n], axis=-2)
+
+
+def frame_jacobian(n: np.ndarray) -> np.ndarray:
+    """3-D: the derivative of the frame's rows ``(e1, e2, -n)`` with the normal ``n``.
+
+    Args:
+        n: Unit normals, (m, 3).
+
+    Returns:
+        ``dQ`` (m, 3, 3, 3): ``dQ[:, i, j, k] = d Q_ij / d n_k`` (:func:`.geometry.frames`).
+    """
+    out = np.zeros((n.shape[0], 3, 3, 3))
+    for k in range(3):
+        z = n.astype(complex)
+        z[:, k] += 1j * _STEP
+        out[..., k] = _frames_3d(z).imag / _STEP
+    return out
+
+
+def _transport_3d(
+    Q_old: np.ndarray,
+    tangents_old: np.ndarray,
+    tangents_now: np.ndarray,
+    normal_now: np.ndarray,
+    n_new: np.ndarray,
+) -> np.ndarray:
+    """:func:`transport_matrix` in 3-D as a function of the new normal, for complex inputs too.
+
+    The polar factor by the closed form of a 2 x 2 matrix's square root, the smallest rotation
+    by Rodrigues' formula; the same matrix for real inputs (to round-off).
+    """
+    G = np.einsum("mda,mdb->mab", tangents_old, tangents_old)
+    dual = np.linalg.solve(G, np.swapaxes(tangents_old, 1, 2))
+    E = np.swapaxes(Q_old[:, :2, :], 1, 2)
+    W = np.einsum("mda,mak->mdk", tangents_now, np.einsum("mad,mdk->mak", dual, E))
+    W = W - normal_now[:, :, None] * np.einsum("md,mdk->mk", normal_now, W)[:, None, :]
+    S = np.einsum("mdk,mdl->mkl", W, W)
+    det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
+    r = np.sqrt(det)
+    t = np.sqrt(S[:, 0, 0] + S[:, 1, 1] + 2.0 * r)
+    a, b, c, d = S[:, 0, 0] + r, S[:, 0, 1], S[:, 1, 0], S[:, 1, 1] + r
+    inv = (
+        np.stack([np.stack([d, -b], -1), np.stack([-c, a], -1)], -2)
+        / (a * d - b * c)[:, None, None]
+    )
+    W = np.einsum("mdk,mkl->mdl", W, inv * t[:, None, None])  # W S^(-1/2)
+    k = np.cross(normal_now, n_new)
+    cos = np.einsum("md,md->m", normal_now, n_new)
+    cols = []
+    for j in range(2):
+        v = W[:, :, j]
+        rot = (
+            cos[:, None] * v
+            + np.cross(k, v)
+            + (np.einsum("md,md->m", k, v) / (1.0 + cos))[:, None] * k
+        )
+        cols.append(rot)
+    R = np.stack(cols, axis=-1)
+    return np.einsum("mbd,mdk->mbk", _frames_3d(n_new)[:, :2, :], R)
+
+
+def transport_angle_rates(
+    Q_old: np.ndarray,
+    tangents_old: np.ndarray,
+    tangents_now: np.ndarray,
+    normal_now: np.ndarray,
+    n_new: np.ndarray,
+    slots: tuple[int, ...] = (4, 2, 3),
+) -> list[np.ndarray]:
+    """3-D: how the transport's rotation turns with the geometry (the tangent's frame turn).
+
+    The transport :func:`transport_matrix` of a point is a rotation of its tangential
+    components by an angle ``theta``, a function of the step start's frame ``Q_old`` and tangent
+    basis ``tangents_old`` of the material point it is convected with, that point's tangent
+    basis now ``tangents_now`` and normal now ``normal_now``, and the new projection's normal
+    ``n_new``. Complex-step derivatives.
+
+    Args:
+        Q_old: Frames at the step's start, (m, 3, 3).
+        tangents_old: The material point's tangent basis at the step's start, (m, 3, 2).
+        tangents_now: Its tangent basis now, (m, 3, 2).
+        normal_now: Its unit normal now, (m, 3).
+        n_new: The unit normal at the new projection, (m, 3).
+        slots: The arguments (their positions above) to differentiate by.
+
+    Returns:
+        ``d theta / d`` each argument of ``slots``, of the argument's shape.
+    """
+    args = [Q_old, tangents_old, tangents_now, normal_now, n_new]
+    T = _transport_3d(*args).real
+    rates = []
+    m = n_new.shape[0]
+    for slot in slots:
+        shape = args[slot].shape
+        flat = args[slot].reshape(m, -1)
+        rate = np.zeros(flat.shape)
+        for k in range(flat.shape[1]):
+            z: list[np.ndarray] = list(args)
+            zk = flat.astype(complex)
+            zk[:, k] += 1j * _STEP
+            z[slot] = zk.reshape(shape)
+            dT = _transport_3d(*z).imag / _STEP
+            rate[:, k] = T[:, 0, 0] * dT[:, 1, 0] - T[:, 1, 0] * dT[:, 0, 0]
+        rates.append(rate.reshape(shape))
+    return rates

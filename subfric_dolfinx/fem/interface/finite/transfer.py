@@ -1,15 +1,15 @@
-"""Transfer of the slave points' tractions to the master nodes of a non-matching interface.
+"""Transfer of the secondary points' tractions to the primary nodes of a non-matching interface.
 
-The friction law runs at the slave facets' quadrature points (the internal variables stay with
-these material points). The slave nodes receive ``int N_s t dA`` by the facet's own rule, as
-for a matching interface. The master nodes must receive ``-int (N_m o pi) t dA`` of the same
+The friction law runs at the secondary facets' quadrature points (the internal variables stay with
+these material points). The secondary nodes receive ``int N_s t dA`` by the facet's own rule, as
+for a matching interface. The primary nodes must receive ``-int (N_m o pi) t dA`` of the same
 traction field, and that integral is exact only on the segments of :mod:`.segments`, whose points
 are not the law's points. The traction field is therefore the field ``lambda_h`` of the facet's
-Lagrange space ``P_p`` whose moments are the slave nodal forces,
+Lagrange space ``P_p`` whose moments are the secondary nodal forces,
 ``int N_k lambda_h dA = sum_q w_q N_k(q) t_q`` for every ``N_k`` (the integral by the facet's
 mass matrix, :func:`facet_mass`), integrated exactly over the segments against the
-master's shape functions (``docs/model.md`` §11). So the master nodal forces are ``-B t`` with,
-per slave facet ``s`` and master facet ``m``,
+primary's shape functions (``docs/model.md`` §11). So the primary nodal forces are ``-B t`` with,
+per secondary facet ``s`` and primary facet ``m``,
 
     B_lq = sum_{segment points of (s, m)} w N_m,l(xi_m) L_q(xi_s),
     L_q(xi) = sum_kj N_k(xi) (M^-1)_kj w_q N_j(q),   M = int N N^T dA.
@@ -18,13 +18,13 @@ A uniform traction is then transmitted exactly (the non-matching patch test; ``s
 the mass matrix's rows sum to the rule's integrals of the basis) and so is every traction of ``P_p``
 that the rule integrates exactly against ``N_k`` (Gauss points; P2 nodal points: a linear one);
 on a matching interface ``B_lq = w_q N_l(q)``, today's element, with either rule. Where the
-segments do not cover a slave facet (it overhangs the master surface), the share they miss goes
-to the master where each point projects (:func:`complete_transfer`). With a nodal
+segments do not cover a secondary facet (it overhangs the primary surface), the share they miss goes
+to the primary where each point projects (:func:`complete_transfer`). With a nodal
 rule the ``L_q`` are the dual basis functions of mortar methods (``int L_q N_j = w_q
 delta_qj``). The rule's own mass ``sum_q w_q N(q) N(q)^T`` in place of ``M`` is the same for
 Gauss points on flat facets, but for nodal points it is the lumped mass: ``lambda_h`` was then
-the interpolant of the point values and the master got the consistent-mass forces, not the
-slave's (visibly off the small-sliding pressures on coinciding nodes in ``demos/hertz.py
+the interpolant of the point values and the primary got the consistent-mass forces, not the
+secondary's (visibly off the small-sliding pressures on coinciding nodes in ``demos/hertz.py
 --meshed-apart``).
 """
 
@@ -60,18 +60,19 @@ __all__ = [
 class SegmentTransfer:
     """The transfer part of a :class:`~.interface.SlidingInterface` (the module docstring).
 
-    The slave tractions go to the master nodes through the segments of each slave facet's reach.
+    The secondary tractions go to the primary nodes through the segments of each secondary
+    facet's reach.
 
     Args:
         sides: The interface's sides.
-        points: Its law's points (their weights on the reference slave surface).
+        points: Its law's points (their weights on the reference secondary surface).
         mode: The modelling mode. Axisymmetric: the field projected is the traction times
-            ``2 pi r`` at the points (the reference ``r``, as the slave weights), whose segment
-            integrals are the master's forces.
+            ``2 pi r`` at the points (the reference ``r``, as the secondary weights), whose segment
+            integrals are the primary's forces.
 
     Attributes:
-        projector: ``P`` of :func:`l2_projector` for the slave facets, (ns, nfd_s, nq): the
-            master forces by the segments are those the slave nodes get by the rule (the exact
+        projector: ``P`` of :func:`l2_projector` for the secondary facets, (ns, nfd_s, nq): the
+            primary forces by the segments are those the secondary nodes get by the rule (the exact
             mass; with a nodal rule the dual basis, where the rule's lumped one gave the
             consistent mass).
         in_tangent: Whether the tangent holds the transfer's change with the geometry, ``dB t``
@@ -85,30 +86,37 @@ class SegmentTransfer:
     in_tangent = True
 
     def __init__(self, sides: Sides, points: SlidingPoints, mode: str | None) -> None:
-        s = sides.slave
+        s = sides.secondary
         self.sides = sides
-        self.slave_X0 = sides.X0[s.nodes]  # the positions that weigh the segments' points
-        self.weights = points.weights  # what the slave nodes receive of each point's traction
+        self.secondary_X0 = sides.X0[s.nodes]  # the positions that weigh the segments' points
+        self.weights = points.weights  # what the secondary nodes receive of each point's traction
         pw = point_weight(points.points, mode or "3d").reshape(points.facet_weights.shape)
         self.projector = (
             l2_projector(
-                sides.Ns[0], points.facet_weights, facet_mass(s.cell, s.degree, self.slave_X0)
+                sides.Ns[0], points.facet_weights, facet_mass(s.cell, s.degree, self.secondary_X0)
             )
             * pw[:, None, :]
         )
 
     def pairs(
-        self, Xs: np.ndarray, Ym: np.ndarray, normals: np.ndarray, reach: Reach
+        self,
+        Xs: np.ndarray,
+        Ym: np.ndarray,
+        normals: np.ndarray,
+        reach: Reach,
+        normal_rates: bool = False,
     ) -> tuple[Segments, Transfer]:
-        """The segments of the slave facets within their reach and their transfer matrices.
+        """The segments of the secondary facets within their reach and their transfer matrices.
 
         Args:
-            Xs: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
-            Ym: Current positions of the reach's master facets' nodes, (npf, nfd_m, gdim).
-            normals: Their nodal normals (the step's), likewise.
-            reach: The step's reach: a pair beyond a slave facet's reach is left out.
+            Xs: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
+            Ym: Current positions of the reach's primary facets' nodes, (npf, nfd_m, gdim).
+            normals: Their nodal normals (the step's or the iterate's), likewise.
+            reach: The step's reach: a pair beyond a secondary facet's reach is left out.
+            normal_rates: Whether the tangent takes the normals' change (the iterate's): the
+                3-D segments' rates then have their columns too.
         """
-        s, m = self.sides.slave, self.sides.master
+        s, m = self.sides.secondary, self.sides.primary
         seg = overlap_points(
             Xs,
             s.cell,
@@ -118,27 +126,28 @@ class SegmentTransfer:
             m.cell,
             m.degree,
             self.sides.radius,
-            slave_measure_x=self.slave_X0,
+            secondary_measure_x=self.secondary_X0,
             rates=self.in_tangent,
+            normal_rates=normal_rates,
         )
         keep = seg.converged.copy()
         if seg.size:
-            keep &= reach.within(seg.slave, seg.master)
+            keep &= reach.within(seg.secondary, seg.primary)
         seg = seg.take(keep)
         return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
 
     def complete(self, tr: Transfer, facet: np.ndarray, xi: np.ndarray) -> Transfer:
         """The transfer with the share the segments miss given where the points project.
 
-        :func:`complete_transfer`: the master's forces are the slave's, whatever a slave
-        facet's overhang past the master surface.
+        :func:`complete_transfer`: the primary's forces are the secondary's, whatever a secondary
+        facet's overhang past the primary surface.
 
         Args:
             tr: The segments' transfer (:meth:`pairs`).
-            facet: Each point's master facet (index in the reach; -1: none), (npts,).
+            facet: Each point's primary facet (index in the reach; -1: none), (npts,).
             xi: Its reference coordinates there, (npts, fdim).
         """
-        m = self.sides.master
+        m = self.sides.primary
         return complete_transfer(tr, self.weights, facet, xi, m.cell, m.degree)
 
     def tangent(
@@ -150,14 +159,14 @@ class SegmentTransfer:
         normals: np.ndarray,
         with_normals: bool = False,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The change of the master forces with the geometry (:func:`transfer_tangent`)."""
-        s, m = self.sides.slave, self.sides.master
+        """The change of the primary forces with the geometry (:func:`transfer_tangent`)."""
+        s, m = self.sides.secondary, self.sides.primary
         return transfer_tangent(
             segments,
             self.projector,
             tractions,
             Xs,
-            self.slave_X0,
+            self.secondary_X0,
             s.degree,
             Ym,
             normals,
@@ -168,11 +177,14 @@ class SegmentTransfer:
         )
 
     def complement_tangent(
-        self, g: ContactGeometry, tractions: np.ndarray
+        self,
+        g: ContactGeometry,
+        tractions: np.ndarray,
+        normal_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """The complement's change with the geometry, the tractions held (tangent blocks).
 
-        The complement of :func:`complete_transfer` puts ``-c_q N_l(xi_q) t_q`` on the master
+        The complement of :func:`complete_transfer` puts ``-c_q N_l(xi_q) t_q`` on the primary
         facet point ``q`` projects on. Its change with the tractions is in the points' blocks
         (its pairs are the transfer's); here the rest: ``-c_q t_q dN_l/dxi dxi_q``, with ``dxi_q``
         the projection's (:func:`.projection.projection_jacobian`, the nodal normals held), and
@@ -183,6 +195,10 @@ class SegmentTransfer:
         Args:
             g: The iterate's geometry (its transfer completed).
             tractions: The points' tractions, global components, (ns, nq, gdim).
+            normal_parts: With the iterate's normals, a list the change with the nodal normals
+                is appended to: ``(row facets, normal facets, d(forces)/dn)`` per pair
+                ((k,), (k,), (k, nfm * gdim, nfm * gdim)), chained with the normals' change by
+                the assembly.
 
         Returns:
             Blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
@@ -190,7 +206,7 @@ class SegmentTransfer:
         from .projection import projection_jacobian
 
         tr, sd = g.transfer, self.sides
-        s, m = sd.slave, sd.master
+        s, m = sd.secondary, sd.primary
         nq, gdim, fdim = sd.nq, sd.gdim, sd.gdim - 1
         if tr.complement == 0 or tr.points is None:
             return []
@@ -220,17 +236,23 @@ class SegmentTransfer:
         if k:
             cols = np.concatenate([s.nodes[f_of], nodes[fm]], axis=1)[keep]
             out.append((nodes[fm[keep]], cols, vals[keep].reshape(k, nfm * gdim, -1)))
-        # -N_l(xi) dc_q t_q: the segments of the points' slave facets, one point at a time
-        seg = g.segments.take(np.isin(g.segments.slave, f_of))
+            if normal_parts is not None:  # dxi = R (-gamma sum_l N_l dn_l) besides
+                vn = -np.einsum("m,md,aml,mae,mj->mldje", c, t, B[1:], R, -gam[:, None] * N)
+                normal_parts.append((fm[keep], fm[keep], vn[keep].reshape(k, nfm * gdim, -1)))
+        # -N_l(xi) dc_q t_q: the segments of the points' secondary facets, one point at a time
+        seg = g.segments.take(np.isin(g.segments.secondary, f_of))
         if seg.size == 0:
             return out
         for q in np.unique(q_of):
             tq = np.zeros_like(tractions)
             tq[:, q] = tractions[:, q]
-            ps, pm, vb = self.tangent(seg, tq, g.Xs, g.Ym, g.normals)
+            rates = normal_parts is not None
+            ps, pm, vb = self.tangent(seg, tq, g.Xs, g.Ym, g.normals, rates)
             if ps.size == 0:
                 continue
             dct = vb.reshape(ps.size, nfm, gdim, -1).sum(axis=1)  # d(c_q) t_q, (np, gdim, nc)
+            nxy = (s.nodes.shape[1] + nfm) * gdim
+            dct, dcn = dct[:, :, :nxy], dct[:, :, nxy:]
             mine = np.flatnonzero(q_of == q)
             order = np.argsort(ps, kind="stable")
             lo = np.searchsorted(ps[order], f_of[mine], "left")
@@ -244,6 +266,9 @@ class SegmentTransfer:
             v = -np.einsum("ml,mdc->mldc", N[i], dct[j]).reshape(i.size, nfm * gdim, -1)
             cols = np.concatenate([s.nodes[ps[j]], nodes[pm[j]]], axis=1)
             out.append((nodes[fm[i]], cols, v))
+            if normal_parts is not None:
+                vn = -np.einsum("ml,mdc->mldc", N[i], dcn[j]).reshape(i.size, nfm * gdim, -1)
+                normal_parts.append((fm[i], pm[j], vn))
         return out
 
 
@@ -251,7 +276,7 @@ def l2_projector(N: np.ndarray, w: np.ndarray, mass: np.ndarray | None = None) -
     """The facet-wise projection of the points' values on the facet's Lagrange space.
 
     ``lambda_h = sum_j c_j N_j`` with ``int N_k lambda_h = sum_q w_q N_k(q) t_q`` for every
-    ``N_k``: the field whose moments are the slave nodal forces of the points' values, with the
+    ``N_k``: the field whose moments are the secondary nodal forces of the points' values, with the
     facets' mass matrices ``M = int N N^T`` (``mass``; the module's account). Each row of ``M``
     is made to sum to the rule's ``sum_q w_q N_k(q)`` by its diagonal, so that a uniform field
     is reproduced exactly also on curved facets, where neither integral is exact (on flat ones
@@ -312,24 +337,24 @@ def facet_mass(cell: basix.CellType, degree: int, X: np.ndarray) -> np.ndarray:
 
 @dataclasses.dataclass
 class Transfer:
-    """Master-side transfer matrices of slave facets, one per (slave facet, master facet) pair.
+    """Primary-side transfer matrices of secondary facets, one per (secondary, primary) pair.
 
     Attributes:
-        slave: Slave facet of each pair, (npair,).
-        master: Master facet of each pair, (npair,).
-        B: ``B_lq`` of each pair, (npair, nfd_m, nq): the master nodal force of the pair is
-            ``-B t`` for the tractions ``t`` (nq, gdim) at the slave facet's points.
-        uncovered: The fraction of each slave facet's measure the segments do not cover (the
-            part beyond the master surface), (ns,); ``None`` until :func:`complete_transfer`.
+        secondary: Secondary facet of each pair, (npair,).
+        primary: Primary facet of each pair, (npair,).
+        B: ``B_lq`` of each pair, (npair, nfd_m, nq): the primary nodal force of the pair is
+            ``-B t`` for the tractions ``t`` (nq, gdim) at the secondary facet's points.
+        uncovered: The fraction of each secondary facet's measure the segments do not cover (the
+            part beyond the primary surface), (ns,); ``None`` until :func:`complete_transfer`.
         points: The points of the pairs at the end that carry the complement of
             :func:`complete_transfer`, one pair each (``B`` nonzero in the point's column only),
             (nc,); ``None`` until then.
-        xi: Those points' reference coordinates on their master facets, (nc, fdim).
+        xi: Those points' reference coordinates on their primary facets, (nc, fdim).
         share: Their shares ``c_q`` given so, (nc,).
     """
 
-    slave: np.ndarray
-    master: np.ndarray
+    secondary: np.ndarray
+    primary: np.ndarray
     B: np.ndarray
     uncovered: np.ndarray | None = None
     points: np.ndarray | None = None
@@ -347,38 +372,38 @@ def complete_transfer(
     weights: np.ndarray,
     facet: np.ndarray,
     xi: np.ndarray,
-    master_cell: basix.CellType,
-    master_degree: int,
+    primary_cell: basix.CellType,
+    primary_degree: int,
 ) -> Transfer:
-    """The transfer with each point's missing share given to the master where it projects.
+    """The transfer with each point's missing share given to the primary where it projects.
 
-    The slave nodes receive ``w_q t_q`` of every point (``weights``); the segments give the
-    master ``sum_l B_lq t_q``, the integral of ``L_q`` over the part of the slave facet they
-    cover, which is ``w_q`` only where they cover the whole facet. Where a slave facet overhangs
-    the master surface (or a quadrature's round-off leaves a little), the rest ``c_q = w_q -
-    sum_l B_lq`` of a point that faces the master goes to the master facet it projects on, by
-    the master's basis there: ``B_lq += c_q N_l(xi_q)`` on that pair. Then the master's forces
-    are the slave's to round-off, whatever the overhang (a point facing nothing is open: no
+    The secondary nodes receive ``w_q t_q`` of every point (``weights``); the segments give the
+    primary ``sum_l B_lq t_q``, the integral of ``L_q`` over the part of the secondary facet they
+    cover, which is ``w_q`` only where they cover the whole facet. Where a secondary facet overhangs
+    the primary surface (or a quadrature's round-off leaves a little), the rest ``c_q = w_q -
+    sum_l B_lq`` of a point that faces the primary goes to the primary facet it projects on, by
+    the primary's basis there: ``B_lq += c_q N_l(xi_q)`` on that pair. Then the primary's forces
+    are the secondary's to round-off, whatever the overhang (a point facing nothing is open: no
     traction). Not collective.
 
     Args:
         tr: The segments' transfer (:func:`transfer_matrices`).
-        weights: The points' weights (the slave's, ``2 pi r`` included), (ns * nq,).
-        facet: Each point's master facet (index in the master arrays; -1: none), (ns * nq,).
+        weights: The points' weights (the secondary's, ``2 pi r`` included), (ns * nq,).
+        facet: Each point's primary facet (index in the primary arrays; -1: none), (ns * nq,).
         xi: Its reference coordinates there, (ns * nq, fdim).
-        master_cell: The master facets' basix cell.
-        master_degree: Their Lagrange degree.
+        primary_cell: The primary facets' basix cell.
+        primary_degree: Their Lagrange degree.
 
     Returns:
-        ``tr`` with one more pair per point that faces the master and whose share is not
+        ``tr`` with one more pair per point that faces the primary and whose share is not
         all given (:attr:`Transfer.complement` of them, at the end), and the uncovered fractions.
     """
     nq = tr.B.shape[2]
     ns = weights.size // nq
     w = weights.reshape(ns, nq)
     covered = np.zeros((ns, nq))
-    if tr.slave.size:
-        np.add.at(covered, tr.slave, tr.B.sum(axis=1))
+    if tr.secondary.size:
+        np.add.at(covered, tr.secondary, tr.B.sum(axis=1))
     c = w - covered
     area = w.sum(axis=1)
     uncovered = np.divide(c.sum(axis=1), area, out=np.zeros(ns), where=area > 0)
@@ -386,12 +411,12 @@ def complete_transfer(
     pts = np.flatnonzero((facet >= 0) & (np.abs(c).reshape(-1) > 1e-13 * np.abs(w).reshape(-1)))
     f_of, q_of = pts // nq, pts % nq
     share = c[f_of, q_of]
-    N = facet_basis(master_cell, master_degree, xi[pts])[0]  # (np, nfd_m)
+    N = facet_basis(primary_cell, primary_degree, xi[pts])[0]  # (np, nfd_m)
     Bc = np.zeros((pts.size, N.shape[1], nq))
     Bc[np.arange(pts.size), :, q_of] = share[:, None] * N
     return Transfer(
-        np.concatenate([tr.slave, f_of]),
-        np.concatenate([tr.master, facet[pts]]),
+        np.concatenate([tr.secondary, f_of]),
+        np.concatenate([tr.primary, facet[pts]]),
         np.concatenate([tr.B, Bc]),
         uncovered,
         pts,
@@ -403,65 +428,65 @@ def complete_transfer(
 def transfer_matrices(
     segments: Segments,
     projector: np.ndarray,
-    slave_cell: basix.CellType,
-    slave_degree: int,
-    master_cell: basix.CellType,
-    master_degree: int,
+    secondary_cell: basix.CellType,
+    secondary_degree: int,
+    primary_cell: basix.CellType,
+    primary_degree: int,
 ) -> Transfer:
     """The matrices ``B`` of every pair of facets the segments join (not collective).
 
     Args:
         segments: The segment points (:func:`.segments.overlap_points`).
-        projector: ``P`` of :func:`l2_projector` for the slave facets, (ns, nfd_s, nq).
-        slave_cell: The slave facets' basix cell.
-        slave_degree: Their Lagrange degree.
-        master_cell: The master facets' basix cell.
-        master_degree: Their Lagrange degree.
+        projector: ``P`` of :func:`l2_projector` for the secondary facets, (ns, nfd_s, nq).
+        secondary_cell: The secondary facets' basix cell.
+        secondary_degree: Their Lagrange degree.
+        primary_cell: The primary facets' basix cell.
+        primary_degree: Their Lagrange degree.
     """
     nq = projector.shape[2]
     if segments.size == 0:
-        nfd_m = lagrange_element(master_cell, master_degree).dim
+        nfd_m = lagrange_element(primary_cell, primary_degree).dim
         z = np.zeros(0, dtype=np.int64)
         return Transfer(z, z.copy(), np.zeros((0, nfd_m, nq)))
-    key = segments.slave.astype(np.int64) * (int(segments.master.max()) + 1) + segments.master
+    key = segments.secondary.astype(np.int64) * (int(segments.primary.max()) + 1) + segments.primary
     pairs, pair_of = np.unique(key, return_inverse=True)
-    Ns = facet_basis(slave_cell, slave_degree, segments.xi_slave)[0]  # (np, nfd_s)
-    Nm = facet_basis(master_cell, master_degree, segments.xi_master)[0]  # (np, nfd_m)
-    L = np.einsum("pk,pkq->pq", Ns, projector[segments.slave])  # (np, nq)
+    Ns = facet_basis(secondary_cell, secondary_degree, segments.xi_secondary)[0]  # (np, nfd_s)
+    Nm = facet_basis(primary_cell, primary_degree, segments.xi_primary)[0]  # (np, nfd_m)
+    L = np.einsum("pk,pkq->pq", Ns, projector[segments.secondary])  # (np, nq)
     B = np.zeros((pairs.size, Nm.shape[1], nq))
     contrib = segments.weight[:, None, None] * Nm[:, :, None] * L[:, None, :]
     np.add.at(B, pair_of.reshape(-1), contrib)
     first = np.zeros(pairs.size, dtype=np.int64)
     first[pair_of.reshape(-1)[::-1]] = np.arange(segments.size)[::-1]
-    return Transfer(segments.slave[first], segments.master[first], B)
+    return Transfer(segments.secondary[first], segments.primary[first], B)
 
 
 def transfer_tangent(
     segments: Segments,
     projector: np.ndarray,
     tractions: np.ndarray,
-    slave_x: np.ndarray,
-    slave_ref_x: np.ndarray,
-    slave_degree: int,
-    master_x: np.ndarray,
-    master_normals: np.ndarray,
-    master_degree: int,
-    slave_cell: basix.CellType = basix.CellType.interval,
-    master_cell: basix.CellType = basix.CellType.interval,
+    secondary_x: np.ndarray,
+    secondary_ref_x: np.ndarray,
+    secondary_degree: int,
+    primary_x: np.ndarray,
+    primary_normals: np.ndarray,
+    primary_degree: int,
+    secondary_cell: basix.CellType = basix.CellType.interval,
+    primary_cell: basix.CellType = basix.CellType.interval,
     *,
     with_normals: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The change of the master nodal forces ``-B t`` with the geometry, the tractions held.
+    """The change of the primary nodal forces ``-B t`` with the geometry, the tractions held.
 
     ``B`` (:func:`transfer_matrices`) moves with the nodes through the segments
-    (:func:`.segments.overlap_points`): the pieces of the slave facet (2-D: the preimages of the
-    master vertices on the slave facet, along the vertices' fixed nodal normals; 3-D: the
-    polygons of those preimages clipped by the slave facet, cut into fan triangles), their points
-    on the slave facet and their projections on the master facet (along the master's smooth
-    normal), and their weights. Each is differentiated through
-    :func:`.projection.projection_jacobian` (the nodal normals held, or in 2-D also their own
-    change with ``with_normals``); an end where the slave facet's own end cuts the piece does not
-    move. 2-D reads the pieces'
+    (:func:`.segments.overlap_points`): the pieces of the secondary facet (2-D: the preimages of the
+    primary vertices on the secondary facet, along the vertices' fixed nodal normals; 3-D: the
+    polygons of those preimages clipped by the secondary facet, cut into fan triangles), their
+    points on the secondary facet and their projections on the primary facet (along the primary's
+    smooth normal), and their weights. Each is differentiated through
+    :func:`.projection.projection_jacobian` (the nodal normals held, or also their own
+    change with ``with_normals``); an end where the secondary facet's own end cuts the piece does
+    not move. 2-D reads the pieces'
     ``bounds``; 3-D the segments' ``xi_rate`` and ``weight_rate`` (``overlap_points(...,
     rates=True)``).
 
@@ -469,58 +494,61 @@ def transfer_tangent(
         segments: The segment points, with their 2-D ``bounds``, ``bound_vertex`` and ``unit``,
             or their 3-D ``xi_rate`` and ``weight_rate``.
         projector: ``P`` of :func:`l2_projector`, (ns, nfd_s, nq).
-        tractions: The tractions at the slave facets' points, global components (ns, nq, gdim).
-        slave_x: Current positions of the slave facets' nodes, (ns, nfd_s, gdim).
-        slave_ref_x: Their positions that weigh the points (``slave_measure_x``), likewise.
-        slave_degree: The slave facets' Lagrange degree.
-        master_x: Current positions of the master facets' nodes, (nm, nfd_m, gdim).
-        master_normals: Their nodal normals, (nm, nfd_m, gdim).
-        master_degree: The master facets' Lagrange degree.
-        slave_cell: The slave facets' basix cell (3-D: triangle or quadrilateral).
-        master_cell: The master facets' basix cell.
-        with_normals: 2-D: also the change with the master facet's nodal normals (the pieces'
+        tractions: The tractions at the secondary facets' points, global components (ns, nq, gdim).
+        secondary_x: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
+        secondary_ref_x: Their positions that weigh the points (``secondary_measure_x``), likewise.
+        secondary_degree: The secondary facets' Lagrange degree.
+        primary_x: Current positions of the primary facets' nodes, (nm, nfd_m, gdim).
+        primary_normals: Their nodal normals, (nm, nfd_m, gdim).
+        primary_degree: The primary facets' Lagrange degree.
+        secondary_cell: The secondary facets' basix cell (3-D: triangle or quadrilateral).
+        primary_cell: The primary facets' basix cell.
+        with_normals: Also the change with the primary facet's nodal normals (the pieces'
             ends are the vertices' preimages along them, the points are projected along their
-            interpolation): ``nfd_m`` more columns, ``d(-B t)/dn`` of the facet's nodes.
+            interpolation): ``nfd_m`` more columns, ``d(-B t)/dn`` of the facet's nodes (3-D:
+            the segments' rates must have them, ``overlap_points(..., normal_rates=True)``).
 
     Returns:
-        Slave facet and master facet of each pair (the order of :func:`transfer_matrices`), and
+        Secondary facet and primary facet of each pair (the order of :func:`transfer_matrices`), and
         the blocks ``d(-B t)/dX`` (npair, nfd_m * gdim, (nfd_s + nfd_m [+ nfd_m]) * gdim): rows
-        the master facet's nodes, columns the slave facet's nodes then the master facet's
+        the primary facet's nodes, columns the secondary facet's nodes then the primary facet's
         (node-major) [then its nodal normals].
     """
     from .projection import projection_jacobian
 
-    gdim = slave_x.shape[2]
+    gdim = secondary_x.shape[2]
     fdim = gdim - 1
-    nfs, nfm = slave_x.shape[1], master_x.shape[1]
-    with_normals = with_normals and fdim == 1
+    nfs, nfm = secondary_x.shape[1], primary_x.shape[1]
     ncol = nfs + nfm + (nfm if with_normals else 0)
     if segments.size == 0:
         z = np.zeros(0, dtype=np.int64)
         return z, z.copy(), np.zeros((0, nfm * gdim, ncol * gdim))
-    sl, ma = segments.slave, segments.master
-    Xs, Ym, Nm = slave_x[sl], master_x[ma], master_normals[ma]
+    sl, ma = segments.secondary, segments.primary
+    Xs, Ym, Nm = secondary_x[sl], primary_x[ma], primary_normals[ma]
     npt = sl.size
     if fdim == 1:
-        dxs, dw = _piece_rates_2d(segments, Xs, Ym, Nm, slave_ref_x, slave_degree, ncol)
+        dxs, dw = _piece_rates_2d(segments, Xs, Ym, Nm, secondary_ref_x, secondary_degree, ncol)
     else:
         if segments.xi_rate is None:
             raise ValueError("transfer_tangent: 3-D segments need their rates (rates=True)")
         assert segments.weight_rate is not None  # (made with xi_rate)
-        dxs = segments.xi_rate.reshape(npt, fdim, ncol, gdim)
-        dw = segments.weight_rate.reshape(npt, ncol, gdim)
+        # the rates may have the normals' columns the tangent does not take (at the end)
+        dxs = segments.xi_rate.reshape(npt, fdim, -1, gdim)[:, :, :ncol]
+        dw = segments.weight_rate.reshape(npt, -1, gdim)[:, :ncol]
+        if dxs.shape[2] < ncol:
+            raise ValueError("transfer_tangent: the segments' rates lack the normals' columns")
     w = segments.weight
-    # the point's projection on the master facet
-    Bs = facet_basis(slave_cell, slave_degree, segments.xi_slave, 1)  # values, d/dxi_a
+    # the point's projection on the primary facet
+    Bs = facet_basis(secondary_cell, secondary_degree, segments.xi_secondary, 1)  # values, d/dxi_a
     y = np.einsum("mk,mkd->md", Bs[0], Xs)
     dy_xi = np.einsum("amk,mkd->mda", Bs[1:], Xs)  # (npt, gdim, fdim)
-    xim = segments.xi_master
-    Bm = facet_basis(master_cell, master_degree, xim, 1)
+    xim = segments.xi_primary
+    Bm = facet_basis(primary_cell, primary_degree, xim, 1)
     nt = np.einsum("mk,mkd->md", Bm[0], Nm)
     gam = np.einsum("md,md->m", y - np.einsum("mk,mkd->md", Bm[0], Ym), nt) / np.einsum(
         "md,md->m", nt, nt
     )
-    Ainv, _ = projection_jacobian(y, Ym, Nm, master_cell, master_degree, xim, gam)
+    Ainv, _ = projection_jacobian(y, Ym, Nm, primary_cell, primary_degree, xim, gam)
     Dm = Ainv[:, :fdim, :]  # (npt, fdim, gdim)
     dxm = np.zeros((npt, fdim, ncol, gdim))
     dxm[:, :, :nfs, :] = Bs[0][:, None, :, None] * Dm[:, :, None, :]
@@ -528,7 +556,7 @@ def transfer_tangent(
     if with_normals:  # A d(xi, gamma) = ... - sum_l N_l gamma dn_l
         dxm[:, :, nfs + nfm :, :] = -(gam[:, None] * Bm[0])[:, None, :, None] * Dm[:, :, None, :]
     dxm += np.einsum("mad,mdb,mbce->mace", Dm, dy_xi, dxs)
-    # the traction field at the point and its rate along the slave facet
+    # the traction field at the point and its rate along the secondary facet
     P = projector[sl]  # (npt, nfs, nq)
     tq = tractions[sl]  # (npt, nq, gdim)
     lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
@@ -553,20 +581,20 @@ def _piece_rates_2d(
     Xs: np.ndarray,
     Ym: np.ndarray,
     Nm: np.ndarray,
-    slave_ref_x: np.ndarray,
-    slave_degree: int,
+    secondary_ref_x: np.ndarray,
+    secondary_degree: int,
     ncol: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """2-D: the points' ``d xi_s`` (npt, 1, ncol, gdim) and ``d w`` (npt, ncol, gdim).
 
-    From the pieces' ends: the preimages of the master vertices (``bound_vertex``), fixed where
-    the slave facet's own end cuts the piece.
+    From the pieces' ends: the preimages of the primary vertices (``bound_vertex``), fixed where
+    the secondary facet's own end cuts the piece.
     """
     from .projection import projection_jacobian
 
     cell = basix.CellType.interval
     npt, nfs, gdim = Xs.shape
-    sl = segments.slave
+    sl = segments.secondary
     bounds, bound_vertex, unit = segments.bounds, segments.bound_vertex, segments.unit
     assert bounds is not None and bound_vertex is not None and unit is not None  # (2-D's)
     # the pieces' ends: d(end) = c . dX over the columns (npt, 2, ncol, gdim)
@@ -580,9 +608,9 @@ def _piece_rates_2d(
         xv = Ym[moving, v]
         nv = np.repeat(Nm[moving, v][:, None, :], nfs, axis=1)
         xi = bounds[moving, e][:, None]
-        Ns = facet_basis(cell, slave_degree, xi)[0]
+        Ns = facet_basis(cell, secondary_degree, xi)[0]
         gam = np.einsum("md,md->m", xv - np.einsum("mk,mkd->md", Ns, Xs[moving]), nv[:, 0])
-        Ainv, Ns = projection_jacobian(xv, Xs[moving], nv, cell, slave_degree, xi, gam)
+        Ainv, Ns = projection_jacobian(xv, Xs[moving], nv, cell, secondary_degree, xi, gam)
         D = Ainv[:, 0, :]  # d xi = D . (dx_v - sum_k N_k dX_k)
         dend[moving, e, :nfs, :] = -Ns[:, :, None] * D[:, None, :]
         dend[moving, e, nfs + v, :] += D
@@ -591,9 +619,9 @@ def _piece_rates_2d(
     dxs = (1.0 - unit)[:, None, None] * dend[:, 0] + unit[:, None, None] * dend[:, 1]
     span = bounds[:, 1] - bounds[:, 0]
     # the point's weight: span * w * |X_ref,xi|(xi_s)
-    Bs = facet_basis(cell, slave_degree, segments.xi_slave, 2)  # values, d/dxi, d2/dxi2
-    t = np.einsum("mk,mkd->md", Bs[1], slave_ref_x[sl])
-    t2 = np.einsum("mk,mkd->md", Bs[2], slave_ref_x[sl])
+    Bs = facet_basis(cell, secondary_degree, segments.xi_secondary, 2)  # values, d/dxi, d2/dxi2
+    t = np.einsum("mk,mkd->md", Bs[1], secondary_ref_x[sl])
+    t2 = np.einsum("mk,mkd->md", Bs[2], secondary_ref_x[sl])
     jac_rate = np.einsum("md,md->m", t, t2) / np.einsum("md,md->m", t, t)  # d ln|t| / dxi
     dw = segments.weight[:, None, None] * (
         (dend[:, 1] - dend[:, 0]) / span[:, None, None] + jac_rate[:, None, None] * dxs
