@@ -204,10 +204,9 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     checks = {
         "Lame before the push": r[0, 6] < 5e-3,
         "balance": np.abs(r[:, 2] + r[:, 3]).max() < 1e-8 * np.abs(r[:, 2]).max(),
-        # gross sliding: F = mu F_n where every point slips (F_n integrated in the points' frames,
-        # which follow the hub's deformed surface: measured 7.2e-4 below it after one facet,
-        # 1.1e-3 after two; with the step's normals 7e-7 and 4e-4)
-        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 2e-3,
+        # gross sliding: F = mu F_n where every point slips (measured 7e-7 after one facet,
+        # 4e-4 below it after two: points at the overlap's ends)
+        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 1e-3,
         "out of the hub, open": r[:, 5].max() == 0,
         "pushed out": abs(r[-1, 0] - 2.0) < 1e-12,
         "newton": r[:, 1].max() <= 5,

@@ -135,10 +135,12 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
-    #: Whether the primary's nodal normals are those of every iterate (the current configuration,
-    #: the default: a slide's forces then do not depend on the step) rather than the step's, held
-    #: (their derivative is in the tangent either way).
-    normals_per_iteration = True
+    #: Whether the primary's nodal normals are those of every iterate (the current configuration:
+    #: a slide's forces then do not depend on the step; docs/reference/finite_sliding.md) rather
+    #: than the step's, held (their derivative is in the tangent either way). Held by default:
+    #: with the iterate's normals a stepped run's predicted start can cycle points between stick
+    #: and slip until the retry (the Hertz contact meshed apart on DOLFINx 0.11).
+    normals_per_iteration = False
 
     def __init__(
         self,
