@@ -211,6 +211,7 @@ def test_one_package_list_for_both_stacks(tmp_path):
     for stack in ("trixie", "sid"):
         names = packages_of(stack, real, tmp_path)
         assert "python3-dolfinx" in names and "python3-pip" in names, names
+        assert "mypy" in names, names  # ./run lint's type checker, on each stack
         assert len(names) == len(set(names)), names
 
 
