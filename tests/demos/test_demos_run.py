@@ -67,6 +67,7 @@ SMALL = {
         ["coulomb.csv", "fretting.png"],
     ),
     "block_sliding_far": (["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]),
+    "stick_slip": (["--steps", "100"], ["history.csv", "stick_slip.png"]),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],
