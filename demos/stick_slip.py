@@ -224,9 +224,10 @@ def run_point(velocity: float, t_end: float) -> dict:
 # ## The cycles
 #
 # A cycle runs from one slip event's velocity peak to the next (peaks above twice the driving
-# velocity); its period is their distance in time, its stress drop the range of the friction
-# traction over it. The last full cycle of each run is compared: the first ones, from a rested
-# contact whose static friction is fully recovered, are longer.
+# velocity and above half the run's highest: at a slow drive the block rings after an event, its
+# smaller velocity peaks are not events); its period is their distance in time, its stress drop the
+# range of the friction traction over it. The last full cycle of each run is compared: the first
+# ones, from a rested contact whose static friction is fully recovered, are longer.
 
 
 # %%
@@ -234,6 +235,8 @@ def last_cycle(run: dict, velocity: float) -> tuple[float, float] | None:
     """Period (s) and stress drop (MPa) of the last full cycle; None without two slip events."""
     t, v, f = run["t"], run["v"], run["f_t"]
     i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] > 2 * velocity)) + 1
+    if i.size:  # the slip events' peaks, not the ringing after an event (its smaller peaks)
+        i = i[v[i] >= 0.5 * v[i].max()]
     if i.size < 2:
         return None
     a, b = i[-2], i[-1]
