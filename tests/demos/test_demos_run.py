@@ -67,6 +67,7 @@ SMALL = {
         ["coulomb.csv", "fretting.png"],
     ),
     "block_sliding_far": (["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]),
+    "stick_slip": (["--steps", "100"], ["history.csv", "stick_slip.png"]),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],
@@ -143,7 +144,18 @@ def check_calibration(out, text):
     assert (out / "calibration.png").read_bytes()[:4] == b"\x89PNG"
 
 
-CHECKS = {"calibration": check_calibration}
+def check_stick_slip(out, text):
+    """The smallest stick-slip run (a coarse step, 100 a spring period): the FE block's last
+    cycle within 5 % of the spring-slider's, period and stress drop (the independent check, FE
+    against the rate equations within 2 % at the default step: tests/fem/test_dynamics.py)."""
+    found = re.findall(r"^(period|stress drop): FE (\S+) \S+, spring-slider (\S+) ", text, re.M)
+    assert [f[0] for f in found] == ["period", "stress drop"], text
+    for _, fe, point in found:
+        assert float(fe) == pytest.approx(float(point), rel=0.05), text
+    assert (out / "stick_slip.png").read_bytes()[:4] == b"\x89PNG"
+
+
+CHECKS = {"calibration": check_calibration, "stick_slip": check_stick_slip}
 NUMPY_ONLY = ("calibration", "paper_figures")
 """What a demo's program run is checked for beyond its exit, its output and its files."""
 
