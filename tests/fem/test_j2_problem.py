@@ -228,7 +228,8 @@ def test_a_j2_block_on_an_elastic_base_in_a_scene(comm, shared_tmp):
         ),
         (
             lambda s: s["materials"]["primary"].update(sigma_y=1.0, model="elastic"),
-            r"scene.materials.primary: keys must be \['E', 'nu'\] \(optional: \['model'\]\)",
+            r"scene.materials.primary: keys must be \['E', 'nu'\] "
+            r"\(optional: \['density', 'model'\]\)",
         ),
         (
             lambda s: s.update(mode="plane_stress"),
