@@ -364,6 +364,30 @@ def test_steady_sliding_without_a_critical_stiffness():
     assert all(ref.growth_rate(p, k) < 0.0 for k in (1.0, 10.0, 100.0, 1e4))
     with pytest.raises(CaseError, match="field 'velocity' must be > 0, got 0"):
         steady_sliding(LAW, FN, 0.0, MASS)
+    with pytest.raises(CaseError, match=r"field 'damping' must be >= 0, got -1\.0"):
+        steady_sliding(LAW, FN, 0.1, MASS, -1.0)
+    with pytest.raises(CaseError, match="needs the subloading law, got StaticKinetic"):
+        steady_sliding(StaticKinetic(1e3, 1e3, 0.6, 0.4), FN, 0.1, MASS)  # type: ignore[arg-type]
+    soft = SubloadingLaw(**{**ref.STICK_SLIP_LAW, "alpha_t": 100.0})  # below g kappa (mu - mu_k)
+    with pytest.raises(
+        CaseError, match=r"steady sliding at velocity 0\.1 snaps back: alpha_t = 100"
+    ):
+        steady_sliding(soft, FN, 0.1, MASS)
+
+
+def test_stick_slip_cycles_of_a_known_signal():
+    """A velocity with a peak of 1 every 2 s (and ringing peaks of 0.3 between), a friction
+    falling by 5 in each event: periods 2, drops 5; no events, no cycles."""
+    t = np.linspace(0.0, 10.0, 10001)
+    phase = (t - 0.5) % 2.0
+    v = np.exp(-(((phase - 1.0) / 0.05) ** 2)) + 0.3 * np.exp(-(((phase - 1.5) / 0.02) ** 2))
+    f = 20.0 + 5.0 * np.where(phase < 1.0, phase, 0.0)
+    start, T, drop = stick_slip_cycles(t, v, -f, 0.01)
+    np.testing.assert_allclose(start, [1.5, 3.5, 5.5, 7.5])
+    np.testing.assert_allclose(T, 2.0)
+    np.testing.assert_allclose(drop, 5.0, rtol=1e-3)
+    empty = stick_slip_cycles(t, np.full_like(t, 0.01), f, 0.01)
+    assert all(a.size == 0 for a in empty)
 
 
 DAMPED = 5.0  # MPa s/mm: the dashpot of the settled cycles (the stick mode's ringing dies out)
