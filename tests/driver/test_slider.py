@@ -331,6 +331,9 @@ def test_limit_cycle_against_the_rate_equations(V, t_end):
 # The package's steady-sliding analysis, settled limit cycles, hold-time recovery
 
 
+DAMPED = 5.0  # MPa s/mm: the dashpot of the settled cycles (the stick mode's ringing dies out)
+
+
 @pytest.mark.parametrize(("V", "eta"), [(0.1, 1.0), (0.1, 5.0), (0.03, 5.0), (0.3, 2.0)])
 def test_the_critical_stiffness_of_steady_sliding_against_the_eigenvalues(V, eta):
     """``driver.steady_sliding`` (the Routh-Hurwitz closed form) against the stiffness where the
@@ -348,6 +351,28 @@ def test_the_critical_stiffness_of_steady_sliding_against_the_eigenvalues(V, eta
     assert ss.onset_period == pytest.approx(2 * np.pi / omega, rel=1e-6)
     for k in (0.9 * kc, 1.1 * kc):  # unstable below, stable above
         assert (ref.growth_rate(p, k) > 0.0) == (k < ss.critical_stiffness)
+
+
+@pytest.mark.parametrize("V", [0.05, 0.1])
+def test_the_onset_from_rest_brackets_the_critical_stiffness(V):
+    """The full nonlinear runs from a rested contact (a large perturbation, not a linear one),
+    with the dashpot eta = 5 MPa s/mm: at 0.98 ``k_c`` stick-slip does not die out (the
+    friction's range over each 10 s of 40 does not shrink), at 1.02 ``k_c`` it decays to steady
+    sliding (each range under 0.7 of the one before): the onset lies within 2 % of the analysis'
+    ``k_c``."""
+    ss = steady_sliding(LAW, FN, V, MASS, DAMPED)
+    ranges = {}
+    for ratio in (0.98, 1.02):
+        k = ratio * ss.critical_stiffness
+        s = run_slider(SliderCase(LAW, MASS, k, V, FN, 40.0, damping=DAMPED)).samples
+        t = s["t"]
+        ranges[ratio] = np.array(
+            [np.ptp(s["f_t"][(t >= a) & (t <= a + 10.0)]) for a in (10, 20, 30)]
+        )
+    print(f"V = {V}: k_c {ss.critical_stiffness:.6g} MPa/mm; ranges (MPa) {ranges}")
+    below, above = ranges[0.98], ranges[1.02]
+    assert np.all(below[1:] > 0.9 * below[:-1]) and below[-1] > 0.5
+    assert np.all(above[1:] < 0.7 * above[:-1])
 
 
 def test_steady_sliding_without_a_critical_stiffness():
@@ -388,9 +413,6 @@ def test_stick_slip_cycles_of_a_known_signal():
     np.testing.assert_allclose(drop, 5.0, rtol=1e-3)
     empty = stick_slip_cycles(t, np.full_like(t, 0.01), f, 0.01)
     assert all(a.size == 0 for a in empty)
-
-
-DAMPED = 5.0  # MPa s/mm: the dashpot of the settled cycles (the stick mode's ringing dies out)
 
 
 @pytest.mark.parametrize(("V", "cycles"), [(0.1, 12), (0.15, 12)])
