@@ -311,23 +311,26 @@ def figure(fe: dict, point: dict, velocity: float, outdir: Path) -> Path:
 #   start after the first third of the run (the settled ones), with their scatter. The cycles
 #   do not settle to one limit cycle: after each event the slider rings on the interface's
 #   elastic layer (the stick mode, `sqrt((alpha_t + k) / m)` = 71 rad/s) and that ringing,
-#   undamped while it sticks, sets where the next event starts, so the cycles scatter by a few
+#   hardly damped while it sticks, sets where the next event starts, so the cycles scatter by a few
 #   percent; their mean is what a long run measures. The time step's share: the same mean at
 #   half the longest step, at the run's driving velocity.
-# * **Hold-time recovery** (slide-hold-slide): the contact sliding steadily at `V` stopped (the
-#   slider at rest, its spring holding the steady friction) for a hold of `t`, then driven at
-#   `V` again. In the hold nothing slips and `mu` recovers as the law says,
-#   `mu_s - (mu_s - mu_ss) exp(-xi t)`; the static friction regained is the friction's peak on
-#   reloading. It is well below the recovered strength `g mu(t)`: the subloading surface
-#   reaches the yield surface only after some slip, which weakens `mu` again (by `kappa` per mm).
+# * **Hold-time recovery** (slide-hold-slide, through a stiff spring of `HOLD_STIFFNESS`, a
+#   test frame): the contact sliding steadily at `V` stopped (the slider at rest, its spring
+#   holding the steady friction) for a hold of `t`, then driven at `V` again. In the hold
+#   nothing slips and `mu` recovers as the law says, `mu_s - (mu_s - mu_ss) exp(-xi t)`; the
+#   static friction regained is the friction's peak on reloading. It is well below the
+#   recovered strength `g mu(t)`: the subloading surface reaches the yield surface only after
+#   some slip, which weakens `mu` again (at `kappa (mu - mu_k)` per mm). (Through the soft
+#   spring the reload lasts about `1 / xi` itself, and `mu` recovers as much while it reloads
+#   as in the hold: the peak then hardly depends on the hold.)
 # * **Stiffness**: steady sliding of this law with inertia is unstable at every stiffness
 #   without damping (`docs/reference/spring_slider.md`); with a dashpot to the base
-#   (`DASHPOT` = 5 MPa s/mm, the radiation damping of fault models) it has a critical
+#   (`DASHPOT` = 5 MPa s/mm, enough to damp the stick mode between events) it has a critical
 #   stiffness `k_c` (`driver.steady_sliding`, the linear stability analysis, checked against
 #   the eigenvalues in the tests). Driven from rest at `V` = 0.1 mm/s, the friction's range
 #   once settled (the last 10 s of 40) against `k / k_c`: stick-slip below `k_c`, steady
 #   sliding above; the amplitude does not shrink to zero as `k` nears `k_c` (the oscillation
-#   appears at a finite size: a subcritical onset).
+#   appears at a finite size, as at a subcritical onset).
 
 # %%
 VELOCITIES = (0.03, 0.1, 0.3, 1.0)  # mm/s, the sweep's driving velocities
