@@ -474,7 +474,7 @@ def report_study(st: dict) -> None:
         eT, eD = (100 * c[q + "_std"] / c[q] / np.sqrt(c["cycles"]) for q in ("period", "drop"))
         print(
             f"  half the step at V = {c['velocity']:g}: period {dT:+.2f} %, drop {dD:+.2f} % "
-            f"(the means' standard errors: {eT:.2f} %, {eD:.2f} %)"
+            f"(the means' own spread, sd / sqrt(n): {eT:.2f} %, {eD:.2f} %)"
         )
     h = st["holds"]
     print(
