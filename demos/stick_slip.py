@@ -35,7 +35,7 @@ friction's fall in a slip event) of the last full cycle are the slider's within 
 the default 200 steps a spring period, 0.3 % and 0.5 % at `--steps 400`: the FE step's error (a
 transient's cycles are sensitive to the step; the slider, the reference, takes a fine one).
 
-The slider then carries a material-point study the FE run would take hours for: the period and
+The slider then carries a material-point study far beyond the FE run's reach: the period and
 stress drop of the settled cycles against the driving velocity (mean and scatter over many
 cycles, and their change with half the time step), the static friction regained after a hold
 (slide-hold-slide) against the law's recovery, and the transition from stick-slip to steady
@@ -431,13 +431,19 @@ def study(velocity: float, comm) -> dict | None:
     """The three studies and the time step's share, spread over the ranks; rank 0 gets them."""
     tasks = [("sweep", V, 1) for V in VELOCITIES] + [("sweep", velocity, 2)]
     tasks += [("hold", h, 0) for h in HOLDS] + [("stiffness", r, 0) for r in STIFFNESS_RATIOS]
-    done = {}
-    for i, (kind, x, refine) in enumerate(tasks):
-        if i % comm.size == comm.rank:
-            if kind == "sweep":
-                done[i] = sweep_case(x, refine)
-            else:
-                done[i] = hold_case(x) if kind == "hold" else stiffness_case(x)
+
+    def share() -> dict:  # this rank's cases
+        done = {}
+        for i, (kind, x, refine) in enumerate(tasks):
+            if i % comm.size == comm.rank:
+                if kind == "sweep":
+                    done[i] = sweep_case(x, refine)
+                else:
+                    done[i] = hold_case(x) if kind == "hold" else stiffness_case(x)
+        return done
+
+    # a case failing on one rank raises on every rank (none waits in the gather)
+    done = collective(comm, share, "the material-point study", root=None, error=RuntimeError)
     parts = comm.gather(done, root=0)
     if comm.rank != 0:
         return None
