@@ -76,7 +76,15 @@ from .case import (
 from .checks import CaseError
 from .cli import main
 from .run import DriverResult, RunawayError, fields, run_case
-from .slider import SliderCase, SliderResult, parse_slider, run_slider
+from .slider import (
+    SliderCase,
+    SliderResult,
+    SteadySliding,
+    parse_slider,
+    run_slider,
+    steady_sliding,
+    stick_slip_cycles,
+)
 
 __all__ = [
     "DEFAULT_STEPS_PER_MM",
@@ -88,6 +96,7 @@ __all__ = [
     "RunawayError",
     "SliderCase",
     "SliderResult",
+    "SteadySliding",
     "fields",
     "load_case",
     "main",
@@ -96,4 +105,6 @@ __all__ = [
     "run_case",
     "run_cases",
     "run_slider",
+    "steady_sliding",
+    "stick_slip_cycles",
 ]

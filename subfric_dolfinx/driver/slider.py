@@ -52,6 +52,7 @@ Case (JSON)::
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable
@@ -70,8 +71,11 @@ __all__ = [
     "STEPS_PER_PERIOD",
     "SliderCase",
     "SliderResult",
+    "SteadySliding",
     "parse_slider",
     "run_slider",
+    "steady_sliding",
+    "stick_slip_cycles",
 ]
 
 STEPS_PER_PERIOD = 100.0  # the default dt_max (docs/reference/spring_slider.md: accuracy)
@@ -221,6 +225,10 @@ class SliderResult:
         wall_time: Seconds spent.
         complete: Whether ``t_end`` was reached.
         stability_lost: Always None (dynamics continue through the quasi-static limit).
+        end_state: The interface point's state at ``t_end`` (``run_slider``'s ``state`` of a
+            run that continues this one).
+        end_motion: The slider's displacement (mm) and velocity (mm/s) at ``t_end`` (the
+            continuing run's ``u0`` and ``v0``).
     """
 
     samples: dict[str, np.ndarray]
@@ -232,6 +240,8 @@ class SliderResult:
     wall_time: float
     complete: bool = True
     stability_lost: None = None
+    end_state: InterfaceState | None = None
+    end_motion: tuple[float, float] = (0.0, 0.0)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary."""
@@ -280,6 +290,16 @@ class _Point:
         if res.status[0] == int(Status.FAILED):
             raise FloatingPointError
         return float(res.traction[0, 0]), float(res.tangent[0, 0, 0]), res
+
+    def current(self) -> InterfaceState:
+        """The last accepted state, one point."""
+        if not self.fast:
+            return self.state
+        up, mu, r, f = self.s
+        arrays = {"up": np.array([[up]]), "mu": np.array([mu]), "r": np.array([r])}
+        if f is not None:
+            arrays["f"] = np.array([f])
+        return InterfaceState(arrays, 1)
 
     def accept(self, pending: Any) -> tuple[int, list[float]]:
         """Take the state of a trial; return its status and the sampled internal variables."""
@@ -463,6 +483,8 @@ def run_slider(
         n_rej,
         pt.calls,
         time.perf_counter() - t0,
+        end_state=pt.current(),
+        end_motion=(u, v),
     )
 
 
@@ -472,3 +494,125 @@ def _solve_at(pt: _Point, u: float, dt: float) -> tuple[float, float, Any]:
         return pt.trial(u, dt)
     except FloatingPointError:
         raise CaseError("the return map fails at the initial state of the slider") from None
+
+
+@dataclasses.dataclass(frozen=True)
+class SteadySliding:
+    """Steady sliding of a spring-slider with the subloading law, and its linear stability.
+
+    Linearised about steady sliding at ``V`` (``r = 1``, ``mu = mu_ss``), the law's rate
+    equations with the mass, the spring and the dashpot give a decoupled decay of ``r`` and,
+    for the spring's stretch, the slider's velocity and ``mu``, the characteristic cubic
+    ``m s^3 + (m c2 + eta) s^2 + (k - k_w + eta c2) s + k c2 = 0`` with ``k_w = g c1``
+    (docs/reference/spring_slider.md). Its Routh-Hurwitz condition gives the critical stiffness
+    ``k_c = (m c2 + eta) (k_w - eta c2) / eta``: steady sliding is unstable below it, stable
+    above.
+
+    Attributes:
+        velocity: The driving velocity ``V`` (mm/s).
+        mu: ``mu_ss = (kappa mu_k V + xi mu_s) / (kappa V + xi)``, the recovery's balance of
+            the weakening (MPa).
+        traction: The friction traction of steady sliding, ``g(f_n) mu_ss`` (MPa).
+        weakening: ``k_w = g c1``, the friction's fall per unit slip at steady sliding
+            (MPa/mm): the quasi-static critical stiffness (without inertia).
+        c2: The rate at which ``mu`` returns to ``mu_ss`` after a perturbation (1/s).
+        critical_stiffness: ``k_c`` (MPa/mm); ``inf`` without damping (steady sliding is then
+            unstable at every stiffness), ``0`` when the dashpot stabilises every stiffness.
+        onset_period: The period of the oscillation that grows from steady sliding at ``k_c``,
+            ``2 pi / omega_c`` with ``omega_c^2 = k_c c2 / (m c2 + eta)`` (s; ``nan`` without a
+            finite, positive ``k_c``).
+        f_n: The normal stress (MPa).
+    """
+
+    velocity: float
+    mu: float
+    traction: float
+    weakening: float
+    c2: float
+    critical_stiffness: float
+    onset_period: float
+    f_n: float
+
+    def state(self) -> InterfaceState:
+        """The interface point sliding steadily (``run_slider``'s ``state``).
+
+        ``up = 0``, ``mu_ss``, ``r = 1``, the traction ``(g mu_ss, f_n)``.
+        """
+        arrays = {"up": np.zeros((1, 1)), "mu": np.array([self.mu]), "r": np.array([1.0])}
+        arrays["f"] = np.array([[self.traction, self.f_n]])
+        return InterfaceState(arrays, 1)
+
+
+def steady_sliding(
+    law: SubloadingLaw, f_n: float, velocity: float, mass: float, damping: float = 0.0
+) -> SteadySliding:
+    """Steady sliding at ``velocity`` and its critical stiffness (:class:`SteadySliding`).
+
+    Args:
+        law: The subloading law (absolute form of ``kappa`` and ``xi``).
+        f_n: The constant normal stress (MPa, > 0).
+        velocity: The driving velocity (mm/s, > 0).
+        mass: The mass per unit area (tonne/mm^2, > 0).
+        damping: The dashpot ``eta`` (MPa s/mm, >= 0).
+
+    Raises:
+        CaseError: A bad value (named), or a law whose steady sliding snaps back
+            (``alpha_t <= g kappa (mu_ss - mu_k)``: no stable quasi-static sliding).
+    """
+    if not isinstance(law, SubloadingLaw):
+        raise CaseError(f"steady_sliding needs the subloading law, got {type(law).__name__}")
+    f_n = _positive("f_n", f_n)
+    V = _positive("velocity", velocity)
+    m = _positive("mass", mass)
+    eta = _positive("damping", damping, allow_zero=True)
+    g = -math.expm1(-law.c_n * f_n)
+    kappa, xi = float(law.kappa), float(law.xi)
+    mu = (kappa * law.mu_k * V + xi * law.mu_s) / (kappa * V + xi)
+    weak = kappa * (mu - law.mu_k)
+    den = law.alpha_t - g * weak  # the rate form's denominator at r = 1 (U(1) = 0)
+    if not den > 0.0:
+        raise CaseError(
+            f"steady sliding at velocity {V!r} snaps back: alpha_t = {law.alpha_t!r} <= "
+            f"g kappa (mu_ss - mu_k) = {g * weak:.6g} MPa/mm"
+        )
+    lam_v = law.alpha_t / den  # the slip rate's change with the slider's velocity
+    lam_mu = g * (xi + kappa * V) / den  # ... and with mu
+    c1 = weak * lam_v
+    c2 = kappa * V + xi + weak * lam_mu
+    k_w = g * c1
+    if eta == 0.0:
+        kc = math.inf
+    else:
+        kc = max((m * c2 + eta) * (k_w - eta * c2) / eta, 0.0)
+    period = math.nan
+    if 0.0 < kc < math.inf:
+        period = 2.0 * math.pi / math.sqrt(kc * c2 / (m * c2 + eta))
+    return SteadySliding(V, mu, g * mu, k_w, c2, kc, period, f_n)
+
+
+def stick_slip_cycles(
+    t: np.ndarray, v: np.ndarray, f_t: np.ndarray, velocity: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The full stick-slip cycles of a history: their start, period and stress drop.
+
+    A cycle runs from one slip event's velocity peak to the next: the peaks above twice the
+    driving velocity and above half the history's highest (after an event a slider may ring on
+    the interface's elastic layer: its smaller velocity peaks are not events). Its period is
+    the peaks' distance in time, its stress drop the range of ``|f_t|`` over it.
+
+    Args:
+        t: Times (s), increasing.
+        v: The slider's velocity (mm/s).
+        f_t: The friction traction (MPa).
+        velocity: The driving velocity (mm/s).
+
+    Returns:
+        ``(start, period, drop)``, one entry a cycle (empty without two events).
+    """
+    t, v, f = (np.asarray(a, dtype=float) for a in (t, v, f_t))
+    f = np.abs(f)
+    i = np.flatnonzero((v[1:-1] > v[:-2]) & (v[1:-1] >= v[2:]) & (v[1:-1] > 2.0 * velocity)) + 1
+    if i.size:
+        i = i[v[i] >= 0.5 * v[i].max()]
+    drops = [float(np.ptp(f[a : b + 1])) for a, b in itertools.pairwise(i)]
+    return t[i[:-1]], np.diff(t[i]), np.array(drops)

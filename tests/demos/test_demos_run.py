@@ -67,7 +67,10 @@ SMALL = {
         ["coulomb.csv", "fretting.png"],
     ),
     "block_sliding_far": (["--n", "4", "--slide", "20"], ["history.csv", "block_sliding_far.png"]),
-    "stick_slip": (["--steps", "100"], ["history.csv", "stick_slip.png"]),
+    "stick_slip": (
+        ["--steps", "100"],
+        ["history.csv", "stick_slip.png", "stick_slip_study.png"],
+    ),
     "two_bodies_api": (
         ["--n", "4", "--dt", "0.1", "--fields", "vtx"],
         ["history.csv", "fields/interface_points.xdmf", "fields/interface.bp"],
@@ -147,12 +150,32 @@ def check_calibration(out, text):
 def check_stick_slip(out, text):
     """The smallest stick-slip run (a coarse step, 100 a spring period): the FE block's last
     cycle within 5 % of the spring-slider's, period and stress drop (the independent check, FE
-    against the rate equations within 2 % at the default step: tests/fem/test_dynamics.py)."""
+    against the rate equations within 2 % at the default step: tests/fem/test_dynamics.py);
+    the material-point study printed and drawn, its trends as the docstring says (its numbers:
+    tests/driver/test_slider.py checks the slider against the rate equations)."""
     found = re.findall(r"^(period|stress drop): FE (\S+) \S+, spring-slider (\S+) ", text, re.M)
     assert [f[0] for f in found] == ["period", "stress drop"], text
     for _, fe, point in found:
         assert float(fe) == pytest.approx(float(point), rel=0.05), text
     assert (out / "stick_slip.png").read_bytes()[:4] == b"\x89PNG"
+    # the material-point study: settled cycles at each velocity; the peak after a hold grows
+    # with the hold and stays below the recovered strength; stick-slip below k_c only
+    sweep = re.findall(
+        r"^  V = (\S+) mm/s: period (\S+) \+- (\S+) s, .* \((\d+) cycles\)", text, re.M
+    )
+    assert [v for v, *_ in sweep] == ["0.03", "0.1", "0.3", "1"], text
+    assert all(int(n) >= 4 and float(sd) < 0.05 * float(T) for _, T, sd, n in sweep), text
+    assert re.search(r"^  half the step at V = 0.3: period [-+]\d", text, re.M), text
+    rows = {
+        m[0]: [float(x) for x in m[1].split()]
+        for m in re.findall(r"^  (hold|peak|g mu|k/k_c|range)((?: +\S+)+)$", text, re.M)
+    }
+    peak, strength = np.array(rows["peak"]), np.array(rows["g mu"])
+    assert np.all(np.diff(peak[1:]) >= 0.0) and peak[-1] > peak[0] + 1.0, text
+    assert np.all(peak[1:] < strength[1:]), text
+    ratio, amplitude = np.array(rows["k/k_c"]), np.array(rows["range"])
+    assert np.all(amplitude[ratio < 1.0] > 1.0) and np.all(amplitude[ratio > 1.05] < 0.01), text
+    assert (out / "stick_slip_study.png").read_bytes()[:4] == b"\x89PNG"
 
 
 CHECKS = {"calibration": check_calibration, "stick_slip": check_stick_slip}

@@ -125,12 +125,21 @@ def critical_stiffness(p: Params, lo: float, hi: float) -> float:
     return brentq(lambda k: growth_rate(p, k), lo, hi, xtol=1e-12 * hi, rtol=1e-13)
 
 
-def integrate_ode(p: Params, k: float, t_end: float, x0: float = 0.0, max_step: float = np.inf):
+def integrate_ode(
+    p: Params,
+    k: float,
+    t_end: float,
+    x0: float = 0.0,
+    max_step: float = np.inf,
+    y0: tuple[float, float, float, float] | None = None,
+    t0: float = 0.0,
+):
     """The stick-slip history from rest by the rate equations (``solve_ivp``, Radau).
 
     ``y = (u, v, up, mu)``, ``f_t = alpha_t (u - up)``, ``r = f_t / (g mu)``; plastic loading
     ``lam = max(num, 0) / den`` (``num``, ``den`` of :func:`rates`). Starts from a virgin rested
-    contact (``mu = mu_s``, no slip) at rest with the load point at ``x0``.
+    contact (``mu = mu_s``, no slip) at rest with the load point at ``x0``, or from ``y0`` at
+    ``t0`` (the load point at ``x0 + V t`` all along).
     """
     g = p.g
 
@@ -151,8 +160,8 @@ def integrate_ode(p: Params, k: float, t_end: float, x0: float = 0.0, max_step: 
 
     return solve_ivp(
         f,
-        (0.0, t_end),
-        [0.0, 0.0, 0.0, p.mu_s],
+        (t0, t_end),
+        [0.0, 0.0, 0.0, p.mu_s] if y0 is None else list(y0),
         method="Radau",
         rtol=1e-9,
         atol=1e-12,

@@ -12,6 +12,11 @@
   a dashpot there is one: from the eigenvalues, against the onset found by simulation (2 %).
 * The limit cycle of stick-slip (period, stress drop) at two driving velocities against the
   rate equations integrated by ``scipy.integrate.solve_ivp`` (Radau) from the same start (2 %).
+* ``driver.steady_sliding`` (the critical stiffness in closed form, the onset's period) against
+  the eigenvalues; with a dashpot, the settled limit cycle (averaged over the cycles of a run's
+  second half, which agree to 0.3 %) against the rate equations' at two velocities (1 %);
+  slide-hold-slide: the recovery in the hold against the law's closed form and the friction's
+  peak after it against the rate equations (0.5 %).
 * Bad cases: each bad value named.
 """
 
@@ -35,7 +40,15 @@ from subfric_dolfinx.constitutive import (
     SubloadingLaw,
     Variable,
 )
-from subfric_dolfinx.driver import CaseError, SliderCase, parse_case, run_case, run_slider
+from subfric_dolfinx.driver import (
+    CaseError,
+    SliderCase,
+    parse_case,
+    run_case,
+    run_slider,
+    steady_sliding,
+    stick_slip_cycles,
+)
 from tests.driver import slider_reference as ref
 
 pytestmark = pytest.mark.numpy_only
@@ -312,6 +325,165 @@ def test_limit_cycle_against_the_rate_equations(V, t_end):
     )
     assert T == pytest.approx(T_ref, rel=0.02)
     assert drop == pytest.approx(drop_ref, rel=0.02)
+
+
+# --------------------------------------------------------------------------------------------
+# The package's steady-sliding analysis, settled limit cycles, hold-time recovery
+
+
+DAMPED = 5.0  # MPa s/mm: the dashpot of the settled cycles (the stick mode's ringing dies out)
+
+
+@pytest.mark.parametrize(("V", "eta"), [(0.1, 1.0), (0.1, 5.0), (0.03, 5.0), (0.3, 2.0)])
+def test_the_critical_stiffness_of_steady_sliding_against_the_eigenvalues(V, eta):
+    """``driver.steady_sliding`` (the Routh-Hurwitz closed form) against the stiffness where the
+    largest real part of the reference Jacobian's eigenvalues crosses zero, and its onset
+    period against the crossing pair's frequency."""
+    p = dataclasses.replace(params(V), damping=eta)
+    ss = steady_sliding(LAW, FN, V, MASS, eta)
+    assert ss.mu == pytest.approx(p.mu_steady(), rel=1e-13)
+    assert ss.traction == pytest.approx(p.g * p.mu_steady(), rel=1e-13)
+    kc = ref.critical_stiffness(p, 10.0, 5000.0)
+    ev = np.linalg.eigvals(ref.jacobian(p, kc))
+    omega = np.abs(ev[np.argmax(ev.real)].imag)
+    print(f"V = {V}, eta = {eta}: k_c {ss.critical_stiffness:.8g} MPa/mm (eigenvalues {kc:.8g})")
+    assert ss.critical_stiffness == pytest.approx(kc, rel=1e-9)
+    assert ss.onset_period == pytest.approx(2 * np.pi / omega, rel=1e-6)
+    for k in (0.9 * kc, 1.1 * kc):  # unstable below, stable above
+        assert (ref.growth_rate(p, k) > 0.0) == (k < ss.critical_stiffness)
+
+
+@pytest.mark.parametrize("V", [0.05, 0.1])
+def test_the_onset_from_rest_brackets_the_critical_stiffness(V):
+    """The full nonlinear runs from a rested contact (a large perturbation, not a linear one),
+    with the dashpot eta = 5 MPa s/mm: at 0.98 ``k_c`` stick-slip does not die out (the
+    friction's range over each 10 s of 40 does not shrink), at 1.02 ``k_c`` it decays to steady
+    sliding (each range under 0.7 of the one before): the onset lies within 2 % of the analysis'
+    ``k_c``."""
+    ss = steady_sliding(LAW, FN, V, MASS, DAMPED)
+    ranges = {}
+    for ratio in (0.98, 1.02):
+        k = ratio * ss.critical_stiffness
+        s = run_slider(SliderCase(LAW, MASS, k, V, FN, 40.0, damping=DAMPED)).samples
+        t = s["t"]
+        ranges[ratio] = np.array(
+            [np.ptp(s["f_t"][(t >= a) & (t <= a + 10.0)]) for a in (10, 20, 30)]
+        )
+    print(f"V = {V}: k_c {ss.critical_stiffness:.6g} MPa/mm; ranges (MPa) {ranges}")
+    below, above = ranges[0.98], ranges[1.02]
+    assert np.all(below[1:] > 0.9 * below[:-1]) and below[-1] > 0.5
+    assert np.all(above[1:] < 0.7 * above[:-1])
+
+
+def test_steady_sliding_without_a_critical_stiffness():
+    """Undamped: ``k_c = inf`` (unstable at every stiffness); a dashpot above ``k_w / c2``
+    (here V = 1 mm/s, eta = 2 MPa s/mm): ``k_c = 0``, the eigenvalues stable at every
+    stiffness; a bad value named."""
+    ss = steady_sliding(LAW, FN, 0.1, MASS)
+    assert ss.critical_stiffness == math.inf and math.isnan(ss.onset_period)
+    J = ref.jacobian(params(0.1), 1.0)
+    assert ss.weakening == pytest.approx(-J[2, 1] * (-J[1, 2] * MASS), rel=1e-12)
+    ss = steady_sliding(LAW, FN, 1.0, MASS, 2.0)
+    assert ss.critical_stiffness == 0.0
+    p = dataclasses.replace(params(1.0), damping=2.0)
+    assert all(ref.growth_rate(p, k) < 0.0 for k in (1.0, 10.0, 100.0, 1e4))
+    with pytest.raises(CaseError, match="field 'velocity' must be > 0, got 0"):
+        steady_sliding(LAW, FN, 0.0, MASS)
+    with pytest.raises(CaseError, match=r"field 'damping' must be >= 0, got -1\.0"):
+        steady_sliding(LAW, FN, 0.1, MASS, -1.0)
+    with pytest.raises(CaseError, match="needs the subloading law, got StaticKinetic"):
+        steady_sliding(StaticKinetic(1e3, 1e3, 0.6, 0.4), FN, 0.1, MASS)  # type: ignore[arg-type]
+    soft = SubloadingLaw(**{**ref.STICK_SLIP_LAW, "alpha_t": 100.0})  # below g kappa (mu - mu_k)
+    with pytest.raises(
+        CaseError, match=r"steady sliding at velocity 0\.1 snaps back: alpha_t = 100"
+    ):
+        steady_sliding(soft, FN, 0.1, MASS)
+
+
+def test_stick_slip_cycles_of_a_known_signal():
+    """A velocity with a peak of 1 every 2 s (and ringing peaks of 0.3 between), a friction
+    falling by 5 in each event: periods 2, drops 5; no events, no cycles."""
+    t = np.linspace(0.0, 10.0, 10001)
+    phase = (t - 0.5) % 2.0
+    v = np.exp(-(((phase - 1.0) / 0.05) ** 2)) + 0.3 * np.exp(-(((phase - 1.5) / 0.02) ** 2))
+    f = 20.0 + 5.0 * np.where(phase < 1.0, phase, 0.0)
+    start, T, drop = stick_slip_cycles(t, v, -f, 0.01)
+    np.testing.assert_allclose(start, [1.5, 3.5, 5.5, 7.5])
+    np.testing.assert_allclose(T, 2.0)
+    np.testing.assert_allclose(drop, 5.0, rtol=1e-3)
+    empty = stick_slip_cycles(t, np.full_like(t, 0.01), f, 0.01)
+    assert all(a.size == 0 for a in empty)
+
+
+@pytest.mark.parametrize(("V", "cycles"), [(0.1, 12), (0.15, 12)])
+def test_settled_limit_cycle_with_a_dashpot_against_the_rate_equations(V, cycles):
+    """With a dashpot (eta = 5 MPa s/mm; k = 50 MPa/mm, below ``k_c``) stick-slip settles to
+    one limit cycle: the slider's cycles of the run's second half agree to 0.3 % with each
+    other, and their mean period and stress drop with the rate equations' cycles (solve_ivp,
+    two cycles from the slider's state in the stick before its third last: the attractor, not
+    the slider's trajectory) within 1 %. (Undamped, the cycles do not settle: the ringing of the
+    stick mode on the interface's elastic layer sets each event's start, so they scatter.)"""
+    k = 50.0
+    p = dataclasses.replace(params(V), damping=DAMPED)
+    ss = steady_sliding(LAW, FN, V, MASS, DAMPED)
+    assert k < ss.critical_stiffness
+    T0 = 2 * np.pi * np.sqrt(MASS / k)
+    t_end = cycles * 0.26 / V  # (the period is about 0.26 / V s)
+    case = SliderCase(LAW, MASS, k, V, FN, t_end, dt_max=T0 / 400, damping=DAMPED)
+    s = run_slider(case).samples
+    start, T, drop = stick_slip_cycles(s["t"], s["v"], s["f_t"], V)
+    late = start > 0.5 * t_end
+    assert late.sum() >= 4
+    for x in (T[late], drop[late]):
+        assert np.ptp(x) < 3e-3 * x.mean()
+    i = int(np.searchsorted(s["t"], start[-3] - 0.5 * T[-1]))
+    y0 = (s["u"][i], s["v"][i], s["up"][i], s["mu"][i])
+    o = ref.integrate_ode(p, k, start[-3] + 2.3 * T[-1], max_step=5e-3, y0=y0, t0=s["t"][i])
+    assert o.status == 0
+    _, T_ref, drop_ref = stick_slip_cycles(o.t, o.y[1], LAW.alpha_t * (o.y[0] - o.y[2]), V)
+    print(
+        f"V = {V}: settled period {T[late].mean():.5g} s (rate equations {T_ref.mean():.5g}), "
+        f"stress drop {drop[late].mean():.5g} MPa ({drop_ref.mean():.5g}); "
+        f"{late.sum()} and {T_ref.size} cycles"
+    )
+    assert T_ref.size >= 2
+    assert T[late].mean() == pytest.approx(T_ref.mean(), rel=0.01)
+    assert drop[late].mean() == pytest.approx(drop_ref.mean(), rel=0.01)
+
+
+@pytest.mark.parametrize("hold", [0.2, 2.0])
+def test_hold_time_recovery_against_the_rate_equations(hold):
+    """Slide-hold-slide: the contact sliding steadily at V = 0.1 mm/s stopped (at rest, the
+    spring holding the kinetic traction) for ``hold`` s, then driven at V again. In the hold
+    ``mu`` recovers as the law's closed form ``mu_s - (mu_s - mu_ss) exp(-xi t)`` (elastic:
+    nothing slips); the friction's first peak after it against the rate equations (solve_ivp
+    from the held state) within 0.5 %, between the steady traction and ``g mu_s`` (``mu``
+    still recovers while the spring reloads, and weakens with the slip before the peak)."""
+    V, k = 0.1, 50.0
+    ss = steady_sliding(LAW, FN, V, MASS)
+    u0 = ss.traction / LAW.alpha_t
+    x0 = u0 + ss.traction / k
+    res = run_slider(SliderCase(LAW, MASS, k, 0.0, FN, hold, x0=x0), state=ss.state(), u0=u0)
+    mu_h = LAW.mu_s - (LAW.mu_s - ss.mu) * math.exp(-LAW.xi * hold)
+    assert res.samples["mu"][-1] == pytest.approx(mu_h, rel=1e-12)
+    assert res.samples["up"][-1] == 0.0 and abs(res.end_motion[1]) < 1e-12
+    p = params(V)
+    t_end = (p.g * LAW.mu_s - ss.traction) / (k * V)  # past the peak: the spring at g mu_s
+    reload = SliderCase(LAW, MASS, k, V, FN, t_end, x0=x0, dt_max=2e-3)
+    s = run_slider(reload, state=res.end_state, u0=res.end_motion[0]).samples
+    f = s["f_t"]
+    i = np.flatnonzero((f[1:-1] > f[:-2]) & (f[1:-1] >= f[2:]))[0] + 1
+    y0 = (res.end_motion[0], 0.0, 0.0, mu_h)
+    o = ref.integrate_ode(p, k, t_end, x0=x0, max_step=2e-3, y0=y0)
+    assert o.status == 0
+    f_ref = LAW.alpha_t * (o.y[0] - o.y[2])
+    j = np.flatnonzero((f_ref[1:-1] > f_ref[:-2]) & (f_ref[1:-1] >= f_ref[2:]))[0] + 1
+    print(
+        f"hold {hold} s: peak {f[i]:.6g} MPa at {s['t'][i]:.4g} s (rate equations {f_ref[j]:.6g} "
+        f"at {o.t[j]:.4g} s); steady {ss.traction:.6g}, g mu after the hold {p.g * mu_h:.6g}"
+    )
+    assert f[i] == pytest.approx(f_ref[j], rel=5e-3)
+    assert ss.traction < f[i] < p.g * LAW.mu_s
 
 
 # --------------------------------------------------------------------------------------------
