@@ -314,6 +314,11 @@ def main() -> int:
     if args.child:
         child(args.child, Path(args.dir))
         return 0
+    try:
+        stamps.require_record_stack()
+    except stamps.WrongStack as e:
+        print(f"demo_results: {e}", file=sys.stderr)
+        return 2
     results = args.results.resolve()
     data = json.loads(results.read_text()) if results.exists() and args.only else {"demos": {}}
     stamp = stamps.make()

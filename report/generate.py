@@ -100,6 +100,11 @@ def main() -> int:
         "(development only; the README then states it)",
     )
     args = ap.parse_args()
+    try:
+        stamps.require_record_stack()
+    except stamps.WrongStack as e:
+        print(f"report: {e}", file=sys.stderr)
+        return 2
     data = HERE / "data"
     old = [p for p in HERE.glob("*.png") if not p.name.startswith(SCALING)]
     for f in [HERE / "README.md", *old]:

@@ -37,6 +37,38 @@ MEASURED = (
 """The code a record may have measured (git pathspecs): a stamp lists its uncommitted changes
 (not those of the records themselves, which a run writes as it goes)."""
 
+RECORD_DOLFINX = "0.9."
+"""The records are made on the default stack (Debian 13, DOLFINx 0.9: ``./run refresh``) and
+re-checked on it: ``tests/demos/test_records.py`` marks its re-runs ``records``, which the other
+stack's legs deselect (the other stack's results are checked against closed forms and references
+by the rest of the suite, not against another stack's records)."""
+
+
+class WrongStack(RuntimeError):
+    """Records made, or about to be made, on another stack than :data:`RECORD_DOLFINX`'s."""
+
+
+def on_record_stack() -> bool:
+    """Whether this process runs the DOLFINx the records are made on (imports DOLFINx)."""
+    import dolfinx
+
+    return dolfinx.__version__.startswith(RECORD_DOLFINX)
+
+
+def require_record_stack() -> None:
+    """Refuse to make records on another stack than the records' own.
+
+    Raises:
+        WrongStack: this process runs another DOLFINx (the message says which, and what to run).
+    """
+    if not on_record_stack():
+        import dolfinx
+
+        raise WrongStack(
+            f"the records are made on DOLFINx {RECORD_DOLFINX}x (SUBFRIC_STACK=trixie), not on "
+            f"DOLFINx {dolfinx.__version__}: run ./run refresh without SUBFRIC_STACK=sid"
+        )
+
 
 class NoHistory(RuntimeError):
     """There is no git repository (or no git) to stamp results with."""

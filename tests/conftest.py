@@ -15,6 +15,9 @@
 * ``@pytest.mark.two_ranks``: what only 2 ranks show (records made on 2 ranks, in
   ``test_records.py``; a race between ranks): run in the 2-rank leg only, deselected (reported as
   such) on 1 and 3 ranks.
+* ``@pytest.mark.records``: a re-run of a record (``test_records.py``): the records are made on
+  the default stack (``report.stamp.RECORD_DOLFINX``) and re-checked there; on the other stack
+  these are deselected (reported as such).
 * ``@pytest.mark.e2e``: an end-to-end check (a program in a subprocess, an ``mpirun`` job, a pip
   install; every test in ``tests/demos`` and ``tests/verification``: whole demos, the docs, the
   records, results against their references). ``./run test-fast`` leaves them out: the unit
@@ -74,10 +77,14 @@ def pytest_addoption(parser):
 @pytest.hookimpl(tryfirst=True)  # the marks it adds are there for -m
 def pytest_collection_modifyitems(config, items):
     size = MPI.COMM_WORLD.size
+    from report.stamp import on_record_stack
+
+    other_stack = any("records" in item.keywords for item in items) and not on_record_stack()
 
     def off(item) -> bool:
         return (
-            (size > 1 and "numpy_only" in item.keywords)
+            (other_stack and "records" in item.keywords)
+            or (size > 1 and "numpy_only" in item.keywords)
             or (size > 2 and "three_ranks" not in item.keywords)
             or (size != 2 and "two_ranks" in item.keywords)
         )

@@ -22,6 +22,8 @@ are never compared.
   the suite's ranks (the 1-rank study and the 2-rank joint runs are recorded apart), their
   histories compared with the record, and the quoted orders re-derived with the re-run
   histories in place of the recorded ones (the finer runs, minutes each, enter as recorded).
+* **The stack**: the records are made on the default stack (``report.stamp.RECORD_DOLFINX``)
+  and these re-runs (the ``records`` mark) run on it; the other stack's legs deselect them.
 * **The report's stability cases**: each is a test of ``tests/verification/test_stability.py``
   (which asserts its outcome); here the record's cases are those cases, every one recorded as
   passed, as the README's count says.
@@ -249,12 +251,14 @@ def _recheck(key: str, tmp) -> None:
     assert kinds == sorted({w.split(":")[0] for w in record["warnings"]}), (key, now["warnings"])
 
 
+@pytest.mark.records
 @pytest.mark.two_ranks
 @pytest.mark.parametrize("key", _recheck_keys(numpy_only=False))
 def test_an_fe_demo_gives_its_record(key, shared_tmp):
     _recheck(key, shared_tmp)
 
 
+@pytest.mark.records
 @pytest.mark.serial
 @pytest.mark.parametrize("key", _recheck_keys(numpy_only=True))
 def test_a_numpy_demo_gives_its_record(key, tmp_path):
@@ -305,6 +309,7 @@ MP_CHEAP_RUNS = 3
 record made on a loaded machine selects the same runs)."""
 
 
+@pytest.mark.records
 @pytest.mark.serial
 def test_the_material_point_study_gives_its_record():
     """This law's and Coulomb's cheap runs, both paths: their errors, then the quoted orders
@@ -377,6 +382,7 @@ def _cheap(runs: list[dict]) -> list[dict]:
     ]
 
 
+@pytest.mark.records
 @pytest.mark.leaves_validity(
     PenetrationWarning,
     reason="the report's FE study: the paper's Sec. 7 set (500 MPa/mm) on the pad, as published",
@@ -435,3 +441,41 @@ def test_the_stability_record_is_the_tests_cases():
         fe = json.loads((REPORT / f"stability_fe_{n}.json").read_text())
         assert sorted(fe) == sorted(c.name for c in FE_CASES)
         assert all(c["passed"] for c in fe.values()), n
+
+
+# --------------------------------------------------------------------------------------------
+# The records' stack
+
+
+@pytest.mark.serial
+def test_the_records_are_rechecked_on_their_own_stack_only():
+    """The re-runs (the ``records`` mark) are collected where the records are made, and only
+    there (a collection in a child process: this session's own may be filtered with -k)."""
+    import subprocess
+    import sys
+
+    from report.stamp import on_record_stack
+
+    p = subprocess.run(
+        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-m", "records",
+         "-p", "no:cacheprovider", str(ROOT / "tests" / "demos" / "test_records.py")],
+        capture_output=True, text=True, cwd=ROOT,
+    )  # fmt: skip
+    collected = [line for line in p.stdout.splitlines() if "::" in line]
+    assert bool(collected) == on_record_stack(), p.stdout[-2000:] + p.stderr[-2000:]
+    if on_record_stack():
+        assert any("test_a_numpy_demo_gives_its_record" in c for c in collected)
+        assert any("test_the_fe_study_gives_its_record" in c for c in collected)
+
+
+@pytest.mark.serial
+def test_records_are_refused_on_another_stack(monkeypatch):
+    import dolfinx
+
+    from report import stamp
+
+    monkeypatch.setattr(dolfinx, "__version__", "0.11.0")
+    with pytest.raises(stamp.WrongStack, match=r"DOLFINx 0\.9\.x .* not on DOLFINx 0\.11\.0"):
+        stamp.require_record_stack()
+    monkeypatch.setattr(dolfinx, "__version__", "0.9.0")
+    stamp.require_record_stack()
