@@ -39,6 +39,7 @@ from subfric_dolfinx.constitutive import (
     Status,
     SubloadingLaw,
     Variable,
+    preset,
 )
 from subfric_dolfinx.driver import (
     CaseError,
@@ -566,3 +567,52 @@ def test_the_command_line_runs_a_slider_case(tmp_path, capsys):
     bad.write_text(json.dumps(dict(GOOD, slider=dict(GOOD["slider"], mass=-1))))
     assert main([str(bad)]) == 2
     assert "field 'slider.mass' must be > 0, got -1" in capsys.readouterr().err
+
+
+# -- stability: extreme slip events (issue 38 item 6) -----------------------------------------
+EXTREME = {
+    # a light slider on a stiff spring driven fast: slip events every few microseconds
+    "fast": ({}, {"mass": 1e-9, "stiffness": 1e4, "velocity": 10.0, "t_end": 2e-4}),
+    # thrown at 1 m/s against its own friction, then stuck
+    "impact": ({}, {"mass": 1e-6, "stiffness": 50.0, "velocity": 0.0, "v0": 1e3, "t_end": 0.01}),
+    # released from a spring stretched to twice the static strength: slip at metres a second
+    "release": ({}, {"mass": 1e-6, "stiffness": 50.0, "velocity": 0.0, "x0": 1.0, "t_end": 0.01}),
+    # an interface 1e8 MPa/mm stiff (the preset's 1,000-fold)
+    "stiff": ({"alpha_t": 1e8}, {"mass": 1e-6, "stiffness": 50.0, "velocity": 1.0, "t_end": 0.05}),
+    # with a dashpot
+    "damped": ({}, {"mass": 1e-6, "stiffness": 1e3, "velocity": 1, "damping": 5.0, "t_end": 0.02}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(EXTREME))
+def test_extreme_slip_events_stay_finite_and_balance_their_energy(name):
+    """Extreme slip events of the spring-slider: no NaN, the run complete, and the energy
+    accounts of Newmark's average acceleration closed at every step (kinetic + spring energy =
+    the initial energy + the load point's work - the friction's and the dashpot's work, each by
+    the trapezoidal rule: an identity of the scheme, so to round-off and Newton's tolerance),
+    the friction's plastic work never negative (no energy from the interface)."""
+    params, slider = EXTREME[name]
+    case = {
+        "law": "subloading",
+        "params": {"preset": "sec7", **params},
+        "control": "slider",
+        "slider": {"f_n": 300.0, **slider},
+    }
+    res = run_slider(case)
+    s = res.samples
+    assert res.complete and all(np.all(np.isfinite(a)) for a in s.values())
+    m, k, eta = slider["mass"], slider["stiffness"], slider.get("damping", 0.0)
+    u, v, x, f = s["u"], s["v"], s["x_load"], s["f_t"]
+
+    def work(force, path):  # the trapezoidal rule's running integral
+        return np.concatenate([[0.0], np.cumsum(0.5 * (force[1:] + force[:-1]) * np.diff(path))])
+
+    w_load, w_friction, w_dashpot = work(k * (x - u), x), work(f, u), work(eta * v, u)
+    energy = 0.5 * m * v**2 + 0.5 * k * (x - u) ** 2
+    scale = max(energy.max(), w_load.max(), np.abs(w_friction).max())
+    balance = energy - energy[0] - w_load + w_friction + w_dashpot
+    assert np.abs(balance).max() <= 1e-9 * scale, np.abs(balance).max() / scale
+    alpha_t = params.get("alpha_t", preset("sec7").alpha_t)
+    plastic = w_friction - 0.5 * (f**2 - f[0] ** 2) / alpha_t
+    assert plastic.min() >= -1e-9 * scale, plastic.min() / scale
+    assert np.abs(v).max() > 0.5 * abs(slider.get("v0", 0.0)) and plastic[-1] > 0.0
