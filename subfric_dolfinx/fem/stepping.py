@@ -61,6 +61,7 @@ __all__ = [
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
+    "StepperMemory",
     "describe_attempt",
     "interface_activity",
 ]
@@ -270,6 +271,39 @@ class StepControl:
     max_steps: int = MAX_STEPS
 
 
+@dataclasses.dataclass(frozen=True)
+class StepperMemory:
+    """What decides a :class:`LoadStepper`'s next steps beyond the problem's state.
+
+    A checkpoint stores it (:func:`~subfric_dolfinx.io.write_checkpoint`) and a restart gives it
+    back (:meth:`LoadStepper.restore`), so that the restarted run takes the steps the
+    uninterrupted run takes, with the same first guesses.
+
+    Attributes:
+        t: Time of the last converged step.
+        step: Index of the last converged step.
+        dt: The step outside holds that the next step starts from.
+        easy: Consecutive easy steps so far (the growth of ``dt``, :class:`StepControl`).
+        hold_step: The step of the current hold after a cut (``None``: ``hold_dt``).
+        keep_retry: Whether the current segment's steps start with the retry options
+            (``sticky_retry``).
+        retry_run: Consecutive converged steps started with the retry options.
+        increment: The last converged step's displacement increment (owned values; the
+            predictor's), ``None`` if none or without the predictor.
+        increment_dt: Its step length (0 without an increment).
+    """
+
+    t: float
+    step: int
+    dt: float
+    easy: int = 0
+    hold_step: float | None = None
+    keep_retry: bool = False
+    retry_run: int = 0
+    increment: np.ndarray | None = None
+    increment_dt: float = 0.0
+
+
 class LoadStepper:
     """Adaptive load stepping through a loading program.
 
@@ -440,27 +474,40 @@ class LoadStepper:
         self.solver.x.array_w[:] = self._x_converged.array_r
         self.problem.revert()
 
-    def restore(
-        self,
-        t: float,
-        step: int,
-        dt: float,
-        easy: int = 0,
-        increment: np.ndarray | None = None,
-        increment_dt: float = 0.0,
-    ) -> None:
+    def memory(self) -> StepperMemory:
+        """What decides the next steps (:class:`StepperMemory`; the increment is not copied)."""
+        inc = self.increment if self.predictor and self.increment is not None else None
+        return StepperMemory(
+            t=self.t,
+            step=self.step,
+            dt=self.dt,
+            easy=self.easy,
+            hold_step=self._hold_step,
+            keep_retry=self._keep_retry,
+            retry_run=self._retry_run,
+            increment=inc,
+            increment_dt=self.increment_dt if inc is not None else 0.0,
+        )
+
+    def restore(self, memory: StepperMemory) -> None:
         """Continue from a restored state: ``problem.u`` and the interface state must hold it.
 
-        ``increment``, ``increment_dt``: the last step's displacement increment (owned values)
-        and length, for the predictor (``None``: the first step starts from the state itself).
+        ``memory``: the stepper's (:meth:`memory`) at the restored step; its ``increment`` may
+        hold ghost values beyond the owned ones. The step outside holds is at most ``dt_max``
+        (which a restart may change).
         """
-        self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
+        m = memory
+        self.t, self.step, self.easy = float(m.t), int(m.step), int(m.easy)
+        self.dt = min(float(m.dt), self.dt_max)
+        self._hold_step = None if m.hold_step is None else float(m.hold_step)
+        self._keep_retry, self._retry_run = bool(m.keep_retry), int(m.retry_run)
         n = self.problem.layout.n_owned
         assert self.solver.x is not None  # (a live solver)
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
-        self.increment = None if increment is None else np.array(increment[:n], dtype=float)
-        self.increment_dt = float(increment_dt) if increment is not None else 0.0
+        inc = m.increment
+        self.increment = None if inc is None else np.array(inc[:n], dtype=float)
+        self.increment_dt = float(m.increment_dt) if inc is not None else 0.0
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).

@@ -1,7 +1,7 @@
 """Checkpoint and restart of a load-stepped run, in one HDF5 file written and read in slabs.
 
 A checkpoint holds the whole solver state with partition-independent keys, so a run written on 2
-ranks restarts on 1 or 2 (format version 3; version 2 is still read):
+ranks restarts on 1 or 2 (format version 4; versions 3 and 2 are still read):
 
 * ``/displacement``: values per (original cell index, cell-local dof, component), shape
   ``(n_cells, n_dofs_per_cell, gdim)``;
@@ -28,8 +28,11 @@ ranks restarts on 1 or 2 (format version 3; version 2 is still read):
   quasi-static one only from one without it (no new format version: a checkpoint without it
   reads as before);
 * attributes: ``format``, ``version``, ``time``, ``step``, ``dt``, ``easy`` (the step-growth
-  counter of the stepper), ``law`` (the first interface's), ``program`` and ``settings`` (JSON:
-  what the runner passed, e.g. the scene's materials, boundary conditions and loads),
+  counter of the stepper), ``stepper`` (JSON: the rest of what decides the stepper's next steps,
+  :class:`~subfric_dolfinx.fem.stepping.StepperMemory`: ``hold_step``, ``keep_retry``,
+  ``retry_run``; with the increment, a restart takes the uninterrupted run's steps from the same
+  first guesses), ``law`` (the first interface's), ``program`` and ``settings`` (JSON: what the
+  runner passed, e.g. the scene's materials, boundary conditions and loads),
   ``n_cells``, ``degree``, ``gdim``, and ``geometry``: the mesh's fingerprint
   (:func:`geometry_fingerprint`: weighted sums over the cells of their nodes' coordinates, the
   same on any partition to round-off; a checkpoint without it is of an earlier version and is
@@ -45,6 +48,9 @@ refused by every reader as incomplete; any failure is a
 :class:`CheckpointWriteError` on every rank (a :class:`CheckpointError` and an
 :class:`~.collective.OutputError`), naming the file and the OS error.
 
+Format version 3 (still read) lacked the attribute ``stepper``: a restart from it takes the
+memory's defaults (no cut hold step, the solver's own options first), as a run whose checkpoint
+was written outside a hold and off the retry options continues anyway.
 Format version 2 (still read) stored the first interface apart, at ``/interface`` and
 ``/point_data`` (its points counted by the top-level attribute ``n_points``, its law the top-level
 ``law``), and only the further ones under ``/interfaces/<name>``.
@@ -77,6 +83,7 @@ from mpi4py import MPI
 
 from ..compat import geometry_dofmap
 from ..constitutive import law_description
+from ..fem import StepperMemory
 from ..meshing.groups import canonical_names
 from ..values import NotAnInteger, NotANumber, NotFinite, finite_float, short_repr, strict_int
 from .collective import OutputError, collective
@@ -98,9 +105,10 @@ __all__ = [
 # -- The format and its validation on read
 
 FORMAT = "subfric-dolfinx checkpoint"
-VERSION = 3
-READS = (2, 3)
-"""The format versions this code reads: 3 (every interface under ``/interfaces``) and 2."""
+VERSION = 4
+READS = (2, 3, 4)
+"""The format versions this code reads: 4 (the stepper's memory in ``stepper``), 3 (every
+interface under ``/interfaces``) and 2."""
 V2_FIRST = ""
 """The key of format 2's first interface (stored without its name) among the interfaces read."""
 
@@ -108,6 +116,9 @@ INTS = {"step": 0, "easy": 0, "n_cells": 1, "degree": 1, "gdim": 2}
 """Integer attributes and their smallest valid value (format 2 adds ``n_points``, >= 0)."""
 FLOATS = ("time", "dt")
 JSONS = ("law", "program", "settings")
+STEPPER = {"hold_step": None, "keep_retry": False, "retry_run": 0}
+"""The attribute ``stepper``'s keys (format 4) and the values a checkpoint of format 2 or 3
+restores (:class:`~subfric_dolfinx.fem.stepping.StepperMemory`'s defaults)."""
 FINGERPRINT = 8
 """Weighted sums in the geometry fingerprint (and one more: the sum of magnitudes)."""
 FINGERPRINT_TOL = 1e-10
@@ -163,6 +174,36 @@ def _json(name: str, key: str, v: Any) -> str:
     return v
 
 
+def _stepper(name: str, text: str | None) -> dict[str, Any]:
+    """The attribute ``stepper`` (format 4) validated, or :data:`STEPPER` (formats 2 and 3)."""
+    if text is None:
+        return dict(STEPPER)
+    obj = json.loads(text)
+    if set(obj) != set(STEPPER):
+        raise CheckpointError(
+            f"checkpoint {name}: attribute 'stepper' has the keys {sorted(obj)}, expected "
+            f"{sorted(STEPPER)}"
+        )
+    hold, keep, run = obj["hold_step"], obj["keep_retry"], obj["retry_run"]
+    if hold is not None:
+        hold = _float(name, "stepper.hold_step", hold)
+        if hold <= 0:
+            raise CheckpointError(
+                f"checkpoint {name}: attribute 'stepper.hold_step' = {hold} is not > 0"
+            )
+    if not isinstance(keep, bool):
+        raise CheckpointError(
+            f"checkpoint {name}: attribute 'stepper.keep_retry' is {short_repr(keep)}, not a "
+            "boolean"
+        )
+    if isinstance(run, bool):
+        raise CheckpointError(
+            f"checkpoint {name}: attribute 'stepper.retry_run' is {short_repr(run)}, not an integer"
+        )
+    run = _int(name, "stepper.retry_run", run)
+    return {"hold_step": hold, "keep_retry": keep, "retry_run": run}
+
+
 def _dataset(f: Any, name: str, key: str, shape: tuple[int | None, ...]) -> Any:
     """The dataset ``key``, a float array of ``shape`` (``None``: any size)."""
     import h5py
@@ -201,16 +242,18 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
     if not isinstance(version, int | np.integer) or int(version) not in READS:
         raise CheckpointError(
             f"checkpoint {name} has version {short_repr(version)}, this code reads versions "
-            f"{' and '.join(str(v) for v in READS)}"
+            f"{', '.join(str(v) for v in READS[:-1])} and {READS[-1]}"
         )
     ints = {**INTS, "n_points": 0} if int(version) == 2 else INTS
-    missing = [k for k in (*ints, *FLOATS, *JSONS) if k not in f.attrs]
+    jsons = (*JSONS, "stepper") if int(version) >= 4 else JSONS
+    missing = [k for k in (*ints, *FLOATS, *jsons) if k not in f.attrs]
     if missing:
         raise CheckpointError(f"checkpoint {name} lacks the attribute(s) {missing}")
     a: dict[str, Any] = {"format": fmt, "version": int(version)}
     a.update({k: _int(name, k, f.attrs[k]) for k in ints})
     a.update({k: _float(name, k, f.attrs[k]) for k in FLOATS})
-    a.update({k: _json(name, k, f.attrs[k]) for k in JSONS})
+    a.update({k: _json(name, k, f.attrs[k]) for k in jsons})
+    a["stepper"] = _stepper(name, a.get("stepper"))
     if a["dt"] <= 0:
         raise CheckpointError(f"checkpoint {name}: attribute 'dt' = {a['dt']} is not > 0")
     if "geometry" in f.attrs:  # (absent from checkpoints of earlier versions)
@@ -257,11 +300,11 @@ def check_metadata(f: Any, name: str) -> tuple[dict[str, Any], list[dict[str, fl
 def interface_groups(f: Any, name: str, attrs: dict[str, Any]) -> dict[str, tuple[int, str]]:
     """Where each interface of an open checkpoint is: group path -> (points, its key).
 
-    Format 3: ``interfaces/<name>`` -> (its ``n_points`` attribute, ``<name>``); format 2 adds
-    its first interface, ``interface`` -> (the file's ``n_points``, :data:`V2_FIRST`).
+    Formats 3 and 4: ``interfaces/<name>`` -> (its ``n_points`` attribute, ``<name>``); format
+    2 adds its first interface, ``interface`` -> (the file's ``n_points``, :data:`V2_FIRST`).
 
     Raises:
-        CheckpointError: A group without a valid ``n_points`` (format 3).
+        CheckpointError: A group without a valid ``n_points`` (formats 3 and 4).
     """
     out: dict[str, tuple[int, str]] = {}
     if attrs["version"] == 2:
@@ -408,10 +451,11 @@ def write_checkpoint(
     Args:
         path: Checkpoint file.
         problem: The :class:`~subfric_dolfinx.fem.InterfaceProblem`.
-        stepper: The :class:`~subfric_dolfinx.fem.LoadStepper` (time, step, dt); its solver
-            rebuilds its preconditioner at the next iteration, as a restart will
-            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`); its last
-            increment (the predictor's) is written.
+        stepper: The :class:`~subfric_dolfinx.fem.LoadStepper`: its memory is written
+            (:meth:`~subfric_dolfinx.fem.LoadStepper.memory`: time, step, step size, the
+            predictor's last increment, ...); its solver rebuilds its preconditioner at the next
+            iteration, as a restart will
+            (:meth:`~subfric_dolfinx.fem.FrictionSolver.refresh_preconditioner`).
         history: History rows so far (stored so that a restarted run continues them).
         settings: JSON-ready settings a restart must match (e.g. the scene's materials,
             boundary conditions and loads); compared by :func:`restore_checkpoint`.
@@ -429,8 +473,9 @@ def write_checkpoint(
     u = problem.u.x.array.reshape(-1, gdim)
     # every rank's slab of every dataset (one Alltoallv each)
     ublock = push(comm, cells, u[dofs], n_cells)
+    memory = stepper.memory()  # what decides its next steps (the same on every rank)
     # the stepper's last increment where its predictor uses it (every rank has one or none)
-    inc = getattr(stepper, "increment", None) if getattr(stepper, "predictor", False) else None
+    inc = memory.increment
     iblock = None
     if inc is not None:
         du = np.zeros_like(problem.u.x.array)
@@ -454,10 +499,17 @@ def write_checkpoint(
     attrs = dict(
         format=FORMAT,
         version=VERSION,
-        time=float(stepper.t),
-        step=int(stepper.step),
-        dt=float(stepper.dt),
-        easy=int(stepper.easy),
+        time=float(memory.t),
+        step=int(memory.step),
+        dt=float(memory.dt),
+        easy=int(memory.easy),
+        stepper=json.dumps(
+            {
+                "hold_step": memory.hold_step,
+                "keep_retry": bool(memory.keep_retry),
+                "retry_run": int(memory.retry_run),
+            }
+        ),
         law=json.dumps(law_description(problem.law)),
         program=json.dumps(problem.program.to_dict()),
         settings=json.dumps(jsonable(settings or {})),
@@ -474,7 +526,7 @@ def write_checkpoint(
         f.create_dataset("displacement", (n_cells, *ublock.shape[1:]), **kw)
         if iblock is not None:
             d = f.create_dataset("increment", (n_cells, *iblock.shape[1:]), **kw)
-            d.attrs["dt"] = float(stepper.increment_dt)
+            d.attrs["dt"] = float(memory.increment_dt)
         h = f.create_dataset("history", table.shape, **kw)
         h.attrs["columns"] = json.dumps(cols)
         if dblocks:
@@ -592,7 +644,7 @@ class Checkpoint:
         """The variables (this rank's rows) of the only interface (format 2: of the first).
 
         Raises:
-            ValueError: The checkpoint holds several interfaces (format 3): name one in
+            ValueError: The checkpoint holds several interfaces (format 3 on): name one in
                 :attr:`interfaces`.
         """
         if V2_FIRST in self.interfaces:
@@ -739,7 +791,6 @@ def restore_checkpoint(
         restore_interface(name, iname, iface, ck.interfaces.get(key), comm)
     restore_bulk(name, problem, ck.bulk, cells, n_cells)
     problem.resume()
-    dt = min(float(a["dt"]), float(getattr(stepper, "dt_max", np.inf)))  # dt_max may change
     # every rank read the same file: all have the increment or none
     increment, increment_dt = None, 0.0
     if ck.increment is not None:
@@ -758,7 +809,17 @@ def restore_checkpoint(
         dynamics.restore_state(
             {k: from_cells(problem, b, cells, n_cells) for k, b in vectors.items()}, accounts
         )
-    stepper.restore(float(a["time"]), int(a["step"]), dt, int(a["easy"]), increment, increment_dt)
+    stepper.restore(
+        StepperMemory(
+            t=float(a["time"]),
+            step=int(a["step"]),
+            dt=float(a["dt"]),  # at most the stepper's dt_max, which may change
+            easy=int(a["easy"]),
+            **a["stepper"],
+            increment=increment,
+            increment_dt=increment_dt,
+        )
+    )
     return ck.history
 
 
