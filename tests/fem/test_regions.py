@@ -186,7 +186,7 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
     import dolfinx
 
     from subfric_dolfinx.constitutive import CoulombLaw
-    from subfric_dolfinx.fem.interface import SlidingInterface
+    from subfric_dolfinx.fem.interface import SlidingInterface, SlidingOptions
     from tests.contact_meshes import tagged_blocks
 
     comm = MPI.COMM_WORLD
@@ -204,9 +204,9 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
             tag=dom.tags["contact"],
             primary=dom.tags["base"],
             secondary=dom.tags["block"],
-            name="contact",
-            regions={"r": law},
-            groups={"r": np.array(group)},
+            options=SlidingOptions(
+                name="contact", regions={"r": law}, groups={"r": np.array(group)}
+            ),
         )
     # both sides' facets in one group (a mesh made apart): the block's facet gives the region
     iface = SlidingInterface(
@@ -217,9 +217,11 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
         tag=dom.tags["contact"],
         primary=dom.tags["base"],
         secondary=dom.tags["block"],
-        name="contact",
-        regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
-        groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
+        options=SlidingOptions(
+            name="contact",
+            regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
+            groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
+        ),
     )
     pts = iface.law_points
     left = pts.points[:, 0] < 1.0

@@ -71,7 +71,7 @@ from subfric_dolfinx.fem import (
     StepControl,
     create_matrix,
 )
-from subfric_dolfinx.fem.interface import FrictionInterface, SlidingInterface
+from subfric_dolfinx.fem.interface import FrictionInterface, SlidingInterface, SlidingOptions
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import OverhangWarning
 from subfric_dolfinx.scenes import run_scene
@@ -437,7 +437,7 @@ def interface_of(kind, V, domain):
         tag=domain.tags[name],
         primary=domain.body_tags(side.primary),
         secondary=domain.body_tags(side.secondary),
-        name=name,
+        options=SlidingOptions(name=name),
     )
 
 
