@@ -378,6 +378,33 @@ def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program
     return InterfaceProblem(dom, law, mats, program, bcs, loads)
 
 
+def jacobian_against_differences(prob: Any, x: Any, J: Any, rng: Any, h: float) -> tuple:
+    """The problem's Jacobian ``J`` at ``x`` against central differences of its residual.
+
+    In one random direction ``d`` (``rng``'s standard normals, zero on the Dirichlet dofs):
+    ``(|J d - fd|, |fd|)`` over every rank, ``fd = (F(x + h d) - F(x - h d)) / 2 h``
+    (collective).
+    """
+    comm = prob.comm
+    d = x.duplicate()
+    d.array_w[:] = rng.standard_normal(d.array_r.size)
+    d.array_w[np.isin(np.arange(d.array_r.size), prob.bc_dofs)] = 0.0
+    Fp, Fm = prob.create_vector(), prob.create_vector()
+    xp, xm = x.copy(), x.copy()
+    xp.axpy(h, d)
+    xm.axpy(-h, d)
+    prob.residual(xp, Fp)
+    prob.residual(xm, Fm)
+    fd = (Fp.array_r - Fm.array_r) / (2 * h)
+    Jd = J.createVecLeft()
+    J.mult(d, Jd)
+    err = comm.allreduce(float(np.sum((Jd.array_r - fd) ** 2))) ** 0.5
+    nrm = comm.allreduce(float(np.sum(fd**2))) ** 0.5
+    for v in (d, Fp, Fm, xp, xm, Jd):
+        v.destroy()
+    return err, nrm
+
+
 def small_scene(short: bool = False) -> dict:
     """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs, on
     the builder's 1 mm block (the geometry the tests' points, probes and groups are placed in;
