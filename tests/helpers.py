@@ -405,6 +405,42 @@ def jacobian_against_differences(prob: Any, x: Any, J: Any, rng: Any, h: float) 
     return err, nrm
 
 
+def joined_model(h: float = 0.25) -> int:
+    """Two rectangles meshed together in the current gmsh model (:func:`gmsh_open`): the cell
+    groups ``lower`` and ``upper``, their shared edge the group ``seam``; returns its tag."""
+    import gmsh
+
+    gmsh.model.add("joined")
+    occ = gmsh.model.occ
+    a, b = occ.addRectangle(0, 0, 0, 1, 0.5), occ.addRectangle(0, 0.5, 0, 1, 0.5)
+    occ.fragment([(2, a)], [(2, b)])
+    occ.synchronize()
+    low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
+    high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
+    mid = [
+        t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
+    ]
+    gmsh.model.addPhysicalGroup(2, low, name="lower")
+    gmsh.model.addPhysicalGroup(2, high, name="upper")
+    tag = gmsh.model.addPhysicalGroup(1, mid, name="seam")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.model.mesh.generate(2)
+    return tag
+
+
+@contextlib.contextmanager
+def gmsh_open() -> Iterator[Any]:
+    """gmsh initialised quietly (no configuration files, no signal handler), finalised after."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh.option.setNumber("General.Verbosity", 2)
+    try:
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
 def small_scene(short: bool = False) -> dict:
     """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs, on
     the builder's 1 mm block (the geometry the tests' points, probes and groups are placed in;
