@@ -57,6 +57,16 @@ def scene(regions=None, name="regions", **outputs):
     }
 
 
+def slides_at_each_regions_own_coefficient(snap):
+    """The profile at the end: the left half (x < 1) the region ``rough`` (number 1), the rest
+    the interface's law, every point sliding at its own region's coefficient."""
+    x = snap["x"][:, 0]
+    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
+    assert np.all(snap["status"] == Status.PLASTIC)
+    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
+    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+
+
 @pytest.mark.leaves_validity(PenetrationWarning, reason=SOFT_GAP)
 def test_each_region_slides_at_its_own_friction_coefficient():
     comm = MPI.COMM_WORLD
@@ -72,12 +82,7 @@ def test_each_region_slides_at_its_own_friction_coefficient():
     assert abs(end["F_t1"]) == pytest.approx(total, rel=2e-4)
     assert end["F_t1"] == pytest.approx(end["default.F_t1"] + end["rough.F_t1"], rel=1e-12)
     assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-8)
-    snap = res.snapshots[2.0]
-    x = snap["x"][:, 0]
-    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
-    assert np.all(snap["status"] == Status.PLASTIC)
-    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
-    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+    slides_at_each_regions_own_coefficient(res.snapshots[2.0])
     if comm.size > 1:  # the same on one rank, to round-off
         alone = scene()  # on every rank: the ranks' prefix counts stay equal (tests/conftest.py)
 
@@ -160,12 +165,7 @@ def test_regions_with_finite_sliding_each_point_its_own_law():
     assert end["F_t1"] == pytest.approx(ref["F_t1"], rel=1e-6)
     # F_t1 is along the frame of the base's current normals, which the press tilts a little
     assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-6)
-    snap = res.snapshots[2.0]
-    x = snap["x"][:, 0]
-    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
-    assert np.all(snap["status"] == Status.PLASTIC)
-    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
-    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+    slides_at_each_regions_own_coefficient(res.snapshots[2.0])
 
 
 def test_a_finite_sliding_region_the_mesh_lacks_is_named():
