@@ -195,8 +195,9 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
     )
     V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", 1, (2,)))
     law = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.2)
-    with raised_on_every_rank(InterfaceError, *words):
-        SlidingInterface(
+
+    def with_region(region_law, centroids):
+        return SlidingInterface(
             V,
             dom.cell_tags,
             dom.facet_tags,
@@ -205,24 +206,14 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
             primary=dom.tags["base"],
             secondary=dom.tags["block"],
             options=SlidingOptions(
-                name="contact", regions={"r": law}, groups={"r": np.array(group)}
+                name="contact", regions={"r": region_law}, groups={"r": np.array(centroids)}
             ),
         )
+
+    with raised_on_every_rank(InterfaceError, *words):
+        with_region(law, group)
     # both sides' facets in one group (a mesh made apart): the block's facet gives the region
-    iface = SlidingInterface(
-        V,
-        dom.cell_tags,
-        dom.facet_tags,
-        law,
-        tag=dom.tags["contact"],
-        primary=dom.tags["base"],
-        secondary=dom.tags["block"],
-        options=SlidingOptions(
-            name="contact",
-            regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
-            groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
-        ),
-    )
+    iface = with_region(CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5), [[0.25, 0.0], [0.75, 0.0]])
     pts = iface.law_points
     left = pts.points[:, 0] < 1.0
     assert np.array_equal(pts.point_data["region"], np.where(left, 1.0, 0.0))
