@@ -104,21 +104,8 @@ def test_spring_stiffness_is_in_the_jacobian():
     first is linear (closed, elastic), and full Newton takes one iteration; the Jacobian at a
     perturbed state equals central differences of the residual."""
     comm = MPI.COMM_WORLD
-    program = LoadingProgram([0, 1, 2, 3], {"press": [0, 1, 1, 1], "shear": [0, 0, 1, -1]})
-    prob = InterfaceProblem(
-        block(comm),
-        COULOMB,
-        MATERIALS,
-        program,
-        [Dirichlet("bottom", (0.0, 0.0))],
-        [
-            *[
-                Pressure("top", 100.0, amplitude="press"),
-                Traction("secondary_left", (10.0, 0.0), "shear"),
-            ],
-            *[Spring("secondary_left", (2.0, 0.0)), Spring("secondary_right", (2.0, 0.0))],
-        ],
-    )
+    springs = [Spring("secondary_left", (2.0, 0.0)), Spring("secondary_right", (2.0, 0.0))]
+    _, prob = sheared_block(comm, 10.0, springs, shear=(0.0, 0.0, 1.0, -1.0))
     with FrictionSolver(prob, prefix("sjac")) as solver:
         stepper = LoadStepper(solver, 0.5)
         stepper.run()
@@ -134,8 +121,12 @@ def test_spring_stiffness_is_in_the_jacobian():
         assert err <= 1e-6 * nrm, (err, nrm)
 
 
-def sheared_block(comm, q, springs=()):
-    program = LoadingProgram([0, 1, 2], {"press": [0, 1, 1], "shear": [0, 0, 1]})
+def sheared_block(comm, q, springs=(), shear=(0.0, 0.0, 1.0)):
+    """The block pressed by 100 MPa (t = 0 -> 1), then sheared by ``q`` MPa on its left flank
+    times ``shear`` (the channel at t = 0, 1, 2, ...), with ``springs``: (program, problem)."""
+    times = list(range(len(shear)))
+    press = [0.0] + [1.0] * (len(shear) - 1)
+    program = LoadingProgram(times, {"press": press, "shear": list(shear)})
     return program, InterfaceProblem(
         block(comm),
         COULOMB,
