@@ -25,6 +25,7 @@ import numpy as np
 from mpi4py import MPI
 
 from demos import pad_on_plate
+from subfric_dolfinx.fem import StepperMemory
 from subfric_dolfinx.io import restore_checkpoint, write_checkpoint
 from subfric_dolfinx.scenes import parse_scene
 from subfric_dolfinx.scenes.build import build_mesh, build_problem
@@ -52,8 +53,8 @@ def main() -> None:
     for name in st.names:
         a = st[name]
         a[...] = (np.cos(p[:, :1] * 5.0) if a.ndim == 2 else np.cos(p[:, 0] * 5.0)) + 1.0
-    stepper = SimpleNamespace(t=1.0, step=10, dt=0.05, easy=0, dt_max=0.1)
-    stepper.restore = lambda *a: None
+    memory = StepperMemory(t=1.0, step=10, dt=0.05)
+    stepper = SimpleNamespace(memory=lambda: memory, restore=lambda m: None, dt_max=0.1)
     history = [{"t": 0.1 * i, "F_n": 300.0, "F_t1": 1.0 * i} for i in range(10)]
     d = Path(comm.bcast(args.dir or tempfile.mkdtemp(prefix="ckbench-"), root=0))
     path = d / "checkpoint.h5"

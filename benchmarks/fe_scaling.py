@@ -24,7 +24,7 @@ and a log-log plot of the time against the dofs with fitted exponents::
 ``--kinematics finite_sliding`` runs the same pad with a finite-sliding interface (pairing in
 the current configuration, ``docs/model.md`` §12; tag suffix ``_fs``, a separate ``--out`` is
 advised; the Sec. 7 set with ``alpha_n = 1e6`` MPa/mm) on the same two boxes meshed apart
-(:func:`pad_apart`: the same nodes and dofs, but the master surface is the plate's whole top,
+(:func:`pad_apart`: the same nodes and dofs, but the primary surface is the plate's whole top,
 so the pad slides onto plate facets it did not touch at the start) and adds the contact search
 (per step) and projection (points and segments, per Newton iteration) as seconds and as a
 share of the stepping's wall time (issue 22 item 7). Its ``reach`` (how far a point may slide
@@ -300,7 +300,7 @@ def pad_apart(n: int) -> Any:
     centred on it), each meshed on its own (structured hexahedra, ``n`` along the pad's side,
     the element size of the plate the same): groups ``primary`` and ``secondary`` (cells),
     ``interface`` (the plate's whole top and the pad's bottom), ``bottom``, ``top``. Its nodes
-    and dofs are those of the joined mesh (:func:`dofs_of`); what differs is the master
+    and dofs are those of the joined mesh (:func:`dofs_of`); what differs is the primary
     surface, which reaches past the pad's footprint.
     """
     import types

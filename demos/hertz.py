@@ -148,7 +148,7 @@ The same two boxes meshed independently with gmsh (not fragmented: each body has
 on the contact), the flat's elements 2/3 of the cylinder's everywhere (3 : 2 across the contact,
 so no node of one faces a node of the other but at the ends), with the same grading. The
 interface is then finite-sliding (`interfaces.contact.kinematics: "finite_sliding"`): the
-cylinder's points (the slave side, at the matched mesh's resolution) are projected on the flat's
+cylinder's points (the secondary side, at the matched mesh's resolution) are projected on the flat's
 facets and the flat's nodes receive the segment transfer of their tractions.
 
 Measured (`--meshed-apart`, 1 and 2 ranks alike), against the matched meshes above:
@@ -175,7 +175,7 @@ interface gives the small-sliding one's pressures within 1e-4 of $p_0$
 (`tests/verification/test_verification_demos.py`). With the flat coarser instead (`ratio` 1.5:
 the cylinder's points the finer side) the pressure oscillates by about 1 % of $p_0$ between
 neighbouring points (`--n 4`: $e_{0.8}$ = 1.1 %, $e_{max}$ = 2.4 %, $a$ fit +0.74 %; `--n 6`:
-1.3 %, 4.0 %, +1.5 %): stiff penalty points finer than the master surface they are pressed on.
+1.3 %, 4.0 %, +1.5 %): stiff penalty points finer than the primary surface they are pressed on.
 Both converge (`--n 6` stopped at the edge while the transfer was the consistent mass). Newton
 takes at most 5 iterations a step at `--n 4`, 7 and 8 at `--n` 6 and 8 (the matched mesh 7 at
 `--n 8`): the press closes several points a step as the contact grows.

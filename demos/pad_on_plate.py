@@ -160,7 +160,7 @@ def program(amplitude: float, holds, dt: float):
 # %% [markdown]
 # ## The scene
 #
-# The plate (master) is clamped at its bottom. The pad's top carries the pressure and is moved in
+# The plate (primary) is clamped at its bottom. The pad's top carries the pressure and is moved in
 # x by the `slide` channel; its y displacement is held at zero (a guided loading head), so that
 # the pad's sideways position is not left to the interface's tangential stiffness alone.
 

@@ -1,7 +1,7 @@
 """Independently meshed bodies for the contact search tests, built from numpy arrays.
 
 Each body has its own nodes (nothing is shared across the contact surface, whose two sides need not
-match). Cells are tagged 1 (the master body) and 2 (the slave body), the contact facets of both
+match). Cells are tagged 1 (the primary body) and 2 (the secondary body), the contact facets of both
 sides 3. The mesh is made on rank 0 and distributed by DOLFINx's partitioner, or, with
 ``split_x``, by a partitioner that puts the cells whose centre has ``x < split_x`` on rank 0 and
 the others on rank 1 (on 2 ranks), so that a body slides across the partition boundary.
@@ -18,7 +18,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.compat import adjacency_list, create_mesh
 
-MASTER, SLAVE, CONTACT = 1, 2, 3
+PRIMARY, SECONDARY, CONTACT = 1, 2, 3
 
 
 @dataclasses.dataclass
@@ -125,13 +125,13 @@ def block_on_base(
     n_block: int = 3,
     split_x: float | None = None,
 ) -> Bodies:
-    """A base ``[0, length] x [-depth, 0]`` (master) and a block ``[x0, x0 + width] x
-    [0, height]`` (slave), meshed with ``n_base`` and ``n_block`` elements along x."""
+    """A base ``[0, length] x [-depth, 0]`` (primary) and a block ``[x0, x0 + width] x
+    [0, height]`` (secondary), meshed with ``n_base`` and ``n_block`` elements along x."""
     base = _grid(0.0, length, -depth, 0.0, n_base, 2)
     block = _grid(x0, x0 + width, 0.0, height, n_block, 2)
     return _assemble(
         comm,
-        [(*base, MASTER), (*block, SLAVE)],
+        [(*base, PRIMARY), (*block, SECONDARY)],
         "triangle",
         2,
         lambda x: np.isclose(x[1], 0.0),
@@ -150,7 +150,7 @@ def annuli(
     split_x: float | None = None,
     geometry_degree: int = 1,
 ) -> Bodies:
-    """A shaft (annulus ``r0 <= r <= radius``, master) in a hub (``radius <= r <= r2``, slave),
+    """A shaft (annulus ``r0 <= r <= radius``, primary) in a hub (``radius <= r <= r2``, secondary),
     with ``n_inner`` and ``n_outer`` segments around: two polygons inscribed in the circle of
     ``radius``, meshed independently; with ``geometry_degree=2``, curved triangles whose edges
     are the images of straight lines of the (angle, radius) plane (the contact facets are arcs
@@ -193,7 +193,7 @@ def annuli(
     outer = ring(radius, r2, n_outer)
     return _assemble(
         comm,
-        [(*inner, MASTER), (*outer, SLAVE)],
+        [(*inner, PRIMARY), (*outer, SECONDARY)],
         "triangle",
         2,
         lambda x: np.isclose(np.hypot(x[0], x[1]), radius),
@@ -212,12 +212,13 @@ def block_on_plate(
     n_block: tuple[int, int] = (3, 3),
     split_x: float | None = None,
 ) -> Bodies:
-    """3-D: a plate ``[0, Lx] x [0, Ly] x [-0.5, 0]`` (master) and a block on it (slave), tets."""
+    """3-D: a plate ``[0, Lx] x [0, Ly] x [-0.5, 0]`` (primary) and a block on it (secondary),
+    tets."""
     plate = _box((0.0, 0.0, -0.5), (size[0], size[1], 0.0), (*n_plate, 1))
     blk = _box((x0[0], x0[1], 0.0), (x0[0] + block[0], x0[1] + block[1], 0.5), (*n_block, 1))
     return _assemble(
         comm,
-        [(*plate, MASTER), (*blk, SLAVE)],
+        [(*plate, PRIMARY), (*blk, SECONDARY)],
         "tetrahedron",
         3,
         lambda x: np.isclose(x[2], 0.0),
@@ -310,7 +311,7 @@ def tagged_annuli(comm: MPI.Comm, **kw) -> TaggedBodies:
     ents, vals = np.concatenate(ents), np.concatenate(vals)
     order = np.argsort(ents)
     facet_tags = dolfinx.mesh.meshtags(mesh, tdim - 1, ents[order].astype(np.int32), vals[order])
-    tags = {"shaft": MASTER, "hub": SLAVE, "contact": 3, "outer": 4, "inner": 5}
+    tags = {"shaft": PRIMARY, "hub": SECONDARY, "contact": 3, "outer": 4, "inner": 5}
     return TaggedBodies(
         mesh, bodies.cell_tags, facet_tags, tags, {"shaft": ("shaft",), "hub": ("hub",)}, {}
     )

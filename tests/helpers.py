@@ -378,6 +378,69 @@ def block_problem(comm, law=LAW, cell_type="triangle", partitioner=None, program
     return InterfaceProblem(dom, law, mats, program, bcs, loads)
 
 
+def jacobian_against_differences(prob: Any, x: Any, J: Any, rng: Any, h: float) -> tuple:
+    """The problem's Jacobian ``J`` at ``x`` against central differences of its residual.
+
+    In one random direction ``d`` (``rng``'s standard normals, zero on the Dirichlet dofs):
+    ``(|J d - fd|, |fd|)`` over every rank, ``fd = (F(x + h d) - F(x - h d)) / 2 h``
+    (collective).
+    """
+    comm = prob.comm
+    d = x.duplicate()
+    d.array_w[:] = rng.standard_normal(d.array_r.size)
+    d.array_w[np.isin(np.arange(d.array_r.size), prob.bc_dofs)] = 0.0
+    Fp, Fm = prob.create_vector(), prob.create_vector()
+    xp, xm = x.copy(), x.copy()
+    xp.axpy(h, d)
+    xm.axpy(-h, d)
+    prob.residual(xp, Fp)
+    prob.residual(xm, Fm)
+    fd = (Fp.array_r - Fm.array_r) / (2 * h)
+    Jd = J.createVecLeft()
+    J.mult(d, Jd)
+    err = comm.allreduce(float(np.sum((Jd.array_r - fd) ** 2))) ** 0.5
+    nrm = comm.allreduce(float(np.sum(fd**2))) ** 0.5
+    for v in (d, Fp, Fm, xp, xm, Jd):
+        v.destroy()
+    return err, nrm
+
+
+def joined_model(h: float = 0.25) -> int:
+    """Two rectangles meshed together in the current gmsh model (:func:`gmsh_open`): the cell
+    groups ``lower`` and ``upper``, their shared edge the group ``seam``; returns its tag."""
+    import gmsh
+
+    gmsh.model.add("joined")
+    occ = gmsh.model.occ
+    a, b = occ.addRectangle(0, 0, 0, 1, 0.5), occ.addRectangle(0, 0.5, 0, 1, 0.5)
+    occ.fragment([(2, a)], [(2, b)])
+    occ.synchronize()
+    low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
+    high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
+    mid = [
+        t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
+    ]
+    gmsh.model.addPhysicalGroup(2, low, name="lower")
+    gmsh.model.addPhysicalGroup(2, high, name="upper")
+    tag = gmsh.model.addPhysicalGroup(1, mid, name="seam")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    gmsh.model.mesh.generate(2)
+    return tag
+
+
+@contextlib.contextmanager
+def gmsh_open() -> Iterator[Any]:
+    """gmsh initialised quietly (no configuration files, no signal handler), finalised after."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh.option.setNumber("General.Verbosity", 2)
+    try:
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
 def small_scene(short: bool = False) -> dict:
     """The main demo's scene at a small size (8 interface elements, a 5 s hold), no outputs, on
     the builder's 1 mm block (the geometry the tests' points, probes and groups are placed in;

@@ -1,7 +1,7 @@
 """The all-gather pairing of the interface sides as it was before issue 13 (test reference).
 
 A verbatim copy of ``subfric_dolfinx/fem/interface/pairing.py`` (now ``.../small/pairing.py``) and
-of ``match_points`` at commit 4ba6b8b: every rank all-gathers the slave facets of the whole
+of ``match_points`` at commit 4ba6b8b: every rank all-gathers the secondary facets of the whole
 interface (midpoints, node numbers, owners and coordinates) and matches them with a grid hash and
 Python loops. The package's pairing exchanges only what each rank needs;
 ``tests/fem/interface/test_pairing.py`` checks that it gives the same pairs, in the same order, and
@@ -46,12 +46,12 @@ def pair_interface(
     cell_tags: dolfinx.mesh.MeshTags,
     facet_tags: dolfinx.mesh.MeshTags,
     interface_tag: int,
-    master_tag: int,
-    slave_tag: int,
+    primary_tag: int,
+    secondary_tag: int,
     *,
     rel_tol: float = 1e-8,
 ) -> InterfacePairs:
-    """Pair the master and slave facets of an interface and extend the index map.
+    """Pair the primary and secondary facets of an interface and extend the index map.
 
     Collective on the mesh communicator.
 
@@ -60,8 +60,8 @@ def pair_interface(
         cell_tags: Cell tags with the two bodies.
         facet_tags: Facet tags with the interface (both sides tagged ``interface_tag``).
         interface_tag: Tag of the interface facets.
-        master_tag: Cell tag of the master body (its outward normal defines the local frame).
-        slave_tag: Cell tag of the slave body.
+        primary_tag: Cell tag of the primary body (its outward normal defines the local frame).
+        secondary_tag: Cell tag of the secondary body.
         rel_tol: Matching tolerance relative to the smallest interface facet size.
 
     Raises:
@@ -104,22 +104,22 @@ def pair_interface(
         f"cells, e.g. at {_facet_midpoints(mesh, two[:1])[0].tolist()}: the interface nodes are "
         "not duplicated (each side must be an exterior facet of its own body)"
     )
-    master_cells_all = cell_tags.find(master_tag)
-    slave_cells_all = cell_tags.find(slave_tag)
-    is_master = np.isin(cells, master_cells_all)
-    is_slave = np.isin(cells, slave_cells_all)
-    neither = ~(is_master | is_slave)
+    primary_cells_all = cell_tags.find(primary_tag)
+    secondary_cells_all = cell_tags.find(secondary_tag)
+    is_primary = np.isin(cells, primary_cells_all)
+    is_secondary = np.isin(cells, secondary_cells_all)
+    neither = ~(is_primary | is_secondary)
     fail(
         None
         if not neither.any()
         else f"{comm.allreduce(int(neither.sum()))} interface facets touch a cell of neither body "
-        f"(tags {master_tag}, {slave_tag}), e.g. at "
+        f"(tags {primary_tag}, {secondary_tag}), e.g. at "
         f"{_facet_midpoints(mesh, tagged[neither][:1])[0].tolist()}"
     )
-    m_facets, m_cells = tagged[is_master], cells[is_master]
-    s_facets, s_cells = tagged[is_slave], cells[is_slave]
+    m_facets, m_cells = tagged[is_primary], cells[is_primary]
+    s_facets, s_cells = tagged[is_secondary], cells[is_secondary]
 
-    # The interface's own mesh: the owned master facets. Its cells define the parametrisation
+    # The interface's own mesh: the owned primary facets. Its cells define the parametrisation
     # (vertex order) used for the quadrature points, so everything below follows submesh order.
     sub, entity_map = create_submesh(mesh, tdim - 1, m_facets)
     order = {int(f): i for i, f in enumerate(m_facets)}
@@ -149,8 +149,8 @@ def pair_interface(
     n_local_nodes = imap.size_local + imap.num_ghosts
     dofs = V.dofmap.list
 
-    # Master facet nodes, ordered like the reference nodes (match within the adjacent cell).
-    master_nodes = np.empty((nf, nfd), dtype=np.int32)
+    # Primary facet nodes, ordered like the reference nodes (match within the adjacent cell).
+    primary_nodes = np.empty((nf, nfd), dtype=np.int32)
     lost = None
     for i in range(nf):
         cn = dofs[m_cells[i]]
@@ -158,10 +158,10 @@ def pair_interface(
         j = np.argmin(d, axis=1)
         if lost is None and np.any(d[np.arange(nfd), j] > tol):
             lost = node_points[i].tolist()
-        master_nodes[i] = cn[j]
-    fail(None if lost is None else f"internal error: master facet nodes not found at {lost}")
+        primary_nodes[i] = cn[j]
+    fail(None if lost is None else f"internal error: primary facet nodes not found at {lost}")
 
-    # Slave facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
+    # Secondary facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
     vector_element = V.ufl_element().sub_elements[0].basix_element
     closure = vector_element.entity_closure_dofs[tdim - 1]
     lfi = _local_facet_index(mesh, s_cells, s_facets) if s_facets.size else np.zeros(0, int)
@@ -189,15 +189,15 @@ def pair_interface(
     match, _ = match_points(all_mid, m_mid, tol)
     unmatched = np.flatnonzero(match < 0)
     n_unmatched = comm.allreduce(unmatched.size)
-    n_slave = comm.allreduce(s_facets.size)
-    if n_unmatched or n_slave != comm.allreduce(nf):
+    n_secondary = comm.allreduce(s_facets.size)
+    if n_unmatched or n_secondary != comm.allreduce(nf):
         example = m_mid[unmatched[0]].tolist() if unmatched.size else None
         examples = [e for e in comm.allgather(example) if e is not None]
         where = f", e.g. the primary facet at {examples[0]}" if examples else ""
         raise InterfaceError(
             f"the interface sides do not pair node to node: {comm.allreduce(nf)} primary and "
-            f"{n_slave} secondary facets, {n_unmatched} primary facets without a secondary facet "
-            f"at the same place{where} (tolerance {tol:.3g})"
+            f"{n_secondary} secondary facets, {n_unmatched} primary facets without a secondary "
+            f"facet at the same place{where} (tolerance {tol:.3g})"
         )
     used = np.zeros(all_mid.shape[0], dtype=np.int64)
     np.add.at(used, match, 1)
@@ -210,9 +210,9 @@ def pair_interface(
             f"secondary facet at {all_mid[k].tolist()}"
         )
 
-    # Slave nodes ordered like the master's reference nodes.
-    slave_glob = np.empty((nf, nfd), dtype=np.int64)
-    slave_own = np.empty((nf, nfd), dtype=np.int32)
+    # Secondary nodes ordered like the primary's reference nodes.
+    secondary_glob = np.empty((nf, nfd), dtype=np.int64)
+    secondary_own = np.empty((nf, nfd), dtype=np.int32)
     bad = None
     for i in range(nf):
         k = match[i]
@@ -221,7 +221,7 @@ def pair_interface(
         if np.any(d[np.arange(nfd), j] > tol) or len(set(j.tolist())) != nfd:
             bad = node_points[i].tolist()
             break
-        slave_glob[i], slave_own[i] = all_glob[k][j], all_own[k][j]
+        secondary_glob[i], secondary_own[i] = all_glob[k][j], all_own[k][j]
     fail(
         None
         if bad is None
@@ -229,9 +229,9 @@ def pair_interface(
         "whose nodes are elsewhere"
     )
 
-    # Extend the index map: slave nodes that are not local become extra ghosts.
+    # Extend the index map: secondary nodes that are not local become extra ghosts.
     g2l = {int(g): i for i, g in enumerate(l2g)}
-    flat_g, flat_o = slave_glob.ravel(), slave_own.ravel()
+    flat_g, flat_o = secondary_glob.ravel(), secondary_own.ravel()
     extra: dict[int, int] = {}
     for g, o in zip(flat_g.tolist(), flat_o.tolist(), strict=True):
         if g not in g2l and g not in extra:
@@ -241,8 +241,8 @@ def pair_interface(
     imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
     for k, g in enumerate(extra):
         g2l[g] = n_local_nodes + k
-    slave_nodes = np.array([g2l[int(g)] for g in flat_g], dtype=np.int32).reshape(nf, nfd)
-    n_split = int(np.count_nonzero(np.any(slave_own != comm.rank, axis=1)))
+    secondary_nodes = np.array([g2l[int(g)] for g in flat_g], dtype=np.int32).reshape(nf, nfd)
+    n_split = int(np.count_nonzero(np.any(secondary_own != comm.rank, axis=1)))
 
     return InterfacePairs(
         submesh=sub,
@@ -250,8 +250,8 @@ def pair_interface(
         primary_cells=m_cells,
         reference_nodes=Xn,
         node_points=node_points,
-        primary_nodes=master_nodes,
-        secondary_nodes=slave_nodes,
+        primary_nodes=primary_nodes,
+        secondary_nodes=secondary_nodes,
         index_map=imap_ext,
         n_extra_ghosts=len(extra),
         n_split=n_split,

@@ -16,7 +16,8 @@
   :class:`SolveResult`, what one solve did;
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
 * :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program
-  (:class:`StepControl`: how its step adapts);
+  (:class:`StepControl`: how its step adapts; :class:`StepperMemory`: what decides its next
+  steps, which a checkpoint stores);
   :mod:`.validity`: the warnings when a run's penetration or slide goes beyond what the
   small-sliding penalty interface describes.
 * :mod:`.kinematics`: the small strain, elastic stress and weight of each modelling mode (3-D,
@@ -50,7 +51,14 @@ from .solver import (
     SolveResult,
     SolverOptionError,
 )
-from .stepping import LoadStepper, StepControl, StepFailure, StepInterrupted, StepRecord
+from .stepping import (
+    LoadStepper,
+    StepControl,
+    StepFailure,
+    StepInterrupted,
+    StepperMemory,
+    StepRecord,
+)
 from .timing import format_breakdown, timing_breakdown
 
 __all__ = [
@@ -82,6 +90,7 @@ __all__ = [
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
+    "StepperMemory",
     "Traction",
     "UFLBulk",
     "create_matrix",

@@ -61,6 +61,7 @@ __all__ = [
     "StepFailure",
     "StepInterrupted",
     "StepRecord",
+    "StepperMemory",
     "describe_attempt",
     "interface_activity",
 ]
@@ -71,9 +72,9 @@ PREDICTOR_FORCE_RATIO = 1e3
 exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
 
 LONG_SEGMENT_STEPS = 10
+"""A segment of the program of at least this many steps gets its own log line."""
 SEGMENT_LINES = 8
 """A run of more program segments than this logs progress lines only, not a line per segment."""
-"""A segment of the program of at least this many steps gets its own log line."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -239,6 +240,66 @@ class _Tally:
         )
 
 
+class _RunLog:
+    """The log of one :meth:`LoadStepper.run` (the module docstring).
+
+    A line per long segment of the program, progress lines between them, a DEBUG line per step.
+    """
+
+    def __init__(self, t: float, t_end: float, program: Any, tol: float) -> None:
+        self.segment = _Tally(t)
+        self.since = _Tally(t)  # since the last line printed
+        self.clock = logs.Progress()
+        self.span = (t, t_end)
+        inner = (program.times > t + tol) & (program.times < t_end - tol)
+        self.few_segments = int(np.count_nonzero(inner)) + 1 <= SEGMENT_LINES
+
+    def cut(self) -> None:
+        """A failed attempt, cut."""
+        self.segment.cuts += 1
+        self.since.cuts += 1
+
+    def line_search(self) -> None:
+        """A step solved with the retry options."""
+        self.segment.line_search += 1
+        self.since.line_search += 1
+
+    def step(self, rec: StepRecord, t0: float, segment_ends: bool) -> None:
+        """A converged step (started at wall time ``t0``), ending a segment of the program or not.
+
+        Only rank 0 prints: no rank needs to agree on what is printed.
+        """
+        self.segment.add(rec)
+        self.since.add(rec)
+        if logger.isEnabledFor(logging.DEBUG):
+            res = rec.residuals or (0.0,)
+            logger.debug(
+                "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  (%.2f s)",
+                rec.step,
+                rec.t,
+                rec.dt,
+                rec.iterations,
+                res[0],
+                res[-1],
+                rec.activity,
+                time.perf_counter() - t0,
+            )
+        printed = False
+        if segment_ends:
+            long_ = len(self.segment.iterations) >= LONG_SEGMENT_STEPS
+            if self.few_segments and (long_ or self.segment.seconds() >= self.clock.interval):
+                logger.info(self.segment.segment_line(rec.t, rec))
+                printed = True
+            self.segment = _Tally(rec.t)
+        if printed:
+            self.clock.reset()
+        elif self.clock.due():
+            logger.info(self.since.progress_line(rec.t, self.span, rec))
+            printed = True
+        if printed:
+            self.since = _Tally(rec.t)
+
+
 @dataclasses.dataclass(frozen=True)
 class StepControl:
     """How :class:`LoadStepper`'s step length adapts: its bounds, cuts and growth.
@@ -268,6 +329,39 @@ class StepControl:
     max_cuts: int = 10
     hold_dt: float | None = None
     max_steps: int = MAX_STEPS
+
+
+@dataclasses.dataclass(frozen=True)
+class StepperMemory:
+    """What decides a :class:`LoadStepper`'s next steps beyond the problem's state.
+
+    A checkpoint stores it (:func:`~subfric_dolfinx.io.write_checkpoint`) and a restart gives it
+    back (:meth:`LoadStepper.restore`), so that the restarted run takes the steps the
+    uninterrupted run takes, with the same first guesses.
+
+    Attributes:
+        t: Time of the last converged step.
+        step: Index of the last converged step.
+        dt: The step outside holds that the next step starts from.
+        easy: Consecutive easy steps so far (the growth of ``dt``, :class:`StepControl`).
+        hold_step: The step of the current hold after a cut (``None``: ``hold_dt``).
+        keep_retry: Whether the current segment's steps start with the retry options
+            (``sticky_retry``).
+        retry_run: Consecutive converged steps started with the retry options.
+        increment: The last converged step's displacement increment (owned values; the
+            predictor's), ``None`` if none or without the predictor.
+        increment_dt: Its step length (0 without an increment).
+    """
+
+    t: float
+    step: int
+    dt: float
+    easy: int = 0
+    hold_step: float | None = None
+    keep_retry: bool = False
+    retry_run: int = 0
+    increment: np.ndarray | None = None
+    increment_dt: float = 0.0
 
 
 class LoadStepper:
@@ -440,27 +534,40 @@ class LoadStepper:
         self.solver.x.array_w[:] = self._x_converged.array_r
         self.problem.revert()
 
-    def restore(
-        self,
-        t: float,
-        step: int,
-        dt: float,
-        easy: int = 0,
-        increment: np.ndarray | None = None,
-        increment_dt: float = 0.0,
-    ) -> None:
+    def memory(self) -> StepperMemory:
+        """What decides the next steps (:class:`StepperMemory`; the increment is not copied)."""
+        inc = self.increment if self.predictor and self.increment is not None else None
+        return StepperMemory(
+            t=self.t,
+            step=self.step,
+            dt=self.dt,
+            easy=self.easy,
+            hold_step=self._hold_step,
+            keep_retry=self._keep_retry,
+            retry_run=self._retry_run,
+            increment=inc,
+            increment_dt=self.increment_dt if inc is not None else 0.0,
+        )
+
+    def restore(self, memory: StepperMemory) -> None:
         """Continue from a restored state: ``problem.u`` and the interface state must hold it.
 
-        ``increment``, ``increment_dt``: the last step's displacement increment (owned values)
-        and length, for the predictor (``None``: the first step starts from the state itself).
+        ``memory``: the stepper's (:meth:`memory`) at the restored step; its ``increment`` may
+        hold ghost values beyond the owned ones. The step outside holds is at most ``dt_max``
+        (which a restart may change).
         """
-        self.t, self.step, self.dt, self.easy = float(t), int(step), float(dt), int(easy)
+        m = memory
+        self.t, self.step, self.easy = float(m.t), int(m.step), int(m.easy)
+        self.dt = min(float(m.dt), self.dt_max)
+        self._hold_step = None if m.hold_step is None else float(m.hold_step)
+        self._keep_retry, self._retry_run = bool(m.keep_retry), int(m.retry_run)
         n = self.problem.layout.n_owned
         assert self.solver.x is not None  # (a live solver)
         self.solver.x.array_w[:] = self.problem.u.x.array[:n]
         self._x_converged.array_w[:] = self.solver.x.array_r
-        self.increment = None if increment is None else np.array(increment[:n], dtype=float)
-        self.increment_dt = float(increment_dt) if increment is not None else 0.0
+        inc = m.increment
+        self.increment = None if inc is None else np.array(inc[:n], dtype=float)
+        self.increment_dt = float(m.increment_dt) if inc is not None else 0.0
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
@@ -503,195 +610,249 @@ class LoadStepper:
         )
 
     def _run(self, t_end: float, next_stop: Callable[[float], float]) -> list[StepRecord]:
-        cuts = 0
+        """Step to ``t_end``: the loop of :meth:`run`.
+
+        Each pass attempts the next step (:meth:`_next_target`, :meth:`_attempt`). A failed
+        attempt is undone and the step cut (:meth:`_cut_step`, which raises
+        :class:`StepFailure` beyond the cuts allowed); a converged one is committed and recorded
+        (:meth:`_accept`), logged (:class:`_RunLog`), ends the program's segment where it reaches
+        a breakpoint (the segment's retry and hold memory is forgotten) and lets the step grow
+        (:meth:`_grow_step`); ``on_step`` comes last.
+        """
         tol = 1e-12 * max(1.0, abs(t_end))
-        segment = _Tally(self.t)
-        since = _Tally(self.t)  # since the last line printed
-        clock = logs.Progress()
-        span = (self.t, t_end)
-        inner = (self.program.times > self.t + tol) & (self.program.times < t_end - tol)
-        few_segments = int(np.count_nonzero(inner)) + 1 <= SEGMENT_LINES
+        log = _RunLog(self.t, t_end, self.program, tol)
+        cuts = 0  # failed attempts since the last converged step
         while self.t < t_end - tol:
-            if self.step >= self.max_steps:
-                raise StepFailure(
-                    f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
-                    f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
-                    self.t,
-                    self.t,
-                    self.step,
-                    "max_steps",
-                )
-            breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
-            nb = min(next_stop(self.t), t_end)
-            hold = self.hold_dt is not None and self.program.is_hold(self.t)
-            size = self.dt
-            if hold and self.hold_dt is not None:  # (hold: hold_dt is given)
-                size = self._hold_step or self.hold_dt
-            target = min(self.t + size, nb)
-            # do not leave a sliver before a breakpoint
-            if nb - target < 0.25 * size:
-                target = nb
+            self._check_max_steps(t_end)
+            target, hold, breakpoint_ = self._next_target(t_end, next_stop)
             dt = target - self.t
             t0 = time.perf_counter()
-            # the solver's own options again after easy_steps steps on the retry's (see
-            # sticky_retry)
-            keep = self._keep_retry and self._retry_run < self.easy_steps
-            first = self.retry_options if keep else None
-            stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
-            predicted = self._predict(target, dt)
-            r = self.solver.solve(
-                target,
-                dt,
-                options=first,
-                separated_stiffness=stiff,
-                predictor=predicted,
-                start=NewtonStart(
-                    turns=predicted is None and self._turns(target), extrapolating=self.predictor
-                ),
-            )
-            self._check_interrupted(r, target)
-            retried = first is not None
-            if not r.converged and not retried and self.retry_options is not None:
-                logger.debug(
-                    "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
-                    target,
-                    dt,
-                    _why(r, self.solver),
-                    _options_text(self.retry_options),
-                )
-                self._undo()  # the retry starts from the converged state
-                r = self.solver.solve(
-                    target,
-                    dt,
-                    options=self.retry_options,
-                    separated_stiffness=RETRY_SEPARATED_STIFFNESS,
-                )
-                self._check_interrupted(r, target)
-                retried = True
-                self._keep_retry = self.sticky_retry and bool(r.converged)
-                self._retry_run = 0
+            r, first, retried = self._attempt(target, dt)
             if not r.converged:
-                why = _why(r, self.solver)
-                attempt = describe_attempt(self.problem)  # before the undo (collective)
-                fault = getattr(self.problem, "bulk_fault", None)
-                bulk = fault() if fault is not None else None  # collective
-                if bulk is not None:  # the bodies' law, not the interface: said first
-                    why = f"{bulk}; {why}"
-                self._undo()
                 cuts += 1
-                segment.cuts += 1
-                since.cuts += 1
-                logger.debug(
-                    "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
-                    target,
-                    dt,
-                    why,
-                    attempt.text,
-                )
-                if hold:
-                    self._hold_step = dt * self.cut
-                else:
-                    self.dt = dt * self.cut
-                    self.easy = 0
-                if cuts > self.max_cuts or dt * self.cut < self.dt_min:
-                    tried = f" (and with {_options_text(self.retry_options)})" if retried else ""
-                    raise StepFailure(
-                        f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
-                        f"{cuts} failed attempt(s) since the last converged step, smallest step "
-                        f"allowed {self.dt_min:.3g}); the last converged step is "
-                        f"{self.step} at t = {self.t:.6g}, whose state is kept"
-                        + (f"; {attempt.text}" if bulk is None else ""),
-                        target,
-                        self.t,
-                        self.step,
-                        why,
-                        attempt,
-                    )
+                log.cut()
+                self._cut_step(r, target, dt, hold, cuts, retried)
                 continue
-            if first is not None:
-                self._retry_run += 1
-            elif not retried:  # the solver's own options converged: the segment is back on them
-                self._keep_retry = False
             if retried:
-                self.line_search_steps += 1
-                segment.line_search += 1
-                since.line_search += 1
-                self.retries += int(first is None)
-            self.problem.commit()
-            dynamics = getattr(self.problem, "dynamics", None)
-            for watch in self.watches.values():
-                watch.track(target)
-            sliding, open_ = interface_activity(self.problem)
-            assert self.solver.x is not None  # (a live solver)
-            if self.predictor:  # the increment, in one array kept from step to step
-                x: np.ndarray = self.solver.x.array_r
-                x0 = self._x_converged.array_r
-                if self.increment is None or self.increment.shape != x.shape:
-                    self.increment = np.empty_like(x)
-                np.subtract(x, x0, out=self.increment)
-                self.increment_dt = dt
-                if not self._forces_resolved(r):  # nothing determined this motion
-                    self.increment[:] = 0.0
-            self._x_converged.array_w[:] = self.solver.x.array_r
-            self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
-            self.problem.u.x.scatter_forward()
-            self.step += 1
-            self.t = target
-            rec = StepRecord(
-                self.step,
-                target,
-                dt,
-                r.iterations,
-                cuts,
-                list(r.residuals),
-                dict(r.counts),
-                retried,
-                sliding,
-                open_,
-                dict(dynamics.energy) if dynamics is not None else {},
-            )
-            if not self.keep_records:
-                self.records.clear()
-            self.records.append(rec)
-            segment.add(rec)
-            since.add(rec)
-            if logger.isEnabledFor(logging.DEBUG):
-                res = r.residuals or (0.0,)
-                logger.debug(
-                    "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  "
-                    "(%.2f s)",
-                    self.step,
-                    target,
-                    dt,
-                    r.iterations,
-                    res[0],
-                    res[-1],
-                    rec.activity,
-                    time.perf_counter() - t0,
-                )
-            printed = False
-            if target >= breakpoint_ - tol:
-                long_ = len(segment.iterations) >= LONG_SEGMENT_STEPS
-                if few_segments and (long_ or segment.seconds() >= clock.interval):
-                    logger.info(segment.segment_line(target, rec))
-                    printed = True
-                segment = _Tally(target)
-                self._keep_retry = False  # a new segment starts with the solver's own options
-                self._retry_run = 0
-                self._hold_step = None
-            if printed:
-                clock.reset()
-            elif clock.due():  # only rank 0 prints: no rank needs to agree on it
-                logger.info(since.progress_line(target, span, rec))
-                printed = True
-            if printed:
-                since = _Tally(target)
+                log.line_search()
+            rec = self._accept(r, target, dt, cuts, first, retried)
+            ends = target >= breakpoint_ - tol
+            log.step(rec, t0, ends)
+            if ends:  # a new segment starts with the solver's own options
+                self._keep_retry, self._retry_run, self._hold_step = False, 0, None
             cuts = 0
             if not hold:  # the step outside holds grows on easy steps
-                self.easy = self.easy + 1 if r.iterations <= self.easy_iterations else 0
-                if self.easy >= self.easy_steps:
-                    self.dt = min(self.dt * self.grow, self.dt_max)
-                    self.easy = 0
+                self._grow_step(r.iterations)
             if self.on_step is not None:  # last: the stepper's state is that of the next step
                 self.on_step(rec)
         return self.records
+
+    def _check_max_steps(self, t_end: float) -> None:
+        """Raise :class:`StepFailure` where the run has made ``max_steps`` steps already."""
+        if self.step >= self.max_steps:
+            raise StepFailure(
+                f"the run reached max_steps = {self.max_steps:g} steps at t = {self.t:.6g} "
+                f"(of {t_end:.6g}); its state is kept: raise max_steps, or dt",
+                self.t,
+                self.t,
+                self.step,
+                "max_steps",
+            )
+
+    def _next_target(
+        self, t_end: float, next_stop: Callable[[float], float]
+    ) -> tuple[float, bool, float]:
+        """The next step's end, whether the step is in a hold, and the program's next breakpoint.
+
+        The step (``dt``; in a hold with ``hold_dt``, the hold's step) ends at the next stop (a
+        breakpoint, a requested time, ``t_end``) if it would reach it, or leave less than a
+        quarter of itself before it (no sliver).
+        """
+        breakpoint_ = min(self.program.next_breakpoint(self.t), t_end)
+        nb = min(next_stop(self.t), t_end)
+        hold = self.hold_dt is not None and self.program.is_hold(self.t)
+        size = self.dt
+        if hold and self.hold_dt is not None:  # (hold: hold_dt is given)
+            size = self._hold_step or self.hold_dt
+        target = min(self.t + size, nb)
+        # do not leave a sliver before a breakpoint
+        if nb - target < 0.25 * size:
+            target = nb
+        return target, hold, breakpoint_
+
+    def _attempt(
+        self, target: float, dt: float
+    ) -> tuple[SolveResult, Mapping[str, Any] | None, bool]:
+        """Solve the step to ``target``, retried once with the retry options if it fails.
+
+        The first attempt takes the solver's own options, or the retry options in a segment
+        kept on them (``sticky_retry``, for ``easy_steps`` steps), and starts from the
+        predictor's extrapolation where there is one; the retry starts from the converged state.
+
+        Returns:
+            The last attempt's result, the first attempt's options (``None``: the solver's own)
+            and whether the retry options were used.
+
+        Raises:
+            StepInterrupted: The solver's ``interrupt`` stopped an attempt (undone).
+        """
+        # the solver's own options again after easy_steps steps on the retry's (see sticky_retry)
+        keep = self._keep_retry and self._retry_run < self.easy_steps
+        first = self.retry_options if keep else None
+        stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
+        predicted = self._predict(target, dt)
+        r = self.solver.solve(
+            target,
+            dt,
+            options=first,
+            separated_stiffness=stiff,
+            predictor=predicted,
+            start=NewtonStart(
+                turns=predicted is None and self._turns(target), extrapolating=self.predictor
+            ),
+        )
+        self._check_interrupted(r, target)
+        retried = first is not None
+        if not r.converged and not retried and self.retry_options is not None:
+            logger.debug(
+                "  step to t = %.6g (dt %.3g) failed: %s; again with %s",
+                target,
+                dt,
+                _why(r, self.solver),
+                _options_text(self.retry_options),
+            )
+            self._undo()  # the retry starts from the converged state
+            r = self.solver.solve(
+                target,
+                dt,
+                options=self.retry_options,
+                separated_stiffness=RETRY_SEPARATED_STIFFNESS,
+            )
+            self._check_interrupted(r, target)
+            retried = True
+            self._keep_retry = self.sticky_retry and bool(r.converged)
+            self._retry_run = 0
+        return r, first, retried
+
+    def _cut_step(
+        self, r: SolveResult, target: float, dt: float, hold: bool, cuts: int, retried: bool
+    ) -> None:
+        """After a failed step: back to the converged state, and the step cut (collective).
+
+        The hold's step in a hold, else ``dt`` (whose growth starts again).
+
+        Raises:
+            StepFailure: ``cuts`` beyond ``max_cuts`` or the cut step below ``dt_min``, naming
+                why the step failed and what the return map saw (:func:`describe_attempt`).
+        """
+        why = _why(r, self.solver)
+        attempt = describe_attempt(self.problem)  # before the undo (collective)
+        fault = getattr(self.problem, "bulk_fault", None)
+        bulk = fault() if fault is not None else None  # collective
+        if bulk is not None:  # the bodies' law, not the interface: said first
+            why = f"{bulk}; {why}"
+        self._undo()
+        logger.debug(
+            "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
+            target,
+            dt,
+            why,
+            attempt.text,
+        )
+        if hold:
+            self._hold_step = dt * self.cut
+        else:
+            self.dt = dt * self.cut
+            self.easy = 0
+        if cuts > self.max_cuts or dt * self.cut < self.dt_min:
+            tried = f" (and with {_options_text(self.retry_options)})" if retried else ""
+            raise StepFailure(
+                f"no convergence at t = {target:.6g} with dt = {dt:.3g}{tried} ({why}; "
+                f"{cuts} failed attempt(s) since the last converged step, smallest step "
+                f"allowed {self.dt_min:.3g}); the last converged step is "
+                f"{self.step} at t = {self.t:.6g}, whose state is kept"
+                + (f"; {attempt.text}" if bulk is None else ""),
+                target,
+                self.t,
+                self.step,
+                why,
+                attempt,
+            )
+
+    def _accept(
+        self,
+        r: SolveResult,
+        target: float,
+        dt: float,
+        cuts: int,
+        first: Mapping[str, Any] | None,
+        retried: bool,
+    ) -> StepRecord:
+        """Commit the converged step to ``target`` and record it (collective).
+
+        The retry's memory (``sticky_retry``) and counters, the problem's commit, the validity
+        watches, the predictor's increment (:meth:`_keep_increment`), the converged
+        displacement, the step's :class:`StepRecord` (kept in :attr:`records`).
+        """
+        if first is not None:
+            self._retry_run += 1
+        elif not retried:  # the solver's own options converged: the segment is back on them
+            self._keep_retry = False
+        if retried:
+            self.line_search_steps += 1
+            self.retries += int(first is None)
+        self.problem.commit()
+        dynamics = getattr(self.problem, "dynamics", None)
+        for watch in self.watches.values():
+            watch.track(target)
+        sliding, open_ = interface_activity(self.problem)
+        self._keep_increment(r, dt)
+        assert self.solver.x is not None  # (a live solver)
+        self._x_converged.array_w[:] = self.solver.x.array_r
+        self.problem.u.x.array[: self.problem.layout.n_owned] = self.solver.x.array_r
+        self.problem.u.x.scatter_forward()
+        self.step += 1
+        self.t = target
+        rec = StepRecord(
+            self.step,
+            target,
+            dt,
+            r.iterations,
+            cuts,
+            list(r.residuals),
+            dict(r.counts),
+            retried,
+            sliding,
+            open_,
+            dict(dynamics.energy) if dynamics is not None else {},
+        )
+        if not self.keep_records:
+            self.records.clear()
+        self.records.append(rec)
+        return rec
+
+    def _keep_increment(self, r: SolveResult, dt: float) -> None:
+        """Keep the converged step's displacement increment for the predictor (collective).
+
+        In one array kept from step to step; zero where the step's forces were not resolved
+        (:meth:`_forces_resolved`: nothing determined that motion). Nothing without the
+        predictor.
+        """
+        if not self.predictor:
+            return
+        assert self.solver.x is not None  # (a live solver)
+        x: np.ndarray = self.solver.x.array_r
+        x0 = self._x_converged.array_r
+        if self.increment is None or self.increment.shape != x.shape:
+            self.increment = np.empty_like(x)
+        np.subtract(x, x0, out=self.increment)
+        self.increment_dt = dt
+        if not self._forces_resolved(r):  # nothing determined this motion
+            self.increment[:] = 0.0
+
+    def _grow_step(self, iterations: int) -> None:
+        """Count an easy step (at most ``easy_iterations``); after ``easy_steps``, grow ``dt``."""
+        self.easy = self.easy + 1 if iterations <= self.easy_iterations else 0
+        if self.easy >= self.easy_steps:
+            self.dt = min(self.dt * self.grow, self.dt_max)
+            self.easy = 0

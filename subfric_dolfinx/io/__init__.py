@@ -9,7 +9,9 @@
 * :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
   as a point-cloud time series (XDMF/HDF5) for ParaView.
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
-* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file, validated on read.
+* :mod:`.checkpoint`: checkpoint and restart in one HDF5 file, validated on read; the file's
+  layout, format versions and validation: :mod:`.checkpoint_format`; the interfaces and the
+  bulk state in it: :mod:`.checkpoint_parts`; a dynamic run's vectors: :mod:`.dynamic_state`.
 * :mod:`.collective`: collective errors (:class:`OutputError`), the directory probe.
 * :mod:`.outdir`: :class:`OutputDirectory`, an output directory locked for one run, its files
   known by its manifest.

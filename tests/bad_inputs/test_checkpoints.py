@@ -128,7 +128,25 @@ DAMAGED = {
         f"'{IFACE}/x' has shape (16, 2), expected",
     ),
     "no interface": (lambda f: f.__delitem__("interfaces"), "holds no interface"),
-    "old version": (_set("version", 1), "has version 1, this code reads versions 2 and 3"),
+    "old version": (_set("version", 1), "has version 1, this code reads versions 2, 3 and 4"),
+    "no stepper": (lambda f: f.attrs.__delitem__("stepper"), "lacks the attribute(s) ['stepper']"),
+    "stepper without keep_retry": (
+        _set("stepper", '{"hold_step": null, "retry_run": 0}'),
+        "attribute 'stepper' has the keys ['hold_step', 'retry_run'], expected ['hold_step', "
+        "'keep_retry', 'retry_run']",
+    ),
+    "negative hold step": (
+        _set("stepper", '{"hold_step": -0.5, "keep_retry": false, "retry_run": 0}'),
+        "attribute 'stepper.hold_step' = -0.5 is not > 0",
+    ),
+    "keep_retry a number": (
+        _set("stepper", '{"hold_step": null, "keep_retry": 1, "retry_run": 0}'),
+        "attribute 'stepper.keep_retry' is 1, not a boolean",
+    ),
+    "retry_run a float": (
+        _set("stepper", '{"hold_step": null, "keep_retry": false, "retry_run": 1.5}'),
+        "attribute 'stepper.retry_run' is 1.5, not an integer",
+    ),
     "geometry as text": (_set("geometry", "a mesh"), "'geometry' is not 9 finite numbers"),
     "geometry NaN": (_set("geometry", np.full(9, np.nan)), "'geometry' is not 9 finite numbers"),
     "history columns": (_columns, "1 history columns for"),

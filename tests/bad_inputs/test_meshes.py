@@ -1,7 +1,6 @@
 """Bad meshes: files that are missing, not meshes, lack a group, have sides that do not pair or
 the wrong dimension; gmsh models with shared or lost nodes; bad meshing arguments."""
 
-import contextlib
 import os
 
 import gmsh
@@ -12,7 +11,15 @@ from mpi4py import MPI
 from subfric_dolfinx import meshing
 from subfric_dolfinx.constitutive import preset
 from subfric_dolfinx.fem import InterfaceError, InterfaceProblem, Material
-from tests.helpers import MESH_DIR, PROGRAM, everywhere, on_root, raised_on_every_rank
+from tests.helpers import (
+    MESH_DIR,
+    PROGRAM,
+    everywhere,
+    gmsh_open,
+    joined_model,
+    on_root,
+    raised_on_every_rank,
+)
 
 MESH_CASES = {
     # name: (file, gdim, exception, words, regular expression or None)
@@ -348,39 +355,6 @@ def test_a_facet_group_partly_on_the_interface():
 
 # --------------------------------------------------------------------------------------------
 # duplicate_interface_nodes: bad sides, sources and outputs; a full disk (issue 36)
-
-
-def joined_model(h=0.25):
-    """Two rectangles meshed together, the shared edge the group ``seam`` (current model)."""
-    import gmsh
-
-    gmsh.model.add("joined")
-    occ = gmsh.model.occ
-    a, b = occ.addRectangle(0, 0, 0, 1, 0.5), occ.addRectangle(0, 0.5, 0, 1, 0.5)
-    occ.fragment([(2, a)], [(2, b)])
-    occ.synchronize()
-    low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
-    high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
-    mid = [
-        t for _, t in gmsh.model.getEntities(1) if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
-    ]
-    gmsh.model.addPhysicalGroup(2, low, name="lower")
-    gmsh.model.addPhysicalGroup(2, high, name="upper")
-    gmsh.model.addPhysicalGroup(1, mid, name="seam")
-    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
-    gmsh.model.mesh.generate(2)
-
-
-@contextlib.contextmanager
-def gmsh_open():
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    gmsh.option.setNumber("General.Verbosity", 2)
-    try:
-        yield gmsh
-    finally:
-        gmsh.finalize()
 
 
 @pytest.mark.serial

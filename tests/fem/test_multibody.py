@@ -36,7 +36,7 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning
-from tests.helpers import everywhere, on_root, raised_on_every_rank
+from tests.helpers import everywhere, gmsh_open, joined_model, on_root, raised_on_every_rank
 
 P_LID = 100.0  # MPa
 W_CAP = 1.0  # mm, the cap's width (the load's width)
@@ -244,31 +244,9 @@ def test_duplicated_msh_file_is_read_by_dolfinx_gmsh_reader(comm, shared_tmp):
     joined, apart = shared_tmp / "joined.msh", shared_tmp / "apart.msh"
 
     def write():
-        import gmsh
-
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
-        gmsh.option.setNumber("General.Verbosity", 2)
-        try:
-            gmsh.model.add("joined")
-            occ = gmsh.model.occ
-            a, b = occ.addRectangle(0, 0, 0, 1, 0.5), occ.addRectangle(0, 0.5, 0, 1, 0.5)
-            occ.fragment([(2, a)], [(2, b)])
-            occ.synchronize()
-            low = [t for _, t in gmsh.model.getEntities(2) if occ.getCenterOfMass(2, t)[1] < 0.5]
-            high = [t for _, t in gmsh.model.getEntities(2) if t not in low]
-            mid = [
-                t
-                for _, t in gmsh.model.getEntities(1)
-                if abs(occ.getCenterOfMass(1, t)[1] - 0.5) < 1e-9
-            ]
-            gmsh.model.addPhysicalGroup(2, low, name="lower")
-            gmsh.model.addPhysicalGroup(2, high, name="upper")
-            tag = gmsh.model.addPhysicalGroup(1, mid, name="seam")
-            gmsh.option.setNumber("Mesh.MeshSizeMax", 0.25)
-            gmsh.model.mesh.generate(2)
+        with gmsh_open() as gmsh:
+            tag = joined_model()
             gmsh.write(str(joined))
-        finally:
-            gmsh.finalize()
         return meshing.duplicate_interface_nodes(joined, "seam", output=apart), tag
 
     info, tag = on_root(comm, write)

@@ -57,6 +57,16 @@ def scene(regions=None, name="regions", **outputs):
     }
 
 
+def slides_at_each_regions_own_coefficient(snap):
+    """The profile at the end: the left half (x < 1) the region ``rough`` (number 1), the rest
+    the interface's law, every point sliding at its own region's coefficient."""
+    x = snap["x"][:, 0]
+    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
+    assert np.all(snap["status"] == Status.PLASTIC)
+    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
+    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+
+
 @pytest.mark.leaves_validity(PenetrationWarning, reason=SOFT_GAP)
 def test_each_region_slides_at_its_own_friction_coefficient():
     comm = MPI.COMM_WORLD
@@ -72,12 +82,7 @@ def test_each_region_slides_at_its_own_friction_coefficient():
     assert abs(end["F_t1"]) == pytest.approx(total, rel=2e-4)
     assert end["F_t1"] == pytest.approx(end["default.F_t1"] + end["rough.F_t1"], rel=1e-12)
     assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-8)
-    snap = res.snapshots[2.0]
-    x = snap["x"][:, 0]
-    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
-    assert np.all(snap["status"] == Status.PLASTIC)
-    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
-    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+    slides_at_each_regions_own_coefficient(res.snapshots[2.0])
     if comm.size > 1:  # the same on one rank, to round-off
         alone = scene()  # on every rank: the ranks' prefix counts stay equal (tests/conftest.py)
 
@@ -160,12 +165,7 @@ def test_regions_with_finite_sliding_each_point_its_own_law():
     assert end["F_t1"] == pytest.approx(ref["F_t1"], rel=1e-6)
     # F_t1 is along the frame of the base's current normals, which the press tilts a little
     assert abs(end["R_top_x"]) == pytest.approx(abs(end["F_t1"]), rel=1e-6)
-    snap = res.snapshots[2.0]
-    x = snap["x"][:, 0]
-    np.testing.assert_array_equal(snap["region"], np.where(x < 1.0, 1, 0))
-    assert np.all(snap["status"] == Status.PLASTIC)
-    ratio = np.abs(snap["f_t"][:, 0]) / snap["f_n"]
-    np.testing.assert_allclose(ratio, np.where(x < 1.0, MU["rough"], MU["default"]), rtol=1e-9)
+    slides_at_each_regions_own_coefficient(res.snapshots[2.0])
 
 
 def test_a_finite_sliding_region_the_mesh_lacks_is_named():
@@ -186,7 +186,7 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
     import dolfinx
 
     from subfric_dolfinx.constitutive import CoulombLaw
-    from subfric_dolfinx.fem.interface import SlidingInterface
+    from subfric_dolfinx.fem.interface import SlidingInterface, SlidingOptions
     from tests.contact_meshes import tagged_blocks
 
     comm = MPI.COMM_WORLD
@@ -195,8 +195,9 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
     )
     V = dolfinx.fem.functionspace(dom.mesh, ("Lagrange", 1, (2,)))
     law = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.2)
-    with raised_on_every_rank(InterfaceError, *words):
-        SlidingInterface(
+
+    def with_region(region_law, centroids):
+        return SlidingInterface(
             V,
             dom.cell_tags,
             dom.facet_tags,
@@ -204,23 +205,15 @@ def test_a_finite_sliding_region_is_a_group_of_secondary_facets(group, words):
             tag=dom.tags["contact"],
             primary=dom.tags["base"],
             secondary=dom.tags["block"],
-            name="contact",
-            regions={"r": law},
-            groups={"r": np.array(group)},
+            options=SlidingOptions(
+                name="contact", regions={"r": region_law}, groups={"r": np.array(centroids)}
+            ),
         )
+
+    with raised_on_every_rank(InterfaceError, *words):
+        with_region(law, group)
     # both sides' facets in one group (a mesh made apart): the block's facet gives the region
-    iface = SlidingInterface(
-        V,
-        dom.cell_tags,
-        dom.facet_tags,
-        law,
-        tag=dom.tags["contact"],
-        primary=dom.tags["base"],
-        secondary=dom.tags["block"],
-        name="contact",
-        regions={"r": CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5)},
-        groups={"r": np.array([[0.25, 0.0], [0.75, 0.0]])},
-    )
+    iface = with_region(CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.5), [[0.25, 0.0], [0.75, 0.0]])
     pts = iface.law_points
     left = pts.points[:, 0] < 1.0
     assert np.array_equal(pts.point_data["region"], np.where(left, 1.0, 0.0))

@@ -24,7 +24,7 @@ from subfric_dolfinx.fem import (
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
-from tests.helpers import everywhere, prefix
+from tests.helpers import everywhere, jacobian_against_differences, prefix
 
 MATERIALS = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
 COULOMB = CoulombLaw(alpha_t=1e4, alpha_n=1e4, mu_c=0.3)
@@ -104,21 +104,8 @@ def test_spring_stiffness_is_in_the_jacobian():
     first is linear (closed, elastic), and full Newton takes one iteration; the Jacobian at a
     perturbed state equals central differences of the residual."""
     comm = MPI.COMM_WORLD
-    program = LoadingProgram([0, 1, 2, 3], {"press": [0, 1, 1, 1], "shear": [0, 0, 1, -1]})
-    prob = InterfaceProblem(
-        block(comm),
-        COULOMB,
-        MATERIALS,
-        program,
-        [Dirichlet("bottom", (0.0, 0.0))],
-        [
-            *[
-                Pressure("top", 100.0, amplitude="press"),
-                Traction("secondary_left", (10.0, 0.0), "shear"),
-            ],
-            *[Spring("secondary_left", (2.0, 0.0)), Spring("secondary_right", (2.0, 0.0))],
-        ],
-    )
+    springs = [Spring("secondary_left", (2.0, 0.0)), Spring("secondary_right", (2.0, 0.0))]
+    _, prob = sheared_block(comm, 10.0, springs, shear=(0.0, 0.0, 1.0, -1.0))
     with FrictionSolver(prob, prefix("sjac")) as solver:
         stepper = LoadStepper(solver, 0.5)
         stepper.run()
@@ -130,26 +117,16 @@ def test_spring_stiffness_is_in_the_jacobian():
         x.array_w[:] += 1e-6 * rng.standard_normal(x.array_r.size)
         J = prob.create_matrix()
         prob.jacobian(x, J)
-        d = x.duplicate()
-        d.array_w[:] = rng.standard_normal(d.array_r.size)
-        d.array_w[np.isin(np.arange(d.array_r.size), prob.bc_dofs)] = 0.0
-        h = 1e-8
-        Fp, Fm = prob.create_vector(), prob.create_vector()
-        xp, xm = x.copy(), x.copy()
-        xp.axpy(h, d)
-        xm.axpy(-h, d)
-        prob.residual(xp, Fp)
-        prob.residual(xm, Fm)
-        fd = (Fp.array_r - Fm.array_r) / (2 * h)
-        Jd = J.createVecLeft()
-        J.mult(d, Jd)
-        err = comm.allreduce(float(np.sum((Jd.array_r - fd) ** 2))) ** 0.5
-        nrm = comm.allreduce(float(np.sum(fd**2))) ** 0.5
+        err, nrm = jacobian_against_differences(prob, x, J, rng, 1e-8)
         assert err <= 1e-6 * nrm, (err, nrm)
 
 
-def sheared_block(comm, q, springs=()):
-    program = LoadingProgram([0, 1, 2], {"press": [0, 1, 1], "shear": [0, 0, 1]})
+def sheared_block(comm, q, springs=(), shear=(0.0, 0.0, 1.0)):
+    """The block pressed by 100 MPa (t = 0 -> 1), then sheared by ``q`` MPa on its left flank
+    times ``shear`` (the channel at t = 0, 1, 2, ...), with ``springs``: (program, problem)."""
+    times = list(range(len(shear)))
+    press = [0.0] + [1.0] * (len(shear) - 1)
+    program = LoadingProgram(times, {"press": press, "shear": list(shear)})
     return program, InterfaceProblem(
         block(comm),
         COULOMB,

@@ -1,5 +1,6 @@
 """Checkpoint/restart, interface history in HDF5, and faults (1 and 2 ranks)."""
 
+import dataclasses
 import errno
 import gc
 import os
@@ -12,14 +13,22 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from subfric_dolfinx.fem import StepFailure
-from subfric_dolfinx.io import CheckpointWriteError, read_checkpoint
+from subfric_dolfinx.constitutive import CoulombLaw
+from subfric_dolfinx.fem import FrictionSolver, LoadStepper, StepControl, StepFailure
+from subfric_dolfinx.io import (
+    CheckpointWriteError,
+    read_checkpoint,
+    restore_checkpoint,
+    write_checkpoint,
+)
 from subfric_dolfinx.logs import SlideWarning
 from subfric_dolfinx.scenes import run_scene
 from tests.helpers import (
     DEMO_SLIDES,
     ROOT,
     SHORT_SLIDE,
+    block_problem,
+    everywhere,
     hang_fails,
     on_root,
     prefix,
@@ -104,6 +113,30 @@ def test_restart_gives_the_same_history(shared_tmp, linear):
             assert diff < 1e-8 * np.abs(ref).max(), diff
 
         on_root(comm, restart_on_one_rank)
+
+
+def test_the_steppers_memory_comes_back_from_a_checkpoint(shared_tmp):
+    """Everything that decides the stepper's next steps comes back whole (format 4): the step,
+    its size and growth counter, the predictor's increment, and the ``stepper`` attribute's
+    hold step after a cut, the retry options kept for the segment and the steps that took them
+    (set here to values a run reaches in a hold after a cut, on a segment kept on the retry)."""
+    comm = MPI.COMM_WORLD
+    prob = block_problem(comm, law=CoulombLaw(alpha_t=1e5, alpha_n=1e6, mu_c=0.3))
+    with FrictionSolver(prob, prefix("memory"), linear="lu") as solver:
+        st = LoadStepper(solver, 0.25)
+        st.run(t_end=1.5)
+        st._hold_step, st._keep_retry, st._retry_run, st.easy = 0.0625, True, 1, 1
+        path = shared_tmp / "memory.h5"
+        write_checkpoint(path, prob, st, [{"t": r.t} for r in st.records])
+        again = LoadStepper(solver, 0.125, control=StepControl(dt_max=0.5))
+        assert again.memory().t != st.memory().t  # (a fresh stepper's differs)
+        restore_checkpoint(path, prob, again)
+        a, b = st.memory(), again.memory()
+    assert a.increment is not None and b.increment is not None
+    assert everywhere(comm, np.array_equal(a.increment, b.increment))
+    assert dataclasses.replace(a, increment=None) == dataclasses.replace(b, increment=None)
+    assert (b.hold_step, b.keep_retry, b.retry_run, b.easy, b.t) == (0.0625, True, 1, 1, 1.5)
+    prob.destroy()
 
 
 @pytest.mark.leaves_validity(SlideWarning, reason=DEMO_SLIDES)

@@ -14,7 +14,8 @@
   Newton at most 5 iterations a step after the first (the first touch: 5 or 7 by the stack).
 * the same boxes meshed apart with equal sizes (their interface nodes coincide): the
   finite-sliding interface gives the small-sliding one's pressures (measured 9e-5 of p0; 0.85 %
-  while the segment transfer of a nodal rule was the consistent mass, not the slave's lumped one).
+  while the segment transfer of a nodal rule was the consistent mass, not the secondary's lumped
+  one).
 * cattaneo_mindlin (Coulomb part): the stick zone's half-width within 1 % of a sqrt(1 - Q/mu P)
   for the measured Q/mu P (fit) and within a point spacing (edge), the sticking and slipping
   points where the closed form puts them, the tangential traction's RMS error below 3 % of mu p0.

@@ -3,7 +3,8 @@
 * :class:`BaseInterface` (:mod:`.base`): the abstract base of both kinds, what they do alike
   (the Dirichlet rows and columns of the residual and the tangent, the step, commit and revert,
   ``destroy``) and what the rest of the package reads of an interface, and the helpers both use
-  (:class:`InterfaceError`, :class:`NewtonStart`, the tangent's stiffening, the initial gap, the
+  (:class:`InterfaceError`, :class:`InterfaceOptions`: the settings both kinds take,
+  :class:`NewtonStart`, the tangent's stiffening, the initial gap, the
   exchange of rows between ranks); :mod:`.protocol`: what the outputs read of an interface's
   law points (:class:`~.protocol.LawPoints`); :mod:`.kinds`: the kind of each interface from
   its ``kinematics``.
@@ -18,8 +19,8 @@
   couplings).
 """
 
-from .base import BaseInterface, InterfaceError, NewtonStart
-from .finite import SlidingInterface
+from .base import BaseInterface, InterfaceError, InterfaceOptions, NewtonStart
+from .finite import SlidingInterface, SlidingOptions
 from .geometry import coordinate_basis, frames, match_points, push_forward, quadrature_rule
 from .layout import ExtendedLayout, create_matrix
 from .small import FrictionInterface, InterfaceElements, InterfacePairs, pair_interface
@@ -30,9 +31,11 @@ __all__ = [
     "FrictionInterface",
     "InterfaceElements",
     "InterfaceError",
+    "InterfaceOptions",
     "InterfacePairs",
     "NewtonStart",
     "SlidingInterface",
+    "SlidingOptions",
     "coordinate_basis",
     "create_matrix",
     "frames",

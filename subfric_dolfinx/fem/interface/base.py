@@ -3,6 +3,8 @@
 * :class:`BaseInterface`: the abstract base of both kinds: what they do alike (the Dirichlet rows
   and columns of the residual and the tangent, the step, commit and revert, ``destroy``), and
   what the problem, the outputs and the checkpoints read of an interface of either kind.
+* :class:`InterfaceOptions`: the settings both kinds take beyond their mesh, law and sides (a
+  kind's own add to them: :class:`~.finite.interface.SlidingOptions`).
 * :class:`NewtonStart`: how a step's Newton iteration starts (the stepper's knowledge, no kind's),
   which a kind's first Jacobian of the step may use.
 * :class:`InterfaceError`: an unusable interface (mesh, tags, settings), from either kind.
@@ -36,6 +38,7 @@ from ...constitutive import FrictionLaw, StatePair
 __all__ = [
     "BaseInterface",
     "InterfaceError",
+    "InterfaceOptions",
     "NewtonStart",
     "Received",
     "exchange_rows",
@@ -48,6 +51,32 @@ __all__ = [
 
 class InterfaceError(ValueError):
     """A mesh whose interface is unusable (missing tags, unpaired facets, undivided nodes)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class InterfaceOptions:
+    """The settings both kinds of interface take beyond their mesh, law and sides.
+
+    Attributes:
+        name: The interface's name (messages, outputs).
+        quadrature: ``"gauss"`` or ``"nodal"`` (small sliding: on the pairs; finite sliding: on
+            the secondary facets).
+        initial_gap: An initial normal gap ``g0`` (mm, > 0 open), a number or a function of the
+            reference coordinates ``x`` (gdim, n) of the law's points (finite sliding measures
+            the geometric gap besides).
+        regions: Region name -> its law; the regions are groups of interface facets given by the
+            centroids of their facets in ``groups``; the other points take the interface's law.
+        groups: Subgroup name -> centroids of its facets (``InterfaceMesh.interface_groups``).
+        mode: The modelling mode; ``"axisymmetric"``: forces are totals over the circumference
+            (weights ``2 pi r``).
+    """
+
+    name: str = "interface"
+    quadrature: str = "gauss"
+    initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None
+    regions: Mapping[str, FrictionLaw] | None = None
+    groups: Mapping[str, np.ndarray] | None = None
+    mode: str | None = None
 
 
 @dataclasses.dataclass(frozen=True)

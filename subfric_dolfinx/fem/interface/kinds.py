@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from ...meshing.topology import KINEMATICS
-from .base import BaseInterface, InterfaceError
-from .finite import SlidingInterface
+from .base import BaseInterface, InterfaceError, InterfaceOptions
+from .finite import SlidingInterface, SlidingOptions
 from .small import FrictionInterface
 
 __all__ = ["KINEMATICS", "make_interface"]
@@ -30,7 +30,16 @@ def make_interface(
         InterfaceError: An unknown kind, or settings the kind does not have.
     """
     kind = spec.kinematics or "small_sliding"
+    shared = {
+        "name": spec.group,
+        "quadrature": spec.quadrature,
+        "initial_gap": spec.initial_gap,
+        "regions": spec.regions,
+        "groups": groups,
+        "mode": mode,
+    }
     if kind == "small_sliding":
+        options = InterfaceOptions(**shared)
         return FrictionInterface(
             V,
             cell_tags,
@@ -39,15 +48,11 @@ def make_interface(
             tag=tag,
             primary=primary,
             secondary=secondary,
-            name=spec.group,
-            quadrature=spec.quadrature,
-            initial_gap=spec.initial_gap,
-            regions=spec.regions,
-            groups=groups,
-            mode=mode,
+            options=options,
             timings=timings,
         )
     if kind == "finite_sliding":
+        finite = SlidingOptions(**shared, search_radius=spec.search_radius, reach=spec.reach)
         return SlidingInterface(
             V,
             cell_tags,
@@ -56,15 +61,8 @@ def make_interface(
             tag=tag,
             primary=primary,
             secondary=secondary,
-            name=spec.group,
-            quadrature=spec.quadrature,
-            initial_gap=spec.initial_gap,
-            mode=mode,
+            options=finite,
             timings=timings,
-            search_radius=spec.search_radius,
-            reach=spec.reach,
-            regions=spec.regions,
-            groups=groups,
         )
     raise InterfaceError(
         f"interface {spec.group!r}: kinematics {kind!r} is not one of {list(KINEMATICS)}"

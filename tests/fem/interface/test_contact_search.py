@@ -18,7 +18,7 @@ from mpi4py import MPI
 
 from subfric_dolfinx.fem.interface.finite.search import exchange_facets, find_projections
 from subfric_dolfinx.fem.interface.finite.surface import contact_surface, nodal_normals
-from tests.contact_meshes import CONTACT, MASTER, SLAVE, annuli, block_on_base, block_on_plate
+from tests.contact_meshes import CONTACT, PRIMARY, SECONDARY, annuli, block_on_base, block_on_plate
 from tests.helpers import everywhere
 
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
@@ -33,7 +33,7 @@ def space(bodies, degree):
 
 def surfaces(V, bodies):
     args = (V, bodies.cell_tags, bodies.facet_tags, CONTACT)
-    return contact_surface(*args, MASTER), contact_surface(*args, SLAVE)
+    return contact_surface(*args, PRIMARY), contact_surface(*args, SECONDARY)
 
 
 def primary_data(V, ms, x):

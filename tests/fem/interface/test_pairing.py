@@ -180,6 +180,37 @@ def test_the_same_error_as_the_all_gather_pairing():
     assert messages[0] == messages[1]
 
 
+def test_undivided_nodes_are_refused_on_every_rank_also_where_one_rank_holds_them():
+    """An interface group of facets between two cells of one body-split mesh (nodes not
+    duplicated) is refused with one message on every rank; the group's facets tagged on one rank
+    only (the one owning most of them), so the other ranks hold none: the message's count is
+    reduced on every rank."""
+    comm = MPI.COMM_WORLD
+    mesh = dolfinx.mesh.create_unit_square(
+        comm, 4, 4, ghost_mode=dolfinx.mesh.GhostMode.shared_facet
+    )
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (2,)))
+    ncells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
+    cells = np.arange(ncells, dtype=np.int32)
+    left = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, 0] < 0.5
+    cell_tags = dolfinx.mesh.meshtags(mesh, tdim, cells, np.where(left, 1, 2).astype(np.int32))
+    middle = dolfinx.mesh.locate_entities(mesh, tdim - 1, lambda x: np.isclose(x[0], 0.5))
+    middle = middle[middle < mesh.topology.index_map(tdim - 1).size_local]
+    holder = int(np.argmax(comm.allgather(middle.size)))
+    tagged = middle if comm.rank == holder else np.zeros(0, dtype=np.int32)
+    facet_tags = dolfinx.mesh.meshtags(
+        mesh, tdim - 1, tagged, np.full(tagged.size, 3, dtype=np.int32)
+    )
+    with raised_on_every_rank(
+        InterfaceError,
+        f"{comm.allreduce(tagged.size)} interface facets have 2 adjacent cells",
+        "the interface nodes are not duplicated",
+    ):
+        pair_interface(V, cell_tags, facet_tags, 3, 1, 2)
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_match_points_agrees_with_the_grid_hash(dim):
     """The k-d tree ``match_points`` (also used to restore checkpoints) finds what the grid hash

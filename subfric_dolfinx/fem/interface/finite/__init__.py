@@ -3,7 +3,8 @@
 The geometry of ``docs/model.md`` §11-12.
 
 
-* :class:`~.interface.SlidingInterface` (:mod:`.interface`): the kind itself, holding its parts:
+* :class:`~.interface.SlidingInterface` (:mod:`.interface`; its settings
+  :class:`~.interface.SlidingOptions`): the kind itself, holding its parts:
   its two sides, fixed (:mod:`.sides`), the law's points with their state and checkpoint data
   (:mod:`.points`), the per-step search of every secondary facet's reach and the layout
   (:mod:`.reach`), the transfer of the tractions to the primary (:mod:`.transfer`) and the forces
@@ -19,6 +20,6 @@ The geometry of ``docs/model.md`` §11-12.
   :mod:`~subfric_dolfinx.fem.interface.finite.regions`.
 """
 
-from .interface import SlidingInterface
+from .interface import SlidingInterface, SlidingOptions
 
-__all__ = ["SlidingInterface"]
+__all__ = ["SlidingInterface", "SlidingOptions"]

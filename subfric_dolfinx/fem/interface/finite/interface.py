@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import dolfinx
@@ -73,7 +73,7 @@ from petsc4py import PETSc
 
 from ....constitutive import FrictionLaw, RegionalLaw
 from ....constitutive.result import Status
-from ..base import BaseInterface, NewtonStart
+from ..base import BaseInterface, InterfaceOptions, NewtonStart
 from ..layout import Couplings
 from .assembly import Block, SlidingAssembly
 from .contact import ContactGeometry, contact_geometry
@@ -83,7 +83,24 @@ from .regions import secondary_regions
 from .sides import make_sides
 from .transfer import SegmentTransfer
 
-__all__ = ["SlidingInterface"]
+__all__ = ["SlidingInterface", "SlidingOptions"]
+
+
+@dataclasses.dataclass(frozen=True)
+class SlidingOptions(InterfaceOptions):
+    """A finite-sliding interface's settings: those of both kinds and the search's distances.
+
+    Attributes:
+        search_radius: The largest normal distance at which a point faces the primary (mm);
+            farther points are open (also where they penetrate farther: give more than the
+            largest penetration). ``None``: twice the largest facet size of either side.
+        reach: How far a point may slide in one step (mm); also the hysteresis of the pattern
+            (rebuilt when a facet needs a primary facet beyond it). ``None``: the largest facet
+            size of either side.
+    """
+
+    search_radius: float | None = None
+    reach: float | None = None
 
 
 class SlidingInterface(BaseInterface):
@@ -99,26 +116,13 @@ class SlidingInterface(BaseInterface):
         primary: Cell tag(s) of the primary body (the primary surface: its smooth outward normal
             defines the frame).
         secondary: Cell tag(s) of the secondary body (the law's points are on its facets).
-        name: The interface's name (messages).
-        quadrature: ``"gauss"`` or ``"nodal"`` on the secondary facets.
-        initial_gap: An extra initial normal gap ``g0`` (mm, > 0 open), a number or a function
-            of the reference coordinates of the points; the geometric gap is measured anyway.
-        mode: The modelling mode; ``"axisymmetric"``: the secondary weights carry ``2 pi r`` and
-            the transfer projects the traction times ``2 pi r`` (forces are totals over the
-            circumference).
+        options: Name, quadrature, initial gap, regions, modelling mode and the search's
+            distances (:class:`SlidingOptions`; ``None``: its defaults). With ``"axisymmetric"``
+            the secondary weights carry ``2 pi r`` and the transfer projects the traction times
+            ``2 pi r``; with regions each secondary point takes the law of the region that holds
+            its secondary facet and keeps it as it slides
+            (:mod:`~subfric_dolfinx.fem.interface.finite.regions`).
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings`.
-        search_radius: The largest normal distance at which a point faces the primary (mm);
-            farther points are open (also where they penetrate farther: give more than the
-            largest penetration). Default: twice the largest facet size of either side.
-        reach: How far a point may slide in one step (mm); also the hysteresis of the pattern
-            (rebuilt when a facet needs a primary facet beyond it). Default: the largest facet
-            size of either side.
-        regions: Region name -> its law; the regions are groups of interface facets given by
-            ``groups`` (name -> centroids of their facets): each secondary point takes the law
-            of the region that holds its secondary facet and keeps it as it slides
-            (:mod:`~subfric_dolfinx.fem.interface.finite.regions`);
-            the others ``law``.
-        groups: The interface's subgroups (``InterfaceMesh.interface_groups``).
 
     Attributes:
         sides: The two surfaces and the search distances (:class:`~.sides.Sides`).
@@ -152,16 +156,11 @@ class SlidingInterface(BaseInterface):
         tag: int,
         primary: int | Sequence[int],
         secondary: int | Sequence[int],
-        name: str = "interface",
-        quadrature: str = "gauss",
-        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
-        mode: str | None = None,
+        options: SlidingOptions | None = None,
         timings: Any = None,
-        search_radius: float | None = None,
-        reach: float | None = None,
-        regions: Mapping[str, FrictionLaw] | None = None,
-        groups: Mapping[str, np.ndarray] | None = None,
     ) -> None:
+        o = options or SlidingOptions()
+        name = o.name
         super().__init__(V, name, timings)
         self.sides = make_sides(
             V,
@@ -171,20 +170,21 @@ class SlidingInterface(BaseInterface):
             primary,
             secondary,
             name,
-            quadrature,
-            search_radius,
-            reach,
+            o.quadrature,
+            o.search_radius,
+            o.reach,
         )
         region = None
-        if regions:
+        if o.regions:
             region = np.repeat(
-                secondary_regions(self.sides, groups or {}, list(regions), name), self.sides.nq
+                secondary_regions(self.sides, o.groups or {}, list(o.regions), name),
+                self.sides.nq,
             )
-            law = RegionalLaw(law, dict(regions), region)
+            law = RegionalLaw(law, dict(o.regions), region)
         self.law = law
-        self._points = SlidingPoints(self.sides, law, initial_gap, mode, region)
+        self._points = SlidingPoints(self.sides, law, o.initial_gap, o.mode, region)
         self.search = ReachSearch(self.sides)
-        self.transfer = SegmentTransfer(self.sides, self._points, mode)
+        self.transfer = SegmentTransfer(self.sides, self._points, o.mode)
         self.assembly = SlidingAssembly(self.sides, self._points, self.transfer)
         self.geometry: ContactGeometry | None = None
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}

@@ -31,7 +31,8 @@ is added (a caller that replaces the constrained rows itself, as
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 import dolfinx
@@ -40,7 +41,13 @@ from petsc4py import PETSc
 
 from ....compat import petsc_vector
 from ....constitutive import FrictionLaw
-from ..base import BaseInterface, InterfaceError, NewtonStart, stiffen_separated
+from ..base import (
+    BaseInterface,
+    InterfaceError,
+    InterfaceOptions,
+    NewtonStart,
+    stiffen_separated,
+)
 from .element import InterfaceElements
 from .pairing import pair_interface
 from .regions import element_regions
@@ -59,14 +66,8 @@ class FrictionInterface(BaseInterface):
         tag: The interface's facet tag.
         primary: Cell tag(s) of the primary body, whose outward normal defines the frame.
         secondary: Cell tag(s) of the secondary body.
-        name: The interface's name (messages, outputs).
-        quadrature: ``"gauss"`` or ``"nodal"``.
-        initial_gap: The initial normal gap ``g0`` (mm, > 0 open): a number or a function of the
-            coordinates ``x`` (gdim, n).
-        regions: Region name -> its law; the regions are groups of interface facets given by
-            the centroids of their facets in ``groups``.
-        groups: Subgroup name -> centroids of its facets (``InterfaceMesh.interface_groups``).
-        mode: The modelling mode (axisymmetric: forces weighted by ``2 pi r``).
+        options: Name, quadrature, initial gap, regions, modelling mode
+            (:class:`~..base.InterfaceOptions`; ``None``: its defaults).
         timings: A :class:`~subfric_dolfinx.fem.timing.Timings` to time the sections in.
 
     Attributes:
@@ -93,22 +94,24 @@ class FrictionInterface(BaseInterface):
         tag: int,
         primary: int | Sequence[int],
         secondary: int | Sequence[int],
-        name: str = "interface",
-        quadrature: str = "gauss",
-        initial_gap: float | Callable[[np.ndarray], np.ndarray] | None = None,
-        regions: Mapping[str, FrictionLaw] | None = None,
-        groups: Mapping[str, np.ndarray] | None = None,
-        mode: str | None = None,
+        options: InterfaceOptions | None = None,
         timings: Any = None,
     ) -> None:
-        super().__init__(V, name, timings)
-        self.pairs = pair_interface(V, cell_tags, facet_tags, tag, primary, secondary, name=name)
+        o = options or InterfaceOptions()
+        super().__init__(V, o.name, timings)
+        self.pairs = pair_interface(V, cell_tags, facet_tags, tag, primary, secondary, name=o.name)
         by_region = None
-        if regions:
-            numbers = element_regions(self.pairs, groups or {}, list(regions), name)
-            by_region = (numbers, dict(regions))
+        if o.regions:
+            numbers = element_regions(self.pairs, o.groups or {}, list(o.regions), o.name)
+            by_region = (numbers, dict(o.regions))
         self.elements = InterfaceElements(
-            self.pairs, V, law, quadrature, initial_gap=initial_gap, regions=by_region, mode=mode
+            self.pairs,
+            V,
+            law,
+            o.quadrature,
+            initial_gap=o.initial_gap,
+            regions=by_region,
+            mode=o.mode,
         )
         self.law = self.elements.law
         bs = V.dofmap.bs
@@ -131,7 +134,8 @@ class FrictionInterface(BaseInterface):
         *,
         primary: str | None = None,
         secondary: str | None = None,
-        **kwargs: Any,
+        options: InterfaceOptions | None = None,
+        timings: Any = None,
     ) -> FrictionInterface:
         """The interface ``interface`` of a mesh read by :mod:`subfric_dolfinx.meshing`.
 
@@ -143,8 +147,9 @@ class FrictionInterface(BaseInterface):
             interface: The interface's facet group (``None``: the mesh's only interface).
             primary: Its primary body (``None``: as the mesh says).
             secondary: Its secondary body (``None``: as the mesh says).
-            **kwargs: As for the constructor (``quadrature``, ``initial_gap``, ``regions``,
-                ``mode``, ...).
+            options: As for the constructor; its ``name`` is ``interface``'s, its ``groups``
+                the mesh's subgroups of the interfaces unless given.
+            timings: As for the constructor.
         """
         sides = getattr(domain, "interfaces", {})
         if interface is None:
@@ -162,7 +167,8 @@ class FrictionInterface(BaseInterface):
         secondary = secondary or (known.secondary if known else None)
         if primary is None or secondary is None:
             raise InterfaceError(f"interface {interface!r}: give its primary and secondary bodies")
-        kwargs.setdefault("groups", getattr(domain, "interface_groups", {}))
+        o = options or InterfaceOptions()
+        groups = o.groups if o.groups is not None else getattr(domain, "interface_groups", {})
         return cls(
             V,
             domain.cell_tags,
@@ -171,8 +177,8 @@ class FrictionInterface(BaseInterface):
             tag=domain.tags[interface],
             primary=domain.body_tags(primary),
             secondary=domain.body_tags(secondary),
-            name=interface,
-            **kwargs,
+            options=dataclasses.replace(o, name=interface, groups=groups),
+            timings=timings,
         )
 
     # -- the step --------------------------------------------------------------------------------

@@ -109,7 +109,13 @@ def pair_interface(
 ) -> InterfacePairs:
     """Pair the primary and secondary facets of an interface and extend the index map.
 
-    Collective on the mesh communicator.
+    Collective on the mesh communicator. The steps: the interface's facets of each side
+    (:func:`_sides`); the owned primary facets' own mesh and the nodes of their Lagrange element
+    (:func:`_primary_facets`); the matching tolerance from the smallest node distance; the primary
+    facets' displacement nodes; the secondary facets sent to the ranks whose primary facets may
+    face them and matched by their midpoints, each taken once (:func:`_match_secondary`); their
+    nodes ordered like the primary's (:func:`_secondary_nodes`); the index map extended with
+    those another rank owns.
 
     Args:
         V: Vector Lagrange displacement space (degree 1 or 2) on the bulk mesh.
@@ -137,71 +143,11 @@ def pair_interface(
         raise ValueError("only Lagrange degree 1 and 2 displacement spaces are supported")
     mesh.topology.create_connectivity(tdim - 1, tdim)
     mesh.topology.create_connectivity(tdim, tdim - 1)
-    fmap = mesh.topology.index_map(tdim - 1)
-
-    tagged = facet_tags.find(interface_tag)
-    tagged = tagged[tagged < fmap.size_local]
-    counts, cells = _adjacent_cells(mesh, tagged)
-
-    def fail(msg: str | None) -> None:
-        msgs = [m for m in comm.allgather(msg) if m]
-        if msgs:
-            raise InterfaceError(msgs[0])
-
-    n_global = comm.allreduce(tagged.size)
-    fail(
-        None
-        if n_global
-        else f"no facets tagged {interface_tag} ({name}): the mesh has no interface group"
+    primary, secondary = _sides(
+        mesh, cell_tags, facet_tags, interface_tag, _tags(primary_tag), _tags(secondary_tag), name
     )
-    two = tagged[counts != 1]
-    fail(
-        None
-        if two.size == 0
-        else f"{comm.allreduce(two.size)} {name} facets have {counts[counts != 1][0]} adjacent "
-        f"cells, e.g. at {_facet_midpoints(mesh, two[:1])[0].tolist()}: the interface nodes are "
-        "not duplicated (each side must be an exterior facet of its own body)"
-    )
-    m_tags, s_tags = _tags(primary_tag), _tags(secondary_tag)
-    primary_cells_all = np.concatenate([cell_tags.find(t) for t in m_tags])
-    secondary_cells_all = np.concatenate([cell_tags.find(t) for t in s_tags])
-    is_primary = np.isin(cells, primary_cells_all)
-    is_secondary = np.isin(cells, secondary_cells_all)
-    neither = ~(is_primary | is_secondary)
-    both = np.intersect1d(m_tags, s_tags)
-    fail(
-        None
-        if both.size == 0
-        else f"{name}: the two sides share the cell tag(s) {both.tolist()}; an interface joins "
-        "two different bodies"
-    )
-    fail(
-        None
-        if not neither.any()
-        else f"{comm.allreduce(int(neither.sum()))} {name} facets touch a cell of neither body "
-        f"(tags {_show(m_tags)}, {_show(s_tags)}), e.g. at "
-        f"{_facet_midpoints(mesh, tagged[neither][:1])[0].tolist()}"
-    )
-    m_facets, m_cells = tagged[is_primary], cells[is_primary]
-    s_facets, s_cells = tagged[is_secondary], cells[is_secondary]
-
-    # The interface's own mesh: the owned primary facets. Its cells define the parametrisation
-    # (vertex order) used for the quadrature points, so everything below follows submesh order.
-    sub, entity_map = create_submesh(mesh, tdim - 1, m_facets)
-    sorter = np.argsort(m_facets)
-    perm = sorter[np.searchsorted(m_facets, np.asarray(entity_map), sorter=sorter)]
-    m_facets, m_cells = m_facets[perm], m_cells[perm]
-    nf = m_facets.size
-
-    # Reference nodes of the facet Lagrange element, pushed through each submesh cell's map.
-    degree = V.ufl_element().embedded_superdegree
-    fcell = sub.topology.cell_type
-    felem = basix.create_element(
-        basix.ElementFamily.P, basix_cell(fcell), degree, basix.LagrangeVariant.gll_warped
-    )
-    Xn = cast(np.ndarray, felem.points)  # (basix annotates an ArrayLike)
-    node_points = push_forward(sub, Xn)  # (nf, nfd, gdim)
-    nfd = Xn.shape[0]
+    sub, m_facets, m_cells, Xn, node_points = _primary_facets(V, *primary)
+    nf, nfd = m_facets.size, Xn.shape[0]
 
     # Facet sizes for the tolerance (global minimum)
     h_loc = np.inf
@@ -214,15 +160,181 @@ def pair_interface(
 
     dof_x = V.tabulate_dof_coordinates()[:, :gdim]
     imap = V.dofmap.index_map
-    dofs = V.dofmap.list
 
     # Primary facet nodes, ordered like the reference nodes (match within the adjacent cell).
-    cell_nodes = dofs[m_cells]
+    cell_nodes = V.dofmap.list[m_cells]
     j, far = _nearest(dof_x[cell_nodes], node_points, tol)
     primary_nodes = np.take_along_axis(cell_nodes, j, axis=1).astype(np.int32)
     lost = node_points[far[0]].tolist() if far.size else None
-    fail(None if lost is None else f"internal error: primary facet nodes not found at {lost}")
+    _fail(
+        comm, None if lost is None else f"internal error: primary facet nodes not found at {lost}"
+    )
 
+    cand, match = _match_secondary(V, dof_x, *secondary, node_points, tol, name)
+    secondary_glob, secondary_own = _secondary_nodes(comm, cand, match, node_points, tol, name)
+
+    # Extend the index map: secondary nodes that are not local become extra ghosts (in the order in
+    # which they first appear).
+    secondary_nodes, extra_g, extra_o = _local_indices(
+        imap, secondary_glob.ravel(), secondary_own.ravel()
+    )
+    ghosts = np.concatenate([imap.ghosts, extra_g])
+    owners = np.concatenate([imap.owners, extra_o])
+    imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
+    secondary_nodes = secondary_nodes.reshape(nf, nfd)
+    n_split = int(np.count_nonzero(np.any(secondary_own != comm.rank, axis=1)))
+
+    return InterfacePairs(
+        submesh=sub,
+        facets=m_facets,
+        primary_cells=m_cells,
+        reference_nodes=Xn,
+        node_points=node_points,
+        primary_nodes=primary_nodes,
+        secondary_nodes=secondary_nodes,
+        index_map=imap_ext,
+        n_extra_ghosts=extra_g.size,
+        n_split=n_split,
+        h_min=float(h) if np.isfinite(h) else 1.0,
+        n_received=int(np.count_nonzero(cand.source != comm.rank)),
+        extra_ghosts=extra_g.astype(np.int64),
+        extra_owners=extra_o.astype(np.int32),
+    )
+
+
+def _fail(comm: MPI.Comm, msg: str | None) -> None:
+    """Raise :class:`InterfaceError` on every rank with the first rank's message, if any has one.
+
+    Collective.
+    """
+    msgs = [m for m in comm.allgather(msg) if m]
+    if msgs:
+        raise InterfaceError(msgs[0])
+
+
+def _sides(
+    mesh: dolfinx.mesh.Mesh,
+    cell_tags: dolfinx.mesh.MeshTags,
+    facet_tags: dolfinx.mesh.MeshTags,
+    interface_tag: int,
+    m_tags: np.ndarray,
+    s_tags: np.ndarray,
+    name: str,
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The owned interface facets of each side with their adjacent cells (collective).
+
+    Returns:
+        ``(primary facets, their cells)``, ``(secondary facets, their cells)``.
+
+    Raises:
+        InterfaceError: On every rank: no facet tagged ``interface_tag``, facets with two
+            adjacent cells, sides sharing a cell tag, facets touching neither body.
+    """
+    comm = mesh.comm
+    tagged = facet_tags.find(interface_tag)
+    tagged = tagged[tagged < mesh.topology.index_map(mesh.topology.dim - 1).size_local]
+    counts, cells = _adjacent_cells(mesh, tagged)
+    n_global = comm.allreduce(tagged.size)
+    _fail(
+        comm,
+        None
+        if n_global
+        else f"no facets tagged {interface_tag} ({name}): the mesh has no interface group",
+    )
+    two = tagged[counts != 1]
+    n_two = comm.allreduce(two.size)  # (on every rank: a collective)
+    _fail(
+        comm,
+        None
+        if two.size == 0
+        else f"{n_two} {name} facets have {counts[counts != 1][0]} adjacent "
+        f"cells, e.g. at {_facet_midpoints(mesh, two[:1])[0].tolist()}: the interface nodes are "
+        "not duplicated (each side must be an exterior facet of its own body)",
+    )
+    primary_cells_all = np.concatenate([cell_tags.find(t) for t in m_tags])
+    secondary_cells_all = np.concatenate([cell_tags.find(t) for t in s_tags])
+    is_primary = np.isin(cells, primary_cells_all)
+    is_secondary = np.isin(cells, secondary_cells_all)
+    neither = ~(is_primary | is_secondary)
+    both = np.intersect1d(m_tags, s_tags)
+    _fail(
+        comm,
+        None
+        if both.size == 0
+        else f"{name}: the two sides share the cell tag(s) {both.tolist()}; an interface joins "
+        "two different bodies",
+    )
+    n_neither = comm.allreduce(int(neither.sum()))  # (on every rank: a collective)
+    _fail(
+        comm,
+        None
+        if not neither.any()
+        else f"{n_neither} {name} facets touch a cell of neither body "
+        f"(tags {_show(m_tags)}, {_show(s_tags)}), e.g. at "
+        f"{_facet_midpoints(mesh, tagged[neither][:1])[0].tolist()}",
+    )
+    return (tagged[is_primary], cells[is_primary]), (tagged[is_secondary], cells[is_secondary])
+
+
+def _primary_facets(
+    V: dolfinx.fem.FunctionSpace, m_facets: np.ndarray, m_cells: np.ndarray
+) -> tuple[dolfinx.mesh.Mesh, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The interface's own mesh (the owned primary facets) and its Lagrange element's nodes.
+
+    Its cells define the parametrisation (vertex order) used for the quadrature points, so
+    everything after follows submesh order.
+
+    Returns:
+        The submesh, the primary facets and their cells in its order, the reference nodes of the
+        facet Lagrange element and their positions on each facet, (nf, nfd, gdim).
+    """
+    mesh = V.mesh
+    sub, entity_map = create_submesh(mesh, mesh.topology.dim - 1, m_facets)
+    sorter = np.argsort(m_facets)
+    perm = sorter[np.searchsorted(m_facets, np.asarray(entity_map), sorter=sorter)]
+    m_facets, m_cells = m_facets[perm], m_cells[perm]
+    # Reference nodes of the facet Lagrange element, pushed through each submesh cell's map.
+    degree = V.ufl_element().embedded_superdegree
+    felem = basix.create_element(
+        basix.ElementFamily.P,
+        basix_cell(sub.topology.cell_type),
+        degree,
+        basix.LagrangeVariant.gll_warped,
+    )
+    Xn = cast(np.ndarray, felem.points)  # (basix annotates an ArrayLike)
+    return sub, m_facets, m_cells, Xn, push_forward(sub, Xn)
+
+
+def _match_secondary(
+    V: dolfinx.fem.FunctionSpace,
+    dof_x: np.ndarray,
+    s_facets: np.ndarray,
+    s_cells: np.ndarray,
+    node_points: np.ndarray,
+    tol: float,
+    name: str,
+) -> tuple[Received, np.ndarray]:
+    """The secondary facets near this rank's primary facets, and the one each primary faces.
+
+    Collective. Each owned secondary facet (its closure nodes: coordinates, global numbers,
+    owners) goes to the ranks whose primary facets' bounding box, grown by the tolerance, holds
+    its midpoint (:func:`_exchange_secondary_facets`); the midpoints are matched with a k-d tree,
+    and the owners count how many primary facets took each of their secondary facets.
+
+    Returns:
+        The candidates received (rows: midpoint, nodes' coordinates, global numbers, owners,
+        the facet's index at its owner) and each primary facet's candidate.
+
+    Raises:
+        InterfaceError: On every rank: a primary facet without a secondary facet at its place,
+            other numbers of facets on the two sides, a secondary facet taken by no primary facet
+            or by several.
+    """
+    mesh = V.mesh
+    comm = mesh.comm
+    tdim, gdim = mesh.topology.dim, mesh.geometry.dim
+    imap, dofs = V.dofmap.index_map, V.dofmap.list
+    nf, nfd = node_points.shape[:2]
     # Secondary facets owned here: closure nodes (global index, owner, coordinates) and midpoint.
     vector_element = V.ufl_element().sub_elements[0].basix_element
     closure = np.asarray(vector_element.entity_closure_dofs[tdim - 1], dtype=np.int32)
@@ -252,7 +364,7 @@ def pair_interface(
         ],
         2.0 * tol,
     )
-    c_mid, c_x, c_glob, c_own, c_index = cand.rows
+    c_mid, c_index = cand.rows[0], cand.rows[4]
     match: np.ndarray = np.full(nf, -1, dtype=np.int64)
     if nf and c_mid.shape[0]:
         d, k = cKDTree(c_mid).query(m_mid)
@@ -285,47 +397,40 @@ def pair_interface(
             f"the {name} sides do not pair node to node: {n_none} secondary facets have no primary "
             f"partner and {n_several} have several, e.g. the secondary facet at {examples[0]}"
         )
+    return cand, match
 
-    # Secondary nodes ordered like the primary's reference nodes.
+
+def _secondary_nodes(
+    comm: MPI.Comm,
+    cand: Received,
+    match: np.ndarray,
+    node_points: np.ndarray,
+    tol: float,
+    name: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The matched secondary facets' nodes, ordered like the primary's reference nodes.
+
+    Collective (the check).
+
+    Returns:
+        Their global (block) numbers and owners, (nf, nfd) each.
+
+    Raises:
+        InterfaceError: On every rank: a matched facet whose nodes are not at the primary's.
+    """
+    nf = node_points.shape[0]
+    c_x, c_glob, c_own = cand.rows[1], cand.rows[2], cand.rows[3]
     j, far = _nearest(c_x[match], node_points, tol)
     twice = np.flatnonzero(np.any(np.diff(np.sort(j, axis=1), axis=1) == 0, axis=1))
     first = min(far[0] if far.size else nf, twice[0] if twice.size else nf)
-    fail(
+    _fail(
+        comm,
         None
         if first == nf
         else f"the {name} sides do not pair node to node: the facet at "
-        f"{node_points[first].tolist()} has a partner whose nodes are elsewhere"
+        f"{node_points[first].tolist()} has a partner whose nodes are elsewhere",
     )
-    secondary_glob = np.take_along_axis(c_glob[match], j, axis=1)
-    secondary_own = np.take_along_axis(c_own[match], j, axis=1)
-
-    # Extend the index map: secondary nodes that are not local become extra ghosts (in the order in
-    # which they first appear).
-    secondary_nodes, extra_g, extra_o = _local_indices(
-        imap, secondary_glob.ravel(), secondary_own.ravel()
-    )
-    ghosts = np.concatenate([imap.ghosts, extra_g])
-    owners = np.concatenate([imap.owners, extra_o])
-    imap_ext = ghosted_index_map(comm, imap.size_local, ghosts, owners)
-    secondary_nodes = secondary_nodes.reshape(nf, nfd)
-    n_split = int(np.count_nonzero(np.any(secondary_own != comm.rank, axis=1)))
-
-    return InterfacePairs(
-        submesh=sub,
-        facets=m_facets,
-        primary_cells=m_cells,
-        reference_nodes=Xn,
-        node_points=node_points,
-        primary_nodes=primary_nodes,
-        secondary_nodes=secondary_nodes,
-        index_map=imap_ext,
-        n_extra_ghosts=extra_g.size,
-        n_split=n_split,
-        h_min=float(h) if np.isfinite(h) else 1.0,
-        n_received=int(np.count_nonzero(cand.source != comm.rank)),
-        extra_ghosts=extra_g.astype(np.int64),
-        extra_owners=extra_o.astype(np.int32),
-    )
+    return np.take_along_axis(c_glob[match], j, axis=1), np.take_along_axis(c_own[match], j, axis=1)
 
 
 def _tags(tag: int | Sequence[int]) -> np.ndarray:
