@@ -75,10 +75,14 @@ class MeshSpec:
     Attributes:
         builder: ``"block_on_base"`` (2-D), ``"pad_on_plate"`` or ``"bolted_lap_joint"`` (3-D),
             built with gmsh.
-        file: Or a ``.msh`` file (relative to the working directory).
+        file: Or a ``.msh`` file, or a partitioned mesh ``MODEL.xdmf`` (with ``MODEL.h5`` and
+            ``MODEL.groups.json`` beside it, written by
+            :func:`~subfric_dolfinx.meshing.write_partitioned_mesh`), each rank reading its part
+            (relative to the working directory).
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
-        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
+        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"`` (a partitioned
+            mesh: ``None`` or ``"default"``, DOLFINx's partitioner).
         names: The classic layout's roles (``primary``, ``secondary``, ``interface``; or the
             input aliases ``master``, ``slave``) -> the file's own group names, e.g.
             ``{"primary": "base", "secondary": "block", "interface": "contact"}``.
