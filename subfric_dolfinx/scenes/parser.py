@@ -454,6 +454,8 @@ def _check_outputs(out: OutputSpec, t0: float, t1: float) -> None:
     _choice(f"{path}.fields", out.fields, (None, "vtx", "xdmf"))
     if out.field_times and out.fields is None:
         raise SceneError(f"{path}.field_times: given, but no fields are written (fields is null)")
+    if out.snapshot_file and not out.snapshots:
+        raise SceneError(f"{path}.snapshot_file: true, but no snapshots are asked for")
     tol = 1e-12 * max(1.0, abs(t0), abs(t1))
     for key in ("snapshots", "field_times", "checkpoint_times"):
         for i, t in enumerate(getattr(out, key)):

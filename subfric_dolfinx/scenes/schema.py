@@ -263,6 +263,9 @@ class OutputSpec:
             state at the quadrature points in ``fields/interface_points.xdmf``), or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
+        snapshot_file: Write the snapshots to ``interface_profiles.h5`` instead (the layout of
+            the interface history at the snapshot times, every variable of the law), each rank
+            its own points: no rank gathers the interface.
         interface_history: Write ``interface_history.h5`` (every field at every step, see
             :class:`~subfric_dolfinx.io.InterfaceHistoryH5`).
         checkpoint_every: Write ``checkpoint.h5`` every so many converged steps (0: never).
@@ -282,6 +285,7 @@ class OutputSpec:
     fields: str | None = None
     field_times: list[float] = dataclasses.field(default_factory=list)
     snapshots: list[float] = dataclasses.field(default_factory=list)
+    snapshot_file: bool = False
     interface_history: bool = False
     checkpoint_every: int = 0
     checkpoint_times: list[float] = dataclasses.field(default_factory=list)
