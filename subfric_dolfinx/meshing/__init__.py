@@ -19,14 +19,16 @@
 * :mod:`.partitioned`: a mesh written in DOLFINx's partitioned XDMF/HDF5 format with its groups
   file (:func:`write_partitioned_mesh`) and read back, each rank its part
   (:func:`read_partitioned_mesh`).
+* :mod:`.refine`: :func:`refine_interface_mesh`, uniform refinement on the ranks, the groups and
+  the duplicated interface nodes kept.
 
 **On one rank.** The gmsh helpers (the builders, :func:`duplicate_interface_nodes`,
 :func:`gmsh_session`) run on one process, rank 0 of an MPI job, whose other ranks wait to read
 the result: importing them (``from subfric_dolfinx.meshing import duplicate_interface_nodes``)
 imports neither DOLFINx nor PETSc, whose initialisation is collective (on one rank of several it
 hangs or aborts the job). The DOLFINx parts (:mod:`.reader`, :mod:`.interface_mesh`,
-:mod:`.nodes`, :mod:`.partitioners`, :mod:`.partitioned`) are imported when one of their names
-is first used.
+:mod:`.nodes`, :mod:`.partitioners`, :mod:`.partitioned`, :mod:`.refine`) are imported when one
+of their names is first used.
 
 May import: DOLFINx, mpi4py, gmsh, numpy, scipy, h5py (of the package: the layer-0 modules).
 """
@@ -81,6 +83,7 @@ _WITH_DOLFINX = {
     "read_interface_mesh": "reader",
     "read_partitioned_mesh": "partitioned",
     "write_partitioned_mesh": "partitioned",
+    "refine_interface_mesh": "refine",
 }
 """The names whose modules import DOLFINx: imported on first use (:func:`__getattr__`)."""
 
@@ -148,5 +151,6 @@ __all__ = [
     "nearest_vertex",
     "read_interface_mesh",
     "read_partitioned_mesh",
+    "refine_interface_mesh",
     "write_partitioned_mesh",
 ]

@@ -592,6 +592,7 @@ def parser() -> Any:
     ap.add_argument("msh", help="the .msh file (its interface nodes duplicated)")
     ap.add_argument("xdmf", help="the XDMF file to write (MODEL.xdmf)")
     ap.add_argument("--gdim", type=int, required=True, choices=(2, 3))
+    ap.add_argument("--refine", type=int, default=0, help="refine uniformly this many times")
     return ap
 
 
@@ -603,11 +604,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     from ..commandline import ArgumentError, error_line
     from .reader import read_interface_mesh
+    from .refine import refine_interface_mesh
 
     comm = MPI.COMM_WORLD
     try:
         args = parser().parse_args(argv)
+        if args.refine < 0:
+            raise ArgumentError(f"argument --refine: expected >= 0, got {args.refine}")
         dom = read_interface_mesh(args.msh, comm, args.gdim)
+        dom = refine_interface_mesh(dom, args.refine)
         xdmf, groups = write_partitioned_mesh(dom, args.xdmf)
     except (ArgumentError, FileNotFoundError, InterfaceMeshError, ValueError) as e:
         if comm.rank == 0:

@@ -38,7 +38,7 @@ BUILDERS = {
 
 
 def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshing.InterfaceMesh:
-    """The mesh of a scene, built or read (collective).
+    """The mesh of a scene, built or read, then refined ``spec.refine`` times (collective).
 
     Built with gmsh, read from a ``.msh`` file, or read from a partitioned ``.xdmf`` mesh (each
     rank its part).
@@ -65,7 +65,7 @@ def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshi
             dom = meshing.read_interface_mesh(
                 spec.file, comm, spec.gdim, partitioner=spec.partitioner, **topo
             )
-        return dom
+        return meshing.refine_interface_mesh(dom, spec.refine)
     except meshing.InterfaceMeshError as e:
         if spec.names or (scene is not None and (scene.bodies or scene.interfaces)):
             raise SceneError(f"scene.mesh: {e}") from None

@@ -358,6 +358,8 @@ def _check_mesh(m: MeshSpec) -> None:
             f"scene.mesh.partitioner: a partitioned mesh ({short_repr(m.file)}) is read with "
             f"DOLFINx's partitioner: None or 'default', got {short_repr(m.partitioner)}"
         )
+    if isinstance(m.refine, bool) or not isinstance(m.refine, int) or not 0 <= m.refine <= 8:
+        raise SceneError(f"scene.mesh.refine: expected an integer from 0 to 8, got {m.refine!r}")
 
 
 def _check_conditions(scene: FEScene) -> None:

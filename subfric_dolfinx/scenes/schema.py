@@ -86,6 +86,8 @@ class MeshSpec:
         names: The classic layout's roles (``primary``, ``secondary``, ``interface``; or the
             input aliases ``master``, ``slave``) -> the file's own group names, e.g.
             ``{"primary": "base", "secondary": "block", "interface": "contact"}``.
+        refine: Refine the mesh uniformly this many times on the ranks (0 to 8; triangles and
+            tetrahedra: :func:`~subfric_dolfinx.meshing.refine_interface_mesh`).
     """
 
     builder: str | None = None
@@ -94,6 +96,7 @@ class MeshSpec:
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     partitioner: str | None = None
     names: dict[str, str] = dataclasses.field(default_factory=dict)
+    refine: int = 0
 
     @property
     def geometric_dim(self) -> int:

@@ -127,9 +127,9 @@ def test_the_command_converts_a_msh_file(shared_tmp, capsys):
     back = meshing.read_partitioned_mesh(out, comm, 3)
     ref = meshing.read_interface_mesh(MESH_DIR / "pad_on_plate_tet.msh", comm, 3)
     assert summary(back) == summary(ref)
-    assert main([str(MESH_DIR / "pad_on_plate_tet.msh"), str(out), "--gdim", "4"])
+    assert main([str(MESH_DIR / "pad_on_plate_tet.msh"), str(out), "--gdim", "3", "--refine", "-1"])
     if comm.rank == 0:
-        assert "--gdim" in capsys.readouterr().err
+        assert "--refine" in capsys.readouterr().err
 
 
 # --- bad input ------------------------------------------------------------------------------------
@@ -241,6 +241,9 @@ def test_the_scene_keys(written):
         run_scene(s, comm=MPI.COMM_WORLD)
     with raised_on_every_rank(InterfaceMeshError, "expected a 3-D mesh, the groups file says 2-D"):
         meshing.read_partitioned_mesh(xdmf, MPI.COMM_WORLD, 3)
+    s["mesh"] = {"file": str(xdmf), "gdim": 2, "refine": -1}
+    with raised_on_every_rank(SceneError, "scene.mesh.refine", "-1"):
+        run_scene(s, comm=MPI.COMM_WORLD)
 
 
 def test_writing_needs_an_xdmf_name(shared_tmp):
