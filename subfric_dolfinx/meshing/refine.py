@@ -14,6 +14,11 @@ triangular facet split at its three edges' midpoints has one subdivision: the si
 as before. The refined mesh is checked as a read one is: every group's number of entities (the
 coarse one times 2^dim) and every interface's two sides.
 
+In 3-D Plaza's refinement splits a face from its longest edge (a tie broken by the vertices'
+global indices, which differ between the sides): the tetrahedra are refined under an affine map
+that leaves no two edges of a face equally long, so that both sides split their faces alike
+(:func:`_refine_simplices`).
+
 Simplices only (triangles, tetrahedra): DOLFINx refines no quadrilaterals or hexahedra.
 """
 
@@ -115,6 +120,35 @@ def _subgroup_tags(domain: InterfaceMesh) -> tuple[list[str], dolfinx.mesh.MeshT
     return names, dolfinx.mesh.meshtags(mesh, tdim - 1, facets[keep], value[keep])
 
 
+_SHEAR = np.array([[1.0, 0.1234, 0.0567], [0.0, 1.0891, 0.0345], [0.0, 0.0, 0.9173]])
+"""The affine map under which tetrahedra are refined (:func:`_refine_simplices`)."""
+
+
+def _refine_simplices(mesh: dolfinx.mesh.Mesh) -> tuple[dolfinx.mesh.Mesh, np.ndarray, np.ndarray]:
+    """Refine every cell once; in 3-D under an affine map that breaks ties of edge lengths.
+
+    Plaza's refinement splits a tetrahedron's face from its longest edge, and breaks a tie of
+    lengths by the global index of the opposite vertex: the two sides of an interface, whose
+    duplicated vertices have different indices, would split a face with two equal edges
+    differently (their facets no longer pairing). Under a generic affine map no two edges of a
+    face have equal lengths (they are not parallel), so the choice is the geometry's alone, the
+    same on both sides; affine maps keep midpoints, and the refined mesh is mapped back (the
+    coordinates then carry the round-off of the map, the same bits on both sides).
+    """
+    if mesh.topology.dim != 3:
+        return refine_uniform(mesh)
+    x = mesh.geometry.x
+    saved = x.copy()
+    try:
+        x[:, :3] = saved[:, :3] @ _SHEAR.T
+        fine, parent_cell, parent_facet = refine_uniform(mesh)
+    finally:
+        x[:] = saved
+    xf = fine.geometry.x
+    xf[:, :3] = np.linalg.solve(_SHEAR, xf[:, :3].T).T
+    return fine, parent_cell, parent_facet
+
+
 def _refine_once(domain: InterfaceMesh) -> InterfaceMesh:
     mesh, tdim = domain.mesh, domain.tdim
     cmap = mesh.topology.index_map(tdim)
@@ -130,7 +164,7 @@ def _refine_once(domain: InterfaceMesh) -> InterfaceMesh:
     sub: dolfinx.mesh.MeshTags | None = None
     if domain.interface_groups:
         names, sub = _subgroup_tags(domain)
-    fine, parent_cell, parent_facet = refine_uniform(mesh)
+    fine, parent_cell, parent_facet = _refine_simplices(mesh)
     fine.topology.create_connectivity(tdim - 1, tdim)
     ct = dolfinx.mesh.transfer_meshtag(domain.cell_tags, fine, parent_cell)
     ft = dolfinx.mesh.transfer_meshtag(domain.facet_tags, fine, parent_cell, parent_facet)
