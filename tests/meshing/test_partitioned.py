@@ -97,6 +97,20 @@ def test_written_and_read_back_the_msh_model_is_the_same(name, shared_tmp):
     assert counts.size and np.all(counts == 2)
 
 
+def test_read_in_parts_then_refined_is_the_msh_model_refined(shared_tmp):
+    """The scale path (coarse model read in parts, refined on the ranks) gives the model the
+    serial path gives (the .msh read through rank 0, refined): groups, counts, vertices, sides."""
+    comm = MPI.COMM_WORLD
+    msh = MESH_DIR / "pad_on_plate_tet.msh"
+    dom = meshing.read_interface_mesh(msh, comm, 3)
+    xdmf, _ = meshing.write_partitioned_mesh(dom, shared_tmp / "pad.xdmf")
+    a = summary(meshing.refine_interface_mesh(dom, 1))
+    b = summary(meshing.refine_interface_mesh(meshing.read_partitioned_mesh(xdmf, comm, 3), 1))
+    assert a.keys() == b.keys()
+    for k in a:
+        assert a[k] == b[k], k
+
+
 def history_array(res):
     keys = sorted(res.history[0])
     return keys, np.array([[r[k] for k in keys] for r in res.history])
