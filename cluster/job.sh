@@ -16,6 +16,9 @@
 #SBATCH --mem-per-cpu=3G
 #SBATCH --time=02:00:00
 #SBATCH --output=%x-%j.out
+# a minute before the time limit every rank gets SIGUSR1: the run stops after its step, with a
+# checkpoint if the scene writes any (exit code 75; --restart OUTDIR/checkpoint.h5 continues it)
+#SBATCH --signal=USR1@60
 set -euo pipefail
 
 if [ $# -lt 2 ]; then

@@ -28,6 +28,11 @@ testing the version itself. Each difference was read in the installed sources of
 - ``Expression.eval`` on cells: an array ``(cells, points * value_size)`` (0.9);
   ``(cells, points, *value_shape)`` (0.11). The memory order is the same.
 - ``mesh.create_mesh``: ``(comm, cells, x, element)`` (0.9); ``(comm, cells, element, x)`` (0.11).
+- ``mesh.refine``: its partitioner defaults to DOLFINx's graph partitioner (0.9: the refined cells
+  are redistributed) or to an identity placeholder (0.11); ``None`` keeps every refined cell on
+  its parent's rank in both, which the transfer of facet tags (``transfer_meshtag``) requires.
+  Its ``option`` defaults to none (0.9) or to the parent cells (0.11): :func:`refine_uniform`
+  asks for both parents.
 - The graph partitioner: both stacks' DOLFINx call PT-Scotch with a fixed seed, but sid's Scotch
   (7.0.16) partitions with threads and gives a different partition from call to call (a 2-rank
   block mesh: 162 or 164 owned dofs on rank 0, 152 once; trixie's 7.0.7 always 162). One thread
@@ -83,6 +88,7 @@ __all__ = [
     "model_to_mesh",
     "petsc_vector",
     "read_from_msh",
+    "refine_uniform",
     "repeatable_partitions",
 ]
 
@@ -222,6 +228,21 @@ def create_mesh(
     if _NEW:
         return dolfinx.mesh.create_mesh(comm, cells, element, x, partitioner=partitioner)
     return dolfinx.mesh.create_mesh(comm, cells, x, element, partitioner=partitioner)
+
+
+def refine_uniform(
+    mesh: dolfinx.mesh.Mesh,
+) -> tuple[dolfinx.mesh.Mesh, np.ndarray, np.ndarray]:
+    """Refine every cell of a simplex mesh once, each refined cell on its parent's rank.
+
+    Returns:
+        The refined mesh, the parent cell of each of its cells and, for each of its cells' facets
+        (cell by cell), the parent cell's local facet holding it (-1: inside the parent).
+    """
+    option = dolfinx.mesh.RefinementOption.parent_cell_and_facet
+    keep = cast(Callable, None)  # no redistribution (both versions take None for it)
+    fine, parent_cell, parent_facet = dolfinx.mesh.refine(mesh, None, keep, option)
+    return fine, np.asarray(parent_cell), np.asarray(parent_facet)
 
 
 def adjacency_list(data: np.ndarray, offsets: np.ndarray | None = None):

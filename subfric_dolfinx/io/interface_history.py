@@ -52,6 +52,10 @@ class InterfaceHistoryH5:
         problem: The problem.
         restart_time: ``None`` for a new file; the checkpoint time when restarting.
         interface: Which interface (``None``: the first, e.g. the only one).
+        profiles: A file of interface profiles (snapshots) at chosen times: every variable of
+            the law (those that are no output too: the profiles of
+            :func:`~subfric_dolfinx.scenes.outputs.interface_profile`), and a restart keeps the
+            profiles up to the restart time, whichever it is.
 
     Raises:
         OutputError: On every rank: the file cannot be created, or (restart) the existing one
@@ -64,8 +68,10 @@ class InterfaceHistoryH5:
         problem: Any,
         restart_time: float | None = None,
         interface: str | None = None,
+        profiles: bool = False,
     ) -> None:
         self.path = Path(path)
+        self.profiles = profiles
         self.problem = problem
         comm = problem.comm
         el, self.law = interface_of(problem, interface)
@@ -78,7 +84,7 @@ class InterfaceHistoryH5:
             "status": ((), np.int8),
         }
         for var in self.law.variables:
-            if var.output:
+            if var.output or profiles:
                 self.shapes[var.name] = (var.array_shape(1, nt)[1:], float)
         self.rows, self.p = interface_rows(el)
         self.lo, self.hi = slab(self.p, comm.size, comm.rank)
@@ -174,6 +180,8 @@ class InterfaceHistoryH5:
             if np.any(np.abs(f["x"][self.lo : self.hi] - x) > 1e3 * tol):
                 raise Failure("its points are not those of this run's interface")
             keep = int(np.count_nonzero(times <= t + eps))
+            if self.profiles:  # profiles at chosen times: those up to the restart
+                return keep
             if keep == 0 or abs(times[keep - 1] - t) > eps:
                 last = f"ends at t = {times[-1]:.6g}" if times.size else "is empty"
                 raise Failure(f"it {last}, without the restart time t = {t:.6g}")

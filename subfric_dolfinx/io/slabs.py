@@ -6,11 +6,11 @@ rank reads and writes its own slab only. :func:`push` sends rows from the ranks 
 (in partition order) to the slab owners, :func:`pull` fetches rows from the slab owners: both are
 one ``Alltoallv`` of the rows a rank holds or needs, so memory stays O(local) per rank.
 
-:func:`interface_rows` gives each local interface point its global row. It gathers the points'
-coordinates (``gdim`` numbers per point, the only O(interface) data) to rank 0 once, sorts them
-as :func:`~.gather.gather_interface` does and scatters the rows back: the file's rows are those of
-the gathered interface, whatever the partition. The interface is a surface: in 3-D it holds
-O(n^(2/3)) of the n cells: a small fraction of the mesh.
+:func:`interface_rows` gives each local interface point its global row: the rows of
+:func:`~.gather.gather_interface` (points sorted by rounded coordinates, ties in the order of the
+ranks and of each rank's points), so the file's rows are those of the gathered interface whatever
+the partition. It sorts in parallel (:func:`sorted_rows`, a sample sort): no rank receives more
+than about twice its share of the points, and none receives the whole interface.
 """
 
 from __future__ import annotations
@@ -20,9 +20,7 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from .gather import interface_order
-
-__all__ = ["interface_rows", "pull", "push", "slab"]
+__all__ = ["interface_rows", "pull", "push", "slab", "sorted_rows"]
 
 
 def slab(n: int, size: int, rank: int) -> tuple[int, int]:
@@ -115,27 +113,80 @@ def pull(comm: Any, rows: np.ndarray, block: np.ndarray, n: int) -> np.ndarray:
     return out.reshape(rows.size, *shape)
 
 
+def _lexsorted(rows: np.ndarray) -> np.ndarray:
+    """The permutation sorting the rows of an integer table lexicographically (column 0 first)."""
+    if rows.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64)
+    return np.lexsort(rows.T[::-1])
+
+
+def sorted_rows(comm: Any, keys: np.ndarray) -> tuple[np.ndarray, int]:
+    """The global position of each local row of ``keys`` in their lexicographic order (collective).
+
+    A sample sort by regular sampling: each rank sorts its rows, the ranks agree on ``size - 1``
+    splitters from a regular sample of every rank's sorted rows (``size`` rows each: the only
+    data every rank receives, ``size**2`` rows), send each row to the
+    rank of its interval (one ``Alltoallv``), sort what they received, number it after the rows
+    of the ranks before them, and send the numbers back. Ties are broken by the rank, then by
+    the row's local index: the order of a stable sort of all ranks' rows concatenated in rank
+    order (:func:`~.gather.gather_interface`'s).
+
+    Args:
+        comm: The communicator.
+        keys: Integer sort keys, ``(n_local, w)``; ``w`` the same on every rank.
+
+    Returns:
+        Each local row's position (int64, ``(n_local,)``) and the global number of rows.
+    """
+    keys = np.asarray(keys, dtype=np.int64)
+    keys = keys if keys.ndim == 2 else keys.reshape(keys.shape[0], -1)
+    n_local = keys.shape[0]
+    size, rank = comm.size, comm.rank
+    full = np.column_stack([keys, np.full(n_local, rank), np.arange(n_local)]).astype(np.int64)
+    total = int(comm.allreduce(n_local))
+    if size == 1:
+        pos = np.empty(n_local, dtype=np.int64)
+        pos[_lexsorted(full)] = np.arange(n_local)
+        return pos, total
+    ordered = full[_lexsorted(full)]
+    pick = (np.arange(size) * n_local) // size if n_local else np.zeros(0, dtype=np.int64)
+    width = full.shape[1]
+    samples = np.concatenate([s.reshape(-1, width) for s in comm.allgather(ordered[pick])])
+    samples = samples[_lexsorted(samples)]
+    splitters = (
+        samples[(np.arange(1, size) * samples.shape[0]) // size] if samples.size else samples
+    )
+    # each row's interval: the number of splitters before it (a splitter before an equal row)
+    both = np.concatenate([ordered, splitters])
+    marker = np.concatenate([np.ones(n_local, np.int64), np.zeros(splitters.shape[0], np.int64)])
+    order = np.lexsort((marker, *both.T[::-1]))
+    before = np.cumsum(marker[order] == 0)
+    dest = np.empty(both.shape[0], dtype=np.int64)
+    dest[order] = before
+    dest = dest[:n_local]
+    got, _, _ = _exchange(comm, dest, ordered)
+    mine = _lexsorted(got)
+    offset = comm.exscan(got.shape[0])  # (every rank calls it; None on rank 0)
+    offset = int(offset) if rank and offset is not None else 0
+    position = np.empty(got.shape[0], dtype=np.int64)
+    position[mine] = offset + np.arange(got.shape[0])
+    # the positions back to the rows' ranks
+    back, _, _ = _exchange(
+        comm, got[:, width - 2], np.column_stack([got[:, width - 1], position]).astype(np.int64)
+    )
+    pos = np.empty(n_local, dtype=np.int64)
+    pos[back[:, 0]] = back[:, 1]
+    return pos, total
+
+
 def interface_rows(element: Any) -> tuple[np.ndarray, int]:
     """Global row of each local interface point and the number of points (collective).
 
-    The rows are those of :func:`~.gather.gather_interface` (points sorted by rounded coordinates),
-    so a file written in these rows does not depend on the partition.
+    The rows are those of :func:`~.gather.gather_interface` (points sorted by rounded coordinates,
+    ties in rank order), so a file written in these rows does not depend on the partition. Sorted
+    in parallel (:func:`sorted_rows`): no rank receives the whole interface.
     """
-    comm = element.comm
     gdim = element.gdim
-    x = np.ascontiguousarray(element.points.reshape(-1, gdim), dtype=np.float64)
-    counts = np.array(comm.allgather(x.shape[0]), dtype=np.int64)
-    displ = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    root = comm.rank == 0
-    allx = np.empty((int(counts.sum()), gdim)) if root else None
-    comm.Gatherv(x, [allx, (counts * gdim, displ * gdim), MPI.DOUBLE] if root else None, root=0)
-    rows_all = None
-    if root:
-        assert allx is not None  # (allocated on the root)
-        order = interface_order(allx, element.coordinate_tolerance)
-        rows_all = np.empty(order.size, dtype=np.int64)
-        rows_all[order] = np.arange(order.size)
-        del allx, order
-    rows = np.empty(x.shape[0], dtype=np.int64)
-    comm.Scatterv([rows_all, (counts, displ), MPI.INT64_T] if root else None, rows, root=0)
-    return rows, int(counts.sum())
+    x = np.asarray(element.points, dtype=np.float64).reshape(-1, gdim)
+    keys = np.round(x / element.coordinate_tolerance).astype(np.int64)
+    return sorted_rows(element.comm, keys)

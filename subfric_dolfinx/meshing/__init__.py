@@ -16,15 +16,21 @@
 * :mod:`.nodes`: node groups (physical points), vertices by coordinates, nearest vertex.
 * :mod:`.reader`: reading a ``.msh`` file or a gmsh model into DOLFINx with named-group checks
   (:class:`InterfaceMesh`, :mod:`.interface_mesh`).
+* :mod:`.partitioned`: a mesh written in DOLFINx's partitioned XDMF/HDF5 format with its groups
+  file (:func:`write_partitioned_mesh`) and read back, each rank its part
+  (:func:`read_partitioned_mesh`).
+* :mod:`.refine`: :func:`refine_interface_mesh`, uniform refinement on the ranks, the groups and
+  the duplicated interface nodes kept.
 
 **On one rank.** The gmsh helpers (the builders, :func:`duplicate_interface_nodes`,
 :func:`gmsh_session`) run on one process, rank 0 of an MPI job, whose other ranks wait to read
 the result: importing them (``from subfric_dolfinx.meshing import duplicate_interface_nodes``)
 imports neither DOLFINx nor PETSc, whose initialisation is collective (on one rank of several it
 hangs or aborts the job). The DOLFINx parts (:mod:`.reader`, :mod:`.interface_mesh`,
-:mod:`.nodes`, :mod:`.partitioners`) are imported when one of their names is first used.
+:mod:`.nodes`, :mod:`.partitioners`, :mod:`.partitioned`, :mod:`.refine`) are imported when one
+of their names is first used.
 
-May import: DOLFINx, mpi4py, gmsh, numpy (not the rest of the package).
+May import: DOLFINx, mpi4py, gmsh, numpy, scipy, h5py (of the package: the layer-0 modules).
 """
 
 import importlib
@@ -75,6 +81,9 @@ _WITH_DOLFINX = {
     "InterfaceMesh": "reader",
     "create_interface_mesh": "reader",
     "read_interface_mesh": "reader",
+    "read_partitioned_mesh": "partitioned",
+    "write_partitioned_mesh": "partitioned",
+    "refine_interface_mesh": "refine",
 }
 """The names whose modules import DOLFINx: imported on first use (:func:`__getattr__`)."""
 
@@ -141,4 +150,7 @@ __all__ = [
     "mesh_topology",
     "nearest_vertex",
     "read_interface_mesh",
+    "read_partitioned_mesh",
+    "refine_interface_mesh",
+    "write_partitioned_mesh",
 ]

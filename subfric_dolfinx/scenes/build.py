@@ -38,7 +38,10 @@ BUILDERS = {
 
 
 def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshing.InterfaceMesh:
-    """The mesh of a scene: built with a gmsh builder or read from a ``.msh`` file (collective).
+    """The mesh of a scene, built or read, then refined ``spec.refine`` times (collective).
+
+    Built with gmsh, read from a ``.msh`` file, or read from a partitioned ``.xdmf`` mesh (each
+    rank its part).
 
     With the scene, its ``bodies`` and ``interfaces`` (and ``mesh.names``) say which groups the
     reader checks as bodies and interfaces.
@@ -56,10 +59,13 @@ def build_mesh(spec: MeshSpec, comm: Any, scene: FEScene | None = None) -> meshi
             dom, _ = meshing.create_interface_mesh(
                 BUILDERS[spec.builder], comm, partitioner=spec.partitioner, **topo, **spec.options
             )
-            return dom
-        return meshing.read_interface_mesh(
-            spec.file, comm, spec.gdim, partitioner=spec.partitioner, **topo
-        )
+        elif spec.file is not None and spec.file.endswith(".xdmf"):
+            dom = meshing.read_partitioned_mesh(spec.file, comm, spec.gdim, **topo)
+        else:
+            dom = meshing.read_interface_mesh(
+                spec.file, comm, spec.gdim, partitioner=spec.partitioner, **topo
+            )
+        return meshing.refine_interface_mesh(dom, spec.refine)
     except meshing.InterfaceMeshError as e:
         if spec.names or (scene is not None and (scene.bodies or scene.interfaces)):
             raise SceneError(f"scene.mesh: {e}") from None

@@ -175,7 +175,13 @@ def run_fe_scene(
     comm = MPI.COMM_WORLD if comm is None else comm
     warn_units(scene, comm)
     out = scene.outputs
-    wants_files = out.history or out.fields is not None or out.interface_history or out.checkpoints
+    wants_files = (
+        out.history
+        or out.fields is not None
+        or out.interface_history
+        or out.checkpoints
+        or out.snapshot_file
+    )
     if wants_files and outdir is None:
         raise SceneError("scene.outputs asks for files but no output directory was given")
     outdir = Path(outdir) if outdir is not None else None

@@ -2,7 +2,9 @@
 
 :class:`SceneOutputs` holds what the scene's ``outputs`` asked for and nothing else: the history
 (always kept in memory, written as ``history.csv`` on request), field output, the HDF5 interface
-history, checkpoints, and the interface profiles (snapshots) returned in memory. The runner calls
+history, checkpoints, and the interface profiles (snapshots): returned in memory (gathered on
+every rank), or written to ``interface_profiles.h5`` (``snapshot_file``: each rank writes its
+slab of the points, nothing is gathered). The runner calls
 :meth:`SceneOutputs.on_step` after each converged step and :meth:`SceneOutputs.close` at the end
 (it is a context manager).
 
@@ -37,9 +39,13 @@ from .signals import SceneInterrupted
 __all__ = ["SceneOutputs", "interface_profile", "planned_files"]
 
 
-def _stems(names: list[str]) -> tuple[dict[str, str], dict[str, str]]:
-    """The stems of the point clouds and of the interface histories, per interface name."""
-    return interface_stems("interface_points", names), interface_stems("interface_history", names)
+def _stems(names: list[str]) -> tuple[dict[str, str], dict[str, str], dict[str, str]]:
+    """The stems of the point clouds, the interface histories and the profiles, per interface."""
+    return (
+        interface_stems("interface_points", names),
+        interface_stems("interface_history", names),
+        interface_stems("interface_profiles", names),
+    )
 
 
 def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
@@ -53,13 +59,15 @@ def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
     Raises:
         OutputError: Two interface names map to the same file.
     """
-    points, ihist = _stems(names)
+    points, ihist, profiles = _stems(names)
     files: list[str] = []
     if spec.history:
         meta = "history.csv-metadata.json"
         files += ["history.csv", meta, f"{meta}.tmp"]
     if spec.interface_history:
         files += [n for s in ihist.values() for n in (f"{s}.h5", f".{s}.h5.spare")]
+    if spec.snapshot_file:
+        files += [n for s in profiles.values() for n in (f"{s}.h5", f".{s}.h5.spare")]
     if spec.checkpoints:
         files += ["checkpoint.h5", "checkpoint.h5.tmp", ".checkpoint.h5.tmp.spare"]
     if spec.fields:
@@ -72,6 +80,9 @@ def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
 
 def interface_profile(problem: Any, interface: str | None = None) -> dict[str, np.ndarray]:
     """Interface fields at all points of an interface, gathered on every rank (collective).
+
+    Every rank receives the whole interface: at scale, write the profiles to a file instead
+    (the scene's ``outputs.snapshot_file``: the same rows, each rank writing its own).
 
     In the order of :func:`~subfric_dolfinx.io.gather_interface`: ``x``, ``f_t`` (n, nt), ``f_n``,
     ``status``, every internal variable of the law by name (e.g. ``up`` (n, nt), ``mu``, ``r``),
@@ -109,7 +120,8 @@ class SceneOutputs:
     Attributes:
         history: The :class:`~subfric_dolfinx.io.HistoryCSV` (rows in memory).
         snapshots: Time -> :func:`interface_profile`, at the requested times (with several
-            interfaces: time -> interface name -> profile).
+            interfaces: time -> interface name -> profile); empty with ``snapshot_file`` (the
+            profiles are in the file).
         iterations: Newton iterations per step.
         files: Paths written.
     """
@@ -135,6 +147,7 @@ class SceneOutputs:
         self.fields: FieldWriter | None = None
         self.points: list[InterfacePointsXDMF] | None = None  # quadrature points (per interface)
         self.ihist: list[InterfaceHistoryH5] | None = None  # one file per interface
+        self.profiles: list[InterfaceHistoryH5] | None = None  # snapshots, one file each
         self.derived = derived
         self.history = HistoryCSV(
             inside(outdir, "history.csv") if spec.history and outdir is not None else None,
@@ -145,8 +158,9 @@ class SceneOutputs:
             self.history.preload(restart_history)
         names = list(getattr(problem, "interfaces", None) or {"interface": None})
         self.interface_names = names
-        points, ihist = _stems(names)
+        points, ihist, profiles = _stems(names)
         self._names = {n: (f"fields/{points[n]}.xdmf", f"{ihist[n]}.h5") for n in names}
+        self._profile_names = {n: f"{profiles[n]}.h5" for n in names}
         try:
             if spec.fields:
                 assert outdir is not None
@@ -166,6 +180,18 @@ class SceneOutputs:
                         problem,
                         restart_time,
                         n if len(names) > 1 else None,
+                    )
+                    for n in names
+                ]
+            if spec.snapshot_file:
+                assert outdir is not None
+                self.profiles = [
+                    InterfaceHistoryH5(
+                        inside(outdir, self._profile_names[n]),
+                        problem,
+                        restart_time,
+                        n if len(names) > 1 else None,
+                        profiles=True,
                     )
                     for n in names
                 ]
@@ -216,7 +242,10 @@ class SceneOutputs:
             for pts in self.points or []:
                 pts.write(rec.t)
         hit = np.isclose(self._snaps, rec.t, atol=1e-9)
-        if np.any(hit):
+        if np.any(hit) and self.profiles is not None:
+            for p in self.profiles:
+                p.write(float(self._snaps[hit][0]))
+        elif np.any(hit):
             names = self.interface_names
             snap: dict[str, Any]  # one interface's profile, or each interface's by name
             if len(names) == 1:
@@ -256,6 +285,8 @@ class SceneOutputs:
             closers.append(("fields", self.fields.close))
         for n, h in zip(names, self.ihist or [], strict=False):
             closers.append((self._names[n][1], h.close))
+        for n, h in zip(names, self.profiles or [], strict=False):
+            closers.append((self._profile_names[n], h.close))
         if self.derived is not None and self.derived.writer is not None:
             closers.append((str(self.derived.path), self.derived.close))
         for name, close in closers:
@@ -272,6 +303,7 @@ class SceneOutputs:
         self.fields = None
         self.points = None
         self.ihist = None
+        self.profiles = None
         if first is not None:
             raise first
 

@@ -353,6 +353,13 @@ def _check_mesh(m: MeshSpec) -> None:
         if not m.file or "\0" in m.file:
             raise SceneError(f"scene.mesh.file: not a file name: {short_repr(m.file)}")
     _choice("scene.mesh.partitioner", m.partitioner, (None, "default", "bodies", "together"))
+    if m.file is not None and m.file.endswith(".xdmf") and m.partitioner not in (None, "default"):
+        raise SceneError(
+            f"scene.mesh.partitioner: a partitioned mesh ({short_repr(m.file)}) is read with "
+            f"DOLFINx's partitioner: None or 'default', got {short_repr(m.partitioner)}"
+        )
+    if isinstance(m.refine, bool) or not isinstance(m.refine, int) or not 0 <= m.refine <= 8:
+        raise SceneError(f"scene.mesh.refine: expected an integer from 0 to 8, got {m.refine!r}")
 
 
 def _check_conditions(scene: FEScene) -> None:
@@ -449,6 +456,8 @@ def _check_outputs(out: OutputSpec, t0: float, t1: float) -> None:
     _choice(f"{path}.fields", out.fields, (None, "vtx", "xdmf"))
     if out.field_times and out.fields is None:
         raise SceneError(f"{path}.field_times: given, but no fields are written (fields is null)")
+    if out.snapshot_file and not out.snapshots:
+        raise SceneError(f"{path}.snapshot_file: true, but no snapshots are asked for")
     tol = 1e-12 * max(1.0, abs(t0), abs(t1))
     for key in ("snapshots", "field_times", "checkpoint_times"):
         for i, t in enumerate(getattr(out, key)):

@@ -75,13 +75,19 @@ class MeshSpec:
     Attributes:
         builder: ``"block_on_base"`` (2-D), ``"pad_on_plate"`` or ``"bolted_lap_joint"`` (3-D),
             built with gmsh.
-        file: Or a ``.msh`` file (relative to the working directory).
+        file: Or a ``.msh`` file, or a partitioned mesh ``MODEL.xdmf`` (with ``MODEL.h5`` and
+            ``MODEL.groups.json`` beside it, written by
+            :func:`~subfric_dolfinx.meshing.write_partitioned_mesh`), each rank reading its part
+            (relative to the working directory).
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
-        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"``.
+        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"`` (a partitioned
+            mesh: ``None`` or ``"default"``, DOLFINx's partitioner).
         names: The classic layout's roles (``primary``, ``secondary``, ``interface``; or the
             input aliases ``master``, ``slave``) -> the file's own group names, e.g.
             ``{"primary": "base", "secondary": "block", "interface": "contact"}``.
+        refine: Refine the mesh uniformly this many times on the ranks (0 to 8; triangles and
+            tetrahedra: :func:`~subfric_dolfinx.meshing.refine_interface_mesh`).
     """
 
     builder: str | None = None
@@ -90,6 +96,7 @@ class MeshSpec:
     options: dict[str, Any] = dataclasses.field(default_factory=dict)
     partitioner: str | None = None
     names: dict[str, str] = dataclasses.field(default_factory=dict)
+    refine: int = 0
 
     @property
     def geometric_dim(self) -> int:
@@ -259,6 +266,9 @@ class OutputSpec:
             state at the quadrature points in ``fields/interface_points.xdmf``), or ``None``.
         field_times: Times at which fields are written (all steps if empty).
         snapshots: Times at which interface profiles are gathered and returned (steps end there).
+        snapshot_file: Write the snapshots to ``interface_profiles.h5`` instead (the layout of
+            the interface history at the snapshot times, every variable of the law), each rank
+            its own points: no rank gathers the interface.
         interface_history: Write ``interface_history.h5`` (every field at every step, see
             :class:`~subfric_dolfinx.io.InterfaceHistoryH5`).
         checkpoint_every: Write ``checkpoint.h5`` every so many converged steps (0: never).
@@ -278,6 +288,7 @@ class OutputSpec:
     fields: str | None = None
     field_times: list[float] = dataclasses.field(default_factory=list)
     snapshots: list[float] = dataclasses.field(default_factory=list)
+    snapshot_file: bool = False
     interface_history: bool = False
     checkpoint_every: int = 0
     checkpoint_times: list[float] = dataclasses.field(default_factory=list)
