@@ -167,13 +167,13 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
 def test_2d_tangent_with_an_initial_gap(comm, law):
-    """An initial gap (an interference of 2 um less a parabola: the block's contact surface is
-    not its mesh's): the points that faced the base at the step's start are projected from their
+    """An initial gap (0.1 um plus a parabola, closed by the press: the block's contact surface
+    is not its mesh's): the points that faced the base at the step's start are projected from their
     contact surfaces (moved by ``g0`` along the step's start normal), and the tangent is still
     the residual's derivative; the law's normal gaps are those of the contact surfaces."""
 
     def g0(x):
-        return -0.002 + 0.001 * (x[:, 0] - 1.5) ** 2
+        return 0.0001 + 0.0005 * (x[0] - 1.5) ** 2
 
     problem = problem_2d(comm, law_of(law), 1, initial_gap=g0)
     iface = problem.interfaces["contact"]
