@@ -16,10 +16,11 @@ transfer
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager as ContextManager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -146,8 +147,9 @@ class ContactGeometry:
         held_old: Likewise with the facet it faced at the step's start, (nseg, nq).
         gamma: Each point's ``gamma`` (the distance along ``n~``), (npts,).
         slip: Each point's convected slip of the step, (npts, gdim).
-        normal_rates: With the iterate's normals: :func:`.normals.normal_rates` of the
-            reach's facets; ``None``: the normals are the step's (no derivative).
+        iterate: Whether :attr:`normals` are the iterate's (then :attr:`normal_rates` holds
+            their change with the primary's nodes).
+        primary: The primary's facets' basix cell and degree.
     """
 
     reach: Reach
@@ -172,14 +174,33 @@ class ContactGeometry:
     held_old: np.ndarray
     gamma: np.ndarray
     slip: np.ndarray
-    normal_rates: tuple[np.ndarray, np.ndarray] | None
+    iterate: bool
+    primary: tuple[Any, int]
 
     def __post_init__(self) -> None:
         """Make the arrays read-only too: the value is passed on, never changed."""
         arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
-        for a in [*arrays, *(self.turn or ()), *(self.normal_rates or ())]:
+        for a in [*arrays, *(self.turn or ())]:
             if isinstance(a, np.ndarray):
                 a.flags.writeable = False
+
+    @functools.cached_property
+    def normal_rates(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The nodal normals' change with the primary's nodes (the tangent's).
+
+        With the iterate's normals, :func:`.normals.normal_rates` of the reach's facets, made
+        when the tangent first asks (a residual alone does not need them); ``None``: the normals
+        are the step's (no derivative).
+        """
+        if not self.iterate:
+            return None
+        cell, degree = self.primary
+        out = normal_rates(
+            cell, degree, self.reach.nodes, self.reach.node_facets, self.Ym, self.normals
+        )
+        for a in out:
+            a.flags.writeable = False
+        return out
 
     @property
     def found(self) -> np.ndarray:
@@ -340,11 +361,8 @@ def contact_geometry(
         held_old=held_old,
         gamma=pj.gamma,
         slip=ds,
-        normal_rates=normal_rates(
-            sd.primary.cell, sd.primary.degree, reach.nodes, reach.node_facets, Ym, normals
-        )
-        if iterate
-        else None,
+        iterate=iterate,
+        primary=(sd.primary.cell, sd.primary.degree),
     )
     return geometry, seconds
 
