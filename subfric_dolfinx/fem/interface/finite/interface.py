@@ -349,11 +349,10 @@ class SlidingInterface(BaseInterface):
         return idx, tangent.reshape(-1, gdim, gdim)[idx]
 
     #: Whether every Jacobian of a step (not only its first) gives a point that was in contact
-    #: at the step's start and is now open by less than :attr:`reopened_band` times its
-    #: penetration there its committed tangent (:meth:`_reopened`).
+    #: at the step's start and is now open by less than its penetration there its committed
+    #: tangent (:meth:`_reopened`).
     keep_reopened = True
-    #: See :attr:`keep_reopened`.
-    reopened_band = 3.0
+    _band = 3.0
 
     def _reopened(self, D: np.ndarray, res: Any, first: bool) -> np.ndarray:
         """``D`` with the committed tangent where a point in contact at the step's start is open.
@@ -364,9 +363,7 @@ class SlidingInterface(BaseInterface):
         next Newton step. Its committed tangent (a slipping point's: its friction with the normal
         gap too) is the one-sided derivative from the contact side the iterate left. The step's
         first Jacobian gives it to every such point; later ones (:attr:`keep_reopened`) to those
-        open by less than :attr:`reopened_band` times their penetration at the start (a point
-        that lifts off farther gets the exact, zero, tangent). Not where the program turns (the
-        first Jacobian is then a frictionless contact's).
+        open by less than their penetration at the start.
         """
         if self._committed is None:
             return D
@@ -375,9 +372,7 @@ class SlidingInterface(BaseInterface):
         pressed = np.isin(status, (Status.ELASTIC, Status.PLASTIC, Status.JUMP)) & (gap[:, nt] > 0)
         now = self._points.last_gap[:, nt]
         idx = np.flatnonzero(
-            pressed
-            & (res.status == Status.SEPARATED)
-            & (first | (now > -self.reopened_band * gap[:, nt]))
+            pressed & (res.status == Status.SEPARATED) & (first | (now > -self._band * gap[:, nt]))
         )
         if idx.size == 0:
             return D
