@@ -348,39 +348,6 @@ class SlidingInterface(BaseInterface):
         idx = np.flatnonzero(still & slipped & (res.status == Status.ELASTIC))
         return idx, tangent.reshape(-1, gdim, gdim)[idx]
 
-    #: Whether every Jacobian of a step (not only its first) gives a point that was in contact
-    #: at the step's start and is now open by less than its penetration there its committed
-    #: tangent (:meth:`_reopened`).
-    keep_reopened = True
-    _band = 3.0
-
-    def _reopened(self, D: np.ndarray, res: Any, first: bool) -> np.ndarray:
-        """``D`` with the committed tangent where a point in contact at the step's start is open.
-
-        An extrapolated start (or an iterate) that opens a point pressed at the step's start by
-        less than its penetration there (the base's moving indentation, a round-off of the
-        prediction) leaves it without stiffness, and a block held by a few points tilts in the
-        next Newton step. Its committed tangent (a slipping point's: its friction with the normal
-        gap too) is the one-sided derivative from the contact side the iterate left. The step's
-        first Jacobian gives it to every such point; later ones (:attr:`keep_reopened`) to those
-        open by less than their penetration at the start.
-        """
-        if self._committed is None:
-            return D
-        status, tangent, gap = self._committed
-        nt = self.sides.nt
-        pressed = np.isin(status, (Status.ELASTIC, Status.PLASTIC, Status.JUMP)) & (gap[:, nt] > 0)
-        now = self._points.last_gap[:, nt]
-        idx = np.flatnonzero(
-            pressed & (res.status == Status.SEPARATED) & (first | (now > -self._band * gap[:, nt]))
-        )
-        if idx.size == 0:
-            return D
-        gdim = self.sides.gdim
-        D = D.copy()
-        D[idx] = tangent.reshape(-1, gdim, gdim)[idx]
-        return D
-
     def _blocks(
         self,
         separated_stiffness: float = 0.0,
@@ -408,8 +375,6 @@ class SlidingInterface(BaseInterface):
             idx, Dc = self._continuing
             D = D.copy()
             D[idx] = Dc
-        if plain and (first or self.keep_reopened):
-            D = self._reopened(D, res, first)
         traction = res.traction
         if start is not None and start.turns:  # a frictionless contact's: f_t held out too
             traction = traction.copy()
