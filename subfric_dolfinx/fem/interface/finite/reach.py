@@ -17,6 +17,7 @@ projections at its start (:class:`StepStart`), from which their slip of the step
 from __future__ import annotations
 
 import dataclasses
+import functools
 from typing import Any, cast
 
 import dolfinx
@@ -81,11 +82,21 @@ class Reach:
         pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
         return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
 
-    def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
-        """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
+    @functools.cached_property
+    def _pair_keys(self) -> np.ndarray:
+        """The reach's (secondary facet, primary facet index) pairs as sorted keys."""
         npf = max(self.facets.size, 1)
         owner = np.repeat(np.arange(self.ptr.size - 1), np.diff(self.ptr))
-        return np.isin(secondary * npf + primary, owner * npf + self.idx)
+        return np.unique(owner * npf + self.idx)
+
+    def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
+        """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
+        keys = np.asarray(secondary, dtype=np.int64) * max(self.facets.size, 1) + primary
+        k = self._pair_keys
+        if k.size == 0:
+            return np.zeros(keys.shape, dtype=bool)
+        pos = np.minimum(np.searchsorted(k, keys), k.size - 1)
+        return k[pos] == keys
 
 
 @dataclasses.dataclass(frozen=True)
