@@ -185,6 +185,9 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
         )  # the shaft moves rigidly in z
         out = z > sf.L + 1e-6
         fn = iface.last.traction[:, 1]
+        # the interface's global axial force on the shaft, sum of w (Q^T f)_z
+        tg = np.einsum("mji,mj->mi", iface.geometry.Q, iface.last.traction)
+        axial = comm.allreduce(float(iface.law_points.weights @ tg[:, 1]))
         rows.append(
             (
                 rec.t,
@@ -194,6 +197,7 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
                 s["F_n"],
                 comm.allreduce(int(np.count_nonzero(fn[out] != 0.0))),
                 comm.allreduce(np.abs(fn / p0 - 1.0).max(initial=0.0), op=MPI.MAX),
+                axial,
             )
         )
 
@@ -204,9 +208,12 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     checks = {
         "Lame before the push": r[0, 6] < 5e-3,
         "balance": np.abs(r[:, 2] + r[:, 3]).max() < 1e-8 * np.abs(r[:, 2]).max(),
-        # gross sliding: F = mu F_n where every point slips (measured 7e-7 after one facet,
-        # 4e-4 below it after two: points at the overlap's ends)
-        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 1e-3,
+        # the push is the interface's force on the shaft (the frames of the current iterate)
+        "push = interface force": np.abs(r[:, 2] - r[:, 7]).max() < 1e-6 * np.abs(r[:, 2]).max(),
+        # gross sliding: F = mu F_n where every point slips, F_n integrated in the points'
+        # frames, which follow the hub's deformed surface (tilted near its held ends): measured
+        # 7.2e-4 below it after one facet, 1.1e-3 after two (the step's normals held: 7e-7, 4e-4)
+        "Coulomb": np.abs(r[pushed, 2] / (sf.MU * r[pushed, 4]) - 1.0).max() < 2e-3,
         "out of the hub, open": r[:, 5].max() == 0,
         "pushed out": abs(r[-1, 0] - 2.0) < 1e-12,
         "newton": r[:, 1].max() <= 5,

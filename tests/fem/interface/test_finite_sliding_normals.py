@@ -83,8 +83,8 @@ def halving(comm, mesh, law) -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
-def test_a_slide_does_not_depend_on_the_step(comm, mesh, monkeypatch, law):
-    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+def test_a_slide_does_not_depend_on_the_step(comm, mesh, law):
+    assert SlidingInterface.normals_per_iteration  # the default
     coarse, fine = halving(comm, mesh, law)
     peak = np.abs(coarse[:, 1]).max()
     assert len(coarse) >= 6 and peak > 0.0, (coarse, peak)
@@ -113,11 +113,11 @@ def secondary_rows(problem, iface) -> np.ndarray:
 
 
 @pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
-def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
+def test_2d_tangent_holds_the_normals_change(comm, law, degree):
     """test_finite_sliding_tangent's 2-D block, slid to t = 1.75 with the iterate's normals: the
     interface's tangent times a direction is its forces' central differences to O(e^2), its
     secondary rows alone (no transfer) and all of it."""
-    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+    assert SlidingInterface.normals_per_iteration  # the default
     problem = tangent.problem_2d(comm, tangent.law_of(law), degree)
     iface = problem.interfaces["contact"]
     rows = secondary_rows(problem, iface)
@@ -164,12 +164,12 @@ def test_2d_tangent_holds_the_normals_change(comm, monkeypatch, law, degree):
 
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
-def test_3d_tangent_holds_the_normals_change(comm, monkeypatch, law):
+def test_3d_tangent_holds_the_normals_change(comm, law):
     """test_finite_sliding_tangent's 3-D diagonal slide in the middle of a sliding step, with the
     iterate's normals: the whole Jacobian is the residual's derivative (central differences,
     O(e^2)): the normals' change through the projection, the gap, the frame, the transport's
     rotation and the transfer."""
-    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+    assert SlidingInterface.normals_per_iteration  # the default
     problem = diagonal_slide_3d(comm, tangent.law_of(law), 3.0, split_x=1.5)
     with FrictionSolver(problem, linear="lu") as solver:
         converged = tangent.mid_step(solver, 1.75, 1.9, 0.15)
@@ -241,17 +241,18 @@ def slide(comm: MPI.Comm, dim: int, law: str, dt: float) -> dict[float, np.ndarr
 
 @pytest.mark.parametrize("dim, dt", [(2, 0.25), (3, 0.1)])
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
-def test_push_is_the_interface_force_whatever_the_step(comm, monkeypatch, law, dim, dt):
-    """The iterate's normals (``normals_per_iteration``): the push on the sliding block equals the
-    interface's global force on it (sum of ``w Q^T f``, not F_t1: the tractions' integral in each
-    point's frame differs from it by F_n times the base's slope) at every step, and halving the
+def test_push_is_the_interface_force_whatever_the_step(comm, law, dim, dt):
+    """The iterate's normals (``normals_per_iteration``, the default): the push on the sliding
+    block equals the interface's global force on it (sum of ``w Q^T f``, not F_t1: the
+    tractions' integral in each point's frame differs from it by F_n times the base's slope) at
+    every step, and halving the
     step changes the push by less than 1e-6 of the peak beyond the law's own time error
     (Coulomb 2-D: none; Sec. 7, and Coulomb 3-D: the change of the tractions' integral in the
     points' frames). Coulomb's own in 3-D: its return map gives the slip increment's direction
     (the chord of the step's slip path) where the path turns in the tangent plane: on halving
     the step the friction force turns by 1.4e-4 (its size changes by 1e-5), as much on a rigid
     plate; its frame-by-frame integral turns with it."""
-    monkeypatch.setattr(SlidingInterface, "normals_per_iteration", True)
+    assert SlidingInterface.normals_per_iteration  # the default
     nt = dim - 1
     coarse, fine = slide(comm, dim, law, dt), slide(comm, dim, law, dt / 2)
     start = 1.0 if dim == 2 else 0.2

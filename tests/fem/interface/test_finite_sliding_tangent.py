@@ -52,7 +52,7 @@ from tests.helpers import everywhere
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
-def problem_2d(comm, law, degree, base_end=4.0):
+def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None):
     dom = tagged_blocks(
         comm,
         base=(0.0, base_end, -1.0, 0.0),
@@ -69,7 +69,11 @@ def problem_2d(comm, law, degree, base_end=4.0):
         program,
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")],
         [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics="finite_sliding")],
+        interfaces=[
+            Interface(
+                "contact", "base", "block", kinematics="finite_sliding", initial_gap=initial_gap
+            )
+        ],
         settings=ProblemSettings(degree=degree),
     )
 
@@ -159,6 +163,40 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
         "without dB t": without[1] > 1e-5,
     }
     assert everywhere(comm, all(checks.values())), (checks, err, without, counts)
+
+
+@pytest.mark.parametrize("law", ["coulomb", "sec7"])
+def test_2d_tangent_with_an_initial_gap(comm, law):
+    """An initial gap (0.1 um plus a parabola, closed by the press: the block's contact surface
+    is not its mesh's): the points that faced the base at the step's start are projected from their
+    contact surfaces (moved by ``g0`` along the step's start normal), and the tangent is still
+    the residual's derivative; the law's normal gaps are those of the contact surfaces."""
+
+    def g0(x):
+        return 0.0001 + 0.0005 * (x[0] - 1.5) ** 2
+
+    problem = problem_2d(comm, law_of(law), 1, initial_gap=g0)
+    iface = problem.interfaces["contact"]
+    with FrictionSolver(problem, linear="lu") as solver:
+        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        x = solver.x.copy()
+        v = direction(comm, problem, x)
+        err = differences(comm, problem, x, v, [1e-4, 1e-5])
+        v.destroy()
+        x.destroy()
+    g, pts = iface.geometry, iface.law_points
+    raw = np.einsum("qk,fkd->fqd", iface.sides.Ns[0], g.Xs).reshape(-1, 2)
+    # the contact surface: the point moved by g0 along the normal it faced at the step's start
+    moved = np.abs(np.einsum("md,md->m", g.xq - raw, iface.start.Q[:, 1]) + pts.g0)
+    closed = comm.allreduce(int(np.count_nonzero(g.found & (g.gap[:, 1] > 0))))
+    checks = {
+        "converged": converged,
+        "in contact": closed > 0,
+        "on their contact surfaces": bool(np.all(moved[iface.start.facet >= 0] < 1e-12)),
+        "exact": err[1].max() < 1e-8,
+        "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
+    }
+    assert everywhere(comm, all(checks.values())), (checks, err, closed)
 
 
 def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):

@@ -16,10 +16,11 @@ transfer
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager as ContextManager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -121,13 +122,15 @@ class ContactGeometry:
         reach: The :class:`~.reach.Reach` it was computed on (its facets' nodes and numbers).
         normals: The nodal normals of the reach's facets (the iterate's or the step's),
             (npf, nfd_m, gdim).
-        xq: Current positions of the points, (npts, gdim).
+        xq: Current positions of the points on their contact surfaces (a point that faced the
+            primary at the step's start: moved by its initial gap along its normal there,
+            :func:`_at_contact_surfaces`), (npts, gdim).
         Xs: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
         Ym: Current positions of the reach's primary facets' nodes, (npf, nfd_m, gdim).
         facet: Each point's primary facet (index in the reach; -1: none), (npts,).
         Q: Each point's frame, rows ``(e1, [e2,] -n)`` (an open point keeps its old one).
-        gap: The geometric gap in the frame (tangential: the total, normal: > 0 on
-            penetration), without the initial gap, (npts, gdim).
+        gap: The law's gap in the frame (tangential: the total, normal: > 0 on penetration,
+            the initial gap taken off), (npts, gdim).
         transport: The tangential state's transport of the step, (npts, nt, nt).
         slid_too_far: Points whose slip in the step exceeds the reach, (npts,).
         old_facet: The primary facet each moving point faced at the step's start (-1: none).
@@ -144,8 +147,9 @@ class ContactGeometry:
         held_old: Likewise with the facet it faced at the step's start, (nseg, nq).
         gamma: Each point's ``gamma`` (the distance along ``n~``), (npts,).
         slip: Each point's convected slip of the step, (npts, gdim).
-        normal_rates: With the iterate's normals: :func:`.normals.normal_rates` of the
-            reach's facets; ``None``: the normals are the step's (no derivative).
+        iterate: Whether :attr:`normals` are the iterate's (then :attr:`normal_rates` holds
+            their change with the primary's nodes).
+        primary: The primary's facets' basix cell and degree.
     """
 
     reach: Reach
@@ -170,14 +174,33 @@ class ContactGeometry:
     held_old: np.ndarray
     gamma: np.ndarray
     slip: np.ndarray
-    normal_rates: tuple[np.ndarray, np.ndarray] | None
+    iterate: bool
+    primary: tuple[Any, int]
 
     def __post_init__(self) -> None:
         """Make the arrays read-only too: the value is passed on, never changed."""
         arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
-        for a in [*arrays, *(self.turn or ()), *(self.normal_rates or ())]:
+        for a in [*arrays, *(self.turn or ())]:
             if isinstance(a, np.ndarray):
                 a.flags.writeable = False
+
+    @functools.cached_property
+    def normal_rates(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The nodal normals' change with the primary's nodes (the tangent's).
+
+        With the iterate's normals, :func:`.normals.normal_rates` of the reach's facets, made
+        when the tangent first asks (a residual alone does not need them); ``None``: the normals
+        are the step's (no derivative).
+        """
+        if not self.iterate:
+            return None
+        cell, degree = self.primary
+        out = normal_rates(
+            cell, degree, self.reach.nodes, self.reach.node_facets, self.Ym, self.normals
+        )
+        for a in out:
+            a.flags.writeable = False
+        return out
 
     @property
     def found(self) -> np.ndarray:
@@ -259,6 +282,7 @@ def contact_geometry(
     timed: Callable[[str], ContextManager],
     normals: np.ndarray,
     iterate: bool = False,
+    g0: np.ndarray | None = None,
 ) -> tuple[ContactGeometry, dict[str, float]]:
     """The contact geometry at the displacement ``u`` (not collective).
 
@@ -274,6 +298,9 @@ def contact_geometry(
         normals: The nodal normals of the reach's facets: the step's (held) or the iterate's.
         iterate: Whether ``normals`` are the iterate's: then the geometry holds their
             change with the primary's nodes (:func:`.normals.normal_rates`) for the tangent.
+        g0: The points' initial gaps, (npts,) (``None``: none). A point that faced the primary
+            at the step's start is measured from its contact surface, its position moved by its
+            initial gap along its normal there (:func:`_at_contact_surfaces`).
 
     Returns:
         The geometry, and the wall times of its projections and of its segments (the cost
@@ -287,6 +314,7 @@ def contact_geometry(
     xq, Ym, Xs = current_positions(sd, reach, u)
     with timed(TIMER_PROJECTION):
         pj = project(sd, reach, normals, xq, Ym)
+        xq, pj, left = _at_contact_surfaces(sd, reach, start, normals, xq, Ym, pj, g0)
     found = pj.facet >= 0
     seconds = {"projection": time.perf_counter() - t0}
     Q = _frames(start.Q, pj.normal, found)
@@ -295,6 +323,7 @@ def contact_geometry(
     # a distance within the coordinates' round-off is a closed gap (independent meshes of one
     # surface meet at +-1e-17, which would tell contact from separation by chance)
     gap[np.abs(gap[:, sd.nt]) <= 1e-12 * sd.h, sd.nt] = 0.0
+    gap[:, sd.nt] -= left
     moving = found & (start.facet >= 0)
     ds, T, N_old, theta = _slip(sd, start, pj, Q, Ym, normals, moving)
     slid_too_far = np.linalg.norm(ds, axis=1) > sd.reach
@@ -332,13 +361,57 @@ def contact_geometry(
         held_old=held_old,
         gamma=pj.gamma,
         slip=ds,
-        normal_rates=normal_rates(
-            sd.primary.cell, sd.primary.degree, reach.nodes, reach.node_facets, Ym, normals
-        )
-        if iterate
-        else None,
+        iterate=iterate,
+        primary=(sd.primary.cell, sd.primary.degree),
     )
     return geometry, seconds
+
+
+def _at_contact_surfaces(
+    sd: Sides,
+    reach: Reach,
+    start: StepStart,
+    normals: np.ndarray,
+    xq: np.ndarray,
+    Ym: np.ndarray,
+    pj: Projection,
+    g0: np.ndarray | None,
+) -> tuple[np.ndarray, Projection, np.ndarray]:
+    """The points on their contact surfaces, their projections, and the initial gaps left.
+
+    The initial gap ``g0`` stands for a surface the mesh does not hold: the secondary's contact
+    surface is its facets moved by ``g0`` away from the primary. A point that faced the primary
+    at the step's start is projected from there, its position moved by ``g0`` along its normal
+    at the start (held during the step: no derivative): a closed point is then at the primary
+    surface, and the primary's normals turning within the step move its projection by its
+    penetration times their turn, not by its initial gap times it (a slip the bodies do not
+    make). At the step's start the projection is the point's own (moved along its own
+    normal), the normal gap its own minus ``g0``. Elsewhere (the point faced nothing at the
+    start, or its moved position faces nothing) the point's own projection, ``g0`` subtracted
+    from its normal gap.
+
+    Returns:
+        The positions projected (npts, gdim), the projections, and the initial gap still to
+        subtract from each point's normal gap (npts,).
+    """
+    if g0 is None or not np.any(g0):
+        return xq, pj, np.zeros(sd.n_points) if g0 is None else g0
+    moved = (start.facet >= 0) & (g0 != 0.0)
+    left = g0.copy()
+    if not np.any(moved):
+        return xq, pj, left
+    xs = xq.copy()
+    xs[moved] -= g0[moved, None] * start.Q[moved, sd.nt, :]  # + g0 n at the start
+    pm = project(sd, reach, normals, xs, Ym)
+    use = moved & (pm.facet >= 0)
+    xs[~use] = xq[~use]
+    left[use] = 0.0
+    pick = {}
+    for f in dataclasses.fields(Projection):
+        a, b = getattr(pj, f.name).copy(), getattr(pm, f.name)
+        a[use] = b[use]
+        pick[f.name] = a
+    return xs, Projection(**pick), left
 
 
 def _frames(Q_start: np.ndarray, normal: np.ndarray, found: np.ndarray) -> np.ndarray:

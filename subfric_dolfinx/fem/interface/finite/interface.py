@@ -139,12 +139,12 @@ class SlidingInterface(BaseInterface):
     kinematics = "finite_sliding"
     fixed_pairs = False  # re-paired in the current configuration
     _petsc_vectors = ("_work",)  # and the search's (:meth:`destroy`)
-    #: Whether the primary's nodal normals are those of every iterate (the current configuration:
-    #: a slide's forces then do not depend on the step; docs/reference/finite_sliding.md) rather
-    #: than the step's, held (their derivative is in the tangent either way). Held by default:
-    #: with the iterate's normals a stepped run's predicted start can cycle points between stick
-    #: and slip until the retry (the Hertz contact meshed apart on DOLFINx 0.11).
-    normals_per_iteration = False
+    #: Whether the primary's nodal normals are those of every iterate (the current configuration,
+    #: the default: a slide's forces then do not depend on the step; docs/model.md §11) rather
+    #: than the step's, held (their derivative is in the tangent either way). A point with an
+    #: initial gap is measured from its contact surface (:func:`.contact.contact_geometry`), so
+    #: the normals' turn within a step does not slide it by its initial gap times the turn.
+    normals_per_iteration = True
 
     def __init__(
         self,
@@ -290,10 +290,10 @@ class SlidingInterface(BaseInterface):
                 self._time,
                 normals,
                 self.normals_per_iteration,
+                pts.g0,
             )
             self.search_seconds.update(seconds)
             law_gap = g.gap.copy()
-            law_gap[:, nt] -= pts.g0
             committed = pts.transported(g.transport) if nt == 2 else pts.state.old
         with self._time(TIMER_RETURN_MAP):
             res = self.law.return_map(law_gap, committed, self.dt, out=pts.state.new)

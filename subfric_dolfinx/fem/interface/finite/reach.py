@@ -17,7 +17,8 @@ projections at its start (:class:`StepStart`), from which their slip of the step
 from __future__ import annotations
 
 import dataclasses
-from typing import cast
+import functools
+from typing import Any, cast
 
 import dolfinx
 import numpy as np
@@ -81,11 +82,21 @@ class Reach:
         pos = np.minimum(np.searchsorted(k, keys), max(k.size - 1, 0))
         return (k[pos] == keys) if k.size else np.zeros(keys.shape, dtype=bool)
 
-    def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
-        """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
+    @functools.cached_property
+    def _pair_keys(self) -> np.ndarray:
+        """The reach's (secondary facet, primary facet index) pairs as sorted keys."""
         npf = max(self.facets.size, 1)
         owner = np.repeat(np.arange(self.ptr.size - 1), np.diff(self.ptr))
-        return np.isin(secondary * npf + primary, owner * npf + self.idx)
+        return np.unique(owner * npf + self.idx)
+
+    def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
+        """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
+        keys = np.asarray(secondary, dtype=np.int64) * max(self.facets.size, 1) + primary
+        k = self._pair_keys
+        if k.size == 0:
+            return np.zeros(keys.shape, dtype=bool)
+        pos = np.minimum(np.searchsorted(k, keys), k.size - 1)
+        return k[pos] == keys
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,6 +158,21 @@ class ReachSearch:
         self._missed: set[tuple[int, int]] = set()
         self.x_ext: PETSc.Vec | None = None
         self.b_ext: PETSc.Vec | None = None
+        # work vectors of an index map and block size (:meth:`_vector`)
+        self._vectors: dict[tuple[int, int], tuple[dolfinx.common.IndexMap, Any]] = {}
+
+    def _vector(self, index_map: dolfinx.common.IndexMap, bs: int) -> Any:
+        """A work vector of ``index_map`` with block size ``bs``, made once per map.
+
+        Its values are the caller's to overwrite (making one costs more than an iteration's
+        projections).
+        """
+        key = (id(index_map), bs)
+        held = self._vectors.get(key)
+        if held is None or held[0] is not index_map:
+            held = (index_map, dolfinx.la.vector(index_map, bs))
+            self._vectors[key] = held
+        return held[1]
 
     def displacement(self, owned: np.ndarray) -> np.ndarray:
         """The displacement at every local node of the extended map (collective)."""
@@ -182,7 +208,7 @@ class ReachSearch:
         sd = self.sides
         xs = self._positions0(x_committed)
         m, s = sd.primary, sd.secondary
-        normals = nodal_normals(m, xs, sd.imap0)
+        normals = nodal_normals(m, xs, sd.imap0, self._vector(sd.imap0, sd.gdim))
         cs = xs[s.nodes].mean(axis=1)
         rs = np.linalg.norm(xs[s.nodes] - cs[:, None], axis=-1).max(axis=1, initial=0.0)
         rs_max = float(sd.comm.allreduce(rs.max(initial=0.0), MPI.MAX))  # over every rank
@@ -236,12 +262,13 @@ class ReachSearch:
         sd = self.sides
         x = sd.X0 + u[: sd.n_local0]
         assert self.reach is not None  # (searched)
-        return nodal_normals(sd.primary, x, self.reach.index_map)[self.reach.nodes]
+        imap = self.reach.index_map
+        return nodal_normals(sd.primary, x, imap, self._vector(imap, sd.gdim))[self.reach.nodes]
 
     def _positions0(self, u_owned: np.ndarray) -> np.ndarray:
         """Current positions of the displacement space's local nodes (collective: ghost update)."""
         sd = self.sides
-        v = dolfinx.la.vector(sd.imap0, sd.bs)
+        v = self._vector(sd.imap0, sd.bs)
         v.array[: sd.n_owned] = u_owned
         v.scatter_forward()
         return sd.X0 + v.array.reshape(-1, sd.bs)[:, : sd.gdim]
@@ -258,6 +285,7 @@ class ReachSearch:
         row = {g: i for i, g in enumerate(cf.tolist())}
         rows = np.array([row[g] for g in _ints(pf_global)], dtype=np.int64)
         index_map, extra_g, extra_o, nodes = self._extended_map(cg[rows], co[rows])
+        self._vectors = {k: v for k, v in self._vectors.items() if v[0] is sd.imap0}
         for v in (self.x_ext, self.b_ext):
             if v is not None:
                 v.destroy()

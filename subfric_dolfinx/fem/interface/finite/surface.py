@@ -169,6 +169,7 @@ def nodal_normals(
     surface: ContactSurface,
     x_nodes: np.ndarray,
     index_map: dolfinx.common.IndexMap,
+    vec: dolfinx.la.Vector | None = None,
 ) -> np.ndarray:
     """Averaged unit outward normals at the surface's nodes (collective).
 
@@ -178,13 +179,16 @@ def nodal_normals(
             (n >= max node + 1, gdim).
         index_map: The displacement's index map, possibly extended with extra ghosts: the
             normals are returned at all its local nodes (owned, ghosts, extra ghosts).
+        vec: A vector of ``index_map`` with block size ``gdim`` to work in (its values are
+            overwritten; made anew by default).
 
     Returns:
         (size_local + num_ghosts, gdim): the unit normal at every node of the surface (on any
         rank's facet), zeros elsewhere.
     """
     gdim = x_nodes.shape[1]
-    vec = dolfinx.la.vector(index_map, gdim)
+    if vec is None:
+        vec = dolfinx.la.vector(index_map, gdim)
     acc = vec.array.reshape(-1, gdim)
     acc[:] = 0.0
     if surface.size:
