@@ -316,10 +316,10 @@ def _check_interface(f: Any, name: str, path: str, npt: int, gdim: int) -> None:
         d = f[path][k]
         shape = (npt,) if len(getattr(d, "shape", ())) == 1 else (npt, None)
         d = _dataset(f, name, f"{path}/{k}", shape)
-        if d.ndim == 2 and d.shape[1] not in (gdim - 1, gdim, gdim * gdim):
+        if d.ndim == 2 and d.shape[1] not in (gdim - 1, gdim):
             raise CheckpointError(
                 f"checkpoint {name}: '{path}/{k}' has {d.shape[1]} components per point "
-                f"(a {gdim}-D interface has {gdim - 1}, {gdim} or {gdim * gdim}: a tangent)"
+                f"(a {gdim}-D interface has {gdim - 1} or {gdim})"
             )
     pdata = "point_data" if path == "interface" else f"{path}/point_data"
     for k in f.get(pdata, {}):

@@ -181,10 +181,7 @@ def restore_interface(
             f"checkpoint {name} was written with another law on the interface {iname!r} "
             f"({d[0] or 'law'}: {json.dumps(d[1])} there, {json.dumps(d[2])} here)"
         )
-    optional = getattr(el, "optional_state", ())
-    saved = {
-        v: a for v, a in el.saved_state().items() if v in stored.variables or v not in optional
-    }
+    saved = el.saved_state()
     for v, mine in saved.items():
         got = stored.variables.get(v)
         if got is None:

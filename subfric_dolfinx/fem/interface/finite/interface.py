@@ -189,8 +189,9 @@ class SlidingInterface(BaseInterface):
         self.geometry: ContactGeometry | None = None
         self.search_seconds = {"search": 0.0, "projection": 0.0, "segments": 0.0}
         self._x_committed = np.zeros(self.n_owned)
-        # the step's points that continue to slip from the committed state (:meth:`_continuing`;
-        # the committed return map's statuses, tangents and law gaps: the points' step_end)
+        # the committed return map's statuses, tangents and law gaps, and the step's points that
+        # continue to slip from there (:meth:`_continuing`)
+        self._committed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._continuing: tuple[np.ndarray, np.ndarray] | None = None
         self._first_jacobian = True
         self.start: StepStart = self.begin_step()
@@ -339,9 +340,9 @@ class SlidingInterface(BaseInterface):
             The points and their committed tangents, (k,) and (k, gdim, gdim).
         """
         gdim = self.sides.gdim
-        if self._points.step_end is None:
+        if self._committed is None:
             return np.zeros(0, dtype=np.int64), np.zeros((0, gdim, gdim))
-        status, tangent, gap = self._points.step_end
+        status, tangent, gap = self._committed
         still = np.all(np.abs(law_gap - gap) <= 1e-12 * (np.abs(gap) + self.sides.h), axis=1)
         slipped = np.isin(status, (Status.PLASTIC, Status.JUMP))
         idx = np.flatnonzero(still & slipped & (res.status == Status.ELASTIC))
@@ -430,9 +431,9 @@ class SlidingInterface(BaseInterface):
         super().commit()
         res = self.last
         if res is not None:
-            self._points.step_end = (
+            self._committed = (
                 res.status.copy(),
-                np.array(res.tangent, copy=True).reshape(res.status.size, -1),
+                np.array(res.tangent, copy=True),
                 self._points.last_gap.copy(),
             )
         g = self.geometry
@@ -452,6 +453,7 @@ class SlidingInterface(BaseInterface):
         self._x_committed = np.array(np.asarray(x)[: self.n_owned], dtype=float)
         self._x_at_update = None
         self._points.last = None
+        self._committed = None
 
     def layout_parts(self) -> tuple[np.ndarray, np.ndarray, dolfinx.common.IndexMap, Couplings]:
         """Extra ghosts, their owners, the extended index map and the pattern's couplings."""

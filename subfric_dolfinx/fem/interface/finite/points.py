@@ -92,9 +92,6 @@ class SlidingPoints:
         self.Q_old: np.ndarray = np.zeros((npts, gdim, gdim))
         self.last: Any = None
         self.last_gap = np.zeros((npts, gdim))
-        #: The last converged step's return-map status, tangent (n, gdim * gdim) and law gap per
-        #: point (the next step's first Jacobian reads them; a checkpoint keeps them), or None.
-        self.step_end: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._Q_last: np.ndarray | None = None
 
     @property
@@ -131,50 +128,23 @@ class SlidingPoints:
                 st[name][:, : self.nt] = np.einsum("mab,mb->ma", T, st[name][:, : self.nt])
         return st
 
-    optional_state = ("sliding_step_status", "sliding_step_tangent", "sliding_step_gap")
-    """Variables of :meth:`saved_state` that an older checkpoint may lack (the restart is then
-    exact up to the first Jacobian of its first step)."""
-
     def saved_state(self) -> dict[str, np.ndarray]:
         """The committed state a restart needs, name -> (n, ...) array per point.
 
-        The law's variables, the points' total tangential gap (``sliding_ut``, local
-        components), the normals of their frames (``sliding_normal``; zero where a point never
-        faced the primary: its frame is still the identity, which no frame of a normal is), and
-        :attr:`step_end` (``sliding_step_*``; status -1 before the first step).
+        The law's variables, and the points' total tangential gap (``sliding_ut``, local
+        components) and the normals of their frames (``sliding_normal``; zero where a point never
+        faced the primary: its frame is still the identity, which no frame of a normal is).
         """
         out = saved_law_state(self.state)
         out["sliding_ut"] = self.ut_old
         normal = -self.Q_old[:, -1, :]
         normal[np.all(self.Q_old == np.eye(self.gdim), axis=(1, 2))] = 0.0
         out["sliding_normal"] = normal
-        n, g = self.ut_old.shape[0], self.gdim
-        status, tangent, gap = self.step_end or (
-            np.full(n, -1),
-            np.zeros((n, g * g)),
-            np.zeros((n, g)),
-        )
-        out["sliding_step_status"] = np.asarray(status, dtype=float)
-        out["sliding_step_tangent"] = np.asarray(tangent, dtype=float).reshape(n, g * g)
-        out["sliding_step_gap"] = np.asarray(gap, dtype=float).reshape(n, g)
         return out
 
     def restore_state(self, arrays: Mapping[str, np.ndarray]) -> None:
         """Put :meth:`saved_state`'s arrays back (then the interface resumes from ``x``)."""
         restore_law_state(self.state, arrays)
-        if "sliding_step_status" in arrays:
-            status = np.asarray(arrays["sliding_step_status"]).reshape(-1).astype(np.int64)
-            self.step_end = (
-                None
-                if np.all(status < 0)
-                else (
-                    status,
-                    np.asarray(arrays["sliding_step_tangent"], dtype=float).reshape(
-                        status.size, -1
-                    ),
-                    np.asarray(arrays["sliding_step_gap"], dtype=float).reshape(status.size, -1),
-                )
-            )
         self.ut_old = np.asarray(arrays["sliding_ut"], dtype=float).reshape(self.ut_old.shape)
         normal = np.asarray(arrays["sliding_normal"], dtype=float).reshape(-1, self.gdim)
         faced = np.linalg.norm(normal, axis=1) > 0.5
