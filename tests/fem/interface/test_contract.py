@@ -288,12 +288,16 @@ def test_a_restarted_run_gives_the_rows_of_the_uninterrupted_one(kind, tmp_path_
     after = [r for r in restarted.history if r["t"] > 1.5 + 1e-9]
     assert [r["step"] for r in restarted.history] == sorted(rows)
     assert len(after) == 2 and set(after[0]) == set(rows[after[0]["step"]])
-    # bit-identical, Newton's iterations included
+    # bit-identical on 1 rank, Newton's iterations included; on more, MUMPS's factors vary in
+    # their last bits from run to run (docs/reference/solver.md): the same to round-off, each
+    # column at the scale of its largest value over the run, Newton's iterations still equal
+    tol = 0.0 if comm.size == 1 else 1e-12
+    scale = {k: max(abs(float(r[k])) for r in full.history) for k in after[0]}
     differ = [
         (r["step"], k, r[k], rows[r["step"]][k])
         for r in after
         for k in r
-        if r[k] != rows[r["step"]][k]
+        if abs(float(r[k]) - float(rows[r["step"]][k])) > tol * scale[k]
     ]
     assert everywhere(comm, not differ), differ
 
