@@ -177,8 +177,9 @@ the cylinder's points the finer side) the pressure oscillates by about 1 % of $p
 neighbouring points (`--n 4`: $e_{0.8}$ = 1.1 %, $e_{max}$ = 2.4 %, $a$ fit +0.74 %; `--n 6`:
 1.3 %, 4.0 %, +1.5 %): stiff penalty points finer than the primary surface they are pressed on.
 Both converge (`--n 6` stopped at the edge while the transfer was the consistent mass). Newton
-takes at most 5 iterations a step at `--n 4`, 7 and 8 at `--n` 6 and 8 (the matched mesh 7 at
-`--n 8`): the press closes several points a step as the contact grows.
+takes its most iterations at the first touch (the records `hertz_apart_n4` and `hertz_apart_n8`
+say how many), fewer once the contact has formed: the press closes several points a step as the
+contact grows.
 """
 
 
