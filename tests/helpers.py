@@ -461,3 +461,24 @@ def small_scene(short: bool = False) -> dict:
             "channels": {"press": [0, 1, 1], "slide": [0, 0, SHORT_SLIDE]},
         }
     return s
+
+
+def interface_vertex_multiplicity(dom: Any) -> np.ndarray:
+    """How many times each interface vertex of an ``InterfaceMesh`` is there, over all ranks
+    (by coordinates, rounded; 2 everywhere where the interface's nodes are duplicated)."""
+    import dolfinx
+
+    from subfric_dolfinx import meshing
+
+    tdim, comm = dom.tdim, dom.mesh.comm
+    dom.mesh.topology.create_connectivity(tdim - 1, 0)
+    f = dom.facets(next(iter(dom.interfaces)))
+    v = dolfinx.mesh.compute_incident_entities(dom.mesh.topology, f, tdim - 1, 0)
+    # (every rank's vertices of its interface facets, owned or not, once each by global index)
+    gi = dom.mesh.topology.index_map(0).local_to_global(v)
+    x = meshing.nodes._vertex_coordinates(dom.mesh, v)
+    allg = np.concatenate(comm.allgather(gi))
+    allx = np.concatenate(comm.allgather(x))
+    _, first = np.unique(allg, return_index=True)
+    _, mult = np.unique(np.round(allx[first], 10), axis=0, return_counts=True)
+    return mult

@@ -1,6 +1,6 @@
 """The cluster page's examples (``docs/reference/cluster.md``): its command lines parse with the
 commands' own parsers, it shows the job script (``cluster/job.sh``, run by
-``tests/test_cluster.py``), and its scene is a valid scene."""
+``tests/demos/test_cluster_job.py``), and its scene is a valid scene."""
 
 import json
 import re
@@ -37,7 +37,7 @@ def commands():
 
 
 def test_the_pages_command_lines_parse():
-    """The job script itself is run by tests/test_cluster.py; here the page's own lines."""
+    """The page's own command lines (the job script itself is run by test_cluster_job.py)."""
     cmds = commands()
     assert set(cmds) == {"subfric_dolfinx.meshing.partitioned", "subfric_dolfinx.scenes"}
     converted = [

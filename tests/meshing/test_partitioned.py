@@ -15,7 +15,6 @@ back, each rank its part (1, 2 and 3 ranks).
 import json
 import re
 
-import dolfinx
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -24,7 +23,13 @@ from subfric_dolfinx import meshing
 from subfric_dolfinx.meshing import InterfaceMeshError
 from subfric_dolfinx.meshing.partitioned import groups_path, main
 from subfric_dolfinx.scenes import SceneError, run_scene
-from tests.helpers import MESH_DIR, on_root, raised_on_every_rank, small_scene
+from tests.helpers import (
+    MESH_DIR,
+    interface_vertex_multiplicity,
+    on_root,
+    raised_on_every_rank,
+    small_scene,
+)
 
 pytestmark = pytest.mark.three_ranks
 
@@ -83,17 +88,7 @@ def test_written_and_read_back_the_msh_model_is_the_same(name, shared_tmp):
     if comm.size > 1:
         assert 0 < n_local < back.mesh.topology.index_map(back.tdim).size_global
     # the interface's nodes are duplicated: each interface vertex is there twice (gathered)
-    tdim = back.tdim
-    back.mesh.topology.create_connectivity(tdim - 1, 0)
-    f = back.facets(next(iter(back.interfaces)))
-    iv = dolfinx.mesh.compute_incident_entities(back.mesh.topology, f, tdim - 1, 0)
-    # (every rank's vertices of its interface facets, owned or not, once each by global index)
-    gi = back.mesh.topology.index_map(0).local_to_global(iv)
-    x = meshing.nodes._vertex_coordinates(back.mesh, iv)
-    allg = np.concatenate(comm.allgather(gi))
-    allx = np.concatenate(comm.allgather(x))
-    _, first = np.unique(allg, return_index=True)
-    _, counts = np.unique(np.round(allx[first], 10), axis=0, return_counts=True)
+    counts = interface_vertex_multiplicity(back)
     assert counts.size and np.all(counts == 2)
 
 

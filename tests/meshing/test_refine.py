@@ -45,6 +45,7 @@ from tests.helpers import (
     SEC7_PENALTY,
     SOFT_GAP,
     global_spread,
+    interface_vertex_multiplicity,
     prefix,
     raised_on_every_rank,
     small_scene,
@@ -78,21 +79,6 @@ def counts(dom):
         owned = mt.find(tag) < dom.mesh.topology.index_map(dim).size_local
         out[name] = dom.mesh.comm.allreduce(int(np.count_nonzero(owned)))
     return out
-
-
-def interface_vertex_multiplicity(dom):
-    tdim, comm = dom.tdim, dom.mesh.comm
-    dom.mesh.topology.create_connectivity(tdim - 1, 0)
-    f = dom.facets(next(iter(dom.interfaces)))
-    v = dolfinx.mesh.compute_incident_entities(dom.mesh.topology, f, tdim - 1, 0)
-    # (every rank's vertices of its interface facets, owned or not, once each by global index)
-    gi = dom.mesh.topology.index_map(0).local_to_global(v)
-    x = meshing.nodes._vertex_coordinates(dom.mesh, v)
-    allg = np.concatenate(comm.allgather(gi))
-    allx = np.concatenate(comm.allgather(x))
-    _, first = np.unique(allg, return_index=True)
-    _, mult = np.unique(np.round(allx[first], 10), axis=0, return_counts=True)
-    return mult
 
 
 @pytest.mark.parametrize(
