@@ -162,6 +162,7 @@ class _Copy:
             else:
                 self.attributes[n] = np.asarray(a.data())
         self.wvars: dict[str, Any] = {}
+        self.in_step = False  # between this rank's begin_step and end_step of the copy
 
     def open(self) -> None:
         self.writer = self.wio.open(str(self.tmp), self.mode.Write)
@@ -191,7 +192,9 @@ class _Copy:
                 value = np.zeros(1, dtype)
                 self.reader.get(var, value, self.mode.Sync)
                 arrays = [value for _ in self._mine(len(blocks))]
-            elif kind == self.shape_id.LocalValue:
+            elif kind == self.shape_id.LocalValue or var.single_value():
+                # local values (one per writing rank) read as a global array of them
+                kind = self.shape_id.LocalValue
                 values = np.zeros(len(blocks), dtype)
                 var.set_selection([[0], [len(blocks)]])
                 self.reader.get(var, values, self.mode.Sync)
@@ -219,6 +222,7 @@ class _Copy:
         """Begin a step of the copy and put this rank's blocks (the attributes in the first)."""
         w = self.writer
         w.begin_step()
+        self.in_step = True
         for name, kind, dtype, arrays in data:
             var = self.wvars.get(name)
             if var is None:  # a rank without a block of it defines it alike
@@ -245,6 +249,7 @@ class _Copy:
 
     def end_step(self) -> None:
         self.writer.end_step()
+        self.in_step = False
 
     def close(self) -> None:
         for e in (self.writer, self.reader):
@@ -253,7 +258,20 @@ class _Copy:
         self.writer = self.reader = None
 
     def abandon(self) -> None:
-        """Close what is open, ignoring errors."""
+        """Close what is open, ignoring errors (collective: called on every rank).
+
+        Closing the copy is collective (its metadata is gathered): when any rank failed within
+        a step, the ranks are in different places of it, and the copy is dropped instead
+        (ADIOS2's objects destroyed without closing it: no collective call; it is removed
+        afterwards).
+        """
+        mid_step = any(self.comm.allgather(self.in_step))
+        if self.writer is not None and mid_step:
+            self.writer = self.reader = None  # both engines go with their IOs
+            try:
+                self.ad.remove_all_ios()
+            except Exception:
+                pass
         for e in (self.writer, self.reader):
             try:
                 if e is not None:

@@ -88,7 +88,7 @@ def contents(path):
                 got = []
                 for b, info in enumerate(blocks):
                     count = info["Count"]
-                    if info.get("IsValue") == "true" or not count:
+                    if info["IsValue"] == "True":  # a value ("Count" 0)
                         got.append(("value", np.ravel(f.read(name, step_selection=[s, 1]))))
                         continue
                     shape = tuple(int(c) for c in count.split(","))
@@ -169,20 +169,22 @@ def test_units_become_attributes_of_the_vtx_files(shared_tmp):
     on_root(comm, check)
 
 
-def test_a_fault_during_the_copy_leaves_the_file_as_written(shared_tmp, monkeypatch):
-    """A failure on the last rank at the second step: the same error on every rank, the file
-    as DOLFINx wrote it, no copy left."""
+@pytest.mark.parametrize("where", ["read_step", "put_step"])
+def test_a_fault_during_the_copy_leaves_the_file_as_written(shared_tmp, monkeypatch, where):
+    """A failure on the last rank at the second step, reading it (every rank between two steps
+    of the copy) or putting it (rank 0 of 2 within the step, the last not): the same error on
+    every rank, no hang, the file as DOLFINx wrote it, no copy left."""
     comm = MPI.COMM_WORLD
     paths = write_files(shared_tmp)
     kept = keep_copies(paths)
-    real = vtx_module._Copy.put_step
+    real = getattr(vtx_module._Copy, where)
 
     def flaky(self, step, *args):
         if step == 1 and comm.rank == comm.size - 1:
             raise OSError(5, "Input/output error (injected)")
         return real(self, step, *args)
 
-    monkeypatch.setattr(vtx_module._Copy, "put_step", flaky)
+    monkeypatch.setattr(vtx_module._Copy, where, flaky)
     with raised_on_every_rank(OutputError, "writing the units into", "injected"):
         annotate_vtx(comm, paths[1], UNITS, FRAME)
     monkeypatch.undo()
