@@ -157,8 +157,8 @@ class _Copy:
         for n in sorted(self.rio.available_attributes()):
             a = self.rio.inquire_attribute(n)
             if a.type() == "string":
-                v = a.data_string()
-                self.attributes[n] = v[0] if len(v) == 1 else list(v)
+                v = a.data_string()  # a str (one string) or a list of them
+                self.attributes[n] = v if isinstance(v, str) else list(v)
             else:
                 self.attributes[n] = np.asarray(a.data())
         self.wvars: dict[str, Any] = {}
@@ -201,7 +201,9 @@ class _Copy:
                 arrays = [values[b : b + 1] for b in self._mine(len(blocks))]
             elif kind == self.shape_id.LocalArray:
                 for b in self._mine(len(blocks)):
-                    count = tuple(int(c) for c in blocks[b]["Count"].split(","))
+                    # an empty block of a 1-d array has no dimensions ("")
+                    text = blocks[b]["Count"]
+                    count = tuple(int(c) for c in text.split(",")) if text else (0,)
                     a = np.zeros(count, dtype)
                     if a.size:  # an empty block (a rank without cells) has nothing to read
                         var.set_block_selection(b)
@@ -221,11 +223,8 @@ class _Copy:
     ) -> None:
         """Begin a step of the copy and put this rank's blocks (the attributes in the first)."""
         w = self.writer
-        w.begin_step()
-        self.in_step = True
         for name, kind, dtype, arrays in data:
-            var = self.wvars.get(name)
-            if var is None:  # a rank without a block of it defines it alike
+            if name not in self.wvars:  # a rank without a block of it defines it alike
                 first = arrays[0] if arrays else np.zeros(1, dtype)
                 if kind == self.shape_id.LocalArray:
                     var = self.wio.define_variable(name, first, [], [], list(first.shape))
@@ -234,11 +233,7 @@ class _Copy:
                 else:
                     var = self.wio.define_variable(name, first)
                 self.wvars[name] = var
-            for a in arrays:
-                if kind == self.shape_id.LocalArray:
-                    var.set_selection([[], list(a.shape)])
-                w.put(var, np.ascontiguousarray(a), self.mode.Sync)
-        if step == 0:
+        if step == 0:  # before the first put: BP4 writes a step's attributes with its first
             for name, value in self.attributes.items():
                 self.wio.define_attribute(name, value)
             for name in self.wvars:
@@ -246,6 +241,14 @@ class _Copy:
                     self.wio.define_attribute("unit", units[name], name, "/")
             for name, text in attributes.items():
                 self.wio.define_attribute(name, text)
+        w.begin_step()
+        self.in_step = True
+        for name, kind, _, arrays in data:
+            var = self.wvars[name]
+            for a in arrays:
+                if kind == self.shape_id.LocalArray:
+                    var.set_selection([[], list(a.shape)])
+                w.put(var, np.ascontiguousarray(a), self.mode.Sync)
 
     def end_step(self) -> None:
         self.writer.end_step()
@@ -293,8 +296,8 @@ def vtx_attributes(adios2: Any, comm: Any, path: Path) -> tuple[int, dict[str, s
         for n in io.available_attributes():
             a = io.inquire_attribute(n)
             if a.type() == "string":
-                v = a.data_string()
-                attrs[n] = v[0] if len(v) == 1 else "\n".join(v)
+                v = a.data_string()  # a str (one string) or a list of them
+                attrs[n] = v if isinstance(v, str) else "\n".join(v)
         return int(e.steps()), attrs, sorted(io.available_variables())
     finally:
         e.close()

@@ -183,9 +183,9 @@ def check_vtx_units(directory, units):
             assert functions >= ({"displacement"} if name[0] == "d" else {"f_n", "mu", "up_t1"})
             want = {"displacement": "mm"} | units
             for v in functions:
-                assert f.inquire_attribute(f"{v}/unit").data_string() == [want[v]], v
-            assert f.inquire_attribute("frame").data_string() == [FRAME]
-            legend = json.loads(f.inquire_attribute("status_legend").data_string()[0])
+                assert f.inquire_attribute(f"{v}/unit").data_string() == want[v], v
+            assert f.inquire_attribute("frame").data_string() == FRAME
+            legend = json.loads(f.inquire_attribute("status_legend").data_string())
             assert Status.PLASTIC.name in legend[str(int(Status.PLASTIC))]
             assert "vtk.xml" in f.available_attributes()
 
