@@ -169,6 +169,16 @@ def test_units_become_attributes_of_the_vtx_files(shared_tmp):
         assert [count[0] == "0" for count, _ in blocks] == [r > 0 for r in range(comm.size)]
 
     on_root(comm, check)
+    # annotated again: a unit given anew replaces the file's, the others stay
+    assert annotate_vtx(comm, paths[0], {"displacement": "m"})
+
+    def again():
+        new, old = contents(paths[0]), contents(kept[0])
+        same_data(new, old)
+        assert new[2]["displacement/unit"] == "m" and new[2]["frame"] == FRAME["frame"]
+        assert new[2]["vtk.xml"] == old[2]["vtk.xml"]
+
+    on_root(comm, again)
 
 
 @pytest.mark.parametrize("where", ["read_step", "put_step"])
