@@ -37,6 +37,7 @@ import errno
 import os
 import shutil
 from collections.abc import Mapping
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -382,18 +383,11 @@ def annotate_vtx(
     collective(comm, open_copy, what, root=None, path=tmp, cleanup=cleanup)
     attrs = dict(attributes or {})
     for step in range(c.steps):
-        data = collective(
-            comm, lambda s=step: c.read_step(s), what, root=None, path=path, cleanup=cleanup
-        )
+        read = partial(c.read_step, step)
+        data = collective(comm, read, what, root=None, path=path, cleanup=cleanup)
         assert data is not None
-        collective(
-            comm,
-            lambda s=step, d=data: c.put_step(s, d, units, attrs),
-            what,
-            root=None,
-            path=tmp,
-            cleanup=cleanup,
-        )
+        put = partial(c.put_step, step, data, units, attrs)
+        collective(comm, put, what, root=None, path=tmp, cleanup=cleanup)
         collective(comm, c.end_step, what, root=None, path=tmp, cleanup=cleanup)
     collective(comm, c.close, what, root=None, path=tmp, cleanup=cleanup)
 
