@@ -1,9 +1,10 @@
 """Units inside closed VTX files (ADIOS2 BP4) as ADIOS2 attributes.
 
 DOLFINx's ``VTXWriter`` keeps its ADIOS2 ``IO`` to itself: nothing can be added to the file
-while it is written. Once it is closed, ADIOS2 writes an attribute only within a step: opened
-again in ``Append`` mode, an attribute defined without a step is not written (BP4 and BP5), and
-one defined within a new step is one more step for every reader. So :func:`annotate_vtx` copies
+while it is written. Once it is closed, ADIOS2 writes an attribute only with a step: the file
+opened again in ``Append`` mode, an attribute defined and the file closed, BP4 writes it in one
+more step (for every reader), BP5 not at all; defined within a new step, it is one more step
+with either engine (ADIOS2 2.10 and 2.12). So :func:`annotate_vtx` copies
 the closed file, step by step and block by block (each rank the blocks it wrote, in its own
 step calls), into ``<name>.tmp`` with the attributes in its first step, then puts the copy in
 place of the file:
