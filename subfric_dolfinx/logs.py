@@ -41,6 +41,7 @@ __all__ = [
     "LOGGER_NAME",
     "PROGRESS_SECONDS",
     "PROGRESS_SPREAD",
+    "OutputWarning",
     "OverhangWarning",
     "PenetrationWarning",
     "Progress",
@@ -188,6 +189,10 @@ class SlideWarning(SubfricWarning):
 
 class OverhangWarning(SubfricWarning):
     """A finite-sliding contact leaves its primary surface: a pressed secondary facet past it."""
+
+
+class OutputWarning(UserWarning):
+    """An output file written with less than it could hold (a VTX file without its units)."""
 
 
 class UnitsWarning(SubfricWarning):

@@ -5,7 +5,8 @@
 * :mod:`.summary`: :func:`interface_summary`, resultant forces and area-weighted means.
 * :mod:`.history`: :class:`HistoryCSV`, one row per converged step (:class:`HistoryRows`);
   :func:`write_history_file`, rows of one's own step callback with the same metadata.
-* :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView.
+* :mod:`.fields`: :class:`FieldWriter`, displacement and interface fields for ParaView;
+  :mod:`.vtx`: their units written into the closed VTX files as ADIOS2 attributes.
 * :mod:`.points`: :class:`InterfacePointsXDMF`, the interface state at the quadrature points
   as a point-cloud time series (XDMF/HDF5) for ParaView.
 * :mod:`.interface_history`: :class:`InterfaceHistoryH5`, every interface field at every step.
@@ -19,7 +20,8 @@
 * :mod:`.h5`, :mod:`.slabs`: HDF5 files written and read in per-rank slabs (h5py's MPI driver).
 
 May import: :mod:`subfric_dolfinx.fem`, :mod:`subfric_dolfinx.constitutive`, the layer-0 modules
-(:mod:`subfric_dolfinx.values`, ...), DOLFINx, MPI, h5py (not scenes).
+(:mod:`subfric_dolfinx.values`, ...), DOLFINx, MPI, h5py, ADIOS2's Python bindings (not
+scenes).
 """
 
 from .checkpoint import (

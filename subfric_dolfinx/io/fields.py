@@ -7,11 +7,13 @@ by its local components ``up_t1`` ... and as ``<v>_global`` in global components
 point data (the initial gap ``g0``; ``region``, the region number, with interface regions), as
 cell averages of the quadrature values on the interface submesh (DG0). Their units, the frame
 and the ``status`` legend are in ``units.json`` beside the files, and, once the files are closed,
-in the XDMF files themselves (:func:`annotate_xdmf`: an ``Information`` element ``unit`` in each
-``Attribute``, the file's ``units``, ``frame`` and ``status_legend`` in its ``Domain``, and the
-attribute ``unit`` of each function's group in the ``.h5`` file). A VTX (ADIOS2 BP4) file cannot
-take attributes after DOLFINx's writer has closed it without adding a time step, nor be given
-them before: its units are ``units.json``'s.
+in the files themselves: in XDMF (:func:`annotate_xdmf`) an ``Information`` element ``unit`` in
+each ``Attribute``, the file's ``frame`` and ``status_legend`` in its ``Domain``, and the
+attribute ``unit`` of each function's group in the ``.h5`` file; in VTX (ADIOS2 BP4,
+:func:`~.vtx.annotate_vtx`) the ADIOS2 attributes ``<name>/unit`` of each function, ``frame``
+and ``status_legend``, in the file's first step (the file copied with them, the number of steps
+unchanged; left without them, ``units.json`` then their only record, when ADIOS2's Python
+bindings are not installed).
 Displacement of degree 2 is written as is in VTX and interpolated to degree 1 in XDMF (which needs
 the mesh's degree). Collective.
 
@@ -50,6 +52,7 @@ from .gather import interface_of
 from .links import refuse_links, write_text_nofollow
 from .paths import inside, interface_stems
 from .units import FRAME, interface_units, status_legend
+from .vtx import annotate_vtx
 
 __all__ = ["FieldWriter", "annotate_xdmf"]
 
@@ -199,7 +202,8 @@ class FieldWriter:
             OutputError: Two interface names map to the same file (:mod:`.paths`).
         """
         stems = interface_stems("interface", interfaces).values()
-        exts = (".bp",) if fmt == "vtx" else (".xdmf", ".h5", ".xdmf.tmp")  # .tmp: annotate_xdmf
+        # .tmp, .old: annotate_xdmf's and annotate_vtx's
+        exts = (".bp", ".bp.tmp", ".bp.old") if fmt == "vtx" else (".xdmf", ".h5", ".xdmf.tmp")
         return [n + e for n in ("displacement", *stems) for e in exts] + ["units.json"]
 
     def space_needed(self) -> int:
@@ -351,7 +355,7 @@ class FieldWriter:
         self._wu = self._wi = None
 
     def close(self) -> None:
-        """Close the files (collective; a failure is raised on every rank)."""
+        """Close the files and write the units into them (collective; a failure on every rank)."""
         if self._wu is None:
             return
 
@@ -365,9 +369,12 @@ class FieldWriter:
             collective(comm, close, self._what("closing"), root=None)
         finally:
             self._wu = self._wi = None
-        if self.fmt == "xdmf":
-            files = ["displacement", *(stem for stem, _, _, _ in self.parts)]
-            meta = {"frame": FRAME, "status_legend": json.dumps(status_legend())}
+        files = ["displacement", *(stem for stem, _, _, _ in self.parts)]
+        meta = {"frame": FRAME, "status_legend": json.dumps(status_legend())}
+        if self.fmt == "vtx":
+            for stem in files:
+                annotate_vtx(comm, inside(self.dir, f"{stem}.bp"), self.units, meta)
+        else:
 
             def annotate() -> None:
                 for stem in files:

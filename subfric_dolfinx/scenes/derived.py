@@ -29,6 +29,7 @@ from ..io.collective import collective
 from ..io.fields import annotate_xdmf
 from ..io.links import refuse_links
 from ..io.paths import inside
+from ..io.vtx import annotate_vtx
 from .parse_features import frame_axes
 from .schema import FEScene, SceneError
 
@@ -203,14 +204,17 @@ class DerivedOutputs:
             self.writer.write_function(self.stress.von_mises, t)
 
     def close(self) -> None:
-        """Close the stress file (an XDMF file then gets its units: :func:`.annotate_xdmf`)."""
+        """Close the stress file and write its units into it (collective)."""
         if self.writer is not None:
             self.writer.close()
             self.writer = None
-            if self.fmt == "xdmf":
+            units = {"sigma": "MPa", "von_mises": "MPa"}
+            if self.fmt == "vtx":
+                annotate_vtx(self.problem.comm, self.path, units)
+            else:
                 collective(
                     self.problem.comm,
-                    lambda: annotate_xdmf(self.path, {"sigma": "MPa", "von_mises": "MPa"}),
+                    lambda: annotate_xdmf(self.path, units),
                     f"writing the units into {str(self.path)!r}",
                     path=self.path,
                 )

@@ -71,7 +71,8 @@ def planned_files(spec: OutputSpec, names: list[str]) -> list[str]:
     if spec.checkpoints:
         files += ["checkpoint.h5", "checkpoint.h5.tmp", ".checkpoint.h5.tmp.spare"]
     if spec.fields:
-        stress = ["stress.bp"] if spec.fields == "vtx" else ["stress.xdmf", "stress.h5"]
+        vtx = ["stress.bp", "stress.bp.tmp", "stress.bp.old"]  # .tmp, .old: .io.vtx
+        stress = vtx if spec.fields == "vtx" else ["stress.xdmf", "stress.h5"]
         inner = [*FieldWriter.file_names(spec.fields, names), *stress]
         inner += [n for s in points.values() for n in (f"{s}.xdmf", f"{s}.h5", f"{s}.xdmf.tmp")]
         files += ["fields/", *(f"fields/{n}" for n in inner)]

@@ -169,6 +169,8 @@ def test_the_stress_of_a_bar_in_uniaxial_compression_is_force_over_area(shared_t
         import adios2
 
         with adios2.FileReader(str(shared_tmp / "fields" / "stress.bp")) as f:
+            for name in ("sigma", "von_mises"):  # the units, as ADIOS2 attributes
+                assert f.inquire_attribute(f"{name}/unit").data_string() == "MPa"
             last = f.num_steps() - 1
             out = []
             for name, width in (("sigma", 9), ("von_mises", 1)):

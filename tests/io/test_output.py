@@ -144,6 +144,7 @@ def test_history_and_fields(shared_tmp, fmt):
         assert not {"f", "f_t", "f_t1"} & set(units)  # no law variable repeats the traction
         if fmt == "vtx":
             check_vtx(shared_tmp / "fields", by_rank, prob.gdim)
+            check_vtx_units(shared_tmp / "fields", interface_units(prob.law, prob.gdim))
         else:
             with h5py.File(shared_tmp / "fields" / "interface.h5") as f:
                 want = {"f_t1", "f_n", "traction_global", "up_t1", "up_global", "mu", "r"}
@@ -169,6 +170,24 @@ def test_history_and_fields(shared_tmp, fmt):
 
     on_root(comm, check_files)
     solver.destroy()
+
+
+def check_vtx_units(directory, units):
+    """Every function of the VTX files has its unit as the ADIOS2 attribute ``<name>/unit``,
+    the files their frame and status legend; the steps are the 8 written."""
+    adios2 = adios2_module()
+    for name, names in (("displacement.bp", {"displacement"}), ("interface.bp", set(units))):
+        with adios2.FileReader(str(directory / name)) as f:
+            assert f.num_steps() == 8
+            functions = names & set(f.available_variables())
+            assert functions >= ({"displacement"} if name[0] == "d" else {"f_n", "mu", "up_t1"})
+            want = {"displacement": "mm"} | units
+            for v in functions:
+                assert f.inquire_attribute(f"{v}/unit").data_string() == want[v], v
+            assert f.inquire_attribute("frame").data_string() == FRAME
+            legend = json.loads(f.inquire_attribute("status_legend").data_string())
+            assert Status.PLASTIC.name in legend[str(int(Status.PLASTIC))]
+            assert "vtk.xml" in f.available_attributes()
 
 
 def check_vtx(directory, by_rank, gdim):
