@@ -135,6 +135,11 @@ def leaves_validity(*categories: type[Warning]) -> Iterator[None]:
     )
 
 
+warns_on_every_rank = leaves_validity
+"""The block must issue each of the categories, checked on every rank: :func:`leaves_validity`
+for a warning that is not the model's (an :class:`~subfric_dolfinx.logs.OutputWarning`)."""
+
+
 # Why a test's scene leaves the model's validity (the reasons of ``leaves_validity`` marks)
 
 SEC7_PENALTY = (
