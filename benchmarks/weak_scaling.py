@@ -1098,7 +1098,10 @@ def model_lines(m: Models, rows: list[dict], path: str) -> list[str]:
             f"ranks; the coarse model's dofs, {m.refine_factor:.1f} times fewer than the fine "
             f"model's: the partitioner sees only the coarse model; `read_gather_bytes`, "
             f"`refine_gather_bytes`: the read's and the refinement's shares, the rest the "
-            f"problem's set-up);"
+            f"problem's set-up). As on the gmsh path, PT-Scotch coarsens a larger graph further "
+            f"before gathering it on every rank, so far beyond the measured coarse models (at "
+            f"most {max(r['coarse_dofs'] for r in rows):,} dofs) this power law is an upper "
+            f"bound;"
         )
     lines = [
         f"- peak memory of a rank = {m.memory[0]:.0f} MiB + {m.memory[1] * 1e3:.3f} MiB per 1000 "
@@ -1224,10 +1227,26 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
     for path in paths:
         v = by_path[path]
         row = next(r for r in v["table"] if r["ranks"] == 512 and r["dofs"] == 1e8)
+        limit = weak_limit(v["models"], row["dofs_per_rank"], path=path)
+        first = (
+            f"nothing past {NODE_MEMORY_GIB:g} GiB per rank up to {2**24:,} ranks"
+            if limit is None
+            else f"**{limit[0]}**, past {NODE_MEMORY_GIB:g} GiB per rank at "
+            f"{limit[1]['ranks']:,} ranks ({limit[1]['dofs']:.1e} dofs)"
+        )
         lines.append(
             f"- **{path}**: at 512 ranks and 1e8 dofs a rank needs {row['rss_mib']:.0f} MiB, "
             f"rank 0 {row['rss_rank0_mib']:.0f} MiB; rank 0 while the mesh is built "
-            f"{row['mesh_rank0_mib']:.0f} MiB. First to stop scaling: see its section."
+            f"{row['mesh_rank0_mib']:.0f} MiB, the set-up's gathers "
+            f"{row['setup_gather_mib']:.0f} MiB per rank"
+            + (
+                f", the conversion of its coarse model ({row['coarse_dofs']:.2g} dofs; one "
+                f"process, once) {row['convert_mib']:.0f} MiB"
+                if not math.isnan(row["convert_mib"])
+                else ""
+            )
+            + f". First to stop scaling at that many dofs per rank (the ranks doubled, the "
+            f"model with them): {first}."
         )
     lines += [
         "",
