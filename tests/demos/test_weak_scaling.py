@@ -214,7 +214,7 @@ def test_measurement_at_a_tiny_size(shared_tmp):
 )
 def test_refined_measurement_at_a_tiny_size(shared_tmp):
     comm = MPI.COMM_WORLD
-    n, k = 3, 1
+    n, k = 2, 1  # fine elements of the hexahedral test's size (slides under 3 of them)
     info = weak_scaling.convert_one(n, shared_tmp, comm)
     path = weak_scaling.coarse_file(shared_tmp, n)
     r = weak_scaling.measure(comm, n, 3, shared_tmp, (path, k))
