@@ -72,11 +72,14 @@ SERIES = ((1, 10), (1, 14), (2, 18), (2, 28), (4, 22), (8, 28))
 """(ranks, n): about 25k dofs per rank (n = 14: 25,584; 18: 51,900; 22: 91,944; 28: 184,050);
 1 rank at 10,116 dofs and 2 ranks at 184,050 (what depends on the whole model, apart from the
 rank count)."""
-REFINED_SERIES = ((1, 3, 2), (1, 4, 2), (2, 5, 2), (2, 7, 2), (4, 6, 2), (8, 7, 2))
+REFINED_SERIES = ((1, 2, 2), (1, 3, 2), (2, 4, 2), (2, 7, 2), (4, 5, 2), (8, 7, 2))
 """(ranks, coarse n, refinements) of the refined path (``--path refined``): the tetrahedral pad
 with ``n`` elements along the pad's side meshed coarse once per ``n`` by one process
 (:func:`convert_one`), read in parts and refined ``k`` times on the ranks; sizes as in
 :data:`SERIES` (the fine dofs in :func:`refined_counts`)."""
+CONVERT_SIZES = (12, 18, 24)
+"""Coarse ``n`` converted on the refined path only to measure the conversion's memory (one
+process): the series' own coarse models are too small for it to show over the imports."""
 PATHS = ("gmsh", "refined")
 """How the model is built: ``gmsh`` (hexahedra meshed whole on rank 0, :data:`SERIES`) or
 ``refined`` (:data:`REFINED_SERIES`)."""
@@ -85,6 +88,9 @@ EVENTS = ("SNESSolve", "KSPSolve", "PCSetUp", "PCApply", "MatMult")
 PHASES = ("read", "refine", "problem", "setup", "steps", "profile", "checkpoint")
 """Phases of the MPI counts: ``setup`` = the mesh and the problem (on the refined path also split
 into the coarse model's ``read``, its ``refine``-ment and the ``problem``)."""
+NOISE_MIB = 5.0
+"""What a process's peak RSS varies by between runs of the same work (MiB): a fitted term that
+moves the measured rows by less is not resolved by them (:func:`fit_resolved`)."""
 NODE_MEMORY_GIB = 4.0
 """Memory per rank of a typical cluster node (e.g. 128 cores, 512 GiB): a part that needs more on
 one rank stops the run."""
@@ -643,13 +649,16 @@ class Models:
         mesh: (e MiB, f MiB per dof, g MiB per dof of the rank): rank 0's peak once the mesh
             is built, over ``start``, = e + f dofs + g dofs_per_rank (gmsh meshes the whole
             model on rank 0, which hands it out: f; a mesh read in parts and refined on the
-            ranks: g); a negative f or g (noise) is left out and the rest fitted again.
+            ranks: g); a term the rows do not resolve is left out (:func:`fit_resolved`,
+            :data:`NOISE_MIB`).
         setup_gather: (k, alpha, beta): bytes a rank receives in gathers during the set-up =
             k coarse_dofs^alpha ranks^beta (least squares in logs, runs on several ranks;
             ``coarse_dofs`` the dofs of the model before the ranks refine it, the model's own
             on the gmsh path).
-        refine_factor: Dofs over the coarse model's (geometric mean; 1 on the gmsh path): the
-            extrapolation refines as many times as the measured runs did.
+        refine_factor: Dofs over the coarse model's in the largest run (1 on the gmsh path): the
+            extrapolation refines as many times as the measured runs did. The ratio grows with
+            the model towards 8 per refinement (a smaller share of vertices on the surface), so
+            the extrapolated coarse model is an upper bound.
         checkpoint_allgather: (a, s): bytes of ``Allgather(v)`` a rank receives when a
             checkpoint is written = a + s ranks^2 (the interface rows' sample sort gathers
             ``ranks`` sample rows of every rank on every rank; runs on several ranks).
@@ -694,11 +703,12 @@ class Models:
     convert: tuple[float, float] = (math.nan, math.nan)
 
 
-def fit_nonnegative(columns: list, y) -> list[float]:
-    """Least squares ``y = sum_i c_i columns_i`` with ``c_i >= 0`` for ``i > 0``.
+def fit_resolved(columns: list, y, noise: float = 0.0) -> list[float]:
+    """Least squares ``y = sum_i c_i columns_i``, keeping only the terms the data resolve.
 
-    The most negative ``c_i`` (``i > 0``) is set to 0 and the others fitted again, until none is
-    negative; the first column's coefficient (the constant) is free.
+    A term ``i > 0`` is left out (``c_i = 0``) and the others fitted again while one is negative
+    or moves the rows by less than ``noise`` over their range (``c_i ptp(columns_i)``), the
+    smallest such term first; the first column's coefficient (the constant) is always fitted.
     """
     import numpy as np
 
@@ -707,13 +717,14 @@ def fit_nonnegative(columns: list, y) -> list[float]:
     keep = list(range(len(cols)))
     while True:
         coef, *_ = np.linalg.lstsq(np.column_stack([cols[i] for i in keep]), y, rcond=None)
-        bad = [i for i, c in zip(keep, coef, strict=True) if i > 0 and c < 0]
+        moved = {i: c * np.ptp(cols[i]) for i, c in zip(keep, coef, strict=True) if i > 0}
+        bad = [i for i, v in moved.items() if v < noise or v < 0]
         if not bad:
             out = [0.0] * len(cols)
             for i, c in zip(keep, coef, strict=True):
                 out[i] = float(c)
             return out
-        keep.remove(min(bad, key=lambda i: coef[keep.index(i)]))
+        keep.remove(min(bad, key=lambda i: moved[i]))
 
 
 def fit_power(dofs, ranks, y) -> tuple[float, float, float]:
@@ -732,12 +743,18 @@ def fit_power(dofs, ranks, y) -> tuple[float, float, float]:
     return float(np.exp(coef[0])), float(alpha), float(beta)
 
 
-def fit_models(rows: list[dict], levels: list[list[int]]) -> Models:
+def fit_models(
+    rows: list[dict],
+    levels: list[list[int]],
+    conversions: list[tuple[float, float]] | None = None,
+) -> Models:
     """Fit the per-part models to the measured rows.
 
     Args:
         rows: :func:`row_of` of every run.
         levels: For every run, the global rows of its GAMG levels, finest first.
+        conversions: (coarse dofs, peak MiB) of every conversion measured (:func:`convert_one`);
+            ``None``: those of the runs' own coarse models (``convert_peak_mib``).
     """
     import numpy as np
 
@@ -749,30 +766,33 @@ def fit_models(rows: list[dict], levels: list[list[int]]) -> Models:
     ratios = [a / b for lv in levels for a, b in itertools.pairwise(lv) if b > 0]
     gathered = [r for r in many if r["setup_gather_bytes"] > 0]
     coarse = [r.get("coarse_dofs", r["dofs"]) for r in rows]
-    mesh = fit_nonnegative(
+    largest = max(range(len(rows)), key=lambda i: rows[i]["dofs"])
+    mesh = fit_resolved(
         [[1.0] * len(rows), [r["dofs"] for r in rows], d],
         [r["rss_mesh_rank0_mib"] - r["rss_start_mib"] for r in rows],
+        NOISE_MIB,
     )
     several = [r for r in rows if r["ranks"] > 1]
-    converted = [r for r in rows if not math.isnan(r.get("convert_peak_mib", math.nan))]
+    if conversions is None:
+        conversions = [
+            (r["coarse_dofs"], r["convert_peak_mib"])
+            for r in rows
+            if not math.isnan(r.get("convert_peak_mib", math.nan))
+        ]
     return Models(
         memory=fit_line(d, own),
         rank0_excess=excess,
         start=_median([r["rss_start_mib"] for r in rows]),
         mesh=(mesh[0], mesh[1], mesh[2]),
-        refine_factor=float(
-            np.exp(np.mean(np.log([r["dofs"] / c for r, c in zip(rows, coarse, strict=True)])))
-        ),
+        refine_factor=rows[largest]["dofs"] / coarse[largest],
         checkpoint_allgather=fit_line(
             [r["ranks"] ** 2 for r in several],
             [r.get("checkpoint_allgather_bytes", 0.0) for r in several],
         )
         if several
         else (0.0, 0.0),
-        convert=fit_line(
-            [r["coarse_dofs"] for r in converted], [r["convert_peak_mib"] for r in converted]
-        )
-        if converted
+        convert=fit_line([c for c, _ in conversions], [p for _, p in conversions])
+        if conversions
         else (math.nan, math.nan),
         setup_gather=fit_power(
             [r.get("coarse_dofs", r["dofs"]) for r in gathered],
@@ -1064,7 +1084,9 @@ def mpi_breakdown(results: list[dict]) -> list[str]:
     return [*out, ""]
 
 
-def model_lines(m: Models, rows: list[dict], path: str) -> list[str]:
+def model_lines(
+    m: Models, rows: list[dict], path: str, conversions: list[tuple[float, float]] = ()
+) -> list[str]:
     """Markdown: the fitted models of one path."""
     weak = [r for r in rows if r["n"] != min(x["n"] for x in rows) or r["ranks"] > 1]
     kry = [r["krylov_per_newton"] for r in weak]
@@ -1086,11 +1108,13 @@ def model_lines(m: Models, rows: list[dict], path: str) -> list[str]:
     else:
         k = sorted({r["refine"] for r in rows})
         mesh = (
-            f"- rank 0 once its part of the coarse model is read and refined {k} times: "
-            f"{m.mesh[0]:.0f} MiB + {m.mesh[1] * 1e6:.1f} MiB per million global dofs + "
-            f"{m.mesh[2] * 1e3:.3f} MiB per 1000 dofs of the rank over the memory before it "
-            f"(no rank holds the model: the global term is what the fit cannot tell from noise); "
-            f"the others' median in `rss_mesh_others`;"
+            f"- rank 0 once its part of the coarse model is read and refined "
+            f"{', '.join(str(v) for v in k)} times: {m.mesh[0]:.0f} MiB + "
+            f"{m.mesh[1] * 1e6:.1f} MiB per million global dofs + {m.mesh[2] * 1e3:.3f} MiB per "
+            f"1000 dofs of the rank over the memory before it (a term that moves the measured "
+            f"rows by less than {NOISE_MIB:g} MiB is left out as unresolved: 0 per million "
+            f"global dofs means the runs with a larger model at the same dofs per rank found "
+            f"rank 0 no larger); the others' median in `rss_mesh_others`;"
         )
         gather = (
             f"- gathers in the set-up (bytes received per rank) = {m.setup_gather[0]:.3g} "
@@ -1132,7 +1156,17 @@ def model_lines(m: Models, rows: list[dict], path: str) -> list[str]:
         lines.append(
             f"- the conversion (one process, once per model: gmsh meshes the coarse model and "
             f"writes it partitioned) peaks at {m.convert[0]:.0f} MiB + "
-            f"{m.convert[1] * 1e6:.0f} MiB per million coarse dofs."
+            f"{m.convert[1] * 1e6:.0f} MiB per million coarse dofs"
+            + (
+                f" (measured on {len(conversions)} coarse models of "
+                f"{min(c for c, _ in conversions):,.0f}–{max(c for c, _ in conversions):,.0f} "
+                f"dofs: "
+                + ", ".join(f"{c:,.0f}: {p:.0f} MiB" for c, p in sorted(conversions))
+                + ")"
+                if conversions
+                else ""
+            )
+            + "."
         )
     return lines
 
@@ -1187,12 +1221,26 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
     results.sort(key=lambda r: (PATHS.index(r.get("path", "gmsh")), r["ranks"], r["n"]))
     paths = [p for p in PATHS if any(r.get("path", "gmsh") == p for r in results)]
     by_path: dict[str, dict] = {}
+    conversions = [
+        (float(c["coarse_dofs"]), float(c["peak_mib"]))
+        for c in (
+            json.loads(f.read_text()) for f in sorted((out / "coarse").glob("pad_tet_*.json"))
+        )
+        if "peak_mib" in c
+    ]
     for path in paths:
         res = [r for r in results if r.get("path", "gmsh") == path]
         rows = [row_of(r) for r in res]
-        m = fit_models(rows, [[lv["rows"] for lv in r["gamg_levels"]] for r in res])
+        conv = conversions if path == "refined" and conversions else None
+        m = fit_models(rows, [[lv["rows"] for lv in r["gamg_levels"]] for r in res], conv)
         table = [{"path": path, **extrapolate(m, p, nd)} for p, nd in TARGETS]
-        by_path[path] = {"results": res, "rows": rows, "models": m, "table": table}
+        by_path[path] = {
+            "results": res,
+            "rows": rows,
+            "models": m,
+            "table": table,
+            "conversions": conv or [],
+        }
     (report / "data").mkdir(parents=True, exist_ok=True)
     every_row = [r for v in by_path.values() for r in v["rows"]]
     every_x = [r for v in by_path.values() for r in v["table"]]
@@ -1306,7 +1354,7 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         lines += [
             f"## The {path} path: models (fitted to its measured rows)",
             "",
-            *model_lines(v["models"], v["rows"], path),
+            *model_lines(v["models"], v["rows"], path, v["conversions"]),
             "",
             f"## The {path} path: first to stop scaling",
             "",
@@ -1367,6 +1415,9 @@ def main(argv=None) -> None:
             elif k:
                 raise SystemExit(f"--series {item!r}: the gmsh path takes ranks:n")
             launch(ranks, n, args.steps, args.out, args.force, route, k[0] if k else 0)
+        if route == "refined":  # the conversion's memory on larger coarse models
+            for n in CONVERT_SIZES:
+                launch_convert(n, args.out, args.force)
     command = "./run exec python3 benchmarks/weak_scaling.py --path all" + (
         f" --steps {args.steps}" if args.steps != 6 else ""
     )

@@ -19,7 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from benchmarks import fe_scaling, weak_scaling
-from subfric_dolfinx.logs import PenetrationWarning
+from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 
 A, B, E = 200.0, 0.004, 50.0  # MiB, MiB per dof of a rank, MiB more on rank 0
 START, MESH0, F = 120.0, 60.0, 3e-4  # rank 0 with the mesh: START + MESH0 + F dofs (MiB)
@@ -129,21 +129,24 @@ def test_refined_path_models_use_the_coarse_model():
         r["setup_gather_bytes"] = K * coarse**ALPHA * r["ranks"] ** BETA if r["ranks"] > 1 else 0
         r["checkpoint_allgather_bytes"] = 1000.0 + 40.0 * r["ranks"] ** 2
         r["convert_peak_mib"] = 100.0 + 2e-4 * coarse
-        # rank 0 holds its share of the refined model only: its mesh grows with its dofs
-        r["rss_mesh_rank0_mib"] = START + MESH0 + 0.001 * r["dofs_per_rank"]
+        # rank 0 holds its share of the refined model only: its mesh grows with its dofs; a
+        # global term moving the rows by 0.19 MiB (under NOISE_MIB) is not resolved by them
+        r["rss_mesh_rank0_mib"] = START + MESH0 + 0.001 * r["dofs_per_rank"] + 1e-6 * r["dofs"]
     m = weak_scaling.fit_models(rows, levels)
     assert m.refine_factor == pytest.approx(64.0)
     assert m.setup_gather == pytest.approx((K, ALPHA, BETA), rel=1e-9)
     assert m.checkpoint_allgather == pytest.approx((1000.0, 40.0))
     assert m.convert == pytest.approx((100.0, 2e-4))
-    assert m.mesh == pytest.approx((MESH0, 0.0, 0.001), rel=1e-9, abs=1e-12)
+    assert m.mesh[1] == 0.0  # left out; the rest fitted again, within that 0.19 MiB
+    assert m.mesh[0] == pytest.approx(MESH0, abs=0.2)
+    assert m.mesh[2] == pytest.approx(0.001, rel=1e-2)
     x = weak_scaling.extrapolate(m, 512, 1e8)
     mib = 2.0**20
     assert x["coarse_dofs"] == pytest.approx(1e8 / 64)
     assert x["setup_gather_mib"] == pytest.approx(K * (1e8 / 64) ** ALPHA * 512**BETA / mib)
     assert x["checkpoint_allgather_mib"] == pytest.approx((1000.0 + 40.0 * 512**2) / mib)
     assert x["convert_mib"] == pytest.approx(100.0 + 2e-4 * 1e8 / 64)
-    assert x["mesh_rank0_mib"] == pytest.approx(START + MESH0 + 0.001 * 1e8 / 512)
+    assert x["mesh_rank0_mib"] == pytest.approx(START + MESH0 + 0.001 * 1e8 / 512, abs=1.0)
 
 
 @pytest.mark.serial
@@ -210,11 +213,14 @@ def test_measurement_at_a_tiny_size(shared_tmp):
 
 
 @pytest.mark.leaves_validity(
-    PenetrationWarning, reason="the benchmark's normal penalty (the paper's Sec. 7 set)"
+    PenetrationWarning,
+    SlideWarning,
+    reason="the benchmark's normal penalty (the paper's Sec. 7 set) and its 0.5 mm slide, "
+    "3.4 of the refined triangles' sizes",
 )
 def test_refined_measurement_at_a_tiny_size(shared_tmp):
     comm = MPI.COMM_WORLD
-    n, k = 2, 1  # fine elements of the hexahedral test's size (slides under 3 of them)
+    n, k = 2, 1
     info = weak_scaling.convert_one(n, shared_tmp, comm)
     path = weak_scaling.coarse_file(shared_tmp, n)
     r = weak_scaling.measure(comm, n, 3, shared_tmp, (path, k))
