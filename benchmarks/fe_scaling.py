@@ -215,14 +215,17 @@ def build_pad(
     kinematics: str = "small_sliding",
     reach: float | None = None,
     alpha_n: float | None = None,
+    domain: Any = None,
 ) -> PadRun:
     """The pad on a plate with ``n`` hexahedra along the pad's side and its ``steps`` program.
 
     ``kinematics`` of the interface (``"finite_sliding"``: the bodies meshed apart,
     :func:`pad_apart`, a stiff normal penalty and the search ``reach``, default
     :func:`default_reach`); ``alpha_n`` the normal penalty (default: :data:`FINITE_ALPHA_N` for
-    finite sliding, the Sec. 7 set's otherwise). Collective. The caller owns ``solver``
-    (``solver.destroy()`` when done).
+    finite sliding, the Sec. 7 set's otherwise); ``domain`` the pad's mesh built already (e.g.
+    read in parts and refined on the ranks: the same groups; ``t_mesh`` is then 0 and
+    ``rss_mesh_mib`` the peak so far), else gmsh's hexahedra on rank 0. Collective. The caller
+    owns ``solver`` (``solver.destroy()`` when done).
     """
     from mpi4py import MPI
 
@@ -240,7 +243,9 @@ def build_pad(
 
     finite = kinematics == "finite_sliding"
     t0 = time.perf_counter()
-    if finite:
+    if domain is not None:
+        dom = domain
+    elif finite:
         sides = {"primary": "primary", "secondary": "secondary", "kinematics": kinematics}
         dom, _ = meshing.create_interface_mesh(
             pad_apart, comm, interfaces={"interface": sides}, n=n

@@ -5,7 +5,15 @@ strategy ``"gamg"``) at about 25k dofs per rank on 1, 2, 4 and 8 ranks (4 and 8 
 this 2-core machine: the times mean nothing, only what does not depend on the machine being
 oversubscribed is recorded), plus 1 rank at about 10k dofs (to separate the fixed and the per-dof
 memory) and 2 ranks at 184k (to separate the whole model's size from the rank count), over a
-short program (``--steps``, default 6: press, slide, back). Per run and rank:
+short program (``--steps``, default 6: press, slide, back). Two paths to the model (``--path``):
+
+* ``gmsh`` (:data:`SERIES`): hexahedra meshed whole by gmsh on rank 0, which hands out the parts;
+* ``refined`` (:data:`REFINED_SERIES`): tetrahedra meshed coarse once per size by one process of
+  its own and written partitioned (:func:`convert_one`), then read in parts and refined ``k``
+  times on the ranks (``meshing.read_partitioned_mesh``, ``meshing.refine_interface_mesh``): no
+  rank holds the whole model.
+
+Per run and rank:
 
 * memory: peak RSS after the mesh, after the set-up and at the end; the Jacobian's PETSc storage
   (``Mat.getInfo``); the GAMG hierarchy (every level's operator and interpolation); the
@@ -15,18 +23,22 @@ short program (``--steps``, default 6: press, slide, back). Per run and rank:
   MPI collective of the process (``benchmarks/mpi_counts.c``, a PMPI library preloaded into the
   ranks: calls and bytes of ``Allreduce``, ``Allgather(v)``, ``Gather(v)``, ``Bcast``,
   ``Alltoall(v)``, neighbour exchanges; from mpi4py, DOLFINx and PETSc alike) for four phases:
-  set-up (mesh, pairing, problem), the steps, one interface profile
+  set-up (mesh, pairing, problem; on the refined path also split into the read, the refinement
+  and the problem), the steps, one interface profile
   (``scenes.outputs.interface_profile``, what a scene's ``profile`` output gathers each output step)
   and one checkpoint;
 * the pairing's exchange (secondary facets received, extra ghosts), GAMG's levels and coarse grid,
   Newton and Krylov iterations.
 
-Then per-part models are fitted (:func:`fit_models`) and extrapolated (:func:`extrapolate`) to 64
-and 512 ranks at 1e7 and 1e8 dofs, and the first part to stop scaling is named from the numbers
-(:func:`first_to_break`)::
+Then per-part models are fitted per path (:func:`fit_models`) and extrapolated
+(:func:`extrapolate`) to 64 and 512 ranks at 1e7 and 1e8 dofs, and the first part to stop scaling
+is named from the numbers (:func:`first_to_break` over those targets, :func:`weak_limit` along the
+weak direction at 1e8 dofs on 512 ranks' dofs per rank)::
 
-    ./run exec python3 benchmarks/weak_scaling.py            # runs, then report/weak_scaling.md
-    ./run exec python3 benchmarks/weak_scaling.py --table    # only the table from the results
+    B=benchmarks/weak_scaling.py
+    ./run exec python3 $B                    # the gmsh path's runs, then report/weak_scaling.md
+    ./run exec python3 $B --path refined     # the refined path's runs, then the report
+    ./run exec python3 $B --table            # only the report, from every result of both paths
 
 Results: ``benchmarks/output/weak_scaling/<tag>.json``; report: ``report/weak_scaling.md`` and
 ``report/data/weak_scaling.csv``. No timing is used.
@@ -44,6 +56,7 @@ import math
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 if __package__:  # imported as benchmarks.weak_scaling (the tests)
@@ -59,9 +72,25 @@ SERIES = ((1, 10), (1, 14), (2, 18), (2, 28), (4, 22), (8, 28))
 """(ranks, n): about 25k dofs per rank (n = 14: 25,584; 18: 51,900; 22: 91,944; 28: 184,050);
 1 rank at 10,116 dofs and 2 ranks at 184,050 (what depends on the whole model, apart from the
 rank count)."""
+REFINED_SERIES = ((1, 2, 2), (1, 3, 2), (2, 4, 2), (2, 7, 2), (4, 5, 2), (8, 7, 2))
+"""(ranks, coarse n, refinements) of the refined path (``--path refined``): the tetrahedral pad
+with ``n`` elements along the pad's side meshed coarse once per ``n`` by one process
+(:func:`convert_one`), read in parts and refined ``k`` times on the ranks; sizes as in
+:data:`SERIES` (the fine dofs in :func:`refined_counts`)."""
+CONVERT_SIZES = (12, 18, 24)
+"""Coarse ``n`` converted on the refined path only to measure the conversion's memory (one
+process): the series' own coarse models are too small for it to show over the imports."""
+PATHS = ("gmsh", "refined")
+"""How the model is built: ``gmsh`` (hexahedra meshed whole on rank 0, :data:`SERIES`) or
+``refined`` (:data:`REFINED_SERIES`)."""
 TARGETS = ((64, 1e7), (512, 1e7), (64, 1e8), (512, 1e8))
 EVENTS = ("SNESSolve", "KSPSolve", "PCSetUp", "PCApply", "MatMult")
-PHASES = ("setup", "steps", "profile", "checkpoint")
+PHASES = ("read", "refine", "problem", "setup", "steps", "profile", "checkpoint")
+"""Phases of the MPI counts: ``setup`` = the mesh and the problem (on the refined path also split
+into the coarse model's ``read``, its ``refine``-ment and the ``problem``)."""
+NOISE_MIB = 5.0
+"""What a process's peak RSS varies by between runs of the same work (MiB): a fitted term that
+moves the measured rows by less is not resolved by them (:func:`fit_resolved`)."""
 NODE_MEMORY_GIB = 4.0
 """Memory per rank of a typical cluster node (e.g. 128 cores, 512 GiB): a part that needs more on
 one rank stops the run."""
@@ -113,6 +142,93 @@ def build_shim(out: Path) -> Path:
 
 
 # ------------------------------------------------------------------------------------------------
+# The refined path's coarse model
+
+
+def refined_counts(counts: Sequence[int], times: int) -> tuple[int, int, int, int]:
+    """Vertices, edges, faces and tetrahedra of a tetrahedral mesh refined ``times`` times.
+
+    Each edge gets a vertex at its midpoint and is split in two, each face into four (three new
+    edges), each tetrahedron into eight (one new edge, the inner octahedron's diagonal, and eight
+    new faces).
+    """
+    v, e, f, t = counts
+    for _ in range(times):
+        v, e, f, t = v + e, 2 * e + 3 * f + t, 4 * f + 8 * t, 8 * t
+    return v, e, f, t
+
+
+def coarse_file(out: Path, n: int) -> Path:
+    """The refined path's coarse model with ``n`` tetrahedra along the pad's side (XDMF)."""
+    return out / "coarse" / f"pad_tet_{n}.xdmf"
+
+
+def convert_one(n: int, out: Path, comm=None) -> dict:
+    """Mesh the coarse tetrahedral pad and write it partitioned (collective on ``comm``).
+
+    The benchmark calls it on one process of its own (``comm`` = ``COMM_WORLD`` of a singleton):
+    its peak memory is then the conversion's.
+
+    Returns (and writes beside the mesh as ``.json``) its counts (vertices, edges, faces,
+    tetrahedra, global), its dofs, the fine dofs after 1-4 refinements (:func:`refined_counts`)
+    and rank 0's peak RSS before and after (MiB).
+    """
+    from mpi4py import MPI
+
+    from subfric_dolfinx import meshing
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    path = coarse_file(out, n)
+    if comm.rank == 0:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    comm.Barrier()
+    start = fe_scaling.peak_rss_mib()
+    coarse, _ = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="tetrahedron",
+        plate_size=fe_scaling.PLATE_SIZE,
+        pad_size=fe_scaling.PAD_SIZE,
+    )
+    meshing.write_partitioned_mesh(coarse, path)
+    topology = coarse.mesh.topology
+    for dim in (1, 2):
+        topology.create_entities(dim)
+    counts = tuple(int(topology.index_map(d).size_global) for d in range(4))
+    info = {
+        "n": n,
+        "counts": counts,
+        "coarse_dofs": 3 * counts[0],
+        "fine_dofs": {k: 3 * refined_counts(counts, k)[0] for k in range(1, 5)},
+        "start_mib": start,
+        "peak_mib": fe_scaling.peak_rss_mib(),
+    }
+    if comm.rank == 0:
+        path.with_suffix(".json").write_text(json.dumps(info, indent=1))
+    comm.Barrier()
+    return info
+
+
+def launch_convert(n: int, out: Path, force: bool) -> dict:
+    """:func:`convert_one` in a process of its own (its peak memory is the conversion's)."""
+    info = coarse_file(out, n).with_suffix(".json")
+    if not info.exists() or force:
+        from subfric_dolfinx.logs import singleton_environment
+
+        cmd = [sys.executable, __file__, "--convert-one", "--n", str(n), "--out", str(out)]
+        subprocess.run(cmd, cwd=ROOT, env=singleton_environment(), check=True)
+    got = json.loads(info.read_text())
+    print(
+        f"[coarse n {n}] {got['coarse_dofs']:,} dofs, refined: "
+        + ", ".join(f"k {k}: {v:,}" for k, v in got["fine_dofs"].items())
+        + f"; conversion's peak {got['peak_mib']:.0f} MiB",
+        flush=True,
+    )
+    return got
+
+
+# ------------------------------------------------------------------------------------------------
 # One run (inside mpirun)
 
 
@@ -159,14 +275,19 @@ def gamg_hierarchy(pc) -> dict:
     return {"levels": levels, "memory": memory, "coarse_pc": coarse.getPC().getType()}
 
 
-def measure(comm, n: int, steps: int, scratch: Path) -> dict:
+def measure(
+    comm, n: int, steps: int, scratch: Path, refined: tuple[Path, int] | None = None
+) -> dict:
     """One weak-scaling run on ``comm``: memory, communication and solver counts (collective).
 
     Args:
         comm: The communicator (its size is the rank count).
-        n: Hexahedra along the pad's side (:func:`fe_scaling.dofs_of`).
+        n: Hexahedra along the pad's side (:func:`fe_scaling.dofs_of`); on the refined path the
+            coarse tetrahedra's.
         steps: Steps of the program (:func:`fe_scaling.program_points`).
         scratch: Directory for the checkpoint file (removed after).
+        refined: The refined path: the coarse model's file (:func:`convert_one`) and how many
+            times it is refined on the ranks; ``None``: gmsh's hexahedra on rank 0.
 
     Returns:
         A JSON-ready record; per-rank values as lists over ranks (every rank gets it).
@@ -191,9 +312,32 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
     if counts is not None:
         counts.reset()
     stages["setup"].push()
-    pad = fe_scaling.build_pad(comm, n, "gamg", steps)
+    rss_read = math.nan
+    coarse_dofs = None
+    if refined is None:
+        pad = fe_scaling.build_pad(comm, n, "gamg", steps)
+    else:
+        from subfric_dolfinx import meshing
+
+        coarse = meshing.read_partitioned_mesh(refined[0], comm, 3)
+        coarse_dofs = 3 * coarse.mesh.topology.index_map(0).size_global
+        phase("read")
+        rss_read = fe_scaling.peak_rss_mib()
+        dom = meshing.refine_interface_mesh(coarse, refined[1])
+        del coarse
+        phase("refine")
+        pad = fe_scaling.build_pad(comm, n, "gamg", steps, domain=dom)
+        phase("problem")
     stages["setup"].pop()
-    phase("setup")
+    if refined is None:
+        phase("setup")
+    elif counts is not None:  # the set-up: its three parts together
+        mpi["setup"] = {}
+        for part in ("read", "refine", "problem"):
+            for f, (c, b) in mpi.get(part, {}).items():
+                got = mpi["setup"].setdefault(f, [0.0, 0.0])
+                got[0] += c
+                got[1] += b
     problem, solver = pad.problem, pad.solver
     rss_setup = fe_scaling.peak_rss_mib()
     try:
@@ -228,6 +372,7 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
         newton = sum(r.iterations for r in stepper.records)
         local = {
             "rss_start_mib": rss_start,
+            "rss_read_mib": rss_read,
             "rss_mesh_mib": pad.rss_mesh_mib,
             "rss_setup_mib": rss_setup,
             "rss_steps_mib": rss_steps,
@@ -247,8 +392,11 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
         result = {
             "ranks": comm.size,
             "n": n,
+            "path": "gmsh" if refined is None else "refined",
+            "refine": 0 if refined is None else refined[1],
             "steps_program": steps,
             "dofs": problem.global_dofs,
+            "coarse_dofs": problem.global_dofs if coarse_dofs is None else coarse_dofs,
             "interface_points": comm.allreduce(el.n_elements * el.nq),
             "steps": len(stepper.records),
             "newton": newton,
@@ -267,7 +415,7 @@ def measure(comm, n: int, steps: int, scratch: Path) -> dict:
     return result
 
 
-def run_one(n: int, steps: int, out: Path) -> None:
+def run_one(n: int, steps: int, out: Path, path: str = "gmsh", k: int = 0) -> None:
     from mpi4py import MPI
 
     from subfric_dolfinx import logs
@@ -278,12 +426,16 @@ def run_one(n: int, steps: int, out: Path) -> None:
     if comm.rank == 0:
         scratch.mkdir(parents=True, exist_ok=True)
     comm.Barrier()
-    r = measure(comm, n, steps, scratch)
+    refined = (coarse_file(out, n), k) if path == "refined" else None
+    r = measure(comm, n, steps, scratch, refined)
+    tag = tag_of(comm.size, n, steps, path, k)
     if comm.rank == 0:
-        (out / f"{tag_of(comm.size, n, steps)}.json").write_text(json.dumps(r, indent=1))
+        if refined is not None:  # the conversion's own process (launch_convert)
+            r["convert"] = json.loads(refined[0].with_suffix(".json").read_text())
+        (out / f"{tag}.json").write_text(json.dumps(r, indent=1))
         row = row_of(r)
         print(
-            f"[{tag_of(comm.size, n, steps)}] {r['dofs']:,} dofs, {row['dofs_per_rank']:.0f} "
+            f"[{tag}] {r['dofs']:,} dofs, {row['dofs_per_rank']:.0f} "
             f"per rank: Newton {r['newton']}, Krylov/Newton {row['krylov_per_newton']:.1f}, "
             f"peak RSS {row['rss_max_mib']:.0f} MiB (rank 0: {row['rss_rank0_mib']:.0f}), "
             f"GAMG levels {len(r['gamg_levels'])} (coarse {row['coarse_rows']} rows)",
@@ -291,12 +443,16 @@ def run_one(n: int, steps: int, out: Path) -> None:
         )
 
 
-def tag_of(ranks: int, n: int, steps: int) -> str:
+def tag_of(ranks: int, n: int, steps: int, path: str = "gmsh", k: int = 0) -> str:
+    if path == "refined":
+        return f"weak_refined_r{ranks}_n{n}_k{k}_s{steps}"
     return f"weak_r{ranks}_n{n}_s{steps}"
 
 
-def launch(ranks: int, n: int, steps: int, out: Path, force: bool) -> dict | None:
-    path = out / f"{tag_of(ranks, n, steps)}.json"
+def launch(
+    ranks: int, n: int, steps: int, out: Path, force: bool, route: str = "gmsh", k: int = 0
+) -> dict | None:
+    path = out / f"{tag_of(ranks, n, steps, route, k)}.json"
     if path.exists() and not force:
         print(f"[{path.stem}] kept (--force to redo)", flush=True)
         return json.loads(path.read_text())
@@ -318,6 +474,10 @@ def launch(ranks: int, n: int, steps: int, out: Path, force: bool) -> dict | Non
         str(steps),
         "--out",
         str(out),
+        "--path",
+        route,
+        "--k",
+        str(k),
     ]
     from subfric_dolfinx.logs import singleton_environment
 
@@ -364,9 +524,13 @@ def row_of(r: dict) -> dict:
     red = max(p["events"]["SNESSolve"]["numReductions"] for p in pr)
     mib = 2.0**20
     others = [p["rss_end_mib"] for p in pr[1:]] or [pr[0]["rss_end_mib"]]
+    refined = r.get("path", "gmsh") == "refined"
     return {
+        "path": r.get("path", "gmsh"),
         "ranks": r["ranks"],
         "n": r["n"],
+        "refine": r.get("refine", 0),
+        "coarse_dofs": r.get("coarse_dofs", r["dofs"]),
         "dofs": r["dofs"],
         "dofs_per_rank": r["dofs"] / r["ranks"],
         "interface_points": r["interface_points"],
@@ -378,6 +542,7 @@ def row_of(r: dict) -> dict:
         "rss_others_mib": _median(others),
         "rss_start_mib": _median([p["rss_start_mib"] for p in pr]),
         "rss_mesh_rank0_mib": pr[0]["rss_mesh_mib"],
+        "rss_mesh_others_mib": _median([p["rss_mesh_mib"] for p in pr[1:]] or [math.nan]),
         "jacobian_mib": max(p["jacobian_memory"] for p in pr) / mib,
         "gamg_mib": max(p["gamg_memory"] for p in pr) / mib,
         "gamg_levels": len(r["gamg_levels"]),
@@ -393,15 +558,28 @@ def row_of(r: dict) -> dict:
         "gather_bytes_per_step": max(_mpi_bytes(p, "steps", GATHERS) for p in pr) / steps,
         "gather_calls_per_step": max(_mpi_calls(p, "steps", GATHERS) for p in pr) / steps,
         "setup_gather_bytes": max(_mpi_bytes(p, "setup", GATHERS) for p in pr),
+        "read_gather_bytes": max(_mpi_bytes(p, "read", GATHERS) for p in pr)
+        if refined
+        else math.nan,
+        "refine_gather_bytes": max(_mpi_bytes(p, "refine", GATHERS) for p in pr)
+        if refined
+        else math.nan,
         "profile_bytes": max(_mpi_bytes(p, "profile", GATHERS) for p in pr),
         "checkpoint_rank0_bytes": _mpi_bytes(pr[0], "checkpoint", ("Gather", "Gatherv")),
+        "checkpoint_allgather_bytes": max(
+            _mpi_bytes(p, "checkpoint", ("Allgather", "Allgatherv")) for p in pr
+        ),
+        "convert_peak_mib": r["convert"]["peak_mib"] if "convert" in r else math.nan,
         "load": r["load"][0],
     }
 
 
 COLUMNS = [
+    "path",
     "ranks",
     "n",
+    "refine",
+    "coarse_dofs",
     "dofs",
     "dofs_per_rank",
     "interface_points",
@@ -413,6 +591,7 @@ COLUMNS = [
     "rss_others_mib",
     "rss_start_mib",
     "rss_mesh_rank0_mib",
+    "rss_mesh_others_mib",
     "jacobian_mib",
     "gamg_mib",
     "gamg_levels",
@@ -427,8 +606,12 @@ COLUMNS = [
     "gather_bytes_per_step",
     "gather_calls_per_step",
     "setup_gather_bytes",
+    "read_gather_bytes",
+    "refine_gather_bytes",
     "profile_bytes",
     "checkpoint_rank0_bytes",
+    "checkpoint_allgather_bytes",
+    "convert_peak_mib",
     "load",
 ]
 
@@ -463,10 +646,24 @@ class Models:
             than 0; 1-rank runs less ``rank0_excess``).
         rank0_excess: MiB rank 0's peak exceeds the others' by, on several ranks (median).
         start: MiB of a rank before the mesh (Python, DOLFINx, PETSc loaded; median).
-        mesh: (e MiB, f MiB per dof): rank 0's peak once the mesh is built, over ``start``,
-            = e + f dofs (gmsh meshes the whole model on rank 0, which hands it out).
+        mesh: (e MiB, f MiB per dof, g MiB per dof of the rank): rank 0's peak once the mesh
+            is built, over ``start``, = e + f dofs + g dofs_per_rank (gmsh meshes the whole
+            model on rank 0, which hands it out: f; a mesh read in parts and refined on the
+            ranks: g); a term the rows do not resolve is left out (:func:`fit_resolved`,
+            :data:`NOISE_MIB`).
         setup_gather: (k, alpha, beta): bytes a rank receives in gathers during the set-up =
-            k dofs^alpha ranks^beta (least squares in logs, runs on several ranks).
+            k coarse_dofs^alpha ranks^beta (least squares in logs, runs on several ranks;
+            ``coarse_dofs`` the dofs of the model before the ranks refine it, the model's own
+            on the gmsh path).
+        refine_factor: Dofs over the coarse model's in the largest run (1 on the gmsh path): the
+            extrapolation refines as many times as the measured runs did. The ratio grows with
+            the model towards 8 per refinement (a smaller share of vertices on the surface), so
+            the extrapolated coarse model is an upper bound.
+        checkpoint_allgather: (a, s): bytes of ``Allgather(v)`` a rank receives when a
+            checkpoint is written = a + s ranks^2 (the interface rows' sample sort gathers
+            ``ranks`` sample rows of every rank on every rank; runs on several ranks).
+        convert: (a MiB, b MiB per coarse dof): peak RSS of the one process that meshes and
+            writes the coarse model (refined path; NaN without such runs).
         checkpoint_rank0: Bytes rank 0 gathers (``Gather(v)``) per interface point when a
             checkpoint is written (the interface's coordinates, sorted there into the file's rows).
         jacobian: MiB per dof of the Jacobian's storage on a rank.
@@ -487,7 +684,7 @@ class Models:
     memory: tuple[float, float]
     rank0_excess: float
     start: float
-    mesh: tuple[float, float]
+    mesh: tuple[float, float, float]
     setup_gather: tuple[float, float, float]
     checkpoint_rank0: float
     jacobian: float
@@ -501,6 +698,33 @@ class Models:
     reductions: float
     coarsening: float
     coarse_rows: int
+    refine_factor: float = 1.0
+    checkpoint_allgather: tuple[float, float] = (0.0, 0.0)
+    convert: tuple[float, float] = (math.nan, math.nan)
+
+
+def fit_resolved(columns: list, y, noise: float = 0.0) -> list[float]:
+    """Least squares ``y = sum_i c_i columns_i``, keeping only the terms the data resolve.
+
+    A term ``i > 0`` is left out (``c_i = 0``) and the others fitted again while one is negative
+    or moves the rows by less than ``noise`` over their range (``c_i ptp(columns_i)``), the
+    smallest such term first; the first column's coefficient (the constant) is always fitted.
+    """
+    import numpy as np
+
+    y = np.asarray(y, float)
+    cols = [np.asarray(c, float) for c in columns]
+    keep = list(range(len(cols)))
+    while True:
+        coef, *_ = np.linalg.lstsq(np.column_stack([cols[i] for i in keep]), y, rcond=None)
+        moved = {i: c * np.ptp(cols[i]) for i, c in zip(keep, coef, strict=True) if i > 0}
+        bad = [i for i, v in moved.items() if v < noise or v < 0]
+        if not bad:
+            out = [0.0] * len(cols)
+            for i, c in zip(keep, coef, strict=True):
+                out[i] = float(c)
+            return out
+        keep.remove(min(bad, key=lambda i: moved[i]))
 
 
 def fit_power(dofs, ranks, y) -> tuple[float, float, float]:
@@ -519,12 +743,18 @@ def fit_power(dofs, ranks, y) -> tuple[float, float, float]:
     return float(np.exp(coef[0])), float(alpha), float(beta)
 
 
-def fit_models(rows: list[dict], levels: list[list[int]]) -> Models:
+def fit_models(
+    rows: list[dict],
+    levels: list[list[int]],
+    conversions: list[tuple[float, float]] | None = None,
+) -> Models:
     """Fit the per-part models to the measured rows.
 
     Args:
         rows: :func:`row_of` of every run.
         levels: For every run, the global rows of its GAMG levels, finest first.
+        conversions: (coarse dofs, peak MiB) of every conversion measured (:func:`convert_one`);
+            ``None``: those of the runs' own coarse models (``convert_peak_mib``).
     """
     import numpy as np
 
@@ -535,15 +765,37 @@ def fit_models(rows: list[dict], levels: list[list[int]]) -> Models:
     own = [r["rss_others_mib"] if r["ranks"] > 1 else r["rss_rank0_mib"] - excess for r in rows]
     ratios = [a / b for lv in levels for a, b in itertools.pairwise(lv) if b > 0]
     gathered = [r for r in many if r["setup_gather_bytes"] > 0]
+    coarse = [r.get("coarse_dofs", r["dofs"]) for r in rows]
+    largest = max(range(len(rows)), key=lambda i: rows[i]["dofs"])
+    mesh = fit_resolved(
+        [[1.0] * len(rows), [r["dofs"] for r in rows], d],
+        [r["rss_mesh_rank0_mib"] - r["rss_start_mib"] for r in rows],
+        NOISE_MIB,
+    )
+    several = [r for r in rows if r["ranks"] > 1]
+    if conversions is None:
+        conversions = [
+            (r["coarse_dofs"], r["convert_peak_mib"])
+            for r in rows
+            if not math.isnan(r.get("convert_peak_mib", math.nan))
+        ]
     return Models(
         memory=fit_line(d, own),
         rank0_excess=excess,
         start=_median([r["rss_start_mib"] for r in rows]),
-        mesh=fit_line(
-            [r["dofs"] for r in rows], [r["rss_mesh_rank0_mib"] - r["rss_start_mib"] for r in rows]
-        ),
+        mesh=(mesh[0], mesh[1], mesh[2]),
+        refine_factor=rows[largest]["dofs"] / coarse[largest],
+        checkpoint_allgather=fit_line(
+            [r["ranks"] ** 2 for r in several],
+            [r.get("checkpoint_allgather_bytes", 0.0) for r in several],
+        )
+        if several
+        else (0.0, 0.0),
+        convert=fit_line([c for c, _ in conversions], [p for _, p in conversions])
+        if conversions
+        else (math.nan, math.nan),
         setup_gather=fit_power(
-            [r["dofs"] for r in gathered],
+            [r.get("coarse_dofs", r["dofs"]) for r in gathered],
             [r["ranks"] for r in gathered],
             [r["setup_gather_bytes"] for r in gathered],
         )
@@ -591,15 +843,22 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
         else math.nan
     )
     k, alpha, beta = m.setup_gather
+    coarse = dofs / m.refine_factor
     return {
         "ranks": ranks,
         "dofs": dofs,
         "dofs_per_rank": d,
+        "coarse_dofs": coarse,
         "rss_mib": rss,
         "rss_rank0_mib": rss + m.rank0_excess,
         "start_mib": m.start,
-        "mesh_rank0_mib": m.start + m.mesh[0] + m.mesh[1] * dofs,
-        "setup_gather_mib": k * dofs**alpha * ranks**beta / mib,
+        "mesh_rank0_mib": m.start + m.mesh[0] + m.mesh[1] * dofs + m.mesh[2] * d,
+        "setup_gather_mib": k * coarse**alpha * ranks**beta / mib,
+        "checkpoint_allgather_mib": (
+            m.checkpoint_allgather[0] + m.checkpoint_allgather[1] * ranks**2
+        )
+        / mib,
+        "convert_mib": m.convert[0] + m.convert[1] * coarse,
         "jacobian_mib": m.jacobian * d,
         "gamg_mib": m.gamg * d,
         "interface_points": iface,
@@ -616,49 +875,59 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
     }
 
 
-def first_to_break(table: list[dict], node_gib: float = NODE_MEMORY_GIB) -> tuple[str, str]:
+MESH_PART = {
+    "gmsh": "rank 0's mesh (gmsh builds and distributes the whole mesh from rank 0)",
+    "refined": "rank 0's mesh (the coarse model read in parts, refined on the ranks)",
+}
+GATHER_PART = {
+    "gmsh": "the partitioner's gathers in the set-up (DOLFINx's PT-Scotch partitioning)",
+    "refined": "the partitioner's gathers in the set-up (PT-Scotch, of the coarse model)",
+}
+
+
+def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
+    """Part -> (its MiB, the total MiB of the rank it sits on) in an extrapolated row.
+
+    The distributed parts (``rss_mib``, every rank), rank 0's mesh (``mesh_rank0_mib`` over
+    ``start_mib``, the memory before it), the partitioner's set-up gathers (``setup_gather_mib``,
+    every rank, over ``start_mib``), an interface profile gathered on every rank
+    (``profile_mib``), the checkpoint's interface rows gathered on rank 0
+    (``checkpoint_rank0_mib``) and its sample sort's rows on every rank
+    (``checkpoint_allgather_mib``).
+    """
+    start = row.get("start_mib", 0.0)
+    rss, rank0, mesh = row["rss_mib"], row["rss_rank0_mib"], row["mesh_rank0_mib"]
+    sort = row.get("checkpoint_allgather_mib", 0.0)
+    return {
+        "the per-rank memory of the distributed parts": (rss, rss),
+        MESH_PART[path]: (mesh - start, mesh),
+        GATHER_PART[path]: (row["setup_gather_mib"], start + row["setup_gather_mib"]),
+        "an interface profile gathered on every rank": (
+            row["profile_mib"],
+            rss + row["profile_mib"],
+        ),
+        "the checkpoint's interface rows (coordinates gathered and sorted on rank 0)": (
+            row["checkpoint_rank0_mib"],
+            rank0 + row["checkpoint_rank0_mib"],
+        ),
+        "the checkpoint's sample sort (ranks^2 sample rows on every rank)": (sort, rss + sort),
+    }
+
+
+def first_to_break(
+    table: list[dict], node_gib: float = NODE_MEMORY_GIB, path: str = "gmsh"
+) -> tuple[str, str]:
     """The first part whose need exceeds a node's memory per rank, and why (a number).
 
-    Each part adds to a rank's memory: the distributed parts (``rss_mib``, every rank), rank 0's
-    mesh (``mesh_rank0_mib`` over ``start_mib``, the memory before it: gmsh builds and hands out
-    the whole mesh from rank 0), the partitioner's set-up gathers (``setup_gather_mib``, every
-    rank, over ``start_mib``), an interface profile gathered on every rank (``profile_mib``), the
-    checkpoint's interface rows on rank 0 (``checkpoint_rank0_mib``). In the smallest model
-    (then the fewest ranks) where a rank's total exceeds ``node_gib``, the largest part on that
-    rank is named. If no rank ever exceeds it, the part that grows most from the smallest model
-    on the fewest ranks to the largest on the most (the weak direction of the table) is named,
-    with its factor (parts under 1 MiB there are left out: they stop nothing).
+    Each part adds to a rank's memory (:func:`parts_of`). In the smallest model (then the
+    fewest ranks) where a rank's total exceeds ``node_gib``, the largest part on that rank is
+    named. If no rank ever exceeds it, the part that grows most from the smallest model on the
+    fewest ranks to the largest on the most (the weak direction of the table) is named, with its
+    factor (parts under 1 MiB there are left out: they stop nothing).
     """
     limit = node_gib * 1024.0
-
-    def m_start(row: dict) -> float:
-        return row.get("start_mib", 0.0)
-
-    def parts(row: dict) -> dict[str, tuple[float, float]]:
-        """Part -> (its MiB, the total of the rank it sits on)."""
-        rss, rank0, mesh = row["rss_mib"], row["rss_rank0_mib"], row["mesh_rank0_mib"]
-        return {
-            "the per-rank memory of the distributed parts": (rss, rss),
-            "rank 0's mesh (gmsh builds and distributes the whole mesh from rank 0)": (
-                mesh - m_start(row),
-                mesh,
-            ),
-            "the partitioner's gathers in the set-up (DOLFINx's PT-Scotch partitioning)": (
-                row["setup_gather_mib"],
-                m_start(row) + row["setup_gather_mib"],
-            ),
-            "an interface profile gathered on every rank": (
-                row["profile_mib"],
-                rss + row["profile_mib"],
-            ),
-            "the checkpoint's interface rows (coordinates gathered and sorted on rank 0)": (
-                row["checkpoint_rank0_mib"],
-                rank0 + row["checkpoint_rank0_mib"],
-            ),
-        }
-
     for row in sorted(table, key=lambda r: (r["dofs"], r["ranks"])):
-        over = {p: v for p, v in parts(row).items() if v[1] > limit}
+        over = {p: v for p, v in parts_of(row, path).items() if v[1] > limit}
         if over:
             part = max(over, key=lambda p: over[p][0])
             size, total = over[part]
@@ -669,7 +938,7 @@ def first_to_break(table: list[dict], node_gib: float = NODE_MEMORY_GIB) -> tupl
             )
     lo = min(table, key=lambda r: (r["dofs"], r["ranks"]))
     hi = max(table, key=lambda r: (r["dofs"], r["ranks"]))
-    a, b = parts(lo), parts(hi)
+    a, b = parts_of(lo, path), parts_of(hi, path)
     growth = {p: b[p][0] / a[p][0] for p in a if a[p][0] > 0 and b[p][0] >= 1.0}  # MiB
     part = max(growth, key=growth.get)
     return part, (
@@ -678,6 +947,38 @@ def first_to_break(table: list[dict], node_gib: float = NODE_MEMORY_GIB) -> tupl
         f"{hi['dofs_per_rank'] / lo['dofs_per_rank']:.2f}x), within {node_gib:g} GiB "
         "per rank"
     )
+
+
+def weak_limit(
+    m: Models,
+    dofs_per_rank: float,
+    node_gib: float = NODE_MEMORY_GIB,
+    path: str = "gmsh",
+    max_ranks: int = 2**24,
+) -> tuple[str, dict, dict[str, float]] | None:
+    """Weak scaling at ``dofs_per_rank`` until a rank's total exceeds ``node_gib``.
+
+    The rank count doubles from 64 (the model growing with it) until a part's rank exceeds a
+    node's share (:func:`parts_of`); the largest such part is named.
+
+    Returns:
+        The part, the extrapolated row where it stops, and every part's MiB there; ``None`` if
+        nothing exceeds ``node_gib`` up to ``max_ranks`` ranks (or the distributed share
+        alone exceeds it at 64 ranks: too many dofs per rank, not a limit of scaling).
+    """
+    limit = node_gib * 1024.0
+    ranks = 64
+    while ranks <= max_ranks:
+        row = extrapolate(m, ranks, dofs_per_rank * ranks)
+        parts = parts_of(row, path)
+        over = {p: v for p, v in parts.items() if v[1] > limit}
+        if over:
+            if ranks == 64 and "the per-rank memory of the distributed parts" in over:
+                return None
+            part = max(over, key=lambda p: over[p][0])
+            return part, row, {p: v[0] for p, v in parts.items()}
+        ranks *= 2
+    return None
 
 
 # ------------------------------------------------------------------------------------------------
@@ -689,7 +990,10 @@ def _fmt(v) -> str:
 
 
 MEASURED_HEAD = [
+    "path",
     "ranks",
+    "n",
+    "refine",
     "dofs",
     "dofs_per_rank",
     "interface_points",
@@ -698,6 +1002,7 @@ MEASURED_HEAD = [
     "rss_others_mib",
     "rss_rank0_mib",
     "rss_mesh_rank0_mib",
+    "rss_mesh_others_mib",
     "jacobian_mib",
     "gamg_mib",
     "gamg_levels",
@@ -709,14 +1014,20 @@ MEASURED_HEAD = [
     "allreduce_calls_per_newton",
     "gather_bytes_per_step",
     "setup_gather_bytes",
+    "read_gather_bytes",
+    "refine_gather_bytes",
     "profile_bytes",
     "checkpoint_rank0_bytes",
+    "checkpoint_allgather_bytes",
+    "convert_peak_mib",
     "load",
 ]
 EXTRA_HEAD = [
+    "path",
     "ranks",
     "dofs",
     "dofs_per_rank",
+    "coarse_dofs",
     "rss_mib",
     "rss_rank0_mib",
     "mesh_rank0_mib",
@@ -726,14 +1037,15 @@ EXTRA_HEAD = [
     "interface_points",
     "profile_mib",
     "checkpoint_rank0_mib",
+    "checkpoint_allgather_mib",
     "gather_step_kib",
     "petsc_mib_per_newton",
     "krylov_per_newton",
     "reductions_per_newton",
     "gamg_levels",
-    "coarse_rows",
     "checkpoint_gib",
     "checkpoint_mib_per_rank",
+    "convert_mib",
 ]
 
 
@@ -749,17 +1061,20 @@ def mpi_breakdown(results: list[dict]) -> list[str]:
     if not r["mpi_counted"]:
         return []
     pr = r["per_rank"]
-    funcs = sorted({f for p in pr for ph in PHASES for f in p["mpi"].get(ph, {})})
+    phases = [ph for ph in PHASES if any(ph in p["mpi"] for p in pr)]
+    funcs = sorted({f for p in pr for ph in phases for f in p["mpi"].get(ph, {})})
     head = ["phase", *funcs]
     out = [
-        f"MPI collectives of the run on {r['ranks']} ranks ({r['dofs']:,} dofs), per phase: "
-        f"calls / KiB a rank contributes or receives, max over ranks (the steps: all "
-        f"{r['steps']} steps, {r['newton']} Newton iterations):",
+        f"MPI collectives of the {r.get('path', 'gmsh')} path's run on {r['ranks']} ranks "
+        f"({r['dofs']:,} dofs), per phase: calls / KiB a rank contributes or receives, max over "
+        f"ranks (the steps: all {r['steps']} steps, {r['newton']} Newton iterations"
+        + ("; `setup` = `read` + `refine` + `problem`" if "read" in phases else "")
+        + "):",
         "",
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),
     ]
-    for ph in PHASES:
+    for ph in phases:
         cells = []
         for f in funcs:
             c = max(p["mpi"].get(ph, {}).get(f, [0, 0])[0] for p in pr)
@@ -769,80 +1084,57 @@ def mpi_breakdown(results: list[dict]) -> list[str]:
     return [*out, ""]
 
 
-def write_report(out: Path, report: Path, command: str) -> list[str]:
-    results = [json.loads(p.read_text()) for p in sorted(out.glob("weak_r*.json"))]
-    if not results:
-        print(f"no results in {out}")
-        return []
-    results.sort(key=lambda r: (r["ranks"], r["n"]))
-    rows = [row_of(r) for r in results]
-    models = fit_models(rows, [[lv["rows"] for lv in r["gamg_levels"]] for r in results])
-    table = [extrapolate(models, p, nd) for p, nd in TARGETS]
-    part, why = first_to_break(table)
-    (report / "data").mkdir(parents=True, exist_ok=True)
-    with open(report / "data" / "weak_scaling.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["kind", *dict.fromkeys(COLUMNS + list(table[0]))])
-        w.writeheader()
-        for r in rows:
-            w.writerow({"kind": "measured", **r})
-        for r in table:
-            w.writerow({"kind": "extrapolated", **r})
+def model_lines(
+    m: Models, rows: list[dict], path: str, conversions: list[tuple[float, float]] = ()
+) -> list[str]:
+    """Markdown: the fitted models of one path."""
     weak = [r for r in rows if r["n"] != min(x["n"] for x in rows) or r["ranks"] > 1]
     kry = [r["krylov_per_newton"] for r in weak]
-    counted = all(r["mpi_counted"] for r in results)
-    m = models
-    lines = [
-        "# Weak scaling on paper: the 3-D pad, GAMG (issue 25 item 4)",
-        "",
-        f"Generated by `benchmarks/weak_scaling.py` from `benchmarks/output/weak_scaling/`; CSV: "
-        f"`report/data/weak_scaling.csv`. Command: `{command}`. Load average (1 min) at each "
-        f"run's end in the `load` column. Ranks beyond 2 ran oversubscribed on a 2-core machine: "
-        f"no time is used, only memory, message volumes and iteration counts. MPI collectives "
-        f"{'counted' if counted else 'NOT counted (library not preloaded)'} by "
-        f"`benchmarks/mpi_counts.c` (PMPI).",
-        "",
-        "## Measured",
-        "",
-        "Per rank, max over ranks unless said; `rss_others` = median peak RSS of ranks other than "
-        "0 (rank 0's own with 1 rank), MiB; `rss_mesh_rank0` = rank 0's peak once the mesh is "
-        "built; `jacobian`, `gamg` = PETSc storage (MiB) of the Jacobian and of GAMG's coarser "
-        "operators and interpolations; `checkpoint` = file (MiB); `pairing_received` = "
-        "secondary facets a rank received to pair; `petsc_bytes_per_newton`, "
-        "`petsc_reductions_per_newton` = PETSc's logged message bytes and reductions in "
-        "`SNESSolve` per Newton iteration; "
-        "`allreduce_calls_per_newton` = every `MPI_Allreduce` (PETSc's and the package's); "
-        "`gather_bytes_per_step` = bytes of gathers, broadcasts and all-to-alls per step (none of "
-        "PETSc's solve); `setup_gather_bytes` the same in the set-up; `profile_bytes` = what a "
-        "rank receives when one interface profile is gathered on every rank.",
-        "",
-        *_table(MEASURED_HEAD, rows),
-        "",
-        "GAMG levels (global rows, finest first): "
-        + "; ".join(
-            f"{r['ranks']} rank(s), n {r['n']}: "
-            + " → ".join(f"{lv['rows']:,}" for lv in r["gamg_levels"])
-            for r in results
+    if path == "gmsh":
+        mesh = (
+            f"- rank 0 while the mesh is built (gmsh meshes the whole model there, then DOLFINx "
+            f"hands it out): {m.mesh[0]:.0f} MiB + {m.mesh[1] * 1e6:.0f} MiB per million global "
+            f"dofs + {m.mesh[2] * 1e3:.3f} MiB per 1000 dofs of the rank over the memory before it;"
         )
-        + f". Coarse solver: `{results[-1]['coarse_pc']}`.",
-        "",
-        *mpi_breakdown(results),
-        "## Models (fitted to the measured rows)",
-        "",
+        gather = (
+            f"- gathers in the set-up (bytes received per rank) = {m.setup_gather[0]:.3g} dofs^"
+            f"{m.setup_gather[1]:.2f} ranks^{m.setup_gather[2]:.2f} (runs on ≥ 2 ranks). Nearly "
+            f"all of it is one `MPI_Allgatherv` in DOLFINx's cell partitioner: PT-Scotch's "
+            f"multilevel bipartition (`SCOTCH_dgraphPart` → `bdgraphBipartSq` → "
+            f"`dgraphGatherAll`) gathers its coarsened graph on every rank; it coarsens a larger "
+            f"graph further before gathering it, so on models far beyond the measured ones (at "
+            f"most {max(r['dofs'] for r in rows):,} dofs) this power law is an upper bound;"
+        )
+    else:
+        k = sorted({r["refine"] for r in rows})
+        mesh = (
+            f"- rank 0 once its part of the coarse model is read and refined "
+            f"{', '.join(str(v) for v in k)} times: {m.mesh[0]:.0f} MiB + "
+            f"{m.mesh[1] * 1e6:.1f} MiB per million global dofs + {m.mesh[2] * 1e3:.3f} MiB per "
+            f"1000 dofs of the rank over the memory before it (a term that moves the measured "
+            f"rows by less than {NOISE_MIB:g} MiB is left out as unresolved: 0 per million "
+            f"global dofs means the runs with a larger model at the same dofs per rank found "
+            f"rank 0 no larger); the others' median in `rss_mesh_others`;"
+        )
+        gather = (
+            f"- gathers in the set-up (bytes received per rank) = {m.setup_gather[0]:.3g} "
+            f"coarse_dofs^{m.setup_gather[1]:.2f} ranks^{m.setup_gather[2]:.2f} (runs on ≥ 2 "
+            f"ranks; the coarse model's dofs, {m.refine_factor:.1f} times fewer than the fine "
+            f"model's: the partitioner sees only the coarse model; `read_gather_bytes`, "
+            f"`refine_gather_bytes`: the read's and the refinement's shares, the rest the "
+            f"problem's set-up). As on the gmsh path, PT-Scotch coarsens a larger graph further "
+            f"before gathering it on every rank, so far beyond the measured coarse models (at "
+            f"most {max(r['coarse_dofs'] for r in rows):,} dofs) this power law is an upper "
+            f"bound;"
+        )
+    lines = [
         f"- peak memory of a rank = {m.memory[0]:.0f} MiB + {m.memory[1] * 1e3:.3f} MiB per 1000 "
         f"dofs of the rank; rank 0's peak is {m.rank0_excess:.0f} MiB more (median on several "
         f"ranks); {m.start:.0f} MiB before the mesh;",
-        f"- rank 0 while the mesh is built (gmsh meshes the whole model there, then DOLFINx hands "
-        f"it out): {m.mesh[0]:.0f} MiB + {m.mesh[1] * 1e6:.0f} MiB per million global dofs over "
-        f"the memory before it;",
-        f"- gathers in the set-up (bytes received per rank) = {m.setup_gather[0]:.3g} dofs^"
-        f"{m.setup_gather[1]:.2f} ranks^{m.setup_gather[2]:.2f} (runs on ≥ 2 ranks). Nearly "
-        f"all of it is one `MPI_Allgatherv` in DOLFINx's cell partitioner: PT-Scotch's "
-        f"multilevel bipartition (`SCOTCH_dgraphPart` → `bdgraphBipartSq` → `dgraphGatherAll`) "
-        f"gathers its coarsened graph on every rank; it coarsens a larger graph further before "
-        f"gathering it, so on models far beyond the measured ones (at most "
-        f"{max(r['dofs'] for r in results):,} dofs) this power law is an upper bound;",
-        f"- Jacobian {m.jacobian * 1e3:.3f} MiB and GAMG hierarchy {m.gamg * 1e3:.3f} MiB per 1000 "
-        f"dofs of a rank; checkpoint {m.checkpoint:.1f} bytes per global dof;",
+        mesh,
+        gather,
+        f"- Jacobian {m.jacobian * 1e3:.3f} MiB and GAMG hierarchy {m.gamg * 1e3:.3f} MiB per "
+        f"1000 dofs of a rank; checkpoint {m.checkpoint:.1f} bytes per global dof;",
         f"- interface points = {m.interface_per_dof23:.3f} dofs^(2/3) (the pad's interface is a "
         f"surface); an interface profile brings {m.profile:.0f} bytes per interface point to "
         f"every rank;",
@@ -850,30 +1142,224 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         f"{m.gather_step[1]:.1f} × ranks bytes;",
         f"- PETSc halo bytes per Newton iteration and rank = {m.petsc_halo:.0f} × "
         f"(dofs per rank)^(2/3) (the run on the most ranks);",
-        f"- a checkpoint gathers {m.checkpoint_rank0:.0f} bytes per interface point on rank 0;",
+        f"- a checkpoint gathers {m.checkpoint_rank0:.0f} bytes per interface point on rank 0, "
+        f"and every rank receives {m.checkpoint_allgather[0]:.0f} + "
+        f"{m.checkpoint_allgather[1]:.1f} × ranks² bytes of `Allgather(v)` (the interface rows' "
+        f"sample sort: `ranks` sample rows of every rank);",
         f"- Krylov iterations per Newton = {m.krylov[0]:.1f} + {m.krylov[1]:.2f} log10(dofs) "
         f"(measured {min(kry):.1f}–{max(kry):.1f} over the weak series); "
         f"{m.reductions:.1f} `MPI_Allreduce` calls per Krylov iteration;",
         f"- GAMG coarsens by {m.coarsening:.1f} per level; coarsest grid ≤ {m.coarse_rows} rows "
         f"(largest measured; PETSc's coarse-size limit holds it there as the model grows).",
+    ]
+    if not math.isnan(m.convert[0]):
+        lines.append(
+            f"- the conversion (one process, once per model: gmsh meshes the coarse model and "
+            f"writes it partitioned) peaks at {m.convert[0]:.0f} MiB + "
+            f"{m.convert[1] * 1e6:.0f} MiB per million coarse dofs"
+            + (
+                f" (measured on {len(conversions)} coarse models of "
+                f"{min(c for c, _ in conversions):,.0f}–{max(c for c, _ in conversions):,.0f} "
+                f"dofs: "
+                + ", ".join(f"{c:,.0f}: {p:.0f} MiB" for c, p in sorted(conversions))
+                + ")"
+                if conversions
+                else ""
+            )
+            + "."
+        )
+    return lines
+
+
+def stop_lines(m: Models, table: list[dict], path: str) -> list[str]:
+    """Markdown: what stops scaling first on one path (the table's targets, then weak)."""
+    part, why = first_to_break(table, path=path)
+    row = next(r for r in table if r["ranks"] == 512 and r["dofs"] == 1e8)
+    d = row["dofs_per_rank"]
+    parts = parts_of(row, path)
+    top = max(parts.values(), key=lambda v: v[1])[1]
+    out = [
+        f"At 512 ranks and 1e8 dofs ({d:,.0f} dofs per rank): {row['rss_mib']:.0f} MiB per "
+        f"rank, rank 0 {row['rss_rank0_mib']:.0f} MiB; with the parts that grow with the model "
+        f"or the ranks (set-up gathers {row['setup_gather_mib']:.0f} MiB, rank 0's mesh "
+        f"{row['mesh_rank0_mib']:.0f} MiB, an interface profile {row['profile_mib']:.1f} MiB, the "
+        f"checkpoint's sample sort {row['checkpoint_allgather_mib']:.1f} MiB) the most any rank "
+        f"needs is {top:.0f} MiB.",
         "",
-        "## Extrapolated (models, not measurements)",
-        "",
-        *_table(EXTRA_HEAD, table),
-        "",
-        "`rss` = a rank's peak in the run, `rss_rank0` = rank 0's, `mesh_rank0` = rank 0's "
-        "while the mesh is built (MiB); `setup_gather_mib` = what a rank receives in the set-up's "
-        "gathers; `checkpoint_rank0_mib` = the interface coordinates rank 0 gathers and sorts "
-        "for a checkpoint; "
-        "`profile_mib` = one interface profile gathered on every rank; `gather_step_kib` = the "
-        "package's and DOLFINx's gathers per step and rank; `petsc_mib_per_newton` = halo "
-        "exchange per Newton iteration and rank.",
-        "",
-        "## First to stop scaling",
-        "",
-        f"**{part}**: {why}.",
+        f"Over the four targets: **{part}**: {why}"
+        + (
+            " (too few ranks for the model: its own share, not a part that grows with the ranks)."
+            if part == "the per-rank memory of the distributed parts"
+            else "."
+        ),
         "",
     ]
+    limit = weak_limit(m, d, path=path)
+    if limit is None:
+        out.append(
+            f"Weak scaling at {d:,.0f} dofs per rank: no part exceeds {NODE_MEMORY_GIB:g} GiB "
+            f"per rank up to {2**24:,} ranks."
+        )
+    else:
+        name, where, sizes = limit
+        grown = ", ".join(
+            f"{p} {v:.0f} MiB" for p, v in sorted(sizes.items(), key=lambda kv: -kv[1])
+        )
+        out.append(
+            f"Weak scaling at {d:,.0f} dofs per rank (the rank count doubled from 64, the model "
+            f"with it): the first part to take a rank past {NODE_MEMORY_GIB:g} GiB is **{name}**, "
+            f"at {where['ranks']:,} ranks and {where['dofs']:.1e} dofs (there: {grown})."
+        )
+    return [*out, ""]
+
+
+def write_report(out: Path, report: Path, command: str) -> list[str]:
+    results = [json.loads(p.read_text()) for p in sorted(out.glob("weak_*.json"))]
+    if not results:
+        print(f"no results in {out}")
+        return []
+    results.sort(key=lambda r: (PATHS.index(r.get("path", "gmsh")), r["ranks"], r["n"]))
+    paths = [p for p in PATHS if any(r.get("path", "gmsh") == p for r in results)]
+    by_path: dict[str, dict] = {}
+    conversions = [
+        (float(c["coarse_dofs"]), float(c["peak_mib"]))
+        for c in (
+            json.loads(f.read_text()) for f in sorted((out / "coarse").glob("pad_tet_*.json"))
+        )
+        if "peak_mib" in c
+    ]
+    for path in paths:
+        res = [r for r in results if r.get("path", "gmsh") == path]
+        rows = [row_of(r) for r in res]
+        conv = conversions if path == "refined" and conversions else None
+        m = fit_models(rows, [[lv["rows"] for lv in r["gamg_levels"]] for r in res], conv)
+        table = [{"path": path, **extrapolate(m, p, nd)} for p, nd in TARGETS]
+        by_path[path] = {
+            "results": res,
+            "rows": rows,
+            "models": m,
+            "table": table,
+            "conversions": conv or [],
+        }
+    (report / "data").mkdir(parents=True, exist_ok=True)
+    every_row = [r for v in by_path.values() for r in v["rows"]]
+    every_x = [r for v in by_path.values() for r in v["table"]]
+    with open(report / "data" / "weak_scaling.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["kind", *dict.fromkeys(COLUMNS + list(every_x[0]))])
+        w.writeheader()
+        for r in every_row:
+            w.writerow({"kind": "measured", **r})
+        for r in every_x:
+            w.writerow({"kind": "extrapolated", **r})
+    counted = all(r["mpi_counted"] for r in results)
+    loads = [r["load"] for r in every_row]
+    lines = [
+        "# Weak scaling on paper: the 3-D pad, GAMG (issues 25 and 39)",
+        "",
+        f"Generated by `benchmarks/weak_scaling.py` from `benchmarks/output/weak_scaling/`; CSV: "
+        f"`report/data/weak_scaling.csv`. Command: `{command}`. Ranks beyond 2 ran "
+        f"oversubscribed on a 2-core machine shared with other work: no time is used, only "
+        f"memory, message volumes and iteration counts. Load average (1 min) at each run's end "
+        f"in the `load` column: {min(loads):.1f}–{max(loads):.1f}. MPI collectives "
+        f"{'counted' if counted else 'NOT counted (library not preloaded)'} by "
+        f"`benchmarks/mpi_counts.c` (PMPI).",
+        "",
+        "Two paths to the same pad (`path`): **gmsh** = hexahedra meshed whole by gmsh on rank 0, "
+        "which hands the other ranks their parts (`meshing.create_interface_mesh`); **refined** "
+        "= tetrahedra meshed coarse (`n` along the pad's side) once per size by one process and "
+        "written partitioned (`meshing.write_partitioned_mesh`), read in parts "
+        "(`meshing.read_partitioned_mesh`) and refined `refine` times on the ranks "
+        "(`meshing.refine_interface_mesh`): no rank holds the whole model.",
+        "",
+    ]
+    for path in paths:
+        v = by_path[path]
+        row = next(r for r in v["table"] if r["ranks"] == 512 and r["dofs"] == 1e8)
+        limit = weak_limit(v["models"], row["dofs_per_rank"], path=path)
+        first = (
+            f"nothing past {NODE_MEMORY_GIB:g} GiB per rank up to {2**24:,} ranks"
+            if limit is None
+            else f"**{limit[0]}**, past {NODE_MEMORY_GIB:g} GiB per rank at "
+            f"{limit[1]['ranks']:,} ranks ({limit[1]['dofs']:.1e} dofs)"
+        )
+        lines.append(
+            f"- **{path}**: at 512 ranks and 1e8 dofs a rank needs {row['rss_mib']:.0f} MiB, "
+            f"rank 0 {row['rss_rank0_mib']:.0f} MiB; rank 0 while the mesh is built "
+            f"{row['mesh_rank0_mib']:.0f} MiB, the set-up's gathers "
+            f"{row['setup_gather_mib']:.0f} MiB per rank"
+            + (
+                f", the conversion of its coarse model ({row['coarse_dofs']:.2g} dofs; one "
+                f"process, once) {row['convert_mib']:.0f} MiB"
+                if not math.isnan(row["convert_mib"])
+                else ""
+            )
+            + f". First to stop scaling at that many dofs per rank (the ranks doubled, the "
+            f"model with them): {first}."
+        )
+    lines += [
+        "",
+        "## Measured",
+        "",
+        "Per rank, max over ranks unless said; `n` = elements along the pad's side (the coarse "
+        "model's on the refined path), `refine` = refinements on the ranks; `rss_others` = "
+        "median peak RSS of ranks other than 0 (rank 0's own with 1 rank), MiB; "
+        "`rss_mesh_rank0` = rank 0's peak once the mesh is built, `rss_mesh_others` the other "
+        "ranks' median; `jacobian`, `gamg` = PETSc storage (MiB) of the Jacobian and of GAMG's "
+        "coarser operators and interpolations; `checkpoint` = file (MiB); `pairing_received` = "
+        "secondary facets a rank received to pair; `petsc_bytes_per_newton`, "
+        "`petsc_reductions_per_newton` = PETSc's logged message bytes and reductions in "
+        "`SNESSolve` per Newton iteration; `allreduce_calls_per_newton` = every `MPI_Allreduce` "
+        "(PETSc's and the package's); `gather_bytes_per_step` = bytes of gathers, broadcasts "
+        "and all-to-alls per step (none of PETSc's solve); `setup_gather_bytes` the same in the "
+        "set-up (`read_gather_bytes`, `refine_gather_bytes`: the refined path's read and "
+        "refinement); `profile_bytes` = what a rank receives when one interface profile is "
+        "gathered on every rank; `checkpoint_rank0_bytes` = gathered on rank 0 for a "
+        "checkpoint, `checkpoint_allgather_bytes` = allgathered on every rank for it; "
+        "`convert_peak_mib` = peak of the one process that meshed and wrote the coarse model.",
+        "",
+        *_table(MEASURED_HEAD, every_row),
+        "",
+    ]
+    for path in paths:
+        v = by_path[path]
+        lines += [
+            f"GAMG levels of the {path} path (global rows, finest first): "
+            + "; ".join(
+                f"{r['ranks']} rank(s), n {r['n']}: "
+                + " → ".join(f"{lv['rows']:,}" for lv in r["gamg_levels"])
+                for r in v["results"]
+            )
+            + f". Coarse solver: `{v['results'][-1]['coarse_pc']}`.",
+            "",
+            *mpi_breakdown(v["results"]),
+        ]
+    lines += [
+        "## Extrapolated (models, not measurements)",
+        "",
+        *_table(EXTRA_HEAD, every_x),
+        "",
+        "`coarse_dofs` = the model before the ranks refine it (the model itself on the gmsh "
+        "path); `rss` = a rank's peak in the run, `rss_rank0` = rank 0's, `mesh_rank0` = rank "
+        "0's while the mesh is built (MiB); `setup_gather_mib` = what a rank receives in the "
+        "set-up's gathers; `checkpoint_rank0_mib` = the interface coordinates rank 0 gathers for "
+        "a checkpoint, `checkpoint_allgather_mib` = what every rank receives for it; "
+        "`profile_mib` = one interface profile gathered on every rank; `gather_step_kib` = the "
+        "package's and DOLFINx's gathers per step and rank; `petsc_mib_per_newton` = halo "
+        "exchange per Newton iteration and rank; `convert_mib` = the one process that meshes "
+        "the coarse model (refined path).",
+        "",
+    ]
+    for path in paths:
+        v = by_path[path]
+        lines += [
+            f"## The {path} path: models (fitted to its measured rows)",
+            "",
+            *model_lines(v["models"], v["rows"], path, v["conversions"]),
+            "",
+            f"## The {path} path: first to stop scaling",
+            "",
+            *stop_lines(v["models"], v["table"], path),
+        ]
     (report / "weak_scaling.md").write_text("\n".join(lines))
     print("\n".join(lines[lines.index("## Measured") :]))
     print(f"wrote {report / 'weak_scaling.md'}, {report / 'data' / 'weak_scaling.csv'}")
@@ -887,26 +1373,52 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=6, help="steps of the program")
     ap.add_argument(
+        "--path",
+        choices=(*PATHS, "all"),
+        default="gmsh",
+        help="how the model is built (gmsh: on rank 0; refined: coarse, read in parts, refined "
+        "on the ranks; all: both series, one after the other)",
+    )
+    ap.add_argument(
         "--series",
         nargs="+",
-        default=[f"{r}:{n}" for r, n in SERIES],
-        help="runs as ranks:n (n hexahedra along the pad's side)",
+        default=None,
+        help="runs as ranks:n (gmsh) or ranks:n:k (refined: coarse n, k refinements)",
     )
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--report", type=Path, default=REPORT)
     ap.add_argument("--force", action="store_true", help="redo runs whose result exists")
     ap.add_argument("--table", action="store_true", help="only the report from the results")
     ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--convert-one", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--n", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--k", type=int, default=0, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.one:
-        run_one(args.n, args.steps, args.out)
+    if args.convert_one:
+        convert_one(args.n, args.out)
         return
-    if not args.table:
-        for item in args.series:
-            ranks, n = (int(v) for v in item.split(":"))
-            launch(ranks, n, args.steps, args.out, args.force)
-    command = "./run exec python3 benchmarks/weak_scaling.py" + (
+    if args.one:
+        run_one(args.n, args.steps, args.out, args.path, args.k)
+        return
+    routes = PATHS if args.path == "all" else (args.path,)
+    if args.series and len(routes) > 1:
+        raise SystemExit("--series goes with one --path (gmsh or refined)")
+    for route in () if args.table else routes:
+        default = SERIES if route == "gmsh" else REFINED_SERIES
+        series = args.series or [":".join(str(v) for v in item) for item in default]
+        for item in series:
+            ranks, n, *k = (int(v) for v in item.split(":"))
+            if route == "refined":
+                if len(k) != 1:
+                    raise SystemExit(f"--series {item!r}: the refined path takes ranks:n:k")
+                launch_convert(n, args.out, args.force)
+            elif k:
+                raise SystemExit(f"--series {item!r}: the gmsh path takes ranks:n")
+            launch(ranks, n, args.steps, args.out, args.force, route, k[0] if k else 0)
+        if route == "refined":  # the conversion's memory on larger coarse models
+            for n in CONVERT_SIZES:
+                launch_convert(n, args.out, args.force)
+    command = "./run exec python3 benchmarks/weak_scaling.py --path all" + (
         f" --steps {args.steps}" if args.steps != 6 else ""
     )
     write_report(args.out, args.report, command)
