@@ -347,7 +347,7 @@ class SlidingInterface(BaseInterface):
         owned = np.array(self._owned(x), dtype=float)
         total: np.ndarray | None = None
         for _ in range(self.closing_passes):
-            self._ensure(owned if total is None else owned + total)
+            self.update(owned if total is None else owned + total)  # (on every rank)
             change = self._closing_change()
             if change is None:
                 break
