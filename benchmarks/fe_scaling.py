@@ -298,7 +298,7 @@ def build_pad(
     return PadRun(problem, solver, t_mesh, t_problem, rss_mesh)
 
 
-def pad_apart(n: int) -> Any:
+def pad_apart(n: int, plate_size: tuple[float, float, float] = PLATE_SIZE) -> Any:
     """The gmsh builder (rank 0) of the pad and the plate meshed apart, for finite sliding.
 
     The boxes of ``meshing.build_pad_on_plate`` (plate 2 x 2 x 0.5 mm, the pad 1 x 1 x 0.5 mm
@@ -306,7 +306,8 @@ def pad_apart(n: int) -> Any:
     the element size of the plate the same): groups ``primary`` and ``secondary`` (cells),
     ``interface`` (the plate's whole top and the pad's bottom), ``bottom``, ``top``. Its nodes
     and dofs are those of the joined mesh (:func:`dofs_of`); what differs is the primary
-    surface, which reaches past the pad's footprint.
+    surface, which reaches past the pad's footprint. ``plate_size``: another plate (a longer one
+    for a longer slide; the pad centred on it, its thickness ``plate_size[2]``).
     """
     import types
 
@@ -314,9 +315,9 @@ def pad_apart(n: int) -> Any:
 
     gmsh.model.add("pad_apart")
     occ = gmsh.model.occ
-    plate = occ.addBox(0.0, 0.0, 0.0, *PLATE_SIZE)
-    corner = [0.5 * (p - q) for p, q in zip(PLATE_SIZE[:2], PAD_SIZE[:2], strict=True)]
-    pad = occ.addBox(*corner, PLATE_SIZE[2], *PAD_SIZE)
+    plate = occ.addBox(0.0, 0.0, 0.0, *plate_size)
+    corner = [0.5 * (p - q) for p, q in zip(plate_size[:2], PAD_SIZE[:2], strict=True)]
+    pad = occ.addBox(*corner, plate_size[2], *PAD_SIZE)
     occ.synchronize()
     h = PAD_SIZE[0] / n
     nz = layers(n)
@@ -336,7 +337,7 @@ def pad_apart(n: int) -> Any:
         if z1 - z0 > 1e-6:  # (gmsh's boxes are padded by ~1e-7)
             continue
         z = 0.5 * (z0 + z1)
-        top = PLATE_SIZE[2] + PAD_SIZE[2]
+        top = plate_size[2] + PAD_SIZE[2]
         key = "bottom" if z < 1e-6 else "top" if z > top - 1e-6 else "interface"
         faces[key].append(t)
     gmsh.model.addPhysicalGroup(3, [plate], name="primary")

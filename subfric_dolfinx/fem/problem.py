@@ -375,6 +375,17 @@ class InterfaceProblem:
         idx, val = self.dirichlet_values(self.t)
         x.array[idx] = val
 
+    def correct_start(self, x: PETSc.Vec) -> None:
+        """Let each interface change the extrapolated start ``x`` (collective; owned values).
+
+        :meth:`~.interface.BaseInterface.start_correction` of every interface in turn, each at
+        the start its predecessors left; the Dirichlet values are the caller's to set again.
+        """
+        for iface in self.interfaces.values():
+            change = iface.start_correction(x)
+            if change is not None:
+                x.array_w[:] += change
+
     def _update(self, x: PETSc.Vec) -> bool:
         """Evaluate the interfaces (and a bulk with state) at ``x``; whether all succeeded here."""
         ok = True

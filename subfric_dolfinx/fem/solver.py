@@ -420,7 +420,10 @@ class FrictionSolver:
                 evaluation): the same target as without the predictor, however close the
                 extrapolated guess is (an exact one has a residual of round-off, against which
                 no relative target is reachable), and the first iterate is not accepted at the
-                round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`).
+                round-off floor (:attr:`~.convergence.ScaledConvergence.predicted`). The
+                interfaces may change the extrapolated start
+                (:meth:`~.problem.InterfaceProblem.correct_start`: a finite-sliding interface
+                keeps the points pressed at the step's start closed).
             start: How the step's Newton iteration starts (:class:`~.interface.NewtonStart`:
                 the loading program turns here, the stepper extrapolates), for its first
                 Jacobian alone: each interface's kind decides what its tangent makes of it (a
@@ -456,6 +459,10 @@ class FrictionSolver:
             self.convergence.reference = self.F.norm() if ok else 0.0
             self.x.array_w[:] += predictor
             p.apply_dirichlet(self.x)
+            correct = getattr(p, "correct_start", None)
+            if correct is not None:  # the interfaces' say on the extrapolated start
+                correct(self.x)
+                p.apply_dirichlet(self.x)
         if options:
             self._configure(options)
         self.x.copy(self._x0)

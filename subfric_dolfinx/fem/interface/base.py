@@ -219,6 +219,18 @@ class BaseInterface(abc.ABC):
             start: As for :meth:`assemble_jacobian`.
         """
 
+    def start_correction(self, x: PETSc.Vec | np.ndarray) -> np.ndarray | None:
+        """The change of an extrapolated start ``x`` this kind makes (collective).
+
+        The stepper's extrapolated start (:meth:`~subfric_dolfinx.fem.solver.FrictionSolver.solve`'s
+        ``predictor``) is given to every interface before Newton starts from it; a kind may
+        change it (a finite-sliding interface keeps its points in contact closed:
+        :meth:`~.finite.interface.SlidingInterface.start_correction`). The owned change of the
+        displacement, or ``None``: none (the default: the fixed pairs of small sliding are
+        evaluated as they are).
+        """
+        return None
+
     # -- the step --------------------------------------------------------------------------------
     def set_step(self, dt: float) -> None:
         """Set the length of the step the return map integrates (the recovery at rest)."""

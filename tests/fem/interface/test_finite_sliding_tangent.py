@@ -141,20 +141,38 @@ def direction(comm, problem, x):
     return v
 
 
-@pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
-def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
-    problem = problem_2d(comm, law_of(law), degree)
+def mid_step_differences(comm, problem, also=None):
+    """The central differences at e = 1e-4 and 1e-5 (:func:`differences`) in the middle of a
+    sliding step (:func:`mid_step`: to 1.75, solved to 1.9) along :func:`direction`.
+
+    ``also(x, v)``: more at the same point (e.g. with a term of the tangent left out).
+
+    Returns:
+        Whether the step converged, the differences and what ``also`` gave (``None``: none).
+    """
     with FrictionSolver(problem, linear="lu") as solver:
         converged = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         v = direction(comm, problem, x)
+        try:
+            err = differences(comm, problem, x, v, [1e-4, 1e-5])
+            more = also(x, v) if also is not None else None
+        finally:
+            v.destroy()
+            x.destroy()
+    return converged, err, more
+
+
+@pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
+def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
+    problem = problem_2d(comm, law_of(law), degree)
+
+    def without_transfer_change(x, v):
         monkeypatch.setattr(SegmentTransfer, "in_tangent", False)
-        without = differences(comm, problem, x, v, [1e-5])[0]
-        monkeypatch.setattr(SegmentTransfer, "in_tangent", True)
-        err = differences(comm, problem, x, v, [1e-4, 1e-5])
-        counts = comm.allreduce(np.bincount(problem.interfaces["contact"].last.status, minlength=4))
-        v.destroy()
-        x.destroy()
+        return differences(comm, problem, x, v, [1e-5])[0]
+
+    converged, err, without = mid_step_differences(comm, problem, without_transfer_change)
+    counts = comm.allreduce(np.bincount(problem.interfaces["contact"].last.status, minlength=4))
     checks = {
         "converged": converged,
         "in contact": counts[0] + counts[1] > 0,  # sticking or slipping points
@@ -177,13 +195,7 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
 
     problem = problem_2d(comm, law_of(law), 1, initial_gap=g0)
     iface = problem.interfaces["contact"]
-    with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
-        x = solver.x.copy()
-        v = direction(comm, problem, x)
-        err = differences(comm, problem, x, v, [1e-4, 1e-5])
-        v.destroy()
-        x.destroy()
+    converged, err, _ = mid_step_differences(comm, problem)
     g, pts = iface.geometry, iface.law_points
     raw = np.einsum("qk,fkd->fqd", iface.sides.Ns[0], g.Xs).reshape(-1, 2)
     # the contact surface: the point moved by g0 along the normal it faced at the step's start
@@ -206,15 +218,12 @@ def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
     the residual's derivative."""
     problem = problem_2d(comm, law_of("coulomb"), 1, base_end=2.42)
     iface = problem.interfaces["contact"]
-    with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
-        x = solver.x.copy()
-        v = direction(comm, problem, x)
-        err = differences(comm, problem, x, v, [1e-4, 1e-5])
+
+    def without_complement_change(x, v):
         monkeypatch.setattr(SegmentTransfer, "complement_tangent", lambda *a: [])
-        without = differences(comm, problem, x, v, [1e-5])[0]
-        v.destroy()
-        x.destroy()
+        return differences(comm, problem, x, v, [1e-5])[0]
+
+    converged, err, without = mid_step_differences(comm, problem, without_complement_change)
     complement = comm.allreduce(iface.geometry.transfer.complement)
     checks = {
         "converged": converged,

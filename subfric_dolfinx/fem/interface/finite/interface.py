@@ -69,6 +69,7 @@ from typing import Any
 
 import dolfinx
 import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from ....constitutive import FrictionLaw, RegionalLaw
@@ -145,6 +146,11 @@ class SlidingInterface(BaseInterface):
     #: initial gap is measured from its contact surface (:func:`.contact.contact_geometry`), so
     #: the normals' turn within a step does not slide it by its initial gap times the turn.
     normals_per_iteration = True
+    #: Whether an extrapolated start keeps the points in contact at the step's start closed
+    #: (:meth:`start_correction`; ``False``: Newton starts from the extrapolation as it is).
+    closes_extrapolated_start = True
+    #: The most passes of :meth:`start_correction` (each evaluates the interface once more).
+    closing_passes = 3
 
     def __init__(
         self,
@@ -302,13 +308,91 @@ class SlidingInterface(BaseInterface):
                 res.status[g.slid_too_far] = Status.FAILED  # slid beyond the reach: cut the step
             if self.start.normal_stiffness is None:  # the step's first evaluation: its start
                 stiffness = res.tangent.reshape(-1, nt + 1, nt + 1)[:, nt, nt].copy()
-                self.start = dataclasses.replace(self.start, normal_stiffness=stiffness)
+                self.start = dataclasses.replace(
+                    self.start, normal_stiffness=stiffness, normal_gap=law_gap[:, nt].copy()
+                )
             if self._first_jacobian:  # the evaluation the step's first Jacobian takes
                 self._continuing = self._continuing_points(res, law_gap)
             pts.record(res, law_gap, g.Q)
             self.geometry = g
         self._x_at_update = np.array(owned, copy=True)
         return res
+
+    def start_correction(self, x: PETSc.Vec | np.ndarray) -> np.ndarray | None:
+        """The change of an extrapolated start that keeps its points in contact closed (collective).
+
+        An extrapolated start (:class:`~subfric_dolfinx.fem.stepping.LoadStepper`'s
+        ``predictor``) carries the last step's motion on; a point's normal gap is a difference of
+        the two bodies' positions, millimetres apart in the step, against a penetration of
+        micrometres, so the extrapolation may open points that the step keeps pressed (the
+        base's indentation travels with a sliding block, and each node of the base takes it up
+        and lets it go). Where a point in contact at the step's start (a normal stiffness at
+        its first evaluation) faces the primary open at ``x``, its normal gap of the step's start
+        is restored: the secondary facets' nodes move along the primary's normal by the points'
+        openings, averaged at each node with the weights ``w N_k`` of the opened points (a
+        uniform opening is closed exactly; where neighbours' openings differ, the average may
+        leave a point open: the moved start is evaluated and closed again, at most
+        :attr:`closing_passes` times). The first Jacobian then has the pressed points in
+        contact, where a start with them open lets the body tilt on the few still touching.
+
+        Args:
+            x: The extrapolated start (owned values).
+
+        Returns:
+            The owned change of the displacement (its Dirichlet rows are the caller's), or
+            ``None`` where no point opened on any rank (the interface is then evaluated at ``x``).
+        """
+        if not self.closes_extrapolated_start:
+            return None
+        owned = np.array(self._owned(x), dtype=float)
+        total: np.ndarray | None = None
+        for _ in range(self.closing_passes):
+            self.update(owned if total is None else owned + total)  # (on every rank)
+            change = self._closing_change()
+            if change is None:
+                break
+            total = change if total is None else total + change
+        return total
+
+    def _closing_change(self) -> np.ndarray | None:
+        """One pass of :meth:`start_correction` at the last iterate (collective).
+
+        Returns:
+            The owned change that moves the secondary facets' nodes by their opened points'
+            openings, or ``None`` where no point pressed at the step's start is open.
+        """
+        start, g = self.start, self.geometry
+        assert g is not None  # (evaluated)
+        sd, pts = self.sides, self._points
+        nt, gdim, bs, nq = sd.nt, sd.gdim, sd.bs, sd.nq
+        gap = pts.last_gap[:, nt]
+        opened = np.zeros(gap.shape, dtype=bool)
+        if start.normal_stiffness is not None and start.normal_gap is not None:
+            pressed = start.normal_stiffness > 0.0
+            opened = pressed & g.found & ~g.slid_too_far & (gap <= 0.0)
+        if not self.comm.allreduce(bool(opened.any()), op=MPI.LOR):
+            return None
+        assert start.normal_gap is not None  # (opened somewhere: the step's start is known)
+        ns = sd.secondary.size
+        close = np.where(opened, start.normal_gap - gap, 0.0)  # > 0: deeper along -n
+        move = (close[:, None] * g.Q[:, nt, :]).reshape(ns, nq, gdim)  # Q's last row: -n
+        w = (pts.weights * opened).reshape(ns, nq)
+        wN = w[:, :, None] * np.maximum(sd.Ns[0], 0.0)[None]  # (ns, nq, nfd)
+        nodes = sd.secondary.nodes.ravel()
+
+        def moved(b: np.ndarray) -> None:
+            shift = np.einsum("fqk,fqd->fkd", wN, move).reshape(-1, gdim)
+            np.add.at(b.reshape(-1, bs)[:, :gdim], nodes, shift)
+
+        def weights(b: np.ndarray) -> None:
+            np.add.at(b.reshape(-1, bs)[:, 0], nodes, wN.sum(axis=1).ravel())
+
+        shift = self._sum_to_owners(moved).reshape(-1, bs)
+        weight = self._sum_to_owners(weights).reshape(-1, bs)[:, 0]
+        out = np.zeros_like(shift)
+        some = weight > 0.0
+        out[some] = shift[some] / weight[some, None]
+        return out.ravel()
 
     # -- forces and tangent ----------------------------------------------------------------------
     def forces(self) -> np.ndarray:

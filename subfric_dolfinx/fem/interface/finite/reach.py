@@ -114,6 +114,9 @@ class StepStart:
         normal_stiffness: ``d f_n / d g_n`` of every point at the step's first evaluation (its
             start: the last converged configuration with the step's Dirichlet values; ``None``
             before it), for the step's first Jacobian.
+        normal_gap: The law's normal gap of every point at that evaluation (``None`` before
+            it), which an extrapolated start keeps where it would open a point
+            (:meth:`~.interface.SlidingInterface.start_correction`).
     """
 
     facet: np.ndarray
@@ -121,6 +124,7 @@ class StepStart:
     Q: np.ndarray
     tangents: np.ndarray
     normal_stiffness: np.ndarray | None = None
+    normal_gap: np.ndarray | None = None
 
 
 class ReachSearch:
