@@ -161,7 +161,7 @@ class InterfaceProblem:
         self._bulk_work = self.create_vector() if not self.linear_bulk else None
         self._bulk_fault: tuple[int, int] | None = None  # (non-finite entries, first) here
         self._bulk_fault_jacobian = False  # the bulk's Jacobian was not finite (every rank)
-        self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
+        self.interface_force: np.ndarray = np.zeros(self.layout.n_owned)  # the interfaces' sum
         # the interfaces' forces' round-off beyond the displacement's (the convergence test)
         self.interface_round_off: np.ndarray | None = None
         self.reactions: dict[str, np.ndarray] = {}

@@ -221,7 +221,7 @@ class SlidingInterface(BaseInterface):
         g = self.geometry
         if g is None or g.transfer.uncovered is None:
             return None
-        beyond = ~g.found.reshape(-1, self.sides.nq).all(axis=1)
+        beyond = np.asarray(~g.found.reshape(-1, self.sides.nq).all(axis=1))
         return Overhang(uncovered=g.transfer.uncovered, beyond=beyond, x=g.xq)
 
     @property
