@@ -24,7 +24,7 @@ import numpy as np
 from ..constitutive import UNSTABLE, InterfaceState, Status
 from .case import MAX_TOTAL_STEPS, Case, CaseError, parse_case
 from .path import end_steps, plan_steps, step_arrays
-from .run import DriverResult, _own_columns, fields
+from .run import DriverResult, fields, own_columns
 
 __all__ = ["run_cases"]
 
@@ -136,7 +136,7 @@ class _CaseLog:
         self.case = case
         self.times = steps[0]
         self.fields = fields(case.law)
-        self.own = _own_columns(case.law, case.n_tangential)
+        self.own = own_columns(case.law, case.n_tangential)
         knot_step = end_steps(plan)
         # the step after which each sample is taken (samples are knots)
         self.sample_steps = knot_step[np.searchsorted(plan.knots, case.t_samples)]

@@ -128,7 +128,7 @@ class _Runner:
         self.rows: list[list[float]] = []
         self.row_status: list[str] = []
         self.fields = fields(self.law)
-        self._own = _own_columns(self.law, self.nt)
+        self._own = own_columns(self.law, self.nt)
         self._seg = (0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self.gap_now = (0.0, 0.0, 0.0)
 
@@ -321,7 +321,7 @@ class _Runner:
         )
 
 
-def _own_columns(law: FrictionLaw, nt: int) -> list[tuple[str, int | None]]:
+def own_columns(law: FrictionLaw, nt: int) -> list[tuple[str, int | None]]:
     """``(variable, component)`` per sampled column of the law's variables.
 
     In the order of :func:`fields`; component None: a scalar; -1: a second tangential

@@ -17,7 +17,7 @@
   :mod:`.convergence`: Newton's stopping test, scaled to the round-off floor of the residual.
 * :mod:`.stepping`: :class:`LoadStepper`, adaptive load stepping through a loading program
   (:class:`StepControl`: how its step adapts; :class:`StepperMemory`: what decides its next
-  steps, which a checkpoint stores);
+  steps, which a checkpoint stores); :mod:`.steplog`: its log lines (segments, progress, steps);
   :mod:`.validity`: the warnings when a run's penetration or slide goes beyond what the
   small-sliding penalty interface describes.
 * :mod:`.kinematics`: the small strain, elastic stress and weight of each modelling mode (3-D,

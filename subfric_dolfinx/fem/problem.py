@@ -122,7 +122,7 @@ class InterfaceProblem:
         bulk = None if isinstance(materials, Mapping) else materials
         given = materials if isinstance(materials, Mapping) else {}
         self.timings = Timings()
-        mesh, cell_tags, facet_tags = domain.mesh, domain.cell_tags, domain.facet_tags
+        mesh = domain.mesh
         self.domain = domain
         self.mesh = mesh
         self.comm = mesh.comm
@@ -136,21 +136,10 @@ class InterfaceProblem:
             domain, law, interfaces, quadrature=settings.quadrature
         )
         body_tags = self.topology.body_tags(self.tags)
-        needed = [c.body for c in surface if isinstance(c, PointForce) and c.body is not None]
-        missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
-        if missing:
-            raise InterfaceError(
-                f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
-            )
-        for c in [*dirichlet, *surface, *springs]:
-            n = gdim if isinstance(c, Traction | PointForce | Spring) else 1
-            for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
-                program.amplitude(ch, program.t_start)  # unknown channel -> LoadingError
-        self.group_kinds = check_groups(domain, [*dirichlet, *surface, *springs])
+        self._check_conditions(dirichlet, surface, springs)
         degree = settings.degree
         if degree not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got {degree!r}")
-        tdim = mesh.topology.dim
         self.gdim = gdim
         V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree, (gdim,)))
         self.V = V
@@ -161,36 +150,103 @@ class InterfaceProblem:
         if bulk is None and any(isinstance(m, J2Material) for m in self.materials.values()):
             known = set(body_tags) | set(self.topology.bodies)
             bulk = J2Bulk({k: m for k, m in self.materials.items() if k in known or k not in ROLES})
-
         with self.timings(TIMER_SETUP):
-            self.interfaces: dict[str, BaseInterface] = {}
-            groups = getattr(domain, "interface_groups", None) or {}
-            for spec in self.specs:
-                assert spec.primary is not None and spec.secondary is not None  # (resolved)
-                self.interfaces[spec.group] = make_interface(
-                    spec,
-                    V,
-                    cell_tags,
-                    facet_tags,
-                    self.tags[spec.group],
-                    body_tags[spec.primary],
-                    body_tags[spec.secondary],
-                    groups,
-                    self.mode,
-                    self.timings,
-                )
-            first = next(iter(self.interfaces.values()))
-            self.pairs = first.pairs  # None with finite sliding (no fixed pairs)
-            self.interface = first.law_points
-            self.law = first.law
-            self.layout = layout_of(V, list(self.interfaces.values()))
-            self._layout_versions = self._versions()
-            self.layout_version = 0
+            self._make_interfaces(body_tags)
+        self._make_bulk(bulk, body_tags, surface, springs)
+        self._make_dirichlet(dirichlet)
 
-        # The bodies' law: the built-in linear elasticity (assembled once) or the user's.
+        self.t = program.t_start
+        self.dt = 0.0
+        self._x_at_update: np.ndarray | None = None
+        self._bulk_work = self.create_vector() if not self.linear_bulk else None
+        self._bulk_fault: tuple[int, int] | None = None  # (non-finite entries, first) here
+        self._bulk_fault_jacobian = False  # the bulk's Jacobian was not finite (every rank)
+        self.interface_force: np.ndarray = np.zeros(self.layout.n_owned)  # the interfaces' sum
+        # the interfaces' forces' round-off beyond the displacement's (the convergence test)
+        self.interface_round_off: np.ndarray | None = None
+        self.reactions: dict[str, np.ndarray] = {}
+        # the bodies' inertia (a dynamic problem), adding its terms to the residual and Jacobian
+        self.dynamics: Inertia | None = None
+        if settings.dynamics is not None:
+            self.dynamics = Inertia(self, settings.dynamics)
+
+    def _check_conditions(
+        self,
+        dirichlet: Sequence[Dirichlet | DirichletField],
+        surface: Sequence[Traction | Pressure | PointForce],
+        springs: Sequence[Spring],
+    ) -> None:
+        """Refuse conditions on groups the mesh lacks or on unknown channels; their groups' kinds.
+
+        Sets :attr:`group_kinds` (group -> facet, cell or node group).
+
+        Raises:
+            InterfaceError: A point force's body is not a group of the mesh (named).
+            LoadingError: A condition's amplitude names a channel the program lacks.
+        """
+        needed = [c.body for c in surface if isinstance(c, PointForce) and c.body is not None]
+        missing = [g for g in dict.fromkeys(needed) if g not in self.tags]
+        if missing:
+            raise InterfaceError(
+                f"the mesh lacks the physical group(s) {missing}; it has {sorted(self.tags)}"
+            )
+        gdim = self.mesh.geometry.dim
+        for c in [*dirichlet, *surface, *springs]:
+            n = gdim if isinstance(c, Traction | PointForce | Spring) else 1
+            for ch in channels(c.amplitude, n, f"{type(c).__name__} on {c.group!r}"):
+                self.program.amplitude(ch, self.program.t_start)  # unknown channel -> LoadingError
+        self.group_kinds = check_groups(self.domain, [*dirichlet, *surface, *springs])
+
+    def _make_interfaces(self, body_tags: Mapping[str, tuple[int, ...]]) -> None:
+        """Each interface of :attr:`specs`, of its kind, and the layout they make (collective).
+
+        Sets :attr:`interfaces`, the first interface's :attr:`pairs`, :attr:`interface` and
+        :attr:`law`, and :attr:`layout`.
+        """
+        domain = self.domain
+        self.interfaces: dict[str, BaseInterface] = {}
+        groups = getattr(domain, "interface_groups", None) or {}
+        for spec in self.specs:
+            assert spec.primary is not None and spec.secondary is not None  # (resolved)
+            self.interfaces[spec.group] = make_interface(
+                spec,
+                self.V,
+                domain.cell_tags,
+                domain.facet_tags,
+                self.tags[spec.group],
+                body_tags[spec.primary],
+                body_tags[spec.secondary],
+                groups,
+                self.mode,
+                self.timings,
+            )
+        first = next(iter(self.interfaces.values()))
+        self.pairs = first.pairs  # None with finite sliding (no fixed pairs)
+        self.interface = first.law_points
+        self.law = first.law
+        self.layout = layout_of(self.V, list(self.interfaces.values()))
+        self._layout_versions = self._versions()
+        self.layout_version = 0
+
+    def _make_bulk(
+        self,
+        bulk: BulkModel | None,
+        body_tags: Mapping[str, tuple[int, ...]],
+        surface: Sequence[Traction | Pressure | PointForce],
+        springs: Sequence[Spring],
+    ) -> None:
+        """The bodies' law, the springs, the bulk matrices and the load vectors (collective).
+
+        The built-in linear elasticity (assembled once) where ``bulk`` is ``None``, else the
+        user's bulk model (its residual and Jacobian assembled at every iterate).
+
+        Raises:
+            ValueError: The bulk's forms cannot be made (e.g. a body without a material).
+        """
+        mesh, V, domain = self.mesh, self.V, self.domain
         du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-        dx = ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags)
-        ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+        dx = ufl.Measure("dx", domain=mesh, subdomain_data=domain.cell_tags)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=domain.facet_tags)
         self.bulk = bulk if bulk is not None else LinearElasticity(self.materials)
         self.bulk_context = BulkContext(
             mesh=mesh, V=V, mode=self.mode, dx=dx, tags=body_tags, groups=self.topology.bodies
@@ -220,11 +276,18 @@ class InterfaceProblem:
             # Load vectors, one per condition and channel (scaled by the channel at run time).
             self.loads = load_vectors(V, domain, surface, ds, w) + spring_loads
 
-        # Dirichlet dofs (owned, unrolled) with their reference values.
-        mesh.topology.create_connectivity(tdim - 1, tdim)
+    def _make_dirichlet(self, dirichlet: Sequence[Dirichlet | DirichletField]) -> None:
+        """The Dirichlet dofs (owned, unrolled) with their reference values, per condition.
+
+        Sets :attr:`dirichlet` (condition, dofs, values), the dofs of each Dirichlet group (its
+        reactions), :attr:`bc_dofs` and their global rows :attr:`bc_rows`.
+        """
+        V = self.V
+        tdim = self.mesh.topology.dim
+        self.mesh.topology.create_connectivity(tdim - 1, tdim)
         bs = V.dofmap.bs
         self.dirichlet = [
-            (c, *dirichlet_dofs(V, domain, c, self.group_kinds[c.group])) for c in dirichlet
+            (c, *dirichlet_dofs(V, self.domain, c, self.group_kinds[c.group])) for c in dirichlet
         ]
         # the dofs of each Dirichlet group (all its conditions, e.g. one per component)
         self._reaction_dofs = {
@@ -238,21 +301,6 @@ class InterfaceProblem:
         )
         rstart = V.dofmap.index_map.local_range[0] * bs
         self.bc_rows = (self.bc_dofs + rstart).astype(PETSc.IntType)
-
-        self.t = program.t_start
-        self.dt = 0.0
-        self._x_at_update: np.ndarray | None = None
-        self._bulk_work = self.create_vector() if not self.linear_bulk else None
-        self._bulk_fault: tuple[int, int] | None = None  # (non-finite entries, first) here
-        self._bulk_fault_jacobian = False  # the bulk's Jacobian was not finite (every rank)
-        self.interface_force = np.zeros(self.layout.n_owned)  # sum of the interfaces' forces
-        # the interfaces' forces' round-off beyond the displacement's (the convergence test)
-        self.interface_round_off: np.ndarray | None = None
-        self.reactions: dict[str, np.ndarray] = {}
-        # the bodies' inertia (a dynamic problem), adding its terms to the residual and Jacobian
-        self.dynamics: Inertia | None = None
-        if settings.dynamics is not None:
-            self.dynamics = Inertia(self, settings.dynamics)
 
     @classmethod
     def two_bodies(

@@ -16,17 +16,9 @@ whose state is intact, and what the return map saw at the failed attempt (status
 worst point, where).
 A step that converges at once costs nothing extra.
 
-Logging (:mod:`subfric_dolfinx.logs`): an INFO line per long segment of the program (at least
-:data:`LONG_SEGMENT_STEPS` steps or :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` of wall time:
-its steps, Newton iterations mean/max, cuts, what the interface does at its end, wall time), and
-between them a progress line every :data:`~subfric_dolfinx.logs.PROGRESS_SECONDS` (a run of more
-than :data:`SEGMENT_LINES` segments, e.g. many cycles or a program sampled at knots, prints those
-only); one DEBUG line per step and per failed attempt. What the interface does is said as the
-fractions of its points that slide (a traction at the law's strength,
-:meth:`~subfric_dolfinx.constitutive.FrictionLaw.strength`), stick (closed, below it; the
-subloading law's micro-slip included) and are open (:func:`interface_activity`). Warnings about the
-model's validity (penetration, slide) are issued when a run ends
-(:class:`~.validity.ValidityWatch`).
+Its log lines (a line per long segment of the program, progress, a DEBUG line per step and per
+failed attempt) are made by :mod:`.steplog`. Warnings about the model's validity (penetration,
+slide) are issued when a run ends (:class:`~.validity.ValidityWatch`).
 """
 
 from __future__ import annotations
@@ -41,20 +33,18 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
-from .. import logs
 from ..constitutive import Status
 from .attempts import SLIDING_FRACTION, AttemptReport, describe_attempt, interface_activity
 from .interface import NewtonStart
 from .solver import FrictionSolver, SolveResult
+from .steplog import RunLog, activity_text
 from .validity import ValidityWatch
 
 __all__ = [
-    "LONG_SEGMENT_STEPS",
     "MAX_STEPS",
     "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
-    "SEGMENT_LINES",
     "SLIDING_FRACTION",
     "LoadStepper",
     "StepControl",
@@ -70,11 +60,6 @@ __all__ = [
 PREDICTOR_FORCE_RATIO = 1e3
 """A step's increment is extrapolated (``predictor``) only where its converged state's forces
 exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
-
-LONG_SEGMENT_STEPS = 10
-"""A segment of the program of at least this many steps gets its own log line."""
-SEGMENT_LINES = 8
-"""A run of more program segments than this logs progress lines only, not a line per segment."""
 
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
@@ -147,11 +132,6 @@ class StepInterrupted(RuntimeError):
         self.t, self.last_t, self.last_step = t, last_t, last_step
 
 
-def _activity_text(sliding: float, open_: float) -> str:
-    parts = [("sliding", sliding), ("sticking", 1.0 - sliding - open_), ("open", open_)]
-    return ", ".join(f"{name} {100 * v:.0f} %" for name, v in parts if v > 0.0005) or "no point"
-
-
 @dataclasses.dataclass
 class StepRecord:
     """One converged step.
@@ -186,7 +166,7 @@ class StepRecord:
     @property
     def activity(self) -> str:
         """What the interface does at the end of the step, e.g. ``sliding 40 %, sticking 60 %``."""
-        return _activity_text(self.sliding, self.open)
+        return activity_text(self.sliding, self.open)
 
 
 def _why(r: SolveResult, solver: FrictionSolver) -> str:
@@ -200,104 +180,6 @@ def _why(r: SolveResult, solver: FrictionSolver) -> str:
 
 def _options_text(options: Mapping[str, Any] | None) -> str:
     return ", ".join(f"-{k} {v}" for k, v in (options or {}).items())
-
-
-class _Tally:
-    """Statistics of the steps since ``t0``, for a log line (a segment, or progress)."""
-
-    def __init__(self, t0: float) -> None:
-        self.t0 = t0
-        self.iterations: list[int] = []
-        self.cuts = 0
-        self.line_search = 0
-        self.wall = time.perf_counter()
-
-    def add(self, rec: StepRecord) -> None:
-        self.iterations.append(rec.iterations)
-
-    def newton(self) -> str:
-        its = self.iterations
-        return (
-            f"{len(its)} step{'s' if len(its) != 1 else ''}, Newton {np.mean(its):.2f} mean / "
-            f"{max(its)} max, {self.cuts} cuts, {self.line_search} with the line search"
-        )
-
-    def seconds(self) -> float:
-        return time.perf_counter() - self.wall
-
-    def segment_line(self, t1: float, last: StepRecord) -> str:
-        return (
-            f"t = {self.t0:.6g} -> {t1:.6g} s: {self.newton()}; at its end {last.activity}; "
-            f"{self.seconds():.2f} s"
-        )
-
-    def progress_line(self, t1: float, span: tuple[float, float], last: StepRecord) -> str:
-        t_start, t_end = span
-        done = 100.0 * (t1 - t_start) / (t_end - t_start) if t_end > t_start else 100.0
-        return (
-            f"t = {t1:.6g} s of {t_end:.6g} ({done:.0f} %): {self.newton()} since t = "
-            f"{self.t0:.6g} s; {last.activity}; {self.seconds():.1f} s"
-        )
-
-
-class _RunLog:
-    """The log of one :meth:`LoadStepper.run` (the module docstring).
-
-    A line per long segment of the program, progress lines between them, a DEBUG line per step.
-    """
-
-    def __init__(self, t: float, t_end: float, program: Any, tol: float) -> None:
-        self.segment = _Tally(t)
-        self.since = _Tally(t)  # since the last line printed
-        self.clock = logs.Progress()
-        self.span = (t, t_end)
-        inner = (program.times > t + tol) & (program.times < t_end - tol)
-        self.few_segments = int(np.count_nonzero(inner)) + 1 <= SEGMENT_LINES
-
-    def cut(self) -> None:
-        """A failed attempt, cut."""
-        self.segment.cuts += 1
-        self.since.cuts += 1
-
-    def line_search(self) -> None:
-        """A step solved with the retry options."""
-        self.segment.line_search += 1
-        self.since.line_search += 1
-
-    def step(self, rec: StepRecord, t0: float, segment_ends: bool) -> None:
-        """A converged step (started at wall time ``t0``), ending a segment of the program or not.
-
-        Only rank 0 prints: no rank needs to agree on what is printed.
-        """
-        self.segment.add(rec)
-        self.since.add(rec)
-        if logger.isEnabledFor(logging.DEBUG):
-            res = rec.residuals or (0.0,)
-            logger.debug(
-                "step %4d  t = %10.5g  dt = %9.3g  newton %2d  |F| %9.2e -> %9.2e  %s  (%.2f s)",
-                rec.step,
-                rec.t,
-                rec.dt,
-                rec.iterations,
-                res[0],
-                res[-1],
-                rec.activity,
-                time.perf_counter() - t0,
-            )
-        printed = False
-        if segment_ends:
-            long_ = len(self.segment.iterations) >= LONG_SEGMENT_STEPS
-            if self.few_segments and (long_ or self.segment.seconds() >= self.clock.interval):
-                logger.info(self.segment.segment_line(rec.t, rec))
-                printed = True
-            self.segment = _Tally(rec.t)
-        if printed:
-            self.clock.reset()
-        elif self.clock.due():
-            logger.info(self.since.progress_line(rec.t, self.span, rec))
-            printed = True
-        if printed:
-            self.since = _Tally(rec.t)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -615,12 +497,12 @@ class LoadStepper:
         Each pass attempts the next step (:meth:`_next_target`, :meth:`_attempt`). A failed
         attempt is undone and the step cut (:meth:`_cut_step`, which raises
         :class:`StepFailure` beyond the cuts allowed); a converged one is committed and recorded
-        (:meth:`_accept`), logged (:class:`_RunLog`), ends the program's segment where it reaches
-        a breakpoint (the segment's retry and hold memory is forgotten) and lets the step grow
-        (:meth:`_grow_step`); ``on_step`` comes last.
+        (:meth:`_accept`), logged (:class:`~.steplog.RunLog`), ends the program's segment where
+        it reaches a breakpoint (the segment's retry and hold memory is forgotten) and lets the
+        step grow (:meth:`_grow_step`); ``on_step`` comes last.
         """
         tol = 1e-12 * max(1.0, abs(t_end))
-        log = _RunLog(self.t, t_end, self.program, tol)
+        log = RunLog(self.t, t_end, self.program, tol, logger)
         cuts = 0  # failed attempts since the last converged step
         while self.t < t_end - tol:
             self._check_max_steps(t_end)

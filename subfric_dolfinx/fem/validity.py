@@ -236,7 +236,9 @@ class ValidityWatch:
                 i = int(np.argmax(key))
                 where, fn = el.points, f_n
                 if name == "overhang":  # where the facet is now, its largest pressure
-                    where, fn = self._iface.geometry.xq, facet_fn
+                    overhang = self._iface.overhang()
+                    assert overhang is not None  # (a facet beyond the tolerance was found)
+                    where, fn = overhang.x, facet_fn
                 x = tuple(float(v) for v in where.reshape(-1, self.gdim)[i])
                 mine = WorstPoint(
                     float(ratio[i]), float(value[i]), float(self.h[i]), x, float(t), float(fn[i])
@@ -251,15 +253,12 @@ class ValidityWatch:
         elsewhere, and for a small-sliding interface.
         """
         n = self.h.size
-        geometry = getattr(self._iface, "geometry", None)
-        uncovered = None if geometry is None else geometry.transfer.uncovered
-        if self.slides_small or uncovered is None or n == 0:
+        overhang = None if self.slides_small else self._iface.overhang()
+        if overhang is None or n == 0:
             return np.zeros(n), np.zeros(n)
-        assert geometry is not None  # (uncovered is its transfer's)
         nq = self._elements.nq
         fn = f_n.reshape(-1, nq).max(axis=1)
-        beyond = ~geometry.found.reshape(-1, nq).all(axis=1)  # a point faces no primary facet
-        over = np.where((fn > 0.0) & beyond, np.abs(uncovered), 0.0)
+        over = np.where((fn > 0.0) & overhang.beyond, np.abs(overhang.uncovered), 0.0)
         return np.repeat(over, nq), np.repeat(fn, nq)
 
     @property

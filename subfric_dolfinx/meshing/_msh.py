@@ -53,23 +53,23 @@ from typing import cast
 import numpy as np
 
 from ._msh_read import (
-    _INT32,
-    _SECTIONS,
     CHUNK,
     ELEMENTS,
+    INT32,
     MAX_COORDINATE,
+    SECTIONS,
     TAG_SLACK,
+    AsciiReader,
+    BinaryReader,
     ByteOrder,
-    _Bad,
-    _Binary,
-    _Blocks,
-    _File,
-    _ints,
-    _Numbers,
-    _numbers,
-    _Sections,
-    _tag_limit,
+    ElementBlocks,
+    HeaderSections,
+    MshBytes,
+    MshFault,
+    ascii_numbers,
+    checked_ints,
     element_problems,
+    tag_limit,
 )
 from ._size import machine_memory
 from .groups import InterfaceMeshError
@@ -215,27 +215,27 @@ def open_msh(path: Path) -> Iterator[str]:
 # -- Every section of the file, checked before gmsh parses it
 
 
-class _Mesh(_Sections):
+class _Mesh(HeaderSections):
     def __init__(self, what: str, version: int, binary: bool, order: ByteOrder) -> None:
         self.what, self.version, self.binary, self.order = what, version, binary, order
         self.names: dict[tuple[int, int], str] = {}
         self.entities: dict[tuple[int, int], list[int]] | None = None  # v4: physical tags
         self.node_tags = np.zeros(0, dtype=np.int64)
         self.coords = np.zeros((0, 3))
-        self.blocks = _Blocks()
+        self.blocks = ElementBlocks()
 
     # Nodes
-    def nodes(self, f: _File) -> None:
+    def nodes(self, f: MshBytes) -> None:
         tags: list[np.ndarray] = []
         xyz: list[np.ndarray] = []
         declared = None
         if self.version == 4:
             if self.binary:
-                b = _Binary(f, self.order, "Nodes")
+                b = BinaryReader(f, self.order, "Nodes")
                 nblocks, total, lo, hi = (b.int("q", "its header") for _ in range(4))
                 left = len(f.data) - f.pos
                 if total > left // 32 or nblocks > left // 20:  # a tag and x, y, z per node
-                    raise _Bad(
+                    raise MshFault(
                         f"section $Nodes declares {total} nodes in {nblocks} blocks; the "
                         f"{left} bytes left in the file cannot hold them"
                     )
@@ -247,18 +247,18 @@ class _Mesh(_Sections):
                     self._entity(dim, ent, "$Nodes")
                     ncoord = 3 + (dim if param == 1 else 0)
                     if param not in (0, 1) or dim > 3:
-                        raise _Bad(
+                        raise MshFault(
                             f"section $Nodes: a block of dimension {dim}, parametric {param}"
                         )
                     tags.append(b.array(n, "q", "node tags"))
                     xyz.append(b.array(n * ncoord, "d", "coordinates").reshape(n, ncoord)[:, :3])
                 if f.line() != b"":
-                    raise _Bad("section $Nodes: no line end after its binary data")
+                    raise MshFault("section $Nodes: no line end after its binary data")
             else:
-                r = _Numbers(_numbers(f.body(b"Nodes"), "Nodes"), "Nodes")
+                r = AsciiReader(ascii_numbers(f.body(b"Nodes"), "Nodes"), "Nodes")
                 nblocks, total, lo, hi = (int(v) for v in r.ints(4, "its header"))
                 if total > r.left() // 4 or nblocks > r.left() // 4:
-                    raise _Bad(
+                    raise MshFault(
                         f"section $Nodes declares {total} nodes in {nblocks} blocks and holds "
                         f"{r.left()} numbers (4 at least per node)"
                     )
@@ -266,7 +266,7 @@ class _Mesh(_Sections):
                     dim, ent, param, n = (int(v) for v in r.ints(4, "a block header"))
                     self._entity(dim, ent, "$Nodes")
                     if param not in (0, 1) or dim > 3:
-                        raise _Bad(
+                        raise MshFault(
                             f"section $Nodes: a block of dimension {dim}, parametric {param}"
                         )
                     ncoord = 3 + (dim if param == 1 else 0)
@@ -276,9 +276,9 @@ class _Mesh(_Sections):
             declared = (total, lo, hi)
         else:
             if self.binary:
-                head = _ints(_numbers(f.line(), "Nodes"), "section $Nodes, its count")
+                head = checked_ints(ascii_numbers(f.line(), "Nodes"), "section $Nodes, its count")
                 if head.size != 1:
-                    raise _Bad("section $Nodes: no count line")
+                    raise MshFault("section $Nodes: no count line")
                 total = int(head[0])
                 raw = f.take(total * 28, "section $Nodes")
                 rec = np.frombuffer(
@@ -287,54 +287,54 @@ class _Mesh(_Sections):
                 tags.append(rec["t"].astype(np.int64))
                 xyz.append(rec["x"].astype(float))
                 if f.line() != b"":
-                    raise _Bad("section $Nodes: no line end after its binary data")
+                    raise MshFault("section $Nodes: no line end after its binary data")
             else:
-                r = _Numbers(_numbers(f.body(b"Nodes"), "Nodes"), "Nodes")
+                r = AsciiReader(ascii_numbers(f.body(b"Nodes"), "Nodes"), "Nodes")
                 total = r.int("its count")
                 if 4 * total != r.left():
-                    raise _Bad(
+                    raise MshFault(
                         f"section $Nodes declares {total} nodes and holds {r.left()} numbers "
                         f"({4 * total} expected: a tag and x, y, z per node)"
                     )
                 rows = r.floats(4 * total, "nodes").reshape(total, 4)
-                tags.append(_ints(rows[:, 0], "section $Nodes, node tags", lo=1, hi=_INT32))
+                tags.append(checked_ints(rows[:, 0], "section $Nodes, node tags", lo=1, hi=INT32))
                 xyz.append(rows[:, 1:])
         self.node_tags = np.concatenate(tags) if tags else np.zeros(0, dtype=np.int64)
         self.coords = np.concatenate(xyz) if xyz else np.zeros((0, 3))
         n = self.node_tags.size
         if n > total or (self.version == 2 and n != total):  # fewer: gmsh writes that itself
-            raise _Bad(f"section $Nodes declares {total} nodes; its blocks hold {n}")
+            raise MshFault(f"section $Nodes declares {total} nodes; its blocks hold {n}")
         if n and self.node_tags.min() < 1:
-            raise _Bad(f"section $Nodes: node tag {int(self.node_tags.min())} is not positive")
+            raise MshFault(f"section $Nodes: node tag {int(self.node_tags.min())} is not positive")
         if declared is not None and n:
             _, lo, hi = declared
             if self.node_tags.min() < lo or self.node_tags.max() > hi:
-                raise _Bad(
+                raise MshFault(
                     f"section $Nodes: node tags from {int(self.node_tags.min())} to "
                     f"{int(self.node_tags.max())}, outside the declared {lo} to {hi}"
                 )
         uniq, counts = np.unique(self.node_tags, return_counts=True)
         if uniq.size != n:
-            raise _Bad(f"section $Nodes: node tag {int(uniq[counts > 1][0])} appears twice")
-        if n and uniq[-1] > _tag_limit(n):
-            raise _Bad(
+            raise MshFault(f"section $Nodes: node tag {int(uniq[counts > 1][0])} appears twice")
+        if n and uniq[-1] > tag_limit(n):
+            raise MshFault(
                 f"section $Nodes: node tag {int(uniq[-1])} is far beyond the number of nodes "
                 f"({n}; gmsh sizes its arrays by the largest tag: renumber the mesh)"
             )
         bad = ~np.isfinite(self.coords) | (np.abs(self.coords) > MAX_COORDINATE)
         if bad.any():
             i = int(np.flatnonzero(bad.any(axis=1))[0])
-            raise _Bad(
+            raise MshFault(
                 f"node {int(self.node_tags[i])} has coordinates {self.coords[i].tolist()}: not "
                 f"finite, or beyond {MAX_COORDINATE:g} in magnitude"
             )
 
     def _entity(self, dim: int, ent: int, where: str) -> None:
         if self.entities is not None and (dim, ent) not in self.entities:
-            raise _Bad(f"section {where}: a block names the {dim}-D entity {ent}, not declared")
+            raise MshFault(f"section {where}: a block names the {dim}-D entity {ent}, not declared")
 
     # Elements
-    def elements(self, f: _File) -> None:
+    def elements(self, f: MshBytes) -> None:
         if self.version == 4:
             self._elements4(f)
         elif self.binary:
@@ -345,9 +345,11 @@ class _Mesh(_Sections):
         tags = np.concatenate([b[3] for b in blocks]) if blocks else np.zeros(0, np.int64)
         uniq, counts = np.unique(tags, return_counts=True)
         if uniq.size != tags.size:
-            raise _Bad(f"section $Elements: element tag {int(uniq[counts > 1][0])} appears twice")
-        if tags.size and uniq[-1] > _tag_limit(tags.size):
-            raise _Bad(
+            raise MshFault(
+                f"section $Elements: element tag {int(uniq[counts > 1][0])} appears twice"
+            )
+        if tags.size and uniq[-1] > tag_limit(tags.size):
+            raise MshFault(
                 f"section $Elements: element tag {int(uniq[-1])} is far beyond the number of "
                 f"elements ({tags.size}; gmsh sizes its arrays by the largest tag: renumber the "
                 "mesh)"
@@ -359,13 +361,13 @@ class _Mesh(_Sections):
         dims: dict[int, int] = {}
         for d, p in [*phys, *self.names]:
             if dims.setdefault(p, d) != d:
-                raise _Bad(
+                raise MshFault(
                     f"physical tag {p} names groups of dimensions {dims[p]} and {d} (DOLFINx's "
                     "gmsh reader keys groups by their tag alone: give each group its own tag)"
                 )
         big = [p for _, p in phys if p > TAG_SLACK]
         if big:
-            raise _Bad(
+            raise MshFault(
                 f"physical tag {max(big)} is beyond {TAG_SLACK} (gmsh sizes its arrays by tags)"
             )
         known = np.sort(self.node_tags)
@@ -376,7 +378,7 @@ class _Mesh(_Sections):
                 missing = known[at] != part if known.size else np.ones(part.shape, bool)
                 if missing.any():
                     i = np.argwhere(missing)[0]
-                    raise _Bad(
+                    raise MshFault(
                         f"element {int(etags[lo + i[0]])} ({ELEMENTS[etype][2]}) names node "
                         f"{int(part[i[0], i[1]])}, which the file does not define"
                     )
@@ -399,19 +401,19 @@ class _Mesh(_Sections):
             types.setdefault((dim, ent), set()).add(etype)
         for (dim, ent), ts in types.items():
             if len(ts) > 1:
-                raise _Bad(
+                raise MshFault(
                     f"the {dim}-D entity {ent} holds elements of {len(ts)} types "
                     f"({', '.join(ELEMENTS[t][2] for t in sorted(ts))}); one is read"
                 )
         if self.version == 4:
             for (dim, ent), ps in (self.entities or {}).items():
                 if ps and (dim, ent) not in types:
-                    raise _Bad(
+                    raise MshFault(
                         f"the {dim}-D entity {ent} of physical group(s) {sorted(set(ps))} holds "
                         "no element"
                     )
                 if dim == top and len(set(ps)) > 1:
-                    raise _Bad(
+                    raise MshFault(
                         f"the {dim}-D entity {ent} is in {len(set(ps))} physical groups of cells "
                         f"({sorted(set(ps))}): its cells would be read twice"
                     )
@@ -421,7 +423,7 @@ class _Mesh(_Sections):
             seen.setdefault((dim, geo), set()).update(int(p) for p in np.unique(phys))
         for (dim, geo), groups in seen.items():
             if len(groups) > 1:
-                raise _Bad(
+                raise MshFault(
                     f"the elements of the {dim}-D entity {geo} carry different physical tags "
                     f"({sorted(groups)}): gmsh puts the whole entity in each group, and its "
                     "elements would be read more than once"
@@ -429,20 +431,20 @@ class _Mesh(_Sections):
 
     def _type(self, etype: int, dim: int | None) -> int:
         if etype not in ELEMENTS:
-            raise _Bad(f"section $Elements: element type {etype} is not one this package reads")
+            raise MshFault(f"section $Elements: element type {etype} is not one this package reads")
         k, d, name = ELEMENTS[etype]
         if dim is not None and d != dim:
-            raise _Bad(f"section $Elements: a block of dimension {dim} holds {name} elements")
+            raise MshFault(f"section $Elements: a block of dimension {dim} holds {name} elements")
         return k
 
-    def _elements4(self, f: _File) -> None:
+    def _elements4(self, f: MshBytes) -> None:
         add = self.blocks.items.append
         if self.binary:
-            b = _Binary(f, self.order, "Elements")
+            b = BinaryReader(f, self.order, "Elements")
             nblocks, total, _, _ = (b.int("q", "its header") for _ in range(4))
             left = len(f.data) - f.pos
             if total > left // 16 or nblocks > left // 20:
-                raise _Bad(
+                raise MshFault(
                     f"section $Elements declares {total} elements in {nblocks} blocks; the "
                     f"{left} bytes left in the file cannot hold them"
                 )
@@ -458,12 +460,12 @@ class _Mesh(_Sections):
                 add((dim, ent, etype, data[:, 0], data[:, 1:], None))
                 count += n
             if f.line() != b"":
-                raise _Bad("section $Elements: no line end after its binary data")
+                raise MshFault("section $Elements: no line end after its binary data")
         else:
-            r = _Numbers(_numbers(f.body(b"Elements"), "Elements"), "Elements")
+            r = AsciiReader(ascii_numbers(f.body(b"Elements"), "Elements"), "Elements")
             nblocks, total, _, _ = (int(v) for v in r.ints(4, "its header"))
             if total > r.left() // 2 or nblocks > r.left() // 4:
-                raise _Bad(
+                raise MshFault(
                     f"section $Elements declares {total} elements in {nblocks} blocks and holds "
                     f"{r.left()} numbers"
                 )
@@ -477,33 +479,37 @@ class _Mesh(_Sections):
                 count += n
             r.done()
         if count > total:  # fewer: gmsh writes that itself (after removing a group)
-            raise _Bad(f"section $Elements declares {total} elements; its blocks hold {count}")
+            raise MshFault(f"section $Elements declares {total} elements; its blocks hold {count}")
 
-    def _elements2(self, f: _File) -> None:
-        r = _Numbers(_numbers(f.body(b"Elements"), "Elements"), "Elements")
+    def _elements2(self, f: MshBytes) -> None:
+        r = AsciiReader(ascii_numbers(f.body(b"Elements"), "Elements"), "Elements")
         total = r.int("its count")
         if total > r.left() // 4:
-            raise _Bad(f"section $Elements declares {total} elements and holds {r.left()} numbers")
+            raise MshFault(
+                f"section $Elements declares {total} elements and holds {r.left()} numbers"
+            )
         by: dict[tuple[int, int], list[tuple[int, list[int], int]]] = {}
         for _ in range(total):
-            tag, etype, ntags = (int(v) for v in r.ints(3, "an element's header", hi=_INT32))
+            tag, etype, ntags = (int(v) for v in r.ints(3, "an element's header", hi=INT32))
             k = self._type(etype, None)
-            extra = r.ints(ntags, "an element's tags", hi=_INT32)
-            nodes = r.ints(k, "an element's nodes", lo=1, hi=_INT32)
+            extra = r.ints(ntags, "an element's tags", hi=INT32)
+            nodes = r.ints(k, "an element's nodes", lo=1, hi=INT32)
             phys = int(extra[0]) if ntags > 0 else 0
             geo = int(extra[1]) if ntags > 1 else 0
             by.setdefault((etype, geo), []).append((tag, cast(list[int], nodes.tolist()), phys))
         r.done()
         self._blocks2(by)
 
-    def _elements2_binary(self, f: _File) -> None:
-        n = _ints(_numbers(f.line(), "Elements"), "section $Elements, its count")
+    def _elements2_binary(self, f: MshBytes) -> None:
+        n = checked_ints(ascii_numbers(f.line(), "Elements"), "section $Elements, its count")
         if n.size != 1:
-            raise _Bad("section $Elements: no count line")
+            raise MshFault("section $Elements: no count line")
         total = int(n[0])
-        b = _Binary(f, self.order, "Elements")
+        b = BinaryReader(f, self.order, "Elements")
         if total > (len(f.data) - f.pos) // 12:
-            raise _Bad(f"section $Elements declares {total} elements; the file cannot hold them")
+            raise MshFault(
+                f"section $Elements declares {total} elements; the file cannot hold them"
+            )
         by: dict[tuple[int, int], list[tuple[int, list[int], int]]] = {}
         count = 0
         while count < total:
@@ -512,10 +518,10 @@ class _Mesh(_Sections):
             ntags = b.int("i", "a number of tags")
             k = self._type(etype, None)
             if count + nb > total:
-                raise _Bad(f"section $Elements: blocks hold more than the {total} declared")
+                raise MshFault(f"section $Elements: blocks hold more than the {total} declared")
             data = b.array(nb * (1 + ntags + k), "i", "elements").reshape(nb, 1 + ntags + k)
             if data.size and data.min() < 0:
-                raise _Bad(f"section $Elements: a negative tag {int(data.min())}")
+                raise MshFault(f"section $Elements: a negative tag {int(data.min())}")
             for row in data:
                 phys = int(row[1]) if ntags > 0 else 0
                 geo = int(row[2]) if ntags > 1 else 0
@@ -524,7 +530,7 @@ class _Mesh(_Sections):
                 )
             count += nb
         if f.line() != b"":
-            raise _Bad("section $Elements: no line end after its binary data")
+            raise MshFault("section $Elements: no line end after its binary data")
         self._blocks2(by)
 
     def _blocks2(self, by: dict[tuple[int, int], list[tuple[int, list[int], int]]]) -> None:
@@ -539,7 +545,7 @@ class _Mesh(_Sections):
         """Zero-size and inverted elements of the mesh's dimension and of one below."""
         problems = element_problems(self.blocks.items, self.node_tags, self.coords, self._group)
         if problems:
-            raise _Bad("; ".join(problems[:3]))
+            raise MshFault("; ".join(problems[:3]))
 
     def _group(self, dim: int, ent: int, phys: np.ndarray | None, i: int) -> str:
         if phys is not None:  # format 2: each element its physical tag
@@ -554,7 +560,7 @@ class _Mesh(_Sections):
         return f"the {dim}-D entity {ent} (no named physical group)"
 
 
-_HANDLERS: dict[bytes, Callable[[_Mesh, _File], None]] = {
+_HANDLERS: dict[bytes, Callable[[_Mesh, MshBytes], None]] = {
     b"PhysicalNames": _Mesh.physical_names,
     b"Entities": _Mesh.entities_section,
     b"Nodes": _Mesh.nodes,
@@ -574,12 +580,12 @@ def check_msh(data: bytes | mmap.mmap, what: str) -> None:
     """
     try:
         _check(data, what)
-    except _Bad as e:
+    except MshFault as e:
         raise InterfaceMeshError(f"{what}: damaged mesh file: {e}") from None
 
 
 def _check(data: bytes | mmap.mmap, what: str) -> None:
-    f = _File(data)
+    f = MshBytes(data)
     f.line()  # $MeshFormat
     version_line = f.line().split()
     version = int(float(version_line[0]))
@@ -590,11 +596,11 @@ def _check(data: bytes | mmap.mmap, what: str) -> None:
         order = "<" if one == struct.pack("<i", 1) else ">"
         f.line()
     if f.line() != b"$EndMeshFormat":
-        raise _Bad("no $EndMeshFormat after the format line")
+        raise MshFault("no $EndMeshFormat after the format line")
     if version == 4 and not version_line[0].startswith(b"4.1"):
-        raise _Bad(f"format {version_line[0].decode()} (4.1 is read; save as MSH 4.1 or 2.2)")
+        raise MshFault(f"format {version_line[0].decode()} (4.1 is read; save as MSH 4.1 or 2.2)")
     if version == 2 and not version_line[0].startswith(b"2.2"):
-        raise _Bad(f"format {version_line[0].decode()} (2.2 is read; save as MSH 4.1 or 2.2)")
+        raise MshFault(f"format {version_line[0].decode()} (2.2 is read; save as MSH 4.1 or 2.2)")
     mesh = _Mesh(what, version, binary, order)
     seen: list[bytes] = []
     while not f.at_end():
@@ -602,25 +608,25 @@ def _check(data: bytes | mmap.mmap, what: str) -> None:
         if not line:
             continue
         if not line.startswith(b"$") or line.startswith(b"$End"):
-            raise _Bad(f"a section start ('$Name') expected, found {line[:40]!r}")
+            raise MshFault(f"a section start ('$Name') expected, found {line[:40]!r}")
         name = line[1:]
-        if name not in _SECTIONS:
-            raise _Bad(
+        if name not in SECTIONS:
+            raise MshFault(
                 f"section {line[:40].decode(errors='replace')} is not read by this package "
                 "(only $PhysicalNames, $Entities, $Nodes and $Elements)"
             )
         if name in seen:
-            raise _Bad(f"section ${name.decode()} appears twice")
+            raise MshFault(f"section ${name.decode()} appears twice")
         if name == b"Elements" and b"Nodes" not in seen:
-            raise _Bad("section $Elements before $Nodes")
+            raise MshFault("section $Elements before $Nodes")
         if name in (b"Nodes", b"Elements") and version == 4 and b"Entities" not in seen:
-            raise _Bad(f"section ${name.decode()} before $Entities")
+            raise MshFault(f"section ${name.decode()} before $Entities")
         seen.append(name)
         _HANDLERS[name](mesh, f)
         end = f.line().strip()
         if end != b"$End" + name:
-            raise _Bad(f"section ${name.decode()} does not end with $End{name.decode()}")
+            raise MshFault(f"section ${name.decode()} does not end with $End{name.decode()}")
     for needed in (b"Nodes", b"Elements"):
         if needed not in seen:
-            raise _Bad(f"no ${needed.decode()} section (truncated?)")
+            raise MshFault(f"no ${needed.decode()} section (truncated?)")
     mesh.geometry()

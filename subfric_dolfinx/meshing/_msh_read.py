@@ -14,7 +14,27 @@ from typing import Literal, cast
 
 import numpy as np
 
-__all__ = ["ELEMENTS", "MAX_COORDINATE", "TAG_SLACK", "ZERO_SIZE", "element_problems"]
+__all__ = [
+    "CHUNK",
+    "ELEMENTS",
+    "INT32",
+    "MAX_COORDINATE",
+    "MAX_LINE",
+    "SECTIONS",
+    "TAG_SLACK",
+    "ZERO_SIZE",
+    "AsciiReader",
+    "BinaryReader",
+    "ByteOrder",
+    "ElementBlocks",
+    "HeaderSections",
+    "MshBytes",
+    "MshFault",
+    "ascii_numbers",
+    "checked_ints",
+    "element_problems",
+    "tag_limit",
+]
 
 ByteOrder = Literal["<", ">"]
 """A binary file's byte order (numpy's notation)."""
@@ -51,25 +71,26 @@ ELEMENTS: dict[int, tuple[int, int, str]] = {
     29: (20, 3, "tetrahedron20"),
     36: (16, 2, "quadrilateral16"),
 }
-_SECTIONS = (b"PhysicalNames", b"Entities", b"Nodes", b"Elements")
+SECTIONS = (b"PhysicalNames", b"Entities", b"Nodes", b"Elements")
 _MAX_INT = 2**53  # tags are read as doubles in ASCII: exact below this
-_INT32 = 2**31 - 1  # gmsh keeps entity and physical tags (and format 2's tags) in an int
+INT32 = 2**31 - 1  # gmsh keeps entity and physical tags (and format 2's tags) in an int
 TAG_SLACK = 1 << 20
 """Tags beyond ``16 n + TAG_SLACK`` for ``n`` items are refused (gmsh sizes arrays by tags)."""
 
 
-def _tag_limit(n: int) -> int:
+def tag_limit(n: int) -> int:
+    """The largest tag accepted for ``n`` items."""
     return 16 * n + TAG_SLACK
 
 
 _NAME = re.compile(rb'^\s*(-?\d+)\s+(-?\d+)\s+"([^"]*)"\s*$')
 
 
-class _Bad(Exception):
+class MshFault(Exception):
     """A fault found (the message without the file's name)."""
 
 
-class _Blocks:
+class ElementBlocks:
     """Elements as read, per block.
 
     Its dimension, entity (v4) or elementary tag (v2), type, element tags, connectivity, and the
@@ -86,7 +107,7 @@ MAX_LINE = 1 << 20
 before they are copied."""
 
 
-class _File:
+class MshBytes:
     """Sequential reading of an MSH file's bytes, every read bounded by what is left."""
 
     def __init__(self, data: bytes | mmap.mmap) -> None:
@@ -98,7 +119,7 @@ class _File:
         if end < 0:
             end = len(self.data)
             if end - self.pos > MAX_LINE:
-                raise _Bad(f"a line of more than {MAX_LINE} bytes at byte {self.pos}")
+                raise MshFault(f"a line of more than {MAX_LINE} bytes at byte {self.pos}")
         text = self.data[self.pos : end].rstrip(b"\r")
         self.pos = min(end + 1, len(self.data))
         return text
@@ -111,14 +132,14 @@ class _File:
         marker = b"\n$End" + name
         end = self.data.find(marker, self.pos - 1)
         if end < 0:
-            raise _Bad(f"section ${name.decode()} has no ${'End' + name.decode()} (truncated?)")
+            raise MshFault(f"section ${name.decode()} has no ${'End' + name.decode()} (truncated?)")
         text = self.data[self.pos : end]
         self.pos = end + 1
         return text
 
     def take(self, n: int, what: str) -> bytes:
         if n < 0 or self.pos + n > len(self.data):
-            raise _Bad(
+            raise MshFault(
                 f"{what}: {n} bytes needed, {len(self.data) - self.pos} left in the file "
                 "(truncated, or a count too large)"
             )
@@ -127,7 +148,7 @@ class _File:
         return out
 
 
-def _numbers(text: bytes, section: str) -> np.ndarray:
+def ascii_numbers(text: bytes, section: str) -> np.ndarray:
     """Every number of an ASCII section body, as doubles."""
     if not text.strip():
         return np.zeros(0)
@@ -139,7 +160,7 @@ def _numbers(text: bytes, section: str) -> np.ndarray:
         bad = next(
             (t for t in text.split() if not _is_number(t)), b"?"
         )  # only after a failure: the offending token
-        raise _Bad(f"section ${section}: malformed number {bad[:40]!r}") from e
+        raise MshFault(f"section ${section}: malformed number {bad[:40]!r}") from e
     return values
 
 
@@ -151,18 +172,20 @@ def _is_number(token: bytes) -> bool:
     return True
 
 
-def _ints(values: np.ndarray, what: str, *, lo: int = 0, hi: int = _MAX_INT - 1) -> np.ndarray:
+def checked_ints(
+    values: np.ndarray, what: str, *, lo: int = 0, hi: int = _MAX_INT - 1
+) -> np.ndarray:
     """``values`` as integers; refused if not integral, below ``lo`` or above ``hi``."""
     if values.size and not (np.all(np.isfinite(values)) and np.all(values == np.floor(values))):
         bad = values[~(np.isfinite(values) & (values == np.floor(values)))][0]
-        raise _Bad(f"{what}: {bad!r} is not an integer")
+        raise MshFault(f"{what}: {bad!r} is not an integer")
     if values.size and (values.min() < lo or values.max() > hi):
         bad = values.min() if values.min() < lo else values.max()
-        raise _Bad(f"{what}: {bad:.17g} is out of range")
+        raise MshFault(f"{what}: {bad:.17g} is out of range")
     return values.astype(np.int64)
 
 
-class _Numbers:
+class AsciiReader:
     """Reading an ASCII section's numbers in order, with bounds checks."""
 
     def __init__(self, values: np.ndarray, section: str) -> None:
@@ -174,11 +197,11 @@ class _Numbers:
         return self.v.size - self.i
 
     def ints(self, n: int, what: str, lo: int = 0, hi: int = _MAX_INT - 1) -> np.ndarray:
-        return _ints(self.floats(n, what), f"section ${self.section}, {what}", lo=lo, hi=hi)
+        return checked_ints(self.floats(n, what), f"section ${self.section}, {what}", lo=lo, hi=hi)
 
     def floats(self, n: int, what: str) -> np.ndarray:
         if n < 0 or n > self.left():
-            raise _Bad(
+            raise MshFault(
                 f"section ${self.section}: {what} needs {n} numbers, {self.left()} are left "
                 "(a count too large, or the section cut short)"
             )
@@ -188,7 +211,7 @@ class _Numbers:
 
     def done(self) -> None:
         if self.left():
-            raise _Bad(
+            raise MshFault(
                 f"section ${self.section}: {self.left()} numbers left over after what its "
                 "counts declare (a count too small)"
             )
@@ -198,16 +221,16 @@ class _Numbers:
         return int(self.ints(1, what, lo, hi)[0])
 
 
-class _Binary:
-    """Reading binary values (the file's byte order) from a :class:`_File`."""
+class BinaryReader:
+    """Reading binary values (the file's byte order) from a :class:`MshBytes`."""
 
-    def __init__(self, f: _File, order: ByteOrder, section: str) -> None:
+    def __init__(self, f: MshBytes, order: ByteOrder, section: str) -> None:
         self.f, self.order, self.section = f, order, section
 
     def array(self, n: int, kind: str, what: str) -> np.ndarray:
         size = {"i": 4, "q": 8, "d": 8}[kind]
         if n < 0 or n > (len(self.f.data) - self.f.pos) // size:
-            raise _Bad(
+            raise MshFault(
                 f"section ${self.section}: {what} needs {n} values of {size} bytes, "
                 f"{len(self.f.data) - self.f.pos} bytes are left (a count too large, or the "
                 "file cut short)"
@@ -218,13 +241,13 @@ class _Binary:
         if kind == "d":
             return a.astype(float)
         if kind == "q" and a.size and a.max() >= _MAX_INT:
-            raise _Bad(f"section ${self.section}, {what}: {int(a.max())} is out of range")
+            raise MshFault(f"section ${self.section}, {what}: {int(a.max())} is out of range")
         return a.astype(np.int64)
 
     def int(self, kind: str, what: str, lo: int = 0, hi: int = _MAX_INT - 1) -> int:
         v = int(self.array(1, kind, what)[0])
         if v < lo or v > hi:
-            raise _Bad(f"section ${self.section}, {what}: {v} is out of range")
+            raise MshFault(f"section ${self.section}, {what}: {v} is out of range")
         return v
 
 
@@ -279,7 +302,7 @@ def _measure(
     return None, "", None
 
 
-class _Sections:
+class HeaderSections:
     """The sections ``$PhysicalNames`` and ``$Entities`` of :class:`._msh._Mesh`."""
 
     what: str
@@ -290,30 +313,32 @@ class _Sections:
     entities: dict[tuple[int, int], list[int]] | None
 
     # PhysicalNames (ASCII in every format)
-    def physical_names(self, f: _File) -> None:
+    def physical_names(self, f: MshBytes) -> None:
         lines = f.body(b"PhysicalNames").split(b"\n")
         lines = [ln for ln in lines if ln.strip()]
         if not lines:
-            raise _Bad("section $PhysicalNames is empty")
-        n = _ints(_numbers(lines[0], "PhysicalNames"), "section $PhysicalNames, its count")
+            raise MshFault("section $PhysicalNames is empty")
+        n = checked_ints(
+            ascii_numbers(lines[0], "PhysicalNames"), "section $PhysicalNames, its count"
+        )
         if n.size != 1 or n[0] != len(lines) - 1:
-            raise _Bad(
+            raise MshFault(
                 f"section $PhysicalNames declares {lines[0][:20]!r} names and holds "
                 f"{len(lines) - 1}"
             )
         for ln in lines[1:]:
             m = _NAME.match(ln)
-            if not m or not (0 <= int(m.group(1)) <= 3 and 0 < int(m.group(2)) <= _INT32):
-                raise _Bad(f"section $PhysicalNames: malformed line {ln[:60]!r}")
+            if not m or not (0 <= int(m.group(1)) <= 3 and 0 < int(m.group(2)) <= INT32):
+                raise MshFault(f"section $PhysicalNames: malformed line {ln[:60]!r}")
             self.names[(int(m.group(1)), int(m.group(2)))] = m.group(3).decode(errors="replace")
 
     # Entities (v4)
-    def entities_section(self, f: _File) -> None:
+    def entities_section(self, f: MshBytes) -> None:
         if self.version != 4:
-            raise _Bad("section $Entities in a format 2 file")
+            raise MshFault("section $Entities in a format 2 file")
         ents: dict[tuple[int, int], list[int]] = {}
         if self.binary:
-            b = _Binary(f, self.order, "Entities")
+            b = BinaryReader(f, self.order, "Entities")
             counts = [b.int("q", "the number of entities") for _ in range(4)]
             for dim, n in enumerate(counts):
                 for _ in range(n):
@@ -326,25 +351,25 @@ class _Sections:
                         bound = b.array(nb, "i", "boundary")
                     ents[(dim, tag)] = self._entity_tags(dim, tag, phys, bound, ents)
             if f.line() != b"":
-                raise _Bad("section $Entities: no line end after its binary data")
+                raise MshFault("section $Entities: no line end after its binary data")
         else:
-            r = _Numbers(_numbers(f.body(b"Entities"), "Entities"), "Entities")
+            r = AsciiReader(ascii_numbers(f.body(b"Entities"), "Entities"), "Entities")
             counts = [int(c) for c in r.ints(4, "the numbers of entities")]
             if sum(counts) > r.left() // 5:
-                raise _Bad(
+                raise MshFault(
                     f"section $Entities declares {sum(counts)} entities and holds "
                     f"{r.left()} numbers"
                 )
             for dim, n in enumerate(counts):
                 for _ in range(n):
-                    tag = r.int(f"a tag of a {dim}-D entity", lo=1, hi=_INT32)
+                    tag = r.int(f"a tag of a {dim}-D entity", lo=1, hi=INT32)
                     r.floats(3 if dim == 0 else 6, "a bounding box")
                     n = r.int("a number of physical tags")
-                    phys = r.ints(n, "physical tags", lo=-_INT32, hi=_INT32)
+                    phys = r.ints(n, "physical tags", lo=-INT32, hi=INT32)
                     bound = np.zeros(0, np.int64)
                     if dim:
                         n = r.int("a number of bounding entities")
-                        bound = r.ints(n, "boundary", lo=-_INT32, hi=_INT32)
+                        bound = r.ints(n, "boundary", lo=-INT32, hi=INT32)
                     ents[(dim, tag)] = self._entity_tags(dim, tag, phys, bound, ents)
             r.done()
         self.entities = ents
@@ -355,12 +380,12 @@ class _Sections:
     ) -> list[int]:
         """An entity's physical tags, its boundary checked against the entities before it."""
         if (dim, tag) in ents:
-            raise _Bad(f"section $Entities: the {dim}-D entity {tag} appears twice")
-        if phys.size and (np.any(phys == 0) or np.abs(phys).max() > _INT32):
-            raise _Bad(f"section $Entities: the {dim}-D entity {tag} has a physical tag 0")
+            raise MshFault(f"section $Entities: the {dim}-D entity {tag} appears twice")
+        if phys.size and (np.any(phys == 0) or np.abs(phys).max() > INT32):
+            raise MshFault(f"section $Entities: the {dim}-D entity {tag} has a physical tag 0")
         for t in bound:
             if (dim - 1, abs(int(t))) not in ents:
-                raise _Bad(
+                raise MshFault(
                     f"section $Entities: the {dim}-D entity {tag} is bounded by the "
                     f"{dim - 1}-D entity {abs(int(t))}, not declared before it"
                 )

@@ -109,7 +109,8 @@ def _check_cell_type(gdim: int, cell_type: str) -> None:
         )
 
 
-def _positive(**values: float) -> None:
+def check_positive(**values: float) -> None:
+    """Raise ``ValueError`` naming the first of ``values`` (name -> value) not a positive number."""
     for name, v in values.items():
         if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
@@ -125,7 +126,7 @@ def _check_size(
 
 def _interface_size(width: float, n_interface: int | None, mesh_size: float | None) -> float:
     if mesh_size is not None:
-        _positive(mesh_size=mesh_size)
+        check_positive(mesh_size=mesh_size)
         n_interface = max(1, round(width / mesh_size))
     if n_interface is None or int(n_interface) != n_interface or n_interface < 1:
         raise ValueError(f"n_interface must be a positive integer, got {n_interface!r}")
@@ -185,7 +186,7 @@ def build_block_on_base(
         RuntimeError: gmsh did not produce two bodies joined only by a duplicated interface.
     """
     _check_cell_type(2, cell_type)
-    _positive(
+    check_positive(
         base_width=base_width,
         base_height=base_height,
         block_width=block_width,
@@ -267,8 +268,8 @@ def build_pad_on_plate(
     pad = tuple(float(v) for v in pad_size)
     if len(plate) != 3 or len(pad) != 3:
         raise ValueError("plate_size and pad_size must have three entries (x, y, z)")
-    _positive(**{f"plate_size[{i}]": v for i, v in enumerate(plate)})
-    _positive(**{f"pad_size[{i}]": v for i, v in enumerate(pad)})
+    check_positive(**{f"plate_size[{i}]": v for i, v in enumerate(plate)})
+    check_positive(**{f"pad_size[{i}]": v for i, v in enumerate(pad)})
     if pad_origin is None:
         pad_origin = (0.5 * (plate[0] - pad[0]), 0.5 * (plate[1] - pad[1]))
     ox, oy = (float(v) for v in pad_origin)
@@ -403,8 +404,8 @@ def _build(
         if centre is None:
             centre = [0.5 * (s0[i] + s1[i]) for i in range(gdim - 1)] + [z_if]
         graded_mesh(gmsh, gdim, h, far, growth, centre, radius)
-        _crack(gdim, tags[INTERFACE], groups[INTERFACE])
-        return _model_info(model_name, gdim, cell_type, tags, h)
+        split_interface_nodes(gdim, tags[INTERFACE], groups[INTERFACE])
+        return model_info(model_name, gdim, cell_type, tags, h)
 
     # Discretisation: uniform, fixed on every curve; structured cells for quads/hexes.
     for _, tag in gmsh.model.getEntities(1):
@@ -425,17 +426,22 @@ def _build(
         for option, value in saved.items():
             gmsh.option.setNumber(option, value)
 
-    _crack(gdim, tags[INTERFACE], groups[INTERFACE])
-    return _model_info(model_name, gdim, cell_type, tags, h)
+    split_interface_nodes(gdim, tags[INTERFACE], groups[INTERFACE])
+    return model_info(model_name, gdim, cell_type, tags, h)
 
 
-def _crack(gdim: int, interface_tag: int, interface_entities: Sequence[int]) -> None:
+def split_interface_nodes(gdim: int, interface_tag: int, interface_entities: Sequence[int]) -> None:
     """Duplicate the interface nodes; the secondary side (above the interface) gets new nodes."""
     del interface_tag, interface_entities  # the groups are found by name
     duplicate_interface_nodes(None, {INTERFACE: ([PRIMARY], [SECONDARY])})
 
 
-def _model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: float) -> ModelInfo:
+def model_info(model: str, gdim: int, cell_type: str, tags: dict[str, int], h: float) -> ModelInfo:
+    """The :class:`ModelInfo` of the gmsh model just split at its interface, its groups checked.
+
+    Raises:
+        RuntimeError: The bodies share nodes, or the interface's sides do not match.
+    """
     gmsh = gmsh_module()
     primary, secondary = group_nodes(gdim, tags[PRIMARY]), group_nodes(gdim, tags[SECONDARY])
     shared = np.intersect1d(primary, secondary)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._size import check_mesh_size, estimate_cells
-from .builders import ModelInfo, _crack, _model_info, _positive
+from .builders import ModelInfo, check_positive, model_info, split_interface_nodes
 from .groups import (
     BOLT_HEAD,
     BOLT_NUT,
@@ -94,7 +94,7 @@ def build_bolted_lap_joint(
         "hole_radius": hole_radius,
         "washer_radius": washer_radius,
     }
-    _positive(**sizes)
+    check_positive(**sizes)
     L, W, t, c = (float(v) for v in (plate_length, width, thickness, overlap))
     r, R = float(hole_radius), float(washer_radius)
     if c > L:
@@ -105,7 +105,7 @@ def build_bolted_lap_joint(
             f"overlap ({c} x {W}), got hole_radius {r}, washer_radius {R}"
         )
     if mesh_size is not None:
-        _positive(mesh_size=mesh_size)
+        check_positive(mesh_size=mesh_size)
         n_interface = max(1, round(W / mesh_size))
     if n_interface is None or int(n_interface) != n_interface or n_interface < 1:
         raise ValueError(f"n_interface must be a positive integer, got {n_interface!r}")
@@ -183,5 +183,5 @@ def build_bolted_lap_joint(
     finally:
         for key, value in saved.items():
             gmsh.option.setNumber(key, value)
-    _crack(3, tags[INTERFACE], groups[INTERFACE])
-    return _model_info(model_name, 3, cell_type, tags, h)
+    split_interface_nodes(3, tags[INTERFACE], groups[INTERFACE])
+    return model_info(model_name, 3, cell_type, tags, h)

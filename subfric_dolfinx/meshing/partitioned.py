@@ -46,7 +46,7 @@ from mpi4py import MPI
 from .groups import InterfaceMeshError
 from .interface_mesh import InterfaceMesh
 from .nodes import NodeGroup
-from .reader import _check_group_counts, _find_sides, _raise_collectively
+from .reader import check_group_counts, find_sides, raise_collectively
 from .topology import KINEMATICS, InterfaceSides, Topology, mesh_topology
 
 __all__ = [
@@ -439,7 +439,7 @@ def write_partitioned_mesh(domain: InterfaceMesh, path: str | os.PathLike) -> tu
             tmp.replace(out)
         except OSError as e:
             error = ("InterfaceMeshError", f"{out}: cannot write the groups file: {e}")
-    _raise_collectively(comm, error)
+    raise_collectively(comm, error)
     return path, out
 
 
@@ -494,7 +494,7 @@ def read_partitioned_mesh(
             error = (type(e).__name__, str(e))
         except Exception as e:  # anything else: on every rank
             error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
-    _raise_collectively(comm, error)
+    raise_collectively(comm, error)
     desc = comm.bcast(desc, root=0)
     assert desc is not None  # (rank 0's, checked)
     with dolfinx.io.XDMFFile(comm, str(path), "r") as f:
@@ -519,9 +519,9 @@ def read_partitioned_mesh(
         topology=desc["topology"],
     )
     _check_tag_values(imesh, desc["tags"], what)
-    _check_group_counts(imesh, desc["counts"], what)
+    check_group_counts(imesh, desc["counts"], what)
     for iface in imesh.interfaces:
-        _find_sides(imesh, iface, what)
+        find_sides(imesh, iface, what)
     if imesh.interfaces:
         imesh.num_interface_facets = imesh._counts[next(iter(imesh.interfaces))]
     return imesh

@@ -60,7 +60,7 @@ _ERRORS: dict[str, type[Exception]] = {
 }
 
 
-def _raise_collectively(comm: MPI.Comm, error: tuple[str, str] | None, root: int = 0) -> None:
+def raise_collectively(comm: MPI.Comm, error: tuple[str, str] | None, root: int = 0) -> None:
     """Broadcast ``error`` (class name, message) from ``root`` and raise it on every rank."""
     error = comm.bcast(error, root=root)
     if error is not None:
@@ -315,7 +315,7 @@ def read_interface_mesh(
                 error = (type(e).__name__, str(e))
             except Exception as e:  # anything else, e.g. from gmsh: report on all ranks
                 error = ("InterfaceMeshError", f"{what}: {type(e).__name__}: {e}")
-        _raise_collectively(comm, error)
+        raise_collectively(comm, error)
         tags = comm.bcast(tags, root=0)
         subgroups = comm.bcast(subgroups, root=0)
         counts = comm.bcast(counts, root=0)
@@ -339,18 +339,16 @@ def read_interface_mesh(
         node_groups=nodes,
         topology=found,
     )
-    _check_group_counts(imesh, counts, what)
+    check_group_counts(imesh, counts, what)
     for iface in found.interfaces:
-        _find_sides(imesh, iface, what)
+        find_sides(imesh, iface, what)
     if found.interfaces:
         first = next(iter(found.interfaces))
         imesh.num_interface_facets = imesh._counts[first]
     return imesh
 
 
-def _check_group_counts(
-    imesh: InterfaceMesh, counts: dict[str, tuple[int, int]], what: str
-) -> None:
+def check_group_counts(imesh: InterfaceMesh, counts: dict[str, tuple[int, int]], what: str) -> None:
     """Check that every cell and facet of the gmsh groups made it into the DOLFINx tags.
 
     gmshio silently drops tagged facets that are not facets of the mesh cells, e.g. boundary
@@ -377,7 +375,7 @@ def _check_group_counts(
         )
 
 
-def _find_sides(imesh: InterfaceMesh, iface: str, what: str) -> None:
+def find_sides(imesh: InterfaceMesh, iface: str, what: str) -> None:
     """Split an interface's facets by the body of the adjacent cell, with collective checks."""
     mesh, comm, tdim = imesh.mesh, imesh.mesh.comm, imesh.tdim
     sides_of = imesh.interfaces[iface]
@@ -463,7 +461,7 @@ def create_interface_mesh(
                 info = builder(**kwargs)
             except Exception as e:
                 error = (type(e).__name__, f"{getattr(builder, '__name__', builder)}: {e}")
-        _raise_collectively(comm, error)
+        raise_collectively(comm, error)
         info = comm.bcast(info, root=0)
         assert info is not None  # (the builder's, from the root)
         imesh = read_interface_mesh(

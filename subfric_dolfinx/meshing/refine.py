@@ -32,7 +32,7 @@ from mpi4py import MPI
 from ..compat import refine_uniform
 from .groups import InterfaceMeshError
 from .interface_mesh import InterfaceMesh
-from .reader import _check_group_counts, _find_sides
+from .reader import check_group_counts, find_sides
 
 __all__ = ["MAX_REFINE", "refine_interface_mesh"]
 
@@ -189,11 +189,11 @@ def _refine_once(domain: InterfaceMesh) -> InterfaceMesh:
         topology=domain.topology,
     )
     what = "refined mesh"
-    _check_group_counts(
+    check_group_counts(
         out, {n: (d, c * 2**d) for n, (d, c) in counts.items()}, what
     )  # a d-simplex splits into 2^d
     for iface in out.interfaces:
-        _find_sides(out, iface, what)
+        find_sides(out, iface, what)
     if out.interfaces:
         out.num_interface_facets = out._counts[next(iter(out.interfaces))]
     return out

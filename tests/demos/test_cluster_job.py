@@ -28,9 +28,13 @@ def job(tmp_path, *args: str) -> subprocess.CompletedProcess:
     env = dict(singleton_env(), LAUNCH="mpirun -n 2", RUNNER="", PYTHON=sys.executable)
     env.pop("IMAGE", None)
     return subprocess.run(
-        ["bash", str(JOB), *args], cwd=tmp_path, env=env, capture_output=True, text=True,
+        ["bash", str(JOB), *args],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
         timeout=300,
-    )  # fmt: skip
+    )
 
 
 def test_the_job_script_runs_the_example_scene(tmp_path):

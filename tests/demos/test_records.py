@@ -456,11 +456,11 @@ def test_the_records_are_rechecked_on_their_own_stack_only():
 
     from report.stamp import on_record_stack
 
+    test = str(ROOT / "tests" / "demos" / "test_records.py")
+    args = ["--collect-only", "-q", "-m", "records", "-p", "no:cacheprovider", test]
     p = subprocess.run(
-        [sys.executable, "-m", "pytest", "--collect-only", "-q", "-m", "records",
-         "-p", "no:cacheprovider", str(ROOT / "tests" / "demos" / "test_records.py")],
-        capture_output=True, text=True, cwd=ROOT,
-    )  # fmt: skip
+        [sys.executable, "-m", "pytest", *args], capture_output=True, text=True, cwd=ROOT
+    )
     collected = [line for line in p.stdout.splitlines() if "::" in line]
     assert bool(collected) == on_record_stack(), p.stdout[-2000:] + p.stderr[-2000:]
     if on_record_stack():

@@ -24,8 +24,14 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx import logs, meshing
-from subfric_dolfinx.fem import Dirichlet, FrictionSolver, InterfaceProblem, LoadStepper, Material
-from subfric_dolfinx.fem import stepping as stepping_mod
+from subfric_dolfinx.fem import (
+    Dirichlet,
+    FrictionSolver,
+    InterfaceProblem,
+    LoadStepper,
+    Material,
+    steplog,
+)
 from subfric_dolfinx.fem.validity import (
     INTERPENETRATION_FRACTION,
     SLIDE_ELEMENTS,
@@ -321,12 +327,12 @@ def test_short_segments_get_no_line_and_long_ones_do(caplog, monkeypatch):
             [Pressure("top", 300.0, amplitude="press")],
         )
         with FrictionSolver(prob, prefix("seg"), {"snes_atol": 1e-6}) as solver:
-            LoadStepper(solver, 1.0 / stepping_mod.LONG_SEGMENT_STEPS).run()
+            LoadStepper(solver, 1.0 / steplog.LONG_SEGMENT_STEPS).run()
 
     lines = stepping_lines(caplog, pressed)
-    n = stepping_mod.LONG_SEGMENT_STEPS
+    n = steplog.LONG_SEGMENT_STEPS
     assert len(lines) == 1 and lines[0].startswith(f"t = 0 -> 1 s: {n} steps"), lines
     # a run of more segments than SEGMENT_LINES (many cycles) prints no line per segment
     caplog.clear()
-    monkeypatch.setattr(stepping_mod, "SEGMENT_LINES", 0)
+    monkeypatch.setattr(steplog, "SEGMENT_LINES", 0)
     assert not stepping_lines(caplog, pressed)

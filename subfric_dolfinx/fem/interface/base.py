@@ -40,6 +40,7 @@ __all__ = [
     "InterfaceError",
     "InterfaceOptions",
     "NewtonStart",
+    "Overhang",
     "Received",
     "exchange_rows",
     "initial_gaps",
@@ -102,6 +103,22 @@ class NewtonStart:
     extrapolating: bool = False
 
 
+@dataclasses.dataclass(frozen=True)
+class Overhang:
+    """Where an interface's secondary facets reach beyond the primary surface, at the last iterate.
+
+    Attributes:
+        uncovered: Each secondary facet's fraction of its measure that no primary facet covers
+            (signed as the transfer gives it), (nf,).
+        beyond: Whether one of the facet's points faces no primary facet, (nf,).
+        x: The points' current positions, facet-major, (nf nq, gdim).
+    """
+
+    uncovered: np.ndarray
+    beyond: np.ndarray
+    x: np.ndarray
+
+
 class BaseInterface(abc.ABC):
     """One frictional interface of either kind: what both kinds do alike.
 
@@ -147,6 +164,14 @@ class BaseInterface(abc.ABC):
     def layout_version(self) -> int:
         """Grows when the ghosts and the matrix pattern change (a kind that re-pairs says so)."""
         return 0
+
+    def overhang(self) -> Overhang | None:
+        """Where the secondary facets reach beyond the primary surface at the last iterate.
+
+        ``None`` where the kind has no such measure (fixed pairs: nothing to reach beyond) or
+        before the first iterate; the validity watch judges it.
+        """
+        return None
 
     if TYPE_CHECKING:  # what a kind gives: an attribute (small sliding) or a property (finite)
 

@@ -74,7 +74,7 @@ from petsc4py import PETSc
 
 from ....constitutive import FrictionLaw, RegionalLaw
 from ....constitutive.result import Status
-from ..base import BaseInterface, InterfaceOptions, NewtonStart
+from ..base import BaseInterface, InterfaceOptions, NewtonStart, Overhang
 from ..layout import Couplings
 from .assembly import Block, SlidingAssembly
 from .contact import ContactGeometry, contact_geometry
@@ -217,6 +217,18 @@ class SlidingInterface(BaseInterface):
     def layout_version(self) -> int:
         """Grows every time the pattern and ghosts are rebuilt."""
         return self.search.layout_version
+
+    def overhang(self) -> Overhang | None:
+        """Where the secondary facets reach beyond the primary surface at the last iterate.
+
+        The transfer's uncovered fraction of each secondary facet, whether one of its points
+        faces no primary facet, the points' positions; ``None`` before the first iterate.
+        """
+        g = self.geometry
+        if g is None or g.transfer.uncovered is None:
+            return None
+        beyond = np.asarray(~g.found.reshape(-1, self.sides.nq).all(axis=1))
+        return Overhang(uncovered=g.transfer.uncovered, beyond=beyond, x=g.xq)
 
     @property
     def index_map(self) -> dolfinx.common.IndexMap:

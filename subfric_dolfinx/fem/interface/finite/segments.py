@@ -32,7 +32,14 @@ from typing import Any, cast
 import basix
 import numpy as np
 
-from .projection import facet_basis, normal_projection, parametric_normal, ray_start
+from .projection import (
+    FacetProjection,
+    facet_basis,
+    normal_projection,
+    parametric_normal,
+    projection_jacobian,
+    ray_start,
+)
 from .search import near_pairs
 
 __all__ = ["Segments", "clip_to_reference", "overlap_points"]
@@ -197,7 +204,11 @@ def overlap_points(
 ) -> Segments:
     """Integration points of every secondary facet's overlap with the primary facets.
 
-    Not collective.
+    Not collective. The steps: the candidate pairs (``_candidate_pairs``), the preimages of their
+    primary vertices on the secondary facets (``_vertex_preimages``), the pieces of the secondary
+    facets they bound with a Gauss rule on each (2-D ``_interval_pieces``, 3-D
+    ``_polygon_pieces``), and the points weighed and projected on their primary facets
+    (``_segment_points``).
 
     Args:
         secondary_x: Current positions of the secondary facets' nodes, (ns, nfd_s, gdim).
@@ -221,40 +232,170 @@ def overlap_points(
         normal_rates: 3-D with ``rates``: the rates also with the primary facet's nodal normals
             (``nfd_m`` more columns after the primary's nodes: the preimages move along them).
     """
-    ns, _, gdim = secondary_x.shape
-    fdim = gdim - 1
+    fdim = secondary_x.shape[2] - 1
     rates = bool(rates) and fdim == 2
     if rates and secondary_measure_x is None:
         raise ValueError(
             "overlap_points: rates need secondary_measure_x (the measure's nodes held)"
         )
+    degree = _gauss_degree(secondary_cell, secondary_degree, primary_degree, degree)
+    empty = _no_points(fdim)
+    if secondary_x.shape[0] == 0 or primary_x.shape[0] == 0:
+        return empty
+    si, mi, within = _candidate_pairs(secondary_x, primary_x, primary_normals, radius)
+    if si.size == 0:
+        return empty
+    secondary = _Facets(secondary_x, secondary_cell, secondary_degree)
+    primary = _Facets(primary_x, primary_cell, primary_degree)
+    pre = _vertex_preimages(secondary, primary, primary_normals, si, mi, within)
+    if fdim == 1:
+        pieces: _Pieces | None = _interval_pieces(pre, degree)
+    else:
+        nfd_m = primary_x.shape[1]
+        pieces = _polygon_pieces(pre, secondary, nfd_m, degree, rates, normal_rates)
+    if pieces is None or pieces.secondary.size == 0:
+        return empty
+    return _segment_points(pieces, secondary, primary, primary_normals, secondary_measure_x)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Facets:
+    """One side's facets, as :func:`overlap_points` takes them.
+
+    Attributes:
+        x: Current positions of their nodes, (n, nfd, gdim).
+        cell: Their basix cell.
+        degree: Their Lagrange degree.
+    """
+
+    x: np.ndarray
+    cell: basix.CellType
+    degree: int
+
+
+@dataclasses.dataclass(frozen=True)
+class _Preimages:
+    """The preimages of the candidate pairs' primary vertices on their secondary facets.
+
+    A primary vertex is shared by the candidate facets around it: each distinct (secondary facet,
+    vertex position, vertex normal) is projected once, in :attr:`unique`.
+
+    Attributes:
+        order: The primary facet's vertices (its local nodes) in cyclic order, (nv,).
+        unique: The distinct projections (the vertex along its normal on the secondary facet).
+        back: The row of :attr:`unique` of each candidate (pair, vertex), pair-major, (npair nv,).
+        x: The distinct rows' vertex positions, (nu, gdim).
+        normal: Their nodal normals, (nu, gdim).
+        nodes: Their secondary facets' nodes, (nu, nfd_s, gdim).
+        facing: Whether each candidate pair faces: its preimages all found, one at least within
+            the search radius, (npair,).
+        secondary: The secondary facet of each facing pair, (nf,).
+        primary: Its primary facet, (nf,).
+        xi: The preimages of each facing pair's vertices, in :attr:`order`, (nf, nv, fdim).
+    """
+
+    order: list[int]
+    unique: FacetProjection
+    back: np.ndarray
+    x: np.ndarray
+    normal: np.ndarray
+    nodes: np.ndarray
+    facing: np.ndarray
+    secondary: np.ndarray
+    primary: np.ndarray
+    xi: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class _Pieces:
+    """The Gauss points of the pieces of the secondary facets, on the secondary facets.
+
+    Attributes:
+        secondary: The secondary facet of each piece, (npiece,).
+        primary: The primary facet it faces, (npiece,).
+        xi: The points' reference coordinates on the secondary facet, (npiece, nq, fdim).
+        weight: Their weights (of the reference facet), (npiece, nq).
+        bounds: 2-D only: the per-point arrays ``bounds``, ``bound_vertex`` and ``unit`` of
+            :class:`Segments`; else empty.
+        xi_rate: 3-D with rates only: the derivative of :attr:`xi`, (npiece, nq, fdim, m).
+        weight_rate: 3-D with rates only: the derivative of :attr:`weight`, (npiece, nq, m).
+    """
+
+    secondary: np.ndarray
+    primary: np.ndarray
+    xi: np.ndarray
+    weight: np.ndarray
+    bounds: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    xi_rate: np.ndarray | None = None
+    weight_rate: np.ndarray | None = None
+
+
+def _gauss_degree(
+    secondary_cell: basix.CellType, secondary_degree: int, primary_degree: int, degree: int | None
+) -> int:
+    """The Gauss rule's degree on each piece.
+
+    ``degree`` if given, else ``2 p`` (simplices) or ``4 p`` (quadrilaterals), ``p`` the larger of
+    the two sides' degrees.
+    """
+    if degree is not None:
+        return degree
     p = max(secondary_degree, primary_degree)
-    if degree is None:
-        degree = 4 * p if secondary_cell == basix.CellType.quadrilateral else 2 * p
-    empty = Segments(
+    return 4 * p if secondary_cell == basix.CellType.quadrilateral else 2 * p
+
+
+def _no_points(fdim: int) -> Segments:
+    """No integration point (facets of dimension ``fdim``)."""
+    return Segments(
         *(np.zeros(0, dtype=np.int64),) * 2,
         np.zeros((0, fdim)),
         np.zeros((0, fdim)),
         np.zeros(0),
         np.zeros(0, dtype=bool),
     )
-    nm = primary_x.shape[0]
-    if ns == 0 or nm == 0:
-        return empty
-    # candidate pairs: the secondary facets' centres near the primary facets
+
+
+def _candidate_pairs(
+    secondary_x: np.ndarray, primary_x: np.ndarray, primary_normals: np.ndarray, radius: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The candidate pairs: the secondary facets whose centres are near primary facets.
+
+    Returns:
+        The pairs' secondary facets and primary facets, (npair,) each, and the distance within
+        which a pair faces: ``radius`` plus round-off of its secondary facet's size, (npair,).
+    """
     cs = secondary_x.mean(axis=1)
     rs = np.linalg.norm(secondary_x - cs[:, None], axis=-1).max(axis=1) * 1.1
     si, mi = near_pairs(cs, rs, primary_x, primary_normals, radius)
-    if si.size == 0:
-        return empty
-    # preimages of the primary vertices on the secondary facet (along the vertices' normals)
-    order = _polygon_order(primary_cell) if fdim == 2 else [0, 1]
+    return si, mi, radius + 1e-12 * rs[si]
+
+
+def _vertex_preimages(
+    secondary: _Facets,
+    primary: _Facets,
+    primary_normals: np.ndarray,
+    si: np.ndarray,
+    mi: np.ndarray,
+    within: np.ndarray,
+) -> _Preimages:
+    """The preimages of the candidate pairs' primary vertices, along their nodal normals.
+
+    Args:
+        secondary: The secondary facets.
+        primary: The primary facets.
+        primary_normals: Their nodal normals, (nm, nfd_m, gdim).
+        si: The candidate pairs' secondary facets, (npair,).
+        mi: Their primary facets, (npair,).
+        within: The distance within which each pair faces (:func:`_candidate_pairs`), (npair,).
+    """
+    gdim = secondary.x.shape[2]
+    fdim = gdim - 1
+    order = _polygon_order(primary.cell) if fdim == 2 else [0, 1]
     nv = len(order)
-    xv = primary_x[mi][:, order].reshape(-1, gdim)
+    xv = primary.x[mi][:, order].reshape(-1, gdim)
     nvv = primary_normals[mi][:, order].reshape(-1, gdim)
-    nfd_s = secondary_x.shape[1]
-    # a primary vertex is shared by the candidate facets around it: project each (secondary facet,
-    # vertex position and normal) once (row by row, the same numbers)
+    nfd_s = secondary.x.shape[1]
+    # each (secondary facet, vertex position and normal) once (row by row, the same numbers)
     sv = np.repeat(si, nv)
     _, first, back = np.unique(
         np.column_stack([sv.astype(float), xv, nvv]),
@@ -263,117 +404,221 @@ def overlap_points(
         return_inverse=True,
     )
     back = back.reshape(-1)
-    xu, nu, Ys = xv[first], nvv[first], secondary_x[sv[first]]
+    xu, nu, Ys = xv[first], nvv[first], secondary.x[sv[first]]
     # preimages may lie far outside a secondary facet much smaller than the primary's: start from
     # the line's intersection with the secondary vertices' line (plane), let Newton go anywhere
-    pre_u = normal_projection(
+    unique = normal_projection(
         xu,
         Ys,
         np.repeat(nu[:, None, :], nfd_s, axis=1),
-        secondary_cell,
-        secondary_degree,
-        xi0=ray_start(secondary_cell, xu, Ys, nu),
+        secondary.cell,
+        secondary.degree,
+        xi0=ray_start(secondary.cell, xu, Ys, nu),
         margin=np.inf,
     )
-    pre = dataclasses.replace(
-        pre_u, **{f.name: getattr(pre_u, f.name)[back] for f in dataclasses.fields(pre_u)}
-    )
-    ok = pre.converged.reshape(-1, nv).all(axis=1) & (
-        np.abs(pre.distance.reshape(-1, nv)) <= radius + 1e-12 * rs[si, None]
+    facing = unique.converged[back].reshape(-1, nv).all(axis=1) & (
+        np.abs(unique.distance[back].reshape(-1, nv)) <= within[:, None]
     ).any(axis=1)
-    si, mi = si[ok], mi[ok]
-    poly = pre.xi.reshape(-1, nv, fdim)[ok]
-    extra: dict[str, np.ndarray] = {}
-    if fdim == 1:
-        ends = poly[:, :, 0]  # the two vertices' preimages
-        v_lo, v_hi = np.argmin(ends, axis=1), np.argmax(ends, axis=1)
-        rows = np.arange(ends.shape[0])
-        lo = np.clip(ends[rows, v_lo], 0.0, 1.0)
-        hi = np.clip(ends[rows, v_hi], 0.0, 1.0)
-        vertex = np.stack(
-            [
-                np.where(ends[rows, v_lo] > 0.0, v_lo, -1),
-                np.where(ends[rows, v_hi] < 1.0, v_hi, -1),
-            ],
-            axis=1,
-        )
-        keep = hi - lo > 1e-12
-        si, mi, lo, hi, vertex = si[keep], mi[keep], lo[keep], hi[keep], vertex[keep]
-        X, w = _quadrature(basix.CellType.interval, degree)
-        xs = (lo[:, None] + (hi - lo)[:, None] * X[None, :, 0])[..., None]  # (npair, nq, 1)
-        ws = (hi - lo)[:, None] * w[None, :]
-        nq1 = X.shape[0]
-        extra = {
-            "bounds": np.repeat(np.stack([lo, hi], axis=1), nq1, axis=0),
-            "bound_vertex": np.repeat(vertex, nq1, axis=0),
+    return _Preimages(
+        order=order,
+        unique=unique,
+        back=back,
+        x=xu,
+        normal=nu,
+        nodes=Ys,
+        facing=facing,
+        secondary=si[facing],
+        primary=mi[facing],
+        xi=unique.xi[back].reshape(-1, nv, fdim)[facing],
+    )
+
+
+def _interval_pieces(pre: _Preimages, degree: int) -> _Pieces:
+    """2-D: the interval between a primary segment's vertices' preimages, clipped to ``[0, 1]``.
+
+    Each piece keeps its ends, and which primary vertex makes each (-1: the secondary facet's own
+    end), for the transfer's tangent (:attr:`Segments.bounds`).
+    """
+    ends = pre.xi[:, :, 0]  # the two vertices' preimages
+    v_lo, v_hi = np.argmin(ends, axis=1), np.argmax(ends, axis=1)
+    rows = np.arange(ends.shape[0])
+    lo = np.clip(ends[rows, v_lo], 0.0, 1.0)
+    hi = np.clip(ends[rows, v_hi], 0.0, 1.0)
+    vertex = np.stack(
+        [
+            np.where(ends[rows, v_lo] > 0.0, v_lo, -1),
+            np.where(ends[rows, v_hi] < 1.0, v_hi, -1),
+        ],
+        axis=1,
+    )
+    keep = hi - lo > 1e-12
+    lo, hi, vertex = lo[keep], hi[keep], vertex[keep]
+    X, w = _quadrature(basix.CellType.interval, degree)
+    nq = X.shape[0]
+    return _Pieces(
+        secondary=pre.secondary[keep],
+        primary=pre.primary[keep],
+        xi=(lo[:, None] + (hi - lo)[:, None] * X[None, :, 0])[..., None],  # (npair, nq, 1)
+        weight=(hi - lo)[:, None] * w[None, :],
+        bounds={
+            "bounds": np.repeat(np.stack([lo, hi], axis=1), nq, axis=0),
+            "bound_vertex": np.repeat(vertex, nq, axis=0),
             "unit": np.tile(X[:, 0], lo.size),
-        }
-    else:
-        count = np.full(poly.shape[0], nv)
-        if rates:
-            poly_r = _preimage_rates(
-                pre_u,
-                back,
-                ok,
-                xu,
-                Ys,
-                nu,
-                secondary_cell,
-                secondary_degree,
-                order,
-                primary_x.shape[1],
-                normal_rates,
-            )
-            clipped, cnt, clipped_r = clip_to_reference(poly, count, secondary_cell, poly_r)
-        else:
-            clipped, cnt = clip_to_reference(poly, count, secondary_cell)
-        X, w = _quadrature(basix.CellType.triangle, degree)
-        xs_l, ws_l, pair_l, xr_l, wr_l = [], [], [], [], []
-        for k in range(1, clipped.shape[1] - 1):  # fan triangle (0, k, k + 1)
-            has = cnt >= k + 2
-            if not np.any(has):
-                break
-            v0, v1, v2 = clipped[has, 0], clipped[has, k], clipped[has, k + 1]
-            J = np.stack([v1 - v0, v2 - v0], axis=-1)  # (n, 2, 2)
-            det = np.linalg.det(J)
-            area = np.abs(det)
-            big = area > 1e-14
-            idx = np.flatnonzero(has)[big]
-            xs_l.append(v0[big, None, :] + np.einsum("nab,qb->nqa", J[big], X))
-            ws_l.append(area[big, None] * w[None, :])
-            pair_l.append(idx)
-            if rates:
-                r0, r1, r2 = (clipped_r[idx, j] for j in (0, k, k + 1))  # (n, 2, m)
-                dJ = np.stack([r1 - r0, r2 - r0], axis=2)  # (n, 2, 2, m)
-                Jb = J[big]
-                ddet = (
-                    dJ[:, 0, 0] * Jb[:, 1, 1, None]
-                    + Jb[:, 0, 0, None] * dJ[:, 1, 1]
-                    - dJ[:, 0, 1] * Jb[:, 1, 0, None]
-                    - Jb[:, 0, 1, None] * dJ[:, 1, 0]
-                )
-                xr_l.append(r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X))
-                wr_l.append(np.sign(det[big])[:, None, None] * ddet[:, None, :] * w[None, :, None])
-        if not pair_l:
-            return empty
-        pair = np.concatenate(pair_l)
-        si, mi = si[pair], mi[pair]
-        xs, ws = np.concatenate(xs_l), np.concatenate(ws_l)
-    if si.size == 0:
-        return empty
-    nq = xs.shape[1]
-    si_q, mi_q = np.repeat(si, nq), np.repeat(mi, nq)
-    xi_s = xs.reshape(-1, fdim)
-    B = facet_basis(secondary_cell, secondary_degree, xi_s, 1)
-    Ys = secondary_x[si_q]
-    y = np.einsum("mk,mkd->md", B[0], Ys)
-    Yj = Ys if secondary_measure_x is None else secondary_measure_x[si_q]
-    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
+        },
+    )
+
+
+def _polygon_pieces(
+    pre: _Preimages,
+    secondary: _Facets,
+    nfd_m: int,
+    degree: int,
+    rates: bool,
+    normal_rates: bool,
+) -> _Pieces | None:
+    """3-D: the polygon of a primary facet's vertices' preimages, clipped by the reference cell.
+
+    Args:
+        pre: The preimages.
+        secondary: The secondary facets.
+        nfd_m: The primary facets' node count.
+        degree: The Gauss rule's degree.
+        rates: Whether the points' rates are wanted (:func:`_preimage_rates`).
+        normal_rates: Whether the rates have the primary's nodal normals' columns too.
+
+    Returns:
+        The fan triangles' points (:func:`_fan_pieces`), ``None`` if no polygon is left.
+    """
+    count = np.full(pre.xi.shape[0], len(pre.order))
     if rates:
-        m = xr_l[0].shape[-1]
-        xi_rate = np.concatenate(xr_l).reshape(-1, fdim, m)
-        ws_rate = np.concatenate(wr_l).reshape(-1, m)
-        grad = _measure_rate(secondary_cell, secondary_degree, xi_s, Yj)  # d jac / d xi, (np, fdim)
+        poly_r = _preimage_rates(pre, secondary.cell, secondary.degree, nfd_m, normal_rates)
+        clipped, cnt, clipped_r = clip_to_reference(pre.xi, count, secondary.cell, poly_r)
+        return _fan_pieces(pre, clipped, cnt, degree, clipped_r)
+    clipped, cnt = clip_to_reference(pre.xi, count, secondary.cell)
+    return _fan_pieces(pre, clipped, cnt, degree)
+
+
+def _fan_pieces(
+    pre: _Preimages,
+    clipped: np.ndarray,
+    cnt: np.ndarray,
+    degree: int,
+    clipped_r: np.ndarray | None = None,
+) -> _Pieces | None:
+    """The clipped polygons cut into triangles from their first vertex, a Gauss rule on each.
+
+    Args:
+        pre: The preimages (the pairs of the polygons).
+        clipped: The clipped polygons, (nf, k, 2) (:func:`clip_to_reference`).
+        cnt: Their vertex counts, (nf,).
+        degree: The Gauss rule's degree.
+        clipped_r: The vertices' rates, (nf, k, 2, m), if the points' rates are wanted.
+
+    Returns:
+        The points of the triangles of a positive area, ``None`` if there is none.
+    """
+    X, w = _quadrature(basix.CellType.triangle, degree)
+    xs_l, ws_l, pair_l, xr_l, wr_l = [], [], [], [], []
+    for k in range(1, clipped.shape[1] - 1):  # fan triangle (0, k, k + 1)
+        has = cnt >= k + 2
+        if not np.any(has):
+            break
+        v0, v1, v2 = clipped[has, 0], clipped[has, k], clipped[has, k + 1]
+        J = np.stack([v1 - v0, v2 - v0], axis=-1)  # (n, 2, 2)
+        det = np.linalg.det(J)
+        area = np.abs(det)
+        big = area > 1e-14
+        idx = np.flatnonzero(has)[big]
+        xs_l.append(v0[big, None, :] + np.einsum("nab,qb->nqa", J[big], X))
+        ws_l.append(area[big, None] * w[None, :])
+        pair_l.append(idx)
+        if clipped_r is not None:
+            r0, r1, r2 = (clipped_r[idx, j] for j in (0, k, k + 1))  # (n, 2, m)
+            xr, wr = _triangle_rates(r0, r1, r2, J[big], det[big], X, w)
+            xr_l.append(xr)
+            wr_l.append(wr)
+    if not pair_l:
+        return None
+    pair = np.concatenate(pair_l)
+    return _Pieces(
+        secondary=pre.secondary[pair],
+        primary=pre.primary[pair],
+        xi=np.concatenate(xs_l),
+        weight=np.concatenate(ws_l),
+        xi_rate=np.concatenate(xr_l) if clipped_r is not None else None,
+        weight_rate=np.concatenate(wr_l) if clipped_r is not None else None,
+    )
+
+
+def _triangle_rates(
+    r0: np.ndarray,
+    r1: np.ndarray,
+    r2: np.ndarray,
+    J: np.ndarray,
+    det: np.ndarray,
+    X: np.ndarray,
+    w: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The derivatives of a fan triangle's Gauss points and weights (reference facet).
+
+    Args:
+        r0: The derivatives of the triangle's first vertex, (n, 2, m).
+        r1: Of its second vertex, likewise.
+        r2: Of its third vertex, likewise.
+        J: Its map's Jacobian (columns: its edges from the first vertex), (n, 2, 2).
+        det: Its determinant, (n,).
+        X: The Gauss points on the reference triangle, (nq, 2).
+        w: Their weights, (nq,).
+
+    Returns:
+        The points' derivatives (n, nq, 2, m) and the weights' (n, nq, m).
+    """
+    dJ = np.stack([r1 - r0, r2 - r0], axis=2)  # (n, 2, 2, m)
+    ddet = (
+        dJ[:, 0, 0] * J[:, 1, 1, None]
+        + J[:, 0, 0, None] * dJ[:, 1, 1]
+        - dJ[:, 0, 1] * J[:, 1, 0, None]
+        - J[:, 0, 1, None] * dJ[:, 1, 0]
+    )
+    xr = r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X)
+    wr = np.sign(det)[:, None, None] * ddet[:, None, :] * w[None, :, None]
+    return xr, wr
+
+
+def _segment_points(
+    pieces: _Pieces,
+    secondary: _Facets,
+    primary: _Facets,
+    primary_normals: np.ndarray,
+    measure_x: np.ndarray | None,
+) -> Segments:
+    """The pieces' points, weighed by the secondary surface and projected on their primary facet.
+
+    Args:
+        pieces: The pieces and their Gauss points.
+        secondary: The secondary facets.
+        primary: The primary facets.
+        primary_normals: Their nodal normals, (nm, nfd_m, gdim).
+        measure_x: The nodes whose surface Jacobian weighs the points (default: the current
+            ones).
+    """
+    fdim = pieces.xi.shape[-1]
+    nq = pieces.xi.shape[1]
+    si_q, mi_q = np.repeat(pieces.secondary, nq), np.repeat(pieces.primary, nq)
+    xi_s = pieces.xi.reshape(-1, fdim)
+    B = facet_basis(secondary.cell, secondary.degree, xi_s, 1)
+    Ys = secondary.x[si_q]
+    y = np.einsum("mk,mkd->md", B[0], Ys)
+    Yj = Ys if measure_x is None else measure_x[si_q]
+    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
+    ws = pieces.weight
+    extra = pieces.bounds
+    if pieces.xi_rate is not None and pieces.weight_rate is not None:
+        m = pieces.xi_rate.shape[-1]
+        xi_rate = pieces.xi_rate.reshape(-1, fdim, m)
+        ws_rate = pieces.weight_rate.reshape(-1, m)
+        # d jac / d xi, (np, fdim)
+        grad = _measure_rate(secondary.cell, secondary.degree, xi_s, Yj)
         extra = {
             "xi_rate": xi_rate,
             "weight_rate": ws_rate * jac[:, None]
@@ -381,9 +626,9 @@ def overlap_points(
         }
     # start from the ray along the primary facet's mean normal through its vertex plane (exact
     # on flat facets)
-    Ym, Nm = primary_x[mi_q], primary_normals[mi_q]
-    start = ray_start(primary_cell, y, Ym, Nm.sum(axis=1))
-    proj = normal_projection(y, Ym, Nm, primary_cell, primary_degree, xi0=start)
+    Ym, Nm = primary.x[mi_q], primary_normals[mi_q]
+    start = ray_start(primary.cell, y, Ym, Nm.sum(axis=1))
+    proj = normal_projection(y, Ym, Nm, primary.cell, primary.degree, xi0=start)
     return Segments(
         secondary=si_q,
         primary=mi_q,
@@ -396,34 +641,38 @@ def overlap_points(
 
 
 def _preimage_rates(
-    pre_u, back, ok, xu, Ys, nu, secondary_cell, secondary_degree, order, nfd_m, normals=False
+    pre: _Preimages,
+    secondary_cell: basix.CellType,
+    secondary_degree: int,
+    nfd_m: int,
+    normals: bool = False,
 ) -> np.ndarray:
     """Derivatives of the primary vertices' preimages on the secondary facets (3-D).
 
     ``d xi = A^-1 (dx_v - sum_k N_k dX_k)`` (:func:`.projection.projection_jacobian`, the
-    vertex's normal held) for the projections ``pre_u`` (unique rows; ``back`` maps the
-    (pair, vertex) rows to them, ``ok`` keeps the pairs). Returns (npair, nv, fdim, m), ``m``
-    the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with ``normals``,
-    the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim`` components each.
+    vertex's normal held) for the distinct projections ``pre.unique`` (``pre.back`` maps the
+    (pair, vertex) rows to them, ``pre.facing`` keeps the pairs). Returns (npair, nv, fdim, m),
+    ``m`` the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with
+    ``normals``, the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim``
+    components each.
     """
-    from .projection import projection_jacobian
-
+    Ys, order, back, ok = pre.nodes, pre.order, pre.back, pre.facing
     nfd_s, gdim = Ys.shape[1], Ys.shape[2]
     fdim, nv = gdim - 1, len(order)
     Ainv, N = projection_jacobian(
-        xu,
+        pre.x,
         Ys,
-        np.repeat(nu[:, None, :], nfd_s, axis=1),
+        np.repeat(pre.normal[:, None, :], nfd_s, axis=1),
         secondary_cell,
         secondary_degree,
-        pre_u.xi,
-        pre_u.gamma,
+        pre.unique.xi,
+        pre.unique.gamma,
     )
     D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
     Nk = N[back].reshape(-1, nv, nfd_s)[ok]
     R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m * (2 if normals else 1), gdim))
     R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
-    gam = pre_u.gamma[back].reshape(-1, nv)[ok]
+    gam = pre.unique.gamma[back].reshape(-1, nv)[ok]
     for j, v in enumerate(order):
         R[:, j, :, nfd_s + v, :] += D[:, j]
         if normals:  # along the vertex's normal: d xi = D (-gamma dn_v)
