@@ -4,7 +4,7 @@ The largest term of the finite-sliding tangent beyond the law's and the projecti
 of the primary-side transfer ``B`` with the geometry, ``dB t`` (the primary's nodal forces moving
 with the secondary facets; ``SegmentTransfer.in_tangent``, on by default, 2-D and 3-D): the
 2-D tangent is then the residual's derivative, the 3-D one but for the frame's turn
-(``tests/fem/interface/test_finite_sliding_tangent.py``). The load stepper starts each step
+(``tests/fem/interface/finite/test_finite_sliding_tangent.py``). The load stepper starts each step
 from the last one's extrapolated increment, and where the program turns (nothing to extrapolate)
 makes the step's
 first Newton iteration frictionless (``LoadStepper(predictor=...)``, on by default). This

@@ -365,8 +365,8 @@ def diagonal_slide_3d(
     pressed at 300 MPa on a steel plate (6 x 6 facets, 3 mm) from t = 0 to 1, then its top moved
     by (0.5, 0.25) mm until ``slide_end``; one finite-sliding interface (search radius 0.5 mm).
 
-    The problem of ``tests/fem/interface/test_finite_sliding_tangent.py`` (``split_x`` 1.5: across
-    the partition boundary) and of ``benchmarks/finite_sliding_newton.py``'s 3-D case.
+    The problem of ``tests/fem/interface/finite/test_finite_sliding_tangent.py`` (``split_x``
+    1.5: across the partition boundary) and of ``benchmarks/finite_sliding_newton.py``'s 3-D case.
     """
     from subfric_dolfinx.fem import (
         Dirichlet,

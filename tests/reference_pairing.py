@@ -4,9 +4,10 @@ A verbatim copy of ``subfric_dolfinx/fem/interface/pairing.py`` (now ``.../small
 of ``match_points`` at commit 4ba6b8b: every rank all-gathers the secondary facets of the whole
 interface (midpoints, node numbers, owners and coordinates) and matches them with a grid hash and
 Python loops. The package's pairing exchanges only what each rank needs;
-``tests/fem/interface/test_pairing.py`` checks that it gives the same pairs, in the same order, and
-``benchmarks/pairing_scaling.py`` measures both. Since then only the names of the pairs' fields
-and the messages' words changed (``primary``/``secondary`` became ``primary``/``secondary``).
+``tests/fem/interface/small/test_pairing.py`` checks that it gives the same pairs, in the same
+order, and ``benchmarks/pairing_scaling.py`` measures both. Since then only the names of the
+pairs' fields and the messages' words changed (``master``/``slave`` became
+``primary``/``secondary``).
 """
 
 from __future__ import annotations

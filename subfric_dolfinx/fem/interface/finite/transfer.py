@@ -78,7 +78,7 @@ class SegmentTransfer:
         in_tangent: Whether the tangent holds the transfer's change with the geometry, ``dB t``
             (2-D and 3-D): then the 2-D tangent is the residual's derivative, the 3-D one but
             for the frame's turn within an iteration
-            (``tests/fem/interface/test_finite_sliding_tangent.py``), and Newton converges
+            (``tests/fem/interface/finite/test_finite_sliding_tangent.py``), and Newton converges
             quadratically at the end of a step (without it linearly). On by default: fewer
             Newton iterations per sliding step (``benchmarks/finite_sliding_newton.py``).
     """

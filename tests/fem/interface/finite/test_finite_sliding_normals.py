@@ -43,7 +43,7 @@ from subfric_dolfinx.fem.interface.finite.interface import SlidingInterface
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.scenes import run_scene
 from tests.contact_meshes import diagonal_slide_3d, tagged_boxes
-from tests.fem.interface import test_finite_sliding_tangent as tangent
+from tests.fem.interface.finite import test_finite_sliding_tangent as tangent
 from tests.helpers import everywhere
 
 N, SLIDE = 4, 3.0

@@ -147,7 +147,7 @@ def test_axisymmetric_shaft_pushed_out_of_its_shrink_fitted_hub(comm):
     step; before the push the fit's pressure is Lame's (0.5 %, as the small-sliding demo).
 
     A facet a step: no secondary facet in contact straddles the hub's end at a step's end (where one
-    does, tests/fem/interface/test_finite_sliding_overhang.py; docs/model.md)."""
+    does, tests/fem/interface/finite/test_finite_sliding_overhang.py; docs/model.md)."""
     from demos import shrink_fit as sf
     from subfric_dolfinx import meshing
 

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from subfric_dolfinx.fem.interface.finite.projection import facet_basis, normal_projection
 from subfric_dolfinx.fem.interface.finite.sliding import gap_operator, transport, transport_matrix
 from subfric_dolfinx.fem.interface.geometry import frames
-from tests.fem.interface.test_contact_projection import polygon, sphere_facets
+from tests.fem.interface.finite.test_contact_projection import polygon, sphere_facets
 
 pytestmark = pytest.mark.numpy_only  # no MPI: one rank is enough
 
