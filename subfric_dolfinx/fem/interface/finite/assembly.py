@@ -5,13 +5,16 @@ of the segment transfer (:mod:`.transfer`). The tangent is assembled as dense bl
 (secondary rows) and one per point and primary facet of its secondary facet's segments (primary
 rows), whose columns are the point's secondary facet nodes and its primary facet's nodes:
 ``d t = Q^T D G (sum_k N_k du_k - sum_l N_l(xi) du_l)`` with ``G`` the gap's derivative
-(:func:`.sliding.gap_operator`). Everything of the iterate comes in one
-:class:`~.contact.ContactGeometry`.
+(:func:`.sliding.gap_operator`). The part through the iterate's nodal normals, which
+depend on the nodes of every facet around them, is summed per node as a product of sparse
+operators (:class:`_NormalChain`) rather than expanded in dense blocks per point. Everything of
+the iterate comes in one :class:`~.contact.ContactGeometry`.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
 
 from ....constitutive import FrictionLaw
 from ..base import NewtonStart, stiffen_separated
@@ -112,13 +115,20 @@ class SlidingAssembly:
             D = _kept_in_contact(D, start_normal, nt)
         return D
 
-    def blocks(self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray) -> list[Block]:
-        """Tangent blocks ``(rows, cols, values)``: local (extended) node indices, dense values.
+    def blocks(
+        self, g: ContactGeometry, D: np.ndarray, traction: np.ndarray
+    ) -> tuple[list[Block], sparse.csr_matrix | None]:
+        """The tangent: dense blocks, and the part through the iterate's nodal normals.
 
         Args:
             g: The iterate's geometry.
             D: The law's tangents as this Jacobian takes them (:meth:`law_tangent`).
             traction: The points' tractions (the frame's turn and the transfer's change).
+
+        Returns:
+            Blocks ``(rows, cols, values)`` (local (extended) node indices, dense values), and
+            with the iterate's normals their chain (:class:`_NormalChain`): a sparse matrix over
+            the local dofs of the extended map (``None`` with the step's normals).
         """
         sd = self.sides
         s, nq, gdim, nt = sd.secondary, sd.nq, sd.gdim, sd.nt
@@ -134,14 +144,16 @@ class SlidingAssembly:
         cols = np.concatenate([s.nodes[f_of], nodes[g.facet[pts]]], axis=1)
         C = np.concatenate([sd.Ns[0][q_of], -g.Nm[pts]], axis=1)  # (np, nfs + nfm)
         out = self._point_blocks(g, pts, cols, C, M[pts], g.held_now)
+        chain = None
         if g.normal_rates is not None:  # the iterate's nodal normals move with the nodes
+            chain = _NormalChain(g, s.nodes, self.points.weights, sd.Ns[0])
             Mw = _normal_sensitivity(g, pts, D, traction, M, spin)
-            out += self._normal_blocks(g, pts, g.facet[pts], g.Nm[pts], Mw)
+            chain.add_points(pts, g.facet[pts], g.Nm[pts], Mw)
             mv = np.flatnonzero(found & (g.old_facet >= 0))
             if spin is not None and mv.size:  # the transport's turn with the start's normal
                 assert g.turn3 is not None  # (3-D)
                 Mo = np.einsum("mi,mc->mic", spin[mv], g.turn3.theta_old_normal[mv])
-                out += self._normal_blocks(g, mv, g.old_facet[mv], g.N_old[mv], Mo)
+                chain.add_points(mv, g.old_facet[mv], g.N_old[mv], Mo)
         # the convected slip's own primary nodes: d(Q_t ds) holds Q_t (N(xi) dY - N(xi_0) dY_0)
         # besides the projection's move (in G): the primary stretched between the two points
         mv = np.flatnonzero(found & (g.old_facet >= 0))
@@ -166,73 +178,16 @@ class SlidingAssembly:
             if ps.size:
                 cols = np.concatenate([s.nodes[ps], nodes[pm]], 1)
                 out.append((nodes[pm], cols, np.ascontiguousarray(vb[:, :, :nxy])))
-            if rates and ps.size:
-                out += self._transfer_normal_blocks(g, pm, vb[:, :, nxy:])
+            if chain is not None and ps.size:
+                chain.add_forces(pm, pm, vb[:, :, nxy:])
             normal_parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = (
                 [] if rates else None
             )
             out += self.transfer.complement_tangent(g, tg, normal_parts)  # where it overhangs
             for rf, nf, vn in normal_parts or []:
-                out += self._transfer_normal_blocks(g, nf, vn, rf)
-        return out
-
-    @staticmethod
-    def _transfer_normal_blocks(
-        g: ContactGeometry, pm: np.ndarray, vn: np.ndarray, rows: np.ndarray | None = None
-    ) -> list[Block]:
-        """The transfer's change with the primary's nodes through its nodal normals.
-
-        ``vn`` (npair, nfm * gdim, nfm * gdim): the change of the pairs' primary forces (on the
-        nodes of the facets ``rows``, by default ``pm``) with the nodal normals of the primary
-        facets ``pm`` (:func:`~.transfer.transfer_tangent`, the complement's too).
-        """
-        assert g.normal_rates is not None  # (with the iterate's normals)
-        facets, Dn = g.normal_rates
-        nodes = g.reach.nodes
-        rf = pm if rows is None else rows
-        npair, nrow = vn.shape[:2]
-        gdim = g.Ym.shape[2]
-        vn = vn.reshape(npair, nrow, -1, gdim)
-        out: list[Block] = []
-        for node in range(facets.shape[1]):
-            for a in range(facets.shape[2]):
-                fa = facets[pm, node, a]
-                ok = (fa >= 0) & g.reach.holds(rf, np.maximum(fa, 0))
-                if not ok.any():
-                    continue
-                vals = np.einsum("prx,pjxc->prjc", vn[ok, :, node, :], Dn[pm[ok], node, a])
-                out.append((nodes[rf[ok]], nodes[fa[ok]], vals.reshape(ok.sum(), nrow, -1)))
-        return out
-
-    def _normal_blocks(
-        self,
-        g: ContactGeometry,
-        pts: np.ndarray,
-        facet: np.ndarray,
-        N: np.ndarray,
-        Mw: np.ndarray,
-    ) -> list[Block]:
-        """Blocks of ``d t_p = Mw_p w_p`` with ``w_p = sum_l N_pl dn_l`` on the facet ``facet_p``.
-
-        The nodal normals ``n_l`` of the primary facet ``facet`` of each point ``pts`` (the one
-        it faces, or faced at the step's start) with the basis ``N`` (np, nfm) there, chained
-        with their change with the primary's nodes (:func:`.normals.normal_rates`).
-        """
-        assert g.normal_rates is not None  # (with the iterate's normals)
-        facets, Dn = g.normal_rates
-        if pts.size == 0:
-            return []
-        out: list[Block] = []
-        for node in range(facets.shape[1]):
-            for a in range(facets.shape[2]):
-                fa = facets[facet, node, a]
-                ok = fa >= 0
-                if not ok.any():
-                    continue
-                E = N[ok, node, None, None, None] * Dn[facet[ok], node, a]
-                cols = g.reach.nodes[fa[ok]]
-                out += self._matrix_blocks(g, pts[ok], cols, E, Mw[ok], fa[ok])
-        return out
+                assert chain is not None  # (with the iterate's normals)
+                chain.add_forces(rf, nf, vn)
+        return out, None if chain is None else chain.matrix()
 
     def _matrix_blocks(
         self,
@@ -312,6 +267,137 @@ class SlidingAssembly:
             vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
             out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
+
+
+class _NormalChain:
+    """The tangent through the iterate's nodal normals, as a product of sparse operators.
+
+    The forces change with the nodal normals ``n_k`` of the primary nodes, which change with the
+    nodes of the facets around them (:func:`.normals.normal_rates`):
+    ``dF = (F T + V) Dn dY``. ``T`` (points x nodal normals): each point's traction per normal,
+    ``d t_p = M_p sum_l N_pl dn_l`` over the nodes ``l`` of a primary facet
+    (:meth:`add_points`); ``F`` (dofs x points): where the points' tractions go, the secondary
+    facet's nodes ``w N_k(q)`` and the primary nodes of its segment pairs ``-B_lq`` (as the
+    forces); ``V`` (dofs x nodal normals): the transfer's own change with the normals
+    (:meth:`add_forces`); ``Dn`` (nodal normals x nodes): the normals' change, once per node.
+    Summed per node rather than expanded per point, the product's entries are inserted once.
+    Those the pattern does not couple (:meth:`.reach.Reach.holds_nodes`) are left out.
+
+    Args:
+        g: The iterate's geometry (its :attr:`~.contact.ContactGeometry.normal_rates`).
+        secondary: The secondary facets' nodes (local), (ns, nfd_s).
+        weights: The points' weights, (npts,).
+        Ns: The secondary facets' basis at their points, (nq, nfd_s).
+    """
+
+    def __init__(
+        self, g: ContactGeometry, secondary: np.ndarray, weights: np.ndarray, Ns: np.ndarray
+    ) -> None:
+        self.g = g
+        self.secondary = secondary
+        self.weights = weights
+        self.Ns = Ns
+        self.gdim = g.Ym.shape[2]
+        imap = g.reach.index_map
+        self.n = imap.size_local + imap.num_ghosts  # local nodes of the extended map
+        self._T: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._V: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def add_points(self, pts: np.ndarray, facet: np.ndarray, N: np.ndarray, M: np.ndarray) -> None:
+        """``d t_p = M_p sum_l N_pl dn_l``: the nodal normals of the primary facet ``facet_p``.
+
+        Args:
+            pts: The points, (np,).
+            facet: Each one's primary facet (index in the reach), (np,).
+            N: The primary basis there, (np, nfd_m).
+            M: ``d t / d w`` per ``w = sum_l N_l dn_l``, global components, (np, gdim, gdim).
+        """
+        d = np.arange(self.gdim)
+        rows = pts[:, None, None, None] * self.gdim + d[None, None, :, None]
+        cols = self.g.reach.nodes[facet][:, :, None, None] * self.gdim + d[None, None, None, :]
+        vals = N[:, :, None, None] * M[:, None, :, :]
+        rows, cols = np.broadcast_arrays(rows, cols)
+        self._T.append((rows.ravel(), cols.ravel(), vals.ravel()))
+
+    def add_forces(self, rows: np.ndarray, normals: np.ndarray, values: np.ndarray) -> None:
+        """The change of the forces on the nodes of the facets ``rows`` with the nodal normals.
+
+        Args:
+            rows: The row facets (index in the reach), (k,).
+            normals: The facets whose nodal normals the columns are, (k,).
+            values: ``d(forces)/dn``, (k, nfd_m * gdim, nfd_m * gdim), node-major.
+        """
+        nodes, gd = self.g.reach.nodes, self.gdim
+        d = np.arange(gd)
+        r = (nodes[rows][:, :, None] * gd + d).reshape(rows.size, -1)
+        c = (nodes[normals][:, :, None] * gd + d).reshape(normals.size, -1)
+        r, c = np.broadcast_arrays(r[:, :, None], c[:, None, :])
+        self._V.append((r.ravel(), c.ravel(), values.ravel()))
+
+    def _forces(self) -> sparse.csr_matrix:
+        """``F``: the points' tractions to the nodal forces (dofs x points' components)."""
+        g, gd, nq = self.g, self.gdim, self.Ns.shape[0]
+        npts = self.weights.size
+        d = np.arange(gd)
+        # the secondary facets' nodes: w_p N_k(q_p)
+        p = np.flatnonzero(g.found)
+        sec = self.secondary[p // nq]  # (np, nfs)
+        wN = self.weights[p, None] * self.Ns[p % nq]
+        r = [(sec[:, :, None] * gd + d).ravel()]
+        c = [np.broadcast_to((p[:, None, None] * gd + d), (*sec.shape, gd)).ravel()]
+        v = [np.repeat(wN.ravel(), gd)]
+        tr = g.transfer
+        if tr.secondary.size:  # the primary nodes of the segment pairs: -B_lq
+            rn = g.reach.nodes[tr.primary][:, :, None, None] * gd + d  # (npair, nfm, 1, gd)
+            cp = (tr.secondary[:, None] * nq + np.arange(nq))[:, None, :, None] * gd + d
+            rn, cp = np.broadcast_arrays(rn, cp)  # (npair, nfm, nq, gd)
+            r.append(rn.ravel())
+            c.append(cp.ravel())
+            v.append(np.repeat(-tr.B.ravel(), gd))
+        return sparse.csr_matrix(
+            (np.concatenate(v), (np.concatenate(r), np.concatenate(c))),
+            shape=(self.n * gd, npts * gd),
+        )
+
+    def _rates(self) -> sparse.csr_matrix:
+        """``Dn``: the nodal normals' change with the nodes (normals' x nodes' components)."""
+        g, gd = self.g, self.gdim
+        assert g.normal_rates is not None  # (with the iterate's normals)
+        facets, Dn = g.normal_rates
+        nodes = g.reach.nodes
+        nfd = nodes.shape[1]
+        # one (facet, slot) per node: its normal's rate is the same from every facet around it
+        K, first = np.unique(nodes.ravel(), return_index=True)
+        f, l_ = first // nfd, first % nfd
+        fa = facets[f, l_]  # (nK, A)
+        ok = fa >= 0
+        k_of, a_of = np.nonzero(ok)
+        d = np.arange(gd)
+        r = K[k_of][:, None, None, None] * gd + d[None, None, :, None]  # (m, nfd, gd, gd)
+        c = nodes[fa[k_of, a_of]][:, :, None, None] * gd + d[None, None, None, :]
+        r, c = np.broadcast_arrays(r, c)
+        v = Dn[f[k_of], l_[k_of], a_of]  # (m, nfd, gd, gd)
+        return sparse.csr_matrix(
+            (v.ravel(), (r.ravel(), c.ravel())), shape=(self.n * gd, self.n * gd)
+        )
+
+    def matrix(self) -> sparse.csr_matrix:
+        """``(F T + V) Dn`` over the local dofs, the pattern's entries (canonical CSR)."""
+        gd, n = self.gdim, self.n
+        npts = self.weights.size
+        Rn = sparse.csr_matrix((n * gd, n * gd))
+        if self._T:
+            r, c, v = (np.concatenate(a) for a in zip(*self._T, strict=True))
+            T = sparse.csr_matrix((v, (r, c)), shape=(npts * gd, n * gd))
+            Rn = self._forces() @ T
+        if self._V:
+            r, c, v = (np.concatenate(a) for a in zip(*self._V, strict=True))
+            Rn = Rn + sparse.csr_matrix((v, (r, c)), shape=(n * gd, n * gd))
+        out = (Rn @ self._rates()).tocoo()
+        keep = self.g.reach.holds_nodes(out.row // gd, out.col // gd)
+        return sparse.csr_matrix(
+            (out.data[keep], (out.row[keep], out.col[keep])), shape=(n * gd, n * gd)
+        )
 
 
 _J = np.array([[0.0, 1.0], [-1.0, 0.0]])  # e1 = J n (2-D frames)

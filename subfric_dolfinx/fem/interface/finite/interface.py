@@ -449,8 +449,11 @@ class SlidingInterface(BaseInterface):
         separated_stiffness: float = 0.0,
         start: NewtonStart | None = None,
         first: bool = False,
-    ) -> list[Block]:
-        """The tangent's blocks of the last iterate (:meth:`.assembly.SlidingAssembly.blocks`).
+    ) -> tuple[list[Block], Any]:
+        """The tangent of the last iterate (:meth:`.assembly.SlidingAssembly.blocks`).
+
+        Its blocks, and its part through the iterate's nodal normals (a ``scipy.sparse`` CSR
+        matrix over the local dofs, or ``None``).
 
         ``first``: the step's first Jacobian; unless its ``start`` turns, the points that
         continue to slip take their slip tangent (:meth:`_continuing_points`: a start that did
@@ -486,6 +489,8 @@ class SlidingInterface(BaseInterface):
     ) -> None:
         """Add the tangent of the last iterate to ``A``, block by block (:meth:`_blocks`).
 
+        The part through the nodal normals, summed already, goes in row by row.
+
         ``A`` must hold this interface's pattern (the problem's :meth:`create_matrix` after the
         last :attr:`layout_version`). The rows and columns of ``constrained`` dofs are left out.
         ``separated_stiffness`` and ``start``: :meth:`.assembly.SlidingAssembly.law_tangent`.
@@ -494,7 +499,10 @@ class SlidingInterface(BaseInterface):
         mask = constrained.reshape(-1, bs) if constrained is not None else None
         gl = self.index_map.local_to_global
         first, self._first_jacobian = self._first_jacobian, False
-        for rows, cols, vals in _grouped(self._blocks(separated_stiffness, start, first)):
+        blocks, chained = self._blocks(separated_stiffness, start, first)
+        if chained is not None:
+            _add_rows(A, chained, constrained, bs, gl)
+        for rows, cols, vals in _grouped(blocks):
             if rows.shape[0] == 0:
                 continue
             if mask is not None:
@@ -513,7 +521,10 @@ class SlidingInterface(BaseInterface):
 
         def add(local: np.ndarray) -> None:
             acc = local.reshape(-1, bs)
-            for rows, cols, vals in self._blocks():
+            blocks, chained = self._blocks()
+            if chained is not None:
+                local += chained @ we.ravel()
+            for rows, cols, vals in blocks:
                 if rows.shape[0] == 0:  # a rank without points or segments: nothing to add
                     continue
                 lift = np.einsum("pij,pj->pi", vals, we[cols].reshape(cols.shape[0], -1))
@@ -559,6 +570,29 @@ class SlidingInterface(BaseInterface):
         """Free the PETSc vectors (safe to call more than once)."""
         super().destroy()
         self.search.destroy()
+
+
+def _add_rows(A: PETSc.Mat, C: Any, constrained: np.ndarray | None, bs: int, gl: Any) -> None:
+    """Add the CSR matrix ``C`` over the local dofs to ``A`` (``ADD_VALUES``), row by row.
+
+    The rows and columns of ``constrained`` dofs are left out; ``gl``: the index map's local to
+    global node numbers.
+    """
+    C = C.tocoo()
+    keep = C.data != 0.0
+    if constrained is not None:
+        keep &= ~(constrained[C.row] | constrained[C.col])
+    r, c, v = C.row[keep], C.col[keep], C.data[keep]
+    if r.size == 0:
+        return
+    rows, count = np.unique(r, return_counts=True)  # (C's rows are sorted)
+    indptr = np.concatenate([[0], np.cumsum(count)]).astype(PETSc.IntType)
+
+    def glob(dof: np.ndarray) -> np.ndarray:
+        node = gl((dof // bs).astype(np.int32)).astype(np.int64)
+        return (node * bs + dof % bs).astype(PETSc.IntType)
+
+    A.setValuesIJV(indptr, glob(c), v, addv=PETSc.InsertMode.ADD_VALUES, rowmap=glob(rows))
 
 
 def _grouped(blocks: list[Block]) -> list[Block]:

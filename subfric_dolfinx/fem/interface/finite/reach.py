@@ -89,6 +89,26 @@ class Reach:
         owner = np.repeat(np.arange(self.ptr.size - 1), np.diff(self.ptr))
         return np.unique(owner * npf + self.idx)
 
+    @functools.cached_property
+    def node_keys(self) -> np.ndarray:
+        """The node pairs of :attr:`couplings` as sorted keys ``row * n + col`` (``n`` nodes)."""
+        n = self.index_map.size_local + self.index_map.num_ghosts
+        keys = [
+            (r.astype(np.int64)[:, :, None] * n + c[:, None, :]).ravel()
+            for r, c in self.couplings.blocks
+        ]
+        return np.unique(np.concatenate(keys)) if keys else np.zeros(0, dtype=np.int64)
+
+    def holds_nodes(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Whether the pattern couples the local nodes ``rows`` and ``cols`` (:attr:`couplings`)."""
+        n = self.index_map.size_local + self.index_map.num_ghosts
+        keys = np.asarray(rows, dtype=np.int64) * n + cols
+        k = self.node_keys
+        if k.size == 0:
+            return np.zeros(keys.shape, dtype=bool)
+        pos = np.minimum(np.searchsorted(k, keys), k.size - 1)
+        return k[pos] == keys
+
     def within(self, secondary: np.ndarray, primary: np.ndarray) -> np.ndarray:
         """Whether each (secondary facet, primary facet index) pair is in the secondary's reach."""
         keys = np.asarray(secondary, dtype=np.int64) * max(self.facets.size, 1) + primary
