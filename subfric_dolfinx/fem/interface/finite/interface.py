@@ -53,8 +53,8 @@ read.
   (on by default), the transfer's change with the geometry (:func:`.transfer.transfer_tangent`):
   the Jacobian is the residual's derivative, 2-D and 3-D
   (``tests/fem/interface/finite/test_finite_sliding_tangent.py``,
-  ``tests/fem/interface/finite/test_finite_sliding_normals.py``), but where a secondary facet overhangs
-  the primary surface (the complement's change with the normals is left out).
+  ``tests/fem/interface/finite/test_finite_sliding_normals.py``), but where a secondary facet
+  overhangs the primary surface (the complement's change with the normals is left out).
 
 Geometrically the bodies stay linear (small strain, reference integration weights); only the
 contact kinematics is finite.
