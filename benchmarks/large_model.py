@@ -61,11 +61,17 @@ def convert(n: int, out: Path) -> Path:
     return xdmf
 
 
-def scene_for(xdmf: Path, refine: int, end: float | None) -> dict:
-    """``cluster/pad.json`` on the partitioned coarse mesh refined ``refine`` times."""
+def scene_for(xdmf: Path, refine: int, end: float | None, direct: int | None = None) -> dict:
+    """``cluster/pad.json`` on the partitioned coarse mesh refined ``refine`` times.
+
+    ``direct``: on the scene's own mesh instead (gmsh, ``direct`` elements along the pad).
+    """
     scene = copy.deepcopy(json.loads(SCENE.read_text()))
-    scene["name"] = f"{scene['name']}_refined"
-    scene["mesh"] = {"file": str(xdmf), "gdim": 3, "refine": refine}
+    if direct is None:
+        scene["name"] = f"{scene['name']}_refined"
+        scene["mesh"] = {"file": str(xdmf), "gdim": 3, "refine": refine}
+    else:
+        scene["mesh"]["options"]["n_interface"] = direct
     if end is not None:
         import numpy as np
 
@@ -120,10 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        scene = scene_for(xdmf, args.refine, args.end)
-        if args.direct is not None:
-            scene["mesh"] = json.loads(SCENE.read_text())["mesh"]
-            scene["mesh"]["options"]["n_interface"] = args.direct
+        scene = scene_for(xdmf, args.refine, args.end, args.direct)
         scene["solver"].setdefault("options", {}).update(dict(args.option))
         result = run_scene(
             scene,
