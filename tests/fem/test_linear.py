@@ -312,10 +312,10 @@ def test_krylov_products_do_not_depend_on_memory_layout(comm):
     """The inner products of GMRES's Gram-Schmidt (``VecMDot``) and its updates (``VecMAXPY``)
     on the package's vectors and their duplicates (a solver's work and Krylov vectors) are the
     same bit for bit wherever the vectors lie: PETSc's default ``VecMDot`` calls BLAS ``gemv``
-    on vectors that happen to lie one after the other, which sums in another order (a run of
-    ``demos/hertz.py --meshed-apart`` took another Newton path in about one run in four).
-    The database is left as it was; a user's ``-vec_mdot_use_gemv 1`` is kept (and then the
-    products do depend on the layout: the data tell the two sums apart)."""
+    on vectors that happen to lie one after the other, which sums in another order, so that a
+    run could take another Newton path than the same run before (docs/design.md, *Repeatable
+    Krylov solves*). The database is left as it was; a user's ``-vec_mdot_use_gemv 1`` is kept
+    (and then the products do depend on the layout: the data tell the two sums apart)."""
     rng = np.random.default_rng(7 + comm.rank)
     n = 1000
     imap = compat.ghosted_index_map(comm, n, np.zeros(0, np.int64), np.zeros(0, np.int32))
