@@ -40,6 +40,10 @@ testing the version itself. Each difference was read in the installed sources of
   :func:`repeatable_partitions`, for whoever needs two meshes partitioned alike (the test suite
   sets the variable). It is not the default: the one-thread partition can be worse for the
   solver (see the function).
+- PETSc's multiple inner product ``VecMDot`` (GMRES's Gram-Schmidt): from PETSc 3.21 (both
+  stacks) it calls BLAS ``gemv`` on vectors that happen to lie one after the other in memory, so
+  that the same solve rounds differently from run to run; :func:`petsc_vector` makes its vectors
+  under :func:`repeatable_vectors`, which turns that off.
 - ``SNES.setFunctionDomainError``: missing in petsc4py 3.22, present from 3.23 (handled in
   :mod:`subfric_dolfinx.fem._petsc`, the one place that calls PETSc beyond petsc4py).
 - DOLFINx's own nonlinear solver: ``fem.petsc.NonlinearProblem`` with ``nls.petsc.NewtonSolver``
@@ -73,6 +77,7 @@ from petsc4py import PETSc
 
 __all__ = [
     "DOLFINX_VERSION",
+    "REPEATABLE_VECTOR_OPTIONS",
     "SNES_DIVERGED_NAN",
     "SUPPORTED",
     "adjacency_list",
@@ -90,6 +95,7 @@ __all__ = [
     "read_from_msh",
     "refine_uniform",
     "repeatable_partitions",
+    "repeatable_vectors",
 ]
 
 
@@ -179,11 +185,51 @@ def read_from_msh(
     return out
 
 
+REPEATABLE_VECTOR_OPTIONS: dict[str, str] = {"vec_mdot_use_gemv": "0", "vec_maxpy_use_gemv": "0"}
+"""PETSc's options (global, no prefix) under which :func:`petsc_vector` makes its vectors.
+
+A vector takes its operations when it is made, and its duplicates inherit them: the work vectors
+of SNES and the Krylov basis of GMRES, which are duplicates of the solution vector. With
+``vec_mdot_use_gemv`` on (PETSc's default since 3.21: both stacks), ``VecMDot`` (GMRES's
+Gram-Schmidt) treats vectors that lie one after the other in memory, at most 64 entries apart, as
+the columns of one matrix and calls BLAS ``gemv``, which sums in another order than the
+vector-by-vector product. Vectors made one by one (PETSc's ghosted vectors and their duplicates)
+are so placed or not as ``malloc`` finds room, which depends on everything the process allocated
+before (the hash seed of Python's strings, the addresses of objects): the same solve of the same
+data rounds differently from run to run, and Newton's stopping tests may then take another number
+of iterations. ``VecMAXPY`` has the same choice (off by default). With both off, these products do
+not depend on where the vectors lie.
+"""
+
+
+@contextlib.contextmanager
+def repeatable_vectors() -> Iterator[None]:
+    """Within the block, new PETSc vectors take :data:`REPEATABLE_VECTOR_OPTIONS`.
+
+    An option the database has already (the user's, e.g. ``-vec_mdot_use_gemv 1`` on the command
+    line) is kept; the others are deleted again on exit. Not collective.
+    """
+    opts = PETSc.Options()
+    added = [k for k in REPEATABLE_VECTOR_OPTIONS if not opts.hasName(k)]
+    for k in added:
+        opts[k] = REPEATABLE_VECTOR_OPTIONS[k]
+    try:
+        yield
+    finally:
+        for k in added:
+            opts.delValue(k)
+
+
 def petsc_vector(index_map: dolfinx.common.IndexMap, bs: int) -> PETSc.Vec:
-    """A ghosted PETSc vector laid out by ``index_map`` with block size ``bs``."""
-    if _NEW:
-        return _la_petsc.create_vector([(index_map, bs)])
-    return dolfinx.la.create_petsc_vector(index_map, bs)
+    """A ghosted PETSc vector laid out by ``index_map`` with block size ``bs``.
+
+    Made under :func:`repeatable_vectors`: its inner products and those of its duplicates (a
+    solver's work and Krylov vectors) do not depend on where they lie in memory.
+    """
+    with repeatable_vectors():
+        if _NEW:
+            return _la_petsc.create_vector([(index_map, bs)])
+        return dolfinx.la.create_petsc_vector(index_map, bs)
 
 
 def ghosted_index_map(

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from petsc4py import PETSc
 
-from subfric_dolfinx import meshing
+from subfric_dolfinx import compat, meshing
 from subfric_dolfinx.constitutive import build_law, preset
 from subfric_dolfinx.fem import (
     Dirichlet,
@@ -36,6 +36,7 @@ from tests.helpers import (
     DEMO_SLIDES,
     SEC7_PENALTY,
     block_problem,
+    everywhere,
     prefix,
     raised_on_every_rank,
     small_scene,
@@ -274,3 +275,71 @@ def test_auto_takes_the_choice_of_the_problem_size_and_communicator(comm, monkey
     with FrictionSolver(block, prefix("auto5")) as s:  # 2-D: a factorisation at any size
         assert s.strategy == "reuse"
     assert parse_scene(small_scene()).solver.linear == "auto"
+
+
+def _placed(x, values, step):
+    """Vectors of ``x``'s layout holding the rows of ``values``, placed in one buffer ``step``
+    entries apart (negative: in the reverse order of the rows). Returns (vectors, buffer)."""
+    m, n = values.shape
+    buf = np.zeros(m * abs(step) + n)
+    vecs = []
+    for i in range(m):
+        at = i * step if step > 0 else (m - 1 - i) * -step
+        a = buf[at : at + n]
+        a[:] = values[i]
+        vecs.append(PETSc.Vec().createWithArray(a, size=x.getSizes(), comm=x.getComm()))
+    return vecs, buf
+
+
+def _products(x, values):
+    """``x``'s multiple inner products and update (``VecMDot``, ``VecMAXPY``) with the rows of
+    ``values`` placed one after the other in memory (2 entries apart, as ``malloc`` puts vectors
+    made one by one) and in the reverse order."""
+    alpha = np.linspace(0.5, 1.5, values.shape[0])
+    out = []
+    for step in (values.shape[1] + 2, -(values.shape[1] + 2)):
+        vecs, _ = _placed(x, values, step)
+        y = x.duplicate()
+        x.copy(y)
+        y.maxpy(alpha, vecs)
+        out.append((np.array(x.mDot(vecs)), y.array_r.copy()))
+        for v in [*vecs, y]:
+            v.destroy()
+    return out
+
+
+def test_krylov_products_do_not_depend_on_memory_layout(comm):
+    """The inner products of GMRES's Gram-Schmidt (``VecMDot``) and its updates (``VecMAXPY``)
+    on the package's vectors and their duplicates (a solver's work and Krylov vectors) are the
+    same bit for bit wherever the vectors lie: PETSc's default ``VecMDot`` calls BLAS ``gemv``
+    on vectors that happen to lie one after the other, which sums in another order, so that a
+    run could take another Newton path than the same run before (docs/design.md, *Repeatable
+    Krylov solves*). The database is left as it was; a user's ``-vec_mdot_use_gemv 1`` is kept
+    (and then the products do depend on the layout: the data tell the two sums apart)."""
+    rng = np.random.default_rng(7 + comm.rank)
+    n = 1000
+    imap = compat.ghosted_index_map(comm, n, np.zeros(0, np.int64), np.zeros(0, np.int32))
+    before = PETSc.Options().getAll()
+    x = compat.petsc_vector(imap, 1)
+    assert PETSc.Options().getAll() == before
+    prob = block_problem(comm)
+    with FrictionSolver(prob, prefix("mdot"), linear="reuse") as s:
+        vectors = [x, x.duplicate(), s.x.duplicate()]  # (SNES's and KSP's are duplicates of s.x)
+        for v in vectors:
+            k = v.getLocalSize()
+            v.array_w[:] = rng.standard_normal(k)
+            (dot_a, up_a), (dot_b, up_b) = _products(v, rng.standard_normal((6, k)))
+            assert everywhere(comm, np.array_equal(dot_a, dot_b)), dot_a - dot_b
+            assert everywhere(comm, np.array_equal(up_a, up_b))
+    opts = PETSc.Options()
+    opts["vec_mdot_use_gemv"] = "1"
+    try:
+        y = compat.petsc_vector(imap, 1)
+        assert opts.getString("vec_mdot_use_gemv") == "1"
+        y.array_w[:] = rng.standard_normal(n)
+        (dot_a, _), (dot_b, _) = _products(y, rng.standard_normal((6, n)))
+        assert everywhere(comm, not np.array_equal(dot_a, dot_b))
+    finally:
+        opts.delValue("vec_mdot_use_gemv")
+    for v in [*vectors, y]:
+        v.destroy()
