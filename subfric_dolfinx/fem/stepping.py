@@ -41,6 +41,7 @@ from .steplog import RunLog, activity_text
 from .validity import ValidityWatch
 
 __all__ = [
+    "FIRST_TOUCH_OPTIONS",
     "MAX_STEPS",
     "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
@@ -68,6 +69,10 @@ The l2 line search (minimising the residual norm along the Newton direction) sol
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
 set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
 not the second."""
+
+FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
+"""Options of the first attempt at a run's first step with a finite-sliding interface (a first
+touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
 
 RETRY_SEPARATED_STIFFNESS = 1e-6
 """In the retry of a failed step, points without stiffness keep this fraction of the contact
@@ -587,7 +592,7 @@ class LoadStepper:
         r = self.solver.solve(
             target,
             dt,
-            options=self.retry_options if opening else first,
+            options=FIRST_TOUCH_OPTIONS if opening else first,
             separated_stiffness=stiff,
             predictor=predicted,
             start=NewtonStart(
@@ -621,7 +626,8 @@ class LoadStepper:
         """Whether this step's first attempt takes the retry's line search: a first touch.
 
         A run's first step with an interface re-paired in the current configuration (finite
-        sliding), the same on every rank; without the retry's stiffness of separated points.
+        sliding), the same on every rank: :data:`FIRST_TOUCH_OPTIONS`, without the retry's
+        stiffness of separated points.
         From the state at rest, the first Newton iterate is taken on the tangent of an open
         interface: a body brought to touch moves into the other by up to the step's approach,
         far beyond the penetration of the solution, the next tractions are many times the
@@ -630,7 +636,7 @@ class LoadStepper:
         penalty's stick region is far narrower than the bodies' shift under the friction). The
         line search shortens the steps that cross it (``docs/model.md`` §12).
         """
-        if self.step != 0 or self.increment is not None or self.retry_options is None:
+        if self.step != 0 or self.increment is not None:
             return False
         interfaces = getattr(self.problem, "interfaces", {}).values()
         return any(not getattr(i, "fixed_pairs", True) for i in interfaces)
