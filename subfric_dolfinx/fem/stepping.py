@@ -41,6 +41,7 @@ from .steplog import RunLog, activity_text
 from .validity import ValidityWatch
 
 __all__ = [
+    "FIRST_TOUCH_OPTIONS",
     "MAX_STEPS",
     "PREDICTOR_FORCE_RATIO",
     "RETRY_OPTIONS",
@@ -68,6 +69,10 @@ The l2 line search (minimising the residual norm along the Newton direction) sol
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
 set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
 not the second."""
+
+FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
+"""Options of the first attempt at a run's first step with a finite-sliding interface (a first
+touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
 
 RETRY_SEPARATED_STIFFNESS = 1e-6
 """In the retry of a failed step, points without stiffness keep this fraction of the contact
@@ -583,10 +588,11 @@ class LoadStepper:
         first = self.retry_options if keep else None
         stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
         predicted = self._predict(target, dt)
+        opening = first is None and self._first_touch()
         r = self.solver.solve(
             target,
             dt,
-            options=first,
+            options=FIRST_TOUCH_OPTIONS if opening else first,
             separated_stiffness=stiff,
             predictor=predicted,
             start=NewtonStart(
@@ -615,6 +621,25 @@ class LoadStepper:
             self._keep_retry = self.sticky_retry and bool(r.converged)
             self._retry_run = 0
         return r, first, retried
+
+    def _first_touch(self) -> bool:
+        """Whether this step's first attempt takes the retry's line search: a first touch.
+
+        A run's first step with an interface re-paired in the current configuration (finite
+        sliding), the same on every rank: :data:`FIRST_TOUCH_OPTIONS`, without the retry's
+        stiffness of separated points.
+        From the state at rest, the first Newton iterate is taken on the tangent of an open
+        interface: a body brought to touch moves into the other by up to the step's approach,
+        far beyond the penetration of the solution, the next tractions are many times the
+        solution's and, with friction, points that stick at the solution start to slip; with
+        full steps Newton may then cycle between their two slip directions (a stiff tangential
+        penalty's stick region is far narrower than the bodies' shift under the friction). The
+        line search shortens the steps that cross it (``docs/model.md`` §12).
+        """
+        if self.step != 0 or self.increment is not None:
+            return False
+        interfaces = getattr(self.problem, "interfaces", {}).values()
+        return any(not getattr(i, "fixed_pairs", True) for i in interfaces)
 
     def _cut_step(
         self, r: SolveResult, target: float, dt: float, hold: bool, cuts: int, retried: bool

@@ -29,6 +29,7 @@ from mpi4py import MPI
 
 from demos import cattaneo_mindlin, hertz
 from subfric_dolfinx.constitutive import Status
+from subfric_dolfinx.fem import FrictionSolver
 from subfric_dolfinx.scenes import run_scene
 
 
@@ -60,10 +61,21 @@ def test_hertz_contact_against_the_closed_form(shared_tmp):
     print({n: {k: v for k, v in key.items() if k.startswith("err")} for n, key in keys.items()})
 
 
-def test_hertz_with_the_bodies_meshed_apart(shared_tmp):
+def test_hertz_with_the_bodies_meshed_apart(shared_tmp, monkeypatch):
     n = 4
     argv = ["--n", str(n), "--meshed-apart", "--out", str(shared_tmp), "--no-figures", "-q"]
+    failed = []  # the times of the attempts that did not converge
+    solve = FrictionSolver.solve
+
+    def counted(self, t, dt, **kwargs):
+        r = solve(self, t, dt, **kwargs)
+        if not r.converged:
+            failed.append(t)
+        return r
+
+    monkeypatch.setattr(FrictionSolver, "solve", counted)
     res = hertz.main(argv, MPI.COMM_WORLD)
+    monkeypatch.undo()
     key = res.info["hertz"]
     _, matched = run_hertz(n, shared_tmp / "matched")
     # equilibrium; F_n is along the flat's normals, which the load tilts (measured 1.6e-5)
@@ -74,13 +86,12 @@ def test_hertz_with_the_bodies_meshed_apart(shared_tmp):
     assert abs(key["a_edge"] - key["a_H"]) < 0.5 * hertz.A_TARGET / n, key
     for err in ("err_p_all", "err_p_rms"):
         assert key[err] < 1.5 * matched[err], (err, key, matched)
-    # Newton: at most 5 a step, but the first, where the contact closes from nothing (no
-    # increment to extrapolate): 5 with trixie's stack, 7 with sid's (the same mesh; 7 whatever
-    # the step, 10, 16 or 20 steps; the matched mesh at --n 8 takes 7 there too)
+    # Newton: at most 5 a step, the first included, where the contact closes from nothing (no
+    # increment to extrapolate: the run's first step takes the line search, measured 4; with full
+    # steps its first attempt cycled between two slip directions of the contact's points and
+    # failed, docs/model.md §12), every step at its first attempt
     newton = [r["newton"] for r in res.history]
-    assert newton[0] <= 7 and max(newton[1:]) <= 5, newton
-    # every step converges at its first attempt (no retry: the iterate's normals, the default,
-    # turn within a step; the points are measured from their contact surfaces)
+    assert max(newton) <= 5 and not failed, (newton, failed)
     assert all(r["cuts"] == 0 for r in res.history), [r["cuts"] for r in res.history]
 
 

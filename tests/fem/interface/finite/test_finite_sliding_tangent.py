@@ -52,7 +52,9 @@ from tests.helpers import everywhere
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
-def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None):
+def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=None):
+    """The block pressed by 300 MPa on its top and slid; ``press_down``: pressed instead by
+    moving its top down by this much (mm)."""
     dom = tagged_blocks(
         comm,
         base=(0.0, base_end, -1.0, 0.0),
@@ -62,13 +64,18 @@ def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None):
         split_x=2.0,
     )
     program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
+    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")]
+    loads = [Pressure("top", 300.0, amplitude="press")]
+    if press_down is not None:
+        bcs.append(Dirichlet("top", -press_down, 1, amplitude="press"))
+        loads = []
     return InterfaceProblem(
         dom,
         law,
         {"base": Material(2.1e5, 0.3), "block": Material(7e4, 0.33)},
         program,
-        [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")],
-        [Pressure("top", 300.0, amplitude="press")],
+        bcs,
+        loads,
         interfaces=[
             Interface(
                 "contact", "base", "block", kinematics="finite_sliding", initial_gap=initial_gap
@@ -193,7 +200,9 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
     def g0(x):
         return 0.0001 + 0.0005 * (x[0] - 1.5) ** 2
 
-    problem = problem_2d(comm, law_of(law), 1, initial_gap=g0)
+    # pressed by its top's displacement: under a pressure, the block held only sideways floats
+    # on its open interface (a singular Jacobian until it touches)
+    problem = problem_2d(comm, law_of(law), 1, initial_gap=g0, press_down=0.005)
     iface = problem.interfaces["contact"]
     converged, err, _ = mid_step_differences(comm, problem)
     g, pts = iface.geometry, iface.law_points
