@@ -141,10 +141,10 @@ def _splitters(comm: Any, ordered: np.ndarray, total: int) -> np.ndarray:
     counts = comm.gather(sample.size, root=0)
     if comm.rank == 0:
         assert counts is not None  # (rank 0 gathers)
-        got = np.empty(int(sum(counts)), dtype=np.int64)
+        flat = np.empty(int(sum(counts)), dtype=np.int64)
         displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        comm.Gatherv(sample.ravel(), [got, (counts, displs), MPI.INT64_T], root=0)
-        got = got.reshape(-1, width + 1)
+        comm.Gatherv(sample.ravel(), [flat, (counts, displs), MPI.INT64_T], root=0)
+        got = flat.reshape(-1, width + 1)
         got = got[_lexsorted(got[:, :width])]
         before = np.cumsum(got[:, width]) - got[:, width]  # rows before each sample (estimate)
         at = np.searchsorted(before, (np.arange(1, size) * total) / size, side="left")
