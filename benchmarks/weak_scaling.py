@@ -566,8 +566,9 @@ def row_of(r: dict) -> dict:
         else math.nan,
         "profile_bytes": max(_mpi_bytes(p, "profile", GATHERS) for p in pr),
         "checkpoint_rank0_bytes": _mpi_bytes(pr[0], "checkpoint", ("Gather", "Gatherv")),
-        "checkpoint_allgather_bytes": max(
-            _mpi_bytes(p, "checkpoint", ("Allgather", "Allgatherv")) for p in pr
+        "checkpoint_others_bytes": max(
+            (_mpi_bytes(p, "checkpoint", ("Allgather", "Allgatherv", "Bcast")) for p in pr[1:]),
+            default=0.0,
         ),
         "convert_peak_mib": r["convert"]["peak_mib"] if "convert" in r else math.nan,
         "load": r["load"][0],
@@ -610,7 +611,7 @@ COLUMNS = [
     "refine_gather_bytes",
     "profile_bytes",
     "checkpoint_rank0_bytes",
-    "checkpoint_allgather_bytes",
+    "checkpoint_others_bytes",
     "convert_peak_mib",
     "load",
 ]
@@ -659,13 +660,14 @@ class Models:
             extrapolation refines as many times as the measured runs did. The ratio grows with
             the model towards 8 per refinement (a smaller share of vertices on the surface), so
             the extrapolated coarse model is an upper bound.
-        checkpoint_allgather: (a, s): bytes of ``Allgather(v)`` a rank receives when a
-            checkpoint is written = a + s ranks^2 (the interface rows' sample sort gathers
-            ``ranks`` sample rows of every rank on every rank; runs on several ranks).
+        checkpoint_others: (a, s): bytes of ``Allgather(v)`` and ``Bcast`` a rank other than
+            rank 0 receives when a checkpoint is written = a + s ranks (the interface rows'
+            sample sort broadcasts its ``ranks - 1`` splitters; runs on several ranks).
         convert: (a MiB, b MiB per coarse dof): peak RSS of the one process that meshes and
             writes the coarse model (refined path; NaN without such runs).
-        checkpoint_rank0: Bytes rank 0 gathers (``Gather(v)``) per interface point when a
-            checkpoint is written (the interface's coordinates, sorted there into the file's rows).
+        checkpoint_rank0: Bytes rank 0 gathers (``Gather(v)``) per sample row when a checkpoint
+            is written: the sample sort's samples, at most ``ranks`` of every rank, so rank 0
+            receives this times ``min(interface points, ranks^2)`` (runs on several ranks).
         jacobian: MiB per dof of the Jacobian's storage on a rank.
         gamg: MiB per dof of the GAMG hierarchy (coarse operators and interpolations).
         checkpoint: Checkpoint bytes per global dof.
@@ -699,7 +701,7 @@ class Models:
     coarsening: float
     coarse_rows: int
     refine_factor: float = 1.0
-    checkpoint_allgather: tuple[float, float] = (0.0, 0.0)
+    checkpoint_others: tuple[float, float] = (0.0, 0.0)
     convert: tuple[float, float] = (math.nan, math.nan)
 
 
@@ -785,9 +787,9 @@ def fit_models(
         start=_median([r["rss_start_mib"] for r in rows]),
         mesh=(mesh[0], mesh[1], mesh[2]),
         refine_factor=rows[largest]["dofs"] / coarse[largest],
-        checkpoint_allgather=fit_line(
-            [r["ranks"] ** 2 for r in several],
-            [r.get("checkpoint_allgather_bytes", 0.0) for r in several],
+        checkpoint_others=fit_line(
+            [r["ranks"] for r in several],
+            [r.get("checkpoint_others_bytes", 0.0) for r in several],
         )
         if several
         else (0.0, 0.0),
@@ -802,8 +804,11 @@ def fit_models(
         if gathered
         else (0.0, 0.0, 0.0),
         checkpoint_rank0=fit_proportional(
-            [r["interface_points"] for r in rows], [r["checkpoint_rank0_bytes"] for r in rows]
-        ),
+            [min(r["interface_points"], r["ranks"] ** 2) for r in several],
+            [r["checkpoint_rank0_bytes"] for r in several],
+        )
+        if several
+        else 0.0,
         jacobian=fit_proportional(d, [r["jacobian_mib"] for r in rows]),
         gamg=fit_proportional(d, [r["gamg_mib"] for r in rows]),
         checkpoint=fit_proportional(
@@ -854,10 +859,7 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
         "start_mib": m.start,
         "mesh_rank0_mib": m.start + m.mesh[0] + m.mesh[1] * dofs + m.mesh[2] * d,
         "setup_gather_mib": k * coarse**alpha * ranks**beta / mib,
-        "checkpoint_allgather_mib": (
-            m.checkpoint_allgather[0] + m.checkpoint_allgather[1] * ranks**2
-        )
-        / mib,
+        "checkpoint_others_mib": (m.checkpoint_others[0] + m.checkpoint_others[1] * ranks) / mib,
         "convert_mib": m.convert[0] + m.convert[1] * coarse,
         "jacobian_mib": m.jacobian * d,
         "gamg_mib": m.gamg * d,
@@ -871,7 +873,7 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
         "coarse_rows": m.coarse_rows,
         "checkpoint_gib": m.checkpoint * dofs / 2.0**30,
         "checkpoint_mib_per_rank": m.checkpoint * d / mib,
-        "checkpoint_rank0_mib": m.checkpoint_rank0 * iface / mib,
+        "checkpoint_rank0_mib": m.checkpoint_rank0 * min(iface, ranks**2) / mib,
     }
 
 
@@ -885,6 +887,9 @@ GATHER_PART = {
 }
 
 
+SORT_RANK0 = "the checkpoint's sample sort on rank 0 (at most `ranks` samples of every rank)"
+
+
 def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
     """Part -> (its MiB, the total MiB of the rank it sits on) in an extrapolated row.
 
@@ -892,12 +897,12 @@ def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
     ``start_mib``, the memory before it), the partitioner's set-up gathers (``setup_gather_mib``,
     every rank, over ``start_mib``), an interface profile gathered on every rank
     (``profile_mib``), the checkpoint's interface rows gathered on rank 0
-    (``checkpoint_rank0_mib``) and its sample sort's rows on every rank
-    (``checkpoint_allgather_mib``).
+    (``checkpoint_rank0_mib``: its sample sort's samples) and what every other rank receives for
+    it (``checkpoint_others_mib``: the splitters).
     """
     start = row.get("start_mib", 0.0)
     rss, rank0, mesh = row["rss_mib"], row["rss_rank0_mib"], row["mesh_rank0_mib"]
-    sort = row.get("checkpoint_allgather_mib", 0.0)
+    sort = row.get("checkpoint_others_mib", 0.0)
     return {
         "the per-rank memory of the distributed parts": (rss, rss),
         MESH_PART[path]: (mesh - start, mesh),
@@ -906,11 +911,14 @@ def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
             row["profile_mib"],
             rss + row["profile_mib"],
         ),
-        "the checkpoint's interface rows (coordinates gathered and sorted on rank 0)": (
+        SORT_RANK0: (
             row["checkpoint_rank0_mib"],
             rank0 + row["checkpoint_rank0_mib"],
         ),
-        "the checkpoint's sample sort (ranks^2 sample rows on every rank)": (sort, rss + sort),
+        "the checkpoint's sample sort on the other ranks (its ranks - 1 splitters)": (
+            sort,
+            rss + sort,
+        ),
     }
 
 
@@ -1018,7 +1026,7 @@ MEASURED_HEAD = [
     "refine_gather_bytes",
     "profile_bytes",
     "checkpoint_rank0_bytes",
-    "checkpoint_allgather_bytes",
+    "checkpoint_others_bytes",
     "convert_peak_mib",
     "load",
 ]
@@ -1037,7 +1045,7 @@ EXTRA_HEAD = [
     "interface_points",
     "profile_mib",
     "checkpoint_rank0_mib",
-    "checkpoint_allgather_mib",
+    "checkpoint_others_mib",
     "gather_step_kib",
     "petsc_mib_per_newton",
     "krylov_per_newton",
@@ -1142,10 +1150,11 @@ def model_lines(
         f"{m.gather_step[1]:.1f} × ranks bytes;",
         f"- PETSc halo bytes per Newton iteration and rank = {m.petsc_halo:.0f} × "
         f"(dofs per rank)^(2/3) (the run on the most ranks);",
-        f"- a checkpoint gathers {m.checkpoint_rank0:.0f} bytes per interface point on rank 0, "
-        f"and every rank receives {m.checkpoint_allgather[0]:.0f} + "
-        f"{m.checkpoint_allgather[1]:.1f} × ranks² bytes of `Allgather(v)` (the interface rows' "
-        f"sample sort: `ranks` sample rows of every rank);",
+        f"- a checkpoint's sample sort of the interface rows gathers {m.checkpoint_rank0:.0f} "
+        f"bytes per sample on rank 0 (at most `ranks` samples of every rank: "
+        f"min(interface points, ranks²) samples), and every other rank receives "
+        f"{m.checkpoint_others[0]:.0f} + {m.checkpoint_others[1]:.1f} × ranks bytes of "
+        f"`Bcast` and `Allgather(v)` (the `ranks - 1` splitters);",
         f"- Krylov iterations per Newton = {m.krylov[0]:.1f} + {m.krylov[1]:.2f} log10(dofs) "
         f"(measured {min(kry):.1f}–{max(kry):.1f} over the weak series); "
         f"{m.reductions:.1f} `MPI_Allreduce` calls per Krylov iteration;",
@@ -1183,8 +1192,9 @@ def stop_lines(m: Models, table: list[dict], path: str) -> list[str]:
         f"rank, rank 0 {row['rss_rank0_mib']:.0f} MiB; with the parts that grow with the model "
         f"or the ranks (set-up gathers {row['setup_gather_mib']:.0f} MiB, rank 0's mesh "
         f"{row['mesh_rank0_mib']:.0f} MiB, an interface profile {row['profile_mib']:.1f} MiB, the "
-        f"checkpoint's sample sort {row['checkpoint_allgather_mib']:.1f} MiB) the most any rank "
-        f"needs is {top:.0f} MiB.",
+        f"checkpoint's sample sort {row['checkpoint_rank0_mib']:.1f} MiB on rank 0 and "
+        f"{row['checkpoint_others_mib']:.2f} MiB on the others) the most any rank needs is "
+        f"{top:.0f} MiB.",
         "",
         f"Over the four targets: **{part}**: {why}"
         + (
@@ -1314,7 +1324,8 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "set-up (`read_gather_bytes`, `refine_gather_bytes`: the refined path's read and "
         "refinement); `profile_bytes` = what a rank receives when one interface profile is "
         "gathered on every rank; `checkpoint_rank0_bytes` = gathered on rank 0 for a "
-        "checkpoint, `checkpoint_allgather_bytes` = allgathered on every rank for it; "
+        "checkpoint, `checkpoint_others_bytes` = allgathered or broadcast to the other ranks "
+        "for it; "
         "`convert_peak_mib` = peak of the one process that meshed and wrote the coarse model.",
         "",
         *_table(MEASURED_HEAD, every_row),
@@ -1341,8 +1352,8 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "`coarse_dofs` = the model before the ranks refine it (the model itself on the gmsh "
         "path); `rss` = a rank's peak in the run, `rss_rank0` = rank 0's, `mesh_rank0` = rank "
         "0's while the mesh is built (MiB); `setup_gather_mib` = what a rank receives in the "
-        "set-up's gathers; `checkpoint_rank0_mib` = the interface coordinates rank 0 gathers for "
-        "a checkpoint, `checkpoint_allgather_mib` = what every rank receives for it; "
+        "set-up's gathers; `checkpoint_rank0_mib` = the sample rows rank 0 gathers for a "
+        "checkpoint, `checkpoint_others_mib` = what every other rank receives for it; "
         "`profile_mib` = one interface profile gathered on every rank; `gather_step_kib` = the "
         "package's and DOLFINx's gathers per step and rank; `petsc_mib_per_newton` = halo "
         "exchange per Newton iteration and rank; `convert_mib` = the one process that meshes "

@@ -46,10 +46,12 @@ from .timing import event_times
 
 __all__ = [
     "DEFAULT_OPTIONS",
+    "KSP_REASON_NAMES",
     "PETSC_ERROR_REASON",
     "FrictionSolver",
     "SolveResult",
     "SolverOptionError",
+    "krylov_failure",
 ]
 
 DEFAULT_OPTIONS: dict[str, Any] = {
@@ -91,6 +93,9 @@ class SolveResult:
             that of an abandoned iterate.
         error: PETSc's error message when PETSc raised one (``reason`` is then
             :data:`PETSC_ERROR_REASON`), else ``None``.
+        linear_failure: Newton stopped because a Krylov solve failed
+            (``DIVERGED_LINEAR_SOLVE``): what the Krylov solver did and the options that
+            change it (:func:`krylov_failure`), else ``None``.
     """
 
     converged: bool
@@ -103,6 +108,53 @@ class SolveResult:
     linear_retry: bool = False
     interrupted: bool = False
     error: str | None = None
+    linear_failure: str | None = None
+
+
+def _ksp_reason_names() -> dict[int, str]:
+    names: dict[int, str] = {}
+    for name, code in vars(PETSc.KSP.ConvergedReason).items():
+        if name.isupper() and "DEPRECATED" not in name and isinstance(code, int):
+            names.setdefault(int(code), name)
+    return names
+
+
+KSP_REASON_NAMES = _ksp_reason_names()
+"""PETSc's names of the Krylov solver's converged reasons, by code (negative: failed)."""
+
+
+def krylov_failure(ksp: PETSc.KSP, prefix: str) -> str | None:
+    """What a failed Krylov solve did and the options that change it (``None``: it did not fail).
+
+    Names the method, the preconditioner, PETSc's reason and the iterations, then the options
+    under ``prefix`` to change for that reason: GMRES's breakdown at a restart (the residual of
+    its recursion far from the true one: raise the restart or reorthogonalise), the iteration
+    limit, a failed preconditioner. The same text on every rank (the KSP is collective).
+    """
+    reason = int(ksp.getConvergedReason())
+    if reason >= 0:
+        return None
+    name = KSP_REASON_NAMES.get(reason, str(reason))
+    why = PETSc.KSP.ConvergedReason
+    kind, pc, its = ksp.getType(), ksp.getPC().getType(), ksp.getIterationNumber()
+    max_it = ksp.getTolerances()[3]
+    text = f"the Krylov solver failed: {kind} with pc {pc}, {name} after {its} iterations"
+    o = f"-{prefix}"
+    if reason == why.DIVERGED_BREAKDOWN and kind in ("gmres", "fgmres", "lgmres", "dgmres"):
+        hint = (
+            f"at a restart GMRES's true residual was far from the one of its recursion (a "
+            f"basis no longer orthogonal, or a preconditioner that is not one linear "
+            f"operator): raise {o}ksp_gmres_restart (at most {o}ksp_max_it, {max_it}: no "
+            f"restart) and orthogonalise twice ({o}ksp_gmres_cgs_refinement_type "
+            "refine_always, the strategy 'gamg''s default)"
+        )
+    elif reason == why.DIVERGED_MAX_IT:
+        hint = f"raise {o}ksp_max_it ({max_it}), or choose the linear strategy 'lu'"
+    elif reason == why.DIVERGED_PCSETUP_FAILED:
+        hint = f"the preconditioner failed: change {o}pc_type, or choose the linear strategy 'lu'"
+    else:
+        hint = f"change {o}ksp_type or {o}pc_type, or choose the linear strategy 'lu'"
+    return f"{text} ({hint})"
 
 
 _LIVE_PREFIXES: set[str] = set()
@@ -513,6 +565,9 @@ class FrictionSolver:
             rtol, atol, _, _ = self.snes.getTolerances()
             converged = bool(hist[-1] <= SNORM_SLACK * max(atol, rtol * hist[0]))
         counts = p.status_counts()
+        failure = None
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+            failure = krylov_failure(self.snes.getKSP(), self.prefix)
         return SolveResult(
             converged=bool(converged),
             iterations=self.snes.getIterationNumber(),
@@ -523,6 +578,7 @@ class FrictionSolver:
             krylov=int(krylov),
             linear_retry=retried,
             interrupted=bool(self.interrupted),
+            linear_failure=failure,
         )
 
     def refresh_preconditioner(self) -> None:

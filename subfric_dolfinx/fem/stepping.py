@@ -178,6 +178,8 @@ def _why(r: SolveResult, solver: FrictionSolver) -> str:
     why = f"SNES reason {r.reason}"
     if r.error:
         why += f" ({' '.join(r.error.split())[:300]})"
+    if r.linear_failure:
+        why += f": {r.linear_failure}"
     if solver.failed_points.size:
         why += f", return map failed at {solver.failed_points.size} points"
     return why
@@ -659,6 +661,10 @@ class LoadStepper:
         if bulk is not None:  # the bodies' law, not the interface: said first
             why = f"{bulk}; {why}"
         self._undo()
+        if r.linear_failure:  # not the model's doing: said at every cut, whatever the log level
+            logger.warning(
+                "step to t = %.6g (dt %.3g): %s; cutting the step", target, dt, r.linear_failure
+            )
         logger.debug(
             "  step to t = %.6g (dt %.3g) failed: %s; %s; cutting",
             target,

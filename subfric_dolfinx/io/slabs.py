@@ -10,7 +10,9 @@ one ``Alltoallv`` of the rows a rank holds or needs, so memory stays O(local) pe
 :func:`~.gather.gather_interface` (points sorted by rounded coordinates, ties in the order of the
 ranks and of each rank's points), so the file's rows are those of the gathered interface whatever
 the partition. It sorts in parallel (:func:`sorted_rows`, a sample sort): no rank receives more
-than about twice its share of the points, and none receives the whole interface.
+than about twice its share of the points to sort; the splitters are chosen on rank 0 from at most
+``size`` samples of each rank (all its points where it holds no more) and broadcast, so a rank
+other than rank 0 receives ``size - 1`` rows for them and nothing is all-gathered.
 """
 
 from __future__ import annotations
@@ -120,16 +122,56 @@ def _lexsorted(rows: np.ndarray) -> np.ndarray:
     return np.lexsort(rows.T[::-1])
 
 
+def _splitters(comm: Any, ordered: np.ndarray, total: int) -> np.ndarray:
+    """``size - 1`` splitters of the rows of every rank, from a weighted regular sample.
+
+    Each rank samples ``min(n_local, size)`` of its sorted rows at regular positions, each
+    sample standing for the rows up to the next one; rank 0 gathers them (at most
+    ``min(total, size**2)`` rows), sorts them and takes as splitter ``i`` the first sample with
+    at least ``i total / size`` rows before it; it broadcasts the splitters (``size - 1`` rows:
+    what every other rank receives). Where every row is a sample (``n_local <= size`` everywhere)
+    the splitters are the exact quantiles; otherwise no interval holds more than about twice the
+    mean (regular sampling).
+    """
+    size = comm.size
+    n_local, width = ordered.shape
+    count = min(n_local, size)
+    pick = (np.arange(count + 1) * n_local) // max(count, 1)
+    sample = np.column_stack([ordered[pick[:-1]], np.diff(pick)]).astype(np.int64)
+    counts = comm.gather(sample.size, root=0)
+    if comm.rank == 0:
+        assert counts is not None  # (rank 0 gathers)
+        flat = np.empty(int(sum(counts)), dtype=np.int64)
+        displs = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        comm.Gatherv(sample.ravel(), [flat, (counts, displs), MPI.INT64_T], root=0)
+        got = flat.reshape(-1, width + 1)
+        got = got[_lexsorted(got[:, :width])]
+        before = np.cumsum(got[:, width]) - got[:, width]  # rows before each sample (estimate)
+        at = np.searchsorted(before, (np.arange(1, size) * total) / size, side="left")
+        at = np.minimum(at, max(got.shape[0] - 1, 0))
+        chosen = got[at, :width] if got.shape[0] else np.zeros((0, width), dtype=np.int64)
+        splitters = np.ascontiguousarray(chosen, dtype=np.int64)
+    else:
+        comm.Gatherv(sample.ravel(), None, root=0)
+    n = comm.bcast(splitters.shape[0] if comm.rank == 0 else None, root=0)
+    if comm.rank != 0:
+        splitters = np.empty((n, width), dtype=np.int64)
+    comm.Bcast([splitters, MPI.INT64_T], root=0)
+    return splitters
+
+
 def sorted_rows(comm: Any, keys: np.ndarray) -> tuple[np.ndarray, int]:
     """The global position of each local row of ``keys`` in their lexicographic order (collective).
 
     A sample sort by regular sampling: each rank sorts its rows, the ranks agree on ``size - 1``
-    splitters from a regular sample of every rank's sorted rows (``size`` rows each: the only
-    data every rank receives, ``size**2`` rows), send each row to the
-    rank of its interval (one ``Alltoallv``), sort what they received, number it after the rows
-    of the ranks before them, and send the numbers back. Ties are broken by the rank, then by
-    the row's local index: the order of a stable sort of all ranks' rows concatenated in rank
-    order (:func:`~.gather.gather_interface`'s).
+    splitters chosen on rank 0 from a weighted regular sample of every rank's sorted rows
+    (:func:`_splitters`: at most ``size`` rows from each rank, gathered on rank 0 alone; every
+    rank receives the ``size - 1`` splitters), send each row to the rank of its interval (one
+    ``Alltoallv``), sort what they received, number it after the rows of the ranks before them,
+    and send the numbers back. Ties are broken by the rank, then by the row's local index: the
+    order of a stable sort of all ranks' rows concatenated in rank order
+    (:func:`~.gather.gather_interface`'s). The splitters decide only which rank sorts which
+    rows, never the positions.
 
     Args:
         comm: The communicator.
@@ -149,13 +191,8 @@ def sorted_rows(comm: Any, keys: np.ndarray) -> tuple[np.ndarray, int]:
         pos[_lexsorted(full)] = np.arange(n_local)
         return pos, total
     ordered = full[_lexsorted(full)]
-    pick = (np.arange(size) * n_local) // size if n_local else np.zeros(0, dtype=np.int64)
     width = full.shape[1]
-    samples = np.concatenate([s.reshape(-1, width) for s in comm.allgather(ordered[pick])])
-    samples = samples[_lexsorted(samples)]
-    splitters = (
-        samples[(np.arange(1, size) * samples.shape[0]) // size] if samples.size else samples
-    )
+    splitters = _splitters(comm, ordered, total)
     # each row's interval: the number of splitters before it (a splitter before an equal row)
     both = np.concatenate([ordered, splitters])
     marker = np.concatenate([np.ones(n_local, np.int64), np.zeros(splitters.shape[0], np.int64)])

@@ -47,7 +47,8 @@ def synthetic_rows(f: float = F) -> tuple[list[dict], list[list[int]]]:
                 "jacobian_mib": 0.002 * d,
                 "gamg_mib": 0.0005 * d,
                 "checkpoint_mib": 90.0 * dofs / 2.0**20,
-                "checkpoint_rank0_bytes": 32.0 * iface,
+                # the sample sort's samples: at most `ranks` of every rank, on rank 0
+                "checkpoint_rank0_bytes": 48.0 * min(iface, ranks**2) if ranks > 1 else 0.0,
                 "profile_bytes": 150.0 * iface,
                 "gather_bytes_per_step": 1500.0 + 100.0 * ranks,
                 "petsc_bytes_per_newton": 3000.0 * d ** (2 / 3) if ranks == 8 else 1.0,
@@ -69,7 +70,7 @@ def test_models_give_back_the_laws_and_extrapolate_by_hand():
     assert m.mesh == pytest.approx((MESH0, F, 0.0), rel=1e-9, abs=1e-12)
     assert m.setup_gather == pytest.approx((K, ALPHA, BETA), rel=1e-9)
     assert m.jacobian == pytest.approx(0.002) and m.gamg == pytest.approx(0.0005)
-    assert m.checkpoint == pytest.approx(90.0) and m.checkpoint_rank0 == pytest.approx(32.0)
+    assert m.checkpoint == pytest.approx(90.0) and m.checkpoint_rank0 == pytest.approx(48.0)
     assert m.interface_per_dof23 == pytest.approx(0.5) and m.profile == pytest.approx(150.0)
     assert m.gather_step == pytest.approx((1500.0, 100.0))
     assert m.petsc_halo == pytest.approx(3000.0)  # from the run on the most ranks
@@ -85,7 +86,11 @@ def test_models_give_back_the_laws_and_extrapolate_by_hand():
     assert x["setup_gather_mib"] == pytest.approx(K * 1e8**ALPHA * 512**BETA / mib)
     assert x["interface_points"] == pytest.approx(0.5 * 1e8 ** (2 / 3))
     assert x["profile_mib"] == pytest.approx(150.0 * 0.5 * 1e8 ** (2 / 3) / mib)
-    assert x["checkpoint_rank0_mib"] == pytest.approx(32.0 * 0.5 * 1e8 ** (2 / 3) / mib)
+    # the sample sort's rows on rank 0: every interface point (107,722 < 512^2 samples); on 64
+    # ranks 64^2 samples
+    assert x["checkpoint_rank0_mib"] == pytest.approx(48.0 * 0.5 * 1e8 ** (2 / 3) / mib)
+    x64 = weak_scaling.extrapolate(m, 64, 1e8)
+    assert x64["checkpoint_rank0_mib"] == pytest.approx(48.0 * 64**2 / mib)
     assert x["gather_step_kib"] == pytest.approx((1500.0 + 100.0 * 512) / 1024)
     assert x["petsc_mib_per_newton"] == pytest.approx(3000.0 * d ** (2 / 3) / mib)
     assert x["krylov_per_newton"] == pytest.approx(26.0)
@@ -113,7 +118,15 @@ def test_first_to_break_is_named_by_the_numbers():
     assert part == "the per-rank memory of the distributed parts"
     assert why.startswith("6.3 GiB on one rank at 1e+08 dofs on 64 ranks")
     # with room for everything, the part that grows most from (64 ranks, 1e7) to (512, 1e8) is
-    # named: the set-up gathers, 10^0.7 * 8^0.5 = 14.2 times (a profile: 10^(2/3) = 4.6 times)
+    # named: the checkpoint's samples on rank 0, 64^2 -> 107,722 (every interface point; 26.3
+    # times), before the set-up gathers, 10^0.7 * 8^0.5 = 14.2 times (a profile: 10^(2/3) = 4.6)
+    part, why = weak_scaling.first_to_break(table, node_gib=1e6)
+    assert part == weak_scaling.SORT_RANK0
+    assert why.startswith("grows 26.3x from 1e+07 dofs on 64 ranks to 1e+08 on 512")
+    for r in rows:
+        r["checkpoint_rank0_bytes"] = 0.0
+    m = weak_scaling.fit_models(rows, levels)
+    table = [weak_scaling.extrapolate(m, p, n) for p, n in weak_scaling.TARGETS]
     part, why = weak_scaling.first_to_break(table, node_gib=1e6)
     assert part.startswith("the partitioner's gathers")
     assert why.startswith("grows 14.2x from 1e+07 dofs on 64 ranks to 1e+08 on 512")
@@ -121,13 +134,14 @@ def test_first_to_break_is_named_by_the_numbers():
 
 @pytest.mark.serial
 def test_refined_path_models_use_the_coarse_model():
-    """Set-up gathers by the coarse model's dofs, the sample sort's by ranks^2, the conversion's."""
+    """Set-up gathers by the coarse model's dofs, the sample sort's splitters by the ranks, the
+    conversion's."""
     rows, levels = synthetic_rows(f=0.0)
     for r in rows:
         r["coarse_dofs"] = r["dofs"] / 64.0
         coarse = r["coarse_dofs"]
         r["setup_gather_bytes"] = K * coarse**ALPHA * r["ranks"] ** BETA if r["ranks"] > 1 else 0
-        r["checkpoint_allgather_bytes"] = 1000.0 + 40.0 * r["ranks"] ** 2
+        r["checkpoint_others_bytes"] = 1000.0 + 40.0 * r["ranks"]
         r["convert_peak_mib"] = 100.0 + 2e-4 * coarse
         # rank 0 holds its share of the refined model only: its mesh grows with its dofs; a
         # global term moving the rows by 0.19 MiB (under NOISE_MIB) is not resolved by them
@@ -135,7 +149,7 @@ def test_refined_path_models_use_the_coarse_model():
     m = weak_scaling.fit_models(rows, levels)
     assert m.refine_factor == pytest.approx(64.0)
     assert m.setup_gather == pytest.approx((K, ALPHA, BETA), rel=1e-9)
-    assert m.checkpoint_allgather == pytest.approx((1000.0, 40.0))
+    assert m.checkpoint_others == pytest.approx((1000.0, 40.0))
     assert m.convert == pytest.approx((100.0, 2e-4))
     assert m.mesh[1] == 0.0  # left out; the rest fitted again, within that 0.19 MiB
     assert m.mesh[0] == pytest.approx(MESH0, abs=0.2)
@@ -144,7 +158,7 @@ def test_refined_path_models_use_the_coarse_model():
     mib = 2.0**20
     assert x["coarse_dofs"] == pytest.approx(1e8 / 64)
     assert x["setup_gather_mib"] == pytest.approx(K * (1e8 / 64) ** ALPHA * 512**BETA / mib)
-    assert x["checkpoint_allgather_mib"] == pytest.approx((1000.0 + 40.0 * 512**2) / mib)
+    assert x["checkpoint_others_mib"] == pytest.approx((1000.0 + 40.0 * 512) / mib)
     assert x["convert_mib"] == pytest.approx(100.0 + 2e-4 * 1e8 / 64)
     assert x["mesh_rank0_mib"] == pytest.approx(START + MESH0 + 0.001 * 1e8 / 512, abs=1.0)
 

@@ -2,7 +2,10 @@
 
 * The parallel sample sort that numbers the interface points (:func:`sorted_rows`) gives the
   positions of a stable sort of all ranks' rows gathered in rank order, with many ties, a rank
-  without rows, and no rank receiving more than about twice its share (spied on).
+  without rows, and no rank receiving more than about twice its share (spied on); its splitters
+  cost a rank other than rank 0 the ``size - 1`` splitters it receives (nothing is all-gathered),
+  and rank 0 at most ``size`` samples of every rank; with every row a sample, the shares are
+  exact.
 * ``outputs.snapshot_file``: ``interface_profiles.h5`` holds, at each snapshot time, exactly
   the profiles the run returns in memory when the file is not asked for (the same rows, every
   variable), and nothing gathers the interface meanwhile; a restart keeps the profiles written
@@ -50,6 +53,70 @@ def test_the_sample_sort_gives_the_gathered_stable_order(n, monkeypatch):
     if comm.size > 1 and total >= 1000:
         # the rows a rank receives to sort: at most about twice its share
         assert received[0] <= 2 * total / comm.size + comm.size, (received, total)
+
+
+class CommSpy:
+    """A communicator that records the rows (int64 elements) each collective delivers here."""
+
+    def __init__(self, comm):
+        self.comm = comm
+        self.received = []  # (call, int64 elements received on this rank)
+
+    def __getattr__(self, name):
+        return getattr(self.comm, name)
+
+    def Gatherv(self, send, recv, root=0):
+        self.comm.Gatherv(send, recv, root=root)
+        if recv is not None:
+            self.received.append(("Gatherv", recv[0].size))
+
+    def Bcast(self, buf, root=0):
+        self.comm.Bcast(buf, root=root)
+        if self.comm.rank != root:
+            self.received.append(("Bcast", buf[0].size))
+
+    def allgather(self, *a, **k):
+        raise AssertionError("the sample sort all-gathers")
+
+    Allgather = Allgatherv = allgather
+
+
+@pytest.mark.parametrize("n", [2, 3000])
+def test_the_splitters_cost_a_rank_what_it_receives_of_them(n):
+    """Keys ``(n_local, 3)`` sorted with rank and index (5 columns): a rank other than rank 0
+    receives the ``size - 1`` splitters (5 int64 each), rank 0 at most ``size`` samples of every
+    rank (6 int64: a row and its weight) and never more rows than exist. With ``n`` rows a rank
+    (2 <= size: every row a sample), each rank sorts exactly its share."""
+    comm = MPI.COMM_WORLD
+    spy = CommSpy(comm)
+    rng = np.random.default_rng(99 + comm.rank)
+    keys = rng.integers(0, 50, size=(n, 3))
+    sorting = []  # rows received to sort, then the positions sent back
+    real = slabs._exchange
+
+    def exchange(c, dest, payload):
+        out = real(c, dest, payload)
+        sorting.append(out[0].shape[0])
+        return out
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(slabs, "_exchange", exchange)
+        pos, total = slabs.sorted_rows(spy, keys)
+    allkeys = np.concatenate(comm.allgather(keys))
+    expect = np.empty(total, dtype=np.int64)
+    expect[np.lexsort(allkeys.T[::-1])] = np.arange(total)
+    np.testing.assert_array_equal(np.concatenate(comm.allgather(pos)), expect)
+    if comm.size == 1:
+        assert spy.received == []
+        return
+    got = dict(spy.received)
+    if comm.rank == 0:
+        assert set(got) == {"Gatherv"}
+        assert got["Gatherv"] == 6 * comm.size * min(n, comm.size) <= 6 * total
+    else:
+        assert spy.received == [("Bcast", 5 * (comm.size - 1))]
+    if n <= comm.size:  # exact quantiles: every rank sorts total / size = n rows
+        assert sorting[0] == n, (sorting, total)
 
 
 def read_profiles(path):
