@@ -51,17 +51,16 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
     body modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D; per-body modes converge
     worse), refreshed by the same rules. The aggregation drops the couplings weaker than
     ``pc_gamg_threshold`` = 0.1 of the diagonals: with a normal penalty stiff against the bodies
-    (a valid model) it takes 30-45 % fewer Krylov iterations than 0.01, with the paper's soft
-    penalty 10 % more (``docs/design.md``). No
-    factorisation: memory grows linearly with the size. GAMG's iterations grow with the model
-    (tens of thousands of dofs: 10-30 a solve; two million: 50-115), so GMRES restarts only
-    after 200 (its vectors are allocated as it goes: a short solve holds few), and it
-    orthogonalises each new vector twice (classical Gram-Schmidt with a second pass, one more
-    reduction an iteration): with PETSc's single pass the basis loses its orthogonality over
-    long cycles, the residual GMRES computes by its recursion parts from the true one, and
-    GMRES slows down or, at a restart where the two differ by a tenth, stops with
-    ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A Krylov failure is named, with the option to
-    change, in the solve's result and the step's failure (:func:`~.solver.krylov_failure`).
+    (a valid model) that takes far fewer Krylov iterations than 0.01, with the paper's soft
+    penalty a few more (``docs/design.md``). No factorisation: memory grows linearly with the
+    size. GAMG's iterations grow with the model, so GMRES restarts only after 200 (its vectors
+    are allocated as it goes: a short solve holds few), and it orthogonalises each new vector
+    twice (classical Gram-Schmidt with a second pass, one more reduction an iteration): with
+    PETSc's single pass the basis loses its orthogonality over long cycles, the residual GMRES
+    computes by its recursion parts from the true one, and GMRES slows down or, at a restart
+    where the two differ by a tenth, stops with ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A
+    Krylov failure is named, with the option to change, in the solve's result and the step's
+    failure (:func:`~.solver.krylov_failure`).
 
 Krylov tolerance (``"reuse"``, ``"gamg"``): tied to Newton's residual so that Newton stays
 quadratic, ``eta_k = min(eta_max, c |F_k| / |F_0|)``, never below 1 % of the Newton target over
