@@ -641,7 +641,7 @@ class LoadStepper:
         if self.step != 0 or self.increment is not None:
             return False
         interfaces = getattr(self.problem, "interfaces", {}).values()
-        return any(not getattr(i, "fixed_pairs", True) for i in interfaces)
+        return any(not i.fixed_pairs for i in interfaces)
 
     def _cut_step(
         self, r: SolveResult, target: float, dt: float, hold: bool, cuts: int, retried: bool
