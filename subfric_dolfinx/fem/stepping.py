@@ -349,6 +349,7 @@ class LoadStepper:
         assert solver.x is not None  # (a live solver: None once destroyed)
         self._x_converged = solver.x.copy()
         self.predictor = bool(predictor)
+        self._bodies: list[np.ndarray] | None = None  # each body's owned dofs (:meth:`_carried`)
         # the last converged step's displacement increment and its length (the predictor's)
         self.increment: np.ndarray | None = None
         self.increment_dt = 0.0
@@ -416,6 +417,40 @@ class LoadStepper:
             return False
         change = self._channels(target) - self._channels(self.t)
         return bool(np.abs(change).max(initial=0.0) > 0.0)
+
+    def _carried(self, target: float) -> np.ndarray | None:
+        """Where the program turns: each body carried along by its Dirichlet values' change.
+
+        With a finite-sliding interface, a body whose Dirichlet dofs all change alike in a
+        component over the step (the same nonzero change on every one of them) is translated
+        by that change in that component (the start of a slide the program drives: its
+        interface points start the step slipping, with their slip tangent, instead of on a
+        frictionless first iterate). The same on every rank; ``None`` where no body moves so
+        (a motion driven by loads, or none) or without a finite-sliding interface.
+        """
+        interfaces = getattr(self.problem, "interfaces", {}).values()
+        if all(i.fixed_pairs for i in interfaces):
+            return None
+        if self._bodies is None:
+            self._bodies = _body_dofs(self.problem)
+        dofs, now = self.problem.dirichlet_values(target)
+        _, before = self.problem.dirichlet_values(self.t)
+        change = now - before
+        comm = self.problem.comm
+        bs = self.problem.V.dofmap.bs
+        assert self.solver.x is not None  # (a live solver)
+        out = np.zeros(self.solver.x.getLocalSize())
+        moved = False
+        for own in self._bodies:
+            for c in range(bs):
+                d = change[np.isin(dofs, own[own % bs == c])]
+                lo = comm.allreduce(float(d.min(initial=np.inf)), op=MPI.MIN)
+                hi = comm.allreduce(float(d.max(initial=-np.inf)), op=MPI.MAX)
+                if not math.isfinite(lo) or hi == 0.0 or hi - lo > 1e-12 * abs(hi):
+                    continue
+                out[own[own % bs == c]] = hi
+                moved = True
+        return out if moved else None
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -590,6 +625,10 @@ class LoadStepper:
         first = self.retry_options if keep else None
         stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
         predicted = self._predict(target, dt)
+        turns = predicted is None and self._turns(target)
+        if turns:
+            predicted = self._carried(target)
+            turns = predicted is None
         opening = first is None and self._first_touch()
         r = self.solver.solve(
             target,
@@ -597,9 +636,7 @@ class LoadStepper:
             options=FIRST_TOUCH_OPTIONS if opening else first,
             separated_stiffness=stiff,
             predictor=predicted,
-            start=NewtonStart(
-                turns=predicted is None and self._turns(target), extrapolating=self.predictor
-            ),
+            start=NewtonStart(turns=turns, extrapolating=self.predictor),
         )
         self._check_interrupted(r, target)
         retried = first is not None
@@ -769,3 +806,29 @@ class LoadStepper:
         if self.easy >= self.easy_steps:
             self.dt = min(self.dt * self.grow, self.dt_max)
             self.easy = 0
+
+
+def _body_dofs(problem: Any) -> list[np.ndarray]:
+    """The owned dofs (local, unrolled) of each body that shares no node with another one.
+
+    The same bodies in the same order on every rank (collective; an array may be empty here).
+    """
+    V = problem.V
+    bs = V.dofmap.bs
+    n = V.dofmap.index_map.size_local
+    cells = problem.domain.cell_tags
+    dofmap = np.asarray(V.dofmap.list)
+    nodes = []
+    for body in sorted(problem.topology.bodies):
+        tags = [problem.tags[g] for g in problem.topology.bodies[body]]
+        d = np.unique(dofmap[cells.indices[np.isin(cells.values, tags)]].ravel())
+        nodes.append(d[d < n])
+    count = np.zeros(n, dtype=np.int64)
+    for d in nodes:
+        count[d] += 1
+    out = []
+    for d in nodes:
+        shared = problem.comm.allreduce(int(np.any(count[d] > 1)), op=MPI.MAX)
+        if not shared:
+            out.append((d[:, None] * bs + np.arange(bs)).ravel())
+    return out
