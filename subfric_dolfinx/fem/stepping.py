@@ -47,6 +47,7 @@ __all__ = [
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
+    "TURN_OPTIONS",
     "LoadStepper",
     "StepControl",
     "StepFailure",
@@ -69,6 +70,10 @@ The l2 line search (minimising the residual norm along the Newton direction) sol
 where Newton with full steps cycles: the unloaded slide followed by a pressure, the literal Sec. 7
 set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
 not the second."""
+
+TURN_OPTIONS: dict[str, Any] | None = {"snes_linesearch_type": "cp"}
+"""Options of the first attempt at a step where the program turns, with a finite-sliding
+interface (:meth:`LoadStepper._carried`)."""
 
 FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the first attempt at a run's first step with a finite-sliding interface (a first
@@ -428,9 +433,6 @@ class LoadStepper:
         frictionless first iterate). The same on every rank; ``None`` where no body moves so
         (a motion driven by loads, or none) or without a finite-sliding interface.
         """
-        interfaces = getattr(self.problem, "interfaces", {}).values()
-        if all(i.fixed_pairs for i in interfaces):
-            return None
         if self._bodies is None:
             self._bodies = _body_dofs(self.problem)
         dofs, now = self.problem.dirichlet_values(target)
@@ -625,18 +627,21 @@ class LoadStepper:
         first = self.retry_options if keep else None
         stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
         predicted = self._predict(target, dt)
-        turns = predicted is None and self._turns(target)
+        turns = predicted is None and self._turns(target) and self._finite()
         if turns:
             predicted = self._carried(target)
-            turns = predicted is None
-        opening = first is None and self._first_touch()
+        options = first
+        if first is None and self._first_touch():
+            options = FIRST_TOUCH_OPTIONS
+        elif first is None and turns and TURN_OPTIONS:
+            options = TURN_OPTIONS
         r = self.solver.solve(
             target,
             dt,
-            options=FIRST_TOUCH_OPTIONS if opening else first,
+            options=options,
             separated_stiffness=stiff,
             predictor=predicted,
-            start=NewtonStart(turns=turns, extrapolating=self.predictor),
+            start=NewtonStart(turns=turns and predicted is None, extrapolating=self.predictor),
         )
         self._check_interrupted(r, target)
         retried = first is not None
@@ -675,8 +680,10 @@ class LoadStepper:
         penalty's stick region is far narrower than the bodies' shift under the friction). The
         line search shortens the steps that cross it (``docs/model.md`` §12).
         """
-        if self.step != 0 or self.increment is not None:
-            return False
+        return self.step == 0 and self.increment is None and self._finite()
+
+    def _finite(self) -> bool:
+        """Whether the problem has an interface re-paired in the current configuration."""
         interfaces = getattr(self.problem, "interfaces", {}).values()
         return any(not i.fixed_pairs for i in interfaces)
 

@@ -85,10 +85,28 @@ def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=Non
     )
 
 
+NEWTON = 5
+"""Newton iterations allowed in every step of a finite-sliding run (the press's first, a first
+touch, and the slide's first, where the program turns, included)."""
+
+
 def mid_step(solver, t_stop, t, dt):
-    """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``."""
-    LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=t_stop)
-    return bool(solver.solve(t, dt).converged)
+    """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``.
+
+    Returns:
+        Whether the step converged, and ``(t, Newton iterations, cut or retried)`` of every step
+        (the stepper's, then this one).
+    """
+    records = LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=t_stop)
+    r = solver.solve(t, dt)
+    newton = [(rec.t, rec.iterations, bool(rec.cuts or rec.retried)) for rec in records]
+    return bool(r.converged), [*newton, (t, r.iterations, False)]
+
+
+def within(newton) -> bool:
+    """Whether every step of ``newton`` (:func:`mid_step`) took at most :data:`NEWTON` Newton
+    iterations, none cut or retried."""
+    return all(n <= NEWTON and not again for _, n, again in newton)
 
 
 def differences(comm, problem, x, v, eps):
@@ -155,10 +173,11 @@ def mid_step_differences(comm, problem, also=None):
     ``also(x, v)``: more at the same point (e.g. with a term of the tangent left out).
 
     Returns:
-        Whether the step converged, the differences and what ``also`` gave (``None``: none).
+        Whether the step converged, the Newton iterations of every step (:func:`mid_step`), the
+        differences and what ``also`` gave (``None``: none).
     """
     with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        converged, newton = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         v = direction(comm, problem, x)
         try:
@@ -167,7 +186,7 @@ def mid_step_differences(comm, problem, also=None):
         finally:
             v.destroy()
             x.destroy()
-    return converged, err, more
+    return converged, newton, err, more
 
 
 @pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
@@ -178,16 +197,17 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
         monkeypatch.setattr(SegmentTransfer, "in_tangent", False)
         return differences(comm, problem, x, v, [1e-5])[0]
 
-    converged, err, without = mid_step_differences(comm, problem, without_transfer_change)
+    converged, newton, err, without = mid_step_differences(comm, problem, without_transfer_change)
     counts = comm.allreduce(np.bincount(problem.interfaces["contact"].last.status, minlength=4))
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "in contact": counts[0] + counts[1] > 0,  # sticking or slipping points
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without dB t": without[1] > 1e-5,
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, without, counts)
+    assert everywhere(comm, all(checks.values())), (checks, err, without, counts, newton)
 
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
@@ -204,7 +224,7 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
     # on its open interface (a singular Jacobian until it touches)
     problem = problem_2d(comm, law_of(law), 1, initial_gap=g0, press_down=0.005)
     iface = problem.interfaces["contact"]
-    converged, err, _ = mid_step_differences(comm, problem)
+    converged, newton, err, _ = mid_step_differences(comm, problem)
     g, pts = iface.geometry, iface.law_points
     raw = np.einsum("qk,fkd->fqd", iface.sides.Ns[0], g.Xs).reshape(-1, 2)
     # the contact surface: the point moved by g0 along the normal it faced at the step's start
@@ -212,12 +232,14 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
     closed = comm.allreduce(int(np.count_nonzero(g.found & (g.gap[:, 1] > 0))))
     checks = {
         "converged": converged,
+        # but the first touch from the open gap (the first step: on the line search, one more)
+        "newton": within(newton[1:]) and newton[0][1] <= NEWTON + 1 and not newton[0][2],
         "in contact": closed > 0,
         "on their contact surfaces": bool(np.all(moved[iface.start.facet >= 0] < 1e-12)),
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, closed)
+    assert everywhere(comm, all(checks.values())), (checks, err, closed, newton)
 
 
 def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
@@ -232,16 +254,17 @@ def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
         monkeypatch.setattr(SegmentTransfer, "complement_tangent", lambda *a: [])
         return differences(comm, problem, x, v, [1e-5])[0]
 
-    converged, err, without = mid_step_differences(comm, problem, without_complement_change)
+    converged, newton, err, without = mid_step_differences(comm, problem, without_complement_change)
     complement = comm.allreduce(iface.geometry.transfer.complement)
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "overhangs": complement > 0,
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without the complement's change": without[1] > 1e-6,
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, without, complement)
+    assert everywhere(comm, all(checks.values())), (checks, err, without, complement, newton)
 
 
 def interface_rates(problem, x, v, eps, held=None):
@@ -284,7 +307,7 @@ def interface_jv(problem, x, v):
 def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
     problem = diagonal_slide_3d(comm, law_of("sec7"), 3.0, split_x=1.5)
     with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        converged, newton = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         iface = problem.interfaces["contact"]
         v = direction(comm, problem, x)
@@ -311,6 +334,7 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
     part = np.array([rel((a - b) - (on - off), on - off) for a, b in zip(live, held, strict=True)])
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "in contact": counts[0] + counts[1] > 0,
         "dB t exact": part[1] < 1e-6,
         "dB t O(e^2)": part[0] > 30 * part[1] or part[0] < 1e-9,
@@ -318,4 +342,4 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without dB t": without[1] > 5 * err[-1, 1],
     }
-    assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts)
+    assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts, newton)
