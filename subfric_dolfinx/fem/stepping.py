@@ -73,7 +73,12 @@ not the second."""
 
 TURN_OPTIONS: dict[str, Any] | None = {"snes_linesearch_type": "cp"}
 """Options of the first attempt at a step where the program turns, with a finite-sliding
-interface (:meth:`LoadStepper._carried`)."""
+interface (:meth:`LoadStepper._carried`); ``None``: the solver's own.
+
+Where the friction's moment tilts a sliding body off part of its base within the step, Newton's
+full steps open its trailing points one ring an iteration (the penalty's linear step keeps the
+next ring in contact); the critical-point line search lengthens those steps beyond the full
+one (``docs/model.md`` §12)."""
 
 FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the first attempt at a run's first step with a finite-sliding interface (a first
@@ -298,11 +303,13 @@ class LoadStepper:
             Newton needs about twice the iterations of the extrapolated start
             (``docs/model.md`` §12). With finite
             sliding, where the program turns (nothing to extrapolate: the slide's first step, a
-            reversal) the step's first Newton iteration is frictionless, and the first Jacobian
-            of every step keeps the points that were in contact at the step's start in contact,
-            which saves the slide's first step a failed attempt: every step's first Jacobian is
-            told how it starts (:class:`~.interface.NewtonStart`, :meth:`FrictionSolver.solve`'s
-            ``start``) and each interface's kind decides.
+            reversal) each body that the program's Dirichlet values move alike is carried along
+            by them (:meth:`_carried`: the step starts slipping), on the line search of
+            :data:`TURN_OPTIONS`; where no body moves so, the step's first Newton iteration is
+            frictionless. The first Jacobian of every step keeps the points that were in contact
+            at the step's start in contact, which saves the slide's first step a failed attempt:
+            every step's first Jacobian is told how it starts (:class:`~.interface.NewtonStart`,
+            :meth:`FrictionSolver.solve`'s ``start``) and each interface's kind decides.
     """
 
     def __init__(
