@@ -71,18 +71,23 @@ where Newton with full steps cycles: the unloaded slide followed by a pressure, 
 set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
 not the second."""
 
-TURN_OPTIONS: dict[str, Any] | None = {"snes_linesearch_type": "cp"}
+TURN_OPTIONS: dict[str, Any] | None = {
+    "snes_linesearch_type": "cp",
+    "snes_linesearch_maxlambda": 2.0,
+}
 """Options of the first attempt at a step where the program turns, with a finite-sliding
-interface (:meth:`LoadStepper._carried`); ``None``: the solver's own.
+interface, and at a run's first step that starts from carried bodies
+(:meth:`LoadStepper._carried`); ``None``: the solver's own.
 
 Where the friction's moment tilts a sliding body off part of its base within the step, Newton's
 full steps open its trailing points one ring an iteration (the penalty's linear step keeps the
 next ring in contact); the critical-point line search lengthens those steps beyond the full
-one (``docs/model.md`` §12)."""
+one (``docs/model.md`` §12). PETSc 3.25 caps its step length at ``maxlambda`` (1 by default: no
+longer than Newton's); 3.22 neither caps it nor knows the option."""
 
 FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
-"""Options of the first attempt at a run's first step with a finite-sliding interface (a first
-touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
+"""Options of the first attempt at a run's first step with a finite-sliding interface where no
+body is carried (a first touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
 
 RETRY_SEPARATED_STIFFNESS = 1e-6
 """In the retry of a failed step, points without stiffness keep this fraction of the contact
@@ -431,14 +436,17 @@ class LoadStepper:
         return bool(np.abs(change).max(initial=0.0) > 0.0)
 
     def _carried(self, target: float) -> np.ndarray | None:
-        """Where the program turns: each body carried along by its Dirichlet values' change.
+        """Each body carried along by its Dirichlet values' change: a step's start.
 
-        With a finite-sliding interface, a body whose Dirichlet dofs all change alike in a
-        component over the step (the same nonzero change on every one of them) is translated
-        by that change in that component (the start of a slide the program drives: its
-        interface points start the step slipping, with their slip tangent, instead of on a
-        frictionless first iterate). The same on every rank; ``None`` where no body moves so
-        (a motion driven by loads, or none) or without a finite-sliding interface.
+        Where the program turns or at a run's first step (nothing to extrapolate), with a
+        finite-sliding interface: a body whose Dirichlet dofs all change alike in a component
+        over the step (the same nonzero change on every one of them) is translated by that
+        change in that component. The start of a slide the program drives: its interface
+        points start the step slipping, with their slip tangent and the friction's force,
+        instead of on a frictionless first iterate; of a press by a displacement: the body
+        starts the step where the open interface's first iterate would take it, in the other
+        one. The same on every rank; ``None`` where no body moves so (a motion driven by
+        loads, or none).
         """
         if self._bodies is None:
             self._bodies = _body_dofs(self.problem)
@@ -635,20 +643,22 @@ class LoadStepper:
         stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
         predicted = self._predict(target, dt)
         turns = predicted is None and self._turns(target) and self._finite()
-        if turns:
-            predicted = self._carried(target)
+        touch = first is None and self._first_touch()
+        carried = None
+        if turns or (touch and self.predictor):
+            carried = predicted = self._carried(target)
         options = first
-        if first is None and self._first_touch():
-            options = FIRST_TOUCH_OPTIONS
-        elif first is None and turns and TURN_OPTIONS:
+        if first is None and (carried is not None or turns) and TURN_OPTIONS:
             options = TURN_OPTIONS
+        elif touch:
+            options = FIRST_TOUCH_OPTIONS
         r = self.solver.solve(
             target,
             dt,
             options=options,
             separated_stiffness=stiff,
             predictor=predicted,
-            start=NewtonStart(turns=turns and predicted is None, extrapolating=self.predictor),
+            start=NewtonStart(turns=turns and carried is None, extrapolating=self.predictor),
         )
         self._check_interrupted(r, target)
         retried = first is not None
@@ -674,11 +684,12 @@ class LoadStepper:
         return r, first, retried
 
     def _first_touch(self) -> bool:
-        """Whether this step's first attempt takes the retry's line search: a first touch.
+        """Whether this step is a first touch: a run's first step with finite sliding.
 
         A run's first step with an interface re-paired in the current configuration (finite
-        sliding), the same on every rank: :data:`FIRST_TOUCH_OPTIONS`, without the retry's
-        stiffness of separated points.
+        sliding), the same on every rank: it starts from the carried bodies
+        (:meth:`_carried`) on :data:`TURN_OPTIONS` where the program moves one, else on
+        :data:`FIRST_TOUCH_OPTIONS`, without the retry's stiffness of separated points.
         From the state at rest, the first Newton iterate is taken on the tangent of an open
         interface: a body brought to touch moves into the other by up to the step's approach,
         far beyond the penetration of the solution, the next tractions are many times the
