@@ -23,6 +23,10 @@ interface), and the interface's own tangent with the central differences of its 
   at e = 1e-4 and 1e-5 (Sec. 7 P1; Coulomb P1 3.5e-7 and 3.5e-9; Sec. 7 P2 4.3e-6 and 4.3e-8);
   without ``dB t`` 5.7e-5 / 5.8e-4.
 
+Every step of the runs that lead there (the press's first, a first touch, and the slide's first,
+where the program turns, included) and the mid-step solve take at most :data:`NEWTON` Newton
+iterations, without a cut or a retry.
+
 ``benchmarks/finite_sliding_newton.py`` prints Newton's iterations with and without ``dB t``.
 """
 
