@@ -56,9 +56,9 @@ from tests.helpers import everywhere
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
-def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=None):
+def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=None, more=()):
     """The block pressed by 300 MPa on its top and slid; ``press_down``: pressed instead by
-    moving its top down by this much (mm)."""
+    moving its top down by this much (mm); ``more``: more Dirichlet conditions."""
     dom = tagged_blocks(
         comm,
         base=(0.0, base_end, -1.0, 0.0),
@@ -68,7 +68,7 @@ def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=Non
         split_x=2.0,
     )
     program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")]
+    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide"), *more]
     loads = [Pressure("top", 300.0, amplitude="press")]
     if press_down is not None:
         bcs.append(Dirichlet("top", -press_down, 1, amplitude="press"))
@@ -346,3 +346,46 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
         "without dB t": without[1] > 5 * err[-1, 1],
     }
     assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts, newton)
+
+
+def carried_nodes(comm, problem, carried):
+    """The owned nodes' carried translations (n, 2) and their coordinates (n, 2)."""
+    n = problem.V.dofmap.index_map.size_local
+    x = problem.V.tabulate_dof_coordinates()[:n, :2]
+    return carried.reshape(-1, 2)[:n], x
+
+
+@pytest.mark.parametrize("case", ["slide", "press", "held end"])
+def test_a_turn_starts_from_the_bodies_the_program_carries(comm, case):
+    """Where the program turns, and at a run's first step, the stepper's start translates each
+    body whose Dirichlet dofs all change alike in a component by that change
+    (``LoadStepper._carried``): at the slide's first step the block by its top's slide in x (its
+    top's y is free under the pressure), the base (held) not at all; at the first step of the
+    press by the top's displacement the block in y; with the block's end held in x beside its
+    top's slide, the block's Dirichlet values do not change alike: nothing is carried."""
+    press = 0.005 if case == "press" else None
+    held = [Dirichlet("block_left", 0.0, 0)] if case == "held end" else []
+    problem = problem_2d(comm, law_of("coulomb"), 1, press_down=press, more=held)
+    with FrictionSolver(problem, linear="lu") as solver:
+        stepper = LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25))
+        if case == "press":
+            carried = stepper._carried(0.25)
+        else:
+            stepper.run(t_end=1.0)
+            carried = stepper._carried(1.25)
+    if case == "held end":
+        assert everywhere(comm, carried is None), carried
+        return
+    assert carried is not None
+    u, x = carried_nodes(comm, problem, carried)
+    expected = np.array([0.125, 0.0]) if case == "slide" else np.array([0.0, -0.00125])
+    block = np.all(np.isclose(u, expected, rtol=0, atol=1e-15), axis=1)
+    still = np.all(u == 0.0, axis=1)
+    checks = {
+        "block or nothing": bool(np.all(block | still)),
+        "inside the block": bool(np.all(block[x[:, 1] > 1e-9])),
+        "inside the base": bool(np.all(still[x[:, 1] < -1e-9])),
+        # the block's nodes, every one (P1: 4 x 3)
+        "all the block": comm.allreduce(int(block.sum())) == 12,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, u[~(block | still)])
