@@ -75,9 +75,9 @@ TURN_OPTIONS: dict[str, Any] | None = {
     "snes_linesearch_type": "cp",
     "snes_linesearch_maxlambda": 2.0,
 }
-"""Options of the first attempt at a step where the program turns, with a finite-sliding
-interface, and at a run's first step that starts from carried bodies
-(:meth:`LoadStepper._carried`); ``None``: the solver's own.
+"""Options of the first attempt at a step that starts from bodies carried along by the program
+(:meth:`LoadStepper._carried`: where it turns, or at a run's first step, with a finite-sliding
+interface); ``None``: the solver's own.
 
 Where the friction's moment tilts a sliding body off part of its base within the step, Newton's
 full steps open its trailing points one ring an iteration (the penalty's linear step keeps the
@@ -648,7 +648,7 @@ class LoadStepper:
         if turns or (touch and self.predictor):
             carried = predicted = self._carried(target)
         options = first
-        if first is None and (carried is not None or turns) and TURN_OPTIONS:
+        if first is None and carried is not None and TURN_OPTIONS:
             options = TURN_OPTIONS
         elif touch:
             options = FIRST_TOUCH_OPTIONS
