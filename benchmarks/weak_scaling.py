@@ -548,6 +548,7 @@ def row_of(r: dict) -> dict:
         "gamg_levels": len(r["gamg_levels"]),
         "coarse_rows": r["gamg_levels"][-1]["rows"],
         "coarse_nz": r["gamg_levels"][-1]["nz"],
+        "gamg_complexity": sum(lv["nz"] for lv in r["gamg_levels"]) / r["gamg_levels"][0]["nz"],
         "checkpoint_mib": r["checkpoint_bytes"] / mib,
         "pairing_received": max(p["pairing_received"] for p in pr),
         "petsc_bytes_per_newton": ev["SNESSolve"] / newton,
@@ -598,6 +599,7 @@ COLUMNS = [
     "gamg_levels",
     "coarse_rows",
     "coarse_nz",
+    "gamg_complexity",
     "checkpoint_mib",
     "pairing_received",
     "petsc_bytes_per_newton",
@@ -668,6 +670,9 @@ class Models:
         checkpoint_rank0: Bytes rank 0 gathers (``Gather(v)``) per sample row when a checkpoint
             is written: the sample sort's samples, at most ``ranks`` of every rank, so rank 0
             receives this times ``min(interface points, ranks^2)`` (runs on several ranks).
+        sort_rank0_peak: Bytes rank 0 holds at once per sample while it chooses the splitters
+            (:func:`sort_rank0_peak_per_sample`: the gathered samples, their sorted copy and the
+            weights' sums); 0 where not measured (then the gathered bytes stand for it).
         jacobian: MiB per dof of the Jacobian's storage on a rank.
         gamg: MiB per dof of the GAMG hierarchy (coarse operators and interpolations).
         checkpoint: Checkpoint bytes per global dof.
@@ -703,6 +708,7 @@ class Models:
     refine_factor: float = 1.0
     checkpoint_others: tuple[float, float] = (0.0, 0.0)
     convert: tuple[float, float] = (math.nan, math.nan)
+    sort_rank0_peak: float = 0.0
 
 
 def fit_resolved(columns: list, y, noise: float = 0.0) -> list[float]:
@@ -749,6 +755,7 @@ def fit_models(
     rows: list[dict],
     levels: list[list[int]],
     conversions: list[tuple[float, float]] | None = None,
+    sort_peak: float = 0.0,
 ) -> Models:
     """Fit the per-part models to the measured rows.
 
@@ -757,6 +764,8 @@ def fit_models(
         levels: For every run, the global rows of its GAMG levels, finest first.
         conversions: (coarse dofs, peak MiB) of every conversion measured (:func:`convert_one`);
             ``None``: those of the runs' own coarse models (``convert_peak_mib``).
+        sort_peak: Rank 0's working memory per sample of the sample sort (bytes,
+            :func:`sort_rank0_peak_per_sample`; 0: not measured).
     """
     import numpy as np
 
@@ -787,6 +796,7 @@ def fit_models(
         start=_median([r["rss_start_mib"] for r in rows]),
         mesh=(mesh[0], mesh[1], mesh[2]),
         refine_factor=rows[largest]["dofs"] / coarse[largest],
+        sort_rank0_peak=sort_peak,
         checkpoint_others=fit_line(
             [r["ranks"] for r in several],
             [r.get("checkpoint_others_bytes", 0.0) for r in several],
@@ -874,7 +884,67 @@ def extrapolate(m: Models, ranks: int, dofs: float) -> dict:
         "checkpoint_gib": m.checkpoint * dofs / 2.0**30,
         "checkpoint_mib_per_rank": m.checkpoint * d / mib,
         "checkpoint_rank0_mib": m.checkpoint_rank0 * min(iface, ranks**2) / mib,
+        "sort_rank0_peak_mib": max(m.checkpoint_rank0, m.sort_rank0_peak)
+        * min(iface, ranks**2)
+        / mib,
     }
+
+
+class _SampleRoot:
+    """Rank 0 of ``size`` ranks as :func:`io.slabs._splitters` sees it, without MPI.
+
+    Every rank sends ``size`` samples of ``width`` int64 keys and a weight (random keys, equal
+    weights); the splitters are broadcast to nobody.
+    """
+
+    def __init__(self, size: int, width: int) -> None:
+        self.size, self.rank, self.width = size, 0, width
+
+    def gather(self, count: int, root: int = 0) -> list[int]:
+        return [count] * self.size
+
+    def Gatherv(self, send, recv, root: int = 0) -> None:
+        import numpy as np
+
+        flat = recv[0].reshape(-1, self.width + 1)
+        flat[:, :-1] = np.random.default_rng(0).integers(0, 2**40, flat[:, :-1].shape)
+        flat[:, -1] = 1
+
+    def bcast(self, value, root: int = 0):
+        return value
+
+    def Bcast(self, buf, root: int = 0) -> None:
+        pass
+
+
+def sort_rank0_peak_per_sample(size: int = 512, width: int = 5) -> float:
+    """Bytes rank 0 holds at once per sample while it chooses the sample sort's splitters.
+
+    Runs ``io.slabs._splitters`` (what :func:`io.slabs.sorted_rows` calls) as rank 0 of ``size``
+    ranks that each hold ``size`` rows of ``width`` int64 keys (the pad's interface points: three
+    rounded coordinates, the rank and the local index), so rank 0 receives ``size**2`` samples,
+    through a stand-in communicator (:class:`_SampleRoot`); returns the peak of numpy's
+    allocations over the call (``tracemalloc``) per sample. The gathered samples alone are
+    ``8 (width + 1)`` bytes each.
+    """
+    import tracemalloc
+
+    import numpy as np
+
+    from subfric_dolfinx.io import slabs
+
+    ordered = np.zeros((size, width), dtype=np.int64)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        splitters = slabs._splitters(_SampleRoot(size, width), ordered, size * size)
+        peak = tracemalloc.get_traced_memory()[1] - before
+    finally:
+        tracemalloc.stop()
+    if splitters.shape != (size - 1, width):
+        raise RuntimeError(f"the splitters' shape {splitters.shape}, not {(size - 1, width)}")
+    return peak / size**2
 
 
 MESH_PART = {
@@ -896,13 +966,15 @@ def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
     The distributed parts (``rss_mib``, every rank), rank 0's mesh (``mesh_rank0_mib`` over
     ``start_mib``, the memory before it), the partitioner's set-up gathers (``setup_gather_mib``,
     every rank, over ``start_mib``), an interface profile gathered on every rank
-    (``profile_mib``), the checkpoint's interface rows gathered on rank 0
-    (``checkpoint_rank0_mib``: its sample sort's samples) and what every other rank receives for
-    it (``checkpoint_others_mib``: the splitters).
+    (``profile_mib``), the checkpoint's sample sort on rank 0 (``sort_rank0_peak_mib``: what
+    it holds while it chooses the splitters from the gathered samples, ``checkpoint_rank0_mib``
+    where that is absent) and what every other rank receives for it (``checkpoint_others_mib``:
+    the splitters).
     """
     start = row.get("start_mib", 0.0)
     rss, rank0, mesh = row["rss_mib"], row["rss_rank0_mib"], row["mesh_rank0_mib"]
     sort = row.get("checkpoint_others_mib", 0.0)
+    sort0 = row.get("sort_rank0_peak_mib", row["checkpoint_rank0_mib"])
     return {
         "the per-rank memory of the distributed parts": (rss, rss),
         MESH_PART[path]: (mesh - start, mesh),
@@ -911,10 +983,7 @@ def parts_of(row: dict, path: str = "gmsh") -> dict[str, tuple[float, float]]:
             row["profile_mib"],
             rss + row["profile_mib"],
         ),
-        SORT_RANK0: (
-            row["checkpoint_rank0_mib"],
-            rank0 + row["checkpoint_rank0_mib"],
-        ),
+        SORT_RANK0: (sort0, rank0 + sort0),
         "the checkpoint's sample sort on the other ranks (its ranks - 1 splitters)": (
             sort,
             rss + sort,
@@ -1015,6 +1084,7 @@ MEASURED_HEAD = [
     "gamg_mib",
     "gamg_levels",
     "coarse_rows",
+    "gamg_complexity",
     "checkpoint_mib",
     "pairing_received",
     "petsc_bytes_per_newton",
@@ -1045,6 +1115,7 @@ EXTRA_HEAD = [
     "interface_points",
     "profile_mib",
     "checkpoint_rank0_mib",
+    "sort_rank0_peak_mib",
     "checkpoint_others_mib",
     "gather_step_kib",
     "petsc_mib_per_newton",
@@ -1152,14 +1223,24 @@ def model_lines(
         f"(dofs per rank)^(2/3) (the run on the most ranks);",
         f"- a checkpoint's sample sort of the interface rows gathers {m.checkpoint_rank0:.0f} "
         f"bytes per sample on rank 0 (at most `ranks` samples of every rank: "
-        f"min(interface points, ranks²) samples), and every other rank receives "
-        f"{m.checkpoint_others[0]:.0f} + {m.checkpoint_others[1]:.1f} × ranks bytes of "
-        f"`Bcast` and `Allgather(v)` (the `ranks - 1` splitters);",
+        f"min(interface points, ranks²) samples, an upper bound: a rank holding fewer interface "
+        f"points sends them all, one holding none nothing) and holds "
+        f"{max(m.checkpoint_rank0, m.sort_rank0_peak):.0f} bytes per sample at once while it "
+        f"chooses the splitters (the gathered samples, their sorted copy and the weights' sums: "
+        f"`io.slabs._splitters` run as rank 0 of 512 ranks, numpy's allocations traced), and "
+        f"every other rank receives {m.checkpoint_others[0]:.0f} + "
+        f"{m.checkpoint_others[1]:.1f} × ranks bytes of `Bcast` and `Allgather(v)` (the "
+        f"`ranks - 1` splitters); the interface history and `snapshot_file` number their rows "
+        f"by the same sort;",
         f"- Krylov iterations per Newton = {m.krylov[0]:.1f} + {m.krylov[1]:.2f} log10(dofs) "
         f"(measured {min(kry):.1f}–{max(kry):.1f} over the weak series); "
         f"{m.reductions:.1f} `MPI_Allreduce` calls per Krylov iteration;",
         f"- GAMG coarsens by {m.coarsening:.1f} per level; coarsest grid ≤ {m.coarse_rows} rows "
-        f"(largest measured; PETSc's coarse-size limit holds it there as the model grows).",
+        f"(largest measured; PETSc's coarse-size limit holds it there as the model grows); "
+        f"operator complexity (all levels' nonzeros over the Jacobian's) "
+        f"{min(r['gamg_complexity'] for r in rows):.2f}–"
+        f"{max(r['gamg_complexity'] for r in rows):.2f}, "
+        f"{max(rows, key=lambda r: r['dofs'])['gamg_complexity']:.2f} on the largest model.",
     ]
     if not math.isnan(m.convert[0]):
         lines.append(
@@ -1192,7 +1273,7 @@ def stop_lines(m: Models, table: list[dict], path: str) -> list[str]:
         f"rank, rank 0 {row['rss_rank0_mib']:.0f} MiB; with the parts that grow with the model "
         f"or the ranks (set-up gathers {row['setup_gather_mib']:.0f} MiB, rank 0's mesh "
         f"{row['mesh_rank0_mib']:.0f} MiB, an interface profile {row['profile_mib']:.1f} MiB, the "
-        f"checkpoint's sample sort {row['checkpoint_rank0_mib']:.1f} MiB on rank 0 and "
+        f"checkpoint's sample sort {row['sort_rank0_peak_mib']:.1f} MiB on rank 0 and "
         f"{row['checkpoint_others_mib']:.2f} MiB on the others) the most any rank needs is "
         f"{top:.0f} MiB.",
         "",
@@ -1238,11 +1319,13 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         )
         if "peak_mib" in c
     ]
+    sort_peak = sort_rank0_peak_per_sample()
     for path in paths:
         res = [r for r in results if r.get("path", "gmsh") == path]
         rows = [row_of(r) for r in res]
         conv = conversions if path == "refined" and conversions else None
-        m = fit_models(rows, [[lv["rows"] for lv in r["gamg_levels"]] for r in res], conv)
+        levels = [[lv["rows"] for lv in r["gamg_levels"]] for r in res]
+        m = fit_models(rows, levels, conv, sort_peak)
         table = [{"path": path, **extrapolate(m, p, nd)} for p, nd in TARGETS]
         by_path[path] = {
             "results": res,
@@ -1315,8 +1398,9 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "median peak RSS of ranks other than 0 (rank 0's own with 1 rank), MiB; "
         "`rss_mesh_rank0` = rank 0's peak once the mesh is built, `rss_mesh_others` the other "
         "ranks' median; `jacobian`, `gamg` = PETSc storage (MiB) of the Jacobian and of GAMG's "
-        "coarser operators and interpolations; `checkpoint` = file (MiB); `pairing_received` = "
-        "secondary facets a rank received to pair; `petsc_bytes_per_newton`, "
+        "coarser operators and interpolations; `gamg_complexity` = the nonzeros of all GAMG's "
+        "operators over the Jacobian's (operator complexity); `checkpoint` = file (MiB); "
+        "`pairing_received` = secondary facets a rank received to pair; `petsc_bytes_per_newton`, "
         "`petsc_reductions_per_newton` = PETSc's logged message bytes and reductions in "
         "`SNESSolve` per Newton iteration; `allreduce_calls_per_newton` = every `MPI_Allreduce` "
         "(PETSc's and the package's); `gather_bytes_per_step` = bytes of gathers, broadcasts "
@@ -1353,7 +1437,8 @@ def write_report(out: Path, report: Path, command: str) -> list[str]:
         "path); `rss` = a rank's peak in the run, `rss_rank0` = rank 0's, `mesh_rank0` = rank "
         "0's while the mesh is built (MiB); `setup_gather_mib` = what a rank receives in the "
         "set-up's gathers; `checkpoint_rank0_mib` = the sample rows rank 0 gathers for a "
-        "checkpoint, `checkpoint_others_mib` = what every other rank receives for it; "
+        "checkpoint, `sort_rank0_peak_mib` = what rank 0 holds at once while it sorts them and "
+        "chooses the splitters, `checkpoint_others_mib` = what every other rank receives for it; "
         "`profile_mib` = one interface profile gathered on every rank; `gather_step_kib` = the "
         "package's and DOLFINx's gathers per step and rank; `petsc_mib_per_newton` = halo "
         "exchange per Newton iteration and rank; `convert_mib` = the one process that meshes "

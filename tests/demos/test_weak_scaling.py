@@ -91,12 +91,36 @@ def test_models_give_back_the_laws_and_extrapolate_by_hand():
     assert x["checkpoint_rank0_mib"] == pytest.approx(48.0 * 0.5 * 1e8 ** (2 / 3) / mib)
     x64 = weak_scaling.extrapolate(m, 64, 1e8)
     assert x64["checkpoint_rank0_mib"] == pytest.approx(48.0 * 64**2 / mib)
+    # rank 0's working memory for those samples: the gathered bytes where it is not measured,
+    # else the measured bytes per sample, and that is the part rank 0 carries
+    assert x["sort_rank0_peak_mib"] == x["checkpoint_rank0_mib"]
+    held = weak_scaling.extrapolate(
+        weak_scaling.fit_models(rows, levels, sort_peak=112.0), 512, 1e8
+    )
+    assert held["sort_rank0_peak_mib"] == pytest.approx(112.0 * 0.5 * 1e8 ** (2 / 3) / mib)
+    assert weak_scaling.parts_of(held)[weak_scaling.SORT_RANK0] == pytest.approx(
+        (held["sort_rank0_peak_mib"], held["rss_rank0_mib"] + held["sort_rank0_peak_mib"])
+    )
     assert x["gather_step_kib"] == pytest.approx((1500.0 + 100.0 * 512) / 1024)
     assert x["petsc_mib_per_newton"] == pytest.approx(3000.0 * d ** (2 / 3) / mib)
     assert x["krylov_per_newton"] == pytest.approx(26.0)
     assert x["reductions_per_newton"] == pytest.approx(130.0)
     assert x["gamg_levels"] == pytest.approx(7.0)  # 1e8 -> 1e2 rows by tenths: 7 levels
     assert x["checkpoint_gib"] == pytest.approx(90.0 * 1e8 / 2**30)
+
+
+@pytest.mark.serial
+def test_sort_rank0_peak_is_the_samples_and_their_sorted_copy():
+    """What rank 0 holds per sample while io.slabs chooses the splitters (as rank 0 of 256 ranks).
+
+    At least the gathered samples (``8 (width + 1)`` bytes each: the keys and a weight), at most,
+    counted by hand, them twice (the gathered buffer and its sorted copy) and two int64 columns
+    (the sort's permutation, the weights' running sums).
+    """
+    for width in (5, 2):
+        got = weak_scaling.sort_rank0_peak_per_sample(256, width)
+        row = 8.0 * (width + 1)
+        assert row <= got <= 1.02 * (2 * row + 2 * 8)
 
 
 @pytest.mark.serial
@@ -224,6 +248,7 @@ def test_measurement_at_a_tiny_size(shared_tmp):
     assert row["dofs_per_rank"] == pytest.approx(r["dofs"] / comm.size)
     assert row["rss_max_mib"] >= row["rss_others_mib"] > 0
     assert row["jacobian_mib"] > 0 and row["krylov_per_newton"] > 0
+    assert row["gamg_complexity"] > 1.0  # the coarser levels' nonzeros come on top of J's
 
 
 @pytest.mark.leaves_validity(
