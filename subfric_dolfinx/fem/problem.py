@@ -524,6 +524,16 @@ class InterfaceProblem:
         J.zeroRows(self.bc_rows, diag=1.0)
 
     @property
+    def wide_pattern(self) -> bool:
+        """Whether the matrix pattern holds couplings beyond the Jacobian's entries.
+
+        So it does where an interface pairs again as the bodies move: its pattern holds every
+        pairing it may take until its next search. A factorisation then takes a compact copy of
+        the Jacobian (:class:`~.linear.CompactCopy`).
+        """
+        return any(not iface.fixed_pairs for iface in self.interfaces.values())
+
+    @property
     def global_dofs(self) -> int:
         """The number of displacement dofs over all ranks (not collective: the index map's)."""
         return self.V.dofmap.index_map.size_global * self.V.dofmap.bs
