@@ -44,11 +44,11 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
 
 ``"lu"``
     A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
-    other strategies are compared with. Where the problem's pattern is wider than the
-    Jacobian's entries (an interface that pairs again as the bodies move holds every pairing
-    until its next search: ``wide_pattern``), the LU is of a compact copy of ``J``, its
-    entries alone (:class:`CompactCopy`): the same values, a factor with less fill, and the
-    symbolic factorisation kept while the entries stay within the copy's pattern.
+    other strategies are compared with. Where the problem's pattern is much wider than the
+    Jacobian's entries (a 3-D interface that pairs again as the bodies move holds every pairing
+    until its next search: the problem's ``compact_factor``), the LU is of a compact copy of
+    ``J``, its entries alone (:class:`CompactCopy`): the same values, a factor with less fill,
+    and the symbolic factorisation kept while the entries stay within the copy's pattern.
 
 ``"gamg"``
     GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
@@ -303,10 +303,11 @@ class LinearStrategy:
         if self.policy is not None:
             dofs = problem.global_dofs
             self.policy["price"] = refresh_price(name, dofs)
-        # "lu" on a pattern wider than the Jacobian's entries: the factor's matrix is a compact
-        # copy (the SNES's preconditioning matrix; ``rebind``: a new one since the last Jacobian)
-        wide = bool(getattr(problem, "wide_pattern", False))
-        self.compact = CompactCopy() if name == "lu" and wide else None
+        # "lu" on a pattern much wider than the Jacobian's entries: the factor's matrix is a
+        # compact copy (the SNES's preconditioning matrix; ``rebind``: a new one since the last
+        # Jacobian)
+        compact = bool(getattr(problem, "compact_factor", False))
+        self.compact = CompactCopy() if name == "lu" and compact else None
         self.rebind = False
         # counts over the solver's life
         self.refreshes = 0

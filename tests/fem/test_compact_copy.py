@@ -1,12 +1,13 @@
 """A factorisation of a Jacobian whose pattern is wider than its entries takes a compact copy.
 
 A finite-sliding interface's pattern holds every pairing until its next search; a factorisation
-of the matrix as stored orders and fills that whole pattern. ``"lu"`` factorises a copy that holds
-the entries alone (:class:`subfric_dolfinx.fem.linear.CompactCopy`): its values are the matrix's,
-a later matrix whose entries it holds keeps its pattern (PETSc keeps the symbolic factorisation),
-one with an entry beyond it makes a new copy. A finite-sliding run with it takes the Newton
-iterations and gives the history of the run that factorises the matrix as stored, to round-off,
-with fewer entries in the factor; 1 and 2 ranks.
+of the matrix as stored orders and fills that whole pattern. In 3-D ``"lu"`` factorises a copy
+that holds the entries alone (:class:`subfric_dolfinx.fem.linear.CompactCopy`): its values are
+the matrix's, a later matrix whose entries it holds keeps its pattern (PETSc keeps the symbolic
+factorisation), one with an entry beyond it makes a new copy. A finite-sliding run with it takes
+the Newton iterations and gives the history of the run that factorises the matrix as stored, to
+round-off, with fewer entries in the factor (a 2-D problem factorises its matrix as stored);
+1 and 2 ranks.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from benchmarks import fe_scaling
+from benchmarks import fe_scaling, finite_cost
 from subfric_dolfinx.fem import LoadStepper, StepControl
 from subfric_dolfinx.fem.linear import CompactCopy, nonzeros
 from subfric_dolfinx.fem.problem import InterfaceProblem
@@ -125,9 +126,12 @@ def run(comm):
 
 def test_a_finite_sliding_run_factorises_the_compact_copy(comm, monkeypatch):
     rows, size, patterns = run(comm)
+    _, block, _ = finite_cost.build(comm, "block", 6, "finite_sliding")
+    assert block.strategy == "lu" and block.linear.compact is None  # 2-D: the matrix as stored
+    block.destroy()
     assert patterns is not None  # finite sliding: the pattern is wider than the entries
     assert 1 <= patterns < rows[:, 3].sum()  # the symbolic factorisation kept within steps
-    monkeypatch.setattr(InterfaceProblem, "wide_pattern", property(lambda self: False))
+    monkeypatch.setattr(InterfaceProblem, "compact_factor", property(lambda self: False))
     stored, stored_size, none = run(comm)
     assert none is None
     assert size < 0.9 * stored_size, (size, stored_size)
