@@ -389,12 +389,17 @@ class FrictionSolver:
         self.J.destroy()
         self.J = self.problem.create_matrix()
         self.linear.new_pattern()
+        self._bind()
+        self._layout_version = self.problem.layout_version
+
+    def _bind(self) -> None:
+        """Give the SNES the Jacobian callback and the current matrices."""
+        assert self.J is not None and self.snes is not None and self.linear is not None  # (alive)
         ref = weakref.ref(self)
         self.snes.setJacobian(
             lambda s, x, J, P: cast(FrictionSolver, ref())._jacobian(s, x, J, P),
             *self.linear.matrices(self.J),
         )
-        self._layout_version = self.problem.layout_version
 
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
         db = PETSc.Options()
@@ -433,6 +438,9 @@ class FrictionSolver:
         start, self._start_next = self._start_next, None
         self.problem.jacobian(x, J, self.separated_stiffness, start)
         self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference_norm)
+        if self.linear.rebind:  # a new preconditioning matrix: the SNES factorises it from now
+            self.linear.rebind = False
+            self._bind()
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
