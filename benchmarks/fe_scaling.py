@@ -144,8 +144,8 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
     from mpi4py import MPI
     from petsc4py import PETSc
 
+    from subfric_dolfinx.compat import pushed_options
     from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS, rigid_modes
-    from subfric_dolfinx.fem.solver import pushed_options
 
     comm = problem.comm
     A = solver.J.copy()

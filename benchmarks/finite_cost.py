@@ -18,9 +18,10 @@ Both kinds on the same partition: by default every body cut evenly over the rank
 ``meshing.body_partitioner("balanced")``, the block: both bodies cut at x = 0.5), so that the
 interface's work is shared (``--partition graph``: DOLFINx's graph partitioner, which may put
 the pad and its whole interface on one rank). Both with the Sec. 7 law and a stiff normal
-penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding demos take), LU. Prints, per kind: dofs, steps, Newton iterations, wall time of the stepping (the
-problem's set-up apart) and its sections (bulk and interface assembly, return map, contact search
-and projection, factorisation and linear solve, max over ranks), then the ratio finite / small.
+penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding demos take), LU. Prints, per kind: dofs,
+steps, Newton iterations, wall time of the stepping (the problem's set-up apart) and its sections
+(bulk and interface assembly, return map, contact search and projection, factorisation and
+linear solve, max over ranks), then the ratio finite / small.
 Timings depend on the machine's load: printed, never asserted.
 
     ./run exec mpirun -n 2 python3 benchmarks/finite_cost.py [--case block pad] [--n N]

@@ -26,17 +26,17 @@ by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``,
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import weakref
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..compat import pushed_options
 from ._petsc import set_function_domain_error
 from .convergence import SNORM_SLACK, ScaledConvergence
 from .interface import NewtonStart
@@ -263,34 +263,6 @@ def option_error(prefix: str, layers: Sequence[Mapping[str, Any]], error: Except
                 key,
             )
     return SolverOptionError(f"PETSc refuses the options under {prefix!r} ({why}): {given}")
-
-
-@contextlib.contextmanager
-def pushed_options(prefix: str, *layers: Mapping[str, Any]) -> Iterator[None]:
-    """Set options under ``prefix`` for the duration of the block, then restore the database.
-
-    Layers are applied in order (later ones win). Options whose name starts with ``?`` are
-    defaults: set only where the database has no value.
-    """
-    opts = PETSc.Options()
-    saved: dict[str, str | None] = {}
-    for layer in layers:
-        for key, value in layer.items():
-            default = key.startswith("?")
-            name = prefix + key.lstrip("?")
-            if name not in saved:
-                saved[name] = opts.getString(name) if opts.hasName(name) else None
-            if default and opts.hasName(name):
-                continue
-            opts[name] = value
-    try:
-        yield
-    finally:
-        for name, old in saved.items():
-            if old is None:
-                opts.delValue(name)
-            else:
-                opts[name] = old
 
 
 class FrictionSolver:
