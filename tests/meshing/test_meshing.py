@@ -289,6 +289,18 @@ def test_partitioner_split(comm, name, kind):
         assert everywhere(comm, sum(n_owned.values()) > 0)
 
 
+@pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
+def test_a_finite_sliding_mesh_is_balanced_by_default(comm, name):
+    """Without a partitioner, a mesh with a finite-sliding interface is cut by "balanced"."""
+    boxes, cell_type = STORED[name]
+    sides = {"primary": M.PRIMARY, "secondary": M.SECONDARY, "kinematics": "finite_sliding"}
+    im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim, interfaces={"interface": sides})
+    levels = int(np.ceil(np.log2(comm.size))) if comm.size > 1 else 0
+    for b in M.BODIES:
+        facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
+        assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
+
+
 @pytest.mark.parametrize("kind", ["default", "together", "bodies", "balanced"])
 @pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
 def test_shared_facet_ghosts(comm, name, kind):
