@@ -75,7 +75,7 @@ def build(
     """
     law = dataclasses.replace(preset("sec7"), alpha_n=ALPHA_N)
     if case == "pad":
-        part = "balanced" if balanced else None
+        part = "balanced" if balanced else "default"
         pad = fe_scaling.build_pad(comm, n, "lu", 24, kind, alpha_n=ALPHA_N, partitioner=part)
         return pad.problem, pad.solver, 10.0
     dom = tagged_blocks(
