@@ -18,7 +18,9 @@ Both kinds on the same partition: by default every body cut evenly over the rank
 ``meshing.body_partitioner("balanced")``, the block: both bodies cut at x = 0.5), so that the
 interface's work is shared (``--partition graph``: DOLFINx's graph partitioner, which may put
 the pad and its whole interface on one rank). Both with the Sec. 7 law and a stiff normal
-penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding demos take), LU. Prints, per kind: dofs,
+penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding demos take), the linear strategy the
+package chooses (``auto``: MUMPS LU refreshed by its cost rule, ``reuse``, at these sizes;
+``--linear lu`` factorises every Newton iteration). Prints, per kind: dofs,
 steps, Newton iterations, wall time of the stepping (the problem's set-up apart) and its sections
 (bulk and interface assembly, return map, contact search and projection, factorisation and
 linear solve, max over ranks), then the ratio finite / small.
@@ -65,18 +67,19 @@ ALPHA_N = 1e6
 
 
 def build(
-    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True
+    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True, linear: str = "auto"
 ) -> tuple[Any, Any, float]:
     """The case's problem, its solver and step, the interface of the kind ``kind`` (collective).
 
     ``balanced``: both bodies, and so the interface, cut evenly over the ranks (the pad:
     ``meshing.body_partitioner("balanced")``; the block: both bodies cut at x = 0.5), else
-    DOLFINx's graph partitioner. The caller destroys the solver.
+    DOLFINx's graph partitioner; ``linear`` the solver's linear strategy. The caller destroys
+    the solver.
     """
     law = dataclasses.replace(preset("sec7"), alpha_n=ALPHA_N)
     if case == "pad":
         part = "balanced" if balanced else "default"
-        pad = fe_scaling.build_pad(comm, n, "lu", 24, kind, alpha_n=ALPHA_N, partitioner=part)
+        pad = fe_scaling.build_pad(comm, n, linear, 24, kind, alpha_n=ALPHA_N, partitioner=part)
         return pad.problem, pad.solver, 10.0
     dom = tagged_blocks(
         comm,
@@ -95,12 +98,14 @@ def build(
         [Pressure("top", 300.0, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics=kind)],
     )
-    return problem, FrictionSolver(problem, f"{kind[:2]}_", linear="lu"), 0.25
+    return problem, FrictionSolver(problem, f"{kind[:2]}_", linear=linear), 0.25
 
 
-def run(comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True) -> dict:
+def run(
+    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True, linear: str = "auto"
+) -> dict:
     """One run: its dofs, steps, Newton iterations, wall time and sections."""
-    problem, solver, dt = build(comm, case, n, kind, balanced)
+    problem, solver, dt = build(comm, case, n, kind, balanced, linear)
     newton = []
     try:
         start = event_times()
@@ -136,6 +141,12 @@ def main() -> None:
     ap.add_argument("--case", nargs="+", default=["block", "pad"], choices=["block", "pad"])
     ap.add_argument("--n", type=int, default=None, help="elements along the interface")
     ap.add_argument(
+        "--linear",
+        choices=["auto", "lu", "reuse", "gamg"],
+        default="auto",
+        help="the linear strategy of both runs (default: the package's, auto)",
+    )
+    ap.add_argument(
         "--partition",
         choices=["balanced", "graph"],
         default="balanced",
@@ -147,10 +158,13 @@ def main() -> None:
     for case in a.case:
         n = a.n or {"block": 50, "pad": 16}[case]
         balanced = a.partition == "balanced"
-        out = {kind: run(comm, case, n, kind, balanced) for kind in KINDS}
+        out = {kind: run(comm, case, n, kind, balanced, a.linear) for kind in KINDS}
         if comm.rank == 0:
             keys = list(out[KINDS[0]])
-            print(f"\n{case}, n = {n}, {comm.size} rank(s), partition: {a.partition}")
+            print(
+                f"\n{case}, n = {n}, {comm.size} rank(s), partition: {a.partition}, "
+                f"linear: {a.linear}"
+            )
             print(f"  {'':22s} {'small':>10s} {'finite':>10s}")
             for k in keys:
                 s, f = out["small_sliding"][k], out["finite_sliding"][k]
