@@ -6,8 +6,8 @@ with the secondary facets; ``SegmentTransfer.in_tangent``, on by default, 2-D an
 2-D tangent is then the residual's derivative, the 3-D one but for the frame's turn
 (``tests/fem/interface/finite/test_finite_sliding_tangent.py``). The load stepper starts each step
 from the last one's extrapolated increment, and where the program turns (nothing to extrapolate)
-makes the step's
-first Newton iteration frictionless (``LoadStepper(predictor=...)``, on by default). This
+from the bodies the program's Dirichlet values carry along (a frictionless first Newton
+iteration where they carry none; ``LoadStepper(predictor=...)``, on by default). This
 benchmark prints Newton's iterations per sliding step (the slide's first step included):
 
 * 2-D, without ``dB t`` and without the predictor (the package before both), then with the

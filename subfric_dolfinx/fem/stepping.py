@@ -47,6 +47,7 @@ __all__ = [
     "RETRY_OPTIONS",
     "RETRY_SEPARATED_STIFFNESS",
     "SLIDING_FRACTION",
+    "TURN_OPTIONS",
     "LoadStepper",
     "StepControl",
     "StepFailure",
@@ -70,9 +71,23 @@ where Newton with full steps cycles: the unloaded slide followed by a pressure, 
 set (``tests/fem/test_reliability.py``); a backtracking line search (``bt``) solves the first but
 not the second."""
 
+TURN_OPTIONS: dict[str, Any] | None = {
+    "snes_linesearch_type": "cp",
+    "snes_linesearch_maxlambda": 2.0,
+}
+"""Options of the first attempt at a step that starts from bodies carried along by the program
+(:meth:`LoadStepper._carried`: where it turns, or at a run's first step, with a finite-sliding
+interface); ``None``: the solver's own.
+
+Where the friction's moment tilts a sliding body off part of its base within the step, Newton's
+full steps open its trailing points one ring an iteration (the penalty's linear step keeps the
+next ring in contact); the critical-point line search lengthens those steps beyond the full
+one (``docs/model.md`` §12). PETSc 3.25 caps its step length at ``maxlambda`` (1 by default: no
+longer than Newton's); 3.22 neither caps it nor knows the option."""
+
 FIRST_TOUCH_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
-"""Options of the first attempt at a run's first step with a finite-sliding interface (a first
-touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
+"""Options of the first attempt at a run's first step with a finite-sliding interface where no
+body is carried (a first touch from the state at rest: :meth:`LoadStepper._first_touch`)."""
 
 RETRY_SEPARATED_STIFFNESS = 1e-6
 """In the retry of a failed step, points without stiffness keep this fraction of the contact
@@ -293,11 +308,13 @@ class LoadStepper:
             Newton needs about twice the iterations of the extrapolated start
             (``docs/model.md`` §12). With finite
             sliding, where the program turns (nothing to extrapolate: the slide's first step, a
-            reversal) the step's first Newton iteration is frictionless, and the first Jacobian
-            of every step keeps the points that were in contact at the step's start in contact,
-            which saves the slide's first step a failed attempt: every step's first Jacobian is
-            told how it starts (:class:`~.interface.NewtonStart`, :meth:`FrictionSolver.solve`'s
-            ``start``) and each interface's kind decides.
+            reversal) each body that the program's Dirichlet values move alike is carried along
+            by them (:meth:`_carried`: the step starts slipping), on the line search of
+            :data:`TURN_OPTIONS`; where no body moves so, the step's first Newton iteration is
+            frictionless. The first Jacobian of every step keeps the points that were in contact
+            at the step's start in contact, which saves the slide's first step a failed attempt:
+            every step's first Jacobian is told how it starts (:class:`~.interface.NewtonStart`,
+            :meth:`FrictionSolver.solve`'s ``start``) and each interface's kind decides.
     """
 
     def __init__(
@@ -349,6 +366,7 @@ class LoadStepper:
         assert solver.x is not None  # (a live solver: None once destroyed)
         self._x_converged = solver.x.copy()
         self.predictor = bool(predictor)
+        self._bodies: list[np.ndarray] | None = None  # each body's owned dofs (:meth:`_carried`)
         # the last converged step's displacement increment and its length (the predictor's)
         self.increment: np.ndarray | None = None
         self.increment_dt = 0.0
@@ -416,6 +434,40 @@ class LoadStepper:
             return False
         change = self._channels(target) - self._channels(self.t)
         return bool(np.abs(change).max(initial=0.0) > 0.0)
+
+    def _carried(self, target: float) -> np.ndarray | None:
+        """Each body carried along by its Dirichlet values' change: a step's start.
+
+        Where the program turns or at a run's first step (nothing to extrapolate), with a
+        finite-sliding interface: a body whose Dirichlet dofs all change alike in a component
+        over the step (the same nonzero change on every one of them) is translated by that
+        change in that component. The start of a slide the program drives: its interface
+        points start the step slipping, with their slip tangent and the friction's force,
+        instead of on a frictionless first iterate; of a press by a displacement: the body
+        starts the step where the open interface's first iterate would take it, in the other
+        one. The same on every rank; ``None`` where no body moves so (a motion driven by
+        loads, or none).
+        """
+        if self._bodies is None:
+            self._bodies = _body_dofs(self.problem)
+        dofs, now = self.problem.dirichlet_values(target)
+        _, before = self.problem.dirichlet_values(self.t)
+        change = now - before
+        comm = self.problem.comm
+        bs = self.problem.V.dofmap.bs
+        assert self.solver.x is not None  # (a live solver)
+        out = np.zeros(self.solver.x.getLocalSize())
+        moved = False
+        for own in self._bodies:
+            for c in range(bs):
+                d = change[np.isin(dofs, own[own % bs == c])]
+                lo = comm.allreduce(float(d.min(initial=np.inf)), op=MPI.MIN)
+                hi = comm.allreduce(float(d.max(initial=-np.inf)), op=MPI.MAX)
+                if not math.isfinite(lo) or hi == 0.0 or hi - lo > 1e-12 * abs(hi):
+                    continue
+                out[own[own % bs == c]] = hi
+                moved = True
+        return out if moved else None
 
     def _undo(self) -> None:
         """Back to the last converged state (displacement and interface trial state)."""
@@ -590,16 +642,23 @@ class LoadStepper:
         first = self.retry_options if keep else None
         stiff = RETRY_SEPARATED_STIFFNESS if first is not None else 0.0
         predicted = self._predict(target, dt)
-        opening = first is None and self._first_touch()
+        turns = predicted is None and self._turns(target) and self._finite()
+        touch = first is None and self._first_touch()
+        carried = None
+        if turns or (touch and self.predictor):
+            carried = predicted = self._carried(target)
+        options = first
+        if first is None and carried is not None and TURN_OPTIONS:
+            options = TURN_OPTIONS
+        elif touch:
+            options = FIRST_TOUCH_OPTIONS
         r = self.solver.solve(
             target,
             dt,
-            options=FIRST_TOUCH_OPTIONS if opening else first,
+            options=options,
             separated_stiffness=stiff,
             predictor=predicted,
-            start=NewtonStart(
-                turns=predicted is None and self._turns(target), extrapolating=self.predictor
-            ),
+            start=NewtonStart(turns=turns and carried is None, extrapolating=self.predictor),
         )
         self._check_interrupted(r, target)
         retried = first is not None
@@ -625,11 +684,12 @@ class LoadStepper:
         return r, first, retried
 
     def _first_touch(self) -> bool:
-        """Whether this step's first attempt takes the retry's line search: a first touch.
+        """Whether this step is a first touch: a run's first step with finite sliding.
 
         A run's first step with an interface re-paired in the current configuration (finite
-        sliding), the same on every rank: :data:`FIRST_TOUCH_OPTIONS`, without the retry's
-        stiffness of separated points.
+        sliding), the same on every rank: it starts from the carried bodies
+        (:meth:`_carried`) on :data:`TURN_OPTIONS` where the program moves one, else on
+        :data:`FIRST_TOUCH_OPTIONS`, without the retry's stiffness of separated points.
         From the state at rest, the first Newton iterate is taken on the tangent of an open
         interface: a body brought to touch moves into the other by up to the step's approach,
         far beyond the penetration of the solution, the next tractions are many times the
@@ -638,8 +698,10 @@ class LoadStepper:
         penalty's stick region is far narrower than the bodies' shift under the friction). The
         line search shortens the steps that cross it (``docs/model.md`` §12).
         """
-        if self.step != 0 or self.increment is not None:
-            return False
+        return self.step == 0 and self.increment is None and self._finite()
+
+    def _finite(self) -> bool:
+        """Whether the problem has an interface re-paired in the current configuration."""
         interfaces = getattr(self.problem, "interfaces", {}).values()
         return any(not i.fixed_pairs for i in interfaces)
 
@@ -769,3 +831,29 @@ class LoadStepper:
         if self.easy >= self.easy_steps:
             self.dt = min(self.dt * self.grow, self.dt_max)
             self.easy = 0
+
+
+def _body_dofs(problem: Any) -> list[np.ndarray]:
+    """The owned dofs (local, unrolled) of each body that shares no node with another one.
+
+    The same bodies in the same order on every rank (collective; an array may be empty here).
+    """
+    V = problem.V
+    bs = V.dofmap.bs
+    n = V.dofmap.index_map.size_local
+    cells = problem.domain.cell_tags
+    dofmap = np.asarray(V.dofmap.list)
+    nodes = []
+    for body in sorted(problem.topology.bodies):
+        tags = [problem.tags[g] for g in problem.topology.bodies[body]]
+        d = np.unique(dofmap[cells.indices[np.isin(cells.values, tags)]].ravel())
+        nodes.append(d[d < n])
+    count = np.zeros(n, dtype=np.int64)
+    for d in nodes:
+        count[d] += 1
+    out = []
+    for d in nodes:
+        shared = problem.comm.allreduce(int(np.any(count[d] > 1)), op=MPI.MAX)
+        if not shared:
+            out.append((d[:, None] * bs + np.arange(bs)).ravel())
+    return out

@@ -94,7 +94,9 @@ class NewtonStart:
 
     Attributes:
         turns: The loading program turns at this step and the stepper has nothing to
-            extrapolate (a motion's first step, a reversal).
+            extrapolate (a motion's first step, a reversal) nor a body the program carries
+            along (:meth:`~subfric_dolfinx.fem.stepping.LoadStepper._carried`: a motion
+            driven by loads).
         extrapolating: The stepper starts its steps from an extrapolated guess (its
             ``predictor``).
     """

@@ -126,7 +126,8 @@ def test_2d_tangent_holds_the_normals_change(comm, law, degree):
         return np.sqrt(comm.allreduce(float(d @ d)) / comm.allreduce(float(ref @ ref)))
 
     with FrictionSolver(problem, linear="lu") as solver:
-        LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=1.75)
+        records = LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=1.75)
+        newton = [(rec.t, rec.iterations, bool(rec.cuts or rec.retried)) for rec in records]
         x = solver.x.copy()
         v = tangent.direction(comm, problem, x)
         F = problem.create_vector()
@@ -154,13 +155,14 @@ def test_2d_tangent_holds_the_normals_change(comm, law, degree):
             w.destroy()
     err = np.array(err)
     checks = {
+        "newton": tangent.within(newton),
         "in contact": counts[0] + counts[1] > 0,
         "secondary rows exact": err[1, 0] < 1e-8,
         "O(e^2)": err[0, 0] > 30 * err[1, 0] or err[0, 0] < 1e-9,
         "whole exact": err[1, 1] < 1e-8,
         "whole O(e^2)": err[0, 1] > 30 * err[1, 1] or err[0, 1] < 1e-9,
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, counts)
+    assert everywhere(comm, all(checks.values())), (checks, err, counts, newton)
 
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
@@ -172,7 +174,7 @@ def test_3d_tangent_holds_the_normals_change(comm, law):
     assert SlidingInterface.normals_per_iteration  # the default
     problem = diagonal_slide_3d(comm, tangent.law_of(law), 3.0, split_x=1.5)
     with FrictionSolver(problem, linear="lu") as solver:
-        converged = tangent.mid_step(solver, 1.75, 1.9, 0.15)
+        converged, newton = tangent.mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         v = tangent.direction(comm, problem, x)
         err = tangent.differences(comm, problem, x, v, [1e-4, 1e-5])
@@ -181,11 +183,12 @@ def test_3d_tangent_holds_the_normals_change(comm, law):
         x.destroy()
     checks = {
         "converged": converged,
+        "newton": tangent.within(newton),
         "in contact": counts[0] + counts[1] > 0,
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, counts)
+    assert everywhere(comm, all(checks.values())), (checks, err, counts, newton)
 
 
 def slide(
@@ -274,10 +277,9 @@ def test_push_is_the_interface_force_whatever_the_step(comm, law, dim, dt):
         change = np.abs((a[:, push] - a[:, local]) - (b[:, push] - b[:, local])).max() / peak
     checks = {"steps": len(common) >= 7, "balance": balance < 1e-6, "halving": change < 1e-6}
     # Newton: every step of both runs, the press's first (the first touch) and the slide's first
-    # (the program turns) included, within 5 iterations, without a cut or a retry; but Coulomb in
-    # 3-D, whose first sliding step tilts the block off 11 of its 24 points (7: the points open
-    # one ring an iteration, docs/model.md §12)
+    # (the program turns; Coulomb in 3-D tilts the block off 11 of its 24 points) included,
+    # within 5 iterations, without a cut or a retry
     most = max(n for _, n, _, _ in newton)
-    checks["newton"] = most <= (7 if (law, dim) == ("coulomb", 3) else 5)
+    checks["newton"] = most <= tangent.NEWTON
     checks["no cut"] = not any(c or r for _, _, c, r in newton)
     assert all(checks.values()), (checks, balance, change, newton)

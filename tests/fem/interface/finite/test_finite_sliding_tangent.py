@@ -23,6 +23,10 @@ interface), and the interface's own tangent with the central differences of its 
   at e = 1e-4 and 1e-5 (Sec. 7 P1; Coulomb P1 3.5e-7 and 3.5e-9; Sec. 7 P2 4.3e-6 and 4.3e-8);
   without ``dB t`` 5.7e-5 / 5.8e-4.
 
+Every step of the runs that lead there (the press's first, a first touch, and the slide's first,
+where the program turns, included) and the mid-step solve take at most :data:`NEWTON` Newton
+iterations, without a cut or a retry.
+
 ``benchmarks/finite_sliding_newton.py`` prints Newton's iterations with and without ``dB t``.
 """
 
@@ -52,9 +56,9 @@ from tests.helpers import everywhere
 pytestmark = pytest.mark.three_ranks  # FE: run on 3 ranks too (./run test3)
 
 
-def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=None):
+def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=None, more=()):
     """The block pressed by 300 MPa on its top and slid; ``press_down``: pressed instead by
-    moving its top down by this much (mm)."""
+    moving its top down by this much (mm); ``more``: more Dirichlet conditions."""
     dom = tagged_blocks(
         comm,
         base=(0.0, base_end, -1.0, 0.0),
@@ -64,7 +68,7 @@ def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=Non
         split_x=2.0,
     )
     program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
-    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide")]
+    bcs = [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 1.0, 0, amplitude="slide"), *more]
     loads = [Pressure("top", 300.0, amplitude="press")]
     if press_down is not None:
         bcs.append(Dirichlet("top", -press_down, 1, amplitude="press"))
@@ -85,10 +89,28 @@ def problem_2d(comm, law, degree, base_end=4.0, initial_gap=None, press_down=Non
     )
 
 
+NEWTON = 5
+"""Newton iterations allowed in every step of a finite-sliding run (the press's first, a first
+touch, and the slide's first, where the program turns, included)."""
+
+
 def mid_step(solver, t_stop, t, dt):
-    """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``."""
-    LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=t_stop)
-    return bool(solver.solve(t, dt).converged)
+    """The problem advanced to ``t_stop`` and solved (not committed) for the step to ``t``.
+
+    Returns:
+        Whether the step converged, and ``(t, Newton iterations, cut or retried)`` of every step
+        (the stepper's, then this one).
+    """
+    records = LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25)).run(t_end=t_stop)
+    r = solver.solve(t, dt)
+    newton = [(rec.t, rec.iterations, bool(rec.cuts or rec.retried)) for rec in records]
+    return bool(r.converged), [*newton, (t, r.iterations, False)]
+
+
+def within(newton) -> bool:
+    """Whether every step of ``newton`` (:func:`mid_step`) took at most :data:`NEWTON` Newton
+    iterations, none cut or retried."""
+    return all(n <= NEWTON and not again for _, n, again in newton)
 
 
 def differences(comm, problem, x, v, eps):
@@ -155,10 +177,11 @@ def mid_step_differences(comm, problem, also=None):
     ``also(x, v)``: more at the same point (e.g. with a term of the tangent left out).
 
     Returns:
-        Whether the step converged, the differences and what ``also`` gave (``None``: none).
+        Whether the step converged, the Newton iterations of every step (:func:`mid_step`), the
+        differences and what ``also`` gave (``None``: none).
     """
     with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        converged, newton = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         v = direction(comm, problem, x)
         try:
@@ -167,7 +190,7 @@ def mid_step_differences(comm, problem, also=None):
         finally:
             v.destroy()
             x.destroy()
-    return converged, err, more
+    return converged, newton, err, more
 
 
 @pytest.mark.parametrize("law, degree", [("coulomb", 1), ("sec7", 1), ("coulomb", 2)])
@@ -178,16 +201,17 @@ def test_2d_tangent_is_the_residual_derivative(comm, monkeypatch, law, degree):
         monkeypatch.setattr(SegmentTransfer, "in_tangent", False)
         return differences(comm, problem, x, v, [1e-5])[0]
 
-    converged, err, without = mid_step_differences(comm, problem, without_transfer_change)
+    converged, newton, err, without = mid_step_differences(comm, problem, without_transfer_change)
     counts = comm.allreduce(np.bincount(problem.interfaces["contact"].last.status, minlength=4))
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "in contact": counts[0] + counts[1] > 0,  # sticking or slipping points
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without dB t": without[1] > 1e-5,
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, without, counts)
+    assert everywhere(comm, all(checks.values())), (checks, err, without, counts, newton)
 
 
 @pytest.mark.parametrize("law", ["coulomb", "sec7"])
@@ -204,7 +228,7 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
     # on its open interface (a singular Jacobian until it touches)
     problem = problem_2d(comm, law_of(law), 1, initial_gap=g0, press_down=0.005)
     iface = problem.interfaces["contact"]
-    converged, err, _ = mid_step_differences(comm, problem)
+    converged, newton, err, _ = mid_step_differences(comm, problem)
     g, pts = iface.geometry, iface.law_points
     raw = np.einsum("qk,fkd->fqd", iface.sides.Ns[0], g.Xs).reshape(-1, 2)
     # the contact surface: the point moved by g0 along the normal it faced at the step's start
@@ -212,12 +236,13 @@ def test_2d_tangent_with_an_initial_gap(comm, law):
     closed = comm.allreduce(int(np.count_nonzero(g.found & (g.gap[:, 1] > 0))))
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "in contact": closed > 0,
         "on their contact surfaces": bool(np.all(moved[iface.start.facet >= 0] < 1e-12)),
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, closed)
+    assert everywhere(comm, all(checks.values())), (checks, err, closed, newton)
 
 
 def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
@@ -232,16 +257,17 @@ def test_2d_tangent_past_the_end_of_the_base(comm, monkeypatch):
         monkeypatch.setattr(SegmentTransfer, "complement_tangent", lambda *a: [])
         return differences(comm, problem, x, v, [1e-5])[0]
 
-    converged, err, without = mid_step_differences(comm, problem, without_complement_change)
+    converged, newton, err, without = mid_step_differences(comm, problem, without_complement_change)
     complement = comm.allreduce(iface.geometry.transfer.complement)
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "overhangs": complement > 0,
         "exact": err[1].max() < 1e-8,
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without the complement's change": without[1] > 1e-6,
     }
-    assert everywhere(comm, all(checks.values())), (checks, err, without, complement)
+    assert everywhere(comm, all(checks.values())), (checks, err, without, complement, newton)
 
 
 def interface_rates(problem, x, v, eps, held=None):
@@ -284,7 +310,7 @@ def interface_jv(problem, x, v):
 def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
     problem = diagonal_slide_3d(comm, law_of("sec7"), 3.0, split_x=1.5)
     with FrictionSolver(problem, linear="lu") as solver:
-        converged = mid_step(solver, 1.75, 1.9, 0.15)
+        converged, newton = mid_step(solver, 1.75, 1.9, 0.15)
         x = solver.x.copy()
         iface = problem.interfaces["contact"]
         v = direction(comm, problem, x)
@@ -311,6 +337,7 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
     part = np.array([rel((a - b) - (on - off), on - off) for a, b in zip(live, held, strict=True)])
     checks = {
         "converged": converged,
+        "newton": within(newton),
         "in contact": counts[0] + counts[1] > 0,
         "dB t exact": part[1] < 1e-6,
         "dB t O(e^2)": part[0] > 30 * part[1] or part[0] < 1e-9,
@@ -318,4 +345,47 @@ def test_3d_tangent_holds_the_transfer_change(comm, monkeypatch):
         "O(e^2)": np.all((err[0] > 30 * err[1]) | (err[0] < 1e-9)),
         "without dB t": without[1] > 5 * err[-1, 1],
     }
-    assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts)
+    assert everywhere(comm, all(checks.values())), (checks, part, err, without, counts, newton)
+
+
+def carried_nodes(comm, problem, carried):
+    """The owned nodes' carried translations (n, 2) and their coordinates (n, 2)."""
+    n = problem.V.dofmap.index_map.size_local
+    x = problem.V.tabulate_dof_coordinates()[:n, :2]
+    return carried.reshape(-1, 2)[:n], x
+
+
+@pytest.mark.parametrize("case", ["slide", "press", "held end"])
+def test_a_turn_starts_from_the_bodies_the_program_carries(comm, case):
+    """Where the program turns, and at a run's first step, the stepper's start translates each
+    body whose Dirichlet dofs all change alike in a component by that change
+    (``LoadStepper._carried``): at the slide's first step the block by its top's slide in x (its
+    top's y is free under the pressure), the base (held) not at all; at the first step of the
+    press by the top's displacement the block in y; with the block's end held in x beside its
+    top's slide, the block's Dirichlet values do not change alike: nothing is carried."""
+    press = 0.005 if case == "press" else None
+    held = [Dirichlet("block_left", 0.0, 0)] if case == "held end" else []
+    problem = problem_2d(comm, law_of("coulomb"), 1, press_down=press, more=held)
+    with FrictionSolver(problem, linear="lu") as solver:
+        stepper = LoadStepper(solver, 0.25, control=StepControl(dt_max=0.25))
+        if case == "press":
+            carried = stepper._carried(0.25)
+        else:
+            stepper.run(t_end=1.0)
+            carried = stepper._carried(1.25)
+    if case == "held end":
+        assert everywhere(comm, carried is None), carried
+        return
+    assert carried is not None
+    u, x = carried_nodes(comm, problem, carried)
+    expected = np.array([0.125, 0.0]) if case == "slide" else np.array([0.0, -0.00125])
+    block = np.all(np.isclose(u, expected, rtol=0, atol=1e-15), axis=1)
+    still = np.all(u == 0.0, axis=1)
+    checks = {
+        "block or nothing": bool(np.all(block | still)),
+        "inside the block": bool(np.all(block[x[:, 1] > 1e-9])),
+        "inside the base": bool(np.all(still[x[:, 1] < -1e-9])),
+        # the block's nodes, every one (P1: 4 x 3)
+        "all the block": comm.allreduce(int(block.sum())) == 12,
+    }
+    assert everywhere(comm, all(checks.values())), (checks, u[~(block | still)])

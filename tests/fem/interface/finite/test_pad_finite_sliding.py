@@ -56,13 +56,10 @@ def test_the_pad_slides_onto_the_plate_beyond_its_footprint(comm):
     # the pressure's force, in the finite frames that follow the plate's deformed surface
     np.testing.assert_allclose(finite[:, 2], small[:, 2], rtol=1e-4)
     assert np.abs(finite[:, 1] - small[:, 1]).max() < 0.01 * peak, (finite[:, 1], small[:, 1])
-    # Newton: where the program turns (the slide's first step, 3, and the reversal, 7: nothing to
-    # extrapolate) at most 8 (measured 6 and 5 on 1 and 2 ranks, 7 and 5 on 3 ranks of sid: the
-    # count depends on the partition; over issue 22 item 3's 5 at the slide's first step on this
-    # pad); elsewhere the extrapolated start and the full 3-D tangent (dB t) converge in 2-3
+    # Newton: within 5 at every step, where the program turns too (the slide's first step, 3, and
+    # the reversal, 7: nothing to extrapolate; the pad is carried along by its top's displacement)
     newton = finite[:, 4]
-    turns = [2, 6]
-    assert newton[turns].max() <= 8 and np.delete(newton, turns).max() <= 4, newton
+    assert newton.max() <= 5, newton
 
 
 def test_the_pad_slides_two_widths_forth_and_back(comm):
