@@ -147,14 +147,21 @@ def choose_strategy(name: str, problem) -> str:
     """The strategy ``name`` stands for: ``"auto"`` chosen by :func:`auto_choice`, else itself.
 
     ``"auto"`` counts the dofs over all ranks and the ranks of the problem's communicator: the
-    same choice on every rank.
+    same choice on every rank. With a finite-sliding interface (pairs made at every iterate) it
+    takes ``"reuse"`` (MUMPS) below :data:`AUTO_GAMG_DOFS` where :func:`auto_choice` says
+    ``"gamg"``: GMRES preconditioned by GAMG breaks down on that tangent.
 
     Raises:
         ValueError: An unknown name (the known ones listed).
     """
     if name == "auto":
         dofs = problem.global_dofs
-        return auto_choice(problem.gdim, dofs, problem.comm.size)
+        choice = auto_choice(problem.gdim, dofs, problem.comm.size)
+        finite = any(not i.fixed_pairs for i in problem.interfaces.values())
+        if choice == "gamg" and finite and dofs < AUTO_GAMG_DOFS:
+            # GMRES on GAMG breaks down on a finite-sliding tangent (docs/design.md)
+            return "reuse"
+        return choice
     if name not in STRATEGY_OPTIONS:
         raise ValueError(f"unknown linear strategy {name!r}; known: {['auto', *STRATEGIES]}")
     return name

@@ -292,7 +292,7 @@ def test_partitioner_split(comm, name, kind):
 @pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
 def test_a_finite_sliding_mesh_is_balanced_by_default(comm, name):
     """Without a partitioner, a mesh with a finite-sliding interface is cut by "balanced"."""
-    boxes, cell_type = STORED[name]
+    boxes, _ = STORED[name]
     sides = {"primary": M.PRIMARY, "secondary": M.SECONDARY, "kinematics": "finite_sliding"}
     im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim, interfaces={"interface": sides})
     levels = int(np.ceil(np.log2(comm.size))) if comm.size > 1 else 0
