@@ -144,8 +144,8 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
     from mpi4py import MPI
     from petsc4py import PETSc
 
+    from subfric_dolfinx.compat import pushed_options
     from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS, rigid_modes
-    from subfric_dolfinx.fem.solver import pushed_options
 
     comm = problem.comm
     A = solver.J.copy()
@@ -216,6 +216,7 @@ def build_pad(
     reach: float | None = None,
     alpha_n: float | None = None,
     domain: Any = None,
+    partitioner: Any = None,
 ) -> PadRun:
     """The pad on a plate with ``n`` hexahedra along the pad's side and its ``steps`` program.
 
@@ -224,8 +225,9 @@ def build_pad(
     :func:`default_reach`); ``alpha_n`` the normal penalty (default: :data:`FINITE_ALPHA_N` for
     finite sliding, the Sec. 7 set's otherwise); ``domain`` the pad's mesh built already (e.g.
     read in parts and refined on the ranks: the same groups; ``t_mesh`` is then 0 and
-    ``rss_mesh_mib`` the peak so far), else gmsh's hexahedra on rank 0. Collective. The caller
-    owns ``solver`` (``solver.destroy()`` when done).
+    ``rss_mesh_mib`` the peak so far), else gmsh's hexahedra on rank 0, distributed by
+    ``partitioner`` (a kind of ``meshing.body_partitioner``; default DOLFINx's). Collective.
+    The caller owns ``solver`` (``solver.destroy()`` when done).
     """
     from mpi4py import MPI
 
@@ -248,7 +250,7 @@ def build_pad(
     elif finite:
         sides = {"primary": "primary", "secondary": "secondary", "kinematics": kinematics}
         dom, _ = meshing.create_interface_mesh(
-            pad_apart, comm, interfaces={"interface": sides}, n=n
+            pad_apart, comm, interfaces={"interface": sides}, n=n, partitioner=partitioner
         )
     else:
         dom, _ = meshing.create_interface_mesh(
@@ -258,6 +260,7 @@ def build_pad(
             cell_type="hexahedron",
             plate_size=PLATE_SIZE,
             pad_size=PAD_SIZE,
+            partitioner=partitioner,
         )
     t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     rss_mesh = peak_rss_mib()

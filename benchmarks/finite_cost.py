@@ -14,10 +14,17 @@ the iterate's nodal normals). Cases:
   plate's whole top), 37,206 dofs at ``--n 16``, its 24-step program (press in 4, slide to +0.5
   mm in 8, back to -0.5 mm in 12).
 
-Both with the Sec. 7 law and a stiff normal penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding
-demos take), LU. Prints, per kind: dofs, steps, Newton iterations, wall time of the stepping (the
-problem's set-up apart) and its sections (bulk and interface assembly, return map, contact search
-and projection, factorisation and linear solve, max over ranks), then the ratio finite / small.
+Both kinds on the same partition: by default every body cut evenly over the ranks (the pad:
+``meshing.body_partitioner("balanced")``, the block: both bodies cut at x = 0.5), so that the
+interface's work is shared (``--partition graph``: DOLFINx's graph partitioner, which may put
+the pad and its whole interface on one rank). Both with the Sec. 7 law and a stiff normal
+penalty (``alpha_n`` 1e6 MPa/mm, as the finite-sliding demos take), one linear strategy:
+``reuse`` (MUMPS LU refreshed by the package's cost rule: what ``auto`` takes for the
+finite-sliding run at these sizes), or ``--linear lu`` (a factorisation every Newton
+iteration), ``auto``, ``gamg``. Prints, per kind: dofs,
+steps, Newton iterations, wall time of the stepping (the problem's set-up apart) and its sections
+(bulk and interface assembly, return map, contact search and projection, factorisation and
+linear solve, max over ranks), then the ratio finite / small.
 Timings depend on the machine's load: printed, never asserted.
 
     ./run exec mpirun -n 2 python3 benchmarks/finite_cost.py [--case block pad] [--n N]
@@ -60,16 +67,28 @@ ALPHA_N = 1e6
 """The normal penalty (MPa/mm) of both runs (the finite-sliding demos' stiff one)."""
 
 
-def build(comm: MPI.Comm, case: str, n: int, kind: str) -> tuple[Any, Any, float]:
+def build(
+    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True, linear: str = "reuse"
+) -> tuple[Any, Any, float]:
     """The case's problem, its solver and step, the interface of the kind ``kind`` (collective).
 
-    The caller destroys the solver.
+    ``balanced``: both bodies, and so the interface, cut evenly over the ranks (the pad:
+    ``meshing.body_partitioner("balanced")``; the block: both bodies cut at x = 0.5), else
+    DOLFINx's graph partitioner; ``linear`` the solver's linear strategy. The caller destroys
+    the solver.
     """
     law = dataclasses.replace(preset("sec7"), alpha_n=ALPHA_N)
     if case == "pad":
-        pad = fe_scaling.build_pad(comm, n, "lu", 24, kind, alpha_n=ALPHA_N)
+        part = "balanced" if balanced else "default"
+        pad = fe_scaling.build_pad(comm, n, linear, 24, kind, alpha_n=ALPHA_N, partitioner=part)
         return pad.problem, pad.solver, 10.0
-    dom = tagged_blocks(comm, base=(0.0, 1.0, -1.0, 0.0), n_base=(n, n), n_block=(n, n))
+    dom = tagged_blocks(
+        comm,
+        base=(0.0, 1.0, -1.0, 0.0),
+        n_base=(n, n),
+        n_block=(n, n),
+        split_x=0.5 if balanced else None,
+    )
     program = LoadingProgram([0.0, 1.0, 3.0], {"press": [0, 1, 1], "slide": [0, 0, 1]})
     problem = InterfaceProblem(
         dom,
@@ -80,12 +99,14 @@ def build(comm: MPI.Comm, case: str, n: int, kind: str) -> tuple[Any, Any, float
         [Pressure("top", 300.0, amplitude="press")],
         interfaces=[Interface("contact", "base", "block", kinematics=kind)],
     )
-    return problem, FrictionSolver(problem, f"{kind[:2]}_", linear="lu"), 0.25
+    return problem, FrictionSolver(problem, f"{kind[:2]}_", linear=linear), 0.25
 
 
-def run(comm: MPI.Comm, case: str, n: int, kind: str) -> dict:
+def run(
+    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True, linear: str = "reuse"
+) -> dict:
     """One run: its dofs, steps, Newton iterations, wall time and sections."""
-    problem, solver, dt = build(comm, case, n, kind)
+    problem, solver, dt = build(comm, case, n, kind, balanced, linear)
     newton = []
     try:
         start = event_times()
@@ -120,15 +141,31 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--case", nargs="+", default=["block", "pad"], choices=["block", "pad"])
     ap.add_argument("--n", type=int, default=None, help="elements along the interface")
+    ap.add_argument(
+        "--linear",
+        choices=["reuse", "lu", "auto", "gamg"],
+        default="reuse",
+        help="the linear strategy of both runs (default: MUMPS LU refreshed by the cost rule)",
+    )
+    ap.add_argument(
+        "--partition",
+        choices=["balanced", "graph"],
+        default="balanced",
+        help="every body cut evenly over the ranks (default), or DOLFINx's graph partitioner",
+    )
     a = ap.parse_args()
     comm = MPI.COMM_WORLD
     PETSc.Log.begin()
     for case in a.case:
         n = a.n or {"block": 50, "pad": 16}[case]
-        out = {kind: run(comm, case, n, kind) for kind in KINDS}
+        balanced = a.partition == "balanced"
+        out = {kind: run(comm, case, n, kind, balanced, a.linear) for kind in KINDS}
         if comm.rank == 0:
             keys = list(out[KINDS[0]])
-            print(f"\n{case}, n = {n}, {comm.size} rank(s)")
+            print(
+                f"\n{case}, n = {n}, {comm.size} rank(s), partition: {a.partition}, "
+                f"linear: {a.linear}"
+            )
             print(f"  {'':22s} {'small':>10s} {'finite':>10s}")
             for k in keys:
                 s, f = out["small_sliding"][k], out["finite_sliding"][k]

@@ -61,8 +61,8 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable, Iterator
-from typing import cast
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, cast
 
 import dolfinx
 import dolfinx.common
@@ -92,6 +92,7 @@ __all__ = [
     "interpolation_points",
     "model_to_mesh",
     "petsc_vector",
+    "pushed_options",
     "read_from_msh",
     "refine_uniform",
     "repeatable_partitions",
@@ -203,21 +204,42 @@ not depend on where the vectors lie.
 
 
 @contextlib.contextmanager
+def pushed_options(prefix: str, *layers: Mapping[str, Any]) -> Iterator[None]:
+    """Set options under ``prefix`` for the duration of the block, then restore the database.
+
+    Layers are applied in order (later ones win). Options whose name starts with ``?`` are
+    defaults: set only where the database has no value. Not collective.
+    """
+    opts = PETSc.Options()
+    saved: dict[str, str | None] = {}
+    for layer in layers:
+        for key, value in layer.items():
+            default = key.startswith("?")
+            name = prefix + key.lstrip("?")
+            if name not in saved:
+                saved[name] = opts.getString(name) if opts.hasName(name) else None
+            if default and opts.hasName(name):
+                continue
+            opts[name] = value
+    try:
+        yield
+    finally:
+        for name, old in saved.items():
+            if old is None:
+                opts.delValue(name)
+            else:
+                opts[name] = old
+
+
+@contextlib.contextmanager
 def repeatable_vectors() -> Iterator[None]:
     """Within the block, new PETSc vectors take :data:`REPEATABLE_VECTOR_OPTIONS`.
 
     An option the database has already (the user's, e.g. ``-vec_mdot_use_gemv 1`` on the command
     line) is kept; the others are deleted again on exit. Not collective.
     """
-    opts = PETSc.Options()
-    added = [k for k in REPEATABLE_VECTOR_OPTIONS if not opts.hasName(k)]
-    for k in added:
-        opts[k] = REPEATABLE_VECTOR_OPTIONS[k]
-    try:
+    with pushed_options("", {"?" + k: v for k, v in REPEATABLE_VECTOR_OPTIONS.items()}):
         yield
-    finally:
-        for k in added:
-            opts.delValue(k)
 
 
 def petsc_vector(index_map: dolfinx.common.IndexMap, bs: int) -> PETSc.Vec:

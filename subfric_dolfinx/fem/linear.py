@@ -44,7 +44,11 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
 
 ``"lu"``
     A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
-    other strategies are compared with.
+    other strategies are compared with. Where the problem's pattern is much wider than the
+    Jacobian's entries (a 3-D interface that pairs again as the bodies move holds every pairing
+    until its next search: the problem's ``compact_factor``), the LU is of a compact copy of
+    ``J``, its entries alone (:class:`CompactCopy`): the same values, a factor with less fill,
+    and the symbolic factorisation kept while the entries stay within the copy's pattern.
 
 ``"gamg"``
     GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
@@ -89,6 +93,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
+from mpi4py import MPI
 from petsc4py import PETSc
 
 __all__ = [
@@ -149,14 +155,21 @@ def choose_strategy(name: str, problem) -> str:
     """The strategy ``name`` stands for: ``"auto"`` chosen by :func:`auto_choice`, else itself.
 
     ``"auto"`` counts the dofs over all ranks and the ranks of the problem's communicator: the
-    same choice on every rank.
+    same choice on every rank. With a finite-sliding interface (pairs made at every iterate) it
+    takes ``"reuse"`` (MUMPS) below :data:`AUTO_GAMG_DOFS` where :func:`auto_choice` says
+    ``"gamg"``: GMRES preconditioned by GAMG breaks down on that tangent.
 
     Raises:
         ValueError: An unknown name (the known ones listed).
     """
     if name == "auto":
         dofs = problem.global_dofs
-        return auto_choice(problem.gdim, dofs, problem.comm.size)
+        choice = auto_choice(problem.gdim, dofs, problem.comm.size)
+        finite = any(not i.fixed_pairs for i in problem.interfaces.values())
+        if choice == "gamg" and finite and dofs < AUTO_GAMG_DOFS:
+            # GMRES on GAMG breaks down on a finite-sliding tangent (docs/design.md)
+            return "reuse"
+        return choice
     if name not in STRATEGY_OPTIONS:
         raise ValueError(f"unknown linear strategy {name!r}; known: {['auto', *STRATEGIES]}")
     return name
@@ -182,6 +195,82 @@ def refresh_price(name: str, dofs: int) -> float:
 _ETA_MAX = 0.1
 _ETA_MIN = 1e-12
 _TARGET_FRACTION = 0.01  # the Krylov solve aims at this fraction of Newton's target
+
+
+def nonzeros(A: PETSc.Mat) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The owned rows of ``A`` without their explicit zeros: CSR with global columns.
+
+    The diagonal is kept, zero or not.
+    """
+    indptr, cols, vals = A.getValuesCSR()
+    n = indptr.size - 1
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+    keep = (vals != 0.0) | (cols == rows + A.getOwnershipRange()[0])
+    counts = np.bincount(rows[keep], minlength=n)
+    kept = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+    return kept, cols[keep], vals[keep]
+
+
+class CompactCopy:
+    """A copy of a matrix without its explicit zeros, to factorise (collective methods).
+
+    The pattern of a problem whose interfaces pair again as the bodies move holds every
+    coupling a pairing may take until the next search (:mod:`.interface.finite.reach`), far more
+    than one Jacobian's entries; a factorisation of the matrix as stored orders and fills that
+    whole pattern. The copy holds the entries of the Jacobian it was made from; a later Jacobian
+    whose entries it holds is copied into it (the same pattern: PETSc keeps the symbolic
+    factorisation), another one makes a new copy (a new symbolic factorisation). Its values
+    are those of the Jacobian: its factor solves the same equations.
+
+    Attributes:
+        P: The copy (``None`` before the first :meth:`update`).
+        patterns: How many patterns it took (symbolic factorisations).
+    """
+
+    def __init__(self) -> None:
+        self.P: PETSc.Mat | None = None
+        self.patterns = 0
+        self._keys: np.ndarray | None = None
+        self._retired: PETSc.Mat | None = None  # the former copy, still the SNES's until rebound
+
+    def update(self, J: PETSc.Mat) -> bool:
+        """Copy the entries of ``J``; whether :attr:`P` is a new matrix (collective)."""
+        if self._retired is not None:
+            self._retired.destroy()
+            self._retired = None
+        indptr, cols, vals = nonzeros(J)
+        n_cols = J.getSize()[1]
+        rows = np.repeat(np.arange(indptr.size - 1, dtype=np.int64), np.diff(indptr))
+        keys = rows * n_cols + cols  # sorted: rows in order, columns sorted in each
+        held = self._keys
+        fits = held is not None and bool(
+            keys.size == 0
+            or (
+                held.size > 0
+                and np.all(held[np.minimum(np.searchsorted(held, keys), held.size - 1)] == keys)
+            )
+        )
+        comm = J.getComm().tompi4py()
+        if self.P is not None and comm.allreduce(int(fits), op=MPI.MIN):
+            self.P.zeroEntries()
+            self.P.setValuesCSR(indptr, cols, vals)
+            self.P.assemble()
+            return False
+        self._retired = self.P
+        P = PETSc.Mat().createAIJ(J.getSizes(), csr=(indptr, cols, vals), comm=J.getComm())
+        P.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        P.assemble()
+        self.P, self._keys = P, keys
+        self.patterns += 1
+        return True
+
+    def destroy(self) -> None:
+        """Free the copies (safe to call more than once)."""
+        for m in (self.P, self._retired):
+            if m is not None:
+                m.destroy()
+        self.P = self._retired = None
+        self._keys = None
 
 
 def rigid_modes(problem) -> PETSc.NullSpace:
@@ -239,6 +328,12 @@ class LinearStrategy:
         if self.policy is not None:
             dofs = problem.global_dofs
             self.policy["price"] = refresh_price(name, dofs)
+        # "lu" on a pattern much wider than the Jacobian's entries: the factor's matrix is a
+        # compact copy (the SNES's preconditioning matrix; ``rebind``: a new one since the last
+        # Jacobian)
+        compact = bool(getattr(problem, "compact_factor", False))
+        self.compact = CompactCopy() if name == "lu" and compact else None
+        self.rebind = False
         # counts over the solver's life
         self.refreshes = 0
         self.retries = 0
@@ -284,6 +379,8 @@ class LinearStrategy:
 
     def matrices(self, J: PETSc.Mat) -> tuple[PETSc.Mat, PETSc.Mat]:
         """The operator and the preconditioning matrix to give SNES."""
+        if self.compact is not None and self.compact.P is not None:
+            return J, self.compact.P
         return J, (self.P if self.P is not None else J)
 
     # -- hooks ----------------------------------------------------------------------------------
@@ -304,7 +401,9 @@ class LinearStrategy:
         the predictor's extrapolation, 0 without one).
         """
         self.linear_done(snes)
-        if self.P is None:  # "lu": P is J, factorised at every iteration
+        if self.P is None:  # "lu": P is J (or its compact copy), factorised at every iteration
+            if self.compact is not None:
+                self.rebind = self.compact.update(J)
             self._pending = (0.0, True)
             return
         k = snes.getIterationNumber()
@@ -406,7 +505,7 @@ class LinearStrategy:
 
     def destroy(self) -> None:
         """Free the PETSc objects (safe to call more than once)."""
-        for name in ("P", "nullspace"):
+        for name in ("P", "nullspace", "compact"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.destroy()

@@ -524,6 +524,20 @@ class InterfaceProblem:
         J.zeroRows(self.bc_rows, diag=1.0)
 
     @property
+    def compact_factor(self) -> bool:
+        """Whether a factorisation takes a compact copy of the Jacobian, its entries alone.
+
+        The matrix pattern holds couplings beyond the Jacobian's entries where an interface
+        pairs again as the bodies move: every pairing it may take until its next search. In 3-D
+        a factorisation then takes a compact
+        copy of the Jacobian (:class:`~.linear.CompactCopy`): there the reach's couplings join
+        the bodies across a surface, a separator of the factorisation, and fill it; along a
+        2-D interface's line they add little to the factor (the copy only costs symbolic
+        factorisations), so a 2-D problem factorises its matrix as stored.
+        """
+        return self.gdim == 3 and any(not i.fixed_pairs for i in self.interfaces.values())
+
+    @property
     def global_dofs(self) -> int:
         """The number of displacement dofs over all ranks (not collective: the index map's)."""
         return self.V.dofmap.index_map.size_global * self.V.dofmap.bs

@@ -26,17 +26,17 @@ by default. The user's ``snes_rtol``, ``snes_atol``, ``snes_stol``,
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
 import weakref
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from ..compat import pushed_options
 from ._petsc import set_function_domain_error
 from .convergence import SNORM_SLACK, ScaledConvergence
 from .interface import NewtonStart
@@ -265,34 +265,6 @@ def option_error(prefix: str, layers: Sequence[Mapping[str, Any]], error: Except
     return SolverOptionError(f"PETSc refuses the options under {prefix!r} ({why}): {given}")
 
 
-@contextlib.contextmanager
-def pushed_options(prefix: str, *layers: Mapping[str, Any]) -> Iterator[None]:
-    """Set options under ``prefix`` for the duration of the block, then restore the database.
-
-    Layers are applied in order (later ones win). Options whose name starts with ``?`` are
-    defaults: set only where the database has no value.
-    """
-    opts = PETSc.Options()
-    saved: dict[str, str | None] = {}
-    for layer in layers:
-        for key, value in layer.items():
-            default = key.startswith("?")
-            name = prefix + key.lstrip("?")
-            if name not in saved:
-                saved[name] = opts.getString(name) if opts.hasName(name) else None
-            if default and opts.hasName(name):
-                continue
-            opts[name] = value
-    try:
-        yield
-    finally:
-        for name, old in saved.items():
-            if old is None:
-                opts.delValue(name)
-            else:
-                opts[name] = old
-
-
 class FrictionSolver:
     """SNES on an interface problem, under an options prefix.
 
@@ -389,12 +361,17 @@ class FrictionSolver:
         self.J.destroy()
         self.J = self.problem.create_matrix()
         self.linear.new_pattern()
+        self._bind()
+        self._layout_version = self.problem.layout_version
+
+    def _bind(self) -> None:
+        """Give the SNES the Jacobian callback and the current matrices."""
+        assert self.J is not None and self.snes is not None and self.linear is not None  # (alive)
         ref = weakref.ref(self)
         self.snes.setJacobian(
             lambda s, x, J, P: cast(FrictionSolver, ref())._jacobian(s, x, J, P),
             *self.linear.matrices(self.J),
         )
-        self._layout_version = self.problem.layout_version
 
     def _configure(self, extra: Mapping[str, Any] | None = None) -> None:
         db = PETSc.Options()
@@ -433,6 +410,9 @@ class FrictionSolver:
         start, self._start_next = self._start_next, None
         self.problem.jacobian(x, J, self.separated_stiffness, start)
         self.linear.jacobian(snes, J, self.convergence.floor(), self.convergence.reference_norm)
+        if self.linear.rebind:  # a new preconditioning matrix: the SNES factorises it from now
+            self.linear.rebind = False
+            self._bind()
 
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual

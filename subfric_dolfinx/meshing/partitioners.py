@@ -1,4 +1,8 @@
-"""Deterministic cell partitioners for tests: bodies on their own ranks, or pairs together."""
+"""Deterministic cell partitioners: bodies apart, pairs together, or every body spread evenly.
+
+:func:`body_partitioner` makes them; :func:`bisection_parts` is the recursive coordinate
+bisection the ``"balanced"`` kind cuts each body's cells with.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ from .groups import BODIES, INTERFACE, gmsh_module, group_nodes
 __all__ = ["PARTITIONER_KINDS", "Partitioner", "body_partitioner"]
 
 #: Kinds understood by :func:`body_partitioner`.
-PARTITIONER_KINDS: tuple[str, ...] = ("default", "bodies", "together")
+PARTITIONER_KINDS: tuple[str, ...] = ("default", "bodies", "together", "balanced")
 
 Partitioner = Callable[[MPI.Comm, int, list, list], Any]
 
@@ -58,6 +62,34 @@ def _gmsh_node_data(
         if named.get(g, (None,))[0] == tdim - 1:
             iface[group_nodes(tdim - 1, named[g][1]) - 1] = True
     return body, x, iface
+
+
+def bisection_parts(points: np.ndarray, nparts: int) -> npt.NDArray[np.int32]:
+    """Recursive coordinate bisection of ``points`` (rows) into ``nparts`` parts of equal count.
+
+    Each set is cut across the coordinate along which it spreads most, into two sets whose sizes
+    are in the ratio of the parts each gets (``nparts // 2`` and the rest); ties in a coordinate
+    keep the rows' order. Deterministic: the same points give the same parts on every process.
+
+    Returns:
+        The part (``0 .. nparts - 1``) of each row; part sizes differ by at most one row per cut.
+    """
+    parts = np.zeros(points.shape[0], dtype=np.int32)
+
+    def cut(rows: np.ndarray, first: int, count: int) -> None:
+        if count <= 1 or rows.size == 0:
+            parts[rows] = first
+            return
+        pts = points[rows]
+        axis = int(np.argmax(np.ptp(pts, axis=0)))
+        left = count // 2
+        order = rows[np.argsort(pts[:, axis], kind="stable")]
+        k = (rows.size * left + count // 2) // count
+        cut(order[:k], first, left)
+        cut(order[k:], first + left, count - left)
+
+    cut(np.arange(points.shape[0]), 0, nparts)
+    return parts
 
 
 def _ghost_destinations(
@@ -112,6 +144,13 @@ def body_partitioner(
     * ``"together"``: cells are cut into slabs of equal cell count along x, a cell touching an
       interface with a facet being placed by that facet's smallest x, so that the two cells of an
       interface pair (whose facets have the same vertex coordinates) land on the same rank.
+    * ``"balanced"``: every body spread evenly over the ranks, and within it the cells with a
+      facet on an interface spread evenly too: each body's interface cells, and apart from them
+      its other cells, are cut by recursive coordinate bisection of their centres
+      (:func:`bisection_parts`) into one part per rank. The interfaces' work (the law's points,
+      a finite-sliding interface's search and projection) is then shared by every rank, where
+      DOLFINx's graph partitioner, which balances cells only, may leave a small body and its whole
+      interface on one rank.
 
     The custom kinds look up each cell's body and node coordinates in the current gmsh model on
     the ranks that hold cells (rank 0 when gmshio converts a model), by the physical names of the
@@ -151,7 +190,10 @@ def body_partitioner(
         if nparts > 1:
             tdim = dolfinx.mesh.cell_dim(cell_type)
             body, x, iface = _gmsh_node_data(tdim, the_bodies, the_interfaces)
-            if kind == "bodies":
+            nfv = dolfinx.cpp.mesh.cell_num_entities(
+                dolfinx.cpp.mesh.cell_entity_type(cell_type, tdim - 1, 0), 0
+            )
+            if kind in ("bodies", "balanced"):
                 cell_body = body[conn]
                 if np.any(cell_body < 0):
                     raise RuntimeError("body_partitioner: a cell has nodes outside every body")
@@ -159,11 +201,17 @@ def body_partitioner(
                 # frequent body is its own
                 nb = len(the_bodies)
                 votes = (cell_body[:, :, None] == np.arange(nb)[None, None, :]).sum(axis=1)
-                owner = (np.argmax(votes, axis=1) % nparts).astype(np.int32)
+                of_body = np.argmax(votes, axis=1)
+                if kind == "bodies":
+                    owner = (of_body % nparts).astype(np.int32)
+                else:
+                    centre = x[conn].mean(axis=1)
+                    at_iface = iface[conn].sum(axis=1) >= nfv
+                    for b in range(nb):
+                        for group in (at_iface, ~at_iface):
+                            rows = np.flatnonzero((of_body == b) & group)
+                            owner[rows] = bisection_parts(centre[rows], nparts)
             else:
-                nfv = dolfinx.cpp.mesh.cell_num_entities(
-                    dolfinx.cpp.mesh.cell_entity_type(cell_type, tdim - 1, 0), 0
-                )
                 on_iface = iface[conn]
                 xc = x[conn, 0]
                 key = np.where(

@@ -237,7 +237,9 @@ def read_interface_mesh(
             after the Crack plugin).
         comm: Communicator of the mesh.
         gdim: Expected geometric (= topological) dimension, 2 or 3.
-        partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None`` for
+        partitioner: A partitioner callable, a kind of :func:`body_partitioner`, or ``None``:
+            with a finite-sliding interface its ``"balanced"`` kind (every body, and its cells on
+            an interface, shared evenly by the ranks: so is the search and projection), else
             DOLFINx's default partitioner.
         ghost_mode: Ghost mode for the default partitioner or a :func:`body_partitioner` kind.
         required: Physical groups that must be present (the roles ``primary``, ``secondary``,
@@ -327,7 +329,17 @@ def read_interface_mesh(
                 partitioner, ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
             )
         elif partitioner is None and comm.size > 1:
-            partitioner = default_partitioner(ghost_mode)
+            finite = ghost_mode in (
+                dolfinx.mesh.GhostMode.none,
+                dolfinx.mesh.GhostMode.shared_facet,
+            ) and any(v.kinematics == "finite_sliding" for v in found.interfaces.values())
+            partitioner = (
+                body_partitioner(
+                    "balanced", ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
+                )
+                if finite
+                else default_partitioner(ghost_mode)
+            )
         mesh, ct, ft = model_to_mesh(model, comm, 0, gdim=gdim, partitioner=partitioner)
     imesh = InterfaceMesh(
         mesh=mesh,

@@ -352,7 +352,8 @@ def _check_mesh(m: MeshSpec) -> None:
             )
         if not m.file or "\0" in m.file:
             raise SceneError(f"scene.mesh.file: not a file name: {short_repr(m.file)}")
-    _choice("scene.mesh.partitioner", m.partitioner, (None, "default", "bodies", "together"))
+    kinds = (None, "default", "bodies", "together", "balanced")
+    _choice("scene.mesh.partitioner", m.partitioner, kinds)
     if m.file is not None and m.file.endswith(".xdmf") and m.partitioner not in (None, "default"):
         raise SceneError(
             f"scene.mesh.partitioner: a partitioned mesh ({short_repr(m.file)}) is read with "

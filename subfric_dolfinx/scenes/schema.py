@@ -81,8 +81,9 @@ class MeshSpec:
             (relative to the working directory).
         gdim: Geometric dimension of ``file``.
         options: Keyword arguments of the builder.
-        partitioner: ``None``, ``"default"``, ``"bodies"`` or ``"together"`` (a partitioned
-            mesh: ``None`` or ``"default"``, DOLFINx's partitioner).
+        partitioner: ``None``, ``"default"``, ``"bodies"``, ``"together"`` or ``"balanced"``
+            (:func:`~subfric_dolfinx.meshing.body_partitioner`; a partitioned mesh: ``None`` or
+            ``"default"``, DOLFINx's partitioner).
         names: The classic layout's roles (``primary``, ``secondary``, ``interface``; or the
             input aliases ``master``, ``slave``) -> the file's own group names, e.g.
             ``{"primary": "base", "secondary": "block", "interface": "contact"}``.

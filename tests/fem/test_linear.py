@@ -385,6 +385,25 @@ def test_scene_chooses_the_strategy(comm):
         FrictionSolver(block_problem(comm), prefix("bad"), linear="cholesky")
 
 
+def test_auto_takes_lu_for_a_finite_sliding_interface_below_the_gamg_size():
+    from types import SimpleNamespace
+
+    def problem(dofs, ranks, fixed):
+        return SimpleNamespace(
+            global_dofs=dofs,
+            gdim=3,
+            comm=SimpleNamespace(size=ranks),
+            interfaces={"c": SimpleNamespace(fixed_pairs=fixed)},
+        )
+
+    large = linear_module.AUTO_GAMG_DOFS
+    assert linear_module.choose_strategy("auto", problem(37_206, 2, True)) == "gamg"
+    assert linear_module.choose_strategy("auto", problem(37_206, 2, False)) == "reuse"
+    assert linear_module.choose_strategy("auto", problem(large - 1, 2, False)) == "reuse"
+    assert linear_module.choose_strategy("auto", problem(large, 2, False)) == "gamg"
+    assert linear_module.choose_strategy("gamg", problem(37_206, 2, False)) == "gamg"
+
+
 def test_auto_choice_by_size_and_dofs_per_rank():
     """ "auto" in 3-D: "gamg" below AUTO_REUSE_DOFS_PER_RANK dofs per rank and from
     AUTO_GAMG_DOFS dofs in all, "reuse" between; 2-D: "reuse" at every size and rank count."""

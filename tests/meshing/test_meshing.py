@@ -19,6 +19,7 @@ from mpi4py import MPI
 
 from meshes import generate as mesh_generator
 from subfric_dolfinx import meshing as M
+from subfric_dolfinx.meshing.partitioners import bisection_parts
 from tests.helpers import MESH_DIR, everywhere
 
 TOL = 1e-10
@@ -236,6 +237,20 @@ def split_fraction(im):
     return float(np.mean(rm != rs[j]))
 
 
+@pytest.mark.parametrize("nparts", [1, 2, 3, 5, 8])
+def test_bisection_parts_are_equal_and_cut_across_the_widest_spread(nparts):
+    rng = np.random.default_rng(7)
+    pts = rng.random((403, 3)) * np.array([4.0, 1.0, 0.5])
+    parts = bisection_parts(pts, nparts)
+    sizes = np.bincount(parts, minlength=nparts)
+    levels = int(np.ceil(np.log2(nparts))) if nparts > 1 else 0
+    assert sizes.sum() == 403 and sizes.max() - sizes.min() <= levels
+    assert np.array_equal(parts, bisection_parts(pts.copy(), nparts))
+    if nparts == 2:  # the first cut is across x, the widest spread
+        assert pts[parts == 0, 0].max() <= pts[parts == 1, 0].min()
+        assert abs(sizes[0] - sizes[1]) <= 1
+
+
 # --- stored meshes --------------------------------------------------------------------------------
 @pytest.mark.parametrize("name", list(STORED))
 def test_stored_mesh(comm, name):
@@ -261,11 +276,32 @@ def test_partitioner_split(comm, name, kind):
     elif kind == "together":
         assert frac == 0.0
         assert everywhere(comm, sum(n_owned.values()) > 0)  # not everything on one rank
+    elif kind == "balanced":
+        # every body, and every side of the interface, shared evenly: a bisection cut moves at
+        # most one row of each group (a body's interface cells, its other cells) off balance
+        levels = int(np.ceil(np.log2(comm.size)))
+        for b in M.BODIES:
+            cells = comm.allgather(n_owned[b])
+            facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
+            assert min(cells) > 0 and max(cells) - min(cells) <= 2 * levels, (b, cells)
+            assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
     else:  # DOLFINx's own partitioner: any split of the pairs, but no rank left empty
         assert everywhere(comm, sum(n_owned.values()) > 0)
 
 
-@pytest.mark.parametrize("kind", ["default", "together", "bodies"])
+@pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
+def test_a_finite_sliding_mesh_is_balanced_by_default(comm, name):
+    """Without a partitioner, a mesh with a finite-sliding interface is cut by "balanced"."""
+    boxes, _ = STORED[name]
+    sides = {"primary": M.PRIMARY, "secondary": M.SECONDARY, "kinematics": "finite_sliding"}
+    im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim, interfaces={"interface": sides})
+    levels = int(np.ceil(np.log2(comm.size))) if comm.size > 1 else 0
+    for b in M.BODIES:
+        facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
+        assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
+
+
+@pytest.mark.parametrize("kind", ["default", "together", "bodies", "balanced"])
 @pytest.mark.parametrize("name", ["block_on_base_quad.msh", "pad_on_plate_tet.msh"])
 def test_shared_facet_ghosts(comm, name, kind):
     """With GhostMode.shared_facet every facet with one local cell is a global exterior facet."""

@@ -135,11 +135,6 @@ class ContactGeometry:
         slid_too_far: Points whose slip in the step exceeds the reach, (npts,).
         old_facet: The primary facet each moving point faced at the step's start (-1: none).
         N_old: The primary basis at that start point, (npts, nfd_m).
-        Nm: The primary basis at the projection, (npts, nfd_m).
-        G: The gap's derivative (:func:`.sliding.gap_operator`), (npts, gdim, gdim).
-        turn: 2-D: the frame's turn with the projection, the rate ``a`` and ``d xi / d x`` of
-            each found point, ((nf, gdim), (nf, gdim)); ``None`` in 3-D.
-        turn3: 3-D: the frame's and the transport's turn (:class:`FrameTurn`); ``None`` in 2-D.
         segments: The segment points within each secondary facet's reach.
         transfer: The primary-side transfer matrices of the segments.
         held_now: Whether the pattern couples each segment pair's primary facet with the facet
@@ -150,6 +145,8 @@ class ContactGeometry:
         iterate: Whether :attr:`normals` are the iterate's (then :attr:`normal_rates` holds
             their change with the primary's nodes).
         primary: The primary's facets' basix cell and degree.
+        derivatives: Makes the tangent's pieces ``(G, Nm, turn, turn3)`` (the properties of
+            these names), called once, when the tangent first asks for one of them.
     """
 
     reach: Reach
@@ -164,10 +161,6 @@ class ContactGeometry:
     slid_too_far: np.ndarray
     old_facet: np.ndarray
     N_old: np.ndarray
-    Nm: np.ndarray
-    G: np.ndarray
-    turn: tuple[np.ndarray, np.ndarray] | None
-    turn3: FrameTurn | None
     segments: Segments
     transfer: Transfer
     held_now: np.ndarray
@@ -176,13 +169,49 @@ class ContactGeometry:
     slip: np.ndarray
     iterate: bool
     primary: tuple[Any, int]
+    derivatives: Callable[
+        [], tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None, FrameTurn | None]
+    ] = dataclasses.field(repr=False, compare=False)
 
     def __post_init__(self) -> None:
         """Make the arrays read-only too: the value is passed on, never changed."""
-        arrays = [getattr(self, f.name) for f in dataclasses.fields(self)]
-        for a in [*arrays, *(self.turn or ())]:
+        for f in dataclasses.fields(self):
+            a = getattr(self, f.name)
             if isinstance(a, np.ndarray):
                 a.flags.writeable = False
+
+    @functools.cached_property
+    def _derivatives(
+        self,
+    ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None, FrameTurn | None]:
+        """``(G, Nm, turn, turn3)``, made when the tangent first asks (a residual does not)."""
+        G, Nm, turn, turn3 = self.derivatives()
+        for a in (G, Nm, *(turn or ())):
+            a.flags.writeable = False
+        return G, Nm, turn, turn3
+
+    @property
+    def G(self) -> np.ndarray:
+        """The gap's derivative (:func:`.sliding.gap_operator`), (npts, gdim, gdim)."""
+        return self._derivatives[0]
+
+    @property
+    def Nm(self) -> np.ndarray:
+        """The primary basis at the projection, (npts, nfd_m)."""
+        return self._derivatives[1]
+
+    @property
+    def turn(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """2-D: the frame's turn with the projection (``None`` in 3-D).
+
+        The rate ``a`` and ``d xi / d x`` of each found point, ((nf, gdim), (nf, gdim)).
+        """
+        return self._derivatives[2]
+
+    @property
+    def turn3(self) -> FrameTurn | None:
+        """3-D: the frame's and the transport's turn (:class:`FrameTurn`); ``None`` in 2-D."""
+        return self._derivatives[3]
 
     @functools.cached_property
     def normal_rates(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -325,13 +354,19 @@ def contact_geometry(
     gap[np.abs(gap[:, sd.nt]) <= 1e-12 * sd.h, sd.nt] = 0.0
     gap[:, sd.nt] -= left
     moving = found & (start.facet >= 0)
-    ds, T, N_old, theta = _slip(sd, start, pj, Q, Ym, normals, moving)
+    ds, T, N_old, theta_rates = _slip(sd, start, pj, Q, Ym, normals, moving)
     slid_too_far = np.linalg.norm(ds, axis=1) > sd.reach
     gap[:, : sd.nt] = np.einsum("mab,mb->ma", T, ut_old) + np.einsum(
         "mad,md->ma", Q[:, : sd.nt, :], ds
     )
     t1 = time.perf_counter()
-    G, Nm, turn, turn3 = _gap_derivative(sd, pj, Q, xq, Ym, normals, ds, moving, theta)
+
+    def derivatives() -> tuple[
+        np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None, FrameTurn | None
+    ]:
+        theta = theta_rates() if theta_rates is not None else None
+        return _gap_derivative(sd, pj, Q, xq, Ym, normals, ds, moving, theta)
+
     old_facet = np.where(moving, start.facet, -1)
     with timed(TIMER_PROJECTION):
         segments, tr = transfer.pairs(Xs, Ym, normals, reach, iterate)
@@ -351,10 +386,6 @@ def contact_geometry(
         slid_too_far=slid_too_far,
         old_facet=old_facet,
         N_old=N_old,
-        Nm=Nm,
-        G=G,
-        turn=turn,
-        turn3=turn3,
         segments=segments,
         transfer=tr,
         held_now=held_now,
@@ -363,6 +394,7 @@ def contact_geometry(
         slip=ds,
         iterate=iterate,
         primary=(sd.primary.cell, sd.primary.degree),
+        derivatives=derivatives,
     )
     return geometry, seconds
 
@@ -432,7 +464,7 @@ def _slip(
     Ym: np.ndarray,
     normals: np.ndarray,
     moving: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...] | None]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Callable[[], tuple[np.ndarray, ...]] | None]:
     """The convected slip of the step and the tangential state's transport.
 
     The slip of a ``moving`` point (facing the primary now and at the step's start) is its
@@ -442,8 +474,9 @@ def _slip(
 
     Returns:
         The slip (npts, gdim), the transport (npts, nt, nt), the primary basis at the start
-        point (npts, nfd_m) and, 3-D, the transport angle's rates (:class:`FrameTurn`'s
-        ``theta_n``, ``theta_old``, ``theta_old_normal``; ``None`` in 2-D).
+        point (npts, nfd_m) and, 3-D, what makes the transport angle's rates when the tangent
+        asks (:class:`FrameTurn`'s ``theta_n``, ``theta_old``, ``theta_old_normal``; ``None``
+        in 2-D).
     """
     m, n, nt = sd.primary, sd.n_points, sd.nt
     N_old = np.zeros((n, Ym.shape[1]))
@@ -454,7 +487,7 @@ def _slip(
         nfm = Ym.shape[1]
         theta = tuple(np.zeros(s) for s in ((n, 3), (n, nfm, 3), (n, 3)))
     if not np.any(moving):
-        return ds, T, N_old, theta
+        return ds, T, N_old, (lambda: theta) if theta is not None else None
     pm = np.flatnonzero(moving)
     old = start.facet
     B_old = facet_basis(m.cell, m.degree, start.xi[pm], 1)
@@ -470,17 +503,22 @@ def _slip(
         size_now = np.linalg.norm(n_now, axis=1)
         n_now /= size_now[:, None]
         n_new = -Q[pm, nt, :]
-        T_s = transport_matrix(start.Q[pm], Q[pm], start.tangents[pm], tan_now, n_now)
-        th_n, th_t, th_nn = transport_angle_rates(
-            start.Q[pm], start.tangents[pm], tan_now, n_now, n_new
-        )
-        theta[0][pm] = th_n
-        # tangents now: y_,a = sum_k dN_k/dxi_a Y_k of the start facet
-        theta[1][pm] = np.einsum("mda,amk->mkd", th_t, B_old[1:])
-        P_now = np.eye(3)[None] - np.einsum("ma,mb->mab", n_now, n_now)
-        theta[2][pm] = np.einsum("mk,mkc->mc", th_nn, P_now) / size_now[:, None]
-        T[pm] = T_s
-    return ds, T, N_old, theta
+        T[pm] = transport_matrix(start.Q[pm], Q[pm], start.tangents[pm], tan_now, n_now)
+        rates = theta
+
+        def theta_rates() -> tuple[np.ndarray, ...]:
+            th_n, th_t, th_nn = transport_angle_rates(
+                start.Q[pm], start.tangents[pm], tan_now, n_now, n_new
+            )
+            rates[0][pm] = th_n
+            # tangents now: y_,a = sum_k dN_k/dxi_a Y_k of the start facet
+            rates[1][pm] = np.einsum("mda,amk->mkd", th_t, B_old[1:])
+            P_now = np.eye(3)[None] - np.einsum("ma,mb->mab", n_now, n_now)
+            rates[2][pm] = np.einsum("mk,mkc->mc", th_nn, P_now) / size_now[:, None]
+            return rates
+
+        return ds, T, N_old, theta_rates
+    return ds, T, N_old, None
 
 
 def _gap_derivative(
