@@ -126,7 +126,7 @@ def run(comm):
 
 def test_a_finite_sliding_run_factorises_the_compact_copy(comm, monkeypatch):
     rows, size, patterns = run(comm)
-    _, block, _ = finite_cost.build(comm, "block", 6, "finite_sliding")
+    _, block, _ = finite_cost.build(comm, "block", 6, "finite_sliding", linear="lu")
     assert block.strategy == "lu" and block.linear.compact is None  # 2-D: the matrix as stored
     block.destroy()
     assert patterns is not None  # finite sliding: the pattern is wider than the entries
