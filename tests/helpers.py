@@ -487,3 +487,32 @@ def interface_vertex_multiplicity(dom: Any) -> np.ndarray:
     _, first = np.unique(allg, return_index=True)
     _, mult = np.unique(np.round(allx[first], 10), axis=0, return_counts=True)
     return mult
+
+
+def run_finite_pad(
+    comm: MPI.Comm, n: int, steps: int, reach: float, after: Callable[[Any], Any]
+) -> tuple[np.ndarray, Any]:
+    """Run ``benchmarks.fe_scaling``'s pad meshed apart (finite sliding, LU) through its program.
+
+    Returns:
+        The rows ``(t, F_t1, F_n, Newton)`` of its steps, and ``after(pad)`` taken once it ran,
+        before its solver is destroyed (collective).
+    """
+    from benchmarks import fe_scaling
+    from subfric_dolfinx.fem import LoadStepper, StepControl
+    from subfric_dolfinx.io import interface_summary
+
+    pad = fe_scaling.build_pad(
+        comm, n, "lu", steps, "finite_sliding", reach=reach, alpha_n=fe_scaling.FINITE_ALPHA_N
+    )
+    rows = []
+
+    def on_step(rec):
+        s = interface_summary(pad.problem)
+        rows.append([rec.t, s["F_t1"], s["F_n"], rec.iterations])
+
+    try:
+        LoadStepper(pad.solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
+        return np.array(rows), after(pad)
+    finally:
+        pad.solver.destroy()

@@ -15,11 +15,10 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from benchmarks import fe_scaling, finite_cost
-from subfric_dolfinx.fem import LoadStepper, StepControl
+from benchmarks import finite_cost
 from subfric_dolfinx.fem.linear import CompactCopy, nonzeros
 from subfric_dolfinx.fem.problem import InterfaceProblem
-from subfric_dolfinx.io import interface_summary
+from tests.helpers import run_finite_pad
 
 N, STEPS, REACH = 6, 12, 0.2  # tests/fem/interface/finite/test_finite_sliding_pattern.py's pad
 
@@ -106,22 +105,14 @@ def test_nonzeros_keep_the_diagonal(comm):
 
 def run(comm):
     """(t, F_t1, F_n, Newton) per step of the pad meshed apart, and the solver's factor size."""
-    pad = fe_scaling.build_pad(
-        comm, N, "lu", STEPS, "finite_sliding", reach=REACH, alpha_n=fe_scaling.FINITE_ALPHA_N
-    )
-    rows = []
 
-    def on_step(rec):
-        s = interface_summary(pad.problem)
-        rows.append([rec.t, s["F_t1"], s["F_n"], rec.iterations])
-
-    try:
-        LoadStepper(pad.solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
+    def factor(pad):
         F = pad.solver.snes.getKSP().getPC().getFactorMatrix()
         compact = pad.solver.linear.compact
-        return np.array(rows), F.getMumpsInfog(29), None if compact is None else compact.patterns
-    finally:
-        pad.solver.destroy()
+        return F.getMumpsInfog(29), None if compact is None else compact.patterns
+
+    rows, (size, patterns) = run_finite_pad(comm, N, STEPS, REACH, factor)
+    return rows, size, patterns
 
 
 def test_a_finite_sliding_run_factorises_the_compact_copy(comm, monkeypatch):

@@ -18,11 +18,9 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from benchmarks import fe_scaling
-from subfric_dolfinx.fem import LoadStepper, StepControl
 from subfric_dolfinx.fem.interface.finite.reach import ReachSearch
 from subfric_dolfinx.fem.interface.layout import Couplings, ExtendedLayout
-from subfric_dolfinx.io import interface_summary
+from tests.helpers import run_finite_pad
 
 pytestmark = pytest.mark.three_ranks
 
@@ -65,25 +63,14 @@ def all_pairs(problem) -> np.ndarray:
 def run(comm: MPI.Comm):
     """(step, [t, F_t1, F_n, Newton]) of the 12-step program, the interface and the nonzeros
     the interface adds to the bulk's pattern: its own and the all-pairs pattern's."""
-    pad = fe_scaling.build_pad(
-        comm, N, "lu", STEPS, "finite_sliding", reach=REACH, alpha_n=fe_scaling.FINITE_ALPHA_N
-    )
-    rows = []
 
-    def on_step(rec):
-        s = interface_summary(pad.problem)
-        rows.append([rec.t, s["F_t1"], s["F_n"], rec.iterations])
-
-    try:
-        LoadStepper(pad.solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
+    def sizes(pad):
         bulk = layout_nnz(pad.problem, Couplings(()))
-        sizes = (
-            nnz(pad.solver.J) - bulk,
-            layout_nnz(pad.problem, all_pairs(pad.problem)) - bulk,
-        )
-    finally:
-        pad.solver.destroy()
-    return np.array(rows), interface_of(pad.problem), sizes
+        own = nnz(pad.solver.J) - bulk
+        return pad, (own, layout_nnz(pad.problem, all_pairs(pad.problem)) - bulk)
+
+    rows, (pad, added) = run_finite_pad(comm, N, STEPS, REACH, sizes)
+    return rows, interface_of(pad.problem), added
 
 
 def test_the_pattern_is_what_the_tangent_writes(comm, monkeypatch):
