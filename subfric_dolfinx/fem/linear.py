@@ -157,8 +157,7 @@ def choose_strategy(name: str, problem) -> str:
     if name == "auto":
         dofs = problem.global_dofs
         choice = auto_choice(problem.gdim, dofs, problem.comm.size)
-        finite = any(not i.fixed_pairs for i in problem.interfaces.values())
-        if choice == "gamg" and finite and dofs < AUTO_GAMG_DOFS:
+        if choice == "gamg" and problem.repairs and dofs < AUTO_GAMG_DOFS:
             # GMRES on GAMG breaks down on a finite-sliding tangent (docs/design.md)
             return "reuse"
         return choice

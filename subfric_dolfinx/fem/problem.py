@@ -535,7 +535,12 @@ class InterfaceProblem:
         2-D interface's line they add little to the factor (the copy only costs symbolic
         factorisations), so a 2-D problem factorises its matrix as stored.
         """
-        return self.gdim == 3 and any(not i.fixed_pairs for i in self.interfaces.values())
+        return self.gdim == 3 and self.repairs
+
+    @property
+    def repairs(self) -> bool:
+        """Whether an interface pairs its points again as the bodies move (finite sliding)."""
+        return any(not i.fixed_pairs for i in self.interfaces.values())
 
     @property
     def global_dofs(self) -> int:

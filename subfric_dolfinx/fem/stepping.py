@@ -460,12 +460,13 @@ class LoadStepper:
         moved = False
         for own in self._bodies:
             for c in range(bs):
-                d = change[np.isin(dofs, own[own % bs == c])]
+                component = own[own % bs == c]
+                d = change[np.isin(dofs, component)]
                 lo = comm.allreduce(float(d.min(initial=np.inf)), op=MPI.MIN)
                 hi = comm.allreduce(float(d.max(initial=-np.inf)), op=MPI.MAX)
                 if not math.isfinite(lo) or hi == 0.0 or hi - lo > 1e-12 * abs(hi):
                     continue
-                out[own[own % bs == c]] = hi
+                out[component] = hi
                 moved = True
         return out if moved else None
 
@@ -702,8 +703,7 @@ class LoadStepper:
 
     def _finite(self) -> bool:
         """Whether the problem has an interface re-paired in the current configuration."""
-        interfaces = getattr(self.problem, "interfaces", {}).values()
-        return any(not i.fixed_pairs for i in interfaces)
+        return self.problem.repairs
 
     def _cut_step(
         self, r: SolveResult, target: float, dt: float, hold: bool, cuts: int, retried: bool

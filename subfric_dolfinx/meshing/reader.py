@@ -26,7 +26,7 @@ import dolfinx.mesh
 import numpy as np
 from mpi4py import MPI
 
-from ..compat import default_partitioner, model_to_mesh
+from ..compat import model_to_mesh
 from ._msh import open_msh
 from .builders import ModelInfo
 from .groups import (
@@ -324,21 +324,15 @@ def read_interface_mesh(
         dims = comm.bcast(dims, root=0)
         nodes = comm.bcast(nodes, root=0)
         found = comm.bcast(found, root=0)
-        if isinstance(partitioner, str):
-            partitioner = body_partitioner(
-                partitioner, ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
-            )
-        elif partitioner is None and comm.size > 1:
+        if partitioner is None and comm.size > 1:
             finite = ghost_mode in (
                 dolfinx.mesh.GhostMode.none,
                 dolfinx.mesh.GhostMode.shared_facet,
             ) and any(v.kinematics == "finite_sliding" for v in found.interfaces.values())
-            partitioner = (
-                body_partitioner(
-                    "balanced", ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
-                )
-                if finite
-                else default_partitioner(ghost_mode)
+            partitioner = "balanced" if finite else "default"
+        if isinstance(partitioner, str):
+            partitioner = body_partitioner(
+                partitioner, ghost_mode, bodies=found.bodies, interfaces=list(found.interfaces)
             )
         mesh, ct, ft = model_to_mesh(model, comm, 0, gdim=gdim, partitioner=partitioner)
     imesh = InterfaceMesh(

@@ -334,7 +334,7 @@ def test_auto_takes_lu_for_a_finite_sliding_interface_below_the_gamg_size():
             global_dofs=dofs,
             gdim=3,
             comm=SimpleNamespace(size=ranks),
-            interfaces={"c": SimpleNamespace(fixed_pairs=fixed)},
+            repairs=not fixed,
         )
 
     large = linear_module.AUTO_GAMG_DOFS

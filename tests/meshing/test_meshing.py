@@ -218,6 +218,21 @@ def check_interface_mesh(im, boxes: Boxes, cell_type: str):
     assert vm.size + vs.size == im.mesh.topology.index_map(0).size_global
 
 
+def assert_balanced(im, n_owned):
+    """Every body, and every side of the interface, shared evenly by the ranks (collective).
+
+    A bisection cut moves at most one row of each group (a body's interface cells, its other
+    cells) off balance.
+    """
+    comm = im.mesh.comm
+    levels = int(np.ceil(np.log2(comm.size))) if comm.size > 1 else 0
+    for b in M.BODIES:
+        cells = comm.allgather(n_owned[b])
+        facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
+        assert min(cells) > 0 and max(cells) - min(cells) <= 2 * levels, (b, cells)
+        assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
+
+
 def split_fraction(im):
     """Fraction of interface pairs whose two facets are owned by different ranks."""
     comm = im.mesh.comm
@@ -277,14 +292,7 @@ def test_partitioner_split(comm, name, kind):
         assert frac == 0.0
         assert everywhere(comm, sum(n_owned.values()) > 0)  # not everything on one rank
     elif kind == "balanced":
-        # every body, and every side of the interface, shared evenly: a bisection cut moves at
-        # most one row of each group (a body's interface cells, its other cells) off balance
-        levels = int(np.ceil(np.log2(comm.size)))
-        for b in M.BODIES:
-            cells = comm.allgather(n_owned[b])
-            facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
-            assert min(cells) > 0 and max(cells) - min(cells) <= 2 * levels, (b, cells)
-            assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
+        assert_balanced(im, n_owned)
     else:  # DOLFINx's own partitioner: any split of the pairs, but no rank left empty
         assert everywhere(comm, sum(n_owned.values()) > 0)
 
@@ -295,10 +303,7 @@ def test_a_finite_sliding_mesh_is_balanced_by_default(comm, name):
     boxes, _ = STORED[name]
     sides = {"primary": M.PRIMARY, "secondary": M.SECONDARY, "kinematics": "finite_sliding"}
     im = M.read_interface_mesh(MESH_DIR / name, comm, boxes.gdim, interfaces={"interface": sides})
-    levels = int(np.ceil(np.log2(comm.size))) if comm.size > 1 else 0
-    for b in M.BODIES:
-        facets = comm.allgather(len(im.interface_facets(b, owned_only=True)))
-        assert min(facets) > 0 and max(facets) - min(facets) <= 2 * levels, (b, facets)
+    assert_balanced(im, {b: len(owned(im, im.tdim, im.body_cells(b))) for b in M.BODIES})
 
 
 @pytest.mark.parametrize("kind", ["default", "together", "bodies", "balanced"])
