@@ -106,6 +106,28 @@ def _snap(d: np.ndarray) -> np.ndarray:
     return np.where(np.abs(d) <= _ON_PLANE, 0.0, d)
 
 
+def _planes(cell: basix.CellType) -> list[tuple[np.ndarray, float]]:
+    """The half-planes ``a . x >= b`` of a reference triangle or square."""
+    planes = [(np.array([1.0, 0.0]), 0.0), (np.array([0.0, 1.0]), 0.0)]
+    if cell == basix.CellType.triangle:
+        planes.append((np.array([-1.0, -1.0]), -1.0))  # 1 - x - y >= 0
+    else:
+        planes += [(np.array([-1.0, 0.0]), -1.0), (np.array([0.0, -1.0]), -1.0)]
+    return planes
+
+
+def _beyond_a_plane(poly: np.ndarray, cell: basix.CellType) -> np.ndarray:
+    """Whether each polygon's vertices are all beyond one half-plane of the reference cell.
+
+    Beyond by more than the round-off :func:`clip_to_reference` snaps to the plane: such a
+    polygon clips to nothing. ``poly`` (n, k, 2), every row's ``k`` vertices its own.
+    """
+    out = np.zeros(poly.shape[0], dtype=bool)
+    for a, b in _planes(cell):
+        out |= np.all(poly @ a - b < -_ON_PLANE, axis=1)
+    return out
+
+
 def clip_to_reference(
     poly: np.ndarray,
     count: np.ndarray,
@@ -127,11 +149,7 @@ def clip_to_reference(
         The clipped polygons (n, kmax + number of half-planes, 2) and their vertex counts (fewer
         than 3: empty); with ``rates``, their derivatives too (n, kmax + half-planes, 2, m).
     """
-    planes = [(np.array([1.0, 0.0]), 0.0), (np.array([0.0, 1.0]), 0.0)]
-    if cell == basix.CellType.triangle:
-        planes.append((np.array([-1.0, -1.0]), -1.0))  # 1 - x - y >= 0
-    else:
-        planes += [(np.array([-1.0, 0.0]), -1.0), (np.array([0.0, -1.0]), -1.0)]
+    planes = _planes(cell)
     n, kmax = poly.shape[:2]
     size = kmax + len(planes)
     cur = np.zeros((n, size, 2))
@@ -489,17 +507,21 @@ def _polygon_pieces(
     Returns:
         The fan triangles' points (:func:`_fan_pieces`), ``None`` if no polygon is left.
     """
-    count = np.full(pre.xi.shape[0], len(pre.order))
+    # the polygons beyond a side of the reference cell clip to nothing: left out at once
+    rows = np.flatnonzero(~_beyond_a_plane(pre.xi, secondary.cell))
+    poly = pre.xi[rows]
+    count = np.full(rows.size, len(pre.order))
     if rates:
-        poly_r = _preimage_rates(pre, secondary.cell, secondary.degree, nfd_m, normal_rates)
-        clipped, cnt, clipped_r = clip_to_reference(pre.xi, count, secondary.cell, poly_r)
-        return _fan_pieces(pre, clipped, cnt, degree, clipped_r)
-    clipped, cnt = clip_to_reference(pre.xi, count, secondary.cell)
-    return _fan_pieces(pre, clipped, cnt, degree)
+        poly_r = _preimage_rates(pre, secondary.cell, secondary.degree, nfd_m, normal_rates, rows)
+        clipped, cnt, clipped_r = clip_to_reference(poly, count, secondary.cell, poly_r)
+        return _fan_pieces(pre, rows, clipped, cnt, degree, clipped_r)
+    clipped, cnt = clip_to_reference(poly, count, secondary.cell)
+    return _fan_pieces(pre, rows, clipped, cnt, degree)
 
 
 def _fan_pieces(
     pre: _Preimages,
+    rows: np.ndarray,
     clipped: np.ndarray,
     cnt: np.ndarray,
     degree: int,
@@ -509,6 +531,7 @@ def _fan_pieces(
 
     Args:
         pre: The preimages (the pairs of the polygons).
+        rows: The facing pairs (of ``pre``) the polygons are of, (nf,).
         clipped: The clipped polygons, (nf, k, 2) (:func:`clip_to_reference`).
         cnt: Their vertex counts, (nf,).
         degree: The Gauss rule's degree.
@@ -539,7 +562,7 @@ def _fan_pieces(
             wr_l.append(wr)
     if not pair_l:
         return None
-    pair = np.concatenate(pair_l)
+    pair = rows[np.concatenate(pair_l)]
     return _Pieces(
         secondary=pre.secondary[pair],
         primary=pre.primary[pair],
@@ -646,6 +669,7 @@ def _preimage_rates(
     secondary_degree: int,
     nfd_m: int,
     normals: bool = False,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
     """Derivatives of the primary vertices' preimages on the secondary facets (3-D).
 
@@ -654,25 +678,31 @@ def _preimage_rates(
     (pair, vertex) rows to them, ``pre.facing`` keeps the pairs). Returns (npair, nv, fdim, m),
     ``m`` the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with
     ``normals``, the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim``
-    components each.
+    components each. ``rows``: those facing pairs only (indices among them; default all).
     """
-    Ys, order, back, ok = pre.nodes, pre.order, pre.back, pre.facing
+    Ys, order, back = pre.nodes, pre.order, pre.back
+    ok = np.flatnonzero(pre.facing)
+    if rows is not None:
+        ok = ok[rows]
     nfd_s, gdim = Ys.shape[1], Ys.shape[2]
     fdim, nv = gdim - 1, len(order)
+    sel = back.reshape(-1, nv)[ok]  # the distinct projections of these pairs' vertices
+    u, inv = np.unique(sel, return_inverse=True)
     Ainv, N = projection_jacobian(
-        pre.x,
-        Ys,
-        np.repeat(pre.normal[:, None, :], nfd_s, axis=1),
+        pre.x[u],
+        Ys[u],
+        np.repeat(pre.normal[u, None, :], nfd_s, axis=1),
         secondary_cell,
         secondary_degree,
-        pre.unique.xi,
-        pre.unique.gamma,
+        pre.unique.xi[u],
+        pre.unique.gamma[u],
     )
-    D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
-    Nk = N[back].reshape(-1, nv, nfd_s)[ok]
+    inv = inv.reshape(-1)
+    D = Ainv[:, :fdim, :][inv].reshape(-1, nv, fdim, gdim)
+    Nk = N[inv].reshape(-1, nv, nfd_s)
     R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m * (2 if normals else 1), gdim))
     R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
-    gam = pre.unique.gamma[back].reshape(-1, nv)[ok]
+    gam = pre.unique.gamma[sel]
     for j, v in enumerate(order):
         R[:, j, :, nfd_s + v, :] += D[:, j]
         if normals:  # along the vertex's normal: d xi = D (-gamma dn_v)
