@@ -541,8 +541,9 @@ def transfer_tangent(
     w = segments.weight
     # the point's projection on the primary facet
     Bs = facet_basis(secondary_cell, secondary_degree, segments.xi_secondary, 1)  # values, d/dxi_a
-    y = np.einsum("mk,mkd->md", Bs[0], Xs)
-    dy_xi = np.einsum("amk,mkd->mda", Bs[1:], Xs)  # (npt, gdim, fdim)
+    Bs_m = np.ascontiguousarray(Bs.transpose(1, 0, 2))  # (npt, 1 + fdim, nfs): per point
+    y = np.matmul(Bs_m[:, :1], Xs)[:, 0]
+    dy_xi = np.matmul(Bs_m[:, 1:], Xs).transpose(0, 2, 1)  # (npt, gdim, fdim)
     xim = segments.xi_primary
     Bm = facet_basis(primary_cell, primary_degree, xim, 1)
     nt = np.einsum("mk,mkd->md", Bm[0], Nm)
@@ -556,20 +557,19 @@ def transfer_tangent(
     dxm[:, :, nfs : nfs + nfm, :] = -Bm[0][:, None, :, None] * Dm[:, :, None, :]
     if with_normals:  # A d(xi, gamma) = ... - sum_l N_l gamma dn_l
         dxm[:, :, nfs + nfm :, :] = -(gam[:, None] * Bm[0])[:, None, :, None] * Dm[:, :, None, :]
-    dxm += np.einsum("mad,mdb,mbce->mace", Dm, dy_xi, dxs)
-    # the traction field at the point and its rate along the secondary facet
-    P = projector[sl]  # (npt, nfs, nq)
-    tq = tractions[sl]  # (npt, nq, gdim)
-    lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
-    dlam = np.einsum("amk,mkq,mqd->mad", Bs[1:], P, tq)
+    dxm += np.matmul(np.matmul(Dm, dy_xi), dxs.reshape(npt, fdim, -1)).reshape(dxm.shape)
+    # the traction field at the point and its rate along the secondary facet, (npt, 1 + fdim,
+    # gdim): lam, then lam_,a
+    lam_all = np.matmul(np.matmul(Bs_m, projector[sl]), tractions[sl])
+    lam, dlam = lam_all[:, 0], lam_all[:, 1:]
     # d(-w N_l lam) = -(dw N_l lam + w N_l,a dxi_m,a lam + w N_l lam,a dxi_s,a): a sum of
     # 1 + 2 fdim outer products per point, one batched product (rows (l, d), columns (c, e))
-    wB1 = w[None, :, None] * Bm[1:]  # (fdim, npt, nfm)
+    wB1 = (w[:, None, None] * Bm[1:].transpose(1, 2, 0))[:, :, None, :]  # (npt, nfm, 1, fdim)
     left = np.concatenate(
         [
-            np.einsum("ml,md->mld", Bm[0], lam)[..., None],
-            np.einsum("aml,md->mlda", wB1, lam),
-            np.einsum("ml,mad->mlda", w[:, None] * Bm[0], dlam),
+            (Bm[0][:, :, None] * lam[:, None, :])[..., None],
+            wB1 * lam[:, None, :, None],
+            (w[:, None] * Bm[0])[:, :, None, None] * dlam.transpose(0, 2, 1)[:, None],
         ],
         axis=3,
     ).reshape(npt, nfm * gdim, 1 + 2 * fdim)
