@@ -603,7 +603,8 @@ def _triangle_rates(
         - dJ[:, 0, 1] * J[:, 1, 0, None]
         - J[:, 0, 1, None] * dJ[:, 1, 0]
     )
-    xr = r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X)
+    xr = r0[:, None] + X[None, :, None, 0, None] * dJ[:, None, :, 0]
+    xr += X[None, :, None, 1, None] * dJ[:, None, :, 1]
     wr = np.sign(det)[:, None, None] * ddet[:, None, :] * w[None, :, None]
     return xr, wr
 
@@ -633,7 +634,9 @@ def _segment_points(
     Ys = secondary.x[si_q]
     y = np.einsum("mk,mkd->md", B[0], Ys)
     Yj = Ys if measure_x is None else measure_x[si_q]
-    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
+    jac = np.linalg.norm(
+        parametric_normal(np.matmul(B[1:].transpose(1, 0, 2), Yj).transpose(0, 2, 1)), axis=1
+    )
     ws = pieces.weight
     extra = pieces.bounds
     if pieces.xi_rate is not None and pieces.weight_rate is not None:
@@ -713,8 +716,8 @@ def _preimage_rates(
 def _measure_rate(cell: basix.CellType, degree: int, xi: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """``d |X_,1 x X_,2| / d xi`` of surface facets with nodes ``Y`` (m, nfd, 3), (m, 2)."""
     B = facet_basis(cell, degree, xi, 2)  # values, d1, d2, d11, d12, d22
-    T = np.einsum("amk,mkd->mad", B[1:3], Y)  # (m, 2, 3)
-    H = np.einsum("amk,mkd->mad", B[3:6], Y)  # d11, d12, d22
+    V = np.matmul(B[1:6].transpose(1, 0, 2), Y)  # (m, 5, 3)
+    T, H = V[:, :2], V[:, 2:]  # d1, d2; d11, d12, d22
     n = np.cross(T[:, 0], T[:, 1])
     jac = np.linalg.norm(n, axis=1)
     out = np.zeros((xi.shape[0], 2))
