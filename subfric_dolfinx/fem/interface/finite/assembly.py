@@ -253,7 +253,9 @@ class SlidingAssembly:
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
         ncol = cols.shape[1] * gdim
-        vs = np.einsum("p,pk,pj,pab->pkajb", self.points.weights[pts], sd.Ns[0][q_of], C, M)
+        CM = C[:, None, :, None] * M[:, :, None, :]  # (np, gdim, nc, gdim): C_j M
+        wN = self.points.weights[pts][:, None] * sd.Ns[0][q_of]
+        vs = wN[:, :, None, None, None] * CM[:, None]
         out = [(s.nodes[f_of], cols, vs.reshape(pts.size, nfs * gdim, ncol))]
         tr = g.transfer
         if tr.secondary.size:
@@ -264,7 +266,7 @@ class SlidingAssembly:
             at = where[tr.secondary[pair] * nq + qq]
             keep = held[pair, qq]
             pair, qq, at = pair[keep], qq[keep], at[keep]
-            vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
+            vm = -(tr.B[pair, :, qq][:, :, None, None, None] * CM[at][:, None])
             out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 
