@@ -171,7 +171,7 @@ class SlidingAssembly:
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
             rates = g.normal_rates is not None
-            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals, rates)
+            ps, pm, vb = self.transfer.tangent(g.rated_segments, tg, g.Xs, g.Ym, g.normals, rates)
             held = g.reach.holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
             nxy = (s.nodes.shape[1] + nodes.shape[1]) * gdim

@@ -31,6 +31,7 @@ secondary's (visibly off the small-sliding pressures on coinciding nodes in ``de
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import TYPE_CHECKING, cast
 
 import basix
@@ -39,7 +40,7 @@ from scipy import sparse
 
 from ...kinematics import point_weight
 from .projection import facet_basis, lagrange_element
-from .segments import Segments, overlap_points
+from .segments import Segments, overlap_points_later
 from .sides import Sides
 
 if TYPE_CHECKING:
@@ -106,7 +107,7 @@ class SegmentTransfer:
         normals: np.ndarray,
         reach: Reach,
         normal_rates: bool = False,
-    ) -> tuple[Segments, Transfer]:
+    ) -> tuple[Segments, Transfer, Callable[[], Segments]]:
         """The segments of the secondary facets within their reach and their transfer matrices.
 
         Args:
@@ -116,9 +117,14 @@ class SegmentTransfer:
             reach: The step's reach: a pair beyond a secondary facet's reach is left out.
             normal_rates: Whether the tangent takes the normals' change (the iterate's): the
                 3-D segments' rates then have their columns too.
+
+        Returns:
+            The segments (3-D: without their rates), their transfer, and what gives the
+            segments with their rates (:attr:`in_tangent`; made when called: a residual does
+            not need them).
         """
         s, m = self.sides.secondary, self.sides.primary
-        seg = overlap_points(
+        seg, later = overlap_points_later(
             Xs,
             s.cell,
             s.degree,
@@ -134,8 +140,13 @@ class SegmentTransfer:
         keep = seg.converged.copy()
         if seg.size:
             keep &= reach.within(seg.secondary, seg.primary)
-        seg = seg.take(keep)
-        return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
+        taken = seg.take(keep)
+
+        def rated() -> Segments:
+            return taken if later is None else later.attach(seg).take(keep)
+
+        tr = transfer_matrices(taken, self.projector, s.cell, s.degree, m.cell, m.degree)
+        return taken, tr, rated
 
     def complete(self, tr: Transfer, facet: np.ndarray, xi: np.ndarray) -> Transfer:
         """The transfer with the share the segments miss given where the points project.
@@ -241,7 +252,8 @@ class SegmentTransfer:
                 vn = -np.einsum("m,md,aml,mae,mj->mldje", c, t, B[1:], R, -gam[:, None] * N)
                 normal_parts.append((fm[keep], fm[keep], vn[keep].reshape(k, nfm * gdim, -1)))
         # -N_l(xi) dc_q t_q: the segments of the points' secondary facets, one point at a time
-        seg = g.segments.take(np.isin(g.segments.secondary, f_of))
+        rated = g.rated_segments
+        seg = rated.take(np.isin(rated.secondary, f_of))
         if seg.size == 0:
             return out
         for q in np.unique(q_of):
