@@ -304,23 +304,22 @@ def transport_angle_rates(
     args = [Q_old, tangents_old, tangents_now, normal_now, n_new]
     T = _transport_3d(*args).real
     m = n_new.shape[0]
-    if 0 in slots or 1 in slots:  # the step start's part too: one evaluation per component
-        evaluate, first = _transport_3d, 0
-    else:  # the step start's part once (real), every component's step in one evaluation
-        DE = _convected(Q_old, tangents_old)
+    # the step start's part once (real) unless its arguments are differentiated too
+    DE = None if (0 in slots or 1 in slots) else _convected(Q_old, tangents_old)
 
-        def evaluate(*z: np.ndarray) -> np.ndarray:
-            K = z[2].shape[0] // m
-            return _transport_from(np.tile(DE, (K, 1, 1)), *z[2:])
+    def evaluate(z: list[np.ndarray]) -> np.ndarray:
+        if DE is None:
+            return _transport_3d(*z)
+        return _transport_from(np.tile(DE, (z[2].shape[0] // m, 1, 1)), *z[2:])
 
-        first = 2
-    # the complex steps: every component of every slot, stacked (step k of all points together)
+    # the complex steps: every component of every slot, stacked (step k of all points together),
+    # one evaluation
     sizes = [args[slot][0].size for slot in slots]
     K = sum(sizes)
     z = []
     for i, arg in enumerate(args):
-        if i < first:
-            z.append(np.tile(arg, (K,) + (1,) * (arg.ndim - 1)))
+        if DE is not None and i < 2:  # (not read)
+            z.append(arg)
             continue
         zi = np.tile(arg.astype(complex)[None], (K,) + (1,) * arg.ndim)  # (K, m, ...)
         if i in slots:
@@ -329,7 +328,7 @@ def transport_angle_rates(
             for k in range(arg[0].size):
                 flat[off + k, :, k] += 1j * _STEP
         z.append(zi.reshape(K * m, *arg.shape[1:]))
-    dT = (evaluate(*z).imag / _STEP).reshape(K, m, 2, 2)
+    dT = (evaluate(z).imag / _STEP).reshape(K, m, 2, 2)
     rate = T[None, :, 0, 0] * dT[:, :, 1, 0] - T[None, :, 1, 0] * dT[:, :, 0, 0]  # (K, m)
     rates, off = [], 0
     for slot, size in zip(slots, sizes, strict=True):
