@@ -51,25 +51,26 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
     and the symbolic factorisation kept while the entries stay within the copy's pattern.
 
 ``"gamg"``
-    GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid body
-    modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D; per-body modes converge worse),
-    refreshed by the same rules. The aggregation drops the couplings weaker than
-    ``pc_gamg_threshold`` of the diagonals, chosen per model (:func:`gamg_threshold`): 0.01 on every
-    level, but 0.1 on the finest level (0.01 below) where an interface's normal penalty is stiff
-    against its bodies, ``alpha_n h / E*`` of at least :data:`STIFF_INTERFACE`
-    (:func:`interface_stiffness`). A stiff interface is a strong coupling the aggregates must
-    follow: there 0.1 on the finest level takes a third fewer Krylov iterations than 0.01, and 0.01
-    below keeps the coarse levels sparse (0.1 on every level makes them dense on tetrahedra: twice
-    the memory and flops of a cycle). Without a stiff interface 0.1 gains nothing on hexahedra and
-    doubles the Krylov iterations and the memory on tetrahedra (``docs/design.md``). A user's
+    GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
+    body modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D; per-body modes converge
+    worse), refreshed by the same rules. The aggregation drops the couplings weaker than
+    ``pc_gamg_threshold`` of the diagonals, chosen per model (:func:`gamg_threshold`): 0.1 on
+    the finest level and 0.01 on the coarser ones, but 0.01 on every level on tetrahedra
+    (triangles) unless an interface's normal penalty is stiff against its bodies, ``alpha_n h /
+    E*`` of at least :data:`STIFF_INTERFACE` (:func:`interface_stiffness`). 0.1 on the finest
+    level keeps the aggregates along the strong couplings: on hexahedra and across a stiff
+    interface it takes up to a third fewer Krylov iterations than 0.01; 0.01 below keeps the coarse
+    levels sparse (0.1 on every level makes them dense on tetrahedra: twice the memory and the
+    flops of a cycle). On tetrahedra without a stiff interface 0.1 on the finest level takes as
+    many iterations as 0.01 at a quarter more flops (``docs/design.md``). A user's
     ``pc_gamg_threshold`` wins. No factorisation: memory grows linearly with the size. GAMG's
-    iterations grow with the model, so GMRES restarts only after 200 (its vectors are allocated as
-    it goes: a short solve holds few), and it orthogonalises each new vector twice (classical
-    Gram-Schmidt with a second pass, one more reduction an iteration): with PETSc's single pass the
-    basis loses its orthogonality over long cycles, the residual GMRES computes by its recursion
-    parts from the true one, and GMRES slows down or, at a restart where the two differ by a tenth,
-    stops with ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A Krylov failure is named, with the
-    option to change, in the solve's result and the step's failure
+    iterations grow with the model, so GMRES restarts only after 200 (its vectors are allocated
+    as it goes: a short solve holds few), and it orthogonalises each new vector twice (classical
+    Gram-Schmidt with a second pass, one more reduction an iteration): with PETSc's single pass
+    the basis loses its orthogonality over long cycles, the residual GMRES computes by its
+    recursion parts from the true one, and GMRES slows down or, at a restart where the two
+    differ by a tenth, stops with ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A Krylov failure
+    is named, with the option to change, in the solve's result and the step's failure
     (:func:`~.solver.krylov_failure`).
 
 Krylov tolerance (``"reuse"``, ``"gamg"``): tied to Newton's residual so that Newton stays
@@ -99,7 +100,8 @@ __all__ = [
     "AUTO_GAMG_DOFS",
     "AUTO_REUSE_DOFS_PER_RANK",
     "GAMG_THRESHOLD",
-    "GAMG_THRESHOLD_STIFF",
+    "GAMG_THRESHOLD_SOFT_SIMPLICES",
+    "SIMPLICES",
     "STIFF_INTERFACE",
     "STRATEGIES",
     "STRATEGY_OPTIONS",
@@ -139,12 +141,14 @@ AUTO_GAMG_DOFS = 75_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of at least this many dofs (module docstring)."""
 AUTO_REUSE_DOFS_PER_RANK = 30_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of fewer dofs than this per rank (docstring)."""
-GAMG_THRESHOLD: tuple[float, ...] = (0.01,)
-"""``pc_gamg_threshold`` of ``"gamg"`` without a stiff interface, every level
+GAMG_THRESHOLD: tuple[float, ...] = (0.1, 0.01)
+"""``pc_gamg_threshold`` of ``"gamg"``: the finest level's, then every coarser level's
 (:func:`gamg_threshold`)."""
-GAMG_THRESHOLD_STIFF: tuple[float, ...] = (0.1, 0.01)
-"""``pc_gamg_threshold`` of ``"gamg"`` with a stiff interface: the finest level's, then every
-coarser level's (:func:`gamg_threshold`)."""
+GAMG_THRESHOLD_SOFT_SIMPLICES: tuple[float, ...] = (0.01,)
+"""``pc_gamg_threshold`` of ``"gamg"`` on triangles and tetrahedra without a stiff interface,
+every level (:func:`gamg_threshold`)."""
+SIMPLICES = ("triangle", "tetrahedron")
+"""The cell types :data:`GAMG_THRESHOLD_SOFT_SIMPLICES` is for."""
 STIFF_INTERFACE = 0.1
 """An interface is stiff for GAMG from this ``alpha_n h / E*`` up (:func:`interface_stiffness`)."""
 
@@ -217,16 +221,19 @@ def interface_stiffness(problem) -> float | None:
     return max(found) if found else None
 
 
-def gamg_threshold(stiffness: float | None) -> tuple[float, ...]:
-    """``pc_gamg_threshold`` of ``"gamg"`` for a model whose stiffest interface has ``stiffness``.
+def gamg_threshold(cell: str, stiffness: float | None) -> tuple[float, ...]:
+    """``pc_gamg_threshold`` of ``"gamg"`` for ``cell``-s and an interface ``stiffness``.
 
-    Per level from the finest (the last value serves the coarser levels):
-    :data:`GAMG_THRESHOLD_STIFF` where the stiffest interface reaches :data:`STIFF_INTERFACE`
-    (:func:`interface_stiffness`), else :data:`GAMG_THRESHOLD` (an unknown stiffness too). The
+    ``stiffness``: the stiffest interface's (:func:`interface_stiffness`; ``None``: unknown).
+    Per level from the finest, the last value serving the coarser levels:
+    :data:`GAMG_THRESHOLD_SOFT_SIMPLICES` on :data:`SIMPLICES` where no interface reaches
+    :data:`STIFF_INTERFACE` (or the stiffness is unknown), :data:`GAMG_THRESHOLD` otherwise
+    (hexahedra and quadrilaterals at every stiffness; other cells, unmeasured, as they). The
     module docstring gives the reasons, ``docs/design.md`` the measurements.
     """
-    if stiffness is not None and stiffness >= STIFF_INTERFACE:
-        return GAMG_THRESHOLD_STIFF
+    stiff = stiffness is not None and stiffness >= STIFF_INTERFACE
+    if cell in SIMPLICES and not stiff:
+        return GAMG_THRESHOLD_SOFT_SIMPLICES
     return GAMG_THRESHOLD
 
 
@@ -234,7 +241,7 @@ def strategy_options(name: str, problem) -> dict[str, Any]:
     """The PETSc options of strategy ``name`` for ``problem``.
 
     :data:`STRATEGY_OPTIONS`, and for ``"gamg"`` the thresholds :func:`gamg_threshold` chooses
-    for the problem's interfaces (:func:`interface_stiffness`).
+    for the problem's cells and interfaces (:func:`interface_stiffness`).
 
     Collective for ``"gamg"``. Defaults: the options database and the solver's options win
     over them.
@@ -246,7 +253,8 @@ def strategy_options(name: str, problem) -> dict[str, Any]:
         raise ValueError(f"unknown linear strategy {name!r}; known: {list(STRATEGIES)}")
     options = dict(STRATEGY_OPTIONS[name])
     if name == "gamg":
-        levels = gamg_threshold(interface_stiffness(problem))
+        cell = problem.V.mesh.topology.cell_type.name
+        levels = gamg_threshold(cell, interface_stiffness(problem))
         options["pc_gamg_threshold"] = ",".join(f"{v:g}" for v in levels)
     return options
 

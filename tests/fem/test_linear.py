@@ -487,13 +487,14 @@ STIFF = stiff(1e6, 1e5)  # cluster/pad.json's (large_model)
 
 
 def test_gamg_threshold_is_chosen_per_model(comm):
-    """ "gamg"'s pc_gamg_threshold follows the stiffest interface's alpha_n h / E*: 0.01 on every
-    level for the paper's soft penalty, 0.1 on the finest level and 0.01 below for a penalty
-    stiff against the bodies, on hexahedra and tetrahedra alike, for the benchmarks' models at
-    their sizes (fe_scaling's and weak_scaling's soft pads, cluster/pad.json's stiff pad on
-    hexahedra at 184k and 2M dofs and refined tetrahedra). The stiffness is checked against its
-    closed form on the hexahedral pad (h = 1/n: the pad's bottom in n x n squares) and against
-    refinement on tetrahedra (each refinement halves h); 1 and 2 ranks give the same."""
+    """ "gamg"'s pc_gamg_threshold follows the cells and the stiffest interface's alpha_n h / E*:
+    0.1 on the finest level and 0.01 below on hexahedra and with a penalty stiff against the
+    bodies, 0.01 on every level on tetrahedra with the paper's soft penalty; for the benchmarks'
+    models at their sizes (fe_scaling's soft pad on hexahedra, weak_scaling's refined soft pad on
+    tetrahedra, cluster/pad.json's stiff pad on hexahedra at 184k and 2M dofs and on refined
+    tetrahedra). The stiffness is checked against its closed form on the hexahedral pad (h = 1/n:
+    the pad's bottom in n x n squares) and against refinement on tetrahedra (each halves h); 1
+    and 2 ranks give the same."""
     n = 4
     dom = meshing.create_interface_mesh(
         meshing.build_pad_on_plate,
@@ -508,12 +509,14 @@ def test_gamg_threshold_is_chosen_per_model(comm):
         got = linear_module.interface_stiffness(prob)
         assert got == pytest.approx(law.alpha_n / n / PAD_E_STAR, rel=1e-12)
         assert len(set(comm.allgather(got))) == 1
+        assert linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"] == "0.1,0.01"
     # the hexahedral pad at the benchmarks' sizes: h = 1/n along the pad
+    hexahedra = "hexahedron"
     thresholds = {
-        "fe_scaling, 184k dofs (soft)": (SOFT.alpha_n / 28 / PAD_E_STAR, "0.01"),
-        "fe_scaling, 1M dofs (soft)": (SOFT.alpha_n / 50 / PAD_E_STAR, "0.01"),
-        "cluster/pad.json --direct 28 (stiff)": (STIFF.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
-        "cluster/pad.json n 64 (stiff)": (STIFF.alpha_n / 64 / PAD_E_STAR, "0.1,0.01"),
+        "fe_scaling, 184k dofs (soft)": (hexahedra, SOFT.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "fe_scaling, 1M dofs (soft)": (hexahedra, SOFT.alpha_n / 50 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 28 (stiff)": (hexahedra, STIFF.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 64 (stiff)": (hexahedra, STIFF.alpha_n / 64 / PAD_E_STAR, "0.1,0.01"),
     }
     # tetrahedra: refining halves the stiffness (each facet in four)
     coarse = {m: tet_pad(comm, m) for m in (2, 7, 8)}
@@ -523,11 +526,12 @@ def test_gamg_threshold_is_chosen_per_model(comm):
         assert once == pytest.approx(whole / 2, rel=1e-12)
     s7 = linear_module.interface_stiffness(pad_on(coarse[7], SOFT))
     s8 = linear_module.interface_stiffness(pad_on(coarse[8], STIFF))
-    thresholds["weak_scaling refined n 7, k 2 (soft)"] = (s7 / 4, "0.01")
-    thresholds["large_model n 8, k 2 (stiff)"] = (s8 / 4, "0.1,0.01")
-    thresholds["large_model n 8, k 3 (stiff)"] = (s8 / 8, "0.1,0.01")
-    for model, (s, want) in thresholds.items():
-        got = ",".join(f"{v:g}" for v in linear_module.gamg_threshold(s))
+    tetrahedra = "tetrahedron"
+    thresholds["weak_scaling refined n 7, k 2 (soft)"] = (tetrahedra, s7 / 4, "0.01")
+    thresholds["large_model n 8, k 2 (stiff)"] = (tetrahedra, s8 / 4, "0.1,0.01")
+    thresholds["large_model n 8, k 3 (stiff)"] = (tetrahedra, s8 / 8, "0.1,0.01")
+    for model, (cell, s, want) in thresholds.items():
+        got = ",".join(f"{v:g}" for v in linear_module.gamg_threshold(cell, s))
         assert got == want, (model, s, got)
     # the problem's own options: the same rule, collectively
     for law, want in ((SOFT, "0.01"), (STIFF, "0.1,0.01")):
@@ -535,22 +539,17 @@ def test_gamg_threshold_is_chosen_per_model(comm):
         got = linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"]
         assert got == want and len(set(comm.allgather(got))) == 1
         assert "pc_gamg_threshold" not in linear_module.strategy_options("reuse", prob)
-    # no known E* (a user bulk law): the soft value
-    assert linear_module.gamg_threshold(None) == linear_module.GAMG_THRESHOLD
+    # no known E* (a user bulk law): soft
+    assert linear_module.gamg_threshold(tetrahedra, None) == (0.01,)
+    assert linear_module.gamg_threshold(hexahedra, None) == (0.1, 0.01)
 
 
 def test_gamg_takes_the_threshold_of_the_model_and_the_users(comm, shared_tmp):
     """The solver's GAMG drops by the thresholds the rule chose for the model (PETSc's view of
-    the set-up hierarchy: 0.1 on the finest level, 0.01 below, for the stiff pad; 0.01 for the
-    soft one); a user's pc_gamg_threshold, in the solver's options or the database, wins."""
-    dom = meshing.create_interface_mesh(
-        meshing.build_pad_on_plate,
-        comm,
-        n_interface=4,
-        cell_type="hexahedron",
-        plate_size=(2.0, 2.0, 0.5),
-        pad_size=(1.0, 1.0, 0.5),
-    )[0]
+    the set-up hierarchy: 0.1 on the finest level, 0.01 below, for the stiff pad on
+    tetrahedra; 0.01 for the soft one); a user's pc_gamg_threshold, in the solver's options or
+    the database, wins."""
+    dom = tet_pad(comm, 3)
     path = shared_tmp / "ksp.txt"
 
     def thresholds(law, options=None, name=None):
