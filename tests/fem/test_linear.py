@@ -456,3 +456,118 @@ def test_krylov_products_do_not_depend_on_memory_layout(comm):
         opts.delValue("vec_mdot_use_gemv")
     for v in [*vectors, y]:
         v.destroy()
+
+
+def tet_pad(comm, n, times=0):
+    """The pad on a plate of ``benchmarks/weak_scaling.py`` and ``large_model.py``: tetrahedra,
+    ``n`` along the pad's side (gmsh), refined ``times`` times on the ranks."""
+    dom, _ = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="tetrahedron",
+        plate_size=(2.0, 2.0, 0.5),
+        pad_size=(1.0, 1.0, 0.5),
+    )
+    return meshing.refine_interface_mesh(dom, times)
+
+
+def pad_on(dom, law):
+    """The problem of :func:`pad_problem` on the mesh ``dom`` (press only)."""
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
+    program = LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]})
+    bcs = [Dirichlet("bottom", [0.0, 0.0, 0.0])]
+    return InterfaceProblem(dom, law, mats, program, bcs, [Pressure("top", 300.0, "press")])
+
+
+# E* of the pad (aluminium) on the plate (steel): 1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2
+PAD_E_STAR = 1.0 / ((1.0 - 0.3**2) / 2.1e5 + (1.0 - 0.33**2) / 7.0e4)
+SOFT = preset("sec7")  # the paper's penalty, alpha_n = 500 MPa/mm (fe_scaling, weak_scaling)
+STIFF = stiff(1e6, 1e5)  # cluster/pad.json's (large_model)
+
+
+def test_gamg_threshold_is_chosen_per_model(comm):
+    """ "gamg"'s pc_gamg_threshold follows the cells and the stiffest interface's alpha_n h / E*:
+    0.1 on the finest level and 0.01 below on hexahedra and with a penalty stiff against the
+    bodies, 0.01 on every level on tetrahedra with the paper's soft penalty; for the benchmarks'
+    models at their sizes (fe_scaling's soft pad on hexahedra, weak_scaling's refined soft pad on
+    tetrahedra, cluster/pad.json's stiff pad on hexahedra at 184k and 2M dofs and on refined
+    tetrahedra). The stiffness is checked against its closed form on the hexahedral pad (h = 1/n:
+    the pad's bottom in n x n squares) and against refinement on tetrahedra (each halves h); 1
+    and 2 ranks give the same."""
+    n = 4
+    dom = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="hexahedron",
+        plate_size=(2.0, 2.0, 0.5),
+        pad_size=(1.0, 1.0, 0.5),
+    )[0]
+    for law in (SOFT, STIFF):
+        prob = pad_on(dom, law)
+        got = linear_module.interface_stiffness(prob)
+        assert got == pytest.approx(law.alpha_n / n / PAD_E_STAR, rel=1e-12)
+        assert len(set(comm.allgather(got))) == 1
+        assert linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"] == "0.1,0.01"
+    # the hexahedral pad at the benchmarks' sizes: h = 1/n along the pad
+    hexahedra = "hexahedron"
+    thresholds = {
+        "fe_scaling, 184k dofs (soft)": (hexahedra, SOFT.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "fe_scaling, 1M dofs (soft)": (hexahedra, SOFT.alpha_n / 50 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 28 (stiff)": (hexahedra, STIFF.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 64 (stiff)": (hexahedra, STIFF.alpha_n / 64 / PAD_E_STAR, "0.1,0.01"),
+    }
+    # tetrahedra: refining halves the stiffness (each facet in four)
+    coarse = {m: tet_pad(comm, m) for m in (2, 7, 8)}
+    for law in (SOFT, STIFF):
+        once = linear_module.interface_stiffness(pad_on(tet_pad(comm, 2, 1), law))
+        whole = linear_module.interface_stiffness(pad_on(coarse[2], law))
+        assert once == pytest.approx(whole / 2, rel=1e-12)
+    s7 = linear_module.interface_stiffness(pad_on(coarse[7], SOFT))
+    s8 = linear_module.interface_stiffness(pad_on(coarse[8], STIFF))
+    tetrahedra = "tetrahedron"
+    thresholds["weak_scaling refined n 7, k 2 (soft)"] = (tetrahedra, s7 / 4, "0.01")
+    thresholds["large_model n 8, k 2 (stiff)"] = (tetrahedra, s8 / 4, "0.1,0.01")
+    thresholds["large_model n 8, k 3 (stiff)"] = (tetrahedra, s8 / 8, "0.1,0.01")
+    for model, (cell, s, want) in thresholds.items():
+        got = ",".join(f"{v:g}" for v in linear_module.gamg_threshold(cell, s))
+        assert got == want, (model, s, got)
+    # the problem's own options: the same rule, collectively
+    for law, want in ((SOFT, "0.01"), (STIFF, "0.1,0.01")):
+        prob = pad_on(coarse[2], law)
+        got = linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"]
+        assert got == want and len(set(comm.allgather(got))) == 1
+        assert "pc_gamg_threshold" not in linear_module.strategy_options("reuse", prob)
+    # no known E* (a user bulk law): soft
+    assert linear_module.gamg_threshold(tetrahedra, None) == (0.01,)
+    assert linear_module.gamg_threshold(hexahedra, None) == (0.1, 0.01)
+
+
+def test_gamg_takes_the_threshold_of_the_model_and_the_users(comm, shared_tmp):
+    """The solver's GAMG drops by the thresholds the rule chose for the model (PETSc's view of
+    the set-up hierarchy: 0.1 on the finest level, 0.01 below, for the stiff pad on
+    tetrahedra; 0.01 for the soft one); a user's pc_gamg_threshold, in the solver's options or
+    the database, wins."""
+    dom = tet_pad(comm, 3)
+    path = shared_tmp / "ksp.txt"
+
+    def thresholds(law, options=None, name=None):
+        with FrictionSolver(pad_on(dom, law), name or prefix("thr"), options, linear="gamg") as s:
+            assert s.solve(0.5, 0.5).converged
+            view = ksp_view(s.snes.getKSP(), path)
+        line = next(x for x in view.splitlines() if "threshold for dropping" in x.lower())
+        return [float(v) for v in line.split("=")[1].split()]
+
+    stiff_levels = thresholds(STIFF)
+    assert len(stiff_levels) >= 2 and stiff_levels[0] == 0.1, stiff_levels
+    assert all(v == 0.01 for v in stiff_levels[1:]), stiff_levels
+    soft_levels = thresholds(SOFT)
+    assert soft_levels and all(v == 0.01 for v in soft_levels), soft_levels
+    assert all(v == 0.05 for v in thresholds(STIFF, {"pc_gamg_threshold": 0.05}))
+    name = prefix("thr")
+    PETSc.Options()[name + "pc_gamg_threshold"] = 0.02
+    try:
+        assert all(v == 0.02 for v in thresholds(STIFF, name=name))
+    finally:
+        PETSc.Options().delValue(name + "pc_gamg_threshold")
