@@ -42,14 +42,17 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
       repeated at once with a factor refreshed at each of its Newton iterations (same step, no
       cut: it does what ``"lu"`` would); any failed solve refreshes.
 
-    The refresh comes at a step's first Jacobian rather than within the step when the waste so
-    far and that of the last step (the one expected by the step's end) exceed the price: the
-    state changes most between steps (the load's increment, a new search), and a factor of the
-    step's start serves all its iterations. Where an interface pairs again as the bodies move,
-    the factor outlives a change of the problem's pattern: it is an operator of the right size
-    and a former Jacobian's, a preconditioner of the new one like any stale factor, renewed by
-    the same rules (and a Krylov failure with it refreshes, as above). In 3-D ``P`` is then the
-    compact copy of ``J`` that ``"lu"`` factorises (below).
+    Where an interface pairs again as the bodies move, its Jacobian changes most between steps
+    (each step's search pairs its points anew, a segment further at a steady slide), and a
+    refresh comes at a step's first Jacobian rather than within the step when the waste so far
+    and that of the last step (the one expected by the step's end) exceed the price: that factor
+    serves all the step's iterations. (Elsewhere the Jacobian changes with the interface's
+    state, most within the step where the program turns: the factor of a later iterate serves
+    the following steps better.) The factor of such a problem outlives a change of its
+    pattern: it is an operator of the right size and a former Jacobian's, a preconditioner of
+    the new one like any stale factor, renewed by the same rules (and a Krylov failure with it
+    refreshes, as above). In 3-D ``P`` is then the compact copy of ``J`` that ``"lu"``
+    factorises (below).
 
 ``"lu"``
     A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
@@ -356,6 +359,7 @@ class LinearStrategy:
         # a reused factor outlives a change of the problem's pattern; P is then on the former
         # one (made anew at the next refresh)
         self._keeps_factor = name == "reuse"
+        self._repairs = bool(getattr(problem, "repairs", False))
         self._former_pattern = False
 
     # -- set-up ---------------------------------------------------------------------------------
@@ -431,7 +435,7 @@ class LinearStrategy:
         if k == 0:
             self._f0 = max(fnorm, reference)
         refresh = self.force or self.exact or self._fresh_each
-        if k == 0:
+        if k == 0 and self._repairs:
             # a step's start: refresh now if the waste expected by its end (that of the last
             # step) would exceed a factorisation, rather than at a Jacobian within the step
             refresh = refresh or self._wasteful(self._waste + self._last_waste)
