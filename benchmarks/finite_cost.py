@@ -68,19 +68,27 @@ ALPHA_N = 1e6
 
 
 def build(
-    comm: MPI.Comm, case: str, n: int, kind: str, balanced: bool = True, linear: str = "reuse"
+    comm: MPI.Comm,
+    case: str,
+    n: int,
+    kind: str,
+    balanced: bool = True,
+    linear: str = "reuse",
+    reach: float | None = None,
 ) -> tuple[Any, Any, float]:
     """The case's problem, its solver and step, the interface of the kind ``kind`` (collective).
 
     ``balanced``: both bodies, and so the interface, cut evenly over the ranks (the pad:
     ``meshing.body_partitioner("balanced")``; the block: both bodies cut at x = 0.5), else
-    DOLFINx's graph partitioner; ``linear`` the solver's linear strategy. The caller destroys
-    the solver.
+    DOLFINx's graph partitioner; ``linear`` the solver's linear strategy; ``reach`` a finite
+    sliding interface's (``Interface.reach``; default its own). The caller destroys the solver.
     """
     law = dataclasses.replace(preset("sec7"), alpha_n=ALPHA_N)
     if case == "pad":
         part = "balanced" if balanced else "default"
-        pad = fe_scaling.build_pad(comm, n, linear, 24, kind, alpha_n=ALPHA_N, partitioner=part)
+        pad = fe_scaling.build_pad(
+            comm, n, linear, 24, kind, reach=reach, alpha_n=ALPHA_N, partitioner=part
+        )
         return pad.problem, pad.solver, 10.0
     dom = tagged_blocks(
         comm,
@@ -97,7 +105,7 @@ def build(
         program,
         [Dirichlet("bottom", (0.0, 0.0)), Dirichlet("top", 0.1, 0, amplitude="slide")],
         [Pressure("top", 300.0, amplitude="press")],
-        interfaces=[Interface("contact", "base", "block", kinematics=kind)],
+        interfaces=[Interface("contact", "base", "block", kinematics=kind, reach=reach)],
     )
     return problem, FrictionSolver(problem, f"{kind[:2]}_", linear=linear), 0.25
 

@@ -42,13 +42,26 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
       repeated at once with a factor refreshed at each of its Newton iterations (same step, no
       cut: it does what ``"lu"`` would); any failed solve refreshes.
 
+    Where an interface pairs again as the bodies move, its Jacobian changes most between steps
+    (each step's search pairs its points anew, a segment further at a steady slide), and a
+    refresh comes at a step's first Jacobian rather than within the step when the waste so far
+    and that of the last step (the one expected by the step's end) exceed the price: that factor
+    serves all the step's iterations. (Elsewhere the Jacobian changes with the interface's
+    state, most within the step where the program turns: the factor of a later iterate serves
+    the following steps better.) The factor of such a problem outlives a change of its
+    pattern: it is an operator of the right size and a former Jacobian's, a preconditioner of
+    the new one like any stale factor, renewed by the same rules (and a Krylov failure with it
+    refreshes, as above). In 3-D ``P`` is then the compact copy of ``J`` that ``"lu"``
+    factorises (below).
+
 ``"lu"``
     A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
     other strategies are compared with. Where the problem's pattern is much wider than the
     Jacobian's entries (a 3-D interface that pairs again as the bodies move holds every pairing
     until its next search: the problem's ``compact_factor``), the LU is of a compact copy of
     ``J``, its entries alone (:class:`CompactCopy`): the same values, a factor with less fill,
-    and the symbolic factorisation kept while the entries stay within the copy's pattern.
+    and the symbolic factorisation kept while the entries stay within the copy's pattern
+    (``"reuse"`` factorises such a copy too).
 
 ``"gamg"``
     GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
@@ -402,7 +415,14 @@ class LinearStrategy:
         self.policy = dict(_REFRESH[name]) if name in _REFRESH else None
         self.P: PETSc.Mat | None = None
         self.nullspace: PETSc.NullSpace | None = None
-        if self.policy is not None:
+        # a factorisation on a pattern much wider than the Jacobian's entries: the factor's
+        # matrix is a compact copy (the SNES's preconditioning matrix; ``rebind``: a new one
+        # since the last Jacobian)
+        compact = bool(getattr(problem, "compact_factor", False))
+        factor = name in ("lu", "reuse")
+        self.compact = CompactCopy() if factor and compact else None
+        self.rebind = False
+        if self.policy is not None and self.compact is None:
             self.P = problem.create_matrix()
         if name == "gamg":
             assert self.P is not None  # (gamg has a refresh policy: P is made above)
@@ -411,12 +431,6 @@ class LinearStrategy:
         if self.policy is not None:
             dofs = problem.global_dofs
             self.policy["price"] = refresh_price(name, dofs)
-        # "lu" on a pattern much wider than the Jacobian's entries: the factor's matrix is a
-        # compact copy (the SNES's preconditioning matrix; ``rebind``: a new one since the last
-        # Jacobian)
-        compact = bool(getattr(problem, "compact_factor", False))
-        self.compact = CompactCopy() if name == "lu" and compact else None
-        self.rebind = False
         # counts over the solver's life
         self.refreshes = 0
         self.retries = 0
@@ -431,7 +445,14 @@ class LinearStrategy:
         self._stale_failure = False
         self._f0 = 0.0
         self._waste = 0.0
+        self._solve_waste = 0.0  # of this Newton solve, since its last refresh
+        self._last_waste = 0.0  # of the last Newton solve, since its last refresh
         self._rho_fresh: float | None = None
+        # a reused factor outlives a change of the problem's pattern; P is then on the former
+        # one (made anew at the next refresh)
+        self._keeps_factor = name == "reuse"
+        self._repairs = bool(getattr(problem, "repairs", False))
+        self._former_pattern = False
 
     # -- set-up ---------------------------------------------------------------------------------
     def configure(self, snes: PETSc.SNES, user_keys: set[str]) -> None:
@@ -450,13 +471,26 @@ class LinearStrategy:
         ksp.setConvergenceHistory(reset=True)
 
     def new_pattern(self) -> None:
-        """The problem's matrix pattern changed: a new ``P`` on it, refreshed at the next use."""
+        """The problem's matrix pattern changed.
+
+        ``"reuse"`` keeps its factor: the former Jacobian's factor still preconditions the new
+        one (an interface pairs again a segment further), until the refresh rules ask for a new
+        one; ``P`` is made on the new pattern at that refresh. ``"gamg"`` takes a new ``P`` on
+        the new pattern, refreshed at the next use.
+        """
+        if self._keeps_factor:
+            self._former_pattern = self.P is not None
+            return
         if self.P is not None:
             self.P.destroy()
-            self.P = self.problem.create_matrix()
-            if self.nullspace is not None:
-                self.P.setNearNullSpace(self.nullspace)
+            self.P = self._new_P()
         self.force = True
+
+    def _new_P(self) -> PETSc.Mat:
+        P = self.problem.create_matrix()
+        if self.nullspace is not None:
+            P.setNearNullSpace(self.nullspace)
+        return P
 
     def matrices(self, J: PETSc.Mat) -> tuple[PETSc.Mat, PETSc.Mat]:
         """The operator and the preconditioning matrix to give SNES."""
@@ -468,6 +502,7 @@ class LinearStrategy:
     def start(self, fresh: bool = False) -> None:
         """Before a Newton solve (``fresh``: refresh at each of its Newton iterations)."""
         self._fresh_each = fresh
+        self._last_waste, self._solve_waste = self._solve_waste, 0.0
         self._pending = None
         self._stale_failure = False
 
@@ -482,7 +517,7 @@ class LinearStrategy:
         the predictor's extrapolation, 0 without one).
         """
         self.linear_done(snes)
-        if self.P is None:  # "lu": P is J (or its compact copy), factorised at every iteration
+        if self.policy is None:  # "lu": P is J (or its compact copy), factorised every iteration
             if self.compact is not None:
                 self.rebind = self.compact.update(J)
             self._pending = (0.0, True)
@@ -492,16 +527,33 @@ class LinearStrategy:
         if k == 0:
             self._f0 = max(fnorm, reference)
         refresh = self.force or self.exact or self._fresh_each
+        if k == 0 and self._repairs:
+            # a step's start: refresh now if the waste expected by its end (that of the last
+            # step) would exceed a factorisation, rather than at a Jacobian within the step
+            refresh = refresh or self._wasteful(self._waste + self._last_waste)
         if refresh:
-            J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self._refresh(J)
             self.refreshes += 1
             self.force = False
-            self._waste, self._rho_fresh = 0.0, None
+            self._waste, self._solve_waste, self._rho_fresh = 0.0, 0.0, None
         if self.forcing:
             rtol, atol, _, _ = snes.getTolerances()
             target = max(atol, rtol * self._f0, floor)
             snes.getKSP().setTolerances(rtol=self._eta(k, fnorm, target))
         self._pending = (fnorm, refresh)
+
+    def _refresh(self, J: PETSc.Mat) -> None:
+        """``P := J`` (its compact copy, or a copy on ``J``'s pattern); ``rebind`` if new."""
+        if self.compact is not None:
+            self.rebind = self.compact.update(J) or self.rebind
+            return
+        assert self.P is not None  # (a strategy with a refresh policy)
+        if self._former_pattern:
+            self.P.destroy()  # (the SNES holds it until rebound)
+            self.P = self._new_P()
+            self._former_pattern = False
+            self.rebind = True
+        J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
     def _eta(self, k: int, fnorm: float, target: float) -> float:
         if fnorm <= 0:
@@ -543,10 +595,15 @@ class LinearStrategy:
         elif its > 0 and red > 0:
             fresh = max(1.0, math.log(red) / math.log(self._rho_fresh))
             self._waste += max(0.0, its - fresh)
+            self._solve_waste += max(0.0, its - fresh)
         # every quantity here is global (the same on every rank): so is the decision
         stagnating = rate > self.policy["rho_stag"]
-        wasteful = self._waste > self.policy["cost"] * self.policy["price"]
+        wasteful = self._wasteful(self._waste)
         self.force = self.force or stagnating or wasteful
+
+    def _wasteful(self, waste: float) -> bool:
+        assert self.policy is not None  # (a strategy with a refresh policy)
+        return waste > self.policy["cost"] * self.policy["price"]
 
     def finish(self, snes: PETSc.SNES, converged: bool) -> bool:
         """After a Newton solve: whether to repeat it at once with a fresh preconditioner.
@@ -554,7 +611,7 @@ class LinearStrategy:
         True when it failed in a Krylov solve with a stale one.
         """
         self.linear_done(snes)
-        if converged or self.P is None:
+        if converged or self.policy is None:
             return False
         self.force = True  # a failed solve refreshes
         reason = snes.getConvergedReason()

@@ -529,7 +529,7 @@ class InterfaceProblem:
 
         The matrix pattern holds couplings beyond the Jacobian's entries where an interface
         pairs again as the bodies move: every pairing it may take until its next search. In 3-D
-        a factorisation then takes a compact
+        a factorisation (the linear strategies ``"lu"`` and ``"reuse"``) then takes a compact
         copy of the Jacobian (:class:`~.linear.CompactCopy`): there the reach's couplings join
         the bodies across a surface, a separator of the factorisation, and fill it; along a
         2-D interface's line they add little to the factor (the copy only costs symbolic
