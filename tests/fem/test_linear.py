@@ -121,6 +121,65 @@ def test_strategy_equals_lu(comm, scene, linear):
     assert stats["krylov"] == sum(r.krylov for r in results) > sum(its)
 
 
+def first_aims(problem, options=None, policy=None):
+    """The program on ``problem`` with "gamg": (per-step Newton iterations, F_t1 history, stats,
+    per Newton solve: the Krylov rtol of its first solve and the SNES residual history)."""
+    with FrictionSolver(problem, prefix("relax"), options, linear="gamg") as solver:
+        lin = solver.linear
+        if policy:
+            lin.policy.update(policy)
+        rtols, hists, its, ft = [], [], [], []
+        jacobian, solve = lin.jacobian, solver.solve
+
+        def spy_jacobian(snes, *a, **k):
+            jacobian(snes, *a, **k)
+            if snes.getIterationNumber() == 0:
+                rtols.append(snes.getKSP().getTolerances()[0])
+
+        def spy_solve(*a, **k):
+            r = solve(*a, **k)
+            hists.append(solver.snes.getConvergenceHistory()[0].copy())
+            return r
+
+        lin.jacobian, solver.solve = spy_jacobian, spy_solve
+
+        def on_step(rec):
+            its.append(rec.iterations)
+            ft.append(interface_summary(problem)["F_t1"])
+
+        LoadStepper(solver, 10.0, control=StepControl(dt_max=10.0), on_step=on_step).run()
+        return its, np.array(ft), lin.stats, list(zip(rtols, hists, strict=True))
+
+
+def test_gamg_first_solve_aims_at_the_residual_nonlinearity_leaves(comm):
+    """ "gamg"'s first Krylov solve of a Newton solve aims at 0.1 times the residual the previous
+    Newton solve's first iterate left, within [1 %, 100 %] of Newton's target. On the stiff pad
+    with an absolute Newton target (``snes_atol``, so that the target is known here), the rtol
+    of every first solve is that aim over the residual it starts from (SNES's histories), both
+    bounds are met; the run takes LU's Newton iterations at every step and its history within
+    1e-8 of the peak, with fewer Krylov iterations than the same run aiming at 1 % always."""
+    law = stiff(1e6, 1e5)
+    atol = 1e-4
+    opts = {"snes_atol": atol}
+    its_lu, ft_lu, _, _ = run(pad_problem(comm, 4, law=law), "lu", opts)
+    its, ft, stats, solves = first_aims(pad_problem(comm, 4, law=law), opts)
+    its0, ft0, stats0, solves0 = first_aims(pad_problem(comm, 4, law=law), opts, {"relax": 0.0})
+    assert its == its_lu == its0, (its_lu, its, its0)
+    # (Newton's target, 1e-4 N, is 4e-6 of the peak force)
+    assert difference(ft, ft_lu) < 1e-6 and difference(ft0, ft_lu) < 1e-6
+    aims = []
+    for (rtol, hist), (_, prev) in zip(solves[1:], solves[:-1], strict=True):
+        assert len(prev) >= 2 and hist[0] > atol  # a first iterate; a solve started here
+        assert prev[0] > 1e-3 * atol  # the target is snes_atol, not the round-off floor
+        aim = max(0.01, min(1.0, 0.1 * prev[1] / atol))
+        assert rtol == pytest.approx(min(max(aim * atol / hist[0], 1e-12), 0.1), rel=1e-12)
+        aims.append(aim)
+    assert min(aims) == 0.01 and max(aims) == 1.0 and any(0.01 < a < 1 for a in aims), aims
+    for rtol, hist in solves0:
+        assert rtol == pytest.approx(min(max(0.01 * atol / hist[0], 1e-12), 0.1), rel=1e-12)
+    assert stats["krylov"] < stats0["krylov"], (stats, stats0)
+
+
 def stiff(alpha, alpha_t=None):
     alpha_t = alpha if alpha_t is None else alpha_t
     return build_law(
