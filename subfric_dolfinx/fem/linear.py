@@ -73,14 +73,17 @@ then converges in one Newton iteration, as with LU; 1 % rather than 10 % keeps t
 an order of magnitude closer to LU's: ``docs/design.md``). The target is the largest of
 ``snes_atol``, ``snes_rtol |F_0|`` and the round-off floor of the convergence test
 (:meth:`~.convergence.ScaledConvergence.floor`). ``"gamg"``, whose Krylov iterations are the
-run's cost, aims its first solve of a Newton solve at ``relax`` = 0.1 times the residual the
-previous Newton solve's first iterate left (taken relative to its target), if that is more
-than the 1 %, and never above the target itself: where the law's nonlinearity leaves a first
-iterate above the target (a second Newton iteration follows anyway) solving its linear system
-far below that residual buys nothing. A linear step leaves its first iterate at the Krylov
-residual, so after a nonlinear stretch the aim falls tenfold a step back to the 1 %; after a
-failed Newton solve it starts there. The last solve of every Newton solve, hence the accuracy
-of the converged state, is the same as without it.
+run's cost, loosens the first solve of a Newton solve where the previous Newton solve's first
+iterate was left above its target (the law's nonlinearity needed a second Newton iteration
+there, and likely does here): it aims at ``relax`` = 0.1 times the residual that first iterate
+left (taken relative to its target), never above the target itself; solving the linear
+system far below the residual the nonlinearity leaves buys nothing. Elsewhere (after a
+Newton solve that ended at its first iterate, or failed) the first solve aims at the 1 %.
+An iterate from a loosened solve is never the answer: where the convergence test would accept
+it, Newton takes one more iteration, whose solve aims at the 1 %
+(:attr:`LinearStrategy.loosened`, :class:`~.solver.FrictionSolver`). So the last Krylov solve
+of every Newton solve, hence the accuracy of the converged state and its agreement between
+rank counts, is that of the 1 %.
 
 Every default is overridden by the options database or the solver's options (e.g.
 ``-<prefix>ksp_type``, ``-<prefix>pc_type``, ``-<prefix>ksp_rtol`` -- the last one, or
@@ -336,6 +339,7 @@ class LinearStrategy:
         # counts over the solver's life
         self.refreshes = 0
         self.retries = 0
+        self.held = 0  # Newton iterations taken because a loosened solve's iterate was not accepted
         self.krylov = 0
         self.solves = 0
         # state
@@ -348,6 +352,9 @@ class LinearStrategy:
         self._f0 = 0.0
         self._target = 0.0  # Newton's target in the current Newton solve
         self._first = 0.0  # |F_1| / target of the last Newton solve (0: none, or it failed)
+        self.loosened = False
+        """The last Krylov solve was a loosened first solve (module docstring): its iterate is
+        not to be accepted."""
         self._waste = 0.0
         self._rho_fresh: float | None = None
 
@@ -387,6 +394,7 @@ class LinearStrategy:
         """Before a Newton solve (``fresh``: refresh at each of its Newton iterations)."""
         self._fresh_each = fresh
         self._pending = None
+        self.loosened = False
         self._stale_failure = False
 
     def jacobian(
@@ -418,24 +426,32 @@ class LinearStrategy:
             self.force = False
             self._waste, self._rho_fresh = 0.0, None
         if self.forcing:
-            rtol, atol, _, _ = snes.getTolerances()
+            rtol, atol, _, max_it = snes.getTolerances()
             target = max(atol, rtol * self._f0, floor)
             if k == 0:
                 self._target = target
-            snes.getKSP().setTolerances(rtol=self._eta(k, fnorm, target))
+            eta, self.loosened = self._eta(k, fnorm, target, max_it > 1)
+            snes.getKSP().setTolerances(rtol=eta)
+        else:
+            self.loosened = False
         self._pending = (fnorm, refresh)
 
-    def _eta(self, k: int, fnorm: float, target: float) -> float:
+    def _eta(self, k: int, fnorm: float, target: float, loosen: bool) -> tuple[float, bool]:
+        """The Krylov rtol at Newton iteration ``k``, and whether it is a loosened first solve.
+
+        ``loosen``: a first solve may be loosened (Newton may take a second iteration).
+        """
         if fnorm <= 0:
-            return _ETA_MAX
+            return _ETA_MAX, False
         floor = _TARGET_FRACTION * target / fnorm
         assert self.policy is not None  # (forcing: a strategy with a policy)
         if k == 0:
-            relaxed = min(1.0, self.policy["relax"] * self._first)
-            eta = max(relaxed * target / fnorm, floor)
+            aim = self.policy["relax"] * self._first if loosen and self._first > 1.0 else 0.0
+            eta = max(min(1.0, aim) * target / fnorm, floor)
         else:
             eta = max(min(_ETA_MAX, self.policy["c"] * fnorm / self._f0), floor)
-        return min(max(eta, _ETA_MIN), _ETA_MAX)
+        eta = min(max(eta, _ETA_MIN), _ETA_MAX)
+        return eta, k == 0 and eta > min(max(floor, _ETA_MIN), _ETA_MAX)
 
     def linear_done(self, snes: PETSc.SNES) -> None:
         """After a Krylov solve: count it, decide whether to refresh.
@@ -492,12 +508,15 @@ class LinearStrategy:
         """Counts over the solver's life.
 
         ``refreshes`` (preconditioner rebuilt from ``J``), ``retries`` (Newton solves repeated
-        with a fresh one), ``krylov`` iterations and ``solves`` (Krylov solves).
+        with a fresh one), ``held`` (Newton iterations taken where the convergence test would
+        have accepted the iterate of a loosened Krylov solve), ``krylov`` iterations and
+        ``solves`` (Krylov solves).
         """
         return {
             "strategy": self.name,
             "refreshes": self.refreshes,
             "retries": self.retries,
+            "held": self.held,
             "krylov": self.krylov,
             "solves": self.solves,
         }
