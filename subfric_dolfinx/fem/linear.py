@@ -92,7 +92,18 @@ quadratic, ``eta_k = min(eta_max, c |F_k| / |F_0|)``, never below 1 % of the New
 then converges in one Newton iteration, as with LU; 1 % rather than 10 % keeps the histories
 an order of magnitude closer to LU's: ``docs/design.md``). The target is the largest of
 ``snes_atol``, ``snes_rtol |F_0|`` and the round-off floor of the convergence test
-(:meth:`~.convergence.ScaledConvergence.floor`).
+(:meth:`~.convergence.ScaledConvergence.floor`). ``"gamg"``, whose Krylov iterations are the
+run's cost, loosens the first solve of a Newton solve where the previous Newton solve's first
+iterate was left above its target (the law's nonlinearity needed a second Newton iteration
+there, and likely does here): it aims at ``relax`` = 0.1 times the residual that first iterate
+left (taken relative to its target), never above the target itself; solving the linear
+system far below the residual the nonlinearity leaves buys nothing. Elsewhere (after a
+Newton solve that ended at its first iterate, or failed) the first solve aims at the 1 %.
+An iterate from a loosened solve is never the answer: where the convergence test would accept
+it, Newton takes one more iteration, whose solve aims at the 1 %
+(:attr:`LinearStrategy.loosened`, :class:`~.solver.FrictionSolver`). So the last Krylov solve
+of every Newton solve, hence the accuracy of the converged state and its agreement between
+rank counts, is that of the 1 %.
 
 Every default is overridden by the options database or the solver's options (e.g.
 ``-<prefix>ksp_type``, ``-<prefix>pc_type``, ``-<prefix>ksp_rtol`` -- the last one, or
@@ -273,8 +284,8 @@ def strategy_options(name: str, problem) -> dict[str, Any]:
 
 
 _REFRESH = {  # refresh policy and forcing term: cost factor, rho_stag, forcing c
-    "reuse": {"cost": 1.0, "rho_stag": 0.5, "c": 1e-2},
-    "gamg": {"cost": 1.0, "rho_stag": 0.9, "c": 1e-3},
+    "reuse": {"cost": 1.0, "rho_stag": 0.5, "c": 1e-2, "relax": 0.0},
+    "gamg": {"cost": 1.0, "rho_stag": 0.9, "c": 1e-3, "relax": 0.1},
 }
 
 
@@ -434,6 +445,7 @@ class LinearStrategy:
         # counts over the solver's life
         self.refreshes = 0
         self.retries = 0
+        self.held = 0  # Newton iterations taken because a loosened solve's iterate was not accepted
         self.krylov = 0
         self.solves = 0
         # state
@@ -444,6 +456,11 @@ class LinearStrategy:
         self._pending: tuple[float, bool] | None = None  # (|b|, refreshed)
         self._stale_failure = False
         self._f0 = 0.0
+        self._target = 0.0  # Newton's target in the current Newton solve
+        self._first = 0.0  # |F_1| / target of the last Newton solve (0: none, or it failed)
+        self.loosened = False
+        """The last Krylov solve was a loosened first solve (module docstring): its iterate is
+        not to be accepted."""
         self._waste = 0.0
         self._solve_waste = 0.0  # of this Newton solve, since its last refresh
         self._last_waste = 0.0  # of the last Newton solve, since its last refresh
@@ -504,6 +521,7 @@ class LinearStrategy:
         self._fresh_each = fresh
         self._last_waste, self._solve_waste = self._solve_waste, 0.0
         self._pending = None
+        self.loosened = False
         self._stale_failure = False
 
     def jacobian(
@@ -526,6 +544,8 @@ class LinearStrategy:
         fnorm = snes.getFunctionNorm()
         if k == 0:
             self._f0 = max(fnorm, reference)
+        elif k == 1 and self._target > 0:
+            self._first = fnorm / self._target
         refresh = self.force or self.exact or self._fresh_each
         if k == 0 and self._repairs:
             # a step's start: refresh now if the waste expected by its end (that of the last
@@ -537,9 +557,14 @@ class LinearStrategy:
             self.force = False
             self._waste, self._solve_waste, self._rho_fresh = 0.0, 0.0, None
         if self.forcing:
-            rtol, atol, _, _ = snes.getTolerances()
+            rtol, atol, _, max_it = snes.getTolerances()
             target = max(atol, rtol * self._f0, floor)
-            snes.getKSP().setTolerances(rtol=self._eta(k, fnorm, target))
+            if k == 0:
+                self._target = target
+            eta, self.loosened = self._eta(k, fnorm, target, max_it > 1)
+            snes.getKSP().setTolerances(rtol=eta)
+        else:
+            self.loosened = False
         self._pending = (fnorm, refresh)
 
     def _refresh(self, J: PETSc.Mat) -> None:
@@ -555,16 +580,22 @@ class LinearStrategy:
             self.rebind = True
         J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
-    def _eta(self, k: int, fnorm: float, target: float) -> float:
+    def _eta(self, k: int, fnorm: float, target: float, loosen: bool) -> tuple[float, bool]:
+        """The Krylov rtol at Newton iteration ``k``, and whether it is a loosened first solve.
+
+        ``loosen``: a first solve may be loosened (Newton may take a second iteration).
+        """
         if fnorm <= 0:
-            return _ETA_MAX
+            return _ETA_MAX, False
         floor = _TARGET_FRACTION * target / fnorm
+        assert self.policy is not None  # (forcing: a strategy with a policy)
         if k == 0:
-            eta = floor
+            aim = self.policy["relax"] * self._first if loosen and self._first > 1.0 else 0.0
+            eta = max(min(1.0, aim) * target / fnorm, floor)
         else:
-            assert self.policy is not None  # (forcing: a strategy with a policy)
             eta = max(min(_ETA_MAX, self.policy["c"] * fnorm / self._f0), floor)
-        return min(max(eta, _ETA_MIN), _ETA_MAX)
+        eta = min(max(eta, _ETA_MIN), _ETA_MAX)
+        return eta, k == 0 and eta > min(max(floor, _ETA_MIN), _ETA_MAX)
 
     def linear_done(self, snes: PETSc.SNES) -> None:
         """After a Krylov solve: count it, decide whether to refresh.
@@ -611,6 +642,10 @@ class LinearStrategy:
         True when it failed in a Krylov solve with a stale one.
         """
         self.linear_done(snes)
+        if not converged:
+            self._first = 0.0
+        elif snes.getIterationNumber() == 1 and self._target > 0:
+            self._first = snes.getFunctionNorm() / self._target
         if converged or self.policy is None:
             return False
         self.force = True  # a failed solve refreshes
@@ -622,12 +657,15 @@ class LinearStrategy:
         """Counts over the solver's life.
 
         ``refreshes`` (preconditioner rebuilt from ``J``), ``retries`` (Newton solves repeated
-        with a fresh one), ``krylov`` iterations and ``solves`` (Krylov solves).
+        with a fresh one), ``held`` (Newton iterations taken where the convergence test would
+        have accepted the iterate of a loosened Krylov solve), ``krylov`` iterations and
+        ``solves`` (Krylov solves).
         """
         return {
             "strategy": self.name,
             "refreshes": self.refreshes,
             "retries": self.retries,
+            "held": self.held,
             "krylov": self.krylov,
             "solves": self.solves,
         }

@@ -505,15 +505,19 @@ class InterfaceProblem:
         """
         if self._x_at_update is None or not np.array_equal(self._x_at_update, x.array_r):
             self._update(x)
+        assert self.K is not None  # (None once destroyed)
         with self.timings(TIMER_BULK):
-            J.zeroEntries()
-            if not self.linear_bulk:
+            same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN  # (one layout: one structure)
+            if self.linear_bulk:  # the bulk's tangent is K, assembled once: its values copied
+                self.K.copy(J, structure=same)
+            else:
                 assert self._J_form is not None  # (a nonlinear bulk's)
+                J.zeroEntries()
                 dolfinx.fem.petsc.assemble_matrix(J, self._J_form)
                 J.assemble()
                 if not np.isfinite(J.norm()):  # collective: the bulk's tangent alone so far
                     self._bulk_fault_jacobian = True
-            J.axpy(1.0, self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+                J.axpy(1.0, self.K, structure=same)
         if self.dynamics is not None:
             self.dynamics.bulk_jacobian(J)
         for iface in self.interfaces.values():

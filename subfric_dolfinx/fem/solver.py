@@ -417,8 +417,15 @@ class FrictionSolver:
     def _convergence_test(self, snes: PETSc.SNES, it: int, norms: tuple) -> int:
         if self.interrupted:  # agreed by every rank at the residual
             return PETSc.SNES.ConvergedReason.DIVERGED_FUNCTION_DOMAIN
-        assert self.convergence is not None  # (alive)
-        return self.convergence(snes, it, norms)
+        assert self.convergence is not None and self.linear is not None  # (alive)
+        reason = self.convergence(snes, it, norms)
+        if reason > 0 and self.linear.loosened:
+            # the iterate of a loosened Krylov solve is never the answer: one more iteration,
+            # solved to the strategy's full accuracy (the same decision on every rank)
+            self.convergence.by = None
+            self.linear.held += 1
+            return PETSc.SNES.ConvergedReason.ITERATING
+        return reason
 
     # -- solving --------------------------------------------------------------------------------
     def solve(

@@ -63,6 +63,11 @@ PREDICTOR_FORCE_RATIO = 1e3
 """A step's increment is extrapolated (``predictor``) only where its converged state's forces
 exceed its last residual this many times (:meth:`LoadStepper._forces_resolved`)."""
 
+CURVATURE_FRACTION = 1e-3
+"""The predictor adds the path's curvature (the quadratic through the last three converged
+states) only where it is at most this fraction of the last increment (2-norms over the ranks):
+:meth:`LoadStepper._curvature`."""
+
 RETRY_OPTIONS: dict[str, Any] = {"snes_linesearch_type": "l2"}
 """Options of the second attempt at a step whose first attempt failed (before it is cut).
 
@@ -298,10 +303,15 @@ class LoadStepper:
             extrapolation (:meth:`FrictionSolver.solve`'s ``predictor``: an exact
             extrapolation has a residual of round-off, against which no relative target is
             reachable). The retry of a failed attempt (with a line search) starts from the
-            converged displacement. The increment is in the checkpoint (a restart repeats the
-            path). ``False``: every step starts from the converged displacement (with the new
-            Dirichlet values). Only Newton's path changes, not the equations: fewer Newton
-            iterations a step (``docs/design.md``, *The predictor*).
+            converged displacement. Where the program went straight over the last three steps
+            of one length, with interfaces paired once, the second difference of the last two
+            increments is added where it is small (:meth:`_curvature`: the quadratic through
+            the last three converged states). The increment is in the checkpoint (a restart
+            repeats the path; the one before is not: writing a checkpoint drops it in the run
+            that wrote it too, :meth:`forget_curvature`). ``False``: every step starts from the
+            converged displacement (with the new Dirichlet values). Only Newton's path changes,
+            not the equations: fewer Newton iterations a step (``docs/design.md``, *The
+            predictor*).
             With finite sliding, a step started from the converged state evaluates the law at a
             zero slip increment, with its stick (elastic) tangent: the first iterate shears the
             block instead of sliding it, its points open and close, the second overshoots, and
@@ -370,6 +380,9 @@ class LoadStepper:
         # the last converged step's displacement increment and its length (the predictor's)
         self.increment: np.ndarray | None = None
         self.increment_dt = 0.0
+        # the increment of the step before it (the curvature's; not in the checkpoint)
+        self._before: np.ndarray | None = None
+        self._before_dt = 0.0
         # penetration (and, small sliding, slide) of every interface, warned at the end: a watch
         # per interface, the first's here
         self.watches = {n: ValidityWatch(self.problem, n) for n in self.problem.interfaces}
@@ -396,8 +409,49 @@ class LoadStepper:
         last = ratio * (self._channels(self.t) - self._channels(self.t - self.increment_dt))
         scale = max(float(np.abs(change).max(initial=0.0)), float(np.abs(last).max(initial=0.0)))
         if scale > 0.0 and np.all(np.abs(change - last) <= 1e-9 * scale):
+            curvature = self._curvature(dt, change)
+            if curvature is not None:
+                return self.increment + curvature
             return ratio * self.increment
         return None
+
+    def _curvature(self, dt: float, change: np.ndarray) -> np.ndarray | None:
+        """The second difference of the last two increments, where the predictor adds it.
+
+        Only with interfaces paired once (small sliding: a slide that crosses the primary's
+        nodes has kinks, no parabola), where the last three steps and this one are of one
+        length and the program went straight over the two steps before as it goes in this one
+        (``change``: its channels' change in this step), and where the second difference is at
+        most :data:`CURVATURE_FRACTION` of the last increment (2-norms over the ranks: a path
+        bending faster, e.g. a contact area growing under a press, is extrapolated linearly).
+        The same decision on every rank (collective where the program goes straight).
+        """
+        before = self._before
+        if before is None or self.increment is None or self.problem.repairs:
+            return None
+        h = self.increment_dt
+        if abs(dt - h) > 1e-12 * h or abs(self._before_dt - h) > 1e-12 * h:
+            return None
+        t = self.t
+        older = self._channels(t - h) - self._channels(t - 2.0 * h)
+        scale = max(float(np.abs(change).max(initial=0.0)), float(np.abs(older).max(initial=0.0)))
+        if not (scale > 0.0 and np.all(np.abs(change - older) <= 1e-9 * scale)):
+            return None
+        second = self.increment - before
+        sums = self.problem.comm.allreduce(
+            np.array([second @ second, self.increment @ self.increment]), op=MPI.SUM
+        )
+        if not sums[1] > 0.0 or math.sqrt(sums[0]) > CURVATURE_FRACTION * math.sqrt(sums[1]):
+            return None
+        return second
+
+    def forget_curvature(self) -> None:
+        """Extrapolate linearly at the next step (without the curvature).
+
+        A checkpoint keeps the last increment, not the one before: written now, a restart from
+        it continues as this run does.
+        """
+        self._before = None
 
     def _forces_resolved(self, r: SolveResult) -> bool:
         """Whether the converged state's forces stand above Newton's error (collective).
@@ -510,6 +564,7 @@ class LoadStepper:
         inc = m.increment
         self.increment = None if inc is None else np.array(inc[:n], dtype=float)
         self.increment_dt = float(m.increment_dt) if inc is not None else 0.0
+        self._before = None
 
     def run(self, t_end: float | None = None, stops: Sequence[float] = ()) -> list[StepRecord]:
         """Advance to ``t_end`` (default: the end of the program).
@@ -819,7 +874,13 @@ class LoadStepper:
         x: np.ndarray = self.solver.x.array_r
         x0 = self._x_converged.array_r
         if self.increment is None or self.increment.shape != x.shape:
+            self._before = None
             self.increment = np.empty_like(x)
+        else:  # the last increment becomes the one before (the curvature's)
+            if self._before is None or self._before.shape != x.shape:
+                self._before = np.empty_like(x)
+            self._before[:] = self.increment
+            self._before_dt = self.increment_dt
         np.subtract(x, x0, out=self.increment)
         self.increment_dt = dt
         if not self._forces_resolved(r):  # nothing determined this motion

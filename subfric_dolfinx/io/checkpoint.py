@@ -163,6 +163,7 @@ def write_checkpoint(
     tmp = path.with_name(path.name + ".tmp")
     what = f"writing the checkpoint {str(path)!r}"
     memory = stepper.memory()  # what decides its next steps (the same on every rank)
+    stepper.forget_curvature()  # (not in the file: this run continues as a restart would)
     slabs = _collect(problem, memory, history)
     attrs = _attributes(problem, memory, settings, slabs.n_cells)
     _write_file(tmp, comm, what, slabs, attrs)

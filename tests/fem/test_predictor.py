@@ -13,6 +13,7 @@ import pytest
 from mpi4py import MPI
 
 from subfric_dolfinx.fem import FrictionSolver, LoadStepper, NewtonStart, StepControl
+from subfric_dolfinx.fem import stepping as stepping_module
 from subfric_dolfinx.io import interface_summary
 from subfric_dolfinx.loading import LoadingProgram
 from subfric_dolfinx.logs import PenetrationWarning
@@ -29,8 +30,10 @@ PROGRAM = LoadingProgram(
 )
 
 
-def run(predictor, rtol=1e-9):
-    """Per step: (t, Newton iterations, whether the first iterate was extrapolated, F_t1, F_n)."""
+def run(predictor, rtol=1e-9, curved=None):
+    """Per step: (t, Newton iterations, whether the first iterate was extrapolated, F_t1, F_n).
+
+    ``curved``: a list that gets, per step, whether the predictor added the curvature."""
     problem = block_problem(MPI.COMM_WORLD, program=PROGRAM)
     rows = []
     with FrictionSolver(problem, prefix("pred"), {"snes_rtol": rtol}, linear="lu") as solver:
@@ -47,9 +50,19 @@ def run(predictor, rtol=1e-9):
             s = interface_summary(problem)
             rows.append((rec.t, rec.iterations, flags[-1], s["F_t1"], s["F_n"]))
 
-        LoadStepper(
+        stepper = LoadStepper(
             solver, 0.1, control=StepControl(dt_max=0.1), predictor=predictor, on_step=on_step
-        ).run()
+        )
+        if curved is not None:
+            real_curvature = stepper._curvature
+
+            def curvature(*a):
+                c = real_curvature(*a)
+                curved.append(c is not None)
+                return c
+
+            stepper._curvature = curvature
+        stepper.run()
     return rows
 
 
@@ -92,6 +105,31 @@ def test_the_predictor_is_used_only_where_the_program_goes_straight_on():
     assert not at(2.3)  # the reversal
     assert at(2.4) and at(3.0)
     assert not any(at(t) for t in (3.1, 3.2, 3.3, 3.4))  # a hold: nothing the program moves
+
+
+@pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
+def test_the_curvature_only_on_a_straight_stretch_where_it_is_small(monkeypatch):
+    """The predictor adds the second difference of the last two increments only where the
+    program went straight over the last three steps (never at the first two steps after a
+    knot that turns it), and only below ``CURVATURE_FRACTION`` of the last increment (on the
+    block: the press from its third step and the return take it, the slide's steps do not).
+    Against the run that never takes it: no more Newton iterations, and the history as close
+    to the tight run as the plain predictor's bound (Newton's tolerance)."""
+    curved: list[bool] = []
+    rows, tight = run(True, curved=curved), run(False, rtol=1e-12)
+    predicted = [r for r in rows if r[2]]
+    assert len(curved) == len(predicted)  # asked once per extrapolated step
+    took = {round(r[0], 9) for r, c in zip(predicted, curved, strict=True) if c}
+    assert took, curved
+    for t in (0.1, 0.2, 1.1, 1.2, 1.5, 1.6, 2.3, 2.4, 3.1, 3.2, 3.3, 3.4):
+        assert round(t, 9) not in took, (t, sorted(took))
+    monkeypatch.setattr(stepping_module, "CURVATURE_FRACTION", 0.0)
+    linear = run(True)
+    assert sum(r[1] for r in rows) <= sum(r[1] for r in linear)
+    ref = np.array([r[3:] for r in tight])
+    peak = np.abs(ref).max(axis=0)
+    for got in (rows, linear):
+        assert np.all(np.abs(np.array([r[3:] for r in got]) - ref).max(axis=0) < 3e-7 * peak)
 
 
 @pytest.mark.leaves_validity(PenetrationWarning, reason=SEC7_PENALTY)
