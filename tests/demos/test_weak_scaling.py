@@ -19,7 +19,6 @@ import pytest
 from mpi4py import MPI
 
 from benchmarks import fe_scaling, weak_scaling
-from subfric_dolfinx.logs import PenetrationWarning, SlideWarning
 
 A, B, E = 200.0, 0.004, 50.0  # MiB, MiB per dof of a rank, MiB more on rank 0
 START, MESH0, F = 120.0, 60.0, 3e-4  # rank 0 with the mesh: START + MESH0 + F dofs (MiB)
@@ -224,9 +223,6 @@ def test_refined_counts_match_the_closed_form():
     assert (v, t) == (5 + 9, 16) and v - e + f - t == 1
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning, reason="the benchmark's normal penalty (the paper's Sec. 7 set)"
-)
 def test_measurement_at_a_tiny_size(shared_tmp):
     comm = MPI.COMM_WORLD
     n = 4
@@ -251,12 +247,6 @@ def test_measurement_at_a_tiny_size(shared_tmp):
     assert row["gamg_complexity"] > 1.0  # the coarser levels' nonzeros come on top of J's
 
 
-@pytest.mark.leaves_validity(
-    PenetrationWarning,
-    SlideWarning,
-    reason="the benchmark's normal penalty (the paper's Sec. 7 set) and its 0.5 mm slide, "
-    "3.4 of the refined triangles' sizes",
-)
 def test_refined_measurement_at_a_tiny_size(shared_tmp):
     comm = MPI.COMM_WORLD
     n, k = 2, 1

@@ -164,8 +164,9 @@ def test_gamg_loosens_a_first_solve_only_after_a_nonlinear_one_and_never_ends_on
     with an absolute Newton target (``snes_atol``, so that the target is known here), the rtol
     of every first solve is that aim over the residual it starts from (SNES's histories), else
     the 1 %; every Newton solve with a loosened first solve takes at least two iterations and
-    at most one more than LU (none more where the first solve is not loosened); the history is LU's within Newton's target, with fewer Krylov iterations than
-    the same run aiming at 1 % always."""
+    at most one more than LU (none more where the first solve is not loosened); the history is
+    LU's within Newton's target, with fewer Krylov iterations than the same run aiming at 1 %
+    always."""
     law = stiff(1e6, 1e5)
     atol = 1e-4
     opts = {"snes_atol": atol}
