@@ -145,7 +145,7 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
     from petsc4py import PETSc
 
     from subfric_dolfinx.compat import pushed_options
-    from subfric_dolfinx.fem.linear import STRATEGY_OPTIONS, rigid_modes
+    from subfric_dolfinx.fem.linear import rigid_modes, strategy_options
 
     comm = problem.comm
     A = solver.J.copy()
@@ -158,7 +158,7 @@ def elastic_solve(problem, solver, strategy: str) -> dict:
     x.set(0.0)
     ksp = PETSc.KSP().create(comm)
     ksp.setOptionsPrefix(solver.prefix)
-    defaults = {"?" + k: v for k, v in STRATEGY_OPTIONS[strategy].items()}
+    defaults = {"?" + k: v for k, v in strategy_options(strategy, problem).items()}
     try:
         with pushed_options(solver.prefix, defaults, {"ksp_rtol": ELASTIC_RTOL, "ksp_atol": 0.0}):
             ksp.setOperators(A)

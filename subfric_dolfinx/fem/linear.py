@@ -54,17 +54,24 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
     GMRES on ``J`` with PETSc's smoothed-aggregation AMG (GAMG) set up on ``P`` with the rigid
     body modes of the whole mesh as near-nullspace (6 in 3-D, 3 in 2-D; per-body modes converge
     worse), refreshed by the same rules. The aggregation drops the couplings weaker than
-    ``pc_gamg_threshold`` = 0.1 of the diagonals: with a normal penalty stiff against the bodies
-    (a valid model) that takes far fewer Krylov iterations than 0.01, with the paper's soft
-    penalty a few more (``docs/design.md``). No factorisation: memory grows linearly with the
-    size. GAMG's iterations grow with the model, so GMRES restarts only after 200 (its vectors
-    are allocated as it goes: a short solve holds few), and it orthogonalises each new vector
-    twice (classical Gram-Schmidt with a second pass, one more reduction an iteration): with
-    PETSc's single pass the basis loses its orthogonality over long cycles, the residual GMRES
-    computes by its recursion parts from the true one, and GMRES slows down or, at a restart
-    where the two differ by a tenth, stops with ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A
-    Krylov failure is named, with the option to change, in the solve's result and the step's
-    failure (:func:`~.solver.krylov_failure`).
+    ``pc_gamg_threshold`` of the diagonals, chosen per model (:func:`gamg_threshold`): 0.1 on
+    the finest level and 0.01 on the coarser ones, but 0.01 on every level on tetrahedra
+    (triangles) unless an interface's normal penalty is stiff against its bodies, ``alpha_n h /
+    E*`` of at least :data:`STIFF_INTERFACE` (:func:`interface_stiffness`). 0.1 on the finest
+    level keeps the aggregates along the strong couplings: on hexahedra and across a stiff
+    interface it takes up to a third fewer Krylov iterations than 0.01; 0.01 below keeps the coarse
+    levels sparse (0.1 on every level makes them dense on tetrahedra: twice the memory and the
+    flops of a cycle). On tetrahedra without a stiff interface 0.1 on the finest level takes as
+    many iterations as 0.01 at a quarter more flops (``docs/design.md``). A user's
+    ``pc_gamg_threshold`` wins. No factorisation: memory grows linearly with the size. GAMG's
+    iterations grow with the model, so GMRES restarts only after 200 (its vectors are allocated
+    as it goes: a short solve holds few), and it orthogonalises each new vector twice (classical
+    Gram-Schmidt with a second pass, one more reduction an iteration): with PETSc's single pass
+    the basis loses its orthogonality over long cycles, the residual GMRES computes by its
+    recursion parts from the true one, and GMRES slows down or, at a restart where the two
+    differ by a tenth, stops with ``DIVERGED_BREAKDOWN`` (``docs/design.md``). A Krylov failure
+    is named, with the option to change, in the solve's result and the step's failure
+    (:func:`~.solver.krylov_failure`).
 
 Krylov tolerance (``"reuse"``, ``"gamg"``): tied to Newton's residual so that Newton stays
 quadratic, ``eta_k = min(eta_max, c |F_k| / |F_0|)``, never below 1 % of the Newton target over
@@ -103,13 +110,20 @@ from petsc4py import PETSc
 __all__ = [
     "AUTO_GAMG_DOFS",
     "AUTO_REUSE_DOFS_PER_RANK",
+    "GAMG_THRESHOLD",
+    "GAMG_THRESHOLD_SOFT_SIMPLICES",
+    "SIMPLICES",
+    "STIFF_INTERFACE",
     "STRATEGIES",
     "STRATEGY_OPTIONS",
     "LinearStrategy",
     "auto_choice",
     "choose_strategy",
+    "gamg_threshold",
+    "interface_stiffness",
     "make_strategy",
     "rigid_modes",
+    "strategy_options",
 ]
 
 _KRYLOV = {"ksp_type": "gmres", "ksp_pc_side": "right", "ksp_norm_type": "unpreconditioned"}
@@ -128,16 +142,26 @@ STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
         "ksp_gmres_cgs_refinement_type": "refine_always",
         "ksp_max_it": 300,
         "pc_type": "gamg",
-        "pc_gamg_threshold": 0.1,
     },
 }
-"""PETSc options of each strategy (defaults: the database and the solver's options win)."""
+"""PETSc options of each strategy (defaults: the database and the solver's options win); a
+problem's own are :func:`strategy_options` (``"gamg"``'s threshold chosen for the model)."""
 STRATEGIES = tuple(STRATEGY_OPTIONS)
 """The strategies; ``"auto"`` (:func:`choose_strategy`) stands for one of them."""
 AUTO_GAMG_DOFS = 75_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of at least this many dofs (module docstring)."""
 AUTO_REUSE_DOFS_PER_RANK = 30_000
 """``"auto"`` picks ``"gamg"`` for 3-D problems of fewer dofs than this per rank (docstring)."""
+GAMG_THRESHOLD: tuple[float, ...] = (0.1, 0.01)
+"""``pc_gamg_threshold`` of ``"gamg"``: the finest level's, then every coarser level's
+(:func:`gamg_threshold`)."""
+GAMG_THRESHOLD_SOFT_SIMPLICES: tuple[float, ...] = (0.01,)
+"""``pc_gamg_threshold`` of ``"gamg"`` on triangles and tetrahedra without a stiff interface,
+every level (:func:`gamg_threshold`)."""
+SIMPLICES = ("triangle", "tetrahedron")
+"""The cell types :data:`GAMG_THRESHOLD_SOFT_SIMPLICES` is for."""
+STIFF_INTERFACE = 0.1
+"""An interface is stiff for GAMG from this ``alpha_n h / E*`` up (:func:`interface_stiffness`)."""
 
 
 def auto_choice(gdim: int, dofs: int, ranks: int) -> str:
@@ -175,6 +199,75 @@ def choose_strategy(name: str, problem) -> str:
     if name not in STRATEGY_OPTIONS:
         raise ValueError(f"unknown linear strategy {name!r}; known: {['auto', *STRATEGIES]}")
     return name
+
+
+def interface_stiffness(problem) -> float | None:
+    """The stiffest interface's normal penalty over its bodies' stiffness at one element's scale.
+
+    ``alpha_n h / E*`` per interface, ``h`` its mean facet's size (the square root of its area
+    in 3-D, its length in 2-D), ``E*`` the contact modulus of its two bodies
+    (:func:`.validity.interface_modulus`): the penalty against the stiffness ``E*/h`` of one
+    interface element of the bodies. The largest over the interfaces whose ``E*`` is known;
+    ``None`` if none is (a user bulk law). The same on every rank (collective: one all-reduce).
+    """
+    from .validity import interface_modulus
+
+    interfaces = getattr(problem, "interfaces", None) or {}
+    names = list(interfaces)
+    local = np.zeros(2 * len(names))
+    for i, name in enumerate(names):
+        weights = np.asarray(interfaces[name].law_points.facet_weights)
+        local[2 * i] = weights.shape[0] if weights.size else 0
+        local[2 * i + 1] = float(weights.sum())
+    total = problem.comm.allreduce(local)
+    fdim = max(problem.gdim - 1, 1)
+    found = []
+    for i, name in enumerate(names):
+        modulus = interface_modulus(problem, name)
+        count, area = total[2 * i], total[2 * i + 1]
+        if modulus is None or count <= 0 or area <= 0:
+            continue
+        h = (area / count) ** (1.0 / fdim)
+        found.append(float(interfaces[name].law.alpha_n) * h / modulus)
+    return max(found) if found else None
+
+
+def gamg_threshold(cell: str, stiffness: float | None) -> tuple[float, ...]:
+    """``pc_gamg_threshold`` of ``"gamg"`` for ``cell``-s and an interface ``stiffness``.
+
+    ``stiffness``: the stiffest interface's (:func:`interface_stiffness`; ``None``: unknown).
+    Per level from the finest, the last value serving the coarser levels:
+    :data:`GAMG_THRESHOLD_SOFT_SIMPLICES` on :data:`SIMPLICES` where no interface reaches
+    :data:`STIFF_INTERFACE` (or the stiffness is unknown), :data:`GAMG_THRESHOLD` otherwise
+    (hexahedra and quadrilaterals at every stiffness; other cells, unmeasured, as they). The
+    module docstring gives the reasons, ``docs/design.md`` the measurements.
+    """
+    stiff = stiffness is not None and stiffness >= STIFF_INTERFACE
+    if cell in SIMPLICES and not stiff:
+        return GAMG_THRESHOLD_SOFT_SIMPLICES
+    return GAMG_THRESHOLD
+
+
+def strategy_options(name: str, problem) -> dict[str, Any]:
+    """The PETSc options of strategy ``name`` for ``problem``.
+
+    :data:`STRATEGY_OPTIONS`, and for ``"gamg"`` the thresholds :func:`gamg_threshold` chooses
+    for the problem's cells and interfaces (:func:`interface_stiffness`).
+
+    Collective for ``"gamg"``. Defaults: the options database and the solver's options win
+    over them.
+
+    Raises:
+        ValueError: An unknown name (the known ones listed).
+    """
+    if name not in STRATEGY_OPTIONS:
+        raise ValueError(f"unknown linear strategy {name!r}; known: {list(STRATEGIES)}")
+    options = dict(STRATEGY_OPTIONS[name])
+    if name == "gamg":
+        cell = problem.V.mesh.topology.cell_type.name
+        levels = gamg_threshold(cell, interface_stiffness(problem))
+        options["pc_gamg_threshold"] = ",".join(f"{v:g}" for v in levels)
+    return options
 
 
 _REFRESH = {  # refresh policy and forcing term: cost factor, rho_stag, forcing c
@@ -317,7 +410,6 @@ class LinearStrategy:
             raise ValueError(f"unknown linear strategy {name!r}; known: {list(STRATEGIES)}")
         self.name = name
         self.problem = problem
-        self.options = dict(STRATEGY_OPTIONS[name])
         self.policy = dict(_REFRESH[name]) if name in _REFRESH else None
         self.P: PETSc.Mat | None = None
         self.nullspace: PETSc.NullSpace | None = None
@@ -340,6 +432,7 @@ class LinearStrategy:
         self.refreshes = 0
         self.retries = 0
         self.held = 0  # Newton iterations taken because a loosened solve's iterate was not accepted
+        self.loosened_solves = 0
         self.krylov = 0
         self.solves = 0
         # state
@@ -431,6 +524,7 @@ class LinearStrategy:
             if k == 0:
                 self._target = target
             eta, self.loosened = self._eta(k, fnorm, target, max_it > 1)
+            self.loosened_solves += self.loosened
             snes.getKSP().setTolerances(rtol=eta)
         else:
             self.loosened = False
@@ -508,15 +602,17 @@ class LinearStrategy:
         """Counts over the solver's life.
 
         ``refreshes`` (preconditioner rebuilt from ``J``), ``retries`` (Newton solves repeated
-        with a fresh one), ``held`` (Newton iterations taken where the convergence test would
-        have accepted the iterate of a loosened Krylov solve), ``krylov`` iterations and
-        ``solves`` (Krylov solves).
+        with a fresh one), ``loosened`` (first Krylov solves of a Newton solve loosened),
+        ``held`` (Newton iterations taken where the convergence test would have accepted the
+        iterate of a loosened Krylov solve), ``krylov`` iterations and ``solves`` (Krylov
+        solves).
         """
         return {
             "strategy": self.name,
             "refreshes": self.refreshes,
             "retries": self.retries,
             "held": self.held,
+            "loosened": self.loosened_solves,
             "krylov": self.krylov,
             "solves": self.solves,
         }

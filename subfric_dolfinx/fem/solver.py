@@ -40,7 +40,7 @@ from ..compat import pushed_options
 from ._petsc import set_function_domain_error
 from .convergence import SNORM_SLACK, ScaledConvergence
 from .interface import NewtonStart
-from .linear import STRATEGY_OPTIONS, LinearStrategy, choose_strategy
+from .linear import LinearStrategy, choose_strategy, strategy_options
 from .problem import InterfaceProblem
 from .timing import event_times
 
@@ -63,7 +63,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "snes_max_it": 30,
 }
 """Options used where neither the solver's options nor the options database give a value
-(with those of the linear strategy, :data:`~.linear.STRATEGY_OPTIONS`)."""
+(with those of the linear strategy for the problem, :func:`~.linear.strategy_options`)."""
 
 PETSC_ERROR_REASON = -100
 """:attr:`SolveResult.reason` of a solve that PETSc ended with an error (raised inside a callback
@@ -303,7 +303,7 @@ class FrictionSolver:
         self.prefix = _check_prefix(prefix, problem.comm)
         self.problem = problem
         self.options = dict(options or {})
-        defaults = {**DEFAULT_OPTIONS, **STRATEGY_OPTIONS[linear]}
+        defaults = {**DEFAULT_OPTIONS, **strategy_options(linear, problem)}
         self._defaults = {"?" + k: v for k, v in defaults.items()}
         # (None before they are made and once destroyed)
         self.snes: PETSc.SNES | None = None

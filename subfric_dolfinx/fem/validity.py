@@ -79,6 +79,7 @@ __all__ = [
     "ValidityWatch",
     "WorstPoint",
     "contact_modulus",
+    "interface_modulus",
 ]
 
 PENETRATION_FRACTION = 0.1
@@ -179,7 +180,7 @@ class ValidityWatch:
         self.h = np.repeat(area ** (1.0 / dim), el.nq)  # element size at each point
         self.size = float(self.comm.allreduce(float(area.sum()))) ** (1.0 / dim)
         self.h_min = self.comm.allreduce(float(self.h.min()) if self.h.size else np.inf, MPI.MIN)
-        self.contact_modulus = _interface_modulus(problem, self.interface)
+        self.contact_modulus = interface_modulus(problem, self.interface)
         self.intended_compliance = _intended_compliance(problem, self.interface)
         self.tolerance = np.maximum(self.h, PENETRATION_FRACTION * self.size)
         self.penetration: WorstPoint | None = None
@@ -359,7 +360,7 @@ class ValidityWatch:
                 logs.warn(text, category, self.comm)
 
 
-def _interface_modulus(problem: Any, name: str) -> float | None:
+def interface_modulus(problem: Any, name: str) -> float | None:
     """``E*`` of the two bodies an interface joins, from the problem's materials.
 
     A body's material is given by its name or by one of its cell groups (the most compliant of

@@ -88,15 +88,17 @@ def run(problem, linear, options=None, dt=10.0, policy=None):
             return r
 
         solver.solve = solve
-        held = [0]  # per step: Newton iterations taken on a loosened solve's accepted iterate
+        held, loose = [0], [0]  # per step: held iterates, loosened first solves
 
         def on_step(rec):
             its.append(rec.iterations)
             ft.append(interface_summary(problem)["F_t1"])
             held.append(solver.linear.held - sum(held))
+            loose.append(solver.linear.loosened_solves - sum(loose))
 
         LoadStepper(solver, dt, control=StepControl(dt_max=dt), on_step=on_step).run()
-        return its, np.array(ft), {**solver.linear.stats, "held_steps": held[1:]}, results
+        counts = {"held_steps": held[1:], "loosened_steps": loose[1:]}
+        return its, np.array(ft), {**solver.linear.stats, **counts}, results
 
 
 def difference(a, b):
@@ -113,15 +115,21 @@ def test_strategy_equals_lu(comm, scene, linear):
     steps before it) lets converge at iteration 0, at the round-off floor, takes the Krylov
     strategy (its state exact to 1 % of Newton's target) one iteration; and a step whose first
     iterate, from a loosened Krylov solve (``"gamg"``), met the target takes one iteration
-    more (that iterate is not the answer), counted by the strategy."""
+    more (that iterate is not the answer), counted by the strategy, and so may one whose
+    loosened solve left its first iterate just above the target."""
     make = pad_problem if scene == "pad" else block_problem
     dt = 10.0 if scene == "pad" else 0.1
     its_lu, ft_lu, _, _ = run(make(comm), "lu", dt=dt)
     its, ft, stats, results = run(make(comm), linear, dt=dt)
     assert len(its) == len(its_lu)
-    steps = zip(its_lu, its, stats["held_steps"], strict=True)
-    assert all(b - h in (a, max(a, 1)) for a, b, h in steps), (its_lu, its, stats)
-    assert stats["held"] == 0 or linear == "gamg"
+    steps = zip(its_lu, its, stats["held_steps"], stats["loosened_steps"], strict=True)
+    # a loosened first solve may also leave the first iterate just above the target
+    assert all(b - h in (a, max(a, 1)) or (n and b == a + 1) for a, b, h, n in steps), (
+        its_lu,
+        its,
+        stats,
+    )
+    assert stats["held"] == stats["loosened"] == 0 or linear == "gamg"
     assert difference(ft, ft_lu) < 1e-8
     assert stats["refreshes"] < sum(its) / 2
     assert stats["krylov"] == sum(r.krylov for r in results) > sum(its)
@@ -163,10 +171,11 @@ def test_gamg_loosens_a_first_solve_only_after_a_nonlinear_one_and_never_ends_on
     (at most the target), and never accepts the iterate of a loosened solve. On the stiff pad
     with an absolute Newton target (``snes_atol``, so that the target is known here), the rtol
     of every first solve is that aim over the residual it starts from (SNES's histories), else
-    the 1 %; every Newton solve with a loosened first solve takes at least two iterations,
-    where its first iterate met the target too (one iteration more than LU there, none
-    elsewhere); the history is LU's within Newton's target, with fewer Krylov iterations than
-    the same run aiming at 1 % always."""
+    the 1 %; every Newton solve with a loosened first solve takes at least two iterations, at
+    most one more than LU (where its first iterate met the target and was held, counted in
+    ``held``, or the loosened solve left it just above), as many as LU elsewhere; the history
+    is LU's within Newton's target, with fewer Krylov iterations than the same run aiming at
+    1 % always."""
     law = stiff(1e6, 1e5)
     atol = 1e-4
     opts = {"snes_atol": atol}
@@ -189,10 +198,10 @@ def test_gamg_loosens_a_first_solve_only_after_a_nonlinear_one_and_never_ends_on
             loosened += 1
             assert len(hist) >= 3, (i, hist)
             held += hist[1] <= atol
-            assert its[i] == its_lu[i] + (hist[1] <= atol), (i, its, its_lu)
+            assert its_lu[i] <= its[i] <= its_lu[i] + 1, (i, its, its_lu)
         else:
             assert its[i] == its_lu[i], (i, its, its_lu)
-    assert loosened > 0 and held > 0, (loosened, held)
+    assert loosened > 0 and stats["held"] == held, (loosened, held, stats)
     for rtol, hist in solves0:
         assert rtol == pytest.approx(min(max(0.01 * atol / hist[0], 1e-12), 0.1), rel=1e-12)
     assert stats["krylov"] < stats0["krylov"], (stats, stats0)
@@ -533,3 +542,118 @@ def test_krylov_products_do_not_depend_on_memory_layout(comm):
         opts.delValue("vec_mdot_use_gemv")
     for v in [*vectors, y]:
         v.destroy()
+
+
+def tet_pad(comm, n, times=0):
+    """The pad on a plate of ``benchmarks/weak_scaling.py`` and ``large_model.py``: tetrahedra,
+    ``n`` along the pad's side (gmsh), refined ``times`` times on the ranks."""
+    dom, _ = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="tetrahedron",
+        plate_size=(2.0, 2.0, 0.5),
+        pad_size=(1.0, 1.0, 0.5),
+    )
+    return meshing.refine_interface_mesh(dom, times)
+
+
+def pad_on(dom, law):
+    """The problem of :func:`pad_problem` on the mesh ``dom`` (press only)."""
+    mats = {"primary": Material(2.1e5, 0.3), "secondary": Material(7.0e4, 0.33)}
+    program = LoadingProgram([0.0, 1.0], {"press": [0.0, 1.0]})
+    bcs = [Dirichlet("bottom", [0.0, 0.0, 0.0])]
+    return InterfaceProblem(dom, law, mats, program, bcs, [Pressure("top", 300.0, "press")])
+
+
+# E* of the pad (aluminium) on the plate (steel): 1/E* = (1 - nu_1^2)/E_1 + (1 - nu_2^2)/E_2
+PAD_E_STAR = 1.0 / ((1.0 - 0.3**2) / 2.1e5 + (1.0 - 0.33**2) / 7.0e4)
+SOFT = preset("sec7")  # the paper's penalty, alpha_n = 500 MPa/mm (fe_scaling, weak_scaling)
+STIFF = stiff(1e6, 1e5)  # cluster/pad.json's (large_model)
+
+
+def test_gamg_threshold_is_chosen_per_model(comm):
+    """ "gamg"'s pc_gamg_threshold follows the cells and the stiffest interface's alpha_n h / E*:
+    0.1 on the finest level and 0.01 below on hexahedra and with a penalty stiff against the
+    bodies, 0.01 on every level on tetrahedra with the paper's soft penalty; for the benchmarks'
+    models at their sizes (fe_scaling's soft pad on hexahedra, weak_scaling's refined soft pad on
+    tetrahedra, cluster/pad.json's stiff pad on hexahedra at 184k and 2M dofs and on refined
+    tetrahedra). The stiffness is checked against its closed form on the hexahedral pad (h = 1/n:
+    the pad's bottom in n x n squares) and against refinement on tetrahedra (each halves h); 1
+    and 2 ranks give the same."""
+    n = 4
+    dom = meshing.create_interface_mesh(
+        meshing.build_pad_on_plate,
+        comm,
+        n_interface=n,
+        cell_type="hexahedron",
+        plate_size=(2.0, 2.0, 0.5),
+        pad_size=(1.0, 1.0, 0.5),
+    )[0]
+    for law in (SOFT, STIFF):
+        prob = pad_on(dom, law)
+        got = linear_module.interface_stiffness(prob)
+        assert got == pytest.approx(law.alpha_n / n / PAD_E_STAR, rel=1e-12)
+        assert len(set(comm.allgather(got))) == 1
+        assert linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"] == "0.1,0.01"
+    # the hexahedral pad at the benchmarks' sizes: h = 1/n along the pad
+    hexahedra = "hexahedron"
+    thresholds = {
+        "fe_scaling, 184k dofs (soft)": (hexahedra, SOFT.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "fe_scaling, 1M dofs (soft)": (hexahedra, SOFT.alpha_n / 50 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 28 (stiff)": (hexahedra, STIFF.alpha_n / 28 / PAD_E_STAR, "0.1,0.01"),
+        "cluster/pad.json n 64 (stiff)": (hexahedra, STIFF.alpha_n / 64 / PAD_E_STAR, "0.1,0.01"),
+    }
+    # tetrahedra: refining halves the stiffness (each facet in four)
+    coarse = {m: tet_pad(comm, m) for m in (2, 7, 8)}
+    for law in (SOFT, STIFF):
+        once = linear_module.interface_stiffness(pad_on(tet_pad(comm, 2, 1), law))
+        whole = linear_module.interface_stiffness(pad_on(coarse[2], law))
+        assert once == pytest.approx(whole / 2, rel=1e-12)
+    s7 = linear_module.interface_stiffness(pad_on(coarse[7], SOFT))
+    s8 = linear_module.interface_stiffness(pad_on(coarse[8], STIFF))
+    tetrahedra = "tetrahedron"
+    thresholds["weak_scaling refined n 7, k 2 (soft)"] = (tetrahedra, s7 / 4, "0.01")
+    thresholds["large_model n 8, k 2 (stiff)"] = (tetrahedra, s8 / 4, "0.1,0.01")
+    thresholds["large_model n 8, k 3 (stiff)"] = (tetrahedra, s8 / 8, "0.1,0.01")
+    for model, (cell, s, want) in thresholds.items():
+        got = ",".join(f"{v:g}" for v in linear_module.gamg_threshold(cell, s))
+        assert got == want, (model, s, got)
+    # the problem's own options: the same rule, collectively
+    for law, want in ((SOFT, "0.01"), (STIFF, "0.1,0.01")):
+        prob = pad_on(coarse[2], law)
+        got = linear_module.strategy_options("gamg", prob)["pc_gamg_threshold"]
+        assert got == want and len(set(comm.allgather(got))) == 1
+        assert "pc_gamg_threshold" not in linear_module.strategy_options("reuse", prob)
+    # no known E* (a user bulk law): soft
+    assert linear_module.gamg_threshold(tetrahedra, None) == (0.01,)
+    assert linear_module.gamg_threshold(hexahedra, None) == (0.1, 0.01)
+
+
+def test_gamg_takes_the_threshold_of_the_model_and_the_users(comm, shared_tmp):
+    """The solver's GAMG drops by the thresholds the rule chose for the model (PETSc's view of
+    the set-up hierarchy: 0.1 on the finest level, 0.01 below, for the stiff pad on
+    tetrahedra; 0.01 for the soft one); a user's pc_gamg_threshold, in the solver's options or
+    the database, wins."""
+    dom = tet_pad(comm, 3)
+    path = shared_tmp / "ksp.txt"
+
+    def thresholds(law, options=None, name=None):
+        with FrictionSolver(pad_on(dom, law), name or prefix("thr"), options, linear="gamg") as s:
+            assert s.solve(0.5, 0.5).converged
+            view = ksp_view(s.snes.getKSP(), path)
+        line = next(x for x in view.splitlines() if "threshold for dropping" in x.lower())
+        return [float(v) for v in line.split("=")[1].split()]
+
+    stiff_levels = thresholds(STIFF)
+    assert len(stiff_levels) >= 2 and stiff_levels[0] == 0.1, stiff_levels
+    assert all(v == 0.01 for v in stiff_levels[1:]), stiff_levels
+    soft_levels = thresholds(SOFT)
+    assert soft_levels and all(v == 0.01 for v in soft_levels), soft_levels
+    assert all(v == 0.05 for v in thresholds(STIFF, {"pc_gamg_threshold": 0.05}))
+    name = prefix("thr")
+    PETSc.Options()[name + "pc_gamg_threshold"] = 0.02
+    try:
+        assert all(v == 0.02 for v in thresholds(STIFF, name=name))
+    finally:
+        PETSc.Options().delValue(name + "pc_gamg_threshold")

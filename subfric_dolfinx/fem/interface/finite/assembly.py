@@ -171,7 +171,7 @@ class SlidingAssembly:
         if self.transfer.in_tangent:  # the transfer's change with the geometry
             tg = self.global_tractions(g, traction).reshape(s.size, nq, gdim)
             rates = g.normal_rates is not None
-            ps, pm, vb = self.transfer.tangent(g.segments, tg, g.Xs, g.Ym, g.normals, rates)
+            ps, pm, vb = self.transfer.tangent(g.rated_segments, tg, g.Xs, g.Ym, g.normals, rates)
             held = g.reach.holds(pm, pm)  # (a, a): in the pattern unless pattern_margin < 0
             ps, pm, vb = ps[held], pm[held], vb[held]
             nxy = (s.nodes.shape[1] + nodes.shape[1]) * gdim
@@ -253,7 +253,9 @@ class SlidingAssembly:
         nfs, nfm = s.nodes.shape[1], nodes.shape[1]
         f_of, q_of = pts // nq, pts % nq
         ncol = cols.shape[1] * gdim
-        vs = np.einsum("p,pk,pj,pab->pkajb", self.points.weights[pts], sd.Ns[0][q_of], C, M)
+        CM = C[:, None, :, None] * M[:, :, None, :]  # (np, gdim, nc, gdim): C_j M
+        wN = self.points.weights[pts][:, None] * sd.Ns[0][q_of]
+        vs = wN[:, :, None, None, None] * CM[:, None]
         out = [(s.nodes[f_of], cols, vs.reshape(pts.size, nfs * gdim, ncol))]
         tr = g.transfer
         if tr.secondary.size:
@@ -264,7 +266,7 @@ class SlidingAssembly:
             at = where[tr.secondary[pair] * nq + qq]
             keep = held[pair, qq]
             pair, qq, at = pair[keep], qq[keep], at[keep]
-            vm = -np.einsum("pl,pj,pab->plajb", tr.B[pair, :, qq], C[at], M[at])
+            vm = -(tr.B[pair, :, qq][:, :, None, None, None] * CM[at][:, None])
             out.append((nodes[tr.primary[pair]], cols[at], vm.reshape(pair.size, nfm * gdim, ncol)))
         return out
 

@@ -135,7 +135,8 @@ class ContactGeometry:
         slid_too_far: Points whose slip in the step exceeds the reach, (npts,).
         old_facet: The primary facet each moving point faced at the step's start (-1: none).
         N_old: The primary basis at that start point, (npts, nfd_m).
-        segments: The segment points within each secondary facet's reach.
+        segments: The segment points within each secondary facet's reach (3-D: without their
+            rates; :attr:`rated_segments` with them).
         transfer: The primary-side transfer matrices of the segments.
         held_now: Whether the pattern couples each segment pair's primary facet with the facet
             point ``q`` of its secondary facet faces now, (nseg, nq).
@@ -147,6 +148,7 @@ class ContactGeometry:
         primary: The primary's facets' basix cell and degree.
         derivatives: Makes the tangent's pieces ``(G, Nm, turn, turn3)`` (the properties of
             these names), called once, when the tangent first asks for one of them.
+        segment_rates: Makes :attr:`rated_segments`, called once, when the tangent first asks.
     """
 
     reach: Reach
@@ -172,6 +174,7 @@ class ContactGeometry:
     derivatives: Callable[
         [], tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray] | None, FrameTurn | None]
     ] = dataclasses.field(repr=False, compare=False)
+    segment_rates: Callable[[], Segments] = dataclasses.field(repr=False, compare=False)
 
     def __post_init__(self) -> None:
         """Make the arrays read-only too: the value is passed on, never changed."""
@@ -212,6 +215,16 @@ class ContactGeometry:
     def turn3(self) -> FrameTurn | None:
         """3-D: the frame's and the transport's turn (:class:`FrameTurn`); ``None`` in 2-D."""
         return self._derivatives[3]
+
+    @functools.cached_property
+    def rated_segments(self) -> Segments:
+        """:attr:`segments` with their 3-D rates (the transfer's tangent), made when first asked."""
+        out = self.segment_rates()
+        for f in dataclasses.fields(out):
+            a = getattr(out, f.name)
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+        return out
 
     @functools.cached_property
     def normal_rates(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -369,7 +382,7 @@ def contact_geometry(
 
     old_facet = np.where(moving, start.facet, -1)
     with timed(TIMER_PROJECTION):
-        segments, tr = transfer.pairs(Xs, Ym, normals, reach, iterate)
+        segments, tr, segment_rates = transfer.pairs(Xs, Ym, normals, reach, iterate)
         tr = transfer.complete(tr, pj.facet, pj.xi)
         held_now, held_old = _pattern_hold(sd, search, tr, pj.facet, old_facet, slid_too_far)
     seconds["segments"] = time.perf_counter() - t1
@@ -395,6 +408,7 @@ def contact_geometry(
         iterate=iterate,
         primary=(sd.primary.cell, sd.primary.degree),
         derivatives=derivatives,
+        segment_rates=segment_rates,
     )
     return geometry, seconds
 

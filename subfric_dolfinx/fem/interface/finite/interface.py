@@ -200,6 +200,10 @@ class SlidingInterface(BaseInterface):
         self._committed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._continuing: tuple[np.ndarray, np.ndarray] | None = None
         self._first_jacobian = True
+        # the iterate of the last evaluation while its state stands (cleared where the step,
+        # the committed state or the configuration changes): :meth:`update` at the same
+        # displacement on every rank returns the result it has
+        self._evaluated: np.ndarray | None = None
         self.start: StepStart = self.begin_step()
 
     # -- what the base reads ---------------------------------------------------------------------
@@ -253,6 +257,7 @@ class SlidingInterface(BaseInterface):
         Collective (the search). See :meth:`begin_step`.
         """
         super().set_step(dt)
+        self._evaluated = None
         self.start = self.begin_step()
         self._first_jacobian = True
         self._continuing = None
@@ -283,6 +288,11 @@ class SlidingInterface(BaseInterface):
     def update(self, x: PETSc.Vec | np.ndarray) -> Any:
         """Evaluate the law at the displacement ``x`` (owned values; collective: a ghost update).
 
+        The same displacement as the last evaluation's on every rank, with nothing changed
+        since (step, committed state), returns the last result as it is: the same numbers,
+        without the projections again (the start :meth:`start_correction` left unchanged is
+        the solver's first iterate).
+
         Returns:
             The :class:`~subfric_dolfinx.constitutive.ReturnMapResult`; ``converged`` is False
             also where a point slid farther than the reach in this step.
@@ -290,6 +300,9 @@ class SlidingInterface(BaseInterface):
         from ...timing import TIMER_INTERFACE, TIMER_RETURN_MAP
 
         owned = self._owned(x)
+        same = self._evaluated is not None and np.array_equal(self._evaluated, owned)
+        if self.comm.allreduce(same, op=MPI.LAND):
+            return self.last
         pts, nt = self._points, self.sides.nt
         with self._time(TIMER_INTERFACE):
             u = self.search.displacement(owned)
@@ -328,6 +341,7 @@ class SlidingInterface(BaseInterface):
             pts.record(res, law_gap, g.Q)
             self.geometry = g
         self._x_at_update = np.array(owned, copy=True)
+        self._evaluated = self._x_at_update
         return res
 
     def start_correction(self, x: PETSc.Vec | np.ndarray) -> np.ndarray | None:
@@ -536,6 +550,7 @@ class SlidingInterface(BaseInterface):
     def commit(self) -> None:
         """Accept the trial state and the points' kinematics; remember the configuration."""
         super().commit()
+        self._evaluated = None
         res = self.last
         if res is not None:
             self._committed = (
@@ -550,6 +565,11 @@ class SlidingInterface(BaseInterface):
         if self._x_at_update is not None:
             self._x_committed = self._x_at_update.copy()
 
+    def revert(self) -> None:
+        """Reject the trial state (after a failed step)."""
+        super().revert()
+        self._evaluated = None
+
     def resume(self, x: np.ndarray) -> None:
         """Continue from the owned displacement ``x`` (a restart).
 
@@ -559,6 +579,7 @@ class SlidingInterface(BaseInterface):
         """
         self._x_committed = np.array(np.asarray(x)[: self.n_owned], dtype=float)
         self._x_at_update = None
+        self._evaluated = None
         self._points.last = None
         self._committed = None
 

@@ -102,8 +102,9 @@ def normal_rates(
     Pp = I2 - np.einsum("fia,fib->fiab", ph, ph)
     # dc_i / dY_j = o (p^_i (x) dm_j + m (I - p^ p^T) dp_i / dY_j / |p_i|),
     # (npf, nfd_i, nfd_j, gdim, gdim)
-    dc = np.einsum("fia,fjb->fijab", ph, dm) + np.einsum(
-        "f,fiab,fijbc,fi->fijac", m, Pp, _normal_jacobian(Bn[1:], dyn), 1.0 / ln
+    scale = (m[:, None] / ln)[:, :, None, None, None]
+    dc = ph[:, :, None, :, None] * dm[:, None, :, None, :] + scale * np.matmul(
+        Pp[:, :, None], _normal_jacobian(Bn[1:], dyn)
     )
     dc *= o[:, None, None, None, None]
     c = o[:, None, None] * m[:, None, None] * ph  # (npf, nfd, 2)
@@ -131,7 +132,7 @@ def normal_rates(
     ]
     valid = adj_f >= 0
     fa, ia = np.maximum(adj_f, 0), adj_i
-    Dk = np.einsum("kxy,ksjyz->ksjxz", Pk, dc[fa, ia]) * valid[:, :, None, None, None]
+    Dk = np.matmul(Pk[:, None, None], dc[fa, ia]) * valid[:, :, None, None, None]
     facets = adj_f[nodes]  # (npf, nfd, A)
     D = Dk[nodes]  # (npf, nfd, A, nfd, 2, 2)
     return facets, D

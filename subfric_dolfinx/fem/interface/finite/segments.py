@@ -42,7 +42,13 @@ from .projection import (
 )
 from .search import near_pairs
 
-__all__ = ["Segments", "clip_to_reference", "overlap_points"]
+__all__ = [
+    "DeferredRates",
+    "Segments",
+    "clip_to_reference",
+    "overlap_points",
+    "overlap_points_later",
+]
 
 
 @dataclasses.dataclass
@@ -106,6 +112,28 @@ def _snap(d: np.ndarray) -> np.ndarray:
     return np.where(np.abs(d) <= _ON_PLANE, 0.0, d)
 
 
+def _planes(cell: basix.CellType) -> list[tuple[np.ndarray, float]]:
+    """The half-planes ``a . x >= b`` of a reference triangle or square."""
+    planes = [(np.array([1.0, 0.0]), 0.0), (np.array([0.0, 1.0]), 0.0)]
+    if cell == basix.CellType.triangle:
+        planes.append((np.array([-1.0, -1.0]), -1.0))  # 1 - x - y >= 0
+    else:
+        planes += [(np.array([-1.0, 0.0]), -1.0), (np.array([0.0, -1.0]), -1.0)]
+    return planes
+
+
+def _beyond_a_plane(poly: np.ndarray, cell: basix.CellType) -> np.ndarray:
+    """Whether each polygon's vertices are all beyond one half-plane of the reference cell.
+
+    Beyond by more than the round-off :func:`clip_to_reference` snaps to the plane: such a
+    polygon clips to nothing. ``poly`` (n, k, 2), every row's ``k`` vertices its own.
+    """
+    out = np.zeros(poly.shape[0], dtype=bool)
+    for a, b in _planes(cell):
+        out |= np.all(poly @ a - b < -_ON_PLANE, axis=1)
+    return out
+
+
 def clip_to_reference(
     poly: np.ndarray,
     count: np.ndarray,
@@ -127,11 +155,7 @@ def clip_to_reference(
         The clipped polygons (n, kmax + number of half-planes, 2) and their vertex counts (fewer
         than 3: empty); with ``rates``, their derivatives too (n, kmax + half-planes, 2, m).
     """
-    planes = [(np.array([1.0, 0.0]), 0.0), (np.array([0.0, 1.0]), 0.0)]
-    if cell == basix.CellType.triangle:
-        planes.append((np.array([-1.0, -1.0]), -1.0))  # 1 - x - y >= 0
-    else:
-        planes += [(np.array([-1.0, 0.0]), -1.0), (np.array([0.0, -1.0]), -1.0)]
+    planes = _planes(cell)
     n, kmax = poly.shape[:2]
     size = kmax + len(planes)
     cur = np.zeros((n, size, 2))
@@ -232,6 +256,44 @@ def overlap_points(
         normal_rates: 3-D with ``rates``: the rates also with the primary facet's nodal normals
             (``nfd_m`` more columns after the primary's nodes: the preimages move along them).
     """
+    segments, later = overlap_points_later(
+        secondary_x,
+        secondary_cell,
+        secondary_degree,
+        primary_x,
+        primary_normals,
+        primary_cell,
+        primary_degree,
+        radius,
+        degree=degree,
+        secondary_measure_x=secondary_measure_x,
+        rates=rates,
+        normal_rates=normal_rates,
+    )
+    return segments if later is None else later.attach(segments)
+
+
+def overlap_points_later(
+    secondary_x: np.ndarray,
+    secondary_cell: basix.CellType,
+    secondary_degree: int,
+    primary_x: np.ndarray,
+    primary_normals: np.ndarray,
+    primary_cell: basix.CellType,
+    primary_degree: int,
+    radius: float,
+    *,
+    degree: int | None = None,
+    secondary_measure_x: np.ndarray | None = None,
+    rates: bool = False,
+    normal_rates: bool = False,
+) -> tuple[Segments, DeferredRates | None]:
+    """:func:`overlap_points` with the 3-D rates made later, when a tangent asks for them.
+
+    The same arguments. Returns the points without their rates, and with ``rates`` in 3-D
+    (points found) what makes them (:class:`DeferredRates`; ``None`` otherwise): a residual
+    needs the points alone.
+    """
     fdim = secondary_x.shape[2] - 1
     rates = bool(rates) and fdim == 2
     if rates and secondary_measure_x is None:
@@ -239,7 +301,7 @@ def overlap_points(
             "overlap_points: rates need secondary_measure_x (the measure's nodes held)"
         )
     degree = _gauss_degree(secondary_cell, secondary_degree, primary_degree, degree)
-    empty = _no_points(fdim)
+    empty = _no_points(fdim), None
     if secondary_x.shape[0] == 0 or primary_x.shape[0] == 0:
         return empty
     si, mi, within = _candidate_pairs(secondary_x, primary_x, primary_normals, radius)
@@ -248,14 +310,76 @@ def overlap_points(
     secondary = _Facets(secondary_x, secondary_cell, secondary_degree)
     primary = _Facets(primary_x, primary_cell, primary_degree)
     pre = _vertex_preimages(secondary, primary, primary_normals, si, mi, within)
+    later = None
     if fdim == 1:
         pieces: _Pieces | None = _interval_pieces(pre, degree)
     else:
         nfd_m = primary_x.shape[1]
-        pieces = _polygon_pieces(pre, secondary, nfd_m, degree, rates, normal_rates)
+        rows = np.flatnonzero(~_beyond_a_plane(pre.xi, secondary.cell))
+        pieces = _polygon_pieces(pre, rows, secondary, degree)
+        if rates and pieces is not None:
+            assert secondary_measure_x is not None  # (checked above)
+            later = DeferredRates(
+                pre, rows, secondary, nfd_m, degree, normal_rates, secondary_measure_x
+            )
     if pieces is None or pieces.secondary.size == 0:
         return empty
-    return _segment_points(pieces, secondary, primary, primary_normals, secondary_measure_x)
+    points = _segment_points(pieces, secondary, primary, primary_normals, secondary_measure_x)
+    return points, later
+
+
+@dataclasses.dataclass(frozen=True)
+class DeferredRates:
+    """What the 3-D segment points' rates are made from (:func:`overlap_points_later`).
+
+    Calling it makes ``xi_rate`` and ``weight_rate`` of :class:`Segments` for every point the
+    segments had when made (the same numbers ``overlap_points(..., rates=True)`` gives them).
+
+    Attributes:
+        pre: The preimages.
+        rows: The facing pairs whose polygons were clipped.
+        secondary: The secondary facets.
+        nfd_m: The primary facets' node count.
+        degree: The Gauss rule's degree on each piece.
+        normal_rates: Whether the rates have the primary's nodal normals' columns.
+        measure_x: The nodes whose surface Jacobian weighs the points.
+    """
+
+    pre: _Preimages
+    rows: np.ndarray
+    secondary: _Facets
+    nfd_m: int
+    degree: int
+    normal_rates: bool
+    measure_x: np.ndarray
+
+    def __call__(self) -> tuple[np.ndarray, np.ndarray]:
+        """``xi_rate`` (np, fdim, m) and ``weight_rate`` (np, m) of every point."""
+        pre, sec = self.pre, self.secondary
+        poly_r = _preimage_rates(
+            pre, sec.cell, sec.degree, self.nfd_m, self.normal_rates, self.rows
+        )
+        count = np.full(self.rows.size, len(pre.order))
+        clipped, cnt, clipped_r = clip_to_reference(pre.xi[self.rows], count, sec.cell, poly_r)
+        pieces = _fan_pieces(pre, self.rows, clipped, cnt, self.degree, clipped_r)
+        assert pieces is not None and pieces.xi_rate is not None  # (the points' pieces again)
+        assert pieces.weight_rate is not None  # (made with xi_rate)
+        fdim = pieces.xi.shape[-1]
+        m = pieces.xi_rate.shape[-1]
+        xi_s = pieces.xi.reshape(-1, fdim)
+        Yj = self.measure_x[np.repeat(pieces.secondary, pieces.xi.shape[1])]
+        jac = _measure(sec.cell, sec.degree, xi_s, Yj)
+        xi_rate = pieces.xi_rate.reshape(-1, fdim, m)
+        grad = _measure_rate(sec.cell, sec.degree, xi_s, Yj)  # d jac / d xi, (np, fdim)
+        weight_rate = pieces.weight_rate.reshape(-1, m) * jac[:, None] + pieces.weight.reshape(
+            -1, 1
+        ) * np.einsum("ma,mac->mc", grad, xi_rate)
+        return xi_rate, weight_rate
+
+    def attach(self, segments: Segments) -> Segments:
+        """``segments`` (all the points made with this) with their rates."""
+        xi_rate, weight_rate = self()
+        return dataclasses.replace(segments, xi_rate=xi_rate, weight_rate=weight_rate)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -469,37 +593,28 @@ def _interval_pieces(pre: _Preimages, degree: int) -> _Pieces:
 
 
 def _polygon_pieces(
-    pre: _Preimages,
-    secondary: _Facets,
-    nfd_m: int,
-    degree: int,
-    rates: bool,
-    normal_rates: bool,
+    pre: _Preimages, rows: np.ndarray, secondary: _Facets, degree: int
 ) -> _Pieces | None:
     """3-D: the polygon of a primary facet's vertices' preimages, clipped by the reference cell.
 
     Args:
         pre: The preimages.
+        rows: The facing pairs to clip (the others' polygons are beyond a side of the
+            reference cell: they clip to nothing).
         secondary: The secondary facets.
-        nfd_m: The primary facets' node count.
         degree: The Gauss rule's degree.
-        rates: Whether the points' rates are wanted (:func:`_preimage_rates`).
-        normal_rates: Whether the rates have the primary's nodal normals' columns too.
 
     Returns:
         The fan triangles' points (:func:`_fan_pieces`), ``None`` if no polygon is left.
     """
-    count = np.full(pre.xi.shape[0], len(pre.order))
-    if rates:
-        poly_r = _preimage_rates(pre, secondary.cell, secondary.degree, nfd_m, normal_rates)
-        clipped, cnt, clipped_r = clip_to_reference(pre.xi, count, secondary.cell, poly_r)
-        return _fan_pieces(pre, clipped, cnt, degree, clipped_r)
-    clipped, cnt = clip_to_reference(pre.xi, count, secondary.cell)
-    return _fan_pieces(pre, clipped, cnt, degree)
+    count = np.full(rows.size, len(pre.order))
+    clipped, cnt = clip_to_reference(pre.xi[rows], count, secondary.cell)
+    return _fan_pieces(pre, rows, clipped, cnt, degree)
 
 
 def _fan_pieces(
     pre: _Preimages,
+    rows: np.ndarray,
     clipped: np.ndarray,
     cnt: np.ndarray,
     degree: int,
@@ -509,6 +624,7 @@ def _fan_pieces(
 
     Args:
         pre: The preimages (the pairs of the polygons).
+        rows: The facing pairs (of ``pre``) the polygons are of, (nf,).
         clipped: The clipped polygons, (nf, k, 2) (:func:`clip_to_reference`).
         cnt: Their vertex counts, (nf,).
         degree: The Gauss rule's degree.
@@ -539,7 +655,7 @@ def _fan_pieces(
             wr_l.append(wr)
     if not pair_l:
         return None
-    pair = np.concatenate(pair_l)
+    pair = rows[np.concatenate(pair_l)]
     return _Pieces(
         secondary=pre.secondary[pair],
         primary=pre.primary[pair],
@@ -580,7 +696,8 @@ def _triangle_rates(
         - dJ[:, 0, 1] * J[:, 1, 0, None]
         - J[:, 0, 1, None] * dJ[:, 1, 0]
     )
-    xr = r0[:, None] + np.einsum("nabm,qb->nqam", dJ, X)
+    xr = r0[:, None] + X[None, :, None, 0, None] * dJ[:, None, :, 0]
+    xr += X[None, :, None, 1, None] * dJ[:, None, :, 1]
     wr = np.sign(det)[:, None, None] * ddet[:, None, :] * w[None, :, None]
     return xr, wr
 
@@ -610,20 +727,9 @@ def _segment_points(
     Ys = secondary.x[si_q]
     y = np.einsum("mk,mkd->md", B[0], Ys)
     Yj = Ys if measure_x is None else measure_x[si_q]
-    jac = np.linalg.norm(parametric_normal(np.einsum("amk,mkd->mda", B[1:], Yj)), axis=1)
+    jac = _measure(secondary.cell, secondary.degree, xi_s, Yj, B)
     ws = pieces.weight
     extra = pieces.bounds
-    if pieces.xi_rate is not None and pieces.weight_rate is not None:
-        m = pieces.xi_rate.shape[-1]
-        xi_rate = pieces.xi_rate.reshape(-1, fdim, m)
-        ws_rate = pieces.weight_rate.reshape(-1, m)
-        # d jac / d xi, (np, fdim)
-        grad = _measure_rate(secondary.cell, secondary.degree, xi_s, Yj)
-        extra = {
-            "xi_rate": xi_rate,
-            "weight_rate": ws_rate * jac[:, None]
-            + ws.reshape(-1, 1) * np.einsum("ma,mac->mc", grad, xi_rate),
-        }
     # start from the ray along the primary facet's mean normal through its vertex plane (exact
     # on flat facets)
     Ym, Nm = primary.x[mi_q], primary_normals[mi_q]
@@ -646,6 +752,7 @@ def _preimage_rates(
     secondary_degree: int,
     nfd_m: int,
     normals: bool = False,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
     """Derivatives of the primary vertices' preimages on the secondary facets (3-D).
 
@@ -654,25 +761,31 @@ def _preimage_rates(
     (pair, vertex) rows to them, ``pre.facing`` keeps the pairs). Returns (npair, nv, fdim, m),
     ``m`` the secondary facet's nodes then the primary facet's (``nfd_m``) [then, with
     ``normals``, the primary facet's nodal normals: ``d xi = -gamma A^-1 dn_v``], ``gdim``
-    components each.
+    components each. ``rows``: those facing pairs only (indices among them; default all).
     """
-    Ys, order, back, ok = pre.nodes, pre.order, pre.back, pre.facing
+    Ys, order, back = pre.nodes, pre.order, pre.back
+    ok = np.flatnonzero(pre.facing)
+    if rows is not None:
+        ok = ok[rows]
     nfd_s, gdim = Ys.shape[1], Ys.shape[2]
     fdim, nv = gdim - 1, len(order)
+    sel = back.reshape(-1, nv)[ok]  # the distinct projections of these pairs' vertices
+    u, inv = np.unique(sel, return_inverse=True)
     Ainv, N = projection_jacobian(
-        pre.x,
-        Ys,
-        np.repeat(pre.normal[:, None, :], nfd_s, axis=1),
+        pre.x[u],
+        Ys[u],
+        np.repeat(pre.normal[u, None, :], nfd_s, axis=1),
         secondary_cell,
         secondary_degree,
-        pre.unique.xi,
-        pre.unique.gamma,
+        pre.unique.xi[u],
+        pre.unique.gamma[u],
     )
-    D = Ainv[:, :fdim, :][back].reshape(-1, nv, fdim, gdim)[ok]
-    Nk = N[back].reshape(-1, nv, nfd_s)[ok]
+    inv = inv.reshape(-1)
+    D = Ainv[:, :fdim, :][inv].reshape(-1, nv, fdim, gdim)
+    Nk = N[inv].reshape(-1, nv, nfd_s)
     R = np.zeros((D.shape[0], nv, fdim, nfd_s + nfd_m * (2 if normals else 1), gdim))
     R[:, :, :, :nfd_s, :] = -Nk[:, :, None, :, None] * D[:, :, :, None, :]
-    gam = pre.unique.gamma[back].reshape(-1, nv)[ok]
+    gam = pre.unique.gamma[sel]
     for j, v in enumerate(order):
         R[:, j, :, nfd_s + v, :] += D[:, j]
         if normals:  # along the vertex's normal: d xi = D (-gamma dn_v)
@@ -680,11 +793,28 @@ def _preimage_rates(
     return R.reshape(D.shape[0], nv, fdim, -1)
 
 
+def _measure(
+    cell: basix.CellType,
+    degree: int,
+    xi: np.ndarray,
+    Y: np.ndarray,
+    B: np.ndarray | None = None,
+) -> np.ndarray:
+    """The surface Jacobian ``|p|`` of facets with nodes ``Y`` (m, nfd, gdim) at ``xi``, (m,).
+
+    ``B``: the basis and its first derivatives there, if made already.
+    """
+    if B is None:
+        B = facet_basis(cell, degree, xi, 1)
+    dy = np.matmul(B[1:].transpose(1, 0, 2), Y).transpose(0, 2, 1)
+    return cast(np.ndarray, np.linalg.norm(parametric_normal(dy), axis=1))
+
+
 def _measure_rate(cell: basix.CellType, degree: int, xi: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """``d |X_,1 x X_,2| / d xi`` of surface facets with nodes ``Y`` (m, nfd, 3), (m, 2)."""
     B = facet_basis(cell, degree, xi, 2)  # values, d1, d2, d11, d12, d22
-    T = np.einsum("amk,mkd->mad", B[1:3], Y)  # (m, 2, 3)
-    H = np.einsum("amk,mkd->mad", B[3:6], Y)  # d11, d12, d22
+    V = np.matmul(B[1:6].transpose(1, 0, 2), Y)  # (m, 5, 3)
+    T, H = V[:, :2], V[:, 2:]  # d1, d2; d11, d12, d22
     n = np.cross(T[:, 0], T[:, 1])
     jac = np.linalg.norm(n, axis=1)
     out = np.zeros((xi.shape[0], 2))

@@ -215,6 +215,16 @@ def frame_jacobian(n: np.ndarray) -> np.ndarray:
     return out
 
 
+def _convected(Q_old: np.ndarray, tangents_old: np.ndarray) -> np.ndarray:
+    """The old frame's tangents' components on the old tangent basis, (m, fdim, nt).
+
+    The part of :func:`_transport_3d` that depends on the step's start alone (real).
+    """
+    G = np.matmul(np.swapaxes(tangents_old, 1, 2), tangents_old)
+    dual = np.linalg.solve(G, np.swapaxes(tangents_old, 1, 2))
+    return np.matmul(dual, np.swapaxes(Q_old[:, :2, :], 1, 2))
+
+
 def _transport_3d(
     Q_old: np.ndarray,
     tangents_old: np.ndarray,
@@ -227,34 +237,41 @@ def _transport_3d(
     The polar factor by the closed form of a 2 x 2 matrix's square root, the smallest rotation
     by Rodrigues' formula; the same matrix for real inputs (to round-off).
     """
-    G = np.einsum("mda,mdb->mab", tangents_old, tangents_old)
-    dual = np.linalg.solve(G, np.swapaxes(tangents_old, 1, 2))
-    E = np.swapaxes(Q_old[:, :2, :], 1, 2)
-    W = np.einsum("mda,mak->mdk", tangents_now, np.einsum("mad,mdk->mak", dual, E))
-    W = W - normal_now[:, :, None] * np.einsum("md,mdk->mk", normal_now, W)[:, None, :]
-    S = np.einsum("mdk,mdl->mkl", W, W)
+    return _transport_from(_convected(Q_old, tangents_old), tangents_now, normal_now, n_new)
+
+
+def _transport_from(
+    DE: np.ndarray, tangents_now: np.ndarray, normal_now: np.ndarray, n_new: np.ndarray
+) -> np.ndarray:
+    """:func:`_transport_3d` from the step start's part ``DE`` (:func:`_convected`)."""
+    W = np.matmul(tangents_now, DE)
+    W = W - normal_now[:, :, None] * np.matmul(normal_now[:, None, :], W)
+    S = np.matmul(np.swapaxes(W, 1, 2), W)
     det = S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
     r = np.sqrt(det)
     t = np.sqrt(S[:, 0, 0] + S[:, 1, 1] + 2.0 * r)
     a, b, c, d = S[:, 0, 0] + r, S[:, 0, 1], S[:, 1, 0], S[:, 1, 1] + r
     inv = (
         np.stack([np.stack([d, -b], -1), np.stack([-c, a], -1)], -2)
-        / (a * d - b * c)[:, None, None]
+        * (t / (a * d - b * c))[:, None, None]
     )
-    W = np.einsum("mdk,mkl->mdl", W, inv * t[:, None, None])  # W S^(-1/2)
-    k = np.cross(normal_now, n_new)
-    cos = np.einsum("md,md->m", normal_now, n_new)
-    cols = []
-    for j in range(2):
-        v = W[:, :, j]
-        rot = (
-            cos[:, None] * v
-            + np.cross(k, v)
-            + (np.einsum("md,md->m", k, v) / (1.0 + cos))[:, None] * k
-        )
-        cols.append(rot)
-    R = np.stack(cols, axis=-1)
-    return np.einsum("mbd,mdk->mbk", _frames_3d(n_new)[:, :2, :], R)
+    W = np.matmul(W, inv)  # W S^(-1/2)
+    k = _cross(normal_now, n_new)
+    cos = np.sum(normal_now * n_new, axis=1)
+    kW = np.matmul(k[:, None, :], W)[:, 0]  # (m, 2): k . v of both columns
+    R = (
+        cos[:, None, None] * W
+        + _cross(k[:, :, None], W, axis=1)
+        + (kW / (1.0 + cos)[:, None])[:, None, :] * k[:, :, None]
+    )
+    return np.matmul(_frames_3d(n_new)[:, :2, :], R)
+
+
+def _cross(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """``a x b`` along ``axis`` (3 components), broadcast; complex too."""
+    a0, a1, a2 = (np.take(a, i, axis=axis) for i in range(3))
+    b0, b1, b2 = (np.take(b, i, axis=axis) for i in range(3))
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=axis)
 
 
 def transport_angle_rates(
@@ -286,18 +303,35 @@ def transport_angle_rates(
     """
     args = [Q_old, tangents_old, tangents_now, normal_now, n_new]
     T = _transport_3d(*args).real
-    rates = []
     m = n_new.shape[0]
-    for slot in slots:
-        shape = args[slot].shape
-        flat = args[slot].reshape(m, -1)
-        rate = np.zeros(flat.shape)
-        for k in range(flat.shape[1]):
-            z: list[np.ndarray] = list(args)
-            zk = flat.astype(complex)
-            zk[:, k] += 1j * _STEP
-            z[slot] = zk.reshape(shape)
-            dT = _transport_3d(*z).imag / _STEP
-            rate[:, k] = T[:, 0, 0] * dT[:, 1, 0] - T[:, 1, 0] * dT[:, 0, 0]
-        rates.append(rate.reshape(shape))
+    # the step start's part once (real) unless its arguments are differentiated too
+    DE = None if (0 in slots or 1 in slots) else _convected(Q_old, tangents_old)
+
+    def evaluate(z: list[np.ndarray]) -> np.ndarray:
+        if DE is None:
+            return _transport_3d(*z)
+        return _transport_from(np.tile(DE, (z[2].shape[0] // m, 1, 1)), *z[2:])
+
+    # the complex steps: every component of every slot, stacked (step k of all points together),
+    # one evaluation
+    sizes = [args[slot][0].size for slot in slots]
+    K = sum(sizes)
+    z = []
+    for i, arg in enumerate(args):
+        if DE is not None and i < 2:  # (not read)
+            z.append(arg)
+            continue
+        zi = np.tile(arg.astype(complex)[None], (K,) + (1,) * arg.ndim)  # (K, m, ...)
+        if i in slots:
+            off = sum(sizes[: slots.index(i)])
+            flat = zi.reshape(K, m, -1)
+            for k in range(arg[0].size):
+                flat[off + k, :, k] += 1j * _STEP
+        z.append(zi.reshape(K * m, *arg.shape[1:]))
+    dT = (evaluate(z).imag / _STEP).reshape(K, m, 2, 2)
+    rate = T[None, :, 0, 0] * dT[:, :, 1, 0] - T[None, :, 1, 0] * dT[:, :, 0, 0]  # (K, m)
+    rates, off = [], 0
+    for slot, size in zip(slots, sizes, strict=True):
+        rates.append(rate[off : off + size].T.reshape(args[slot].shape))
+        off += size
     return rates

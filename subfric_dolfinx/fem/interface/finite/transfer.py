@@ -31,6 +31,7 @@ secondary's (visibly off the small-sliding pressures on coinciding nodes in ``de
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import TYPE_CHECKING, cast
 
 import basix
@@ -39,7 +40,7 @@ from scipy import sparse
 
 from ...kinematics import point_weight
 from .projection import facet_basis, lagrange_element
-from .segments import Segments, overlap_points
+from .segments import Segments, overlap_points_later
 from .sides import Sides
 
 if TYPE_CHECKING:
@@ -106,7 +107,7 @@ class SegmentTransfer:
         normals: np.ndarray,
         reach: Reach,
         normal_rates: bool = False,
-    ) -> tuple[Segments, Transfer]:
+    ) -> tuple[Segments, Transfer, Callable[[], Segments]]:
         """The segments of the secondary facets within their reach and their transfer matrices.
 
         Args:
@@ -116,9 +117,14 @@ class SegmentTransfer:
             reach: The step's reach: a pair beyond a secondary facet's reach is left out.
             normal_rates: Whether the tangent takes the normals' change (the iterate's): the
                 3-D segments' rates then have their columns too.
+
+        Returns:
+            The segments (3-D: without their rates), their transfer, and what gives the
+            segments with their rates (:attr:`in_tangent`; made when called: a residual does
+            not need them).
         """
         s, m = self.sides.secondary, self.sides.primary
-        seg = overlap_points(
+        seg, later = overlap_points_later(
             Xs,
             s.cell,
             s.degree,
@@ -134,8 +140,13 @@ class SegmentTransfer:
         keep = seg.converged.copy()
         if seg.size:
             keep &= reach.within(seg.secondary, seg.primary)
-        seg = seg.take(keep)
-        return seg, transfer_matrices(seg, self.projector, s.cell, s.degree, m.cell, m.degree)
+        taken = seg.take(keep)
+
+        def rated() -> Segments:
+            return taken if later is None else later.attach(seg).take(keep)
+
+        tr = transfer_matrices(taken, self.projector, s.cell, s.degree, m.cell, m.degree)
+        return taken, tr, rated
 
     def complete(self, tr: Transfer, facet: np.ndarray, xi: np.ndarray) -> Transfer:
         """The transfer with the share the segments miss given where the points project.
@@ -241,7 +252,8 @@ class SegmentTransfer:
                 vn = -np.einsum("m,md,aml,mae,mj->mldje", c, t, B[1:], R, -gam[:, None] * N)
                 normal_parts.append((fm[keep], fm[keep], vn[keep].reshape(k, nfm * gdim, -1)))
         # -N_l(xi) dc_q t_q: the segments of the points' secondary facets, one point at a time
-        seg = g.segments.take(np.isin(g.segments.secondary, f_of))
+        rated = g.rated_segments
+        seg = rated.take(np.isin(rated.secondary, f_of))
         if seg.size == 0:
             return out
         for q in np.unique(q_of):
@@ -541,8 +553,9 @@ def transfer_tangent(
     w = segments.weight
     # the point's projection on the primary facet
     Bs = facet_basis(secondary_cell, secondary_degree, segments.xi_secondary, 1)  # values, d/dxi_a
-    y = np.einsum("mk,mkd->md", Bs[0], Xs)
-    dy_xi = np.einsum("amk,mkd->mda", Bs[1:], Xs)  # (npt, gdim, fdim)
+    Bs_m = np.ascontiguousarray(Bs.transpose(1, 0, 2))  # (npt, 1 + fdim, nfs): per point
+    y = np.matmul(Bs_m[:, :1], Xs)[:, 0]
+    dy_xi = np.matmul(Bs_m[:, 1:], Xs).transpose(0, 2, 1)  # (npt, gdim, fdim)
     xim = segments.xi_primary
     Bm = facet_basis(primary_cell, primary_degree, xim, 1)
     nt = np.einsum("mk,mkd->md", Bm[0], Nm)
@@ -556,20 +569,19 @@ def transfer_tangent(
     dxm[:, :, nfs : nfs + nfm, :] = -Bm[0][:, None, :, None] * Dm[:, :, None, :]
     if with_normals:  # A d(xi, gamma) = ... - sum_l N_l gamma dn_l
         dxm[:, :, nfs + nfm :, :] = -(gam[:, None] * Bm[0])[:, None, :, None] * Dm[:, :, None, :]
-    dxm += np.einsum("mad,mdb,mbce->mace", Dm, dy_xi, dxs)
-    # the traction field at the point and its rate along the secondary facet
-    P = projector[sl]  # (npt, nfs, nq)
-    tq = tractions[sl]  # (npt, nq, gdim)
-    lam = np.einsum("mk,mkq,mqd->md", Bs[0], P, tq)
-    dlam = np.einsum("amk,mkq,mqd->mad", Bs[1:], P, tq)
+    dxm += np.matmul(np.matmul(Dm, dy_xi), dxs.reshape(npt, fdim, -1)).reshape(dxm.shape)
+    # the traction field at the point and its rate along the secondary facet, (npt, 1 + fdim,
+    # gdim): lam, then lam_,a
+    lam_all = np.matmul(np.matmul(Bs_m, projector[sl]), tractions[sl])
+    lam, dlam = lam_all[:, 0], lam_all[:, 1:]
     # d(-w N_l lam) = -(dw N_l lam + w N_l,a dxi_m,a lam + w N_l lam,a dxi_s,a): a sum of
     # 1 + 2 fdim outer products per point, one batched product (rows (l, d), columns (c, e))
-    wB1 = w[None, :, None] * Bm[1:]  # (fdim, npt, nfm)
+    wB1 = (w[:, None, None] * Bm[1:].transpose(1, 2, 0))[:, :, None, :]  # (npt, nfm, 1, fdim)
     left = np.concatenate(
         [
-            np.einsum("ml,md->mld", Bm[0], lam)[..., None],
-            np.einsum("aml,md->mlda", wB1, lam),
-            np.einsum("ml,mad->mlda", w[:, None] * Bm[0], dlam),
+            (Bm[0][:, :, None] * lam[:, None, :])[..., None],
+            wB1 * lam[:, None, :, None],
+            (w[:, None] * Bm[0])[:, :, None, None] * dlam.transpose(0, 2, 1)[:, None],
         ],
         axis=3,
     ).reshape(npt, nfm * gdim, 1 + 2 * fdim)

@@ -113,6 +113,33 @@ def test_nonmatching_patch_test_transmits_a_uniform_pressure(comm, cell, degree,
     assert everywhere(comm, all(checks.values())), (checks, tr)
 
 
+def test_the_last_iterate_is_not_evaluated_again(comm, monkeypatch):
+    """``update`` at the last evaluation's displacement (on every rank, nothing committed since)
+    returns that evaluation; a displacement changed on one rank only is evaluated again on every
+    rank (the projections' exchanges are collective), and so is the same one after a commit."""
+    import subfric_dolfinx.fem.interface.finite.interface as module
+
+    problem, _, _ = pressed_patch(comm, "triangle", 1, (3, 2), (2, 2), 100.0)
+    iface = problem.interfaces["contact"]
+    made = []
+    real = module.contact_geometry
+    monkeypatch.setattr(module, "contact_geometry", lambda *a: made.append(1) or real(*a))
+    x = np.zeros(iface.n_owned)
+    first = iface.update(x)
+    again = iface.update(x.copy())
+    y = x.copy()
+    if comm.rank == 0 and y.size:
+        y[0] = 1e-9
+    other = iface.update(y)
+    counts = [len(made)]
+    iface.update(y)
+    iface.commit()
+    iface.update(y)
+    counts.append(len(made))
+    assert everywhere(comm, again is first and other is not first), (counts, comm.rank)
+    assert everywhere(comm, counts == [2, 3]), counts
+
+
 @pytest.mark.parametrize(
     "cell, degree, n_base, n_block",
     [
