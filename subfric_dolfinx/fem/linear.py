@@ -446,6 +446,7 @@ class LinearStrategy:
         self.refreshes = 0
         self.retries = 0
         self.held = 0  # Newton iterations taken because a loosened solve's iterate was not accepted
+        self.loosened_solves = 0
         self.krylov = 0
         self.solves = 0
         # state
@@ -562,6 +563,7 @@ class LinearStrategy:
             if k == 0:
                 self._target = target
             eta, self.loosened = self._eta(k, fnorm, target, max_it > 1)
+            self.loosened_solves += self.loosened
             snes.getKSP().setTolerances(rtol=eta)
         else:
             self.loosened = False
@@ -657,15 +659,17 @@ class LinearStrategy:
         """Counts over the solver's life.
 
         ``refreshes`` (preconditioner rebuilt from ``J``), ``retries`` (Newton solves repeated
-        with a fresh one), ``held`` (Newton iterations taken where the convergence test would
-        have accepted the iterate of a loosened Krylov solve), ``krylov`` iterations and
-        ``solves`` (Krylov solves).
+        with a fresh one), ``loosened`` (first Krylov solves of a Newton solve loosened),
+        ``held`` (Newton iterations taken where the convergence test would have accepted the
+        iterate of a loosened Krylov solve), ``krylov`` iterations and ``solves`` (Krylov
+        solves).
         """
         return {
             "strategy": self.name,
             "refreshes": self.refreshes,
             "retries": self.retries,
             "held": self.held,
+            "loosened": self.loosened_solves,
             "krylov": self.krylov,
             "solves": self.solves,
         }

@@ -88,15 +88,17 @@ def run(problem, linear, options=None, dt=10.0, policy=None):
             return r
 
         solver.solve = solve
-        held = [0]  # per step: Newton iterations taken on a loosened solve's accepted iterate
+        held, loose = [0], [0]  # per step: held iterates, loosened first solves
 
         def on_step(rec):
             its.append(rec.iterations)
             ft.append(interface_summary(problem)["F_t1"])
             held.append(solver.linear.held - sum(held))
+            loose.append(solver.linear.loosened_solves - sum(loose))
 
         LoadStepper(solver, dt, control=StepControl(dt_max=dt), on_step=on_step).run()
-        return its, np.array(ft), {**solver.linear.stats, "held_steps": held[1:]}, results
+        counts = {"held_steps": held[1:], "loosened_steps": loose[1:]}
+        return its, np.array(ft), {**solver.linear.stats, **counts}, results
 
 
 def difference(a, b):
@@ -113,15 +115,21 @@ def test_strategy_equals_lu(comm, scene, linear):
     steps before it) lets converge at iteration 0, at the round-off floor, takes the Krylov
     strategy (its state exact to 1 % of Newton's target) one iteration; and a step whose first
     iterate, from a loosened Krylov solve (``"gamg"``), met the target takes one iteration
-    more (that iterate is not the answer), counted by the strategy."""
+    more (that iterate is not the answer), counted by the strategy, and so may one whose
+    loosened solve left its first iterate just above the target."""
     make = pad_problem if scene == "pad" else block_problem
     dt = 10.0 if scene == "pad" else 0.1
     its_lu, ft_lu, _, _ = run(make(comm), "lu", dt=dt)
     its, ft, stats, results = run(make(comm), linear, dt=dt)
     assert len(its) == len(its_lu)
-    steps = zip(its_lu, its, stats["held_steps"], strict=True)
-    assert all(b - h in (a, max(a, 1)) for a, b, h in steps), (its_lu, its, stats)
-    assert stats["held"] == 0 or linear == "gamg"
+    steps = zip(its_lu, its, stats["held_steps"], stats["loosened_steps"], strict=True)
+    # a loosened first solve may also leave the first iterate just above the target
+    assert all(b - h in (a, max(a, 1)) or (n and b == a + 1) for a, b, h, n in steps), (
+        its_lu,
+        its,
+        stats,
+    )
+    assert stats["held"] == stats["loosened"] == 0 or linear == "gamg"
     assert difference(ft, ft_lu) < 1e-8
     assert stats["refreshes"] < sum(its) / 2
     assert stats["krylov"] == sum(r.krylov for r in results) > sum(its)
@@ -163,10 +171,11 @@ def test_gamg_loosens_a_first_solve_only_after_a_nonlinear_one_and_never_ends_on
     (at most the target), and never accepts the iterate of a loosened solve. On the stiff pad
     with an absolute Newton target (``snes_atol``, so that the target is known here), the rtol
     of every first solve is that aim over the residual it starts from (SNES's histories), else
-    the 1 %; every Newton solve with a loosened first solve takes at least two iterations and
-    at most one more than LU (none more where the first solve is not loosened); the history is
-    LU's within Newton's target, with fewer Krylov iterations than the same run aiming at 1 %
-    always."""
+    the 1 %; every Newton solve with a loosened first solve takes at least two iterations, at
+    most one more than LU (where its first iterate met the target and was held, counted in
+    ``held``, or the loosened solve left it just above), as many as LU elsewhere; the history
+    is LU's within Newton's target, with fewer Krylov iterations than the same run aiming at
+    1 % always."""
     law = stiff(1e6, 1e5)
     atol = 1e-4
     opts = {"snes_atol": atol}
@@ -189,12 +198,10 @@ def test_gamg_loosens_a_first_solve_only_after_a_nonlinear_one_and_never_ends_on
             loosened += 1
             assert len(hist) >= 3, (i, hist)
             held += hist[1] <= atol
-            # at most one iteration more than LU: the held one, or a first iterate the looser
-            # solve left just above the target where LU's met it
-            assert 2 <= its[i] <= its_lu[i] + 1, (i, its, its_lu)
+            assert max(2, its_lu[i]) <= its[i] <= its_lu[i] + 1, (i, its, its_lu)
         else:
             assert its[i] == its_lu[i], (i, its, its_lu)
-    assert loosened > 0 and held > 0, (loosened, held)
+    assert loosened > 0 and stats["held"] == held, (loosened, held, stats)
     for rtol, hist in solves0:
         assert rtol == pytest.approx(min(max(0.01 * atol / hist[0], 1e-12), 0.1), rel=1e-12)
     assert stats["krylov"] < stats0["krylov"], (stats, stats0)
