@@ -232,6 +232,7 @@ def test_measurement_at_a_tiny_size(shared_tmp):
     assert sum(p["owned_dofs"] for p in r["per_rank"]) == r["dofs"]
     assert r["interface_points"] == 4 * n * n  # n x n quadrilaterals, 2 x 2 Gauss points
     assert r["steps"] == 3 and r["newton"] >= r["steps"]
+    assert r["validity_warnings"] == 0  # the model of cluster/pad.json, within its validity
     lv = r["gamg_levels"]
     assert lv[0]["rows"] == r["dofs"]
     assert all(a["rows"] > b["rows"] for a, b in itertools.pairwise(lv))
@@ -258,6 +259,7 @@ def test_refined_measurement_at_a_tiny_size(shared_tmp):
     assert r["dofs"] == info["fine_dofs"][k]  # the counting formula, independently
     assert sum(p["owned_dofs"] for p in r["per_rank"]) == r["dofs"]
     assert r["steps"] == 3 and r["newton"] >= r["steps"]
+    assert r["validity_warnings"] == 0
     assert all(p["mpi"] == {} for p in r["per_rank"])  # no counting library preloaded
     assert all(0 < p["rss_read_mib"] <= p["rss_mesh_mib"] for p in r["per_rank"])
     row = weak_scaling.row_of(r)
