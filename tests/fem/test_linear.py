@@ -45,18 +45,24 @@ from tests.helpers import (
 )
 
 
-def pad_problem(comm, n=4, law=None):
-    """The pad on a plate (hexahedra, n along the pad's side), the 24-step program of
-    benchmarks/fe_scaling.py: press to 300 MPa in 4 steps, slide to +0.5 mm in 8 (past the
-    static peak), back to -0.5 mm in 12; the Sec. 7 law unless ``law``."""
+def pad_mesh(comm, n, cell_type):
+    """The pad on a plate of benchmarks/fe_scaling.py: ``n`` cells along the pad's side."""
     dom, _ = meshing.create_interface_mesh(
         meshing.build_pad_on_plate,
         comm,
         n_interface=n,
-        cell_type="hexahedron",
+        cell_type=cell_type,
         plate_size=(2.0, 2.0, 0.5),
         pad_size=(1.0, 1.0, 0.5),
     )
+    return dom
+
+
+def pad_problem(comm, n=4, law=None):
+    """The pad on a plate (hexahedra, n along the pad's side), the 24-step program of
+    benchmarks/fe_scaling.py: press to 300 MPa in 4 steps, slide to +0.5 mm in 8 (past the
+    static peak), back to -0.5 mm in 12; the Sec. 7 law unless ``law``."""
+    dom = pad_mesh(comm, n, "hexahedron")
     t = list(np.linspace(0, 1, 5)) + list(np.linspace(1, 1.5, 9)[1:])
     t += list(np.linspace(1.5, 2.5, 13)[1:])
     slide = [0.0] * 5 + list(np.linspace(0, 0.5, 9)[1:]) + list(np.linspace(0.5, -0.5, 13)[1:])
@@ -547,15 +553,7 @@ def test_krylov_products_do_not_depend_on_memory_layout(comm):
 def tet_pad(comm, n, times=0):
     """The pad on a plate of ``benchmarks/weak_scaling.py`` and ``large_model.py``: tetrahedra,
     ``n`` along the pad's side (gmsh), refined ``times`` times on the ranks."""
-    dom, _ = meshing.create_interface_mesh(
-        meshing.build_pad_on_plate,
-        comm,
-        n_interface=n,
-        cell_type="tetrahedron",
-        plate_size=(2.0, 2.0, 0.5),
-        pad_size=(1.0, 1.0, 0.5),
-    )
-    return meshing.refine_interface_mesh(dom, times)
+    return meshing.refine_interface_mesh(pad_mesh(comm, n, "tetrahedron"), times)
 
 
 def pad_on(dom, law):
