@@ -42,17 +42,18 @@ differ in the preconditioner and in how often it is rebuilt. Measurements behind
       repeated at once with a factor refreshed at each of its Newton iterations (same step, no
       cut: it does what ``"lu"`` would); any failed solve refreshes.
 
-    Where an interface pairs again as the bodies move, its Jacobian changes most between steps
-    (each step's search pairs its points anew, a segment further at a steady slide), and a
-    refresh comes at a step's first Jacobian rather than within the step when the waste so far
-    and that of the last step (the one expected by the step's end) exceed the price: that factor
-    serves all the step's iterations. (Elsewhere the Jacobian changes with the interface's
-    state, most within the step where the program turns: the factor of a later iterate serves
-    the following steps better.) The factor of such a problem outlives a change of its
-    pattern: it is an operator of the right size and a former Jacobian's, a preconditioner of
-    the new one like any stale factor, renewed by the same rules (and a Krylov failure with it
-    refreshes, as above). In 3-D ``P`` is then the compact copy of ``J`` that ``"lu"``
-    factorises (below).
+    Where an interface pairs again as the bodies move, its Jacobian changes most between steps (each
+    step's search pairs its points anew, a segment further at a steady slide), and in 3-D (the
+    compact copy's case, below) a refresh comes at a step's first Jacobian rather than within the
+    step when the waste so far and that of the last step (the one expected by the step's end) exceed
+    the price: that factor serves all the step's iterations. (Elsewhere the Jacobian changes with
+    the interface's state, most within the step where the program turns: the factor of a later
+    iterate serves the following steps better.) There the factor also outlives a change of the
+    pattern: it is an operator of the right size and a former Jacobian's, a preconditioner of the
+    new one like any stale factor, renewed by the same rules (and a Krylov failure with it
+    refreshes, as above); ``P`` is the compact copy of ``J`` that ``"lu"`` factorises (below).
+    In 2-D a new pattern refreshes, as elsewhere (with both rules a 2-D finite-sliding demo's
+    step at a turn failed on PETSc 3.25).
 
 ``"lu"``
     A MUMPS LU of ``J`` at every Newton iteration (``ksp_type preonly``): the reference the
@@ -468,9 +469,8 @@ class LinearStrategy:
         self._rho_fresh: float | None = None
         # a reused factor outlives a change of the problem's pattern; P is then on the former
         # one (made anew at the next refresh)
-        self._keeps_factor = name == "reuse"
-        self._repairs = bool(getattr(problem, "repairs", False))
-        self._former_pattern = False
+        self._keeps_factor = name == "reuse" and self.compact is not None  # (3-D: the module)
+        self._early_refresh = self.compact is not None  # (3-D, re-pairing: see the module)
 
     # -- set-up ---------------------------------------------------------------------------------
     def configure(self, snes: PETSc.SNES, user_keys: set[str]) -> None:
@@ -491,13 +491,12 @@ class LinearStrategy:
     def new_pattern(self) -> None:
         """The problem's matrix pattern changed.
 
-        ``"reuse"`` keeps its factor: the former Jacobian's factor still preconditions the new
-        one (an interface pairs again a segment further), until the refresh rules ask for a new
-        one; ``P`` is made on the new pattern at that refresh. ``"gamg"`` takes a new ``P`` on
+        ``"reuse"`` on a compact copy (3-D) keeps its factor: the former Jacobian's factor still
+        preconditions the new one (an interface pairs again a segment further), until the refresh
+        rules ask for a new one (the copy takes the new entries then). Otherwise a new ``P`` on
         the new pattern, refreshed at the next use.
         """
         if self._keeps_factor:
-            self._former_pattern = self.P is not None
             return
         if self.P is not None:
             self.P.destroy()
@@ -548,7 +547,7 @@ class LinearStrategy:
         elif k == 1 and self._target > 0:
             self._first = fnorm / self._target
         refresh = self.force or self.exact or self._fresh_each
-        if k == 0 and self._repairs:
+        if k == 0 and self._early_refresh:
             # a step's start: refresh now if the waste expected by its end (that of the last
             # step) would exceed a factorisation, rather than at a Jacobian within the step
             refresh = refresh or self._wasteful(self._waste + self._last_waste)
@@ -575,11 +574,6 @@ class LinearStrategy:
             self.rebind = self.compact.update(J) or self.rebind
             return
         assert self.P is not None  # (a strategy with a refresh policy)
-        if self._former_pattern:
-            self.P.destroy()  # (the SNES holds it until rebound)
-            self.P = self._new_P()
-            self._former_pattern = False
-            self.rebind = True
         J.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
     def _eta(self, k: int, fnorm: float, target: float, loosen: bool) -> tuple[float, bool]:
