@@ -467,10 +467,6 @@ class LinearStrategy:
         self._solve_waste = 0.0  # of this Newton solve, since its last refresh
         self._last_waste = 0.0  # of the last Newton solve, since its last refresh
         self._rho_fresh: float | None = None
-        # a reused factor outlives a change of the problem's pattern; P is then on the former
-        # one (made anew at the next refresh)
-        self._keeps_factor = name == "reuse" and self.compact is not None  # (3-D: the module)
-        self._early_refresh = self.compact is not None  # (3-D, re-pairing: see the module)
 
     # -- set-up ---------------------------------------------------------------------------------
     def configure(self, snes: PETSc.SNES, user_keys: set[str]) -> None:
@@ -496,7 +492,7 @@ class LinearStrategy:
         rules ask for a new one (the copy takes the new entries then). Otherwise a new ``P`` on
         the new pattern, refreshed at the next use.
         """
-        if self._keeps_factor:
+        if self.compact is not None:  # ("lu" refactorises at every iteration anyway)
             return
         if self.P is not None:
             self.P.destroy()
@@ -547,7 +543,7 @@ class LinearStrategy:
         elif k == 1 and self._target > 0:
             self._first = fnorm / self._target
         refresh = self.force or self.exact or self._fresh_each
-        if k == 0 and self._early_refresh:
+        if k == 0 and self.compact is not None:
             # a step's start: refresh now if the waste expected by its end (that of the last
             # step) would exceed a factorisation, rather than at a Jacobian within the step
             refresh = refresh or self._wasteful(self._waste + self._last_waste)
